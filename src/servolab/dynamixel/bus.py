@@ -1,0 +1,496 @@
+"""The driver: a :class:`Bus` talks to the motors on one port, in SI units by register name.
+
+``bus.read(11, "present_position")`` looks the register up in motor 11's control table, sends
+one READ, checks the status packet and returns radians. Several registers of one motor go out
+as one contiguous READ; many motors go out as SYNC_WRITE / SYNC_READ / BULK_READ where the
+model has them, and fall back to one packet per motor where it does not (RX-28 has no
+BULK_READ). Everything is checked before the first byte is sent, so bad input writes nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+from . import units
+from .emulator import Emulator, VirtualMotor, byte_time, parse_motor_spec
+from .errors import ConfigError, CorruptResponse, MotorError, NoResponse
+from .models import Model, Register, model, model_by_number, supports
+from .packets import Instruction, Protocol, Status
+from .ports import MemoryPort, Port, open_port
+from .protocol import protocol as protocol_for
+
+MAX_RETURN_DELAY = 254 * 2e-6
+Value = float | int
+Names = str | Sequence[str]
+
+
+@dataclass(frozen=True)
+class PingResult:
+    """A motor that answered a PING."""
+
+    id: int
+    model_number: int
+    firmware: int | None
+    baudrate: int
+    model: Model | None
+
+    @property
+    def model_name(self) -> str:
+        return self.model.name if self.model else f"unknown model {self.model_number}"
+
+
+@dataclass
+class BusStats:
+    """Counters a user can print to see how healthy the wire is."""
+
+    transactions: int = 0
+    retries: int = 0
+    timeouts: int = 0
+    corrupt: int = 0
+    bytes_out: int = 0
+    bytes_in: int = 0
+
+
+@dataclass
+class Bus:
+    """Motors on one port, one protocol, one baud rate.
+
+    ``retries`` is how many times a transaction that got no valid answer is sent again.
+    ``timeout`` (s), when given, replaces the computed wait for a reply (wire time of the
+    expected bytes + return delays + twice the adapter latency + 2 ms).
+    """
+
+    port: Port
+    protocol: Protocol | int = 2
+    retries: int = 2
+    timeout: float | None = None
+    motors: dict[int, Model] = field(default_factory=dict)
+    stats: BusStats = field(default_factory=BusStats)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.protocol, Protocol):
+            self.protocol = protocol_for(self.protocol)
+        if self.retries < 0:
+            raise ConfigError(f"retries {self.retries} must be 0 or more")
+        if self.timeout is not None and self.timeout <= 0:
+            raise ConfigError(f"timeout {self.timeout} s must be positive")
+        self._lock = threading.RLock()
+
+    # -- construction ----------------------------------------------------------------------------
+    @classmethod
+    def open(cls, device: str, *, protocol: int = 2, baudrate: int = 57600,
+             **kwargs: object) -> Bus:
+        """A bus on a serial port (``/dev/ttyUSB0``, ``COM3``, or a ``servolab sim`` pty)."""
+        proto = protocol_for(protocol)
+        return cls(open_port(device, baudrate), proto, **kwargs)  # type: ignore[arg-type]
+
+    @classmethod
+    def emulated(cls, spec: str | Iterable[tuple[str, int]], *, protocol: int | None = None,
+                 baudrate: int = 1_000_000, clock: object = None, **kwargs: object) -> Bus:
+        """A bus wired in memory to emulated motors, e.g. ``Bus.emulated("rx28:1-4")``.
+
+        The protocol follows the models unless given. The emulator is ``bus.port.emulator``.
+        """
+        pairs = parse_motor_spec(spec) if isinstance(spec, str) else list(spec)
+        models = [model(name) for name, _ in pairs]
+        versions = {m.protocol for m in models}
+        if protocol is None:
+            if len(versions) != 1:
+                raise ConfigError("motor spec mixes protocol 1.0 and 2.0 models; "
+                                  "one bus speaks one protocol")
+            protocol = versions.pop()
+        emulator = Emulator(protocol)
+        for m, (_, motor_id) in zip(models, pairs, strict=True):
+            emulator.add(VirtualMotor(m, motor_id, baudrate=baudrate))
+        port = MemoryPort(emulator, baudrate, clock=clock)  # type: ignore[arg-type]
+        return cls(port, protocol, **kwargs)  # type: ignore[arg-type]
+
+    @property
+    def proto(self) -> Protocol:
+        assert isinstance(self.protocol, Protocol)
+        return self.protocol
+
+    @property
+    def baudrate(self) -> int:
+        return self.port.baudrate
+
+    @property
+    def emulator(self) -> Emulator | None:
+        return getattr(self.port, "emulator", None)
+
+    def close(self) -> None:
+        self.port.close()
+
+    def __enter__(self) -> Bus:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- transactions ------------------------------------------------------------------------
+    def _wait_for(self, n_bytes_out: int, replies: int, n_bytes_in: int) -> float:
+        if self.timeout is not None:
+            return self.timeout
+        tick = byte_time(self.port.baudrate)
+        return ((n_bytes_out + n_bytes_in) * tick + replies * MAX_RETURN_DELAY
+                + 2 * self.port.latency + 0.002)
+
+    def transact(self, inst: Instruction, expect: Mapping[int, int] | None = None, *,
+                 check: bool = True, retries: int | None = None) -> dict[int, Status]:
+        """Send ``inst`` and collect status packets from the IDs in ``expect`` (ID -> number of
+        parameters each answer carries). Retries on silence or corruption; raises
+        :class:`NoResponse` / :class:`CorruptResponse` when they run out, and
+        :class:`MotorError` for error bits when ``check``."""
+        expect = dict(expect or {})
+        name = self.proto.instruction_name(inst.instruction)
+        data = self.proto.encode_instruction(inst)
+        attempts = 1 + (self.retries if retries is None else retries)
+        with self._lock:
+            for attempt in range(attempts):
+                self.stats.transactions += 1
+                if attempt:
+                    self.stats.retries += 1
+                self.port.reset_input()
+                self.port.write(data)
+                self.stats.bytes_out += len(data)
+                if not expect:
+                    return {}
+                try:
+                    got = self._collect(name, len(data), expect)
+                except (NoResponse, CorruptResponse):
+                    if attempt + 1 == attempts:
+                        raise
+                    continue
+                if check:
+                    for status in got.values():
+                        if status.error:
+                            raise MotorError(status.id, name, self.proto.error_names(
+                                status.error), status.error)
+                return got
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def _collect(self, name: str, n_out: int, expect: dict[int, int]) -> dict[int, Status]:
+        parser = self.proto.parser()
+        sizes = {i: self.proto.status_size(n) for i, n in expect.items()}
+        timeout = self._wait_for(n_out, len(expect), sum(sizes.values()))
+        clock = self.port.clock
+        deadline = clock.now() + timeout
+        got: dict[int, Status] = {}
+        while len(got) < len(expect):
+            remaining = deadline - clock.now()
+            if remaining <= 0:
+                break
+            want = max(1, sum(s for i, s in sizes.items() if i not in got) - parser.pending)
+            chunk = self.port.read(want, remaining)
+            self.stats.bytes_in += len(chunk)
+            for frame in parser.feed(chunk):
+                try:
+                    status = self.proto.as_status(frame)
+                except ValueError:
+                    continue
+                if status.id in expect and status.id not in got:
+                    if len(status.params) != expect[status.id] and not status.error:
+                        raise CorruptResponse(
+                            f"motor {status.id}: {name} status has {len(status.params)} data "
+                            f"bytes, expected {expect[status.id]}", motor_id=status.id,
+                            instruction=name)
+                    got[status.id] = status
+        if len(got) < len(expect):
+            missing = sorted(set(expect) - set(got))
+            who = ", ".join(str(i) for i in missing)
+            if parser.dropped or parser.pending:
+                self.stats.corrupt += 1
+                raise CorruptResponse(
+                    f"motor {who}: {name} got a corrupt status packet "
+                    f"({parser.dropped + parser.pending} bad bytes) at {self.baudrate} bps",
+                    motor_id=missing[0], instruction=name)
+            self.stats.timeouts += 1
+            raise NoResponse(f"motor {who}: no answer to {name} within {timeout * 1000:.1f} ms "
+                             f"at {self.baudrate} bps (is it powered, at this baud rate and "
+                             f"ID?)", motor_id=missing[0], instruction=name)
+        return got
+
+    # -- discovery ---------------------------------------------------------------------------
+    def ping(self, motor_id: int, *, retries: int | None = None) -> PingResult:
+        """PING one motor and learn its model (on 1.0 by reading its model number)."""
+        self.proto.check_id(motor_id)
+        v1 = self.proto.version == 1
+        status = self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3},
+                               check=False, retries=retries)[motor_id]
+        if v1:
+            read = self.transact(self.proto.read(motor_id, 0, 3), {motor_id: 3}, check=False,
+                                 retries=retries)[motor_id]
+            number = int.from_bytes(read.params[0:2], "little")
+            firmware: int | None = read.params[2]
+        else:
+            number = int.from_bytes(status.params[0:2], "little")
+            firmware = status.params[2]
+        found = model_by_number(number)
+        if found is not None:
+            self.motors[motor_id] = found
+        return PingResult(motor_id, number, firmware, self.baudrate, found)
+
+    def broadcast_ping(self) -> list[PingResult]:
+        """Protocol 2.0 broadcast PING: every motor answers, in one transaction."""
+        if self.proto.version != 2:
+            raise ConfigError("broadcast ping exists only in protocol 2.0; use scan()")
+        data = self.proto.encode_instruction(self.proto.ping(self.proto.broadcast_id))
+        slot = self.proto.status_size(3) * byte_time(self.baudrate) + MAX_RETURN_DELAY
+        timeout = self.timeout or (self.proto.max_id + 1) * slot + 2 * self.port.latency + 0.002
+        parser = self.proto.parser()
+        found: dict[int, PingResult] = {}
+        with self._lock:
+            self.port.reset_input()
+            self.port.write(data)
+            deadline = self.port.clock.now() + timeout
+            while (remaining := deadline - self.port.clock.now()) > 0:
+                for frame in parser.feed(self.port.read(4096, remaining)):
+                    status = self.proto.as_status(frame)
+                    if len(status.params) == 3 and status.id not in found:
+                        number = int.from_bytes(status.params[0:2], "little")
+                        m = model_by_number(number)
+                        if m:
+                            self.motors[status.id] = m
+                        found[status.id] = PingResult(status.id, number, status.params[2],
+                                                      self.baudrate, m)
+        return [found[i] for i in sorted(found)]
+
+    def scan(self, ids: Iterable[int] | None = None, baudrates: Iterable[int] | None = None,
+             *, progress: Callable[[int, int], None] | None = None) -> list[PingResult]:
+        """Find motors as the Dynamixel Wizard does: ping every ID at every baud rate.
+
+        Leaves the port at its original baud rate. ``progress(baud, id)`` is called before
+        each ping, for a progress display.
+        """
+        ids = list(range(self.proto.max_id + 1) if ids is None else ids)
+        for i in ids:
+            self.proto.check_id(i)
+        rates = [self.baudrate] if baudrates is None else [int(b) for b in baudrates]
+        for rate in rates:
+            if rate <= 0:
+                raise ConfigError(f"baud rate {rate} must be positive")
+        original = self.baudrate
+        found: list[PingResult] = []
+        try:
+            for rate in rates:
+                self.port.set_baudrate(rate)
+                for motor_id in ids:
+                    if progress:
+                        progress(rate, motor_id)
+                    try:
+                        found.append(self.ping(motor_id, retries=0))
+                    except (NoResponse, CorruptResponse):
+                        continue
+        finally:
+            self.port.set_baudrate(original)
+        return found
+
+    def model_of(self, motor_id: int) -> Model:
+        """The model of ``motor_id``: declared, or learnt by a PING the first time."""
+        self.proto.check_id(motor_id)
+        if motor_id not in self.motors:
+            result = self.ping(motor_id)
+            if result.model is None:
+                raise ConfigError(f"motor {motor_id}: model number {result.model_number} is "
+                                  "not one servolab knows; declare it with bus.motors[id] = ...")
+        return self.motors[motor_id]
+
+    def declare(self, motor_id: int, model_name: str | Model) -> None:
+        """Tell the bus which model ``motor_id`` is, so no PING is needed to learn it."""
+        self.proto.check_id(motor_id)
+        m = model_name if isinstance(model_name, Model) else model(model_name)
+        if m.protocol != self.proto.version:
+            raise ConfigError(f"{m.name} speaks protocol {m.protocol}.0, this bus "
+                              f"{self.proto.version}.0")
+        self.motors[motor_id] = m
+
+    # -- conversions -------------------------------------------------------------------------
+    @staticmethod
+    def _names(names: Names) -> list[str]:
+        return [names] if isinstance(names, str) else list(names)
+
+    def _encode(self, m: Model, reg: Register, value: Value, raw: bool) -> bytes:
+        if not reg.writable:
+            raise ConfigError(f"{m.name} {reg.name} is read-only")
+        if raw:
+            if isinstance(value, bool) or not float(value).is_integer():
+                raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
+            raw_value = int(value)
+            reg.check(raw_value, m)
+        else:
+            raw_value = units.from_si(m, reg, value)
+        return reg.encode(raw_value)
+
+    @staticmethod
+    def _decode(m: Model, reg: Register, block: bytes, start: int, raw: bool) -> Value:
+        value = reg.decode(block[reg.address - start:])
+        return value if raw else units.to_si(m, reg, value)
+
+    def _unpack(self, m: Model, names: list[str], block: bytes, start: int,
+                raw: bool) -> dict[str, Value]:
+        return {n: self._decode(m, m.register(n), block, start, raw) for n in names}
+
+    # -- one motor ---------------------------------------------------------------------------
+    def read(self, motor_id: int, names: Names, *, raw: bool = False,
+             check: bool = True) -> Value | dict[str, Value]:
+        """Read one register (returns its value) or several (returns a dict), in SI units
+        unless ``raw``. Several registers go out as one contiguous READ."""
+        m = self.model_of(motor_id)
+        wanted = self._names(names)
+        start, length = m.span(wanted)
+        status = self.transact(self.proto.read(motor_id, start, length), {motor_id: length},
+                               check=check)[motor_id]
+        values = self._unpack(m, wanted, status.params, start, raw)
+        return values[wanted[0]] if isinstance(names, str) else values
+
+    def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
+              *, raw: bool = False, registered: bool = False) -> None:
+        """Write one register (``write(1, "goal_position", 0.5)``) or several adjacent ones
+        (``write(1, {"goal_position": 0.5, "moving_speed": 1.0})``) in one WRITE.
+        ``registered`` sends REG_WRITE, applied by a later :meth:`action`."""
+        m = self.model_of(motor_id)
+        values = dict(name) if isinstance(name, Mapping) else {name: value}
+        if any(v is None for v in values.values()):
+            raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
+        start, block = self._block(m, values, raw)  # type: ignore[arg-type]
+        level_ok = self._status_expected(motor_id, m)
+        self.transact(self.proto.write(motor_id, start, block, registered=registered),
+                      {motor_id: 0} if level_ok else None)
+
+    def _block(self, m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int, bytes]:
+        regs = sorted((m.register(n) for n in values), key=lambda r: r.address)
+        for a, b in itertools.pairwise(regs):
+            if a.address + a.size != b.address:
+                raise ConfigError(f"{m.name}: {a.name} and {b.name} are not adjacent; write "
+                                  "them separately")
+        block = b"".join(self._encode(m, r, values[r.name], raw) for r in regs)
+        return regs[0].address, block
+
+    def _status_expected(self, motor_id: int, m: Model) -> bool:
+        """Whether the motor sends a status after WRITE (status return level 2, the default).
+
+        Set ``bus.status_return_level[id]`` when a motor's level was lowered."""
+        return self.status_return_level.get(motor_id, 2) >= 2
+
+    @property
+    def status_return_level(self) -> dict[int, int]:
+        if not hasattr(self, "_srl"):
+            self._srl: dict[int, int] = {}
+        return self._srl
+
+    def action(self) -> None:
+        """Broadcast ACTION: every motor applies its REG_WRITE at once."""
+        self.transact(self.proto.action())
+
+    def reboot(self, motor_id: int) -> None:
+        if self.proto.version != 2:
+            raise ConfigError("REBOOT exists only in protocol 2.0")
+        self.transact(self.proto.reboot(motor_id), {motor_id: 0})  # type: ignore[attr-defined]
+
+    def factory_reset(self, motor_id: int, *, keep_id: bool = True,
+                      keep_baud: bool = True) -> None:
+        """Restore factory defaults (1.0 RESET resets everything, ID and baud too)."""
+        if self.proto.version == 1:
+            self.transact(self.proto.reset(motor_id), {motor_id: 0})  # type: ignore[attr-defined]
+            return
+        from .protocol2 import (
+            FACTORY_RESET_ALL,
+            FACTORY_RESET_EXCEPT_ID,
+            FACTORY_RESET_EXCEPT_ID_BAUD,
+        )
+        option = (FACTORY_RESET_EXCEPT_ID_BAUD if keep_id and keep_baud else
+                  FACTORY_RESET_EXCEPT_ID if keep_id else FACTORY_RESET_ALL)
+        self.transact(self.proto.factory_reset(motor_id, option),  # type: ignore[attr-defined]
+                      {motor_id: 0})
+
+    # -- many motors ---------------------------------------------------------------------------
+    def sync_write(self, names: Names, values: Mapping[int, Value | Sequence[Value]], *,
+                   raw: bool = False) -> None:
+        """One SYNC_WRITE of the same register(s) on many motors:
+        ``sync_write("goal_position", {11: 0.1, 12: -0.2})`` or, for adjacent registers,
+        ``sync_write(["goal_position", "moving_speed"], {11: (0.1, 2.0)})``."""
+        wanted = self._names(names)
+        blocks: list[tuple[int, bytes]] = []
+        layout: tuple[int, int] | None = None
+        for motor_id, value in values.items():
+            m = self.model_of(motor_id)
+            vals = [value] if isinstance(names, str) else list(value)  # type: ignore[arg-type]
+            if len(vals) != len(wanted):
+                raise ConfigError(f"motor {motor_id}: {len(vals)} values for {len(wanted)} "
+                                  f"registers {wanted}")
+            start, block = self._block(m, dict(zip(wanted, vals, strict=True)), raw)
+            if layout is None:
+                layout = (start, len(block))
+            elif layout != (start, len(block)):
+                raise ConfigError(f"motor {motor_id} ({m.name}) keeps {wanted} at another "
+                                  "address or size than the others: one SYNC_WRITE cannot "
+                                  "reach them all")
+            blocks.append((motor_id, block))
+        if not blocks or layout is None:
+            return
+        self.transact(self.proto.sync_write(layout[0], layout[1], blocks))
+
+    def sync_read(self, names: Names, ids: Iterable[int], *, raw: bool = False,
+                  check: bool = True) -> dict[int, Value | dict[str, Value]]:
+        """The same register(s) of many motors: one SYNC_READ on 2.0, one BULK_READ on 1.0
+        models that have it, else one READ each. Returns {id: value or dict}."""
+        ids = list(ids)
+        wanted = self._names(names)
+        models = {i: self.model_of(i) for i in ids}
+        if not ids:
+            return {}
+        spans = {m.span(wanted) for m in models.values()}
+        if self.proto.version == 2 and len(spans) == 1 and all(
+                supports(m, "SYNC_READ") for m in models.values()):
+            start, length = spans.pop()
+            got = self.transact(self.proto.sync_read(start, length, ids),  # type: ignore[attr-defined]
+                                {i: length for i in ids}, check=check)
+            out = {i: self._unpack(models[i], wanted, got[i].params, start, raw) for i in ids}
+        else:
+            out = self.bulk_read({i: wanted for i in ids}, raw=raw, check=check)  # type: ignore[assignment]
+        if isinstance(names, str):
+            return {i: v[names] for i, v in out.items()}  # type: ignore[index]
+        return out  # type: ignore[return-value]
+
+    def bulk_read(self, requests: Mapping[int, Names], *, raw: bool = False,
+                  check: bool = True) -> dict[int, dict[str, Value]]:
+        """Different registers of different motors: {id: names} -> {id: {name: value}}.
+        One BULK_READ where every model has it, else one contiguous READ per motor."""
+        plan = []
+        for motor_id, names in requests.items():
+            m = self.model_of(motor_id)
+            wanted = self._names(names)
+            plan.append((motor_id, m, wanted, *m.span(wanted)))
+        if not plan:
+            return {}
+        if all(supports(m, "BULK_READ") for _, m, *_ in plan):
+            inst = self.proto.bulk_read([(i, start, n) for i, _, _, start, n in plan])
+            got = self.transact(inst, {i: n for i, _, _, _, n in plan}, check=check)
+            return {i: self._unpack(m, w, got[i].params, start, raw)
+                    for i, m, w, start, _ in plan}
+        out = {}
+        for motor_id, m, wanted, start, length in plan:
+            status = self.transact(self.proto.read(motor_id, start, length),
+                                   {motor_id: length}, check=check)[motor_id]
+            out[motor_id] = self._unpack(m, wanted, status.params, start, raw)
+        return out
+
+    def bulk_write(self, values: Mapping[int, Mapping[str, Value]], *,
+                   raw: bool = False) -> None:
+        """Different registers on different motors: {id: {name: value}}. One BULK_WRITE on
+        2.0; on 1.0 (which has none) one WRITE per motor."""
+        blocks = []
+        for motor_id, regs in values.items():
+            m = self.model_of(motor_id)
+            start, block = self._block(m, regs, raw)
+            blocks.append((motor_id, m, start, block))
+        if self.proto.version == 2 and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
+            self.transact(self.proto.bulk_write(  # type: ignore[attr-defined]
+                [(i, start, block) for i, _, start, block in blocks]))
+            return
+        for motor_id, m, start, block in blocks:
+            self.transact(self.proto.write(motor_id, start, block),
+                          {motor_id: 0} if self._status_expected(motor_id, m) else None)

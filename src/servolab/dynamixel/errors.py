@@ -1,0 +1,56 @@
+"""Exceptions of the Dynamixel layer.
+
+Every error names what it is about (motor ID, instruction, register, value) in one line, so a
+user reading a traceback knows what to fix without opening the code.
+"""
+
+from __future__ import annotations
+
+
+class DynamixelError(Exception):
+    """Base of every error raised by :mod:`servolab.dynamixel`."""
+
+
+class ConfigError(DynamixelError, ValueError):
+    """Bad input from the user: unknown model or register, value out of range, bad ID or baud.
+
+    Raised before anything is sent, so nothing is written to a motor.
+    """
+
+
+class PacketError(DynamixelError, ValueError):
+    """A packet that cannot be encoded or decoded (wrong header, length, checksum or CRC)."""
+
+
+class CommError(DynamixelError):
+    """The bus did not deliver a valid answer: timeout or corrupt status packet."""
+
+    def __init__(self, message: str, *, motor_id: int | None = None,
+                 instruction: str | None = None) -> None:
+        super().__init__(message)
+        self.motor_id = motor_id
+        self.instruction = instruction
+
+
+class NoResponse(CommError):
+    """No status packet arrived before the timeout (motor absent, wrong baud, or cable)."""
+
+
+class CorruptResponse(CommError):
+    """Bytes arrived but no valid status packet from the expected motor could be found."""
+
+
+class MotorError(DynamixelError):
+    """The motor answered with error bits set in its status packet.
+
+    ``errors`` holds the bit names as the e-Manual spells them, e.g. ``("overload",)``.
+    """
+
+    def __init__(self, motor_id: int, instruction: str, errors: tuple[str, ...],
+                 raw: int) -> None:
+        self.motor_id = motor_id
+        self.instruction = instruction
+        self.errors = errors
+        self.raw = raw
+        names = ", ".join(errors) if errors else f"0x{raw:02X}"
+        super().__init__(f"motor {motor_id}: {instruction} answered with error {names}")

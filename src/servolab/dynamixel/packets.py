@@ -1,0 +1,210 @@
+"""What both protocol versions share: packet values, the protocol interface, the stream parser.
+
+A packet on the wire is framed the same way in either direction; what differs is whether its
+code byte is an instruction (host to device) or an error (device to host). Host and device code
+therefore share one parser and one encoder per protocol, and the emulator is simply the device
+side of the same code the driver uses.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from .errors import PacketError
+
+BROADCAST_ID = 0xFE
+
+
+@dataclass(frozen=True)
+class Instruction:
+    """An instruction packet, host to device."""
+
+    id: int
+    instruction: int
+    params: bytes = b""
+
+
+@dataclass(frozen=True)
+class Status:
+    """A status packet, device to host. ``error`` is the raw error byte."""
+
+    id: int
+    error: int
+    params: bytes = b""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A packet found by a :class:`StreamParser`, before it is read as instruction or status.
+
+    ``code`` is the byte after the length: an instruction, or (1.0 only) a status error byte;
+    2.0 status packets carry ``code == 0x55`` and their error byte as ``params[0]``.
+    """
+
+    id: int
+    code: int
+    params: bytes
+
+
+class StreamParser(ABC):
+    """Finds packets in a byte stream that may hold noise, partial packets and bad checksums.
+
+    Feed it bytes as they arrive; it returns every complete, valid packet and keeps the rest.
+    A corrupt candidate is dropped one byte at a time, so the parser resynchronises on the next
+    header even when the corrupt bytes hid one. ``dropped`` counts the bytes thrown away.
+    """
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self.dropped = 0
+
+    def reset(self) -> None:
+        self.dropped += len(self._buffer)
+        self._buffer.clear()
+
+    @property
+    def pending(self) -> int:
+        """Bytes held that are not yet a whole packet."""
+        return len(self._buffer)
+
+    def feed(self, data: bytes) -> list[Frame]:
+        self._buffer += data
+        frames: list[Frame] = []
+        while True:
+            start = self._buffer.find(self.header)
+            if start < 0:
+                # Keep a tail that may be the beginning of a header.
+                keep = len(self.header) - 1
+                cut = max(0, len(self._buffer) - keep)
+                while cut < len(self._buffer) and not self.header.startswith(
+                        bytes(self._buffer[cut:])):
+                    cut += 1
+                self._drop(cut)
+                return frames
+            self._drop(start)
+            result = self._try_frame()
+            if result is None:          # incomplete: wait for more bytes
+                return frames
+            if result is False:         # corrupt: skip this header byte and search again
+                self._drop(1)
+                continue
+            frame, size = result
+            del self._buffer[:size]
+            frames.append(frame)
+
+    def _drop(self, n: int) -> None:
+        if n:
+            del self._buffer[:n]
+            self.dropped += n
+
+    header: bytes = b""
+
+    @abstractmethod
+    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+        """Read one packet at the start of the buffer: (frame, size), None if it is not
+        complete yet, or False if it is corrupt."""
+
+
+class Protocol(ABC):
+    """One version of the Dynamixel protocol, both host and device side."""
+
+    version: int
+    broadcast_id: int = BROADCAST_ID
+    max_id: int
+    #: instruction name -> code, for the instructions this version defines
+    instructions: dict[str, int]
+    #: error bit -> name, as the e-Manual calls it
+    error_bits: dict[int, str]
+
+    # -- framing -----------------------------------------------------------------------------
+    @abstractmethod
+    def encode_instruction(self, packet: Instruction) -> bytes: ...
+
+    @abstractmethod
+    def encode_status(self, packet: Status) -> bytes: ...
+
+    @abstractmethod
+    def parser(self) -> StreamParser: ...
+
+    @abstractmethod
+    def as_status(self, frame: Frame) -> Status: ...
+
+    def as_instruction(self, frame: Frame) -> Instruction:
+        return Instruction(frame.id, frame.code, frame.params)
+
+    @abstractmethod
+    def status_size(self, n_params: int) -> int:
+        """Bytes on the wire of a status packet with ``n_params`` parameters (no stuffing)."""
+
+    def decode_instruction(self, data: bytes) -> Instruction:
+        return self.as_instruction(self._one_frame(data))
+
+    def decode_status(self, data: bytes) -> Status:
+        return self.as_status(self._one_frame(data))
+
+    def _one_frame(self, data: bytes) -> Frame:
+        parser = self.parser()
+        frames = parser.feed(bytes(data))
+        if len(frames) != 1 or parser.pending or parser.dropped:
+            raise PacketError(f"protocol {self.version}: not exactly one valid packet: "
+                              f"{bytes(data).hex(' ')}")
+        return frames[0]
+
+    # -- names ---------------------------------------------------------------------------------
+    def instruction_name(self, code: int) -> str:
+        for name, value in self.instructions.items():
+            if value == code:
+                return name
+        return f"0x{code:02X}"
+
+    def error_names(self, error: int) -> tuple[str, ...]:
+        """Names of the error bits set in a status packet's error byte."""
+        return tuple(name for bit, name in sorted(self.error_bits.items()) if error & bit)
+
+    def check_id(self, motor_id: int, *, broadcast: bool = False) -> None:
+        from .errors import ConfigError
+        if not isinstance(motor_id, int) or isinstance(motor_id, bool):
+            raise ConfigError(f"motor ID {motor_id!r} is not an integer")
+        if broadcast and motor_id == self.broadcast_id:
+            return
+        if not 0 <= motor_id <= self.max_id:
+            raise ConfigError(f"motor ID {motor_id} is outside protocol {self.version}'s "
+                              f"range 0..{self.max_id}")
+
+    # -- instruction builders (host side) ------------------------------------------------------
+    def ping(self, motor_id: int) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        return Instruction(motor_id, self.instructions["PING"])
+
+    def action(self, motor_id: int = BROADCAST_ID) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        return Instruction(motor_id, self.instructions["ACTION"])
+
+    @abstractmethod
+    def read(self, motor_id: int, address: int, length: int) -> Instruction: ...
+
+    @abstractmethod
+    def write(self, motor_id: int, address: int, data: bytes, *,
+              registered: bool = False) -> Instruction: ...
+
+    @abstractmethod
+    def sync_write(self, address: int, length: int,
+                   data: Sequence[tuple[int, bytes]]) -> Instruction: ...
+
+    @abstractmethod
+    def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
+        """``requests`` are (id, address, length) triples."""
+
+    # -- helpers for subclasses ----------------------------------------------------------------
+    @staticmethod
+    def _check_blocks(address: int, length: int, data: Iterable[tuple[int, bytes]],
+                      address_max: int, length_max: int) -> None:
+        if not 0 <= address <= address_max:
+            raise PacketError(f"address {address} is outside 0..{address_max}")
+        if not 0 < length <= length_max:
+            raise PacketError(f"length {length} is outside 1..{length_max}")
+        for motor_id, block in data:
+            if len(block) != length:
+                raise PacketError(f"motor {motor_id}: {len(block)} data bytes, expected {length}")

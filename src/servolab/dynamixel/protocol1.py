@@ -1,0 +1,142 @@
+"""Dynamixel Protocol 1.0 (AX, RX, EX and MX servos in 1.0 firmware).
+
+Packet: ``FF FF ID LENGTH CODE PARAM... CHECKSUM`` where LENGTH = number of parameters + 2 and
+CHECKSUM = ~(ID + LENGTH + CODE + sum(PARAM)) & 0xFF. CODE is the instruction from the host, the
+error byte from the device.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .errors import PacketError
+from .packets import BROADCAST_ID, Frame, Instruction, Protocol, Status, StreamParser
+
+HEADER = b"\xff\xff"
+
+PING = 0x01
+READ = 0x02
+WRITE = 0x03
+REG_WRITE = 0x04
+ACTION = 0x05
+RESET = 0x06
+SYNC_WRITE = 0x83
+BULK_READ = 0x92
+
+INSTRUCTIONS = {
+    "PING": PING, "READ": READ, "WRITE": WRITE, "REG_WRITE": REG_WRITE, "ACTION": ACTION,
+    "RESET": RESET, "SYNC_WRITE": SYNC_WRITE, "BULK_READ": BULK_READ,
+}
+
+# Status error byte, bit by bit (e-Manual, Protocol 1.0, "Status Packet").
+INPUT_VOLTAGE = 0x01
+ANGLE_LIMIT = 0x02
+OVERHEATING = 0x04
+RANGE = 0x08
+CHECKSUM = 0x10
+OVERLOAD = 0x20
+INSTRUCTION = 0x40
+
+ERROR_BITS = {
+    INPUT_VOLTAGE: "input voltage", ANGLE_LIMIT: "angle limit", OVERHEATING: "overheating",
+    RANGE: "range", CHECKSUM: "checksum", OVERLOAD: "overload", INSTRUCTION: "instruction",
+}
+
+
+def checksum(body: bytes) -> int:
+    """The 1.0 checksum of ID, LENGTH, CODE and parameters."""
+    return ~sum(body) & 0xFF
+
+
+def encode(motor_id: int, code: int, params: bytes = b"") -> bytes:
+    if not 0 <= motor_id <= 0xFE:
+        raise PacketError(f"protocol 1.0: ID {motor_id} is outside 0..254")
+    if len(params) > 253:
+        raise PacketError(f"protocol 1.0: {len(params)} parameters, at most 253 fit a packet")
+    body = bytes((motor_id, len(params) + 2, code)) + bytes(params)
+    return HEADER + body + bytes((checksum(body),))
+
+
+class Parser(StreamParser):
+    header = HEADER
+
+    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+        buf = self._buffer
+        if len(buf) < 4:
+            return None
+        motor_id, length = buf[2], buf[3]
+        if motor_id == 0xFF or length < 2:
+            return False
+        size = length + 4
+        if len(buf) < size:
+            return None
+        if checksum(buf[2:size - 1]) != buf[size - 1]:
+            return False
+        return Frame(motor_id, buf[4], bytes(buf[5:size - 1])), size
+
+
+class Protocol1(Protocol):
+    version = 1
+    max_id = 253
+    instructions = INSTRUCTIONS
+    error_bits = ERROR_BITS
+
+    def encode_instruction(self, packet: Instruction) -> bytes:
+        return encode(packet.id, packet.instruction, packet.params)
+
+    def encode_status(self, packet: Status) -> bytes:
+        return encode(packet.id, packet.error, packet.params)
+
+    def parser(self) -> Parser:
+        return Parser()
+
+    def as_status(self, frame: Frame) -> Status:
+        return Status(frame.id, frame.code, frame.params)
+
+    def status_size(self, n_params: int) -> int:
+        return 6 + n_params
+
+    # -- builders ------------------------------------------------------------------------------
+    def read(self, motor_id: int, address: int, length: int) -> Instruction:
+        self.check_id(motor_id)
+        _check_address(address, length)
+        return Instruction(motor_id, READ, bytes((address, length)))
+
+    def write(self, motor_id: int, address: int, data: bytes, *,
+              registered: bool = False) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        _check_address(address, len(data))
+        return Instruction(motor_id, REG_WRITE if registered else WRITE,
+                           bytes((address,)) + bytes(data))
+
+    def reset(self, motor_id: int) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        return Instruction(motor_id, RESET)
+
+    def sync_write(self, address: int, length: int,
+                   data: Sequence[tuple[int, bytes]]) -> Instruction:
+        self._check_blocks(address, length, data, 0xFF, 0xFF)
+        params = bytearray((address, length))
+        for motor_id, block in data:
+            self.check_id(motor_id)
+            params.append(motor_id)
+            params += block
+        return Instruction(BROADCAST_ID, SYNC_WRITE, bytes(params))
+
+    def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
+        params = bytearray((0x00,))
+        for motor_id, address, length in requests:
+            self.check_id(motor_id)
+            _check_address(address, length)
+            params += bytes((length, motor_id, address))
+        return Instruction(BROADCAST_ID, BULK_READ, bytes(params))
+
+
+def _check_address(address: int, length: int) -> None:
+    if not 0 <= address <= 0xFF:
+        raise PacketError(f"protocol 1.0: address {address} is outside 0..255")
+    if not 0 < length <= 0xFF:
+        raise PacketError(f"protocol 1.0: length {length} is outside 1..255")
+
+
+PROTOCOL1 = Protocol1()

@@ -1,0 +1,240 @@
+"""Dynamixel Protocol 2.0 (X-series, MX and PRO servos in 2.0 firmware).
+
+Packet: ``FF FF FD 00 ID LEN_L LEN_H INST PARAM... CRC_L CRC_H``. LEN counts the instruction,
+the (stuffed) parameters and the CRC. The CRC is CRC-16/BUYPASS (polynomial 0x8005, initial 0,
+no reflection) over everything before it. Byte stuffing: wherever ``FF FF FD`` occurs in the
+instruction and parameters, an extra ``FD`` follows it, so a header never appears in a body.
+Status packets carry instruction 0x55 and then the error byte.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import ClassVar
+
+from .errors import PacketError
+from .packets import BROADCAST_ID, Frame, Instruction, Protocol, Status, StreamParser
+
+HEADER = b"\xff\xff\xfd\x00"
+MAX_LENGTH = 1024  # as the ROBOTIS SDK bounds RX/TX packets; longer is taken as corruption
+
+PING = 0x01
+READ = 0x02
+WRITE = 0x03
+REG_WRITE = 0x04
+ACTION = 0x05
+FACTORY_RESET = 0x06
+REBOOT = 0x08
+CLEAR = 0x10
+STATUS = 0x55
+SYNC_READ = 0x82
+SYNC_WRITE = 0x83
+BULK_READ = 0x92
+BULK_WRITE = 0x93
+
+INSTRUCTIONS = {
+    "PING": PING, "READ": READ, "WRITE": WRITE, "REG_WRITE": REG_WRITE, "ACTION": ACTION,
+    "FACTORY_RESET": FACTORY_RESET, "REBOOT": REBOOT, "CLEAR": CLEAR,
+    "SYNC_READ": SYNC_READ, "SYNC_WRITE": SYNC_WRITE, "BULK_READ": BULK_READ,
+    "BULK_WRITE": BULK_WRITE,
+}
+
+# The error byte: the low 7 bits are a number, bit 7 is the hardware-error alert.
+RESULT_FAIL = 0x01
+INSTRUCTION_ERROR = 0x02
+CRC_ERROR = 0x03
+DATA_RANGE = 0x04
+DATA_LENGTH = 0x05
+DATA_LIMIT = 0x06
+ACCESS = 0x07
+ALERT = 0x80
+
+ERROR_NUMBERS = {
+    RESULT_FAIL: "result fail", INSTRUCTION_ERROR: "instruction", CRC_ERROR: "crc",
+    DATA_RANGE: "data range", DATA_LENGTH: "data length", DATA_LIMIT: "data limit",
+    ACCESS: "access",
+}
+
+# Bits of the hardware_error_status register (address 70 on the X-series).
+HARDWARE_ERRORS = {
+    0x01: "input voltage", 0x04: "overheating", 0x08: "motor encoder",
+    0x10: "electrical shock", 0x20: "overload",
+}
+
+FACTORY_RESET_ALL = 0xFF
+FACTORY_RESET_EXCEPT_ID = 0x01
+FACTORY_RESET_EXCEPT_ID_BAUD = 0x02
+
+
+def _crc_table() -> list[int]:
+    table = []
+    for i in range(256):
+        crc = i << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else crc << 1
+        table.append(crc & 0xFFFF)
+    return table
+
+
+_CRC_TABLE = _crc_table()
+
+
+def crc16(data: bytes, crc: int = 0) -> int:
+    """CRC-16 of Protocol 2.0 over ``data``."""
+    for byte in data:
+        crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
+    return crc
+
+
+def stuff(body: bytes) -> bytes:
+    """Insert ``FD`` after every ``FF FF FD`` in ``body`` (instruction + parameters)."""
+    if b"\xff\xff\xfd" not in body:
+        return body
+    return body.replace(b"\xff\xff\xfd", b"\xff\xff\xfd\xfd")
+
+
+def unstuff(body: bytes) -> bytes:
+    """Undo :func:`stuff`."""
+    if b"\xff\xff\xfd\xfd" not in body:
+        return body
+    return body.replace(b"\xff\xff\xfd\xfd", b"\xff\xff\xfd")
+
+
+def encode(motor_id: int, code: int, params: bytes = b"") -> bytes:
+    if not 0 <= motor_id <= 0xFE or motor_id == 0xFD:
+        raise PacketError(f"protocol 2.0: ID {motor_id} is not 0..252 or 254 (broadcast)")
+    body = stuff(bytes((code,)) + bytes(params))
+    length = len(body) + 2
+    if length > MAX_LENGTH:
+        raise PacketError(f"protocol 2.0: packet length {length} exceeds {MAX_LENGTH}")
+    packet = HEADER + bytes((motor_id, length & 0xFF, length >> 8)) + body
+    crc = crc16(packet)
+    return packet + bytes((crc & 0xFF, crc >> 8))
+
+
+class Parser(StreamParser):
+    header = b"\xff\xff\xfd"
+
+    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+        buf = self._buffer
+        if len(buf) < 7:
+            return None
+        if buf[3] != 0x00 or buf[4] in (0xFD, 0xFF):
+            return False
+        length = buf[5] | (buf[6] << 8)
+        if not 3 <= length <= MAX_LENGTH:
+            return False
+        size = length + 7
+        if len(buf) < size:
+            return None
+        crc = buf[size - 2] | (buf[size - 1] << 8)
+        if crc16(buf[:size - 2]) != crc:
+            return False
+        body = unstuff(bytes(buf[7:size - 2]))
+        return Frame(buf[4], body[0], body[1:]), size
+
+
+def _u16(value: int) -> bytes:
+    return int(value).to_bytes(2, "little")
+
+
+class Protocol2(Protocol):
+    version = 2
+    max_id = 252
+    instructions = INSTRUCTIONS
+    error_bits: ClassVar[dict[int, str]] = {}  # 2.0 numbers its errors: see error_names
+
+    def encode_instruction(self, packet: Instruction) -> bytes:
+        return encode(packet.id, packet.instruction, packet.params)
+
+    def encode_status(self, packet: Status) -> bytes:
+        return encode(packet.id, STATUS, bytes((packet.error,)) + packet.params)
+
+    def parser(self) -> Parser:
+        return Parser()
+
+    def as_status(self, frame: Frame) -> Status:
+        if frame.code != STATUS or not frame.params:
+            raise PacketError(f"protocol 2.0: packet from ID {frame.id} is not a status packet "
+                              f"(instruction 0x{frame.code:02X})")
+        return Status(frame.id, frame.params[0], frame.params[1:])
+
+    def status_size(self, n_params: int) -> int:
+        return 11 + n_params
+
+    def error_names(self, error: int) -> tuple[str, ...]:
+        names = []
+        number = error & 0x7F
+        if number:
+            names.append(ERROR_NUMBERS.get(number, f"error {number}"))
+        if error & ALERT:
+            names.append("hardware error alert")
+        return tuple(names)
+
+    # -- builders ------------------------------------------------------------------------------
+    def read(self, motor_id: int, address: int, length: int) -> Instruction:
+        self.check_id(motor_id)
+        _check_address(address, length)
+        return Instruction(motor_id, READ, _u16(address) + _u16(length))
+
+    def write(self, motor_id: int, address: int, data: bytes, *,
+              registered: bool = False) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        _check_address(address, len(data))
+        return Instruction(motor_id, REG_WRITE if registered else WRITE,
+                           _u16(address) + bytes(data))
+
+    def factory_reset(self, motor_id: int, option: int = FACTORY_RESET_ALL) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        if option not in (FACTORY_RESET_ALL, FACTORY_RESET_EXCEPT_ID,
+                          FACTORY_RESET_EXCEPT_ID_BAUD):
+            raise PacketError(f"protocol 2.0: factory reset option 0x{option:02X} is not "
+                              "0xFF (all), 0x01 (keep ID) or 0x02 (keep ID and baud)")
+        return Instruction(motor_id, FACTORY_RESET, bytes((option,)))
+
+    def reboot(self, motor_id: int) -> Instruction:
+        self.check_id(motor_id, broadcast=True)
+        return Instruction(motor_id, REBOOT)
+
+    def sync_read(self, address: int, length: int, ids: Sequence[int]) -> Instruction:
+        _check_address(address, length)
+        for motor_id in ids:
+            self.check_id(motor_id)
+        return Instruction(BROADCAST_ID, SYNC_READ, _u16(address) + _u16(length) + bytes(ids))
+
+    def sync_write(self, address: int, length: int,
+                   data: Sequence[tuple[int, bytes]]) -> Instruction:
+        self._check_blocks(address, length, data, 0xFFFF, 0xFFFF)
+        params = bytearray(_u16(address) + _u16(length))
+        for motor_id, block in data:
+            self.check_id(motor_id)
+            params.append(motor_id)
+            params += block
+        return Instruction(BROADCAST_ID, SYNC_WRITE, bytes(params))
+
+    def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
+        params = bytearray()
+        for motor_id, address, length in requests:
+            self.check_id(motor_id)
+            _check_address(address, length)
+            params += bytes((motor_id,)) + _u16(address) + _u16(length)
+        return Instruction(BROADCAST_ID, BULK_READ, bytes(params))
+
+    def bulk_write(self, blocks: Sequence[tuple[int, int, bytes]]) -> Instruction:
+        """``blocks`` are (id, address, data) triples."""
+        params = bytearray()
+        for motor_id, address, data in blocks:
+            self.check_id(motor_id)
+            _check_address(address, len(data))
+            params += bytes((motor_id,)) + _u16(address) + _u16(len(data)) + bytes(data)
+        return Instruction(BROADCAST_ID, BULK_WRITE, bytes(params))
+
+
+def _check_address(address: int, length: int) -> None:
+    if not 0 <= address <= 0xFFFF:
+        raise PacketError(f"protocol 2.0: address {address} is outside 0..65535")
+    if not 0 < length <= 0xFFFF:
+        raise PacketError(f"protocol 2.0: length {length} is outside 1..65535")
+
+
+PROTOCOL2 = Protocol2()
