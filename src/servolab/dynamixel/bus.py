@@ -14,10 +14,12 @@ import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from . import units
-from .emulator import Emulator, VirtualMotor, byte_time, parse_motor_spec
+from ..clock import Clock
+from . import motorspec, units
+from .emulator import Emulator, Faults, build_emulator, byte_time
 from .errors import ConfigError, CorruptResponse, MotorError, NoResponse
 from .models import Model, Register, model, model_by_number, supports
+from .motorspec import MotorSpec
 from .packets import Instruction, Protocol, Status
 from .ports import MemoryPort, Port, open_port
 from .protocol import protocol as protocol_for
@@ -88,25 +90,22 @@ class Bus:
         return cls(open_port(device, baudrate), proto, **kwargs)  # type: ignore[arg-type]
 
     @classmethod
-    def emulated(cls, spec: str | Iterable[tuple[str, int]], *, protocol: int | None = None,
-                 baudrate: int = 1_000_000, clock: object = None, **kwargs: object) -> Bus:
+    def emulated(cls, spec: str | MotorSpec, *, protocol: int | None = None,
+                 baudrate: int = 1_000_000, clock: Clock | None = None,
+                 faults: Faults | None = None, **kwargs: object) -> Bus:
         """A bus wired in memory to emulated motors, e.g. ``Bus.emulated("rx28:1-4")``.
 
-        The protocol follows the models unless given. The emulator is ``bus.port.emulator``.
+        ``spec`` is the short form, a YAML path or a :class:`MotorSpec`; motors are set to
+        ``baudrate``. The protocol follows the models. The emulator is ``bus.emulator``, the
+        (virtual by default) clock ``bus.port.clock``.
         """
-        pairs = parse_motor_spec(spec) if isinstance(spec, str) else list(spec)
-        models = [model(name) for name, _ in pairs]
-        versions = {m.protocol for m in models}
-        if protocol is None:
-            if len(versions) != 1:
-                raise ConfigError("motor spec mixes protocol 1.0 and 2.0 models; "
-                                  "one bus speaks one protocol")
-            protocol = versions.pop()
-        emulator = Emulator(protocol)
-        for m, (_, motor_id) in zip(models, pairs, strict=True):
-            emulator.add(VirtualMotor(m, motor_id, baudrate=baudrate))
-        port = MemoryPort(emulator, baudrate, clock=clock)  # type: ignore[arg-type]
-        return cls(port, protocol, **kwargs)  # type: ignore[arg-type]
+        if isinstance(spec, str):
+            spec = motorspec.load(spec, protocol=protocol, baudrate=baudrate)
+        elif spec.baudrate is None:
+            spec = MotorSpec(spec.protocol, baudrate, spec.motors)
+        emulator = build_emulator(spec, faults=faults)
+        port = MemoryPort(emulator, spec.baudrate or baudrate, clock=clock)
+        return cls(port, spec.protocol, **kwargs)  # type: ignore[arg-type]
 
     @property
     def proto(self) -> Protocol:

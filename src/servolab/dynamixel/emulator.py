@@ -23,6 +23,7 @@ from . import protocol1 as p1
 from . import protocol2 as p2
 from .errors import ConfigError
 from .models import ALLOWED_MODES, Model, Register, supports
+from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
 from .protocol import protocol as protocol_for
 
@@ -640,31 +641,10 @@ def _collide(packets: list[bytes]) -> bytes:
     return bytes(out)
 
 
-def parse_motor_spec(spec: str) -> list[tuple[str, int]]:
-    """Parse the short form ``rx28:11-16,21-26`` or ``xm430-w210:1-3;xl430-w250:4`` into
-    (model name, ID) pairs. Groups are separated by ``;`` or spaces."""
-    pairs: list[tuple[str, int]] = []
-    groups = [g for chunk in spec.replace(";", " ").split() for g in [chunk] if g]
-    if not groups:
-        raise ConfigError("motor spec is empty; write e.g. 'rx28:11-16,21-26'")
-    for group in groups:
-        if ":" not in group:
-            raise ConfigError(f"motor spec {group!r}: expected MODEL:IDS such as 'rx28:1-4'")
-        name, ids = group.split(":", 1)
-        from .models import model as lookup
-        m = lookup(name)
-        for part in ids.split(","):
-            try:
-                if "-" in part:
-                    a, b = (int(x) for x in part.split("-", 1))
-                    if a > b:
-                        raise ValueError
-                    pairs += [(m.name, i) for i in range(a, b + 1)]
-                else:
-                    pairs.append((m.name, int(part)))
-            except ValueError:
-                raise ConfigError(f"motor spec {group!r}: {part!r} is not an ID or a range "
-                                  "like 11-16") from None
-    for name, motor_id in pairs:
-        _check_id(lookup(name), motor_id)
-    return pairs
+def build_emulator(spec: MotorSpec, *, faults: Faults | None = None) -> Emulator:
+    """An emulator holding the motors of ``spec``, each at the spec's (or factory) baud rate."""
+    emulator = Emulator(spec.protocol, faults=faults)
+    for entry in spec.motors:
+        emulator.add(VirtualMotor(entry.model, entry.id, baudrate=spec.baudrate,
+                                  position=entry.position))
+    return emulator

@@ -133,5 +133,16 @@ def from_si(model: Model, register: Register, value: float) -> int:
         raw = model.baud_register_for(int(value))
     else:
         raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")
-    register.check(raw, model)
+    if not register.raw_min <= raw <= register.raw_max:
+        if kind.endswith("sign_bit"):
+            top = to_si(model, register, min(register.raw_max, 0x3FF))
+            lo, hi = (-top if register.raw_max > 0x3FF else 0.0), top
+        else:
+            lo = to_si(model, register, register.raw_min)
+            hi = to_si(model, register, register.raw_max)
+        unit = KINDS.get(kind, "")
+        raise ConfigError(
+            f"{model.name} {register.name}: {value:g}{' ' + unit if unit else ''} is outside "
+            f"{min(lo, hi):.6g}..{max(lo, hi):.6g}{' ' + unit if unit else ''} "
+            f"(raw {raw} is outside {register.raw_min}..{register.raw_max})")
     return raw

@@ -1,0 +1,91 @@
+"""``servolab demo``: a tour of what servolab does, on emulated motors, in a few seconds.
+
+For now it shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (RX-28 on
+Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Protocol 2.0 at
+1 Mbps), scans them, moves a motor and prints what it saw, and saves a plot and summary.json in
+the run folder. Every robot that servolab grows adds its own short run here.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import TextIO
+
+from ..dynamixel.bus import Bus
+from ..runs import RunFolder
+
+
+def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    say = lambda text="": print(text, file=stdout, flush=True)  # noqa: E731
+    figures: dict[str, object] = {}
+
+    # -- 1. Armstrong's left leg: six RX-28 on Protocol 1.0 at the factory 57142 bps --------
+    say("1. An emulated bus like Armstrong's left leg: RX-28 IDs 11-16, protocol 1.0, 57142 bps")
+    bus = Bus.emulated("rx28:11-16", baudrate=57142)
+    clock = bus.port.clock
+    found = bus.scan(range(0, 20))
+    for r in found:
+        say(f"   found ID {r.id:>2}: {r.model_name} (model number {r.model_number}, "
+            f"firmware {r.firmware})")
+    say("   torque on, moving_speed 1.5 rad/s, goal_position of motor 12 <- 0.8 rad")
+    bus.write(12, "torque_enable", 1)
+    bus.write(12, {"goal_position": 0.8, "moving_speed": 1.5})
+    times, positions, speeds = [], [], []
+    t0 = clock.now()
+    while clock.now() - t0 < 1.0:
+        state = bus.read(12, ["present_position", "present_speed"])
+        assert isinstance(state, dict)
+        times.append(clock.now() - t0)
+        positions.append(float(state["present_position"]))
+        speeds.append(float(state["present_speed"]))
+        clock.sleep(0.05)
+    for i in range(0, len(times), 4):
+        say(f"   t = {times[i]:5.3f} s   present_position = {positions[i]:+.3f} rad   "
+            f"present_speed = {speeds[i]:+.3f} rad/s")
+    say(f"   motor 12 reached {positions[-1]:+.3f} rad "
+        f"(goal 0.8 rad, one RX-28 tick is {bus.model_of(12).rad_per_tick:.4f} rad)")
+    figures["rx28"] = {"motors_found": [r.id for r in found], "final_position_rad":
+                       positions[-1], "bus_stats": vars(bus.stats)}
+
+    # -- 2. The fly treadmill: three XM430-W210 on Protocol 2.0 at 1 Mbps, velocity mode ------
+    say()
+    say("2. An emulated bus like the fly treadmill: XM430-W210 IDs 1-3, protocol 2.0, 1 Mbps")
+    xbus = Bus.emulated("xm430-w210:1-3", baudrate=1_000_000)
+    xclock = xbus.port.clock
+    for r in xbus.broadcast_ping():
+        say(f"   broadcast ping: ID {r.id}: {r.model_name} (firmware {r.firmware})")
+    ids = [1, 2, 3]
+    xbus.sync_write("operating_mode", {i: 1 for i in ids}, raw=True)  # velocity mode
+    xbus.sync_write("torque_enable", {i: 1 for i in ids})
+    goals = {1: 2.0, 2: -1.0, 3: 0.5}
+    say(f"   SYNC_WRITE goal_velocity {goals} rad/s, then one SYNC_READ per 15 ms frame")
+    t_cycle = xclock.now()
+    xbus.sync_write("goal_velocity", goals)
+    present = xbus.sync_read("present_position", ids)
+    cycle_ms = (xclock.now() - t_cycle) * 1000
+    xclock.sleep(1.0)
+    present = xbus.sync_read("present_position", ids)
+    for i in ids:
+        say(f"   motor {i}: present_position after 1 s = {present[i]:+.3f} rad")
+    say(f"   one write+read cycle takes {cycle_ms:.3f} ms of bus time at 1 Mbps")
+    figures["xm430"] = {"present_position_rad": present, "cycle_ms": cycle_ms}
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+    ax1.plot(times, positions, marker=".", label="present_position")
+    ax1.axhline(0.8, color="gray", linestyle="--", label="goal_position")
+    ax1.set_ylabel("rad")
+    ax1.legend()
+    ax1.set_title("Emulated RX-28 (ID 12) moving to 0.8 rad at 1.5 rad/s")
+    ax2.plot(times, speeds, marker=".", color="tab:orange")
+    ax2.set_ylabel("present_speed (rad/s)")
+    ax2.set_xlabel("time (s)")
+    plot = run_folder.save_figure(fig, "demo_motion.png")
+    summary = run_folder.write_summary(figures)
+    say()
+    say(f"Plot: {plot}\nSummary: {summary}")
+    return figures

@@ -1,0 +1,138 @@
+"""The unmodified ROBOTIS dynamixel-sdk, through its own PortHandler on the pseudo-terminal of
+``servolab sim``, drives emulated motors: the emulator is a device any Dynamixel client can use.
+
+The SDK's PortHandler only accepts standard baud rates, so it opens the pty at 57600 bps, which
+real RX-28 at their factory 57142 bps also understand (0.8 % apart, within UART tolerance).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import dynamixel_sdk
+import pytest
+
+from tests.simproc import sim_process, wait_until
+
+pytestmark = pytest.mark.slow
+
+
+def _open(device: str, version: float) -> tuple[object, object]:
+    port = dynamixel_sdk.PortHandler(device)
+    assert port.openPort()
+    assert port.setBaudRate(57600)
+    return port, dynamixel_sdk.PacketHandler(version)
+
+
+def _ok(result: tuple) -> tuple:
+    """SDK calls return (..., comm_result, error): both must be 0."""
+    *values, comm, error = result
+    assert comm == dynamixel_sdk.COMM_SUCCESS, comm
+    assert error == 0, error
+    return tuple(values)
+
+
+def test_sdk_drives_protocol1_rx28_through_pty(tmp_path: Path) -> None:
+    with sim_process("--motors", "rx28:1-3", out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 1.0)
+        try:
+            for motor_id in (1, 2, 3):
+                (model_number,) = _ok(ph.ping(port, motor_id))
+                assert model_number == 28  # the SDK reads it from address 0 after PING
+                (number,) = _ok(ph.read2ByteTxRx(port, motor_id, 0))
+                assert number == 28
+            # A missing motor stays silent.
+            _, comm, _ = ph.ping(port, 9)
+            assert comm == dynamixel_sdk.COMM_RX_TIMEOUT
+
+            _ok(ph.write1ByteTxRx(port, 1, 24, 1))          # torque_enable
+            _ok(ph.write2ByteTxRx(port, 1, 32, 300))        # moving_speed: 33 rpm
+            (start,) = _ok(ph.read2ByteTxRx(port, 1, 36))   # present_position
+            _ok(ph.write2ByteTxRx(port, 1, 30, 800))        # goal_position
+            seen = [start]
+
+            def arrived() -> bool:
+                (pos,) = _ok(ph.read2ByteTxRx(port, 1, 36))
+                seen.append(pos)
+                return pos == 800
+
+            assert wait_until(arrived, timeout=10.0)
+            # It moved toward the goal, never away from it, and got there.
+            assert seen == sorted(seen)
+            assert len(set(seen)) > 2  # seen in motion, not teleported
+
+            # SYNC_WRITE (1.0) of torque on and goal_position 300 to all three.
+            for addr, size, value in ((24, 1, 1), (30, 2, 300)):
+                group = dynamixel_sdk.GroupSyncWrite(port, ph, addr, size)
+                for motor_id in (1, 2, 3):
+                    assert group.addParam(motor_id, list(value.to_bytes(size, "little")))
+                assert group.txPacket() == dynamixel_sdk.COMM_SUCCESS
+            for motor_id in (1, 2, 3):
+                (goal,) = _ok(ph.read2ByteTxRx(port, motor_id, 30))
+                assert goal == 300
+            assert wait_until(lambda: all(
+                _ok(ph.read2ByteTxRx(port, i, 36))[0] == 300 for i in (1, 2, 3)), timeout=10.0)
+        finally:
+            port.closePort()
+
+
+def test_sdk_drives_protocol2_xm430_through_pty(tmp_path: Path) -> None:
+    with sim_process("--motors", "xm430-w210:100-102", "--baud", "57600",
+                     out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 2.0)
+        ids = (100, 101, 102)
+        try:
+            for motor_id in ids:
+                (model_number,) = _ok(ph.ping(port, motor_id))
+                assert model_number == 1030
+            # Broadcast ping finds all of them.
+            found, comm = ph.broadcastPing(port)
+            assert comm == dynamixel_sdk.COMM_SUCCESS
+            assert sorted(found) == list(ids)
+            assert all(found[i][0] == 1030 for i in ids)
+
+            for motor_id in ids:
+                _ok(ph.write1ByteTxRx(port, motor_id, 11, 1))   # operating_mode: velocity
+                _ok(ph.write1ByteTxRx(port, motor_id, 64, 1))   # torque_enable
+            goals = {100: 100, 101: -60, 102: 30}               # goal_velocity, 0.229 rpm units
+            group = dynamixel_sdk.GroupSyncWrite(port, ph, 104, 4)
+            for motor_id, value in goals.items():
+                group.addParam(motor_id, list(value.to_bytes(4, "little", signed=True)))
+            assert group.txPacket() == dynamixel_sdk.COMM_SUCCESS
+
+            reader = dynamixel_sdk.GroupSyncRead(port, ph, 132, 4)   # present_position
+            for motor_id in ids:
+                assert reader.addParam(motor_id)
+
+            def positions() -> dict[int, int]:
+                assert reader.txRxPacket() == dynamixel_sdk.COMM_SUCCESS
+                out = {}
+                for motor_id in ids:
+                    assert reader.isAvailable(motor_id, 132, 4)
+                    raw = reader.getData(motor_id, 132, 4)
+                    out[motor_id] = raw - (1 << 32) if raw >= 1 << 31 else raw
+                return out
+
+            first = positions()
+            assert wait_until(lambda: all(abs(positions()[i] - first[i]) > 50 for i in ids),
+                              timeout=10.0)
+            later = positions()
+            for motor_id, goal in goals.items():
+                # Each wheel turned the way its goal_velocity says.
+                assert math.copysign(1, later[motor_id] - first[motor_id]) == math.copysign(
+                    1, goal)
+            # The faster wheel covered more ground in the same time.
+            assert abs(later[100] - first[100]) > abs(later[102] - first[102])
+        finally:
+            port.closePort()
+
+
+def test_sim_stops_on_sigint_and_writes_summary(tmp_path: Path) -> None:
+    with sim_process("--motors", "rx28:1", out_dir=tmp_path) as (device, proc):
+        port, ph = _open(device, 1.0)
+        _ok(ph.ping(port, 1))
+        port.closePort()
+    assert proc.returncode == 0
+    summary = (tmp_path / "summary.json").read_text()
+    assert '"instructions_received"' in summary
