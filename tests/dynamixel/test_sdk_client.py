@@ -136,3 +136,18 @@ def test_sim_stops_on_sigint_and_writes_summary(tmp_path: Path) -> None:
     assert proc.returncode == 0
     summary = (tmp_path / "summary.json").read_text()
     assert '"instructions_received"' in summary
+
+
+def test_motors_are_silent_at_another_baud_rate(tmp_path: Path) -> None:
+    """Like real ones: motors at 1 Mbps do not hear a client at 57600 bps, and do at 1 Mbps."""
+    with sim_process("--motors", "ex106+:1-2", "--baud", "1000000",
+                     out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 1.0)
+        try:
+            _, comm, _ = ph.ping(port, 1)
+            assert comm == dynamixel_sdk.COMM_RX_TIMEOUT
+            assert port.setBaudRate(1_000_000)
+            (number,) = _ok(ph.ping(port, 1))
+            assert number == 107   # EX-106+
+        finally:
+            port.closePort()

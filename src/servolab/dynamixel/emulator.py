@@ -108,6 +108,13 @@ class VirtualMotor:
         self.load = 0.0
         self._pending: tuple[int, bytes] | None = None
         self._update_sensors()
+        self._hold_position()
+
+    def _hold_position(self) -> None:
+        """Set goal_position to where the horn is, as the firmware does at power-up, so that
+        enabling torque does not make the motor jump."""
+        self._update_sensors()
+        self.set_raw("goal_position", self.get_raw("present_position"))
 
     # -- control table -------------------------------------------------------------------------
     def _load_defaults(self, keep: Iterable[str]) -> None:
@@ -340,6 +347,7 @@ class VirtualMotor:
         if name == "RESET":
             status = Status(self.id, self.error_byte())
             self._load_defaults(keep=())
+            self._hold_position()
             return status
         if name == "FACTORY_RESET":
             option = params[0] if params else p2.FACTORY_RESET_ALL
@@ -349,6 +357,7 @@ class VirtualMotor:
                 return Status(self.id, self.error_byte(p2.DATA_RANGE))
             status = Status(self.id, self.error_byte())
             self._load_defaults(keep=keep)
+            self._hold_position()
             return status
         if name == "REBOOT":
             status = Status(self.id, self.error_byte())
@@ -358,6 +367,7 @@ class VirtualMotor:
             for reg_name, value in eeprom.items():
                 self.set_raw(reg_name, value)
             self.clear_hardware_error()
+            self._hold_position()
             return status
         if name == "CLEAR":
             if params[:5] != b"\x01\x44\x58\x4c\x22" or self.torque_enabled:

@@ -144,10 +144,9 @@ class SerialPort(Port):
         self.baudrate = int(baudrate)
         self.clock = WallClock()
         timer = usb_latency_timer(device)
-        if timer is not None and timer > 1:
-            log.warning("%s: the USB adapter's latency timer is %d ms, which adds up to %d ms to "
-                        "every reply; lower it with: echo 1 | sudo tee %s", device, timer, timer,
-                        latency_timer_path(device))
+        warning = latency_warning(device, timer)
+        if warning:
+            log.warning(warning)
         self.latency = latency if latency is not None else (
             timer / 1000.0 if timer is not None else 0.016)
 
@@ -170,19 +169,36 @@ class SerialPort(Port):
         self._serial.close()
 
 
-def latency_timer_path(device: str) -> Path:
-    name = Path(os.path.realpath(device)).name
-    return Path("/sys/bus/usb-serial/devices") / name / "latency_timer"
+USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
 
 
-def usb_latency_timer(device: str) -> int | None:
-    """The FTDI latency timer of ``device`` in ms (Linux), or None where there is none."""
+def latency_timer_path(device: str, sysfs: Path = USB_SERIAL_SYSFS) -> Path:
+    """Where Linux exposes the FTDI latency timer of ``device`` (follows symlinks such as
+    /dev/serial/by-id/...)."""
+    return sysfs / Path(os.path.realpath(device)).name / "latency_timer"
+
+
+def usb_latency_timer(device: str, sysfs: Path = USB_SERIAL_SYSFS) -> int | None:
+    """The FTDI latency timer of ``device`` in ms (Linux), or None where there is none.
+
+    FTDI adapters (USB2Dynamixel, U2D2) hold received bytes up to this long, 16 ms by default:
+    every status packet then arrives up to 16 ms late, which caps a bus at about 60
+    transactions per second whatever its baud rate."""
     if not sys.platform.startswith("linux"):
         return None
     try:
-        return int(latency_timer_path(device).read_text().strip())
+        return int(latency_timer_path(device, sysfs).read_text().strip())
     except (OSError, ValueError):
         return None
+
+
+def latency_warning(device: str, timer_ms: int | None) -> str | None:
+    """The warning for a latency timer above 1 ms, with the command that lowers it."""
+    if timer_ms is None or timer_ms <= 1:
+        return None
+    return (f"{device}: the USB adapter's latency timer is {timer_ms} ms, which delays every "
+            f"reply by up to {timer_ms} ms; lower it with: "
+            f"echo 1 | sudo tee {latency_timer_path(device)}")
 
 
 class PtyServer:

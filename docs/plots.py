@@ -1,0 +1,84 @@
+"""Make the figures of docs/dynamixel.md from the code itself: ``python docs/plots.py [DIR]``.
+
+Both figures are measured on emulated motors with the virtual clock, so they are exact and take
+a second to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
+from what the code does.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+from servolab.dynamixel import Bus
+
+
+def joint_moves(path: Path) -> None:
+    """An RX-28 in joint mode, sent to three goals at three moving speeds."""
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for speed in (0.5, 1.5, 0.0):
+        bus = Bus.emulated("rx28:1", baudrate=1_000_000)
+        clock = bus.port.clock
+        bus.write(1, "torque_enable", 1)
+        bus.write(1, {"goal_position": 1.0, "moving_speed": speed})
+        t0, times, pos = clock.now(), [], []
+        while clock.now() - t0 < 2.5:
+            times.append(clock.now() - t0)
+            pos.append(bus.read(1, "present_position"))
+            clock.sleep(0.02)
+        label = "moving_speed 0 (= no-load speed)" if speed == 0 else f"moving_speed {speed} rad/s"
+        ax.plot(times, pos, label=label)
+    ax.axhline(1.0, color="gray", linestyle="--", linewidth=0.8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("present_position (rad)")
+    ax.set_title("Emulated RX-28, joint mode, goal_position 1.0 rad")
+    ax.legend(loc="lower right", fontsize=8)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def cycle_time(path: Path) -> None:
+    """Bus time of one cycle (write every goal, read every present position) vs motor count."""
+    configs = [("rx28", 1, 57142, "RX-28, 1.0, 57142 bps: SYNC_WRITE + READ each"),
+               ("rx28", 1, 1_000_000, "RX-28, 1.0, 1 Mbps: SYNC_WRITE + READ each"),
+               ("xm430-w210", 2, 1_000_000, "XM430, 2.0, 1 Mbps: SYNC_WRITE + SYNC_READ")]
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for name, _, baud, label in configs:
+        counts, millis = [], []
+        for n in (1, 2, 5, 10, 15, 20):
+            bus = Bus.emulated(f"{name}:1-{n}", baudrate=baud)
+            ids = list(range(1, n + 1))
+            bus.sync_write("return_delay_time", {i: 0 for i in ids})
+            clock = bus.port.clock
+            t0 = clock.now()
+            bus.sync_write("goal_position", {i: 0.1 for i in ids})
+            bus.sync_read("present_position", ids)
+            counts.append(n)
+            millis.append((clock.now() - t0) * 1000)
+        ax.plot(counts, millis, marker="o", label=label)
+    ax.axhline(50, color="gray", linestyle=":", linewidth=0.8)
+    ax.text(1, 51, "20 Hz", fontsize=8, color="gray")
+    ax.set_xlabel("motors on the bus")
+    ax.set_ylabel("bus time per cycle (ms)")
+    ax.set_yscale("log")
+    ax.set_title("Wire time of one control cycle (return delay 0)")
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main(argv: list[str]) -> None:
+    out = Path(argv[0]) if argv else Path(__file__).parent / "img"
+    out.mkdir(parents=True, exist_ok=True)
+    joint_moves(out / "rx28_joint_moves.png")
+    cycle_time(out / "bus_cycle_time.png")
+    print(f"figures written to {out}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
