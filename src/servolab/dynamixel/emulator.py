@@ -489,7 +489,7 @@ class Emulator:
         self.motors: list[VirtualMotor] = []
         self.faults = faults or Faults()
         self.time = 0.0
-        self._parser = self.protocol.parser()
+        self._parser = self.protocol.parser(keep_rejected=True)
         self.instructions_seen = 0
         for motor in motors:
             self.add(motor)
@@ -526,7 +526,22 @@ class Emulator:
             replies += self._answer(inst, t, baudrate)
             if replies:
                 t = max(t, replies[-1].start + len(replies[-1].data) * byte_time(baudrate))
+        for bad in self._parser.rejected:
+            replies += self._checksum_error(bad.id, t, baudrate)
+        self._parser.rejected.clear()
         return replies
+
+    def _checksum_error(self, motor_id: int, t: float, baudrate: float) -> list[Reply]:
+        """A unicast packet that arrived whole but with a bad checksum/CRC: the motor with
+        that ID answers with the checksum (1.0) or CRC (2.0) error, as the real ones do."""
+        error = p1.CHECKSUM if self.protocol.version == 1 else p2.CRC_ERROR
+        targets = [m for m in self._listening(baudrate) if m.id == motor_id]
+        if not targets or motor_id == BROADCAST_ID:
+            return []
+        encoded = [self.protocol.encode_status(Status(m.id, m.error_byte(error)))
+                   for m in targets]
+        start = t + max(m.return_delay for m in targets) + self.faults.delay
+        return [Reply(start, self.faults.apply(_collide(encoded)))]
 
     # -- who answers what ------------------------------------------------------------------
     def _listening(self, baudrate: float) -> list[VirtualMotor]:

@@ -56,9 +56,13 @@ class StreamParser(ABC):
     header even when the corrupt bytes hid one. ``dropped`` counts the bytes thrown away.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, keep_rejected: bool = False) -> None:
         self._buffer = bytearray()
         self.dropped = 0
+        #: complete packets whose checksum/CRC failed (kept only with ``keep_rejected``, for the
+        #: device side: a real motor answers such a packet with a checksum/CRC error)
+        self.rejected: list[Frame] = []
+        self._keep_rejected = keep_rejected
 
     def reset(self) -> None:
         self.dropped += len(self._buffer)
@@ -94,6 +98,11 @@ class StreamParser(ABC):
             del self._buffer[:size]
             frames.append(frame)
 
+    def _reject(self, motor_id: int) -> bool:
+        if self._keep_rejected:
+            self.rejected.append(Frame(motor_id, -1, b""))
+        return False
+
     def _drop(self, n: int) -> None:
         if n:
             del self._buffer[:n]
@@ -126,7 +135,7 @@ class Protocol(ABC):
     def encode_status(self, packet: Status) -> bytes: ...
 
     @abstractmethod
-    def parser(self) -> StreamParser: ...
+    def parser(self, *, keep_rejected: bool = False) -> StreamParser: ...
 
     @abstractmethod
     def as_status(self, frame: Frame) -> Status: ...

@@ -71,7 +71,7 @@ class Parser(StreamParser):
         if len(buf) < size:
             return None
         if checksum(buf[2:size - 1]) != buf[size - 1]:
-            return False
+            return self._reject(buf[2])
         return Frame(motor_id, buf[4], bytes(buf[5:size - 1])), size
 
 
@@ -87,8 +87,8 @@ class Protocol1(Protocol):
     def encode_status(self, packet: Status) -> bytes:
         return encode(packet.id, packet.error, packet.params)
 
-    def parser(self) -> Parser:
-        return Parser()
+    def parser(self, *, keep_rejected: bool = False) -> Parser:
+        return Parser(keep_rejected=keep_rejected)
 
     def as_status(self, frame: Frame) -> Status:
         return Status(frame.id, frame.code, frame.params)

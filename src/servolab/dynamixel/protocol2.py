@@ -129,7 +129,7 @@ class Parser(StreamParser):
             return None
         crc = buf[size - 2] | (buf[size - 1] << 8)
         if crc16(buf[:size - 2]) != crc:
-            return False
+            return self._reject(buf[4])
         body = unstuff(bytes(buf[7:size - 2]))
         return Frame(buf[4], body[0], body[1:]), size
 
@@ -150,8 +150,8 @@ class Protocol2(Protocol):
     def encode_status(self, packet: Status) -> bytes:
         return encode(packet.id, STATUS, bytes((packet.error,)) + packet.params)
 
-    def parser(self) -> Parser:
-        return Parser()
+    def parser(self, *, keep_rejected: bool = False) -> Parser:
+        return Parser(keep_rejected=keep_rejected)
 
     def as_status(self, frame: Frame) -> Status:
         if frame.code != STATUS or not frame.params:
