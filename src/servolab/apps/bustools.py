@@ -84,15 +84,22 @@ def scan(device: str, *, protocols: Sequence[int], baudrates: Sequence[int] | No
         with Bus.open(device, protocol=version, baudrate=rates[0], retries=0) as bus:
             last = [-1]
 
+            live = stderr.isatty()
+
             def progress(baud: int, motor_id: int, version: int = version,
-                         last: list[int] = last) -> None:
-                if baud != last[0]:
-                    last[0] = baud
+                         last: list[int] = last, live: bool = live) -> None:
+                if live:  # one line that counts up, for a person watching
+                    print(f"\rscanning protocol {version}.0 at {baud} bps: ID {motor_id:>3}",
+                          end="", file=stderr, flush=True)
+                elif baud != last[0]:
                     print(f"scanning protocol {version}.0 at {baud} bps ...", file=stderr,
                           flush=True)
+                last[0] = baud
 
             ids_here = id_list if id_list is not None else range(bus.proto.max_id + 1)
             found += [(version, r) for r in bus.scan(ids_here, rates, progress=progress)]
+            if live:
+                print(file=stderr)
     print(f"{'ID':>4}  {'model':<12} {'number':>6}  {'firmware':>8}  {'protocol':>8}  "
           f"{'baud':>8}", file=stdout)
     for version, r in found:
