@@ -119,3 +119,10 @@ def test_demo_runs_and_leaves_a_run_folder(tmp_path: Path) -> None:
     assert summary["rx28"]["motors_found"] == [11, 12, 13, 14, 15, 16]
     assert summary["rx28"]["final_position_rad"] == pytest.approx(0.8, abs=0.006)
     assert (tmp_path / "run" / "demo_motion.png").stat().st_size > 10_000
+
+
+def test_duplicate_ids_in_a_spec_are_refused(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "--pty", "--motors", "rx28:1-3,2", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "motor ID 2 is listed twice" in err[0]

@@ -220,8 +220,13 @@ class Bus:
         status = self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3},
                                check=False, retries=retries)[motor_id]
         if v1:
-            read = self.transact(self.proto.read(motor_id, 0, 3), {motor_id: 3}, check=False,
-                                 retries=retries)[motor_id]
+            # 1.0 PING carries no model number: read it (addresses 0-2). A motor at status
+            # return level 0 answers PING but not READ; it is found, model unknown.
+            try:
+                read = self.transact(self.proto.read(motor_id, 0, 3), {motor_id: 3},
+                                     check=False, retries=retries)[motor_id]
+            except NoResponse:
+                return PingResult(motor_id, 0, None, self.baudrate, None)
             number = int.from_bytes(read.params[0:2], "little")
             firmware: int | None = read.params[2]
         else:
@@ -387,7 +392,13 @@ class Bus:
     def reboot(self, motor_id: int) -> None:
         if self.proto.version != 2:
             raise ConfigError("REBOOT exists only in protocol 2.0")
-        self.transact(self.proto.reboot(motor_id), {motor_id: 0})  # type: ignore[attr-defined]
+        # The status goes out before the reboot, so it still carries the hardware-error alert
+        # that the reboot clears: only the instruction's own error counts.
+        status = self.transact(self.proto.reboot(motor_id),  # type: ignore[attr-defined]
+                               {motor_id: 0}, check=False)[motor_id]
+        if status.error & 0x7F:
+            raise MotorError(motor_id, "REBOOT", self.proto.error_names(status.error & 0x7F),
+                             status.error)
 
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
                       keep_baud: bool = True) -> None:

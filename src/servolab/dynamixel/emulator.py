@@ -216,7 +216,7 @@ class VirtualMotor:
             error = target - self.ticks
             travel = speed * dt
             if abs(error) <= travel:
-                self.tick_velocity = error / dt if abs(error) > 1e-9 else 0.0
+                self.tick_velocity = 0.0  # arrived within this step: at rest
                 self.ticks = target
             else:
                 self.tick_velocity = math.copysign(speed, error)
@@ -558,7 +558,8 @@ class Emulator:
             self._bulk_write(inst, motors)
             return []
         if name in ("SYNC_READ", "BULK_READ"):
-            return self._chain(self._read_requests(inst, name), motors, t, baudrate)
+            able = [m for m in motors if supports(m.model, name)]
+            return self._chain(self._read_requests(inst, name), able, t, baudrate)
         if inst.id == BROADCAST_ID:
             if name == "PING" and not v1:
                 # Broadcast ping (2.0): every motor answers, in ID order, one after another.

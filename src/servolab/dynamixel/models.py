@@ -316,8 +316,9 @@ def _x_series_table(*, number: int, velocity_limit: int, has_current: bool,
         R("feedforward_1st_gain", 90, 2, "RAM", "RW", 0, 0, 16383),
         R("bus_watchdog", 98, 1, "RAM", "RW", 0, -1, 127, signed=True),
         R("goal_pwm", 100, 2, "RAM", "RW", 0, -885, 885, unit="pwm", signed=True),
-        R("goal_velocity", 104, 4, "RAM", "RW", 0, -velocity_limit, velocity_limit,
-          unit="velocity", signed=True),
+        # The e-Manual's range is +-velocity_limit, a register the user may raise to 1023;
+        # the motor (and the emulator) answers 'data limit' beyond the current limit.
+        R("goal_velocity", 104, 4, "RAM", "RW", 0, -1023, 1023, unit="velocity", signed=True),
         R("profile_acceleration", 108, 4, "RAM", "RW", 0, 0, 32767, unit="acceleration"),
         R("profile_velocity", 112, 4, "RAM", "RW", 0, 0, 32767, unit="velocity"),
         R("goal_position", 116, 4, "RAM", "RW", None, -1_048_575, 1_048_575,

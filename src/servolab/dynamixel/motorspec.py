@@ -76,6 +76,9 @@ def _finish(entries: list[MotorEntry], protocol: int | None, baudrate: int | Non
         if not 0 <= e.id <= max_id:
             raise ConfigError(f"{where}: motor ID {e.id} is outside protocol {protocol}.0's "
                               f"range 0..{max_id}")
+        if e.id in seen:
+            raise ConfigError(f"{where}: motor ID {e.id} is listed twice; two motors with one ID "
+                              "garble each other's answers (build such a bus in code to test it)")
         seen.add(e.id)
     if baudrate is not None:
         for e in entries:

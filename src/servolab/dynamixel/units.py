@@ -109,12 +109,16 @@ def from_si(model: Model, register: Register, value: float) -> int:
         raw = round(value / model.rad_per_tick)
     elif kind == "speed_sign_bit":
         raw = _si_to_sign_bit(value, model.speed_unit_rpm * RPM)
+        if round(abs(value) / (model.speed_unit_rpm * RPM)) > 0x3FF:
+            raw = register.raw_max + 1  # the magnitude does not fit its 10 bits
     elif kind == "velocity":
         raw = round(value / (model.speed_unit_rpm * RPM))
     elif kind == "acceleration":
         raw = round(value / (model.acceleration_unit_rpm2 * RPM / 60.0))
     elif kind == "load_sign_bit":
         raw = _si_to_sign_bit(value, 0.001)
+        if round(abs(value) / 0.001) > 0x3FF:
+            raw = register.raw_max + 1
     elif kind == "load":
         raw = round(value / 0.001)
     elif kind == "torque_ratio":

@@ -1,0 +1,689 @@
+"""The emulator, driven byte for byte through the Bus on the virtual clock.
+
+The emulator stands in for real motors in every other test and in `servolab sim`; if it moves
+at the wrong speed, answers when a real motor is silent or accepts what a real one refuses, the
+driver is tested against a fiction. Expected motions are computed here from the e-Manual scales
+(ticks per degree, rpm per unit), never from the emulator's own figures.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from servolab.dynamixel import (
+    Bus,
+    CorruptResponse,
+    Faults,
+    MotorError,
+    NoResponse,
+    VirtualMotor,
+    model,
+)
+from servolab.dynamixel.motorspec import MotorEntry, MotorSpec
+from servolab.dynamixel.protocol1 import PROTOCOL1
+from servolab.dynamixel.protocol2 import PROTOCOL2
+
+RX28_DEG_PER_TICK = 300.0 / 1023        # e-Manual: 0..1023 over 300°
+EX106_DEG_PER_TICK = 250.92 / 4095      # e-Manual (EX-106+): 0..4095 over 250.92°
+X_TICKS_PER_REV = 4096
+
+
+def rpm_to_ticks_per_s(rpm: float, deg_per_tick: float) -> float:
+    return rpm * 360.0 / 60.0 / deg_per_tick
+
+
+def two_samples(bus: Bus, motor_id: int, name: str, wait: float) -> tuple[int, int, float]:
+    """Read ``name`` (raw), let ``wait`` seconds of virtual time pass, read it again.
+
+    Returns both values and the virtual time between the two moments the motor sampled them.
+    Each read is sampled when its READ packet has fully arrived; both READs are the same
+    length, so that time is (duration of the first read) + ``wait``.
+    """
+    clock = bus.port.clock
+    before = clock.now()
+    first = bus.read(motor_id, name, raw=True)
+    after = clock.now()
+    clock.advance(wait)
+    second = bus.read(motor_id, name, raw=True)
+    return first, second, (after - before) + wait
+
+
+def circular_diff(a: float, b: float, modulus: int) -> float:
+    d = (a - b) % modulus
+    return min(d, modulus - d)
+
+
+def spec(model_name: str, positions: dict[int, float], baudrate: int) -> MotorSpec:
+    m = model(model_name)
+    return MotorSpec(m.protocol, baudrate,
+                     tuple(MotorEntry(m, i, p) for i, p in positions.items()))
+
+
+# -- motion ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("goal", "sign"), [(1000, 1), (100, -1)])
+def test_joint_mode_moves_at_moving_speed_and_stops_at_goal(goal: int, sign: int) -> None:
+    """RX-28 joint mode: the horn travels toward goal_position at moving_speed (0.111 rpm per
+    unit) and stops exactly on it."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, "moving_speed", 300, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", goal, raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 0.2)
+    speed = rpm_to_ticks_per_s(300 * 0.111, RX28_DEG_PER_TICK)   # about 681 ticks/s
+    assert p2 - p1 == pytest.approx(sign * speed * elapsed, abs=2)
+    assert bus.read(1, "moving", raw=True) == 1
+    present_speed = bus.read(1, "present_speed", raw=True)
+    assert present_speed & 0x3FF == pytest.approx(300, abs=1)
+    assert bool(present_speed & 0x400) == (sign < 0)
+    bus.port.clock.advance(2.0)        # 488 ticks at 681 ticks/s take 0.72 s
+    # One READ, so all three are sampled at the same moment, long after the arrival.
+    assert bus.read(1, ["present_position", "present_speed", "moving"], raw=True) == {
+        "present_position": goal, "present_speed": 0, "moving": 0}
+
+
+@pytest.mark.parametrize(("spec_text", "rpm", "deg_per_tick", "goal"), [
+    ("rx28:1", model("RX-28").no_load_speed_rpm, RX28_DEG_PER_TICK, 1000),
+    ("mx28:1", 55.0, 360.0 / 4096, 4000),       # e-Manual MX-28: 55 rpm at 12 V
+])
+def test_moving_speed_zero_means_no_load_speed(spec_text: str, rpm: float,
+                                               deg_per_tick: float, goal: int) -> None:
+    """1.0: moving_speed 0 is 'no speed control', i.e. as fast as the supply allows: the
+    model's no-load speed."""
+    bus = Bus.emulated(spec_text, baudrate=57142)
+    bus.write(1, "moving_speed", 0, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", goal, raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 0.1)
+    assert p2 - p1 == pytest.approx(rpm_to_ticks_per_s(rpm, deg_per_tick) * elapsed, abs=2)
+
+
+@pytest.mark.parametrize(("spec_text", "deg_per_tick", "modulus"), [
+    ("ex106+:1", EX106_DEG_PER_TICK, 4096),
+    ("rx28:1", RX28_DEG_PER_TICK, 1024),
+])
+@pytest.mark.parametrize("clockwise", [True, False])
+def test_wheel_mode_turns_at_commanded_speed_and_wraps(spec_text: str, deg_per_tick: float,
+                                                       modulus: int, clockwise: bool) -> None:
+    """1.0 wheel mode (both angle limits 0): moving_speed is a signed speed (bit 10 =
+    clockwise), the horn turns endlessly, and present_position wraps at the model's
+    resolution."""
+    bus = Bus.emulated(spec_text, baudrate=57142)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    units = 400
+    bus.write(1, "moving_speed", units | (0x400 if clockwise else 0), raw=True)
+    bus.write(1, "torque_enable", 1)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 1.5)
+    travel = rpm_to_ticks_per_s(units * 0.111, deg_per_tick) * elapsed
+    assert travel > modulus             # the reading must have wrapped at least once
+    expected = p1 + (-travel if clockwise else travel)
+    assert 0 <= p2 < modulus
+    assert circular_diff(p2, expected, modulus) <= 2
+    speed = bus.read(1, "present_speed", raw=True)
+    assert speed & 0x3FF == pytest.approx(units, abs=1)
+    assert bool(speed & 0x400) == clockwise
+    assert bus.read(1, "present_speed") * (-1 if clockwise else 1) > 0
+
+
+def test_x_velocity_mode_counts_turns_and_position_mode_stays_in_one_turn() -> None:
+    """X-series velocity mode (operating_mode 1): present_position keeps counting past one
+    turn (multi-turn, signed); back in position mode (3) it reads within 0..4095."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 200, raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 3.0)
+    expected = 200 * 0.229 / 60 * X_TICKS_PER_REV * elapsed      # about 9 380 ticks
+    assert p2 - p1 == pytest.approx(expected, abs=2)
+    assert p2 > 4095
+    assert bus.read(1, "present_velocity", raw=True) == pytest.approx(200, abs=1)
+
+    bus.write(1, "goal_velocity", -200, raw=True)
+    q1, q2, elapsed = two_samples(bus, 1, "present_position", 6.0)
+    assert q2 - q1 == pytest.approx(-200 * 0.229 / 60 * 4096 * elapsed, abs=2)
+    assert q2 < 0                                                 # signed, clockwise of 0
+    bus.write(1, "goal_velocity", 0, raw=True)
+
+    bus.write(1, "torque_enable", 0)
+    bus.write(1, "operating_mode", 3, raw=True)
+    bus.port.clock.advance(0.01)
+    in_turn = bus.read(1, "present_position", raw=True)
+    assert 0 <= in_turn <= 4095
+    total = bus.emulator.motor(1).ticks
+    assert in_turn == round(total) % 4096
+
+
+def test_x_position_mode_moves_to_goal() -> None:
+    """Position mode with profile_velocity 0 moves at full speed and stops on the goal."""
+    bus = Bus.emulated("xl430-w250:1", baudrate=1_000_000)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 3000, raw=True)
+    bus.port.clock.advance(2.0)
+    assert bus.read(1, "present_position", raw=True) == 3000
+    assert bus.read(1, "present_position") == pytest.approx((3000 - 2048) * 2 * math.pi / 4096)
+
+
+def test_speed_is_capped_at_no_load_speed() -> None:
+    """A commanded speed above what the motor can do gives the no-load speed, not more:
+    XL430-W250 at 12 V turns at most 57 rpm (e-Manual), even told its velocity limit of
+    265 × 0.229 = 60.7 rpm."""
+    bus = Bus.emulated("xl430-w250:1", baudrate=1_000_000)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 265, raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 1.0)
+    assert p2 - p1 == pytest.approx(57.0 / 60 * 4096 * elapsed, abs=2)
+    assert bus.read(1, "present_velocity", raw=True) == pytest.approx(57.0 / 0.229, abs=1)
+
+
+def test_goal_velocity_range_follows_velocity_limit() -> None:
+    """e-Manual: goal_velocity may be anything within ±velocity_limit, and velocity_limit
+    itself may be raised up to 1023. After raising it, a goal of 1000 units is valid (and the
+    motor then turns at its no-load speed, 77 rpm for the XM430-W210)."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "velocity_limit", 1023, raw=True)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 1000, raw=True)
+    assert bus.read(1, "goal_velocity", raw=True) == 1000
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 1.0)
+    assert p2 - p1 == pytest.approx(77.0 / 60 * 4096 * elapsed, abs=2)
+
+
+def test_rx28_wheel_speed_is_capped_at_no_load_speed() -> None:
+    """RX-28 wheel mode at moving_speed 1023 (113.6 rpm) turns at the no-load speed."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    bus.write(1, "moving_speed", 1023, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.port.clock.advance(0.1)
+    speed = bus.read(1, "present_speed", raw=True)
+    assert speed == pytest.approx(model("RX-28").no_load_speed_rpm / 0.111, abs=1)
+    assert speed < 1023
+
+
+def test_rx28_joint_speed_is_capped_at_no_load_speed() -> None:
+    """Joint mode too: moving_speed 1023 (113.6 rpm) moves the horn at the no-load speed,
+    the same as moving_speed 0."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, "moving_speed", 1023, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 1000, raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 0.1)
+    no_load = rpm_to_ticks_per_s(model("RX-28").no_load_speed_rpm, RX28_DEG_PER_TICK)
+    assert p2 - p1 == pytest.approx(no_load * elapsed, abs=2)
+
+
+def test_torque_off_means_no_motion() -> None:
+    """With torque off the horn is free: goals and speeds are stored but nothing moves."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, "goal_position", 1000, raw=True)
+    bus.write(1, "moving_speed", 500, raw=True)
+    p1, p2, _ = two_samples(bus, 1, "present_position", 1.0)
+    assert p1 == p2 == 512
+    assert bus.read(1, "goal_position", raw=True) == 1000
+    assert bus.read(1, "moving", raw=True) == 0
+
+    xbus = Bus.emulated("xm430-w350:1", baudrate=1_000_000)
+    xbus.write(1, "operating_mode", 1, raw=True)
+    xbus.write(1, "goal_velocity", 100, raw=True)
+    q1, q2, _ = two_samples(xbus, 1, "present_position", 1.0)
+    assert q1 == q2 == 2048
+
+
+@pytest.mark.parametrize(("spec_text", "baud", "voltage_reg", "load_reg"), [
+    ("rx28:1", 57142, "present_voltage", "present_load"),
+    ("mx28:1", 57142, "present_voltage", "present_load"),
+    ("xm430-w210:1", 1_000_000, "present_input_voltage", "present_current"),
+    ("xl430-w250:1", 1_000_000, "present_input_voltage", "present_load"),
+])
+def test_sensors_are_plausible(spec_text: str, baud: int, voltage_reg: str,
+                               load_reg: str) -> None:
+    """Voltage near the 12 V supply, temperature between 20 and 80 °C, load within ±100 %,
+    whether still or moving."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    for _ in range(2):
+        assert bus.read(1, voltage_reg) == pytest.approx(12.0, abs=0.5)
+        assert 20.0 <= bus.read(1, "present_temperature") <= 80.0
+        load = bus.read(1, load_reg)
+        assert abs(load) <= (1.0 if load_reg == "present_load" else 1193 * 0.00269)
+        bus.write(1, "torque_enable", 1)
+        bus.write(1, "goal_position", 0.5)
+        bus.port.clock.advance(0.05)
+
+
+# -- access rights and ranges ----------------------------------------------------------------
+
+def test_protocol1_write_to_read_only_register_is_range_error() -> None:
+    """A real 1.0 motor answers a WRITE to a read-only address with the range bit, and the
+    register keeps its value."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    with pytest.raises(MotorError) as info:
+        bus.transact(PROTOCOL1.write(1, 36, (100).to_bytes(2, "little")), {1: 0})
+    assert info.value.errors == ("range",)
+    assert (info.value.motor_id, info.value.instruction) == (1, "WRITE")
+    assert bus.read(1, "present_position", raw=True) == 512
+    with pytest.raises(MotorError, match="range"):
+        bus.transact(PROTOCOL1.write(1, 0, (12).to_bytes(2, "little")), {1: 0})
+    assert bus.read(1, "model_number", raw=True) == 28
+
+
+def test_protocol2_write_to_read_only_register_is_access_error() -> None:
+    """2.0 reports writes to read-only addresses as 'access' (error 7)."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    with pytest.raises(MotorError) as info:
+        bus.transact(PROTOCOL2.write(1, 132, (100).to_bytes(4, "little")), {1: 0})
+    assert info.value.errors == ("access",)
+    assert bus.read(1, "present_position", raw=True) == 2048
+
+
+@pytest.mark.parametrize(("spec_text", "baud", "inst", "error"), [
+    ("rx28:1", 57142, PROTOCOL1.write(1, 30, (2000).to_bytes(2, "little")), "range"),
+    ("rx28:1", 57142, PROTOCOL1.write(1, 24, b"\x02"), "range"),
+    ("xm430-w210:1", 1_000_000, PROTOCOL2.write(1, 64, b"\x02"), "data range"),
+    ("xl430-w250:1", 1_000_000, PROTOCOL2.write(1, 11, b"\x00"), "data range"),  # no current mode
+])
+def test_out_of_range_raw_value_is_refused(spec_text: str, baud: int, inst,
+                                           error: str) -> None:
+    """A value outside a register's range (sent raw, past the driver's own checks) gets the
+    range / data range error and changes nothing."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    motor = bus.emulator.motor(1)
+    table = bytes(motor.table)
+    with pytest.raises(MotorError) as info:
+        bus.transact(inst, {1: 0})
+    assert info.value.errors == (error,)
+    assert bytes(motor.table) == table
+
+
+def test_protocol2_eeprom_is_locked_while_torque_is_on() -> None:
+    """X-series: EEPROM writes with torque on are refused with 'access' (e-Manual)."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "torque_enable", 1)
+    with pytest.raises(MotorError) as info:
+        bus.write(1, "return_delay_time", 0, raw=True)
+    assert info.value.errors == ("access",)
+    assert bus.read(1, "return_delay_time", raw=True) == 250
+    bus.write(1, "torque_enable", 0)
+    bus.write(1, "return_delay_time", 0, raw=True)
+    assert bus.read(1, "return_delay_time", raw=True) == 0
+
+
+def test_protocol2_goal_velocity_above_velocity_limit_is_data_limit() -> None:
+    """X-series: a goal velocity beyond velocity_limit is a 'data limit' error (6)."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "velocity_limit", 100, raw=True)
+    with pytest.raises(MotorError) as info:
+        bus.write(1, "goal_velocity", 150, raw=True)
+    assert info.value.errors == ("data limit",)
+
+
+def test_protocol1_goal_outside_angle_limits_is_angle_limit_error() -> None:
+    """1.0: a goal outside [cw_angle_limit, ccw_angle_limit] gets the angle limit bit."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, {"cw_angle_limit": 200, "ccw_angle_limit": 800}, raw=True)
+    with pytest.raises(MotorError) as info:
+        bus.write(1, "goal_position", 900, raw=True)
+    assert info.value.errors == ("angle limit",)
+    with pytest.raises(MotorError, match="angle limit"):
+        bus.write(1, "goal_position", 100, raw=True)
+    bus.write(1, "goal_position", 700, raw=True)
+    assert bus.read(1, "goal_position", raw=True) == 700
+
+
+@pytest.mark.parametrize(("spec_text", "baud"), [("rx28:1-2", 57142),
+                                                 ("xm430-w210:1-2", 1_000_000)])
+def test_reg_write_applies_only_at_action(spec_text: str, baud: int) -> None:
+    """REG_WRITE stores a goal without acting on it; the broadcast ACTION applies it to all
+    motors at once (and clears the registered flag)."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    flag = "registered" if bus.proto.version == 1 else "registered_instruction"
+    center = 512 if bus.proto.version == 1 else 2048
+    goals = {1: center + 200, 2: center - 200}
+    for i in (1, 2):
+        bus.write(i, "torque_enable", 1)
+    for i, goal in goals.items():
+        bus.write(i, "goal_position", goal, raw=True, registered=True)
+    bus.port.clock.advance(1.0)
+    for i in (1, 2):
+        assert bus.read(i, "goal_position", raw=True) == center
+        assert bus.read(i, "present_position", raw=True) == center
+        assert bus.read(i, flag, raw=True) == 1
+    bus.action()
+    for i, goal in goals.items():
+        assert bus.read(i, "goal_position", raw=True) == goal
+        assert bus.read(i, flag, raw=True) == 0
+    bus.port.clock.advance(2.0)
+    for i, goal in goals.items():
+        assert bus.read(i, "present_position", raw=True) == goal
+
+
+# -- timing and who answers --------------------------------------------------------------------
+
+@pytest.mark.parametrize(("spec_text", "baud"), [("rx28:1-2", 57142),
+                                                 ("xl430-w250:1-2", 1_000_000)])
+def test_return_delay_time_lengthens_round_trip(spec_text: str, baud: int) -> None:
+    """Return delay time is in 2 µs units: 250 (the default) answers 0.5 ms later than 0."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus.write(1, "return_delay_time", 0, raw=True)
+    assert bus.read(2, "return_delay_time", raw=True) == 250
+    clock = bus.port.clock
+
+    def round_trip(motor_id: int) -> float:
+        start = clock.now()
+        bus.read(motor_id, "present_position")
+        return clock.now() - start
+
+    assert round_trip(2) - round_trip(1) == pytest.approx(250 * 2e-6, abs=1e-9)
+
+
+def test_status_return_level_protocol1() -> None:
+    """Level 2 answers everything, 1 only READ (and PING), 0 only PING."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.ping(1)
+    bus.status_return_level[1] = 1
+    bus.write(1, "status_return_level", 1, raw=True)
+    assert bus.emulator.motor(1).get_raw("status_return_level") == 1
+    assert bus.read(1, "status_return_level", raw=True) == 1      # READ still answered
+    bus.ping(1)
+    with pytest.raises(NoResponse):                                 # WRITE no longer is
+        bus.transact(PROTOCOL1.write(1, 25, b"\x01"), {1: 0}, retries=0)
+    assert bus.emulator.motor(1).get_raw("led") == 1                # ... but was applied
+    bus.write(1, "led", 0)
+    assert bus.read(1, "led", raw=True) == 0
+
+    bus.status_return_level[1] = 0
+    bus.write(1, "status_return_level", 0, raw=True)
+    assert bus.emulator.motor(1).get_raw("status_return_level") == 0
+    with pytest.raises(NoResponse):
+        bus.transact(PROTOCOL1.read(1, 36, 2), {1: 2}, retries=0)
+    # PING always answers (bus.ping would also READ the model number, which level 0 mutes).
+    assert bus.transact(PROTOCOL1.ping(1), {1: 0}, retries=0)[1].error == 0
+
+
+def test_status_return_level_protocol2() -> None:
+    """Same rule on 2.0 (status_return_level lives in RAM at 68 there)."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.status_return_level[1] = 1
+    bus.write(1, "status_return_level", 1, raw=True)
+    assert bus.read(1, "status_return_level", raw=True) == 1
+    with pytest.raises(NoResponse):
+        bus.transact(PROTOCOL2.write(1, 65, b"\x01"), {1: 0}, retries=0)
+    bus.status_return_level[1] = 0
+    bus.write(1, "status_return_level", 0, raw=True)
+    with pytest.raises(NoResponse):
+        bus.transact(PROTOCOL2.read(1, 132, 4), {1: 4}, retries=0)
+    assert bus.ping(1).model_number == 1030
+
+
+@pytest.mark.parametrize(("spec_text", "baud", "proto"), [
+    ("rx28:1-3", 57142, PROTOCOL1), ("xm430-w210:1-3", 1_000_000, PROTOCOL2)])
+def test_broadcast_write_is_applied_to_all_and_silent(spec_text: str, baud: int,
+                                                      proto) -> None:
+    """A WRITE to ID 254 reaches every motor and none answers (answers would collide)."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    address = model(spec_text.split(":")[0]).register("led").address
+    assert bus.transact(proto.write(254, address, b"\x01")) == {}
+    assert bus.port.read(64, 0.01) == b""
+    for i in (1, 2, 3):
+        assert bus.emulator.motor(i).get_raw("led") == 1
+
+
+def test_two_motors_with_the_same_id_collide() -> None:
+    """Two motors answering at once garble each other's status: the driver must report a
+    corrupt answer, not return one motor's value."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.emulator.add(VirtualMotor(model("RX-28"), 1, baudrate=57142, position=0.5))
+    bus.declare(1, "rx28")
+    with pytest.raises(CorruptResponse) as info:
+        bus.read(1, "present_position")
+    assert info.value.motor_id == 1
+    assert bus.stats.corrupt >= 1
+
+
+def test_motor_at_another_baud_rate_is_silent_but_found_by_scan() -> None:
+    """A motor set to 1 Mbps does not hear a 57 142 bps bus; scanning both rates finds it,
+    and the scan leaves the port at its own rate."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.emulator.add(VirtualMotor(model("RX-28"), 2, baudrate=1_000_000))
+    with pytest.raises(NoResponse) as info:
+        bus.ping(2)
+    assert info.value.motor_id == 2
+    found = bus.scan([1, 2, 3], [57142, 1_000_000])
+    assert [(r.id, r.baudrate, r.model_number) for r in found] == [
+        (1, 57142, 28), (2, 1_000_000, 28)]
+    assert found[0].model is model("RX-28")
+    assert bus.baudrate == 57142
+
+
+def test_x_series_motor_at_57600_is_heard_by_57142_host() -> None:
+    """UARTs within 3 % understand each other: a 57 600 bps X motor answers at 57 142."""
+    bus = Bus.emulated(spec("xm430-w210", {1: 0.0}, 57_600))
+    bus.port.set_baudrate(57142)
+    assert bus.ping(1).model_number == 1030
+
+
+@pytest.mark.parametrize(("spec_text", "baud"), [("rx28:1", 57142),
+                                                 ("xm430-w210:1", 1_000_000)])
+def test_unresponsive_motor_raises_no_response_naming_it(spec_text: str, baud: int) -> None:
+    """A motor with a cut cable: NoResponse that says which motor and which instruction."""
+    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus.ping(1)
+    bus.emulator.motor(1).responsive = False
+    with pytest.raises(NoResponse) as info:
+        bus.read(1, "present_position")
+    assert (info.value.motor_id, info.value.instruction) == (1, "READ")
+    assert "motor 1" in str(info.value) and "READ" in str(info.value)
+    with pytest.raises(NoResponse) as info:
+        bus.write(1, "led", 1)
+    assert (info.value.motor_id, info.value.instruction) == (1, "WRITE")
+    assert bus.stats.timeouts >= 2
+
+
+# -- hardware errors ---------------------------------------------------------------------------
+
+def test_protocol1_overload_sets_bit_in_every_status_and_turns_torque_off() -> None:
+    """1.0: a hardware error is a bit of every status error byte until cleared; overload is
+    in the default alarm shutdown set, so torque goes off."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).inject_hardware_error("overload")
+    for action in (lambda: bus.read(1, "present_position"),
+                   lambda: bus.write(1, "led", 1),
+                   lambda: bus.read(1, "goal_position")):
+        with pytest.raises(MotorError) as info:
+            action()
+        assert "overload" in info.value.errors
+        assert info.value.raw & 0x20
+    assert bus.read(1, "torque_enable", raw=True, check=False) == 0
+
+
+def test_protocol2_hardware_error_sets_alert_and_status_register() -> None:
+    """2.0: the alert bit (0x80) is set in every status and hardware_error_status holds the
+    cause (bit 5 = overload, e-Manual); torque goes off."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).inject_hardware_error("overload")
+    with pytest.raises(MotorError) as info:
+        bus.read(1, "present_position")
+    assert info.value.raw & 0x80
+    assert info.value.errors == ("hardware error alert",)
+    values = bus.read(1, ["torque_enable", "hardware_error_status"], raw=True, check=False)
+    assert values == {"torque_enable": 0, "hardware_error_status": 0x20}
+
+
+def test_reboot_clears_hardware_error() -> None:
+    """REBOOT is how a 2.0 motor leaves a hardware error: afterwards statuses are clean,
+    hardware_error_status is 0, and EEPROM settings survive. The REBOOT's own status still
+    carries the alert (it is sent before rebooting), which must not make reboot() fail."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "return_delay_time", 10, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).inject_hardware_error("overheating")
+    with pytest.raises(MotorError):
+        bus.read(1, "present_position")
+    bus.reboot(1)
+    assert bus.read(1, "hardware_error_status", raw=True) == 0
+    assert bus.read(1, "return_delay_time", raw=True) == 10
+    assert bus.read(1, "torque_enable", raw=True) == 0
+
+
+# -- injected faults -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("faults", [Faults(corrupt_rate=0.02, seed=7),
+                                    Faults(drop_rate=0.02, seed=3)],
+                         ids=["corrupt", "drop"])
+def test_retries_recover_from_faults(faults: Faults) -> None:
+    """With a few bad bytes on the wire the driver retries and still reads the right
+    values."""
+    positions = {1: -math.pi / 2, 2: 0.0, 3: math.pi / 4}
+    bus = Bus.emulated(spec("xm430-w210", positions, 1_000_000), retries=8)
+    for i in positions:
+        bus.declare(i, "xm430-w210")
+    bus.emulator.faults = faults
+    expected = {i: 2048 + round(p / (2 * math.pi) * 4096) for i, p in positions.items()}
+    assert expected == {1: 1024, 2: 2048, 3: 2560}
+    for _ in range(30):
+        for i, ticks in expected.items():
+            assert bus.read(i, "present_position", raw=True) == ticks
+    assert bus.stats.retries > 0
+
+
+def test_every_reply_dropped_without_retries_is_no_response() -> None:
+    bus = Bus.emulated("rx28:1", baudrate=57142, retries=0)
+    bus.ping(1)
+    bus.emulator.faults = Faults(drop_rate=1.0, seed=1)
+    with pytest.raises(NoResponse):
+        bus.read(1, "present_position")
+    assert bus.stats.retries == 0
+    assert bus.stats.timeouts == 1
+
+
+def test_every_reply_corrupted_without_retries_is_corrupt_response() -> None:
+    """Garbage is not silence: the driver says it got a corrupt answer."""
+    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000, retries=0)
+    bus.ping(1)
+    bus.emulator.faults = Faults(corrupt_rate=1.0, seed=1)
+    with pytest.raises(CorruptResponse):
+        bus.read(1, "present_position")
+    assert bus.stats.corrupt == 1
+
+
+def test_delay_beyond_timeout_is_no_response() -> None:
+    """An answer later than the timeout counts as none; with a longer timeout it arrives."""
+    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus.ping(1)
+    bus.emulator.faults = Faults(delay=0.05)
+    with pytest.raises(NoResponse):
+        bus.read(1, "present_position")
+
+    patient = Bus.emulated("rx28:1", baudrate=57142, timeout=0.1)
+    patient.ping(1)
+    patient.emulator.faults = Faults(delay=0.05)
+    assert patient.read(1, "present_position", raw=True) == 512
+
+
+# -- instruction sets ---------------------------------------------------------------------------
+
+def test_rx28_does_not_answer_bulk_read() -> None:
+    """RX-28 predates BULK_READ: it ignores the instruction (a broadcast gets no status)."""
+    bus = Bus.emulated("rx28:1-2", baudrate=57142)
+    with pytest.raises(NoResponse):
+        bus.transact(PROTOCOL1.bulk_read([(1, 36, 2), (2, 36, 2)]), {1: 2, 2: 2}, retries=0)
+
+
+def test_rx28_sync_read_falls_back_to_reads() -> None:
+    """bus.sync_read on RX-28s sends one READ per motor and returns each motor's value."""
+    positions = {1: -0.5, 2: 0.0, 3: 0.75}
+    bus = Bus.emulated(spec("rx28", positions, 57142))
+    for i in positions:
+        bus.ping(i)
+    seen = bus.emulator.instructions_seen
+    got = bus.sync_read("present_position", [1, 2, 3], raw=True)
+    tick = math.radians(RX28_DEG_PER_TICK)
+    assert got == {i: 512 + round(p / tick) for i, p in positions.items()}
+    assert bus.emulator.instructions_seen - seen == 3
+
+
+def test_mx28_answers_bulk_read() -> None:
+    """MX-28 has BULK_READ: different registers of different motors in one instruction."""
+    positions = {1: -0.5, 2: 0.0, 3: 1.0}
+    bus = Bus.emulated(spec("mx28", positions, 57142))
+    bus.write(2, "moving_speed", 123, raw=True)
+    for i in positions:
+        bus.ping(i)
+    seen = bus.emulator.instructions_seen
+    got = bus.bulk_read({1: "present_position", 2: ["goal_position", "moving_speed"],
+                         3: ["present_position", "present_voltage"]}, raw=True)
+    tick = 2 * math.pi / 4096
+    assert got == {
+        1: {"present_position": 2048 + round(-0.5 / tick)},
+        2: {"goal_position": 2048, "moving_speed": 123},
+        3: {"present_position": 2048 + round(1.0 / tick), "present_voltage": 120},
+    }
+    assert bus.emulator.instructions_seen - seen == 1
+    raw = bus.transact(PROTOCOL1.bulk_read([(1, 36, 2), (3, 36, 2)]), {1: 2, 3: 2})
+    assert int.from_bytes(raw[3].params, "little") == 2048 + round(1.0 / tick)
+
+
+def test_protocol2_sync_read_returns_every_motor() -> None:
+    """One SYNC_READ, one value per motor, each its own."""
+    positions = {1: -math.pi / 2, 2: -math.pi / 8, 3: math.pi / 8, 4: 3 * math.pi / 4}
+    bus = Bus.emulated(spec("xm430-w210", positions, 1_000_000))
+    for i in positions:
+        bus.declare(i, "xm430-w210")
+    seen = bus.emulator.instructions_seen
+    got = bus.sync_read(["present_velocity", "present_position"], [1, 2, 3, 4], raw=True)
+    assert got == {1: {"present_velocity": 0, "present_position": 1024},
+                   2: {"present_velocity": 0, "present_position": 1792},
+                   3: {"present_velocity": 0, "present_position": 2304},
+                   4: {"present_velocity": 0, "present_position": 3584}}
+    assert bus.emulator.instructions_seen - seen == 1
+
+
+def test_protocol2_bulk_write_applies_different_registers_to_different_motors() -> None:
+    """One BULK_WRITE: each motor gets its own register and value, and nothing else."""
+    bus = Bus.emulated("xm430-w210:1-3", baudrate=1_000_000)
+    for i in (1, 2, 3):
+        bus.declare(i, "xm430-w210")
+    seen = bus.emulator.instructions_seen
+    bus.bulk_write({1: {"goal_position": 0.5}, 2: {"led": 1},
+                    3: {"profile_velocity": 1.0}})
+    assert bus.emulator.instructions_seen - seen == 1
+    m1, m2, m3 = (bus.emulator.motor(i) for i in (1, 2, 3))
+    assert m1.get_raw("goal_position") == 2048 + round(0.5 / (2 * math.pi / 4096))
+    assert m2.get_raw("led") == 1
+    assert m3.get_raw("profile_velocity") == round(1.0 / (0.229 * 2 * math.pi / 60))
+    assert m1.get_raw("led") == 0 and m3.get_raw("led") == 0
+    assert m2.get_raw("goal_position") == 2048 and m3.get_raw("goal_position") == 2048
+    assert m1.get_raw("profile_velocity") == 0 and m2.get_raw("profile_velocity") == 0
+
+
+def test_factory_reset_keeping_id_and_baud_restores_defaults() -> None:
+    """FACTORY_RESET (0x02) restores the e-Manual defaults but keeps ID and baud rate, so
+    the motor is still reachable where it was."""
+    bus = Bus.emulated("xm430-w210:5", baudrate=1_000_000)
+    bus.write(5, "return_delay_time", 0, raw=True)
+    bus.write(5, "velocity_limit", 100, raw=True)
+    bus.write(5, "moving_threshold", 20, raw=True)
+    bus.write(5, "led", 1)
+    bus.factory_reset(5)
+    got = bus.read(5, ["id", "baud_rate", "return_delay_time", "velocity_limit",
+                       "moving_threshold", "operating_mode"], raw=True)
+    assert got == {"id": 5, "baud_rate": 3, "return_delay_time": 250, "velocity_limit": 330,
+                   "moving_threshold": 10, "operating_mode": 3}
+    assert bus.read(5, "led", raw=True) == 0
+
+
+def test_protocol1_reset_restores_id_1() -> None:
+    """1.0 RESET restores everything, the ID too (the e-Manual warns of this): the motor
+    answers the RESET as ID 7, then only as ID 1."""
+    bus = Bus.emulated("rx28:7", baudrate=57142)
+    bus.write(7, "return_delay_time", 0, raw=True)
+    bus.factory_reset(7)
+    with pytest.raises(NoResponse):
+        bus.ping(7, retries=0)
+    assert bus.ping(1).model_number == 28
+    assert bus.read(1, "return_delay_time", raw=True) == 250
