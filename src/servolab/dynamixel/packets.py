@@ -9,7 +9,7 @@ side of the same code the driver uses.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from .errors import PacketError
@@ -191,29 +191,47 @@ class Protocol(ABC):
         self.check_id(motor_id, broadcast=True)
         return Instruction(motor_id, self.instructions["ACTION"])
 
-    @abstractmethod
-    def read(self, motor_id: int, address: int, length: int) -> Instruction: ...
+    def read(self, motor_id: int, address: int, length: int) -> Instruction:
+        self.check_id(motor_id)
+        self.check_address(address, length)
+        return Instruction(motor_id, self.instructions["READ"],
+                           self.field(address) + self.field(length))
 
-    @abstractmethod
     def write(self, motor_id: int, address: int, data: bytes, *,
-              registered: bool = False) -> Instruction: ...
+              registered: bool = False) -> Instruction:
+        """WRITE, or REG_WRITE (applied at the next ACTION) when ``registered``."""
+        self.check_id(motor_id, broadcast=True)
+        self.check_address(address, len(data))
+        code = self.instructions["REG_WRITE" if registered else "WRITE"]
+        return Instruction(motor_id, code, self.field(address) + bytes(data))
 
-    @abstractmethod
     def sync_write(self, address: int, length: int,
-                   data: Sequence[tuple[int, bytes]]) -> Instruction: ...
+                   data: Sequence[tuple[int, bytes]]) -> Instruction:
+        """``data`` holds (id, block) pairs, every block ``length`` bytes long."""
+        self.check_address(address, length)
+        params = bytearray(self.field(address) + self.field(length))
+        for motor_id, block in data:
+            self.check_id(motor_id)
+            if len(block) != length:
+                raise PacketError(f"motor {motor_id}: {len(block)} data bytes, expected {length}")
+            params.append(motor_id)
+            params += block
+        return Instruction(self.broadcast_id, self.instructions["SYNC_WRITE"], bytes(params))
 
     @abstractmethod
     def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
         """``requests`` are (id, address, length) triples."""
 
-    # -- helpers for subclasses ----------------------------------------------------------------
-    @staticmethod
-    def _check_blocks(address: int, length: int, data: Iterable[tuple[int, bytes]],
-                      address_max: int, length_max: int) -> None:
-        if not 0 <= address <= address_max:
-            raise PacketError(f"address {address} is outside 0..{address_max}")
-        if not 0 < length <= length_max:
-            raise PacketError(f"length {length} is outside 1..{length_max}")
-        for motor_id, block in data:
-            if len(block) != length:
-                raise PacketError(f"motor {motor_id}: {len(block)} data bytes, expected {length}")
+    # -- address and length fields ----------------------------------------------------------
+    #: bytes of an address or length field: 1 on 1.0, 2 (little-endian) on 2.0
+    field_size: int
+
+    def field(self, value: int) -> bytes:
+        return int(value).to_bytes(self.field_size, "little")
+
+    def check_address(self, address: int, length: int) -> None:
+        top = (1 << (8 * self.field_size)) - 1
+        if not 0 <= address <= top:
+            raise PacketError(f"protocol {self.version}.0: address {address} is outside 0..{top}")
+        if not 0 < length <= top:
+            raise PacketError(f"protocol {self.version}.0: length {length} is outside 1..{top}")

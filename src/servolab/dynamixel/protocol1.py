@@ -79,6 +79,7 @@ class Protocol1(Protocol):
     version = 1
     max_id = 253
     instructions = INSTRUCTIONS
+    field_size = 1
     error_bits = ERROR_BITS
 
     def encode_instruction(self, packet: Instruction) -> bytes:
@@ -97,46 +98,17 @@ class Protocol1(Protocol):
         return 6 + n_params
 
     # -- builders ------------------------------------------------------------------------------
-    def read(self, motor_id: int, address: int, length: int) -> Instruction:
-        self.check_id(motor_id)
-        _check_address(address, length)
-        return Instruction(motor_id, READ, bytes((address, length)))
-
-    def write(self, motor_id: int, address: int, data: bytes, *,
-              registered: bool = False) -> Instruction:
-        self.check_id(motor_id, broadcast=True)
-        _check_address(address, len(data))
-        return Instruction(motor_id, REG_WRITE if registered else WRITE,
-                           bytes((address,)) + bytes(data))
-
     def reset(self, motor_id: int) -> Instruction:
         self.check_id(motor_id, broadcast=True)
         return Instruction(motor_id, RESET)
-
-    def sync_write(self, address: int, length: int,
-                   data: Sequence[tuple[int, bytes]]) -> Instruction:
-        self._check_blocks(address, length, data, 0xFF, 0xFF)
-        params = bytearray((address, length))
-        for motor_id, block in data:
-            self.check_id(motor_id)
-            params.append(motor_id)
-            params += block
-        return Instruction(BROADCAST_ID, SYNC_WRITE, bytes(params))
 
     def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
         params = bytearray((0x00,))
         for motor_id, address, length in requests:
             self.check_id(motor_id)
-            _check_address(address, length)
+            self.check_address(address, length)
             params += bytes((length, motor_id, address))
         return Instruction(BROADCAST_ID, BULK_READ, bytes(params))
-
-
-def _check_address(address: int, length: int) -> None:
-    if not 0 <= address <= 0xFF:
-        raise PacketError(f"protocol 1.0: address {address} is outside 0..255")
-    if not 0 < length <= 0xFF:
-        raise PacketError(f"protocol 1.0: length {length} is outside 1..255")
 
 
 PROTOCOL1 = Protocol1()

@@ -134,14 +134,11 @@ class Parser(StreamParser):
         return Frame(buf[4], body[0], body[1:]), size
 
 
-def _u16(value: int) -> bytes:
-    return int(value).to_bytes(2, "little")
-
-
 class Protocol2(Protocol):
     version = 2
     max_id = 252
     instructions = INSTRUCTIONS
+    field_size = 2
     error_bits: ClassVar[dict[int, str]] = {}  # 2.0 numbers its errors: see error_names
 
     def encode_instruction(self, packet: Instruction) -> bytes:
@@ -172,18 +169,6 @@ class Protocol2(Protocol):
         return tuple(names)
 
     # -- builders ------------------------------------------------------------------------------
-    def read(self, motor_id: int, address: int, length: int) -> Instruction:
-        self.check_id(motor_id)
-        _check_address(address, length)
-        return Instruction(motor_id, READ, _u16(address) + _u16(length))
-
-    def write(self, motor_id: int, address: int, data: bytes, *,
-              registered: bool = False) -> Instruction:
-        self.check_id(motor_id, broadcast=True)
-        _check_address(address, len(data))
-        return Instruction(motor_id, REG_WRITE if registered else WRITE,
-                           _u16(address) + bytes(data))
-
     def factory_reset(self, motor_id: int, option: int = FACTORY_RESET_ALL) -> Instruction:
         self.check_id(motor_id, broadcast=True)
         if option not in (FACTORY_RESET_ALL, FACTORY_RESET_EXCEPT_ID,
@@ -197,27 +182,17 @@ class Protocol2(Protocol):
         return Instruction(motor_id, REBOOT)
 
     def sync_read(self, address: int, length: int, ids: Sequence[int]) -> Instruction:
-        _check_address(address, length)
+        self.check_address(address, length)
         for motor_id in ids:
             self.check_id(motor_id)
-        return Instruction(BROADCAST_ID, SYNC_READ, _u16(address) + _u16(length) + bytes(ids))
-
-    def sync_write(self, address: int, length: int,
-                   data: Sequence[tuple[int, bytes]]) -> Instruction:
-        self._check_blocks(address, length, data, 0xFFFF, 0xFFFF)
-        params = bytearray(_u16(address) + _u16(length))
-        for motor_id, block in data:
-            self.check_id(motor_id)
-            params.append(motor_id)
-            params += block
-        return Instruction(BROADCAST_ID, SYNC_WRITE, bytes(params))
+        return Instruction(BROADCAST_ID, SYNC_READ, self.field(address) + self.field(length) + bytes(ids))
 
     def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
         params = bytearray()
         for motor_id, address, length in requests:
             self.check_id(motor_id)
-            _check_address(address, length)
-            params += bytes((motor_id,)) + _u16(address) + _u16(length)
+            self.check_address(address, length)
+            params += bytes((motor_id,)) + self.field(address) + self.field(length)
         return Instruction(BROADCAST_ID, BULK_READ, bytes(params))
 
     def bulk_write(self, blocks: Sequence[tuple[int, int, bytes]]) -> Instruction:
@@ -225,16 +200,9 @@ class Protocol2(Protocol):
         params = bytearray()
         for motor_id, address, data in blocks:
             self.check_id(motor_id)
-            _check_address(address, len(data))
-            params += bytes((motor_id,)) + _u16(address) + _u16(len(data)) + bytes(data)
+            self.check_address(address, len(data))
+            params += bytes((motor_id,)) + self.field(address) + self.field(len(data)) + bytes(data)
         return Instruction(BROADCAST_ID, BULK_WRITE, bytes(params))
-
-
-def _check_address(address: int, length: int) -> None:
-    if not 0 <= address <= 0xFFFF:
-        raise PacketError(f"protocol 2.0: address {address} is outside 0..65535")
-    if not 0 < length <= 0xFFFF:
-        raise PacketError(f"protocol 2.0: length {length} is outside 1..65535")
 
 
 PROTOCOL2 = Protocol2()
