@@ -185,7 +185,8 @@ class Protocol2(Protocol):
         self.check_address(address, length)
         for motor_id in ids:
             self.check_id(motor_id)
-        return Instruction(BROADCAST_ID, SYNC_READ, self.field(address) + self.field(length) + bytes(ids))
+        params = self.field(address) + self.field(length) + bytes(ids)
+        return Instruction(BROADCAST_ID, SYNC_READ, params)
 
     def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
         params = bytearray()
