@@ -12,7 +12,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .errors import PacketError
+from .errors import ConfigError, PacketError
 
 BROADCAST_ID = 0xFE
 
@@ -173,7 +173,6 @@ class Protocol(ABC):
         return tuple(name for bit, name in sorted(self.error_bits.items()) if error & bit)
 
     def check_id(self, motor_id: int, *, broadcast: bool = False) -> None:
-        from .errors import ConfigError
         if not isinstance(motor_id, int) or isinstance(motor_id, bool):
             raise ConfigError(f"motor ID {motor_id!r} is not an integer")
         if broadcast and motor_id == self.broadcast_id:
