@@ -1,0 +1,130 @@
+"""The context: what the nodes of one process share.
+
+It holds the transport, the message types, the clock, the executor and the parameter values
+given before start-up. Nothing of this is global: a test can open two contexts side by side
+(two "processes" on one Zenoh network), and closing a context releases all it opened.
+"""
+
+from __future__ import annotations
+
+import itertools
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import TracebackType
+from typing import TYPE_CHECKING, Any
+
+from servolab.clock import Clock, WallClock
+
+from .errors import TransportError
+from .executor import Executor
+from .local import LocalTransport
+from .messages import MessageTypes
+from .parameters import ParameterOverrides
+from .transport import Transport, TransportOptions
+
+if TYPE_CHECKING:
+    from .node import Node
+
+
+def open_transport(options: TransportOptions, types: MessageTypes) -> Transport:
+    """The transport the options name: ``local`` or ``zenoh``."""
+    if options.kind == "local":
+        if options.listen or options.connect:
+            raise TransportError("--listen and --connect need --transport zenoh")
+        return LocalTransport(types)
+    if options.kind == "zenoh":
+        from .zenoh_transport import ZenohTransport  # zenoh loads only when asked for
+        return ZenohTransport(types, options)
+    raise TransportError(f"unknown transport {options.kind!r} (local or zenoh)")
+
+
+class Context:
+    """See the module docstring. Use as a context manager, or call :meth:`close`."""
+
+    def __init__(self, transport: Transport, *, clock: Clock | None = None,
+                 parameter_overrides: ParameterOverrides | None = None) -> None:
+        self.transport = transport
+        self.types = transport.types
+        self.clock: Clock = clock or WallClock()
+        self.executor = Executor(self.clock)
+        self.parameter_overrides = parameter_overrides or ParameterOverrides()
+        self.nodes: list[Node] = []
+        self._node_ids = itertools.count()
+        self._closed = False
+
+    @classmethod
+    def open(cls, options: TransportOptions | None = None, *, types: MessageTypes | None = None,
+             clock: Clock | None = None,
+             parameter_overrides: ParameterOverrides | None = None) -> Context:
+        types = types or MessageTypes()
+        transport = open_transport(options or TransportOptions(), types)
+        return cls(transport, clock=clock, parameter_overrides=parameter_overrides)
+
+    def next_node_id(self) -> int:
+        return next(self._node_ids)
+
+    def add_node(self, node: Node) -> None:
+        self.nodes.append(node)
+
+    def remove_node(self, node: Node) -> None:
+        if node in self.nodes:
+            self.nodes.remove(node)
+
+    # -- running -----------------------------------------------------------------------------
+
+    def ok(self) -> bool:
+        return not self._closed and not self.executor.is_shutdown
+
+    def spin(self) -> None:
+        """Run callbacks until :meth:`shutdown` or Ctrl-C (which shuts down cleanly)."""
+        with self.stop_on_signals():
+            self.executor.spin()
+
+    def spin_once(self, timeout: float | None = None) -> bool:
+        return self.executor.spin_once(timeout)
+
+    def spin_until(self, done: Any, timeout: float | None = None) -> bool:
+        return self.executor.spin_until(done, timeout)
+
+    def spin_for(self, seconds: float) -> None:
+        self.executor.spin_for(seconds)
+
+    def shutdown(self) -> None:
+        self.executor.shutdown()
+
+    @contextmanager
+    def stop_on_signals(self) -> Iterator[None]:
+        """Turn SIGINT and SIGTERM into a clean :meth:`shutdown` while inside (main thread
+        only; elsewhere it changes nothing)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+
+        def stop(signum: int, frame: Any) -> None:
+            self.shutdown()
+        for s in previous:
+            signal.signal(s, stop)
+        try:
+            yield
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for node in list(reversed(self.nodes)):
+            node.destroy()
+        self.executor.shutdown()
+        self.transport.close()
+
+    def __enter__(self) -> Context:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()

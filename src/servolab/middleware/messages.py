@@ -1,0 +1,399 @@
+"""ROS 2 message and service types, and their CDR bytes, through ``rosbags``.
+
+servolab speaks ROS 2's own types so that its topics, bags and Zenoh payloads are what ROS 2
+tools expect. The types come from the ``rosbags`` type store of ROS 2 Jazzy (std_msgs,
+geometry_msgs, sensor_msgs, nav_msgs, tf2_msgs, diagnostic_msgs, rcl_interfaces, ...), plus
+the types of the seeds' ROS 1 ``dynamixel_motor`` stack and a few services, registered here
+from their ``.msg`` / ``.srv`` text. CDR serialization is ``rosbags``'s, never hand-written.
+
+A :class:`MessageTypes` is the one place that knows a type by name. It also turns the YAML
+values a user types (``"{linear: {x: 0.1}, angular: {z: 0.5}}"``, as ``rostopic pub`` takes
+them) into a message, checking every field, and a message back into plain values for
+``topic echo``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import yaml
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.base import Nodetype
+
+from .errors import MessageError
+
+#: ``dynamixel_msgs`` of the ROS 1 ``dynamixel_motor`` stack (001 Figure 3.2), field for field.
+#: ``MotorState`` is in the motor's raw units, as the original is; ``JointState`` is in radians.
+DYNAMIXEL_MSGS = {
+    "dynamixel_msgs/msg/MotorState": """\
+float64 timestamp   # motor state is at this time
+int32 id            # motor id
+int32 goal          # commanded position (in encoder units)
+int32 position      # current position (in encoder units)
+int32 error         # difference between current and goal positions
+int32 speed         # current speed (0.111 rpm per unit)
+float64 load        # current load - ratio of applied torque over maximum torque
+float64 voltage     # current voltage (V)
+int32 temperature   # current temperature (degrees Celsius)
+bool moving         # whether the motor is currently in motion
+""",
+    "dynamixel_msgs/msg/MotorStateList": "dynamixel_msgs/MotorState[] motor_states\n",
+    "dynamixel_msgs/msg/JointState": """\
+std_msgs/Header header
+string name         # joint name
+int32[] motor_ids   # motor ids controlling this joint
+int32[] motor_temps # motor temperatures, same order as motor_ids
+float64 goal_pos    # commanded position (in radians)
+float64 current_pos # current joint position (in radians)
+float64 error       # error between commanded and current positions (in radians)
+float64 velocity    # current joint speed (in radians per second)
+float64 load        # current load
+bool is_moving      # is joint currently in motion
+""",
+}
+
+#: Services: name -> (request text, response text).
+SERVICES = {
+    # dynamixel_controllers (ROS 1 dynamixel_motor): what a joint controller offers.
+    "dynamixel_controllers/srv/TorqueEnable": ("bool torque_enable\n", ""),
+    "dynamixel_controllers/srv/SetSpeed": ("float64 speed\n", ""),
+    # std_srvs
+    "std_srvs/srv/Empty": ("", ""),
+    "std_srvs/srv/Trigger": ("", "bool success\nstring message\n"),
+    "std_srvs/srv/SetBool": ("bool data\n", "bool success\nstring message\n"),
+    # rcl_interfaces: the parameter services every ROS 2 node offers.
+    "rcl_interfaces/srv/ListParameters": (
+        "uint64 DEPTH_RECURSIVE=0\nstring[] prefixes\nuint64 depth\n",
+        "rcl_interfaces/ListParametersResult result\n"),
+    "rcl_interfaces/srv/GetParameters": (
+        "string[] names\n", "rcl_interfaces/ParameterValue[] values\n"),
+    "rcl_interfaces/srv/SetParameters": (
+        "rcl_interfaces/Parameter[] parameters\n",
+        "rcl_interfaces/SetParametersResult[] results\n"),
+    # example_interfaces: the service of rmw_zenoh's design examples.
+    "example_interfaces/srv/AddTwoInts": ("int64 a\nint64 b\n", "int64 sum\n"),
+}
+
+_INT_RANGES = {
+    "int8": (-(2**7), 2**7 - 1), "uint8": (0, 2**8 - 1), "byte": (0, 255), "char": (0, 255),
+    "int16": (-(2**15), 2**15 - 1), "uint16": (0, 2**16 - 1),
+    "int32": (-(2**31), 2**31 - 1), "uint32": (0, 2**32 - 1),
+    "int64": (-(2**63), 2**63 - 1), "uint64": (0, 2**64 - 1),
+}
+_FLOATS = {"float32", "float64"}
+_DTYPES = {"bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8,
+           "uint8": np.uint8, "int16": np.int16, "uint16": np.uint16, "int32": np.int32,
+           "uint32": np.uint32, "int64": np.int64, "uint64": np.uint64,
+           "float32": np.float32, "float64": np.float64}
+
+
+@dataclass(frozen=True)
+class ServiceType:
+    """A service's name and the names of its request and response message types."""
+
+    name: str
+
+    @property
+    def request(self) -> str:
+        return f"{self.name}_Request"
+
+    @property
+    def response(self) -> str:
+        return f"{self.name}_Response"
+
+
+def canonical_name(name: str) -> str:
+    """``pkg/msg/Name`` for ``pkg/Name`` (ROS 1 spelling) or ``pkg/msg/Name``."""
+    parts = name.strip().split("/")
+    if len(parts) == 2 and all(parts):
+        return f"{parts[0]}/msg/{parts[1]}"
+    return name.strip()
+
+
+class MessageTypes:
+    """The message and service types servolab knows, and their CDR bytes.
+
+    One instance per process is enough (building it parses every ``.msg`` text once); pass it
+    to whatever needs it rather than reaching for a global.
+    """
+
+    def __init__(self, extra_msgs: Mapping[str, str] | None = None) -> None:
+        self.store = get_typestore(Stores.ROS2_JAZZY)
+        self._fix_service_event_info()
+        self.register_msgs(DYNAMIXEL_MSGS)
+        for name, (request, response) in SERVICES.items():
+            self.register_service(name, request, response)
+        if extra_msgs:
+            self.register_msgs(extra_msgs)
+
+    # -- registering ------------------------------------------------------------------------
+
+    def _fix_service_event_info(self) -> None:
+        """rosbags 0.11 declares ``ServiceEventInfo.client_gid`` as ``char[16]``; ROS 2 Jazzy's
+        ``service_msgs`` has ``uint8[16]``. With ``uint8`` the service type hashes equal
+        rosidl's (rmw_zenoh's ``AddTwoInts`` example), so the key expressions match ROS 2's."""
+        consts, fields = self.store.fielddefs["service_msgs/msg/ServiceEventInfo"]
+        fields = [(n, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16)))
+                  if n == "client_gid" else (n, d) for n, d in fields]
+        self.store.fielddefs["service_msgs/msg/ServiceEventInfo"] = (consts, fields)
+
+    def register_msgs(self, texts: Mapping[str, str]) -> None:
+        """Register message types from their ``.msg`` text, keyed by ``pkg/msg/Name``."""
+        types: dict[str, Any] = {}
+        for name, text in texts.items():
+            try:
+                types.update(get_types_from_msg(text, canonical_name(name)))
+            except Exception as exc:  # rosbags raises its own parser errors
+                raise MessageError(f"message definition {name}: {exc}") from None
+        self.store.register(types)
+
+    def register_service(self, name: str, request: str, response: str) -> ServiceType:
+        """Register a service from its request and response text, as rosidl generates it:
+        ``_Request``, ``_Response``, ``_Event`` and the service type itself (which only
+        exists to give the service its RIHS01 hash)."""
+        if name.count("/") != 2 or "/srv/" not in name:
+            raise MessageError(f"service type {name!r} must be spelled pkg/srv/Name")
+        texts = {
+            f"{name}_Request": request,
+            f"{name}_Response": response,
+            f"{name}_Event": (f"service_msgs/ServiceEventInfo info\n{name}_Request[<=1] request\n"
+                              f"{name}_Response[<=1] response\n"),
+            name: (f"{name}_Request request_message\n{name}_Response response_message\n"
+                   f"{name}_Event event_message\n"),
+        }
+        types: dict[str, Any] = {}
+        for type_name, text in texts.items():
+            types.update(get_types_from_msg(text, type_name))
+
+        def srv(value: Any) -> Any:  # rosbags files pkg/srv/X under pkg/srv/msg/X
+            if isinstance(value, str):
+                return value.replace("/srv/msg/", "/srv/")
+            if isinstance(value, tuple | list):
+                return type(value)(srv(v) for v in value)
+            return value
+
+        self.store.register({srv(k): srv(v) for k, v in types.items()})
+        return ServiceType(name)
+
+    # -- looking up -------------------------------------------------------------------------
+
+    def names(self) -> list[str]:
+        """Every known message type name, sorted."""
+        return sorted(n for n in self.store.fielddefs if "/msg/" in n)
+
+    def service(self, name: str) -> ServiceType:
+        """The service type of that name, or a :class:`MessageError` naming it."""
+        name = name.strip()
+        if name not in self.store.fielddefs or f"{name}_Request" not in self.store.fielddefs:
+            raise MessageError(f"unknown service type {name!r}")
+        return ServiceType(name)
+
+    def get(self, name: str) -> type:
+        """The message class for ``pkg/msg/Name`` (or ``pkg/Name``)."""
+        return self.store.types[self.check(name)]
+
+    def check(self, name: str) -> str:
+        """The canonical name of a known message type, or a one-line :class:`MessageError`."""
+        full = canonical_name(name)
+        if full not in self.store.fielddefs:
+            hint = [n for n in self.names() if n.rsplit("/", 1)[-1] == full.rsplit("/", 1)[-1]]
+            also = f" (did you mean {hint[0]}?)" if hint else ""
+            raise MessageError(f"unknown message type {name!r}{also}")
+        return full
+
+    def type_of(self, msg: Any) -> str:
+        try:
+            return msg.__msgtype__
+        except AttributeError:
+            raise MessageError(f"{type(msg).__name__} is not a ROS message") from None
+
+    # -- bytes ------------------------------------------------------------------------------
+
+    def serialize(self, msg: Any, name: str | None = None) -> bytes:
+        """CDR (little-endian, with its 4-byte encapsulation header), as rmw and rosbag2 use."""
+        return bytes(self.store.serialize_cdr(msg, name or self.type_of(msg)))
+
+    def deserialize(self, data: bytes | memoryview, name: str) -> Any:
+        try:
+            return self.store.deserialize_cdr(data, name)
+        except Exception as exc:
+            raise MessageError(f"{len(data)} bytes are not a CDR {name}: {exc}") from None
+
+    def msgdef(self, name: str) -> str:
+        """The ``ros2msg`` schema text (the type and every type it uses) that rosbag2 writes."""
+        return self.store.generate_msgdef(self.check(name), ros_version=2)[0]
+
+    def rihs01(self, name: str) -> str:
+        """The REP-2016 type hash, ``RIHS01_<sha256>``."""
+        return self.store.hash_rihs01(name)
+
+    @staticmethod
+    def dds_name(name: str) -> str:
+        """``geometry_msgs::msg::dds_::Twist_``: the type name DDS and rmw_zenoh use."""
+        pkg, kind, short = name.split("/")
+        return f"{pkg}::{kind}::dds_::{short}_"
+
+    # -- values -----------------------------------------------------------------------------
+
+    def default(self, name: str) -> Any:
+        """A message with every field zero, empty or false, as ROS constructs one."""
+        return self.from_value(name, {})
+
+    def from_yaml(self, name: str, text: str) -> Any:
+        """A message from YAML, as ``rostopic pub`` takes it: a mapping of fields, a list of
+        the fields in order, or a bare value for a one-field type (``Float64 1.5``)."""
+        name = self.check(name)
+        try:
+            value = yaml.safe_load(text) if text.strip() else {}
+        except yaml.YAMLError as exc:
+            line = getattr(getattr(exc, "problem_mark", None), "line", None)
+            where = f" (line {line + 1})" if line is not None else ""
+            raise MessageError(f"values for {name} are not YAML{where}: {text!r}") from None
+        try:
+            return self.from_value(name, value)
+        except MessageError as exc:
+            raise MessageError(f"{name} {exc}") from None
+
+    def from_value(self, name: str, value: Any, path: str = "") -> Any:
+        """A message of type ``name`` from plain values; every field is checked and a
+        missing one takes its default."""
+        name = self.check(name)
+        _, fields = self.store.fielddefs[name]
+        given = getattr(value, "__msgtype__", None)
+        if given is not None:
+            if given != name:
+                raise MessageError(f"{path or name}: a {given} where a {name} belongs")
+            return value
+        if not isinstance(value, Mapping):
+            if isinstance(value, list) and len(value) == len(fields):
+                value = {f: v for (f, _), v in zip(fields, value, strict=True)}
+            elif len(fields) == 1:
+                value = {fields[0][0]: value}
+            else:
+                raise MessageError(f"{path or name}: {value!r} is not a mapping of the fields of "
+                                   f"{name} ({', '.join(f for f, _ in fields)})")
+        known = {f for f, _ in fields}
+        for key in value:
+            if key not in known:
+                raise MessageError(f"{_join(path, str(key))}: {name} has no field {key!r} "
+                                   f"(it has {', '.join(sorted(known)) or 'none'})")
+        kwargs = {}
+        for field, desc in fields:
+            where = _join(path, field)
+            if field in value:
+                kwargs[field] = self._field(desc, value[field], where)
+            else:
+                kwargs[field] = self._field_default(desc, where)
+        return self.store.types[name](**kwargs)
+
+    def _field_default(self, desc: tuple, where: str) -> Any:
+        kind, detail = desc
+        if kind == Nodetype.BASE:
+            return "" if detail[0] in ("string", "wstring") else self._scalar(detail[0], 0, where)
+        if kind == Nodetype.NAME:
+            return self.from_value(detail, {}, where)
+        if kind == Nodetype.ARRAY:
+            return self._field(desc, [self._element_default(detail[0], where)] * detail[1], where)
+        return self._field(desc, [], where)
+
+    def _element_default(self, sub: tuple, where: str) -> Any:
+        return self._field_default(sub, where)
+
+    def _field(self, desc: tuple, value: Any, where: str) -> Any:
+        kind, detail = desc
+        if kind == Nodetype.BASE:
+            return self._scalar(detail[0], value, where, detail[1])
+        if kind == Nodetype.NAME:
+            if detail == "builtin_interfaces/msg/Time" and value == "now":
+                ns = time.time_ns()
+                value = {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+            return self.from_value(detail, value, where)
+        sub, count = detail
+        if isinstance(value, bytes | bytearray | memoryview):
+            value = np.frombuffer(value, dtype=np.uint8)
+        if isinstance(value, np.ndarray) and sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:
+            return self._array(sub[1][0], value, kind, count, where)
+        if isinstance(value, np.ndarray):
+            value = value.tolist()
+        if not isinstance(value, list):
+            raise MessageError(f"{where}: {value!r} is not a list")
+        if kind == Nodetype.ARRAY and len(value) != count:
+            raise MessageError(f"{where}: needs exactly {count} values, got {len(value)}")
+        if kind == Nodetype.SEQUENCE and count and len(value) > count:
+            raise MessageError(f"{where}: holds at most {count} values, got {len(value)}")
+        items = [self._field(sub, v, f"{where}[{i}]") for i, v in enumerate(value)]
+        if sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:
+            return np.array(items, dtype=_DTYPES[sub[1][0]])
+        return items
+
+    @staticmethod
+    def _array(element: str, value: np.ndarray, kind: Nodetype, count: int,
+               where: str) -> np.ndarray:
+        """A numeric array given as an array (an image's pixels): checked whole, not per item,
+        so a 640x376 image costs one pass."""
+        if value.ndim != 1:
+            value = value.reshape(-1)
+        if kind == Nodetype.ARRAY and len(value) != count:
+            raise MessageError(f"{where}: needs exactly {count} values, got {len(value)}")
+        if kind == Nodetype.SEQUENCE and count and len(value) > count:
+            raise MessageError(f"{where}: holds at most {count} values, got {len(value)}")
+        dtype = np.dtype(_DTYPES[element])
+        if value.dtype == dtype:
+            return value
+        if element in _INT_RANGES and len(value):
+            if value.dtype.kind not in "iub":
+                raise MessageError(f"{where}: {value.dtype} values are not {element}")
+            low, high = _INT_RANGES[element]
+            if value.min() < low or value.max() > high:
+                raise MessageError(f"{where}: values outside {element}'s range {low}..{high}")
+        return value.astype(dtype)
+
+    @staticmethod
+    def _scalar(kind: str, value: Any, where: str, bound: int = 0) -> Any:
+        if kind in ("string", "wstring"):
+            if not isinstance(value, str):
+                raise MessageError(f"{where}: {value!r} is not a string (quote it)")
+            if bound and len(value) > bound:
+                raise MessageError(f"{where}: {value!r} is longer than {bound} characters")
+            return value
+        if kind == "bool":
+            if isinstance(value, bool):
+                return value
+            if isinstance(value, int) and value in (0, 1):
+                return bool(value)
+            raise MessageError(f"{where}: {value!r} is not a bool (true or false)")
+        if kind in _FLOATS:
+            if isinstance(value, bool) or not isinstance(value, int | float | np.floating
+                                                             | np.integer):
+                raise MessageError(f"{where}: {value!r} is not a {kind}")
+            return float(value)
+        if kind in _INT_RANGES:
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise MessageError(f"{where}: {value!r} is not an integer ({kind})")
+            low, high = _INT_RANGES[kind]
+            if not low <= int(value) <= high:
+                raise MessageError(f"{where}: {value} is outside {kind}'s range {low}..{high}")
+            return int(value)
+        raise MessageError(f"{where}: unsupported field type {kind}")
+
+    def to_value(self, msg: Any) -> Any:
+        """Plain values (dicts, lists, numbers, strings) for a message: what ``echo`` prints and
+        what :meth:`from_value` takes back."""
+        if hasattr(msg, "__msgtype__"):
+            _, fields = self.store.fielddefs[msg.__msgtype__]
+            return {f: self.to_value(getattr(msg, f)) for f, _ in fields}
+        if isinstance(msg, np.ndarray):
+            return msg.tolist()
+        if isinstance(msg, list | tuple):
+            return [self.to_value(v) for v in msg]
+        if isinstance(msg, np.generic):
+            return msg.item()
+        return msg
+
+
+def _join(path: str, field: str) -> str:
+    return f"{path}.{field}" if path else field

@@ -1,0 +1,123 @@
+"""What a node needs of a transport, so that node code never knows which one carries it.
+
+Two transports implement this: :mod:`.local` (one process, messages passed as objects) and
+:mod:`.zenoh_transport` (processes and machines, CDR bytes over Zenoh in rmw_zenoh's layout).
+Everything a transport hands upward goes through a callback that may run on any thread; the
+:class:`~servolab.middleware.executor.Executor` moves the work onto the thread that spins.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from .messages import MessageTypes, ServiceType
+
+
+@dataclass(frozen=True)
+class MessageInfo:
+    """Where a message came from: what ROS 2 calls ``rmw_message_info_t``.
+
+    ``source_timestamp_ns`` is the publisher's wall clock (ns since the UNIX epoch) when it
+    published, ``received_timestamp_ns`` the subscriber's when it arrived: their difference is
+    the transport latency across processes on one machine.
+    """
+
+    source_timestamp_ns: int
+    received_timestamp_ns: int
+    sequence_number: int = 0
+    publisher_gid: bytes = b""
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """One entity of the graph: a node (``kind`` NN), publisher (MP), subscription (MS),
+    service server (SS) or client (SC)."""
+
+    kind: str
+    node: str                      # fully qualified node name
+    name: str = ""                 # fully qualified topic or service name ("" for a node)
+    type_name: str = ""            # pkg/msg/Name or pkg/srv/Name
+
+
+@dataclass(frozen=True)
+class NodeInfo:
+    """The node an entity belongs to, as the transport announces it."""
+
+    name: str
+    namespace: str = "/"
+    node_id: int = 0
+
+    @property
+    def fully_qualified_name(self) -> str:
+        return f"{self.namespace.rstrip('/')}/{self.name}"
+
+
+class Closeable(Protocol):
+    def close(self) -> None: ...
+
+
+class TransportPublisher(ABC):
+    @abstractmethod
+    def publish(self, msg: Any) -> None: ...
+
+    def close(self) -> None:  # noqa: B027 - most publishers hold nothing to release
+        pass
+
+
+#: ``deliver(data, info)``: ``data`` is the message object, or its CDR bytes for raw
+#: subscriptions (and always bytes from a transport that carries bytes; the subscription
+#: deserializes them on the executor's thread, not the transport's).
+Deliver = Callable[[Any, MessageInfo], None]
+#: ``handler(request, reply)``: the transport's request; ``reply(response)`` answers it.
+Handler = Callable[[Any, Callable[[Any], None]], None]
+
+
+@dataclass
+class TransportOptions:
+    """How to open a transport: the CLI's ``--transport``, ``--listen``, ``--connect``."""
+
+    kind: str = "local"                       # local | zenoh
+    listen: list[str] = field(default_factory=list)
+    connect: list[str] = field(default_factory=list)
+    domain_id: int = 0
+
+
+class Transport(ABC):
+    """Carries topics and services between nodes."""
+
+    #: True if subscriptions receive CDR bytes rather than message objects.
+    carries_bytes: bool = False
+
+    def __init__(self, types: MessageTypes) -> None:
+        self.types = types
+
+    @abstractmethod
+    def advertise(self, node: NodeInfo, topic: str, type_name: str,
+                  depth: int) -> TransportPublisher: ...
+
+    @abstractmethod
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
+                  deliver: Deliver, *, raw: bool = False) -> Closeable: ...
+
+    @abstractmethod
+    def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
+        ...
+
+    @abstractmethod
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future:
+        """Send a request; the future holds the response, or a :class:`ServiceError` when
+        no server answers. The caller waits on it (spinning, if it must run the server)."""
+
+    @abstractmethod
+    def announce_node(self, node: NodeInfo) -> Closeable: ...
+
+    @abstractmethod
+    def graph(self, timeout: float = 0.5) -> list[Endpoint]:
+        """Every entity the transport can see (its own process's and, over Zenoh, others')."""
+
+    def close(self) -> None:  # noqa: B027 - the local transport holds nothing to release
+        pass
