@@ -217,10 +217,10 @@ def test_bad_names_and_assignments() -> None:
     with pytest.raises(ParameterError, match="'rate=4' is not name:=value"):
         ParameterOverrides.from_assignments(["rate=4"])
     with Context.open(types=TYPES) as ctx:
-        with pytest.raises(MessageError, match="node name '1talker' is not valid"):
+        with pytest.raises(MessageError, match="invalid ROS node name '1talker'"):
             Node(ctx, "1talker")
         node = Node(ctx, "n")
-        with pytest.raises(MessageError, match="'cmd//vel' is not a valid ROS name"):
+        with pytest.raises(MessageError, match="invalid ROS name 'cmd//vel'"):
             node.create_publisher(TWIST, "cmd//vel")
         with pytest.raises(MessageError, match="unknown message type 'Twist'"):
             node.create_publisher("Twist", "/cmd_vel")

@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING, Any
 from .errors import MessageError, ParameterError, ServiceError
 from .executor import Timer
 from .messages import ServiceType
-from .names import resolve_name, validate_node_name
 from .parameters import (
     Parameter,
     coerce,
@@ -36,6 +35,8 @@ from .parameters import (
     to_parameter_value,
     type_of,
 )
+from .rmw_zenoh import check_node_name
+from .rmw_zenoh import fully_qualified_name as resolve_name
 from .transport import MessageInfo, NodeInfo
 
 if TYPE_CHECKING:
@@ -228,10 +229,10 @@ class Node:
     def __init__(self, context: Context, name: str, namespace: str = "/", *,
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
-        validate_node_name(name)
+        check_node_name(name)
         self.context = context
         self.name = name
-        self.namespace = resolve_name(namespace or "/", "/", name) if namespace != "/" else "/"
+        self.namespace = resolve_name(namespace, "/", name) if namespace not in ("", "/") else "/"
         self.info = NodeInfo(name, self.namespace, context.next_node_id())
         self.fully_qualified_name = self.info.fully_qualified_name
         self._remap = {resolve_name(k, self.namespace, name): resolve_name(v, self.namespace, name)

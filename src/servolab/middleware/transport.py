@@ -32,7 +32,7 @@ class MessageInfo:
     publisher_gid: bytes = b""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, order=True)
 class Endpoint:
     """One entity of the graph: a node (``kind`` NN), publisher (MP), subscription (MS),
     service server (SS) or client (SC)."""

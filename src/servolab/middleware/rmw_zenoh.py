@@ -1,0 +1,313 @@
+"""ROS 2 ``rmw_zenoh``'s naming conventions, as pure functions (no session, no I/O).
+
+A ROS 2 node on ``rmw_zenoh`` finds servolab's topics only if the key expressions, liveliness
+tokens and attachments are byte-for-byte what ``rmw_zenoh_cpp`` writes, so they are spelled
+out here once, following ``docs/design.md`` of ros2/rmw_zenoh (rolling), and tested against its
+examples. Keeping them free of Zenoh lets the graph cache and ``topic list`` be tested alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import struct
+from dataclasses import dataclass
+from enum import StrEnum
+
+from .errors import MessageError
+
+ADMIN_SPACE = "@ros2_lv"
+#: rmw_zenoh's default depth: a token leaves the depth empty only when it is this, so the
+#: usual depths (rclcpp's 10, the talker's 7) are always written.
+RMW_ZENOH_DEFAULT_DEPTH = 42
+GID_SIZE = 16
+
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_FQN = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+_SESSION = re.compile(r"[0-9a-f]{1,32}")
+_HASH = re.compile(r"RIHS[0-9]{2}_[0-9a-f]+")
+_ROS_TYPE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)/([a-z]+)/([A-Za-z_][A-Za-z0-9_]*)")
+_DDS_TYPE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)::([a-z]+)::dds_::([A-Za-z_][A-Za-z0-9_]*)_")
+_NUMBER = re.compile(r"[0-9]+")
+_ATTACHMENT = struct.Struct("<qqB16s")
+
+
+class EntityKind(StrEnum):
+    """The ``<entity_kind>`` chunk of a liveliness token."""
+
+    NODE = "NN"
+    PUBLISHER = "MP"
+    SUBSCRIPTION = "MS"
+    SERVICE = "SS"
+    CLIENT = "SC"
+
+
+# -- names ------------------------------------------------------------------------------------
+
+_RULES = {  # what -> (pattern, what it must be), for one-line errors that name the value
+    "ROS node name": (_TOKEN, "letters, digits and _, not starting with a digit"),
+    "session id": (_SESSION, "1 to 32 lowercase hex digits"),
+    "type hash": (_HASH, "RIHS01_<hex>"),
+}
+
+
+def _check(what: str, value: str) -> str:
+    pattern, rule = _RULES[what]
+    if not pattern.fullmatch(value):
+        raise MessageError(f"invalid {what} {value!r}: must be {rule}")
+    return value
+
+
+def _check_id(value: int, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise MessageError(f"{what} {value!r} must be a non-negative integer")
+    return value
+
+
+def _check_fqn(name: str, what: str, shown: str | None = None) -> str:
+    if not _FQN.fullmatch(name):
+        raise MessageError(f"invalid ROS {what} {shown or repr(name)}: must be /-separated "
+                           "tokens of letters, digits and _, none starting with a digit, "
+                           "no // or trailing /")
+    return name
+
+
+def _namespace(namespace: str, what: str = "namespace") -> str:
+    """``/`` at the root; a relative namespace gets its leading ``/``, as rcl gives it."""
+    if namespace in ("", "/"):
+        return "/"
+    return _check_fqn(namespace if namespace.startswith("/") else f"/{namespace}", what)
+
+
+def fully_qualified_name(name: str, namespace: str = "/", node_name: str = "") -> str:
+    """``/robot1/chatter`` for ``chatter`` in ``/robot1``; ``~/x`` is ``/<ns>/<node>/x``."""
+    prefix = _namespace(namespace).rstrip("/")
+    if name == "~" or name.startswith("~/"):
+        if not node_name:
+            raise MessageError(f"private ROS name {name!r} needs a node name")
+        full = f"{prefix}/{_check('ROS node name', node_name)}{name[1:]}"
+    else:
+        full = name if name.startswith("/") else f"{prefix}/{name}"
+    return _check_fqn(full, "name", repr(name))
+
+
+def check_node_name(name: str) -> str:
+    """A valid node name, or a one-line error naming it."""
+    return _check("ROS node name", name)
+
+
+def mangle(name: str) -> str:
+    """Every ``/`` as ``%`` (Zenoh chunks cannot hold ``/``); empty or root is ``%``."""
+    return name.replace("/", "%") or "%"
+
+
+def unmangle(text: str) -> str:
+    """The inverse of :func:`mangle`; ``%`` comes back as the root ``/``."""
+    return text.replace("%", "/")
+
+
+def dds_type_name(ros_type_name: str) -> str:
+    """``pkg::msg::dds_::Name_`` for ``pkg/msg/Name``: the name DDS and rmw_zenoh use."""
+    if not (m := _ROS_TYPE.fullmatch(ros_type_name)):
+        raise MessageError(f"type {ros_type_name!r} must be spelled pkg/msg/Name or pkg/srv/Name")
+    return "{}::{}::dds_::{}_".format(*m.groups())
+
+
+def ros_type_name(dds_name: str) -> str:
+    """``pkg/msg/Name`` for ``pkg::msg::dds_::Name_``, the inverse of :func:`dds_type_name`."""
+    if not (m := _DDS_TYPE.fullmatch(dds_name)):
+        raise MessageError(f"type {dds_name!r} is not a DDS name pkg::msg::dds_::Name_")
+    return "/".join(m.groups())
+
+
+def topic_keyexpr(domain_id: int, fqn: str, ros_type_name: str, type_hash: str) -> str:
+    """``0/robot1/chatter/std_msgs::msg::dds_::String_/RIHS01_...``: where data is put.
+
+    The type name and hash are in the key so that endpoints of different types never meet."""
+    _check_id(domain_id, "domain id")
+    return (f"{domain_id}/{_check_fqn(fqn, 'topic or service name')[1:]}/"
+            f"{dds_type_name(ros_type_name)}/{_check('type hash', type_hash)}")
+
+
+# -- QoS --------------------------------------------------------------------------------------
+
+_RELIABILITY = {"": True, "0": True, "1": True, "2": False}  # 0 is SYSTEM_DEFAULT
+_DURABILITY = {"": False, "0": False, "1": True, "2": False}
+_HISTORY = {"": False, "0": False, "1": False, "2": True}
+
+
+@dataclass(frozen=True, slots=True)
+class Qos:
+    """The QoS servolab honours. Deadline, lifespan and liveliness are always rmw_zenoh's
+    defaults (infinite, AUTOMATIC) when written, and checked but dropped when parsed."""
+
+    reliable: bool = True
+    transient_local: bool = False
+    keep_all: bool = False
+    depth: int = 10
+
+    def __post_init__(self) -> None:
+        _check_id(self.depth, "QoS depth")
+
+    def to_keyexpr(self) -> str:
+        """``::,10:,:,:,,`` for the defaults: a component is empty when it is rmw_zenoh's
+        default (RELIABLE, VOLATILE, KEEP_LAST, depth 42, infinite durations, AUTOMATIC)."""
+        reliability = "" if self.reliable else "2"
+        durability = "1" if self.transient_local else ""
+        history = "2" if self.keep_all else ""
+        depth = "" if self.depth == RMW_ZENOH_DEFAULT_DEPTH else str(self.depth)
+        return f"{reliability}:{durability}:{history},{depth}:,:,:,,"
+
+    @classmethod
+    def from_keyexpr(cls, text: str) -> Qos:
+        """Parse a token's QoS chunk, whether its components are empty or written out."""
+        parts = text.split(":")
+        shape = [len(p.split(",")) for p in parts]
+        numbers = text.replace(":", "").replace(",", "")
+        if shape != [1, 1, 2, 2, 2, 3] or (numbers and not _NUMBER.fullmatch(numbers)):
+            raise MessageError(f"QoS {text!r} is not <rel>:<dur>:<hist>,<depth>:<s>,<ns>:<s>,"
+                               "<ns>:<liveliness>,<s>,<ns>")
+        history, depth = parts[2].split(",")
+        try:
+            return cls(_RELIABILITY[parts[0]], _DURABILITY[parts[1]], _HISTORY[history],
+                       int(depth) if depth else RMW_ZENOH_DEFAULT_DEPTH)
+        except KeyError as exc:
+            raise MessageError(f"QoS {text!r}: unsupported policy value {exc}") from None
+
+
+# -- liveliness tokens ------------------------------------------------------------------------
+
+def _node_part(domain_id: int, session_id: str, node_id: int, entity_id: int, kind: EntityKind,
+               node_name: str, namespace: str, enclave: str) -> str:
+    return (f"{ADMIN_SPACE}/{_check_id(domain_id, 'domain id')}/{_check('session id', session_id)}/"
+            f"{_check_id(node_id, 'node id')}/{_check_id(entity_id, 'entity id')}/{kind}/"
+            f"{mangle(_namespace(enclave, 'enclave'))}/{mangle(_namespace(namespace))}/"
+            f"{_check('ROS node name', node_name)}")
+
+
+def node_token(domain_id: int, session_id: str, node_id: int, node_name: str,
+               namespace: str = "/", enclave: str = "/") -> str:
+    """``@ros2_lv/2/<session>/0/0/NN/%/%/listener``: a node's id stands as its entity id."""
+    return _node_part(domain_id, session_id, node_id, node_id, EntityKind.NODE, node_name,
+                      namespace, enclave)
+
+
+def entity_token(domain_id: int, session_id: str, node_id: int, entity_id: int,
+                 kind: EntityKind | str, node_name: str, topic: str, ros_type_name: str,
+                 type_hash: str, *, namespace: str = "/", enclave: str = "/",
+                 qos: Qos | None = None) -> str:
+    """The token of a publisher, subscription, service server or client on ``topic`` (a fully
+    qualified name, see :func:`fully_qualified_name`)."""
+    if kind not in ("MP", "MS", "SS", "SC"):
+        raise MessageError(f"entity kind {kind!r} is not one of MP, MS, SS, SC (nodes: NN, "
+                           "use node_token)")
+    head = _node_part(domain_id, session_id, node_id, entity_id, EntityKind(kind), node_name,
+                      namespace, enclave)
+    return (f"{head}/{mangle(_check_fqn(topic, 'topic or service name'))}/"
+            f"{dds_type_name(ros_type_name)}/{_check('type hash', type_hash)}/"
+            f"{(qos or Qos()).to_keyexpr()}")
+
+
+@dataclass(frozen=True, slots=True)
+class Entity:
+    """A parsed liveliness token: what the graph cache keeps per node or endpoint.
+
+    ``namespace`` and ``enclave`` are ``/`` at the root; ``topic`` is fully qualified and
+    ``type_name`` is ``pkg/msg/Name``; the last four are None for a node."""
+
+    domain_id: int
+    session_id: str
+    node_id: int
+    entity_id: int
+    kind: EntityKind
+    enclave: str
+    namespace: str
+    node_name: str
+    topic: str | None = None
+    type_name: str | None = None
+    type_hash: str | None = None
+    qos: Qos | None = None
+
+    def to_token(self) -> str:
+        """The token again; a node's is rebuilt from its ``node_id``."""
+        if self.kind == EntityKind.NODE:
+            return node_token(self.domain_id, self.session_id, self.node_id, self.node_name,
+                              self.namespace, self.enclave)
+        if not (self.topic and self.type_name and self.type_hash):
+            raise MessageError(f"{self.kind} entity of node {self.node_name!r} needs a topic, "
+                               "type name and type hash")
+        return entity_token(self.domain_id, self.session_id, self.node_id, self.entity_id,
+                            self.kind, self.node_name, self.topic, self.type_name,
+                            self.type_hash, namespace=self.namespace, enclave=self.enclave,
+                            qos=self.qos)
+
+
+def parse_token(token: str) -> Entity:
+    """The :class:`Entity` a liveliness token announces, or a :class:`MessageError` naming it."""
+    chunks = token.split("/")
+    try:
+        if len(chunks) < 9 or chunks[0] != ADMIN_SPACE:
+            raise ValueError(f"it is not {ADMIN_SPACE}/<domain>/<session>/<node>/<id>/<kind>/"
+                             "<enclave>/<namespace>/<node name>[/<topic>/<type>/<hash>/<qos>]")
+        if not all(_NUMBER.fullmatch(chunks[i]) for i in (1, 3, 4)):
+            raise ValueError("domain, node and entity ids must be numbers")
+        if not (chunks[6].startswith("%") and chunks[7].startswith("%")):
+            raise ValueError("enclave and namespace must be mangled absolute names")
+        if chunks[5] not in tuple(EntityKind):
+            raise ValueError(f"entity kind {chunks[5]!r} is not one of NN, MP, MS, SS, SC")
+        kind = EntityKind(chunks[5])
+        expected = 9 if kind == EntityKind.NODE else 13
+        if len(chunks) != expected:
+            raise ValueError(f"a {kind} token has {expected} chunks, not {len(chunks)}")
+        common = (int(chunks[1]), _check("session id", chunks[2]), int(chunks[3]), int(chunks[4]),
+                  kind, _namespace(unmangle(chunks[6]), "enclave"),
+                  _namespace(unmangle(chunks[7])), _check("ROS node name", chunks[8]))
+        if kind == EntityKind.NODE:
+            return Entity(*common)
+        return Entity(*common, _check_fqn(unmangle(chunks[9]), "topic or service name"),
+                      ros_type_name(chunks[10]), _check("type hash", chunks[11]),
+                      Qos.from_keyexpr(chunks[12]))
+    except ValueError as exc:  # MessageError is a ValueError too
+        raise MessageError(f"malformed liveliness token {token!r}: {exc}") from None
+
+
+# -- attachments and GIDs ---------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Attachment:
+    """What rmw_zenoh attaches to every put, query and reply: the sequence number pairs a
+    reply with its request, the GID names the publisher or client."""
+
+    sequence_number: int
+    source_timestamp_ns: int
+    gid: bytes
+
+
+def encode_attachment(sequence_number: int, source_timestamp_ns: int, gid: bytes) -> bytes:
+    """33 bytes: int64 LE sequence number, int64 LE ns since the epoch, ``16``, the GID."""
+    if len(gid) != GID_SIZE:
+        raise MessageError(f"GID is {len(gid)} bytes, not {GID_SIZE}")
+    try:
+        return _ATTACHMENT.pack(sequence_number, source_timestamp_ns, GID_SIZE, bytes(gid))
+    except struct.error as exc:
+        raise MessageError(f"attachment sequence number or timestamp: {exc}") from None
+
+
+def decode_attachment(data: bytes | bytearray | memoryview) -> Attachment:
+    """The inverse of :func:`encode_attachment`; anything but 33 bytes with a 16-byte GID is
+    refused rather than guessed at."""
+    if len(data) != _ATTACHMENT.size:
+        raise MessageError(f"attachment is {len(data)} bytes, not {_ATTACHMENT.size} "
+                           "(sequence number, timestamp, GID length, GID)")
+    sequence_number, timestamp, gid_size, gid = _ATTACHMENT.unpack(data)
+    if gid_size != GID_SIZE:
+        raise MessageError(f"attachment GID length is {gid_size}, not {GID_SIZE}")
+    return Attachment(sequence_number, timestamp, gid)
+
+
+def gid_from(session_id_hex: str, entity_id: int) -> bytes:
+    """A 16-byte GID for an entity. rmw_zenoh hashes the whole liveliness token (XXH3-128);
+    ours only needs to be unique per entity, and entity ids count up per session, so a hash
+    of the two is enough (BLAKE2b, as it is in :mod:`hashlib`)."""
+    key = f"{_check('session id', session_id_hex)}/{_check_id(entity_id, 'entity id')}"
+    return hashlib.blake2b(key.encode(), digest_size=GID_SIZE).digest()

@@ -1,0 +1,269 @@
+"""The Zenoh transport: the same topics, services and parameters between processes and
+machines, laid out as ROS 2's ``rmw_zenoh`` lays them out.
+
+Each message is one Zenoh ``put`` of its CDR bytes on the key
+``<domain>/<topic>/<dds type>/<RIHS01 hash>`` with rmw_zenoh's 33-byte attachment (sequence
+number, source timestamp, GID); each service is a queryable on the same kind of key; each node
+and endpoint declares rmw_zenoh's liveliness token, which is how ``topic list`` and
+``param list`` see the graph (see :mod:`.rmw_zenoh`).
+
+The session is loopback-only unless the user names endpoints: no multicast scouting, and by
+default it listens on ``tcp/127.0.0.1:7447`` (rmw_zenoh's router port) or, if another process
+already does, connects to it and listens on a free loopback port for direct links found by
+gossip. ``--listen tcp/0.0.0.0:7447`` or ``--connect tcp/robot.local:7447`` open it to a
+network.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import re
+import threading
+import time
+from concurrent.futures import Future
+from typing import Any
+
+import zenoh
+
+from .errors import MessageError, ServiceError, TransportError
+from .messages import MessageTypes, ServiceType
+from .rmw_zenoh import (
+    ADMIN_SPACE,
+    EntityKind,
+    Qos,
+    decode_attachment,
+    encode_attachment,
+    entity_token,
+    gid_from,
+    node_token,
+    parse_token,
+    topic_keyexpr,
+)
+from .transport import (
+    Closeable,
+    Deliver,
+    Endpoint,
+    Handler,
+    MessageInfo,
+    NodeInfo,
+    Transport,
+    TransportOptions,
+    TransportPublisher,
+)
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+_ENDPOINT = re.compile(r"(tcp|udp|tls|quic|ws|unixsock-stream)/.+")
+
+
+def check_endpoint(endpoint: str) -> str:
+    """A Zenoh locator such as ``tcp/127.0.0.1:7447``, or a one-line error naming it."""
+    if not _ENDPOINT.fullmatch(endpoint) or (endpoint.startswith(("tcp/", "udp/"))
+                                             and not re.fullmatch(r".+:\d+", endpoint)):
+        raise TransportError(f"Zenoh endpoint {endpoint!r} is not <protocol>/<host>:<port>, "
+                             "e.g. tcp/127.0.0.1:7447")
+    return endpoint
+
+
+def _config(listen: list[str], connect: list[str]) -> zenoh.Config:
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps(listen))
+    config.insert_json5("connect/endpoints", json.dumps(connect))
+    return config
+
+
+def open_session(options: TransportOptions) -> zenoh.Session:
+    """Open the session the options ask for (see the module docstring for the default)."""
+    listen = [check_endpoint(e) for e in options.listen]
+    connect = [check_endpoint(e) for e in options.connect]
+    try:
+        if listen or connect:
+            return zenoh.open(_config(listen, connect))
+        try:
+            return zenoh.open(_config([DEFAULT_ENDPOINT], []))
+        except zenoh.ZError:  # another servolab process (or rmw_zenohd) holds the port
+            return zenoh.open(_config(["tcp/127.0.0.1:0"], [DEFAULT_ENDPOINT]))
+    except zenoh.ZError as exc:
+        first = str(exc).split(" at /")[0]
+        raise TransportError(f"cannot open a Zenoh session: {first}") from None
+
+
+class _Declared:
+    """Zenoh declarations released together (entity, liveliness token)."""
+
+    def __init__(self, *items: Any) -> None:
+        self._items = list(items)
+
+    def close(self) -> None:
+        for item in self._items:
+            with contextlib.suppress(zenoh.ZError):  # the session is already closed
+                item.undeclare()
+        self._items.clear()
+
+
+class ZenohPublisher(TransportPublisher):
+    def __init__(self, transport: ZenohTransport, key: str, type_name: str, gid: bytes,
+                 token: Any) -> None:
+        self._types = transport.types
+        self._type_name = type_name
+        self._gid = gid
+        self._sequence = itertools.count(1)
+        # BLOCK rather than drop under congestion: a recorder or a controller must not lose
+        # commands silently (rmw_zenoh does this for RELIABLE + KEEP_ALL).
+        self._publisher = transport.session.declare_publisher(
+            key, congestion_control=zenoh.CongestionControl.BLOCK)
+        self._declared = _Declared(self._publisher, token)
+
+    def publish(self, msg: Any) -> None:
+        self.put(self._types.serialize(msg, self._type_name))
+
+    def put(self, cdr: bytes) -> None:
+        """Publish bytes that are already CDR (bag playback, ``topic pub`` of raw data)."""
+        attachment = encode_attachment(next(self._sequence), time.time_ns(), self._gid)
+        self._publisher.put(cdr, attachment=attachment)
+
+    def close(self) -> None:
+        self._declared.close()
+
+
+class ZenohTransport(Transport):
+    """See the module docstring."""
+
+    carries_bytes = True
+
+    def __init__(self, types: MessageTypes, options: TransportOptions | None = None) -> None:
+        super().__init__(types)
+        self.options = options or TransportOptions(kind="zenoh")
+        self.domain_id = self.options.domain_id
+        self.session = open_session(self.options)
+        self.session_id = str(self.session.zid())
+        self._entity_ids = itertools.count(1000)  # above node ids, which count from 0
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # -- helpers -----------------------------------------------------------------------------
+
+    def _key(self, name: str, type_name: str) -> str:
+        return topic_keyexpr(self.domain_id, name, type_name, self.types.rihs01(type_name))
+
+    def _token(self, node: NodeInfo, kind: EntityKind, name: str, type_name: str,
+               depth: int) -> tuple[Any, int]:
+        entity_id = next(self._entity_ids)
+        key = entity_token(self.domain_id, self.session_id, node.node_id, entity_id, kind,
+                           node.name, name, type_name, self.types.rihs01(type_name),
+                           namespace=node.namespace, qos=Qos(depth=depth, keep_all=depth == 0))
+        return self.session.liveliness().declare_token(key), entity_id
+
+    # -- topics ------------------------------------------------------------------------------
+
+    def advertise(self, node: NodeInfo, topic: str, type_name: str,
+                  depth: int) -> ZenohPublisher:
+        token, entity_id = self._token(node, EntityKind.PUBLISHER, topic, type_name, depth)
+        return ZenohPublisher(self, self._key(topic, type_name), type_name,
+                              gid_from(self.session_id, entity_id), token)
+
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
+                  deliver: Deliver, *, raw: bool = False) -> Closeable:
+        def on_sample(sample: zenoh.Sample) -> None:
+            received = time.time_ns()
+            info = MessageInfo(received, received)
+            if sample.attachment is not None:
+                try:
+                    a = decode_attachment(sample.attachment.to_bytes())
+                    info = MessageInfo(a.source_timestamp_ns, received, a.sequence_number, a.gid)
+                except MessageError:
+                    pass  # a plain Zenoh put without rmw_zenoh's attachment: still data
+            deliver(sample.payload.to_bytes(), info)
+
+        token, _ = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, depth)
+        subscriber = self.session.declare_subscriber(self._key(topic, type_name), on_sample)
+        return _Declared(subscriber, token)
+
+    # -- services ----------------------------------------------------------------------------
+
+    def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
+        def on_query(query: zenoh.Query) -> None:
+            request = query.payload.to_bytes() if query.payload is not None else b""
+            try:
+                asked = decode_attachment(query.attachment.to_bytes())
+            except (MessageError, AttributeError):
+                query.reply_err(b"request without rmw_zenoh attachment")
+                return
+
+            def reply(response: Any) -> None:
+                if isinstance(response, Exception):
+                    query.reply_err(str(response).encode())
+                    return
+                attachment = encode_attachment(asked.sequence_number, time.time_ns(), asked.gid)
+                query.reply(query.key_expr, self.types.serialize(response, srv.response),
+                            attachment=attachment)
+
+            handler(request, reply)
+
+        token, _ = self._token(node, EntityKind.SERVICE, name, srv.name, 10)
+        queryable = self.session.declare_queryable(self._key(name, srv.name), on_query,
+                                                   complete=True)
+        return _Declared(queryable, token)
+
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future:
+        future: Future = Future()
+        payload = self.types.serialize(request, srv.request)
+        entity_id = next(self._entity_ids)
+        attachment = encode_attachment(entity_id, time.time_ns(),
+                                       gid_from(self.session_id, entity_id))
+        key = self._key(name, srv.name)
+
+        def run() -> None:
+            try:
+                replies = self.session.get(key, payload=payload, attachment=attachment,
+                                           target=zenoh.QueryTarget.ALL_COMPLETE,
+                                           timeout=timeout)
+                for reply in replies:
+                    if reply.ok is not None:
+                        future.set_result(self.types.deserialize(reply.ok.payload.to_bytes(),
+                                                                 srv.response))
+                    else:
+                        why = reply.err.payload.to_bytes().decode(errors="replace")
+                        future.set_exception(ServiceError(f"service {name} failed: {why}"))
+                    return
+                future.set_exception(ServiceError(
+                    f"no service {name} answered within {timeout:g} s (is its node running, "
+                    "and are the Zenoh endpoints connected?)"))
+            except Exception as exc:  # never leave the caller waiting
+                if not future.done():
+                    future.set_exception(ServiceError(f"service {name}: {exc}"))
+
+        threading.Thread(target=run, daemon=True, name=f"call {name}").start()
+        return future
+
+    # -- graph -------------------------------------------------------------------------------
+
+    def announce_node(self, node: NodeInfo) -> Closeable:
+        key = node_token(self.domain_id, self.session_id, node.node_id, node.name,
+                         node.namespace)
+        return _Declared(self.session.liveliness().declare_token(key))
+
+    def graph(self, timeout: float = 0.5) -> list[Endpoint]:
+        endpoints = []
+        for reply in self.session.liveliness().get(f"{ADMIN_SPACE}/{self.domain_id}/**",
+                                                   timeout=timeout):
+            if reply.ok is None:
+                continue
+            try:
+                entity = parse_token(str(reply.ok.key_expr))
+            except MessageError:
+                continue  # a token of another rmw version or tool: not ours to judge
+            fqn = f"{entity.namespace.rstrip('/')}/{entity.node_name}"
+            endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
+                                      entity.type_name or ""))
+        return endpoints
+
+    def close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self.session.close()

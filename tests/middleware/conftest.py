@@ -1,0 +1,41 @@
+"""Shared fixtures: free loopback ports and Zenoh contexts that are always closed."""
+
+from __future__ import annotations
+
+import socket
+from collections.abc import Iterator
+
+import pytest
+
+from servolab.middleware.context import Context
+from servolab.middleware.messages import MessageTypes
+from servolab.middleware.transport import TransportOptions
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="session")
+def types() -> MessageTypes:
+    return MessageTypes()
+
+
+@pytest.fixture
+def zenoh_pair(types: MessageTypes) -> Iterator[tuple[Context, Context, int]]:
+    """Two contexts, as two processes would have them: one listens, one connects."""
+    port = free_port()
+    a = Context.open(TransportOptions("zenoh", listen=[f"tcp/127.0.0.1:{port}"]), types=types)
+    try:
+        b = Context.open(TransportOptions("zenoh", connect=[f"tcp/127.0.0.1:{port}"]),
+                         types=types)
+    except BaseException:
+        a.close()
+        raise
+    try:
+        yield a, b, port
+    finally:
+        b.close()
+        a.close()
