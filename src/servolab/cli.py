@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 from . import __version__
 from .dynamixel.errors import ConfigError, DynamixelError
+from .middleware.errors import MiddlewareError, ServiceError
 
 
 def _int_range(text: str) -> range:
@@ -61,6 +62,86 @@ def _add_port(p: argparse.ArgumentParser, *, default_baud: int | None = 57600) -
                        "and within 1 %% of the RX-28's 57142)")
 
 
+def _add_transport(p: argparse.ArgumentParser, default: str = "zenoh") -> None:
+    p.add_argument("--transport", choices=["local", "zenoh"], default=default,
+                   help=f"local: this process only; zenoh: other processes and machines "
+                   f"(default {default})")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                   help="Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                   help="Zenoh endpoint to connect to, e.g. tcp/robot.local:7447")
+    p.add_argument("--domain-id", type=int, default=None, metavar="N",
+                   help="ROS domain id (default: $ROS_DOMAIN_ID or 0)")
+
+
+def _add_graph_commands(sub: argparse._SubParsersAction) -> None:
+    topic = sub.add_parser("topic", help="list, echo, publish and time topics").add_subparsers(
+        dest="action", required=True, metavar="ACTION")
+    p = topic.add_parser("list", help="topics in the graph")
+    p.add_argument("-t", "--show-types", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true")
+    _add_transport(p)
+    p = topic.add_parser("echo", help="print a topic's messages as YAML")
+    p.add_argument("topic")
+    p.add_argument("--type", dest="type_name", help="message type (default: from the graph)")
+    p.add_argument("--count", type=int, default=0, help="stop after N messages")
+    p.add_argument("--no-arr", action="store_true", help="abbreviate long arrays")
+    _add_transport(p)
+    p = topic.add_parser("pub", help="publish YAML values, as rostopic pub")
+    p.add_argument("topic")
+    p.add_argument("type_name", metavar="TYPE", help="e.g. geometry_msgs/msg/Twist")
+    p.add_argument("values", metavar="VALUES", nargs="?", default="",
+                   help="YAML, e.g. \"{linear: {x: 0.1}, angular: {z: 0.5}}\"")
+    p.add_argument("--rate", type=float, default=1.0, help="Hz; 0: as fast as possible")
+    p.add_argument("--count", type=int, default=0, help="publish N times (default: forever)")
+    p.add_argument("--once", action="store_const", const=1, dest="count")
+    _add_transport(p)
+    p = topic.add_parser("hz", help="measure a topic's rate")
+    p.add_argument("topic")
+    p.add_argument("--type", dest="type_name")
+    p.add_argument("--window", type=int, default=100)
+    _add_transport(p)
+
+    param = sub.add_parser("param", help="list, get and set node parameters").add_subparsers(
+        dest="action", required=True, metavar="ACTION")
+    p = param.add_parser("list", help="parameters of every node, or of one")
+    p.add_argument("node", nargs="?")
+    _add_transport(p)
+    p = param.add_parser("get", help="one parameter's value")
+    p.add_argument("node")
+    p.add_argument("name")
+    _add_transport(p)
+    p = param.add_parser("set", help="change a parameter (the value is YAML)")
+    p.add_argument("node")
+    p.add_argument("name")
+    p.add_argument("value")
+    _add_transport(p)
+
+    bag = sub.add_parser("bag", help="record, play and inspect MCAP bags").add_subparsers(
+        dest="action", required=True, metavar="ACTION")
+    p = bag.add_parser("record", help="record topics to an MCAP bag (rosbag2 layout)")
+    p.add_argument("topics", nargs="+", metavar="TOPIC")
+    p.add_argument("-o", "--output", required=True, metavar="PATH", help="bag folder to create")
+    p.add_argument("--type", dest="types", action="append", default=[], metavar="TOPIC:TYPE",
+                   help="type of a topic not yet in the graph, e.g. /cmd_vel:geometry_msgs/"
+                   "msg/Twist")
+    _add_transport(p)
+    p = bag.add_parser("play", help="publish a bag's messages at its own (or a scaled) rate")
+    p.add_argument("path")
+    p.add_argument("--rate", type=float, default=1.0, help="speed factor; 0: as fast as "
+                   "possible")
+    p.add_argument("--topics", nargs="+", metavar="TOPIC")
+    _add_transport(p)
+    p = bag.add_parser("info", help="topics, types, counts and duration of a bag")
+    p.add_argument("path")
+
+    p = sub.add_parser("launch", help="start the nodes of a launch file")
+    p.add_argument("file")
+    p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
+    p.add_argument("--process", help=argparse.SUPPRESS)
+    _add_transport(p, default="")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="servolab", description="Build, simulate and run robots of Dynamixel servos.")
@@ -103,6 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--raw", action="store_true", help="VALUE is a raw register value")
     p.add_argument("register", metavar="REGISTER")
     p.add_argument("value", metavar="VALUE")
+
+    _add_graph_commands(sub)
     return parser
 
 
@@ -110,7 +193,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if args.command in ("topic", "param", "bag", "launch"):
+            from .apps import graphcli
+
+            return graphcli.dispatch(args)
         return _dispatch(args)
+    except MiddlewareError as exc:
+        name = f"{args.command} {getattr(args, 'action', '')}".strip()
+        bad_input = not isinstance(exc, ServiceError)
+        print(f"servolab {name}: error: {exc}", file=sys.stderr)
+        return 2 if bad_input else 1
     except ConfigError as exc:
         print(f"servolab {args.command}: error: {exc}", file=sys.stderr)
         return 2

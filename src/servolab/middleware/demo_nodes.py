@@ -29,7 +29,7 @@ class Talker(Node):
                          remappings=remappings)
         self.rate = self.declare_parameter("rate", 10.0, description="messages per second")
         self.count = self.declare_parameter("count", 0, description="stop after this many")
-        self.speed = self.declare_parameter("speed", 0.1, description="linear.x in m/s")
+        self.declare_parameter("speed", 0.1, description="linear.x in m/s (live)")
         self.sent = 0
         self.publisher = self.create_publisher(TWIST, "cmd_vel")
         self.create_timer(1.0 / self.rate, self._tick)
@@ -38,8 +38,9 @@ class Talker(Node):
         if self.count and self.sent >= self.count:
             return
         self.sent += 1
+        turn = 0.5 * math.sin(self.sent / 10)
         self.publisher.publish(self.message(
-            TWIST, linear={"x": self.speed}, angular={"z": 0.5 * math.sin(self.sent / 10)}))
+            TWIST, linear={"x": self.get_parameter("speed")}, angular={"z": turn}))
         self.get_logger().info("sent cmd_vel %d", self.sent)
         if self.count and self.sent >= self.count:
             self.context.shutdown()

@@ -1,0 +1,127 @@
+"""``servolab topic`` and ``servolab param`` as a user runs them: separate OS processes
+talking over Zenoh on loopback, on ports chosen free at run time."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import pytest
+import yaml
+
+from tests.middleware.conftest import free_port
+
+CLI = [sys.executable, "-m", "servolab"]
+TWIST_VALUES = "{linear: {x: 0.1, y: -0.2}, angular: {z: 0.5}}"
+
+
+@contextmanager
+def started(args: list[str]) -> Iterator[subprocess.Popen]:
+    """A process that is always stopped (SIGINT, then kill) when the block ends."""
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        for stream in (proc.stdout, proc.stderr):
+            if stream is not None:
+                stream.close()
+
+
+def cli(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:
+    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.slow
+def test_two_processes_exchange_twist_on_cmd_vel_over_zenoh() -> None:
+    port = free_port()
+    echo_args = [*CLI, "topic", "echo", "/cmd_vel", "--type", "geometry_msgs/msg/Twist",
+                 "--count", "20", "--listen", f"tcp/127.0.0.1:{port}"]
+    with started(echo_args) as echo:
+        pub = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", TWIST_VALUES,
+                  "--rate", "50", "--count", "20", "--connect", f"tcp/127.0.0.1:{port}")
+        assert pub.returncode == 0, pub.stderr
+        out, err = echo.communicate(timeout=20)
+    assert echo.returncode == 0, err
+    docs = [d for d in yaml.safe_load_all(out) if d is not None]
+    assert len(docs) == 20
+    for doc in docs:
+        assert doc == {"linear": {"x": 0.1, "y": -0.2, "z": 0.0},
+                       "angular": {"x": 0.0, "y": 0.0, "z": 0.5}}
+
+
+TALKER = textwrap.dedent("""
+    import sys
+    from servolab.middleware.context import Context
+    from servolab.middleware.demo_nodes import Talker
+    from servolab.middleware.transport import TransportOptions
+    with Context.open(TransportOptions("zenoh", listen=[sys.argv[1]])) as ctx:
+        Talker(ctx, "talker", "/robot", parameter_overrides={"rate": 20.0})
+        print("ready", flush=True)
+        ctx.spin()
+""")
+
+
+@pytest.mark.slow
+def test_topic_list_hz_and_params_of_a_running_node() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with started([sys.executable, "-c", TALKER, endpoint]) as talker:
+        assert talker.stdout.readline().strip() == "ready"
+        listing = cli("topic", "list", "-t", "--connect", endpoint)
+        assert "/robot/cmd_vel [geometry_msgs/msg/Twist]" in listing.stdout, listing
+        params = cli("param", "list", "--connect", endpoint)
+        assert params.returncode == 0, params.stderr
+        assert "/robot/talker:" in params.stdout and "  rate" in params.stdout
+        got = cli("param", "get", "/robot/talker", "speed", "--connect", endpoint)
+        assert got.stdout.strip() == "speed: 0.1"
+        changed = cli("param", "set", "/robot/talker", "speed", "0.3", "--connect", endpoint)
+        assert changed.returncode == 0, changed.stderr
+        assert cli("param", "get", "/robot/talker", "speed", "--connect",
+                   endpoint).stdout.strip() == "speed: 0.3"
+        refused = cli("param", "set", "/robot/talker", "speed", "fast", "--connect", endpoint)
+        assert refused.returncode == 2
+        assert refused.stderr.strip() == ("servolab param set: error: setting speed on "
+                                          "/robot/talker failed: parameter speed is a double; "
+                                          "'fast' is a string")
+        echo = cli("topic", "echo", "/robot/cmd_vel", "--count", "3", "--connect", endpoint)
+        docs = [d for d in yaml.safe_load_all(echo.stdout) if d]
+        assert [d["linear"]["x"] for d in docs] == [0.3] * 3   # the new speed, live
+        with started([*CLI, "topic", "hz", "/robot/cmd_vel", "--connect", endpoint]) as hz:
+            lines = [hz.stdout.readline() for _ in range(6)]
+        rates = [float(line.split(":")[1]) for line in lines if line.startswith("average rate")]
+        assert rates and all(math.isfinite(r) and r > 0 for r in rates)
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["topic", "pub", "/x", "std_msgs/msg/Float64", "abc"],
+     "servolab topic pub: error: std_msgs/msg/Float64 data: 'abc' is not a float64"),
+    (["topic", "pub", "/x", "nav_msgs/msg/Odometryy", "{}"],
+     "servolab topic pub: error: unknown message type 'nav_msgs/msg/Odometryy'"),
+    (["topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", "{linear: {x: fast}}"],
+     "servolab topic pub: error: geometry_msgs/msg/Twist linear.x: 'fast' is not a float64"),
+    (["topic", "pub", "bad//name", "std_msgs/msg/Float64", "1"],
+     "servolab topic pub: error: invalid ROS name 'bad//name'"),
+    (["topic", "list", "--connect", "localhost:7447"],
+     "servolab topic list: error: Zenoh endpoint 'localhost:7447' is not"),
+    (["topic", "list", "--transport", "local", "--listen", "tcp/127.0.0.1:1"],
+     "servolab topic list: error: --listen and --connect need --transport zenoh"),
+])
+def test_bad_input_is_one_line_naming_it(args: list[str], message: str) -> None:
+    result = cli(*args, "--transport", "local") if "--transport" not in args and \
+        "--connect" not in args else cli(*args)
+    assert result.returncode == 2
+    assert result.stderr.startswith(message), result.stderr
+    assert result.stderr.count("\n") == 1
