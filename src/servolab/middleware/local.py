@@ -76,6 +76,9 @@ class LocalPublisher(TransportPublisher):
             else:
                 sub.deliver(msg, info)
 
+    def publish_serialized(self, cdr: bytes) -> None:
+        self.publish(self._transport.types.deserialize(cdr, self.type_name))
+
     def close(self) -> None:
         self._transport._remove_endpoint(self._endpoint)
 

@@ -58,6 +58,10 @@ class Publisher:
                                f"{getattr(msg, '__msgtype__', type(msg).__name__)}")
         self._inner.publish(msg)
 
+    def publish_serialized(self, cdr: bytes) -> None:
+        """Publish CDR bytes of this publisher's type as they are (bag playback)."""
+        self._inner.publish_serialized(cdr)
+
     def destroy(self) -> None:
         self._inner.close()
 
@@ -95,6 +99,15 @@ class Subscription:
             self._queue.append((data, info))
             self.received += 1
         self._executor.submit(self._take)
+
+    def drain(self) -> int:
+        """Run the callback for every message still queued (a recorder stopping keeps what
+        had already arrived); returns how many."""
+        n = 0
+        while self._queue:
+            self._take()
+            n += 1
+        return n
 
     def _take(self) -> None:
         with self._lock:

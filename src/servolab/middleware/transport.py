@@ -64,6 +64,11 @@ class TransportPublisher(ABC):
     @abstractmethod
     def publish(self, msg: Any) -> None: ...
 
+    @abstractmethod
+    def publish_serialized(self, cdr: bytes) -> None:
+        """Publish a message given as its CDR bytes (bag playback): a transport that carries
+        bytes sends them as they are, the in-process one decodes them once."""
+
     def close(self) -> None:  # noqa: B027 - most publishers hold nothing to release
         pass
 

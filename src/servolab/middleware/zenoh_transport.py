@@ -118,10 +118,9 @@ class ZenohPublisher(TransportPublisher):
         self._declared = _Declared(self._publisher, token)
 
     def publish(self, msg: Any) -> None:
-        self.put(self._types.serialize(msg, self._type_name))
+        self.publish_serialized(self._types.serialize(msg, self._type_name))
 
-    def put(self, cdr: bytes) -> None:
-        """Publish bytes that are already CDR (bag playback, ``topic pub`` of raw data)."""
+    def publish_serialized(self, cdr: bytes) -> None:
         attachment = encode_attachment(next(self._sequence), time.time_ns(), self._gid)
         self._publisher.put(cdr, attachment=attachment)
 

@@ -1,0 +1,85 @@
+"""The recorder node: topics in, an MCAP bag out (what ``servolab bag record`` runs, and what
+every robot's run folder records through).
+
+It subscribes *raw* (the CDR bytes as they arrived, never decoded and re-encoded) with
+unbounded queues, so a burst is recorded whole, not the last ``depth`` messages of it. Topics
+that are not in the graph yet are picked up when their first publisher appears, as
+``ros2 bag record`` does. The bag is flushed every ``flush_period`` seconds, so a recording cut
+off by a kill loses at most that much, and closed completely on Ctrl-C, SIGTERM or an error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from .bag import BagWriter
+from .context import Context
+from .node import Node, Subscription
+from .transport import MessageInfo
+
+
+class Recorder(Node):
+    """Records ``topics`` to the bag directory ``output``.
+
+    ``types`` gives the type of a topic that may not be in the graph when recording starts
+    (``{"/cmd_vel": "geometry_msgs/msg/Twist"}``); other topics take the type the graph shows.
+    """
+
+    def __init__(self, context: Context, output: str, topics: list[str], *,
+                 types: Mapping[str, str] | None = None, name: str = "_servolab_recorder",
+                 namespace: str = "/", flush_period: float = 1.0,
+                 discovery_period: float = 0.2) -> None:
+        super().__init__(context, name, namespace)
+        self.topics = [self.resolve(t) for t in topics]
+        given = {self.resolve(t): context.types.check(k) for t, k in (types or {}).items()}
+        self.writer = BagWriter(output, context.types)
+        self._pending = {t: given.get(t) for t in self.topics}
+        self.counts: dict[str, int] = dict.fromkeys(self.topics, 0)
+        self._subscriptions: list[Subscription] = []
+        self._discover()
+        if self._pending:
+            self._discovery = self.create_timer(discovery_period, self._discover)
+        self.create_timer(flush_period, self.writer.flush)
+
+    def _discover(self) -> None:
+        """Subscribe to every wanted topic whose type is now known."""
+        if not self._pending:
+            return
+        seen: dict[str, set[str]] = {}
+        if any(kind is None for kind in self._pending.values()):
+            for e in self.context.transport.graph(0.2):
+                if e.kind == "MP" and e.name in self._pending:
+                    seen.setdefault(e.name, set()).add(e.type_name)
+        for topic, kind in list(self._pending.items()):
+            if kind is None:
+                kinds = seen.get(topic, set())
+                if len(kinds) != 1:
+                    continue  # not there yet (or ambiguous: wait for --type)
+                kind = self.context.types.check(kinds.pop())
+            self.writer.add_topic(topic, kind)
+            self._subscriptions.append(self.create_subscription(
+                kind, topic, self._writer_for(topic), depth=0, raw=True))
+            del self._pending[topic]
+            self.get_logger().info("recording %s [%s]", topic, kind)
+
+    def _writer_for(self, topic: str) -> Any:
+        def write(data: bytes, info: MessageInfo) -> None:
+            self.writer.write(topic, data, info.received_timestamp_ns, info.source_timestamp_ns)
+            self.counts[topic] += 1
+        return write
+
+    @property
+    def waiting_for(self) -> list[str]:
+        """Topics asked for but not yet subscribed (no publisher seen, type unknown)."""
+        return sorted(self._pending)
+
+    def destroy(self) -> None:
+        """Stop recording, write what had arrived but was not written yet, and finish the bag
+        (summary, index, metadata.yaml)."""
+        super().destroy()
+        try:
+            for subscription in self._subscriptions:
+                subscription.drain()
+        finally:
+            self.writer.close()

@@ -1,0 +1,115 @@
+"""``servolab bag`` as a user runs it, checked with decoders that are not servolab's."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+import warnings
+from pathlib import Path
+
+import pytest
+import yaml
+
+from tests.middleware.conftest import free_port
+from tests.middleware.test_cli_graph import CLI, cli, started
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from mcap_ros2.reader import read_ros2_messages
+
+
+def wait_for_line(proc: subprocess.Popen, text: str, timeout: float = 15.0) -> list[str]:
+    lines = []
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        if text in line:
+            return lines
+    raise AssertionError(f"{text!r} never printed; got {lines}")
+
+
+@pytest.mark.slow
+def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
+    bag = tmp_path / "burst"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with started([*CLI, "bag", "record", "/cmd_vel", "/odom_x", "-o", str(bag), "--type",
+                  "/cmd_vel:geometry_msgs/msg/Twist", "--type", "/odom_x:std_msgs/msg/Float64",
+                  "--listen", endpoint]) as recorder:
+        wait_for_line(recorder, "recording to")
+        burst = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
+                    "{linear: {x: 0.25}, angular: {z: -1.5}}", "--rate", "0", "--count",
+                    "10000", "--connect", endpoint, timeout=120)
+        assert burst.returncode == 0, burst.stderr
+        paced = cli("topic", "pub", "/odom_x", "std_msgs/msg/Float64", "3.5", "--rate", "100",
+                    "--count", "7", "--connect", endpoint)
+        assert paced.returncode == 0, paced.stderr
+        time.sleep(0.5)
+        recorder.send_signal(signal.SIGINT)
+        out, err = recorder.communicate(timeout=30)
+    assert recorder.returncode == 0, err
+    assert "recorded 10007 message(s)" in out
+    # An independent decoder: mcap + mcap-ros2-support, not servolab's reader.
+    mcap_file = bag / "burst_0.mcap"
+    seen = {"/cmd_vel": 0, "/odom_x": 0}
+    for m in read_ros2_messages(str(mcap_file)):
+        seen[m.channel.topic] += 1
+        if m.channel.topic == "/cmd_vel":
+            assert m.schema.name == "geometry_msgs/msg/Twist"
+            assert (m.ros_msg.linear.x, m.ros_msg.angular.z) == (0.25, -1.5)
+            assert (m.ros_msg.linear.y, m.ros_msg.linear.z) == (0.0, 0.0)
+        else:
+            assert m.ros_msg.data == 3.5
+    assert seen == {"/cmd_vel": 10000, "/odom_x": 7}
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert metadata["message_count"] == 10007
+    assert metadata["storage_identifier"] == "mcap"
+    info = cli("bag", "info", str(bag))
+    assert "Messages:          10007" in info.stdout
+    assert "Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 10000" in info.stdout
+
+
+@pytest.mark.slow
+def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
+    bag = tmp_path / "talk"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with started([*CLI, "bag", "record", "/chatter", "-o", str(bag), "--type",
+                  "/chatter:std_msgs/msg/String", "--listen", endpoint]) as recorder:
+        wait_for_line(recorder, "recording to")
+        for k in range(5):
+            cli("topic", "pub", "/chatter", "std_msgs/msg/String", f"{{data: 'hello {k}'}}",
+                "--once", "--connect", endpoint)
+        time.sleep(0.3)
+        recorder.send_signal(signal.SIGTERM)
+        recorder.communicate(timeout=30)
+    assert recorder.returncode == 0
+    texts = [m.ros_msg.data for m in read_ros2_messages(str(bag / "talk_0.mcap"))]
+    assert texts == [f"hello {k}" for k in range(5)]
+    endpoint2 = f"tcp/127.0.0.1:{free_port()}"
+    with started([*CLI, "topic", "echo", "/chatter", "--type", "std_msgs/msg/String",
+                  "--count", "5", "--listen", endpoint2]) as echo:
+        time.sleep(1.0)
+        played = cli("bag", "play", str(bag), "--rate", "4", "--connect", endpoint2)
+        assert played.returncode == 0, played.stderr
+        assert "played 5 message(s)" in played.stdout
+        out, _ = echo.communicate(timeout=20)
+    assert [d["data"] for d in yaml.safe_load_all(out) if d] == texts
+
+
+def test_bag_paths_that_are_not_mcap_are_named(tmp_path: Path) -> None:
+    text = tmp_path / "notes.txt"
+    text.write_text("hello")
+    result = cli("bag", "info", str(text))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert result.stderr.startswith("servolab bag info: error: ") and str(text) in result.stderr
+    assert "not an MCAP file" in result.stderr
+    missing = cli("bag", "info", str(tmp_path / "nope"))
+    assert missing.returncode == 2 and str(tmp_path / "nope") in missing.stderr
+    bad_type = subprocess.run([*CLI, "bag", "record", "/x", "-o", str(tmp_path / "b"),
+                               "--type", "/x", "--transport", "local"],
+                              capture_output=True, text=True, timeout=30)
+    assert bad_type.returncode == 2
+    assert "--type '/x' is not TOPIC:TYPE" in bad_type.stderr
