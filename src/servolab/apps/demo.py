@@ -1,14 +1,16 @@
 """``servolab demo``: a tour of what servolab does, on emulated motors, in a few seconds.
 
-For now it shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (RX-28 on
+It shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (RX-28 on
 Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Protocol 2.0 at
-1 Mbps), scans them, moves a motor and prints what it saw, and saves a plot and summary.json in
-the run folder. Every robot that servolab grows adds its own short run here.
+1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
+listener node on ``/cmd_vel``, recorded to an MCAP bag. It saves a plot, the bag and
+summary.json in the run folder. Every robot that servolab grows adds its own short run here.
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import TextIO
 
 from ..dynamixel.bus import Bus
@@ -75,6 +77,10 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say(f"   one write+read cycle takes {cycle_ms:.3f} ms of bus time at 1 Mbps")
     figures["xm430"] = {"present_position_rad": present, "cycle_ms": cycle_ms}
 
+    # -- 3. Nodes and topics: a talker, a listener and a recorder, in one process ----------------
+    say()
+    figures["nodes"] = _nodes(run_folder, say)
+
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
     ax1.axhline(0.8, color="gray", linestyle="--", label="goal_position")
@@ -89,3 +95,34 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say()
     say(f"Plot: {plot}\nSummary: {summary}")
     return figures
+
+
+def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Two nodes and a recorder on the in-process transport, in virtual time."""
+    from ..clock import VirtualClock
+    from ..middleware.bag import BagReader
+    from ..middleware.context import Context
+    from ..middleware.demo_nodes import Listener, Talker
+    from ..middleware.recorder import Recorder
+
+    say("3. Nodes and topics: a talker publishes /cmd_vel at 10 Hz, a listener and a recorder")
+    say("   subscribe (in one process, in virtual time; see docs/middleware.md)")
+    bag_path = run_folder.file("demo_bag")
+    if bag_path.exists():
+        import shutil
+
+        shutil.rmtree(bag_path)
+    with Context.open(clock=VirtualClock()) as ctx:
+        Talker(ctx, parameter_overrides={"rate": 10.0})
+        listener = Listener(ctx)
+        recorder = Recorder(ctx, str(bag_path), ["/cmd_vel"])
+        ctx.spin_until(lambda: len(listener.heard) >= 20, timeout=5.0)
+        recorder.destroy()
+    info = BagReader(bag_path, ctx.types).info()
+    last = listener.heard[-1]
+    say(f"   the listener heard {len(listener.heard)} Twist messages; the last: linear.x = "
+        f"{last.linear.x:.2f} m/s, angular.z = {last.angular.z:+.3f} rad/s")
+    say(f"   recorded {info.message_count} messages to {bag_path} "
+        f"(open it with Foxglove, or: servolab bag info {bag_path})")
+    return {"heard": len(listener.heard), "recorded": info.message_count,
+            "bag": str(bag_path)}
