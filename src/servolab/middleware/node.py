@@ -35,12 +35,15 @@ from .parameters import (
     to_parameter_value,
     type_of,
 )
-from .rmw_zenoh import check_node_name
+from .rmw_zenoh import check_node_name, node_namespace
 from .rmw_zenoh import fully_qualified_name as resolve_name
 from .transport import MessageInfo, NodeInfo
 
 if TYPE_CHECKING:
     from .context import Context
+
+#: Node loggers are ``<prefix><fully qualified name>``: ``servolab.node/robot/talker``.
+LOGGER_PREFIX = "servolab.node"
 
 
 class Publisher:
@@ -245,7 +248,7 @@ class Node:
         check_node_name(name)
         self.context = context
         self.name = name
-        self.namespace = resolve_name(namespace, "/", name) if namespace not in ("", "/") else "/"
+        self.namespace = node_namespace(namespace, name)
         self.info = NodeInfo(name, self.namespace, context.next_node_id())
         self.fully_qualified_name = self.info.fully_qualified_name
         self._remap = {resolve_name(k, self.namespace, name): resolve_name(v, self.namespace, name)
@@ -255,7 +258,7 @@ class Node:
         self._parameters: dict[str, Parameter] = {}
         self._on_set: list[Callable[[str, Any], None]] = []
         self._entities: list[Any] = []
-        self._logger = logging.getLogger(f"servolab.node{self.fully_qualified_name}")
+        self._logger = logging.getLogger(f"{LOGGER_PREFIX}{self.fully_qualified_name}")
         self._entities.append(context.transport.announce_node(self.info))
         context.add_node(self)
         self._parameter_services()

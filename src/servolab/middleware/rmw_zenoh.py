@@ -91,6 +91,14 @@ def fully_qualified_name(name: str, namespace: str = "/", node_name: str = "") -
     return _check_fqn(full, "name", repr(name))
 
 
+def node_namespace(namespace: str, node_name: str = "") -> str:
+    """A node's namespace, fully qualified: ``/`` for the root (or ""), ``/robot1`` for
+    ``robot1``."""
+    if namespace in ("", "/"):
+        return "/"
+    return fully_qualified_name(namespace, "/", node_name)
+
+
 def check_node_name(name: str) -> str:
     """A valid node name, or a one-line error naming it."""
     return _check("ROS node name", name)
