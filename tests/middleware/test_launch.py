@@ -547,3 +547,12 @@ def test_node_groups_run_as_child_processes_over_zenoh(tmp_path: Path) -> None:
     assert any(line.startswith("[listener] [/listener] INFO heard") for line in lines)
     assert "[launch] talker exited with 0; stopping the others (required)" in lines
     assert not any(alive(pid) for pid in started_pids(lines).values())
+
+
+def test_shipped_launch_files_load() -> None:
+    configs = Path(__file__).resolve().parents[2] / "configs"
+    files = sorted(configs.glob("*.launch.yaml"))
+    assert files
+    for path in files:
+        launch = load_launch(path)
+        assert launch.nodes, path
