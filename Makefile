@@ -24,6 +24,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
+	$(BIN)/python benchmarks/middleware.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

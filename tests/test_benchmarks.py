@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import os
 import re
 import sys
 from pathlib import Path
@@ -20,8 +21,8 @@ BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "bus_cycle.py"
 NUMBER = r"([-+]?\d+(?:\.\d+)?)"
 
 
-def _load() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("bus_cycle", BENCHMARK)
+def _load(path: Path = BENCHMARK, name: str = "bus_cycle") -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec and spec.loader
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up while building
@@ -90,3 +91,53 @@ def test_bus_cycle_wire_figures_match_packet_sizes() -> None:
     fig = bench.analytic(c, 250)
     assert (fig["bytes_out"], fig["bytes_in"]) == (39 + 19, 5 * 15)
     assert fig["seconds"] == pytest.approx(133 * 10 / 1e6 + 5 * 0.5e-3)
+
+
+MIDDLEWARE = BENCHMARK.with_name("middleware.py")
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(120)
+def test_middleware_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/middleware.py --quick: eight setups (Twist and Image; servolab and bare
+    Zenoh; one and two processes) each echo every ping and count every flood message, and the
+    ratios servolab/zenoh come out finite. Its child processes are gone afterwards."""
+    bench = _load(MIDDLEWARE, "middleware_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)], progress=lambda s: None) == 0
+    out = capsys.readouterr().out
+
+    rows = re.findall(rf"^(Twist|Image)\s+(servolab|zenoh), (one process|two processes)\s+"
+                      rf"(\d+)\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out, re.MULTILINE)
+    assert [(m, e, p) for m, e, p, *_ in rows] == [
+        (m, e, p) for m in ("Twist", "Image") for p in ("one process", "two processes")
+        for e in ("servolab", "zenoh")], out
+    sizes = {m: int(b) for m, _, _, b, *_ in rows}
+    assert sizes == {"Twist": 52, "Image": 640 * 376 + 52}, sizes  # CDR of the two messages
+    for *_, p50, p99, msg_s, _ in rows:
+        assert all(_positive(float(x)) for x in (p50, p99, msg_s))
+        assert float(p99) >= float(p50)
+
+    ratios = re.findall(rf"^ratio (Twist|Image) (one process|two processes): latency p50 "
+                        rf"x{NUMBER}, p99 x{NUMBER}, time per message x{NUMBER}$", out,
+                        re.MULTILINE)
+    assert len(ratios) == 4, out
+    assert all(_positive(float(x)) for *_, a, b, c in ratios for x in (a, b, c))
+
+    figures = json.loads(out_json.read_text())
+    assert len(figures["rows"]) == 8 and len(figures["ratios"]) == 4
+    assert not _children_running("--child"), "an echo process outlived the benchmark"
+
+
+def _children_running(marker: str) -> list[int]:
+    """PIDs of this process's children whose command line holds ``marker`` (Linux /proc)."""
+    found = []
+    for entry in Path("/proc").glob("[0-9]*"):
+        try:
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == os.getpid() and marker in cmdline:
+            found.append(int(entry.name))
+    return found

@@ -1,0 +1,526 @@
+"""What servolab's middleware costs over the engine under it: latency and throughput of a
+``geometry_msgs/msg/Twist`` and of a 640x376 mono8 ``sensor_msgs/msg/Image`` (one frame of the
+fly treadmill's camera), through servolab and through bare ``zenoh`` carrying the same bytes.
+
+Four setups, each with the same two roles, a *main* side that measures and an *echo* side:
+
+- ``servolab, one process``: two nodes in one context on the in-process transport (the
+  default), the echo node's callback republishing what it hears;
+- ``zenoh, one process``: one Zenoh session whose subscriber callback ``put``s the sample's
+  payload back (Zenoh's own local delivery);
+- ``servolab, two processes``: the main node here, the echo node in a child OS process, on the
+  Zenoh transport over loopback TCP;
+- ``zenoh, two processes``: the same with bare Zenoh sessions, opened with servolab's own
+  session configuration (peer mode, no scouting, ``CongestionControl.BLOCK``) so that the
+  only difference is servolab: CDR serialization through ``rosbags``, rmw_zenoh's key
+  expressions and attachment, the subscription queue and the executor.
+
+**Latency** is half the round trip of one message echoed back (ping-pong, one message in
+flight), from before ``publish`` to the moment the main side's callback has the answer, given
+as the median and 99th percentile. **Throughput** is one way: the main side publishes N
+messages back to back and the echo side, which counts them, answers with a small
+``std_msgs/msg/UInt64`` (eight bytes on bare Zenoh) once it has all N; the figure is N over
+the time to that answer, in messages and CDR megabytes per second, the median of a few rounds.
+
+The ratios servolab/zenoh (latency over latency, and time per message over time per message
+for throughput) are measured in the same run, so they carry over to other machines better
+than the absolute figures. In one process servolab does not use Zenoh at all; that ratio
+says how the default transport compares with the cheapest thing Zenoh can do.
+
+Child processes listen on nothing and connect to the main side's free loopback port; each is
+stopped when its setup ends (its stdin closes; it is killed if it does not leave).
+
+Run: ``.venv/bin/python benchmarks/middleware.py [--quick] [--json PATH]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import math
+import platform
+import select
+import socket
+import statistics
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import zenoh
+
+from servolab.middleware.context import Context
+from servolab.middleware.messages import MessageTypes
+from servolab.middleware.node import Node
+from servolab.middleware.transport import TransportOptions
+from servolab.middleware.zenoh_transport import open_session
+
+TWIST = "geometry_msgs/msg/Twist"
+IMAGE = "sensor_msgs/msg/Image"
+COUNT = "std_msgs/msg/UInt64"
+IMAGE_WIDTH, IMAGE_HEIGHT = 640, 376
+
+# Topics of the servolab side and keys of the bare Zenoh side.
+PING, PONG, FLOOD, FLOOD_ACK = "/bench/ping", "/bench/pong", "/bench/flood", "/bench/flood_ack"
+KEYS = {name: "servolab_bench" + name for name in (PING, PONG, FLOOD, FLOOD_ACK)}
+
+CONNECT_TIMEOUT = 20.0  # s for a child to start and the first echo to come back
+ANSWER_TIMEOUT = 10.0   # s for one answer once connected
+BLOCK = zenoh.CongestionControl.BLOCK
+
+
+@dataclass(frozen=True)
+class Sizes:
+    """How much to measure for one message type."""
+
+    pings: int
+    warmup: int
+    flood: int
+    rounds: int
+
+
+FULL = {TWIST: Sizes(pings=5000, warmup=500, flood=20000, rounds=5),
+        IMAGE: Sizes(pings=1000, warmup=100, flood=1000, rounds=5)}
+QUICK = {TWIST: Sizes(pings=60, warmup=10, flood=100, rounds=1),
+         IMAGE: Sizes(pings=15, warmup=3, flood=10, rounds=1)}
+SHORT_NAMES = {TWIST: "Twist", IMAGE: "Image"}
+
+
+def sample_message(types: MessageTypes, type_name: str) -> Any:
+    """The message every setup sends: a turning ``cmd_vel``, or one camera frame of noise."""
+    if type_name == TWIST:
+        return types.from_value(TWIST, {"linear": {"x": 0.1}, "angular": {"z": 0.5}})
+    rng = np.random.default_rng(0)
+    msg = types.from_value(IMAGE, {
+        "header": {"frame_id": "camera"}, "height": IMAGE_HEIGHT, "width": IMAGE_WIDTH,
+        "encoding": "mono8", "step": IMAGE_WIDTH})
+    msg.data = rng.integers(0, 256, IMAGE_WIDTH * IMAGE_HEIGHT, dtype=np.uint8)
+    return msg
+
+
+def same_message(a: Any, b: Any) -> bool:
+    """Field-by-field equality of two messages (arrays compared by value)."""
+    if type(a) is not type(b):
+        return False
+    if not hasattr(a, "__dataclass_fields__"):
+        return bool(np.array_equal(a, b)) if isinstance(a, np.ndarray) else a == b
+    return all(same_message(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
+
+
+# -- the echo side ---------------------------------------------------------------------------
+
+
+class ServolabEcho(Node):
+    """Republishes every ping as a pong; counts the flood and answers each ``flood`` of it."""
+
+    def __init__(self, context: Context, type_name: str, flood: int) -> None:
+        super().__init__(context, "bench_echo")
+        self.flood, self.counted = flood, 0
+        self.pong = self.create_publisher(type_name, PONG, depth=0)
+        self.ack = self.create_publisher(COUNT, FLOOD_ACK, depth=0)
+        self.create_subscription(type_name, PING, self.pong.publish, depth=0)
+        self.create_subscription(type_name, FLOOD, self._on_flood, depth=0)
+
+    def _on_flood(self, msg: Any) -> None:
+        self.counted += 1
+        if self.counted % self.flood == 0:
+            self.ack.publish(self.message(COUNT, data=self.counted))
+
+
+class ZenohEcho:
+    """The same as :class:`ServolabEcho` with bare Zenoh: payloads go back untouched."""
+
+    def __init__(self, session: zenoh.Session, flood: int) -> None:
+        self.flood, self.counted = flood, 0
+        self.pong = session.declare_publisher(KEYS[PONG], congestion_control=BLOCK)
+        self.ack = session.declare_publisher(KEYS[FLOOD_ACK], congestion_control=BLOCK)
+        self.subscribers = [
+            session.declare_subscriber(KEYS[PING], lambda s: self.pong.put(s.payload)),
+            session.declare_subscriber(KEYS[FLOOD], self._on_flood)]
+
+    def _on_flood(self, sample: zenoh.Sample) -> None:
+        self.counted += 1
+        if self.counted % self.flood == 0:
+            self.ack.put(struct.pack("<Q", self.counted))
+
+    def close(self) -> None:
+        for entity in (*self.subscribers, self.pong, self.ack):
+            entity.undeclare()
+
+
+# -- the main side ---------------------------------------------------------------------------
+
+
+class MainSide(Protocol):
+    def send_ping(self) -> None: ...
+    def wait_pong(self, timeout: float) -> bool: ...
+    def last_pong_matches(self) -> bool: ...
+    def flood(self, n: int, timeout: float) -> int: ...
+    def settle(self, seconds: float) -> None: ...
+
+
+class ServolabMain(Node):
+    """Publishes pings and floods, hears pongs and acks, all through one executor."""
+
+    def __init__(self, context: Context, type_name: str, msg: Any) -> None:
+        super().__init__(context, "bench_main")
+        self.msg = msg
+        self.pongs, self.acked, self.last_pong = 0, 0, None
+        self.ping = self.create_publisher(type_name, PING, depth=0)
+        self.flood_pub = self.create_publisher(type_name, FLOOD, depth=0)
+        self.create_subscription(type_name, PONG, self._on_pong, depth=0)
+        self.create_subscription(COUNT, FLOOD_ACK, self._on_ack, depth=0)
+
+    def _on_pong(self, msg: Any) -> None:
+        self.pongs += 1
+        self.last_pong = msg
+
+    def _on_ack(self, msg: Any) -> None:
+        self.acked = msg.data
+
+    def send_ping(self) -> None:
+        self._before = self.pongs
+        self.ping.publish(self.msg)
+
+    def wait_pong(self, timeout: float) -> bool:
+        return self.context.spin_until(lambda: self.pongs > self._before, timeout)
+
+    def last_pong_matches(self) -> bool:
+        return same_message(self.last_pong, self.msg)
+
+    def flood(self, n: int, timeout: float) -> int:
+        target = self.acked + n
+        for _ in range(n):
+            self.flood_pub.publish(self.msg)
+        self.context.spin_until(lambda: self.acked >= target, timeout)
+        return self.acked - (target - n)
+
+    def settle(self, seconds: float) -> None:
+        self.context.spin_for(seconds)
+
+
+class ZenohMain:
+    """Bare Zenoh: ``put`` the CDR bytes, wait on an event set by the subscriber callback."""
+
+    def __init__(self, session: zenoh.Session, payload: bytes) -> None:
+        self.payload = payload
+        self.last_pong: bytes | None = None
+        self.acked = 0
+        self._pong = threading.Event()
+        self._ack = threading.Condition()
+        self.ping = session.declare_publisher(KEYS[PING], congestion_control=BLOCK)
+        self.flood_pub = session.declare_publisher(KEYS[FLOOD], congestion_control=BLOCK)
+        self.subscribers = [session.declare_subscriber(KEYS[PONG], self._on_pong),
+                            session.declare_subscriber(KEYS[FLOOD_ACK], self._on_ack)]
+
+    def _on_pong(self, sample: zenoh.Sample) -> None:
+        self.last_pong = sample.payload.to_bytes()
+        self._pong.set()
+
+    def _on_ack(self, sample: zenoh.Sample) -> None:
+        with self._ack:
+            (self.acked,) = struct.unpack("<Q", sample.payload.to_bytes())
+            self._ack.notify_all()
+
+    def send_ping(self) -> None:
+        self._pong.clear()
+        self.ping.put(self.payload)
+
+    def wait_pong(self, timeout: float) -> bool:
+        return self._pong.wait(timeout)
+
+    def last_pong_matches(self) -> bool:
+        return self.last_pong == self.payload
+
+    def flood(self, n: int, timeout: float) -> int:
+        target = self.acked + n
+        for _ in range(n):
+            self.flood_pub.put(self.payload)
+        with self._ack:
+            self._ack.wait_for(lambda: self.acked >= target, timeout)
+        return self.acked - (target - n)
+
+    def settle(self, seconds: float) -> None:
+        time.sleep(seconds)
+        self._pong.clear()
+
+    def close(self) -> None:
+        for entity in (*self.subscribers, self.ping, self.flood_pub):
+            entity.undeclare()
+
+
+# -- measuring -------------------------------------------------------------------------------
+
+
+@dataclass
+class Figures:
+    message: str
+    setup: str
+    engine: str          # servolab | zenoh
+    processes: int
+    cdr_bytes: int
+    latency_p50_us: float
+    latency_p99_us: float
+    throughput_msg_s: float
+    throughput_mb_s: float
+
+
+def connect(main: MainSide, label: str) -> None:
+    """Ping until the echo answers (a child needs time to start and to find us)."""
+    deadline = time.monotonic() + CONNECT_TIMEOUT
+    while time.monotonic() < deadline:
+        main.send_ping()
+        if main.wait_pong(0.2):
+            main.settle(0.3)  # let answers to earlier pings arrive before timing starts
+            if not main.last_pong_matches():
+                raise RuntimeError(f"{label}: the echo came back different from what was sent")
+            return
+    raise RuntimeError(f"{label}: no echo within {CONNECT_TIMEOUT:.0f} s")
+
+
+def measure(main: MainSide, label: str, sizes: Sizes) -> tuple[list[float], list[float]]:
+    """Half round trips (s) of ``sizes.pings`` pings, and the floods' messages per second."""
+    connect(main, label)
+    for _ in range(sizes.warmup):
+        main.send_ping()
+        if not main.wait_pong(ANSWER_TIMEOUT):
+            raise RuntimeError(f"{label}: a warm-up ping got no answer")
+    half_trips: list[float] = []
+    rates: list[float] = []
+    gc.collect()
+    gc.disable()
+    try:
+        for _ in range(sizes.pings):
+            start = time.perf_counter()
+            main.send_ping()
+            if not main.wait_pong(ANSWER_TIMEOUT):
+                raise RuntimeError(f"{label}: a ping got no answer within {ANSWER_TIMEOUT} s")
+            half_trips.append((time.perf_counter() - start) / 2)
+        if not main.last_pong_matches():
+            raise RuntimeError(f"{label}: the last echo differs from what was sent")
+        for _ in range(sizes.rounds):
+            start = time.perf_counter()
+            arrived = main.flood(sizes.flood, ANSWER_TIMEOUT + sizes.flood * 0.01)
+            elapsed = time.perf_counter() - start
+            if arrived != sizes.flood:
+                raise RuntimeError(f"{label}: {arrived} of {sizes.flood} flood messages arrived")
+            rates.append(sizes.flood / elapsed)
+            gc.collect()
+    finally:
+        gc.enable()
+    return half_trips, rates
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    return float(np.percentile(np.asarray(values), q))
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextmanager
+def child(engine: str, type_name: str, flood: int, endpoint: str) -> Iterator[None]:
+    """The echo side in its own OS process; stopped (stdin closed, then killed) on exit."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", engine,
+           "--type", type_name, "--flood", str(flood), "--connect", endpoint]
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        ready, _, _ = select.select([proc.stdout], [], [], CONNECT_TIMEOUT)
+        line = proc.stdout.readline().strip() if ready else ""  # type: ignore[union-attr]
+        if line != "ready":
+            proc.kill()
+            err = proc.stderr.read().strip().splitlines()  # type: ignore[union-attr]
+            raise RuntimeError(f"echo process ({engine}) did not start: "
+                               f"{err[-1] if err else 'no output'}")
+        yield
+    finally:
+        try:
+            proc.stdin.close()  # type: ignore[union-attr]
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def run_setup(engine: str, processes: int, type_name: str, sizes: Sizes,
+              types: MessageTypes) -> Figures:
+    msg = sample_message(types, type_name)
+    payload = types.serialize(msg, type_name)
+    label = f"{SHORT_NAMES[type_name]}, {engine}, {processes} process(es)"
+    if processes == 1 and engine == "servolab":
+        with Context.open(types=types) as context:
+            ServolabEcho(context, type_name, sizes.flood)
+            half_trips, rates = measure(ServolabMain(context, type_name, msg), label, sizes)
+    elif processes == 1:
+        session = open_session(TransportOptions("zenoh", listen=[_loopback()]))
+        try:
+            echo = ZenohEcho(session, sizes.flood)
+            main = ZenohMain(session, payload)
+            try:
+                half_trips, rates = measure(main, label, sizes)
+            finally:
+                main.close()
+                echo.close()
+        finally:
+            session.close()
+    else:
+        endpoint = _loopback()
+        options = TransportOptions("zenoh", listen=[endpoint])
+        if engine == "servolab":
+            with Context.open(options, types=types) as context:
+                main_node = ServolabMain(context, type_name, msg)
+                with child(engine, type_name, sizes.flood, endpoint):
+                    half_trips, rates = measure(main_node, label, sizes)
+        else:
+            session = open_session(options)
+            try:
+                main = ZenohMain(session, payload)
+                try:
+                    with child(engine, type_name, sizes.flood, endpoint):
+                        half_trips, rates = measure(main, label, sizes)
+                finally:
+                    main.close()
+            finally:
+                session.close()
+    rate = statistics.median(rates)
+    return Figures(
+        message=SHORT_NAMES[type_name],
+        setup=f"{engine}, {'one process' if processes == 1 else 'two processes'}",
+        engine=engine, processes=processes, cdr_bytes=len(payload),
+        latency_p50_us=percentile(half_trips, 50) * 1e6,
+        latency_p99_us=percentile(half_trips, 99) * 1e6,
+        throughput_msg_s=rate, throughput_mb_s=rate * len(payload) / 1e6)
+
+
+def _loopback() -> str:
+    return f"tcp/127.0.0.1:{free_port()}"
+
+
+# -- the child process -----------------------------------------------------------------------
+
+
+def run_child(engine: str, type_name: str, flood: int, endpoint: str) -> int:
+    """Echo until stdin closes (the parent is done, or gone)."""
+    options = TransportOptions("zenoh", connect=[endpoint])
+
+    def wait_for_parent() -> None:
+        sys.stdin.read()
+
+    if engine == "servolab":
+        with Context.open(options) as context:
+            ServolabEcho(context, type_name, flood)
+
+            def stop_when_parent_is_done() -> None:
+                wait_for_parent()
+                context.shutdown()
+            threading.Thread(target=stop_when_parent_is_done, daemon=True).start()
+            print("ready", flush=True)
+            context.executor.spin()
+        return 0
+    session = open_session(options)
+    try:
+        echo = ZenohEcho(session, flood)
+        print("ready", flush=True)
+        wait_for_parent()
+        echo.close()
+    finally:
+        session.close()
+    return 0
+
+
+# -- report ----------------------------------------------------------------------------------
+
+
+SETUPS = (("servolab", 1), ("zenoh", 1), ("servolab", 2), ("zenoh", 2))
+
+
+def ratios(rows: list[Figures]) -> list[dict[str, Any]]:
+    """servolab over zenoh for each message and process count: > 1 means servolab costs more."""
+    out = []
+    for message in dict.fromkeys(r.message for r in rows):
+        for processes in (1, 2):
+            ours = next(r for r in rows if (r.message, r.engine, r.processes)
+                        == (message, "servolab", processes))
+            bare = next(r for r in rows if (r.message, r.engine, r.processes)
+                        == (message, "zenoh", processes))
+            out.append({"message": message, "processes": processes,
+                        "latency_p50": ours.latency_p50_us / bare.latency_p50_us,
+                        "latency_p99": ours.latency_p99_us / bare.latency_p99_us,
+                        "time_per_message": bare.throughput_msg_s / ours.throughput_msg_s})
+    return out
+
+
+def _version(dist: str) -> str:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "?"
+
+
+def main(argv: Sequence[str] | None = None,
+         progress: Callable[[str], None] = lambda s: print(s, file=sys.stderr, flush=True)
+         ) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true",
+                        help="a few messages per setup: checks that it runs, not how fast")
+    parser.add_argument("--json", type=Path, help="also write the figures to this file")
+    parser.add_argument("--child", choices=("servolab", "zenoh"), help=argparse.SUPPRESS)
+    parser.add_argument("--type", default=TWIST, help=argparse.SUPPRESS)
+    parser.add_argument("--flood", type=int, default=1, help=argparse.SUPPRESS)
+    parser.add_argument("--connect", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        return run_child(args.child, args.type, args.flood, args.connect)
+
+    sizes = QUICK if args.quick else FULL
+    types = MessageTypes()
+    print(f"servolab middleware benchmark: Python {platform.python_version()}, "
+          f"eclipse-zenoh {_version('eclipse-zenoh')}, rosbags {_version('rosbags')}, "
+          f"{platform.machine()}{' (quick)' if args.quick else ''}")
+    rows: list[Figures] = []
+    for type_name in (TWIST, IMAGE):
+        for engine, processes in SETUPS:
+            progress(f"  measuring {SHORT_NAMES[type_name]}: {engine}, "
+                     f"{processes} process(es)...")
+            rows.append(run_setup(engine, processes, type_name, sizes[type_name], types))
+
+    print()
+    print("latency = half a ping-pong round trip; throughput = one way, N back to back")
+    print(f"{'message':8} {'setup':26} {'bytes':>7} {'p50 us':>9} {'p99 us':>9} "
+          f"{'msg/s':>10} {'MB/s':>8}")
+    for r in rows:
+        print(f"{r.message:8} {r.setup:26} {r.cdr_bytes:7d} {r.latency_p50_us:9.1f} "
+              f"{r.latency_p99_us:9.1f} {r.throughput_msg_s:10.0f} {r.throughput_mb_s:8.1f}")
+    print()
+    print("servolab / bare zenoh (> 1: servolab costs more):")
+    found = ratios(rows)
+    for q in found:
+        where = "one process" if q["processes"] == 1 else "two processes"
+        print(f"ratio {q['message']} {where}: latency p50 x{q['latency_p50']:.2f}, "
+              f"p99 x{q['latency_p99']:.2f}, time per message x{q['time_per_message']:.2f}")
+    if args.json:
+        args.json.write_text(json.dumps({"rows": [asdict(r) for r in rows], "ratios": found,
+                                         "sizes": {SHORT_NAMES[k]: asdict(v)
+                                                   for k, v in sizes.items()}}, indent=2))
+    if not all(math.isfinite(v) and v > 0 for q in found for k, v in q.items()
+               if k.startswith(("latency", "time"))):
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
