@@ -9,7 +9,6 @@ runs only once that CLI is there.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import os
@@ -526,9 +525,6 @@ def test_a_signal_to_the_supervisor_stops_everything(tmp_path: Path,
     assert not any(alive(pid) for pid in pids.values())
 
 
-@pytest.mark.skipif(importlib.util.find_spec("servolab.apps.launchtools") is None,
-                    reason="`servolab launch --process` (servolab.apps.launchtools) is not "
-                           "there yet")
 def test_node_groups_run_as_child_processes_over_zenoh(tmp_path: Path) -> None:
     path = write(tmp_path, f"""\
         transport: zenoh

@@ -6,7 +6,6 @@ and returns what it found, so tests and other code can call it without a shell.
 
 from __future__ import annotations
 
-import signal
 import sys
 import time
 from collections.abc import Iterable, Sequence
@@ -19,22 +18,13 @@ from ..dynamixel.errors import ConfigError
 from ..dynamixel.motorspec import MotorSpec
 from ..dynamixel.ports import PtyServer
 from ..runs import RunFolder
+from ..signals import on_stop_signals, raise_keyboard_interrupt
 
 #: Baud rates the Dynamixel Wizard offers, per protocol, most common first.
 COMMON_BAUDS = {
     1: [57600, 1_000_000, 115_200, 500_000, 400_000, 250_000, 200_000, 9_600],
     2: [57600, 1_000_000, 115_200, 2_000_000, 3_000_000, 4_000_000, 9_600],
 }
-
-
-def _stop_on_signals() -> None:
-    """SIGINT and SIGTERM both end the run cleanly (SIGINT explicitly, since a shell starts
-    background jobs with it ignored)."""
-    def handler(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, handler)
-    signal.signal(signal.SIGINT, handler)
 
 
 def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
@@ -53,9 +43,8 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
           f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
           f"{f' (link {link})' if link else ''}; Ctrl-C stops", file=stderr, flush=True)
-    _stop_on_signals()
     started = time.monotonic()
-    with server:
+    with on_stop_signals(raise_keyboard_interrupt), server:
         try:
             while duration is None or time.monotonic() - started < duration:
                 time.sleep(0.2)

@@ -8,14 +8,13 @@ given before start-up. Nothing of this is global: a test can open two contexts s
 from __future__ import annotations
 
 import itertools
-import signal
-import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 from servolab.clock import Clock, WallClock
+from servolab.signals import on_stop_signals
 
 from .errors import TransportError
 from .executor import Executor
@@ -96,22 +95,10 @@ class Context:
 
     @contextmanager
     def stop_on_signals(self) -> Iterator[None]:
-        """Turn SIGINT and SIGTERM into a clean :meth:`shutdown` while inside (main thread
-        only; elsewhere it changes nothing)."""
-        if threading.current_thread() is not threading.main_thread():
+        """Turn SIGINT, SIGTERM and SIGHUP into a clean :meth:`shutdown` while inside (main
+        thread only; elsewhere it changes nothing)."""
+        with on_stop_signals(lambda signum, frame: self.shutdown()):
             yield
-            return
-        previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-
-        def stop(signum: int, frame: Any) -> None:
-            self.shutdown()
-        for s in previous:
-            signal.signal(s, stop)
-        try:
-            yield
-        finally:
-            for s, handler in previous.items():
-                signal.signal(s, handler)
 
     def close(self) -> None:
         if self._closed:

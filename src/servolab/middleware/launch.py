@@ -35,6 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 
+from servolab.signals import on_stop_signals
+
 from .context import Context
 from .errors import LaunchError, MiddlewareError, ParameterError
 from .launch_file import (
@@ -297,25 +299,6 @@ class _Child:
     reported: bool = False
 
 
-@contextmanager
-def _on_signals(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
-    """Catch SIGINT, SIGTERM and SIGHUP while inside (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    signals = [signal.SIGINT, signal.SIGTERM]
-    if hasattr(signal, "SIGHUP"):  # the terminal closing must not orphan the children
-        signals.append(signal.SIGHUP)
-    previous = {s: signal.getsignal(s) for s in signals}
-    for s in signals:
-        signal.signal(s, handler)
-    try:
-        yield
-    finally:
-        for s, old in previous.items():
-            signal.signal(s, old if old is not None else signal.SIG_DFL)
-
-
 class _Supervisor:
     """Starts the children, relays their output, and stops them all (see the module
     docstring). Each child gets its own process group: Ctrl-C in the terminal then reaches
@@ -353,7 +336,7 @@ class _Supervisor:
         for entry in commands:
             self.children.append(_Child(_unique(entry.name, labels),
                                         exec_command(entry, endpoint), entry.required))
-        with _on_signals(self._on_signal):
+        with on_stop_signals(self._on_signal):
             try:
                 for child in self.children:
                     if self.stop.is_set():
