@@ -16,27 +16,28 @@ Three buses are measured:
 (c) 5 XM430-W210 on Protocol 2.0 at 1 000 000 bps: the fly treadmill, whose write-and-read round
     trip must leave most of a 15 ms camera frame to the tracking code.
 
-**Wire time.** ``Bus.emulated`` wires the driver to the byte-level emulator through a
-``MemoryPort`` on a ``VirtualClock``: every byte takes 10 bits' time at the baud rate and every
-motor answers after its return delay, so the clock's advance over one cycle is the time the
-cycle occupies a real wire, the upper bound on the cycle rate whatever the host does. It is
-given with the return delay at the factory 250 (0.5 ms) and at 0 (the usual tuning), next to
-the same figure computed from the packet sizes of the protocol documents (bytes x 10 / baud +
-one return delay per answer) as a cross-check, and next to the official ROBOTIS SDK's cycle on
-the same virtual wire, which shows that both drivers send the same packets. Not included: the
-USB adapter's latency (an FTDI latency timer adds up to its setting, 16 ms by default and 1 ms
-at best, to every answer, i.e. to each of the 20 READs of (a) and (b)) and the host's time.
+**Wire time.** An emulated bus (``emu://``) wires the driver to the byte-level emulator through
+a ``MemoryPort`` on a simulation's virtual clock: every byte takes 10 bits' time at the baud
+rate and every motor answers after its return delay, so the clock's advance over one cycle is
+the time the cycle occupies a real wire, the upper bound on the cycle rate whatever the host
+does. It is given with the return delay at the factory 250 (0.5 ms) and at 0 (the usual tuning),
+next to the same figure computed from the packet sizes of the protocol documents (bytes x 10 /
+baud + one return delay per answer) as a cross-check, and next to the official ROBOTIS SDK's
+cycle on the same virtual wire, which shows that both drivers send the same packets. Not
+included: the USB adapter's latency (an FTDI latency timer adds up to its setting, 16 ms by
+default and 1 ms at best, to every answer, i.e. to each of the 20 READs of (a) and (b)) and the
+host's time.
 
 **Host CPU time.** The same transactions are then run by servolab's ``Bus`` and by the SDK
 (``PacketHandler`` + ``GroupSyncWrite`` / ``GroupSyncRead``, through a small ``PortHandler``
 subclass that reads and writes a servolab ``MemoryPort``) against the same emulator in this
 process, on a wall-clock port, where answers are there at once and nothing waits. The
-emulator's own time (its ``receive`` and ``advance``, wrapped with ``time.perf_counter``
+emulator's own time (its ``receive``, wrapped with a ``time.perf_counter``
 accumulators) is subtracted from both sides, with the accumulator's own per-call overhead, so
 what remains is the driver's work (plus the in-memory port's byte handling, the same bytes on
-both sides). The emulated motors' physics is frozen during this measurement (torque stays off,
-so nothing would move anyway); ``--live-physics`` keeps it running, which only makes the
-emulator's share, and so the noise of the subtraction, larger. Both sides must read back
+both sides). The emulated motors' physics is frozen during this measurement (nothing steps their
+simulation; torque stays off, so nothing would move anyway); ``--live-physics`` runs the
+simulation in real time on its own thread, which only adds noise. Both sides must read back
 exactly the positions the emulated motors hold and leave the goals they wrote in the motors'
 control tables, and must put the same number of bytes and instructions on the wire; the run
 stops otherwise. The ratio ours/SDK is measured in the same run, so it carries over to other
@@ -61,12 +62,13 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from servolab.clock import Clock, VirtualClock, WallClock
+from servolab.clock import WallClock
 from servolab.dynamixel import Bus, MemoryPort, model
-from servolab.dynamixel.emulator import BITS_PER_BYTE
 from servolab.dynamixel.models import Model
 from servolab.dynamixel.motorspec import MotorEntry, MotorSpec
 from servolab.dynamixel.units import to_si
+from servolab.dynamixel.wire import BITS_PER_BYTE
+from servolab.sim import Simulation, emulated_port
 
 try:
     import dynamixel_sdk as sdk
@@ -125,15 +127,24 @@ ARMSTRONG_RATE_HZ = 20.0
 CAMERA_FRAME_S = 0.015
 
 
-def make_bus(config: Config, clock: Clock) -> Bus:
-    """An emulated bus of ``config``'s motors on ``clock``, every motor declared (no PING in
-    the cycle) and each at its own angle, so every motor reports a different position."""
+def make_bus(config: Config, *, virtual: bool, live_physics: bool = False) -> Bus:
+    """An emulated bus of ``config``'s motors, every motor declared (no PING in the cycle) and
+    each at its own angle, so every motor reports a different position. ``virtual``: on its
+    simulation's virtual clock (wire time); else on the wall clock, with the physics frozen
+    (nothing steps the simulation) or, ``live_physics``, stepped in real time."""
     m = config.model
     n = len(config.ids)
     motors = tuple(MotorEntry(m, motor_id, position=0.02 * (k - n // 2))
                    for k, motor_id in enumerate(config.ids))
-    bus = Bus.emulated(MotorSpec(m.protocol, config.baudrate, motors),
-                       baudrate=config.baudrate, clock=clock)
+    sim = Simulation()
+    port = emulated_port(MotorSpec(m.protocol, config.baudrate, motors), config.baudrate,
+                         simulation=sim)
+    if not virtual:
+        if live_physics:
+            sim.start_real_time()
+        else:
+            port.clock = WallClock()
+    bus = Bus(port)
     for motor_id in config.ids:
         bus.declare(motor_id, m)
     return bus
@@ -204,7 +215,7 @@ class SdkPort(sdk.PortHandler if sdk else object):  # type: ignore[misc]
     """The ROBOTIS SDK's PortHandler on a servolab MemoryPort instead of a serial device.
 
     The SDK's packet and timeout logic run unchanged; only the byte I/O and the time source
-    go to the MemoryPort and its clock (milliseconds, as the SDK counts). On a VirtualClock a
+    go to the MemoryPort and its clock (milliseconds, as the SDK counts). On a virtual clock a
     read waits (virtually) for the bytes it asks for, up to the SDK's packet timeout, so the
     SDK's transactions take the same wire time as ours; on the wall clock nothing waits.
     """
@@ -376,9 +387,9 @@ def virtual_cycles(bus: Bus, cycle: Callable[[Mapping[int, float]], Mapping[int,
 
 
 def wire_time(config: Config) -> list[dict[str, Any]]:
-    bus = make_bus(config, VirtualClock())
+    bus = make_bus(config, virtual=True)
     if not bus.port.clock.virtual:
-        raise BenchmarkError("the wire-time bus must run on a VirtualClock")
+        raise BenchmarkError("the wire-time bus must run on a virtual clock")
     work = Workload(config, bus)
     ours = ours_cycle(bus, config.ids)
     theirs = sdk_cycle(config, bus.port)  # type: ignore[arg-type]
@@ -411,10 +422,11 @@ def wire_time(config: Config) -> list[dict[str, Any]]:
 
 # -- host CPU time ---------------------------------------------------------------------------------
 class EmulatorTimer:
-    """Accumulates the time spent inside the emulator (``receive`` and ``advance``, outermost
-    calls only), by wrapping those two methods of one emulator instance."""
+    """Accumulates the time spent inside the emulator (``receive``, outermost calls only), by
+    wrapping that method of one emulator instance. (On the wall clock nothing else of the
+    emulator runs on this thread: its simulation is frozen or steps on its own thread.)"""
 
-    METHODS = ("receive", "advance")
+    METHODS = ("receive",)
 
     def __init__(self, target: Any) -> None:
         self.total = 0.0
@@ -447,9 +459,6 @@ def wrapper_overhead(samples: int = 20_000) -> float:
 
     class Dummy:
         def receive(self, *args: Any) -> None:
-            return None
-
-        def advance(self, *args: Any) -> None:
             return None
 
     bare, wrapped = Dummy(), Dummy()
@@ -514,11 +523,9 @@ def timed_run(bus: Bus, timer: EmulatorTimer, work: Workload, who: str,
 
 def cpu_time(config: Config, cycles: int, rounds: int, warmup: int, overhead: float, *,
              live_physics: bool = False) -> dict[str, Any]:
-    bus = make_bus(config, WallClock())
+    bus = make_bus(config, virtual=False, live_physics=live_physics)
     emulator = bus.emulator
     assert emulator is not None
-    if not live_physics:
-        emulator.time = math.inf  # advance() never steps: the motors keep their state
     work = Workload(config, bus)
     timer = EmulatorTimer(emulator)
     sides: dict[str, tuple[Callable[[Mapping[int, float]], Mapping[int, float]], bool]] = {
@@ -579,8 +586,8 @@ def report(results: list[dict[str, Any]], args: argparse.Namespace, overhead: fl
         c: Config = res["config"]
         lines.append(f"({c.key}) {c.label:44}{c.instructions:24}")
 
-    lines += ["", "1. Wire time per cycle: servolab's wire model (MemoryPort on a VirtualClock, 10 "
-              "bits a byte, each", "   answer after its return delay), the same from the packet "
+    lines += ["", "1. Wire time per cycle: servolab's wire model (MemoryPort on a virtual clock, "
+              "10 bits a byte, each", "   answer after its return delay), the same from the packet "
               "sizes (bytes x 10 / baud + delays),", "   and the official SDK's cycle on the same "
               "virtual wire. No USB latency, no host time.", ""]
     head = (f"{'':4}{'return delay':>15}{'bytes out/in':>14}{'emulated ms':>13}"
@@ -600,7 +607,7 @@ def report(results: list[dict[str, Any]], args: argparse.Namespace, overhead: fl
               f"x {args.cycles} cycles after {args.warmup} warm-up, perf_counter),",
               "   both drivers against the same emulator in this process on a wall-clock "
               "MemoryPort.",
-              "   The emulator's own time (receive + advance) is measured and SUBTRACTED from "
+              "   The emulator's own time (receive) is measured and SUBTRACTED from "
               "both sides,",
               f"   with {overhead * 1e9:.0f} ns per call for the accumulator itself. 'ours' "
               "works in raw ticks like the SDK;",

@@ -22,7 +22,7 @@ def joint_moves(path: Path) -> None:
     """An RX-28 in joint mode, sent to three goals at three moving speeds."""
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
     for speed in (0.5, 1.5, 0.0):
-        bus = Bus.emulated("rx28:1", baudrate=1_000_000)
+        bus = Bus.open("emu://rx28:1", baudrate=1_000_000)
         clock = bus.port.clock
         bus.write(1, "torque_enable", 1)
         bus.write(1, {"goal_position": 1.0, "moving_speed": speed})
@@ -51,7 +51,7 @@ def cycle_time(path: Path) -> None:
     for name, _, baud, label in configs:
         counts, millis = [], []
         for n in (1, 2, 5, 10, 15, 20):
-            bus = Bus.emulated(f"{name}:1-{n}", baudrate=baud)
+            bus = Bus.open(f"emu://{name}:1-{n}", baudrate=baud)
             ids = list(range(1, n + 1))
             bus.sync_write("return_delay_time", {i: 0 for i in ids})
             clock = bus.port.clock
@@ -72,11 +72,49 @@ def cycle_time(path: Path) -> None:
     plt.close(fig)
 
 
+def floor_world(path: Path) -> None:
+    """The floor world's example: two wheels told to drive an arc, the base's true path beside
+    what the driver reads back from the wheel motors."""
+    from servolab.dynamixel.ports import MemoryPort
+    from servolab.sim import DiffDriveFloor, Simulation
+
+    sim = Simulation()
+    world = DiffDriveFloor.example(sim)
+    bus = Bus(MemoryPort(sim.emulators[0], 1_000_000, clock=sim, lock=sim.lock))
+    times, xs, ys, left, right = [], [], [], [], []
+    while sim.now() < 6.0:
+        truth = world.ground_truth()
+        speeds = bus.sync_read("present_velocity", [1, 2])
+        times.append(sim.now())
+        xs.append(truth["x"])
+        ys.append(truth["y"])
+        left.append(speeds[1])
+        right.append(speeds[2])
+        sim.advance(0.05)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.6))
+    ax1.plot(xs, ys)
+    ax1.plot(xs[0], ys[0], "o", color="tab:green", label="start")
+    ax1.set_aspect("equal")
+    ax1.set_xlabel("x (m)")
+    ax1.set_ylabel("y (m)")
+    ax1.set_title("Ground truth: the base's path")
+    ax1.legend(fontsize=8)
+    ax2.plot(times, left, label="left wheel (ID 1)")
+    ax2.plot(times, right, label="right wheel (ID 2)")
+    ax2.set_xlabel("time (s)")
+    ax2.set_ylabel("present_velocity (rad/s)")
+    ax2.set_title("What the driver reads on the bus")
+    ax2.legend(fontsize=8)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
     joint_moves(out / "rx28_joint_moves.png")
     cycle_time(out / "bus_cycle_time.png")
+    floor_world(out / "floor_world.png")
     print(f"figures written to {out}")
 
 

@@ -3,14 +3,22 @@ write from others, and one-line errors for bad input that leave the motors untou
 
 from __future__ import annotations
 
+import argparse
+import importlib
 import json
+import pkgutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from servolab.cli import main
+from servolab import apps, cli
+from servolab.apps.registry import GROUPS, Command, commands
+from servolab.cli import build_parser, main
+from servolab.dynamixel.errors import ConfigError, MotorError, NoResponse
+from servolab.errors import ConfigFileError
+from servolab.middleware.errors import MessageError, ServiceError
 from tests.simproc import sim_process
 
 pytestmark = pytest.mark.slow
@@ -126,3 +134,150 @@ def test_duplicate_ids_in_a_spec_are_refused(tmp_path: Path,
     assert main(["sim", "--pty", "--motors", "rx28:1-3,2", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "motor ID 2 is listed twice" in err[0]
+
+
+# -- the command registry ---------------------------------------------------------------------
+
+
+def test_help_lists_every_command_under_its_group_in_group_order(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    lines = capsys.readouterr().out.splitlines()
+    headings = [lines.index(f"{g.title}:") for g in GROUPS]
+    assert headings == sorted(headings)
+    for group, start, end in zip(GROUPS, headings, [*headings[1:], len(lines)], strict=True):
+        listed = [line.split()[0] for line in lines[start + 1:end]
+                  if line.startswith("  ") and not line.startswith("  (")]
+        registered = [c.name for c in commands() if c.group == group.name]
+        assert listed == registered, group.name
+        helps = {c.name: c.help for c in commands()}
+        for line in lines[start + 1:start + 1 + len(listed)]:
+            name = line.split()[0]
+            assert line.split(None, 1)[1] == helps[name]
+        if not registered:
+            assert lines[start + 1] == "  (none yet)"
+    assert {"sim", "scan", "read", "write", "topic", "param", "bag", "launch", "demo"} <= {
+        c.name for c in commands()}
+
+
+def test_every_command_module_registers_one_command() -> None:
+    """Each module of servolab.apps is a command, a ``_`` helper, or one of the two shared
+    modules: a command module that forgot its COMMAND would otherwise vanish silently."""
+    helpers = {"registry", "arguments"}
+    names = []
+    for info in pkgutil.iter_modules(apps.__path__):
+        if info.name.startswith("_") or info.name in helpers:
+            continue
+        command = importlib.import_module(f"servolab.apps.{info.name}").COMMAND
+        assert isinstance(command, Command) and callable(command.run)
+        assert callable(command.add_arguments) and command.help, info.name
+        names.append(command.name)
+    assert len(names) == len(set(names))
+    assert sorted(names) == sorted(c.name for c in commands())
+
+
+@pytest.mark.parametrize("name", [c.name for c in commands()])
+def test_each_commands_help_works(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main([name, "--help"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: servolab {name} ")
+    if "--port PORT" in out:  # every --port takes emulated buses too
+        assert "emu://MODEL:IDS" in out
+
+
+def test_two_modules_with_one_name_are_refused(tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    package = tmp_path / "twice"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    for module in ("one", "two"):
+        (package / f"{module}.py").write_text(
+            "from servolab.apps.registry import Command\n"
+            "COMMAND = Command(name='walk', group='robots', help='walk',\n"
+            "                  add_arguments=lambda p: None, run=lambda a: 0)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(RuntimeError, match=r"'walk' is defined twice: in twice\.one and "
+                       r"twice\.two"):
+        commands("twice")
+
+
+def test_a_group_that_does_not_exist_is_refused() -> None:
+    with pytest.raises(ValueError, match="group 'robot' is not one of bus, graph, robots"):
+        Command(name="walk", group="robot", help="walk", add_arguments=lambda p: None,
+                run=lambda a: 0)
+
+
+def test_unknown_command_is_argparse_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["wlak"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "servolab: error: argument COMMAND: invalid choice: 'wlak'" in err
+
+
+def test_help_imports_no_command_body() -> None:
+    """``servolab --help`` stays fast: the registry imports the command modules, which leave
+    the Dynamixel layer, the middleware, Zenoh and matplotlib to their run functions."""
+    code = ("import sys\nfrom servolab.cli import main\ntry:\n    main(['--help'])\n"
+            "except SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('zenoh', 'matplotlib')"
+            " or m.startswith(('servolab.dynamixel', 'servolab.middleware.'))"
+            " and m != 'servolab.middleware.errors'))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "[]"
+
+
+def test_protocol_of_read_and_write_defaults_to_the_ports() -> None:
+    parser = build_parser()
+    args = parser.parse_args(["read", "--port", "emu://rx28:1-3", "--id", "1", "present_position"])
+    assert args.protocol is None and args.port == "emu://rx28:1-3"
+    args = parser.parse_args(["write", "--port", "/dev/ttyUSB0", "--protocol", "1.0", "--id",
+                              "1", "led", "on"])
+    assert args.protocol == 1
+
+
+def _failing(exc: BaseException) -> Command:
+    def add_arguments(p: argparse.ArgumentParser) -> None:
+        p.add_subparsers(dest="action", required=True).add_parser("go")
+
+    def run(args: argparse.Namespace) -> int:
+        raise exc
+
+    return Command(name="fail", group="tools", help="raises", add_arguments=add_arguments,
+                   run=run)
+
+
+@pytest.mark.parametrize(("exc", "status", "line"), [
+    (ConfigError("goal_position: 9 rad is outside"), 2,
+     "servolab fail go: error: goal_position: 9 rad is outside"),
+    (MessageError("unknown message type 'x'"), 2,
+     "servolab fail go: error: unknown message type 'x'"),
+    (ConfigFileError("bus.yaml", 3, "id", "'x1' is not a int"), 2,
+     "servolab fail go: error: bus.yaml:3: 'x1' is not a int"),
+    (ServiceError("/talker/get_parameters did not answer"), 1,
+     "servolab fail go: error: /talker/get_parameters did not answer"),
+    (NoResponse("motor 3 did not answer PING"), 1,
+     "servolab fail go: NoResponse: motor 3 did not answer PING"),
+    (MotorError(3, "WRITE", ("overload",), 0x20), 1,
+     "servolab fail go: MotorError: motor 3: WRITE answered with error overload"),
+    (KeyboardInterrupt(), 130, "servolab fail: interrupted"),
+])
+def test_errors_are_one_line_with_their_exit_status(
+        exc: BaseException, status: int, line: str, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(cli, "commands", lambda: (_failing(exc),))
+    assert main(["fail", "go"]) == status
+    assert capsys.readouterr().err == line + "\n"
+
+
+def test_an_error_not_raised_on_purpose_keeps_its_traceback(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cli, "commands", lambda: (_failing(ZeroDivisionError("bug")),))
+    with pytest.raises(ZeroDivisionError):
+        main(["fail", "go"])

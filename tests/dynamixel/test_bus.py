@@ -20,14 +20,14 @@ X_TICK = 2 * math.pi / 4096
 
 def rx_bus(ids: str = "1-3") -> Bus:
     """RX-28s at the factory rate, each already pinged so that later counts are exact."""
-    bus = Bus.emulated(f"rx28:{ids}", baudrate=57142)
+    bus = Bus.open(f"emu://rx28:{ids}", baudrate=57142)
     for m in bus.emulator.motors:
         bus.ping(m.id)
     return bus
 
 
 def x_bus(ids: str = "1-3") -> Bus:
-    bus = Bus.emulated(f"xm430-w210:{ids}", baudrate=1_000_000)
+    bus = Bus.open(f"emu://xm430-w210:{ids}", baudrate=1_000_000)
     for m in bus.emulator.motors:
         bus.ping(m.id)
     return bus
@@ -110,7 +110,7 @@ def test_sync_write_is_one_packet_for_all_motors() -> None:
 
 def test_model_is_learnt_once() -> None:
     """The first access to an undeclared motor pings it; later ones do not."""
-    bus = Bus.emulated("xm430-w210:4", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:4", baudrate=1_000_000)
     bus.read(4, "present_position")
     seen = bus.emulator.instructions_seen
     bus.read(4, "present_position")
@@ -129,7 +129,7 @@ def assert_one_line_naming(exc: BaseException, *names: str) -> None:
 
 def test_unknown_model_in_spec() -> None:
     with pytest.raises(ConfigError) as info:
-        Bus.emulated("rx99:1-3")
+        Bus.open("emu://rx99:1-3", baudrate=1_000_000)
     assert_one_line_naming(info.value, "rx99")
 
 
@@ -213,7 +213,7 @@ def test_non_adjacent_registers_in_one_write_are_refused() -> None:
 def test_id_outside_protocol_range(spec: str, baud: int, bad_id: int) -> None:
     """1.0 IDs are 0..253 and 2.0 IDs 0..252 (254 is broadcast, which cannot be READ);
     a bad ID is refused, naming it, before anything is sent."""
-    bus = Bus.emulated(spec, baudrate=baud)
+    bus = Bus.open(f"emu://{spec}", baudrate=baud)
     bus.ping(1)
     seen, before = bus.emulator.instructions_seen, tables(bus)
     for do in (lambda: bus.read(bad_id, "present_position"),
@@ -265,11 +265,11 @@ def test_bulk_write_with_one_bad_value_writes_nothing() -> None:
 def test_bad_bus_settings() -> None:
     """Negative retries, a zero timeout or an unknown protocol version are refused."""
     with pytest.raises(ConfigError, match="retries"):
-        Bus.emulated("rx28:1", baudrate=57142, retries=-1)
+        Bus.open("emu://rx28:1", baudrate=57142, retries=-1)
     with pytest.raises(ConfigError, match="timeout"):
-        Bus.emulated("rx28:1", baudrate=57142, timeout=0.0)
+        Bus.open("emu://rx28:1", baudrate=57142, timeout=0.0)
     with pytest.raises(ConfigError, match="3"):
-        Bus(Bus.emulated("rx28:1").port, 3)
+        Bus(Bus.open("emu://rx28:1", baudrate=1_000_000).port, 3)
 
 
 def test_scan_rejects_bad_baud_rate() -> None:

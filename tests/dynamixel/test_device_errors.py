@@ -16,7 +16,7 @@ from servolab.dynamixel.protocol2 import PROTOCOL2
 ])
 def test_bad_checksum_gets_checksum_error(spec: str, proto, address: int,
                                           expected: tuple[str, ...]) -> None:
-    bus = Bus.emulated(spec)
+    bus = Bus.open(f"emu://{spec}", baudrate=1_000_000)
     packet = bytearray(proto.encode_instruction(proto.read(3, address, 2)))
     packet[-1] ^= 0x5A
     bus.port.write(bytes(packet))
@@ -28,7 +28,7 @@ def test_bad_checksum_gets_checksum_error(spec: str, proto, address: int,
 
 
 def test_bad_checksum_to_absent_id_or_broadcast_is_silent() -> None:
-    bus = Bus.emulated("rx28:3")
+    bus = Bus.open("emu://rx28:3", baudrate=1_000_000)
     for target in (4, 254):
         packet = bytearray(PROTOCOL1.encode_instruction(PROTOCOL1.write(target, 30, b"\x00\x02")))
         packet[-1] ^= 0x01

@@ -24,6 +24,7 @@ from servolab.dynamixel import (
 from servolab.dynamixel.motorspec import MotorEntry, MotorSpec
 from servolab.dynamixel.protocol1 import PROTOCOL1
 from servolab.dynamixel.protocol2 import PROTOCOL2
+from servolab.sim import emulated_port
 
 RX28_DEG_PER_TICK = 300.0 / 1023        # e-Manual: 0..1023 over 300°
 EX106_DEG_PER_TICK = 250.92 / 4095      # e-Manual (EX-106+): 0..4095 over 250.92°
@@ -38,16 +39,17 @@ def two_samples(bus: Bus, motor_id: int, name: str, wait: float) -> tuple[int, i
     """Read ``name`` (raw), let ``wait`` seconds of virtual time pass, read it again.
 
     Returns both values and the virtual time between the two moments the motor sampled them.
-    Each read is sampled when its READ packet has fully arrived; both READs are the same
-    length, so that time is (duration of the first read) + ``wait``.
+    Each read is sampled when its READ packet has fully arrived, from the joint as the last
+    physics step left it (the firmware's registers move in fixed steps), so that time is the
+    number of physics steps between the two samples times the step.
     """
     clock = bus.port.clock
-    before = clock.now()
+    motor = bus.emulator.motor(motor_id)
     first = bus.read(motor_id, name, raw=True)
-    after = clock.now()
+    first_step = motor.sensed_step
     clock.advance(wait)
     second = bus.read(motor_id, name, raw=True)
-    return first, second, (after - before) + wait
+    return first, second, (motor.sensed_step - first_step) * clock.physics_step
 
 
 def circular_diff(a: float, b: float, modulus: int) -> float:
@@ -67,7 +69,7 @@ def spec(model_name: str, positions: dict[int, float], baudrate: int) -> MotorSp
 def test_joint_mode_moves_at_moving_speed_and_stops_at_goal(goal: int, sign: int) -> None:
     """RX-28 joint mode: the horn travels toward goal_position at moving_speed (0.111 rpm per
     unit) and stops exactly on it."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "moving_speed", 300, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", goal, raw=True)
@@ -92,7 +94,7 @@ def test_moving_speed_zero_means_no_load_speed(spec_text: str, rpm: float,
                                                deg_per_tick: float, goal: int) -> None:
     """1.0: moving_speed 0 is 'no speed control', i.e. as fast as the supply allows: the
     model's no-load speed."""
-    bus = Bus.emulated(spec_text, baudrate=57142)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=57142)
     bus.write(1, "moving_speed", 0, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", goal, raw=True)
@@ -110,7 +112,7 @@ def test_wheel_mode_turns_at_commanded_speed_and_wraps(spec_text: str, deg_per_t
     """1.0 wheel mode (both angle limits 0): moving_speed is a signed speed (bit 10 =
     clockwise), the horn turns endlessly, and present_position wraps at the model's
     resolution."""
-    bus = Bus.emulated(spec_text, baudrate=57142)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=57142)
     bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
     units = 400
     bus.write(1, "moving_speed", units | (0x400 if clockwise else 0), raw=True)
@@ -130,7 +132,7 @@ def test_wheel_mode_turns_at_commanded_speed_and_wraps(spec_text: str, deg_per_t
 def test_x_velocity_mode_counts_turns_and_position_mode_stays_in_one_turn() -> None:
     """X-series velocity mode (operating_mode 1): present_position keeps counting past one
     turn (multi-turn, signed); back in position mode (3) it reads within 0..4095."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "operating_mode", 1, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_velocity", 200, raw=True)
@@ -157,7 +159,7 @@ def test_x_velocity_mode_counts_turns_and_position_mode_stays_in_one_turn() -> N
 
 def test_x_position_mode_moves_to_goal() -> None:
     """Position mode with profile_velocity 0 moves at full speed and stops on the goal."""
-    bus = Bus.emulated("xl430-w250:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xl430-w250:1", baudrate=1_000_000)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 3000, raw=True)
     bus.port.clock.advance(2.0)
@@ -169,7 +171,7 @@ def test_speed_is_capped_at_no_load_speed() -> None:
     """A commanded speed above what the motor can do gives the no-load speed, not more:
     XL430-W250 at 12 V turns at most 57 rpm (e-Manual), even told its velocity limit of
     265 × 0.229 = 60.7 rpm."""
-    bus = Bus.emulated("xl430-w250:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xl430-w250:1", baudrate=1_000_000)
     bus.write(1, "operating_mode", 1, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_velocity", 265, raw=True)
@@ -182,7 +184,7 @@ def test_goal_velocity_range_follows_velocity_limit() -> None:
     """e-Manual: goal_velocity may be anything within ±velocity_limit, and velocity_limit
     itself may be raised up to 1023. After raising it, a goal of 1000 units is valid (and the
     motor then turns at its no-load speed, 77 rpm for the XM430-W210)."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "velocity_limit", 1023, raw=True)
     bus.write(1, "operating_mode", 1, raw=True)
     bus.write(1, "torque_enable", 1)
@@ -194,7 +196,7 @@ def test_goal_velocity_range_follows_velocity_limit() -> None:
 
 def test_rx28_wheel_speed_is_capped_at_no_load_speed() -> None:
     """RX-28 wheel mode at moving_speed 1023 (113.6 rpm) turns at the no-load speed."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
     bus.write(1, "moving_speed", 1023, raw=True)
     bus.write(1, "torque_enable", 1)
@@ -207,7 +209,7 @@ def test_rx28_wheel_speed_is_capped_at_no_load_speed() -> None:
 def test_rx28_joint_speed_is_capped_at_no_load_speed() -> None:
     """Joint mode too: moving_speed 1023 (113.6 rpm) moves the horn at the no-load speed,
     the same as moving_speed 0."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "moving_speed", 1023, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 1000, raw=True)
@@ -218,7 +220,7 @@ def test_rx28_joint_speed_is_capped_at_no_load_speed() -> None:
 
 def test_torque_off_means_no_motion() -> None:
     """With torque off the horn is free: goals and speeds are stored but nothing moves."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "goal_position", 1000, raw=True)
     bus.write(1, "moving_speed", 500, raw=True)
     p1, p2, _ = two_samples(bus, 1, "present_position", 1.0)
@@ -226,7 +228,7 @@ def test_torque_off_means_no_motion() -> None:
     assert bus.read(1, "goal_position", raw=True) == 1000
     assert bus.read(1, "moving", raw=True) == 0
 
-    xbus = Bus.emulated("xm430-w350:1", baudrate=1_000_000)
+    xbus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000)
     xbus.write(1, "operating_mode", 1, raw=True)
     xbus.write(1, "goal_velocity", 100, raw=True)
     q1, q2, _ = two_samples(xbus, 1, "present_position", 1.0)
@@ -243,7 +245,7 @@ def test_sensors_are_plausible(spec_text: str, baud: int, voltage_reg: str,
                                load_reg: str) -> None:
     """Voltage near the 12 V supply, temperature between 20 and 80 °C, load within ±100 %,
     whether still or moving."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     for _ in range(2):
         assert bus.read(1, voltage_reg) == pytest.approx(12.0, abs=0.5)
         assert 20.0 <= bus.read(1, "present_temperature") <= 80.0
@@ -259,7 +261,7 @@ def test_sensors_are_plausible(spec_text: str, baud: int, voltage_reg: str,
 def test_protocol1_write_to_read_only_register_is_range_error() -> None:
     """A real 1.0 motor answers a WRITE to a read-only address with the range bit, and the
     register keeps its value."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     with pytest.raises(MotorError) as info:
         bus.transact(PROTOCOL1.write(1, 36, (100).to_bytes(2, "little")), {1: 0})
     assert info.value.errors == ("range",)
@@ -272,7 +274,7 @@ def test_protocol1_write_to_read_only_register_is_range_error() -> None:
 
 def test_protocol2_write_to_read_only_register_is_access_error() -> None:
     """2.0 reports writes to read-only addresses as 'access' (error 7)."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     with pytest.raises(MotorError) as info:
         bus.transact(PROTOCOL2.write(1, 132, (100).to_bytes(4, "little")), {1: 0})
     assert info.value.errors == ("access",)
@@ -289,7 +291,7 @@ def test_out_of_range_raw_value_is_refused(spec_text: str, baud: int, inst,
                                            error: str) -> None:
     """A value outside a register's range (sent raw, past the driver's own checks) gets the
     range / data range error and changes nothing."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     motor = bus.emulator.motor(1)
     table = bytes(motor.table)
     with pytest.raises(MotorError) as info:
@@ -300,7 +302,7 @@ def test_out_of_range_raw_value_is_refused(spec_text: str, baud: int, inst,
 
 def test_protocol2_eeprom_is_locked_while_torque_is_on() -> None:
     """X-series: EEPROM writes with torque on are refused with 'access' (e-Manual)."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "torque_enable", 1)
     with pytest.raises(MotorError) as info:
         bus.write(1, "return_delay_time", 0, raw=True)
@@ -313,7 +315,7 @@ def test_protocol2_eeprom_is_locked_while_torque_is_on() -> None:
 
 def test_protocol2_goal_velocity_above_velocity_limit_is_data_limit() -> None:
     """X-series: a goal velocity beyond velocity_limit is a 'data limit' error (6)."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "velocity_limit", 100, raw=True)
     with pytest.raises(MotorError) as info:
         bus.write(1, "goal_velocity", 150, raw=True)
@@ -322,7 +324,7 @@ def test_protocol2_goal_velocity_above_velocity_limit_is_data_limit() -> None:
 
 def test_protocol1_goal_outside_angle_limits_is_angle_limit_error() -> None:
     """1.0: a goal outside [cw_angle_limit, ccw_angle_limit] gets the angle limit bit."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, {"cw_angle_limit": 200, "ccw_angle_limit": 800}, raw=True)
     with pytest.raises(MotorError) as info:
         bus.write(1, "goal_position", 900, raw=True)
@@ -338,7 +340,7 @@ def test_protocol1_goal_outside_angle_limits_is_angle_limit_error() -> None:
 def test_reg_write_applies_only_at_action(spec_text: str, baud: int) -> None:
     """REG_WRITE stores a goal without acting on it; the broadcast ACTION applies it to all
     motors at once (and clears the registered flag)."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     flag = "registered" if bus.proto.version == 1 else "registered_instruction"
     center = 512 if bus.proto.version == 1 else 2048
     goals = {1: center + 200, 2: center - 200}
@@ -366,7 +368,7 @@ def test_reg_write_applies_only_at_action(spec_text: str, baud: int) -> None:
                                                  ("xl430-w250:1-2", 1_000_000)])
 def test_return_delay_time_lengthens_round_trip(spec_text: str, baud: int) -> None:
     """Return delay time is in 2 µs units: 250 (the default) answers 0.5 ms later than 0."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     bus.write(1, "return_delay_time", 0, raw=True)
     assert bus.read(2, "return_delay_time", raw=True) == 250
     clock = bus.port.clock
@@ -381,7 +383,7 @@ def test_return_delay_time_lengthens_round_trip(spec_text: str, baud: int) -> No
 
 def test_status_return_level_protocol1() -> None:
     """Level 2 answers everything, 1 only READ (and PING), 0 only PING."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.ping(1)
     bus.status_return_level[1] = 1
     bus.write(1, "status_return_level", 1, raw=True)
@@ -405,7 +407,7 @@ def test_status_return_level_protocol1() -> None:
 
 def test_status_return_level_protocol2() -> None:
     """Same rule on 2.0 (status_return_level lives in RAM at 68 there)."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.status_return_level[1] = 1
     bus.write(1, "status_return_level", 1, raw=True)
     assert bus.read(1, "status_return_level", raw=True) == 1
@@ -423,7 +425,7 @@ def test_status_return_level_protocol2() -> None:
 def test_broadcast_write_is_applied_to_all_and_silent(spec_text: str, baud: int,
                                                       proto) -> None:
     """A WRITE to ID 254 reaches every motor and none answers (answers would collide)."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     address = model(spec_text.split(":")[0]).register("led").address
     assert bus.transact(proto.write(254, address, b"\x01")) == {}
     assert bus.port.read(64, 0.01) == b""
@@ -434,7 +436,7 @@ def test_broadcast_write_is_applied_to_all_and_silent(spec_text: str, baud: int,
 def test_two_motors_with_the_same_id_collide() -> None:
     """Two motors answering at once garble each other's status: the driver must report a
     corrupt answer, not return one motor's value."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.emulator.add(VirtualMotor(model("RX-28"), 1, baudrate=57142, position=0.5))
     bus.declare(1, "rx28")
     with pytest.raises(CorruptResponse) as info:
@@ -446,7 +448,7 @@ def test_two_motors_with_the_same_id_collide() -> None:
 def test_motor_at_another_baud_rate_is_silent_but_found_by_scan() -> None:
     """A motor set to 1 Mbps does not hear a 57 142 bps bus; scanning both rates finds it,
     and the scan leaves the port at its own rate."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.emulator.add(VirtualMotor(model("RX-28"), 2, baudrate=1_000_000))
     with pytest.raises(NoResponse) as info:
         bus.ping(2)
@@ -460,7 +462,7 @@ def test_motor_at_another_baud_rate_is_silent_but_found_by_scan() -> None:
 
 def test_x_series_motor_at_57600_is_heard_by_57142_host() -> None:
     """UARTs within 3 % understand each other: a 57 600 bps X motor answers at 57 142."""
-    bus = Bus.emulated(spec("xm430-w210", {1: 0.0}, 57_600))
+    bus = Bus(emulated_port(spec("xm430-w210", {1: 0.0}, 57_600)))
     bus.port.set_baudrate(57142)
     assert bus.ping(1).model_number == 1030
 
@@ -469,7 +471,7 @@ def test_x_series_motor_at_57600_is_heard_by_57142_host() -> None:
                                                  ("xm430-w210:1", 1_000_000)])
 def test_unresponsive_motor_raises_no_response_naming_it(spec_text: str, baud: int) -> None:
     """A motor with a cut cable: NoResponse that says which motor and which instruction."""
-    bus = Bus.emulated(spec_text, baudrate=baud)
+    bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     bus.ping(1)
     bus.emulator.motor(1).responsive = False
     with pytest.raises(NoResponse) as info:
@@ -487,7 +489,7 @@ def test_unresponsive_motor_raises_no_response_naming_it(spec_text: str, baud: i
 def test_protocol1_overload_sets_bit_in_every_status_and_turns_torque_off() -> None:
     """1.0: a hardware error is a bit of every status error byte until cleared; overload is
     in the default alarm shutdown set, so torque goes off."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "torque_enable", 1)
     bus.emulator.motor(1).inject_hardware_error("overload")
     for action in (lambda: bus.read(1, "present_position"),
@@ -503,7 +505,7 @@ def test_protocol1_overload_sets_bit_in_every_status_and_turns_torque_off() -> N
 def test_protocol2_hardware_error_sets_alert_and_status_register() -> None:
     """2.0: the alert bit (0x80) is set in every status and hardware_error_status holds the
     cause (bit 5 = overload, e-Manual); torque goes off."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "torque_enable", 1)
     bus.emulator.motor(1).inject_hardware_error("overload")
     with pytest.raises(MotorError) as info:
@@ -518,7 +520,7 @@ def test_reboot_clears_hardware_error() -> None:
     """REBOOT is how a 2.0 motor leaves a hardware error: afterwards statuses are clean,
     hardware_error_status is 0, and EEPROM settings survive. The REBOOT's own status still
     carries the alert (it is sent before rebooting), which must not make reboot() fail."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
     bus.write(1, "return_delay_time", 10, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.emulator.motor(1).inject_hardware_error("overheating")
@@ -539,7 +541,7 @@ def test_retries_recover_from_faults(faults: Faults) -> None:
     """With a few bad bytes on the wire the driver retries and still reads the right
     values."""
     positions = {1: -math.pi / 2, 2: 0.0, 3: math.pi / 4}
-    bus = Bus.emulated(spec("xm430-w210", positions, 1_000_000), retries=8)
+    bus = Bus(emulated_port(spec("xm430-w210", positions, 1_000_000)), retries=8)
     for i in positions:
         bus.declare(i, "xm430-w210")
     bus.emulator.faults = faults
@@ -552,7 +554,7 @@ def test_retries_recover_from_faults(faults: Faults) -> None:
 
 
 def test_every_reply_dropped_without_retries_is_no_response() -> None:
-    bus = Bus.emulated("rx28:1", baudrate=57142, retries=0)
+    bus = Bus.open("emu://rx28:1", baudrate=57142, retries=0)
     bus.ping(1)
     bus.emulator.faults = Faults(drop_rate=1.0, seed=1)
     with pytest.raises(NoResponse):
@@ -563,7 +565,7 @@ def test_every_reply_dropped_without_retries_is_no_response() -> None:
 
 def test_every_reply_corrupted_without_retries_is_corrupt_response() -> None:
     """Garbage is not silence: the driver says it got a corrupt answer."""
-    bus = Bus.emulated("xm430-w210:1", baudrate=1_000_000, retries=0)
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000, retries=0)
     bus.ping(1)
     bus.emulator.faults = Faults(corrupt_rate=1.0, seed=1)
     with pytest.raises(CorruptResponse):
@@ -573,13 +575,13 @@ def test_every_reply_corrupted_without_retries_is_corrupt_response() -> None:
 
 def test_delay_beyond_timeout_is_no_response() -> None:
     """An answer later than the timeout counts as none; with a longer timeout it arrives."""
-    bus = Bus.emulated("rx28:1", baudrate=57142)
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.ping(1)
     bus.emulator.faults = Faults(delay=0.05)
     with pytest.raises(NoResponse):
         bus.read(1, "present_position")
 
-    patient = Bus.emulated("rx28:1", baudrate=57142, timeout=0.1)
+    patient = Bus.open("emu://rx28:1", baudrate=57142, timeout=0.1)
     patient.ping(1)
     patient.emulator.faults = Faults(delay=0.05)
     assert patient.read(1, "present_position", raw=True) == 512
@@ -589,7 +591,7 @@ def test_delay_beyond_timeout_is_no_response() -> None:
 
 def test_rx28_does_not_answer_bulk_read() -> None:
     """RX-28 predates BULK_READ: it ignores the instruction (a broadcast gets no status)."""
-    bus = Bus.emulated("rx28:1-2", baudrate=57142)
+    bus = Bus.open("emu://rx28:1-2", baudrate=57142)
     with pytest.raises(NoResponse):
         bus.transact(PROTOCOL1.bulk_read([(1, 36, 2), (2, 36, 2)]), {1: 2, 2: 2}, retries=0)
 
@@ -597,7 +599,7 @@ def test_rx28_does_not_answer_bulk_read() -> None:
 def test_rx28_sync_read_falls_back_to_reads() -> None:
     """bus.sync_read on RX-28s sends one READ per motor and returns each motor's value."""
     positions = {1: -0.5, 2: 0.0, 3: 0.75}
-    bus = Bus.emulated(spec("rx28", positions, 57142))
+    bus = Bus(emulated_port(spec("rx28", positions, 57142)))
     for i in positions:
         bus.ping(i)
     seen = bus.emulator.instructions_seen
@@ -610,7 +612,7 @@ def test_rx28_sync_read_falls_back_to_reads() -> None:
 def test_mx28_answers_bulk_read() -> None:
     """MX-28 has BULK_READ: different registers of different motors in one instruction."""
     positions = {1: -0.5, 2: 0.0, 3: 1.0}
-    bus = Bus.emulated(spec("mx28", positions, 57142))
+    bus = Bus(emulated_port(spec("mx28", positions, 57142)))
     bus.write(2, "moving_speed", 123, raw=True)
     for i in positions:
         bus.ping(i)
@@ -631,7 +633,7 @@ def test_mx28_answers_bulk_read() -> None:
 def test_protocol2_sync_read_returns_every_motor() -> None:
     """One SYNC_READ, one value per motor, each its own."""
     positions = {1: -math.pi / 2, 2: -math.pi / 8, 3: math.pi / 8, 4: 3 * math.pi / 4}
-    bus = Bus.emulated(spec("xm430-w210", positions, 1_000_000))
+    bus = Bus(emulated_port(spec("xm430-w210", positions, 1_000_000)))
     for i in positions:
         bus.declare(i, "xm430-w210")
     seen = bus.emulator.instructions_seen
@@ -645,7 +647,7 @@ def test_protocol2_sync_read_returns_every_motor() -> None:
 
 def test_protocol2_bulk_write_applies_different_registers_to_different_motors() -> None:
     """One BULK_WRITE: each motor gets its own register and value, and nothing else."""
-    bus = Bus.emulated("xm430-w210:1-3", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:1-3", baudrate=1_000_000)
     for i in (1, 2, 3):
         bus.declare(i, "xm430-w210")
     seen = bus.emulator.instructions_seen
@@ -664,7 +666,7 @@ def test_protocol2_bulk_write_applies_different_registers_to_different_motors() 
 def test_factory_reset_keeping_id_and_baud_restores_defaults() -> None:
     """FACTORY_RESET (0x02) restores the e-Manual defaults but keeps ID and baud rate, so
     the motor is still reachable where it was."""
-    bus = Bus.emulated("xm430-w210:5", baudrate=1_000_000)
+    bus = Bus.open("emu://xm430-w210:5", baudrate=1_000_000)
     bus.write(5, "return_delay_time", 0, raw=True)
     bus.write(5, "velocity_limit", 100, raw=True)
     bus.write(5, "moving_threshold", 20, raw=True)
@@ -680,7 +682,7 @@ def test_factory_reset_keeping_id_and_baud_restores_defaults() -> None:
 def test_protocol1_reset_restores_id_1() -> None:
     """1.0 RESET restores everything, the ID too (the e-Manual warns of this): the motor
     answers the RESET as ID 7, then only as ID 1."""
-    bus = Bus.emulated("rx28:7", baudrate=57142)
+    bus = Bus.open("emu://rx28:7", baudrate=57142)
     bus.write(7, "return_delay_time", 0, raw=True)
     bus.factory_reset(7)
     with pytest.raises(NoResponse):

@@ -5,20 +5,29 @@ Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Proto
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
 listener node on ``/cmd_vel``, recorded to an MCAP bag. It saves a plot, the bag and
 summary.json in the run folder. Every robot that servolab grows adds its own short run here.
+
+The Dynamixel layer, the middleware and matplotlib are imported inside the functions, so that
+``servolab --help`` does not load them.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections.abc import Callable
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-from ..dynamixel.bus import Bus
-from ..runs import RunFolder
+from .arguments import add_out
+from .registry import Command
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
 
 
 def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]:
     import matplotlib
+
+    from ..dynamixel.bus import Bus
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -28,7 +37,7 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
 
     # -- 1. Armstrong's left leg: six RX-28 on Protocol 1.0 at the factory 57142 bps --------
     say("1. An emulated bus like Armstrong's left leg: RX-28 IDs 11-16, protocol 1.0, 57142 bps")
-    bus = Bus.emulated("rx28:11-16", baudrate=57142)
+    bus = Bus.open("emu://rx28:11-16", baudrate=57142)
     clock = bus.port.clock
     found = bus.scan(range(0, 20))
     for r in found:
@@ -57,7 +66,7 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     # -- 2. The fly treadmill: three XM430-W210 on Protocol 2.0 at 1 Mbps, velocity mode ------
     say()
     say("2. An emulated bus like the fly treadmill: XM430-W210 IDs 1-3, protocol 2.0, 1 Mbps")
-    xbus = Bus.emulated("xm430-w210:1-3", baudrate=1_000_000)
+    xbus = Bus.open("emu://xm430-w210:1-3", baudrate=1_000_000)
     xclock = xbus.port.clock
     for r in xbus.broadcast_ping():
         say(f"   broadcast ping: ID {r.id}: {r.model_name} (firmware {r.firmware})")
@@ -126,3 +135,19 @@ def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, objec
         f"(open it with Foxglove, or: servolab bag info {bag_path})")
     return {"heard": len(listener.heard), "recorded": info.message_count,
             "bag": str(bag_path)}
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..runs import RunFolder
+
+    run(RunFolder.create("demo", args.out))
+    return 0
+
+
+COMMAND = Command(
+    name="demo", group="tools", help="a short tour on emulated motors (what 'make demo' runs)",
+    description="A short tour of servolab on emulated motors and nodes, in a few seconds: "
+    "it scans two buses, moves a motor, records a topic, and leaves a plot, a bag and "
+    "summary.json in its run folder.",
+    examples=("servolab demo", "servolab demo --out /tmp/demo"),
+    add_arguments=add_out, run=_run)

@@ -2,9 +2,13 @@
 
 - :mod:`.protocol1`, :mod:`.protocol2` — packets of both protocol versions, host and device side
 - :mod:`.models`, :mod:`.units` — control tables as data; raw ticks <-> SI units
-- :mod:`.ports` — serial port, in-memory port, pseudo-terminal server
+- :mod:`.wire` — byte time and baud-rate matching, the facts both ends of the wire share
+- :mod:`.ports` — serial port, in-memory port, pseudo-terminal server, ports by URL
 - :mod:`.bus` — the driver (:class:`Bus`)
-- :mod:`.emulator` — virtual motors that answer and move
+- :mod:`.emulator`, :mod:`.plant` — emulated motors: firmware over a plant in SI units
+
+Emulated motors live in a simulation (:mod:`servolab.sim`), which owns their time; open them
+as a port like any other: ``Bus.open("emu://rx28:11-16", baudrate=57142)``.
 """
 
 from .bus import Bus, BusStats, PingResult
@@ -20,11 +24,13 @@ from .errors import (
 )
 from .models import MODELS, Model, Register, model, model_by_number
 from .motorspec import MotorSpec
-from .ports import MemoryPort, Port, PtyServer, SerialPort
+from .plant import KinematicServo, ServoCommand, ServoPlant
+from .ports import MemoryPort, Port, PtyServer, SerialPort, open_port
 
 __all__ = [
     "MODELS", "Bus", "BusStats", "CommError", "ConfigError", "CorruptResponse",
-    "DynamixelError", "Emulator", "Faults", "MemoryPort", "Model", "MotorError", "MotorSpec",
-    "NoResponse", "PacketError", "PingResult", "Port", "PtyServer", "Register", "SerialPort",
-    "VirtualMotor", "build_emulator", "model", "model_by_number",
+    "DynamixelError", "Emulator", "Faults", "KinematicServo", "MemoryPort", "Model",
+    "MotorError", "MotorSpec", "NoResponse", "PacketError", "PingResult", "Port", "PtyServer",
+    "Register", "SerialPort", "ServoCommand", "ServoPlant", "VirtualMotor", "build_emulator",
+    "model", "model_by_number", "open_port",
 ]

@@ -13,16 +13,15 @@ import itertools
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
-from ..clock import Clock
-from . import motorspec, units
-from .emulator import Emulator, Faults, build_emulator, byte_time
+from . import units
 from .errors import ConfigError, CorruptResponse, MotorError, NoResponse
 from .models import Model, Register, model, model_by_number, supports
-from .motorspec import MotorSpec
 from .packets import Instruction, Protocol, Status
-from .ports import MemoryPort, Port, open_port
+from .ports import Port, open_port
 from .protocol import protocol as protocol_for
+from .wire import byte_time
 
 MAX_RETURN_DELAY = 254 * 2e-6
 Value = float | int
@@ -60,19 +59,22 @@ class BusStats:
 class Bus:
     """Motors on one port, one protocol, one baud rate.
 
+    ``protocol`` None means the port's own (an emulated bus knows its models'), else 2.
     ``retries`` is how many times a transaction that got no valid answer is sent again.
     ``timeout`` (s), when given, replaces the computed wait for a reply (wire time of the
     expected bytes + return delays + twice the adapter latency + 2 ms).
     """
 
     port: Port
-    protocol: Protocol | int = 2
+    protocol: Protocol | int | None = None
     retries: int = 2
     timeout: float | None = None
     motors: dict[int, Model] = field(default_factory=dict)
     stats: BusStats = field(default_factory=BusStats)
 
     def __post_init__(self) -> None:
+        if self.protocol is None:
+            self.protocol = self.port.protocol or 2
         if not isinstance(self.protocol, Protocol):
             self.protocol = protocol_for(self.protocol)
         if self.retries < 0:
@@ -83,29 +85,14 @@ class Bus:
 
     # -- construction ----------------------------------------------------------------------------
     @classmethod
-    def open(cls, device: str, *, protocol: int = 2, baudrate: int = 57600,
-             **kwargs: object) -> Bus:
-        """A bus on a serial port (``/dev/ttyUSB0``, ``COM3``, or a ``servolab sim`` pty)."""
-        proto = protocol_for(protocol)
-        return cls(open_port(device, baudrate), proto, **kwargs)  # type: ignore[arg-type]
-
-    @classmethod
-    def emulated(cls, spec: str | MotorSpec, *, protocol: int | None = None,
-                 baudrate: int = 1_000_000, clock: Clock | None = None,
-                 faults: Faults | None = None, **kwargs: object) -> Bus:
-        """A bus wired in memory to emulated motors, e.g. ``Bus.emulated("rx28:1-4")``.
-
-        ``spec`` is the short form, a YAML path or a :class:`MotorSpec`; motors are set to
-        ``baudrate``. The protocol follows the models. The emulator is ``bus.emulator``, the
-        (virtual by default) clock ``bus.port.clock``.
-        """
-        if isinstance(spec, str):
-            spec = motorspec.load(spec, protocol=protocol, baudrate=baudrate)
-        elif spec.baudrate is None:
-            spec = MotorSpec(spec.protocol, baudrate, spec.motors)
-        emulator = build_emulator(spec, faults=faults)
-        port = MemoryPort(emulator, spec.baudrate or baudrate, clock=clock)
-        return cls(port, spec.protocol, **kwargs)  # type: ignore[arg-type]
+    def open(cls, url: str, *, protocol: int | None = None, baudrate: int = 57600,
+             retries: int = 2, timeout: float | None = None, **port_options: Any) -> Bus:
+        """A bus on a port named by ``url``: a serial device (``/dev/ttyUSB0``, ``COM3``, the
+        pty ``servolab sim`` printed) or emulated motors (``emu://rx28:11-16``, every motor at
+        ``baudrate``, in a simulation of their own unless ``simulation=`` names one).
+        ``protocol`` None: the emulated models', or 2 on a serial port. ``port_options`` go to
+        :func:`~.ports.open_port`."""
+        return cls(open_port(url, baudrate, **port_options), protocol, retries, timeout)
 
     @property
     def proto(self) -> Protocol:
@@ -117,7 +104,9 @@ class Bus:
         return self.port.baudrate
 
     @property
-    def emulator(self) -> Emulator | None:
+    def emulator(self) -> Any:
+        """The emulated bus behind the port, or None on a real one (for tests and worlds;
+        the driver itself never looks)."""
         return getattr(self.port, "emulator", None)
 
     def close(self) -> None:

@@ -21,26 +21,36 @@ from dataclasses import dataclass, field
 
 from . import protocol1 as p1
 from . import protocol2 as p2
+from . import units
 from .errors import ConfigError
 from .models import ALLOWED_MODES, Model, Register, supports
 from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
+from .plant import KinematicServo, ServoCommand, ServoPlant
 from .protocol import protocol as protocol_for
+from .wire import baud_matches, byte_time
 
-BITS_PER_BYTE = 10  # start + 8 data + stop
-AMBIENT_C = 25.0
-THERMAL_TIME_CONSTANT_S = 300.0
-STALL_HEATING_C = 60.0  # steady-state rise at 100 % load
-
-
-def byte_time(baudrate: float) -> float:
-    """Seconds one byte occupies the wire at ``baudrate``."""
-    return BITS_PER_BYTE / baudrate
+#: Registers whose value the firmware keeps decoded or commands the joint with: a change
+#: of any of them, however made, refreshes both.
+_SETTINGS = frozenset({
+    "id", "baud_rate", "temperature_limit", "torque_enable", "goal_position", "moving_speed",
+    "torque_limit", "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity",
+    "goal_pwm", "goal_current", "profile_velocity", "pwm_limit", "current_limit"})
 
 
-def baud_matches(a: float, b: float, tolerance: float = 0.03) -> bool:
-    """Whether two UARTs at these rates understand each other (within ``tolerance``)."""
-    return abs(a - b) <= tolerance * max(a, b)
+#: Instructions that address several motors whatever their packet's ID says.
+_MULTI_MOTOR = frozenset({"SYNC_WRITE", "SYNC_READ", "BULK_READ", "BULK_WRITE"})
+
+
+def _hardware_bit(model: Model, name: str) -> int:
+    """The bit of hardware error ``name`` (as the e-Manual spells it) on ``model``."""
+    table = p1.ERROR_BITS if model.protocol == 1 else p2.HARDWARE_ERRORS
+    for bit, bit_name in table.items():
+        if bit_name == name:
+            return bit
+    known = [n for n in table.values() if n not in ("range", "checksum", "instruction")]
+    raise ConfigError(f"{model.name}: unknown hardware error {name!r}; "
+                      f"use one of {', '.join(known)}")
 
 
 @dataclass
@@ -83,7 +93,14 @@ class Faults:
 
 
 class VirtualMotor:
-    """One emulated servo: control table, physical state, and how it answers instructions."""
+    """One emulated servo's firmware: its control table, how it answers instructions, and
+    the registers it reads from and commands to its :class:`~.plant.ServoPlant`.
+
+    The plant is the motor's own :class:`~.plant.KinematicServo` unless a world puts its own in
+    with :meth:`attach_plant`. Time comes from the :class:`Emulator` the motor is on, whose
+    owner steps it; the motor catches its default plant up only when something looks at it
+    (an instruction, a property), which gives exactly what stepping every step would.
+    """
 
     def __init__(self, model: Model, motor_id: int = 1, *, baudrate: int | None = None,
                  position: float = 0.0) -> None:
@@ -98,16 +115,15 @@ class VirtualMotor:
         self.responsive = True
         #: hardware error bits (protocol 1.0 error-byte bits or 2.0 hardware_error_status bits)
         self.hardware_error = 0
-        #: torque a world applies to the horn, as a fraction of stall torque
-        self.external_load = 0.0
-        self.supply_voltage = model.nominal_voltage
-        self.temperature = AMBIENT_C + 7.0
-        # Physical state: angle in ticks (float, unbounded) and velocity in ticks/s.
-        self.ticks = model.position_center + position / model.rad_per_tick
-        self.tick_velocity = 0.0
-        self.load = 0.0
+        self._supply_voltage = model.nominal_voltage
+        self._plant: ServoPlant = KinematicServo(model.no_load_speed, position)
+        self._lazy = True           # the default plant: caught up on demand
+        self._offset_ticks = 0.0    # turns the firmware no longer counts (2.0 CLEAR)
+        self._emulator: Emulator | None = None
+        self._steps_done = 0
+        self._stale = True          # present_* registers need refreshing from the plant
         self._pending: tuple[int, bytes] | None = None
-        self._update_sensors()
+        self._table_changed()
         self._hold_position()
 
     def _hold_position(self) -> None:
@@ -135,17 +151,37 @@ class VirtualMotor:
         """Set a register directly, bypassing access rights (the motor's own firmware)."""
         reg = self.model.register(name)
         self.table[reg.address:reg.address + reg.size] = reg.encode(value)
+        if name in _SETTINGS:
+            self._table_changed()
+
+    def _si(self, name: str) -> float:
+        return units.to_si(self.model, self.model.register(name), self.get_raw(name))
+
+    def _show(self, name: str, value: float) -> None:
+        """Write a sensor register from an SI value (saturating, as the hardware does)."""
+        reg = self.model.register(name)
+        self.table[reg.address:reg.address + reg.size] = reg.encode(
+            units.reading(self.model, reg, value))
 
     def _try_get(self, name: str, default: int = 0) -> int:
         return self.get_raw(name) if self.model.has(name) else default
 
+    def _table_changed(self) -> None:
+        """Registers changed: refresh what the firmware keeps decoded and tell the plant."""
+        self._id = self.get_raw("id")
+        self._baudrate = self.model.baud_from_register(self.get_raw("baud_rate"))
+        self._temperature_limit = float(self.get_raw("temperature_limit"))
+        if hasattr(self, "_plant"):
+            self._plant.command = self._command()
+            self._stale = True
+
     @property
     def id(self) -> int:
-        return self.get_raw("id")
+        return self._id
 
     @property
     def baudrate(self) -> int:
-        return self.model.baud_from_register(self.get_raw("baud_rate"))
+        return self._baudrate
 
     @property
     def return_delay(self) -> float:
@@ -156,38 +192,92 @@ class VirtualMotor:
         return bool(self.get_raw("torque_enable"))
 
     @property
-    def position(self) -> float:
-        """Horn angle in rad, 0 at the model's centre tick, unbounded (counts turns)."""
-        return (self.ticks - self.model.position_center) * self.model.rad_per_tick
-
-    @property
-    def velocity(self) -> float:
-        """Horn speed in rad/s, counter-clockwise positive."""
-        return self.tick_velocity * self.model.rad_per_tick
-
-    @property
     def wheel_mode(self) -> bool:
         """1.0: both angle limits 0. 2.0: velocity, PWM or current mode."""
         if self.model.protocol == 1:
             return self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
         return self.get_raw("operating_mode") in (0, 1, 16)
 
+    # -- the joint -----------------------------------------------------------------------------
+    @property
+    def plant(self) -> ServoPlant:
+        """The joint, brought up to the present step first."""
+        self.sync()
+        return self._plant
+
+    def attach_plant(self, plant: ServoPlant) -> None:
+        """Put a world's plant in place of the motor's own: from the next step the world steps
+        it, the firmware commands it and reads every present_* register from it."""
+        self.sync()
+        plant.command = self._plant.command
+        self._plant = plant
+        self._lazy = False
+        self._stale = True
+        if self._emulator is not None:
+            self._emulator._eager.append(self)
+
+    @property
+    def position(self) -> float:
+        """Horn angle in rad, 0 at the model's centre tick, unbounded (counts turns)."""
+        return units.ticks_position(self.model, self.ticks)
+
+    @property
+    def ticks(self) -> float:
+        """Horn angle as the firmware counts it: encoder ticks, unbounded and unrounded."""
+        return units.position_ticks(self.model, self.plant.position) - self._offset_ticks
+
+    @property
+    def velocity(self) -> float:
+        """Horn speed in rad/s, counter-clockwise positive."""
+        return self.plant.velocity
+
+    @property
+    def load(self) -> float:
+        """Load as a signed fraction of stall torque."""
+        return self.plant.effort
+
+    @property
+    def temperature(self) -> float:
+        return self.plant.temperature
+
+    @property
+    def external_load(self) -> float:
+        """Torque a world applies to the horn of the default plant, as a fraction of stall
+        torque (negative pushes clockwise)."""
+        plant = self.plant
+        return plant.external_load if isinstance(plant, KinematicServo) else 0.0
+
+    @external_load.setter
+    def external_load(self, load: float) -> None:
+        plant = self.plant
+        if not isinstance(plant, KinematicServo):
+            raise ConfigError(f"motor {self.id}: its plant belongs to a world; apply loads "
+                              "through the world")
+        plant.external_load = load
+
+    @property
+    def supply_voltage(self) -> float:
+        return self._supply_voltage
+
+    @supply_voltage.setter
+    def supply_voltage(self, volts: float) -> None:
+        self.sync()
+        self._supply_voltage = float(volts)
+        self._stale = True
+
     def inject_hardware_error(self, name: str) -> None:
         """Raise a hardware error as the real motor would: ``overload``, ``overheating``,
         ``input voltage`` (and on 2.0 ``motor encoder``, ``electrical shock``). Torque goes off
         when the model's shutdown register selects that error (the default for overload and
         overheating)."""
-        table = p1.ERROR_BITS if self.model.protocol == 1 else p2.HARDWARE_ERRORS
-        for bit, bit_name in table.items():
-            if bit_name == name:
-                self.hardware_error |= bit
-                if self.get_raw("shutdown") & bit:
-                    self.set_raw("torque_enable", 0)
-                self._sync_hardware_register()
-                return
-        known = [n for n in table.values() if n not in ("range", "checksum", "instruction")]
-        raise ConfigError(f"{self.model.name}: unknown hardware error {name!r}; "
-                          f"use one of {', '.join(known)}")
+        self.sync()
+        self._hardware_error(_hardware_bit(self.model, name))
+
+    def _hardware_error(self, bit: int) -> None:
+        self.hardware_error |= bit
+        if self.get_raw("shutdown") & bit:
+            self.set_raw("torque_enable", 0)
+        self._sync_hardware_register()
 
     def clear_hardware_error(self) -> None:
         self.hardware_error = 0
@@ -197,107 +287,113 @@ class VirtualMotor:
         if self.model.has("hardware_error_status"):
             self.set_raw("hardware_error_status", self.hardware_error)
 
-    # -- physics -------------------------------------------------------------------------------
-    def step(self, dt: float) -> None:
-        """Move the horn for ``dt`` seconds under the current commands."""
-        if dt <= 0:
-            return
-        max_speed = self.model.no_load_speed / self.model.rad_per_tick  # ticks/s
-        max_speed *= max(0.0, 1.0 - abs(self.external_load))
-        if not self.torque_enabled:
-            self.tick_velocity = 0.0
-        elif self.wheel_mode:
-            self.tick_velocity = max(-max_speed, min(max_speed, self._commanded_speed()))
-            self.ticks += self.tick_velocity * dt
-        else:
-            target = self._target_ticks()
-            speed = self._commanded_speed()
-            speed = max_speed if speed == 0 else min(abs(speed), max_speed)
-            error = target - self.ticks
-            travel = speed * dt
-            if abs(error) <= travel:
-                self.tick_velocity = 0.0  # arrived within this step: at rest
-                self.ticks = target
-            else:
-                self.tick_velocity = math.copysign(speed, error)
-                self.ticks += math.copysign(travel, error)
-        # Load: friction and the world's torque; heat follows load with a first-order lag.
-        friction = 0.04 + 0.12 * abs(self.tick_velocity) / max(1.0, max_speed)
-        self.load = 0.0 if not self.torque_enabled else max(-1.0, min(1.0, math.copysign(
-            friction, self.tick_velocity) if self.tick_velocity else 0.0) + self.external_load)
-        steady = AMBIENT_C + 7.0 + STALL_HEATING_C * abs(self.load)
-        self.temperature = steady + (self.temperature - steady) * math.exp(
-            -dt / THERMAL_TIME_CONSTANT_S)
-        if self.temperature > self.get_raw("temperature_limit"):
-            self.inject_hardware_error("overheating")
-        self._update_sensors()
+    # -- time ----------------------------------------------------------------------------------
+    @property
+    def sensed_step(self) -> int:
+        """The physics step the present_* registers show: the firmware samples its joint when
+        an instruction reaches it, from the state the last step left."""
+        return self._sensed_step
 
-    def _commanded_speed(self) -> float:
-        """Commanded speed in ticks/s (signed in wheel/velocity mode)."""
-        scale = self.model.speed_unit_rpm * 2 * math.pi / 60 / self.model.rad_per_tick
-        if self.model.protocol == 1:
-            raw = self.get_raw("moving_speed")
-            magnitude = (raw & 0x3FF) * scale
-            return -magnitude if raw & 0x400 else magnitude
+    def sync(self) -> None:
+        """Bring the joint and the present_* registers up to the emulator's current step."""
+        emulator = self._emulator
+        if emulator is not None and emulator.steps > self._steps_done:
+            if self._lazy:
+                self._catch_up(emulator.steps - self._steps_done, emulator.dt)
+            self._steps_done = emulator.steps
+            self._stale = True
+        if self._stale:
+            self._update_sensors()
+
+    def _catch_up(self, steps: int, dt: float) -> None:
+        """Step the default plant ``steps`` steps, stopping where it overheats so that the
+        shutdown happens on the step it would on the motor."""
+        plant = self._plant
+        assert isinstance(plant, KinematicServo)
+        overheating = _hardware_bit(self.model, "overheating")
+        while steps > 0:
+            limit = math.inf if self.hardware_error & overheating else self._temperature_limit
+            steps -= plant.advance(steps, dt, temperature_limit=limit)
+            if plant.temperature > limit:
+                self._hardware_error(overheating)
+
+    def _after_step(self, steps: int) -> None:
+        """A world stepped this motor's plant: the firmware's per-step duty."""
+        self._steps_done = steps
+        self._stale = True
+        overheating = _hardware_bit(self.model, "overheating")
+        if (self._plant.temperature > self._temperature_limit
+                and not self.hardware_error & overheating):
+            self._hardware_error(overheating)
+
+    def _command(self) -> ServoCommand:
+        """The registers as the joint sees them: torque, the goal and the limits, in SI."""
+        m = self.model
+        torque = bool(self.get_raw("torque_enable"))
+        if m.protocol == 1:
+            speed = self._si("moving_speed")
+            limit = self._si("torque_limit")
+            if self.wheel_mode:
+                return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
+            return ServoCommand(torque, False, goal_position=self._goal_angle(),
+                                profile_velocity=abs(speed), torque_limit=limit)
         mode = self.get_raw("operating_mode")
+        limit = self._si("pwm_limit")
         if mode == 1:
-            return self.get_raw("goal_velocity") * scale
+            return ServoCommand(torque, True, goal_velocity=self._si("goal_velocity"),
+                                torque_limit=limit)
         if mode == 16:
-            return self.get_raw("goal_pwm") / 885.0 * self.model.no_load_speed \
-                / self.model.rad_per_tick
+            return ServoCommand(torque, True, torque_limit=limit,
+                                goal_velocity=self._si("goal_pwm") * m.no_load_speed)
         if mode == 0:
-            limit = max(1, self._try_get("current_limit", 1))
-            return self._try_get("goal_current") / limit * self.model.no_load_speed \
-                / self.model.rad_per_tick
-        return self.get_raw("profile_velocity") * scale
+            share = self._try_get("goal_current") / max(1, self._try_get("current_limit", 1))
+            return ServoCommand(torque, True, goal_velocity=share * m.no_load_speed,
+                                torque_limit=limit)
+        return ServoCommand(torque, False, goal_position=self._goal_angle(),
+                            profile_velocity=self._si("profile_velocity"), torque_limit=limit)
 
-    def _target_ticks(self) -> float:
-        goal = self.get_raw("goal_position")
+    def _goal_angle(self) -> float:
+        """goal_position as an angle of the joint: in the one-turn position modes of 2.0 the
+        goal is an angle within the current turn."""
+        goal = float(self.get_raw("goal_position"))
         if self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5):
-            # One-turn position modes: the goal is an angle within the current turn.
-            turn = math.floor(self.ticks / self.model.resolution) * self.model.resolution
-            return turn + goal
-        return float(goal)
+            ticks = units.position_ticks(self.model, self._plant.position) - self._offset_ticks
+            goal += math.floor(ticks / self.model.resolution) * self.model.resolution
+        return units.ticks_position(self.model, goal + self._offset_ticks)
 
     def _update_sensors(self) -> None:
         m = self.model
-        ticks = round(self.ticks)
+        plant = self._plant
+        velocity, load = plant.velocity, plant.effort
+        ticks = round(units.position_ticks(m, plant.position) - self._offset_ticks)
+        voltage = self._supply_voltage - 0.3 * abs(load)
         if m.protocol == 1:
             present = ticks % m.resolution if self.wheel_mode else min(max(ticks, 0),
                                                                      m.resolution - 1)
             self.set_raw("present_position", present)
-            scale = m.speed_unit_rpm * 2 * math.pi / 60 / m.rad_per_tick
-            speed = min(1023, round(abs(self.tick_velocity) / scale))
-            self.set_raw("present_speed", speed | (0x400 if self.tick_velocity < 0 and speed
-                                                   else 0))
-            load = min(1023, round(abs(self.load) * 1000))
-            self.set_raw("present_load", load | (0x400 if self.load < 0 and load else 0))
-            self.set_raw("present_voltage", round(self._voltage() * 10))
-            self.set_raw("moving", int(abs(self.tick_velocity) > 0.5))
+            self._show("present_speed", velocity)
+            self._show("present_load", load)
+            self._show("present_voltage", voltage)
+            self.set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
             if self.get_raw("operating_mode") in (3, 5):
                 present = ticks % m.resolution
             else:
                 present = (ticks + 2**31) % 2**32 - 2**31
             self.set_raw("present_position", present)
-            scale = m.speed_unit_rpm * 2 * math.pi / 60 / m.rad_per_tick
-            self.set_raw("present_velocity", round(self.tick_velocity / scale))
+            self._show("present_velocity", velocity)
             if m.has("present_current"):
-                self.set_raw("present_current", round(
-                    self.load * self.get_raw("current_limit")))
+                self._show("present_current", load * self._si("current_limit"))
             else:
-                self.set_raw("present_load", round(self.load * 1000))
-            self.set_raw("present_pwm", round(self.tick_velocity / max(
-                1.0, m.no_load_speed / m.rad_per_tick) * 885))
-            self.set_raw("present_input_voltage", round(self._voltage() * 10))
-            moving = abs(self.tick_velocity) > self.get_raw("moving_threshold") * scale
-            self.set_raw("moving", int(moving))
-            self.set_raw("velocity_trajectory", round(self.tick_velocity / scale))
+                self._show("present_load", load)
+            self._show("present_pwm", velocity / m.no_load_speed)
+            self._show("present_input_voltage", voltage)
+            self.set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
+            self.set_raw("velocity_trajectory", self.get_raw("present_velocity"))
             self.set_raw("position_trajectory", present)
-        self.set_raw("present_temperature", min(255, round(self.temperature)))
-
-    def _voltage(self) -> float:
-        return self.supply_voltage - 0.3 * abs(self.load)
+        self._show("present_temperature", plant.temperature)
+        self._stale = False
+        self._sensed_step = self._steps_done
 
     # -- instructions --------------------------------------------------------------------------
     def error_byte(self, error: int = 0) -> int:
@@ -308,6 +404,7 @@ class VirtualMotor:
 
     def execute(self, inst: Instruction, name: str) -> Status:
         """Act on an instruction addressed to this motor; return the status it would send."""
+        self.sync()
         v1 = self.model.protocol == 1
         if not supports(self.model, name):
             return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else
@@ -374,12 +471,13 @@ class VirtualMotor:
                 return Status(self.id, self.error_byte(p2.RESULT_FAIL if params[:1] == b"\x01"
                                                        else p2.DATA_RANGE))
             turn = math.floor(self.ticks / self.model.resolution) * self.model.resolution
-            self.ticks -= turn
-            self._update_sensors()
+            self._offset_ticks += turn
+            self._table_changed()
             return Status(self.id, self.error_byte())
         return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else p2.INSTRUCTION_ERROR))
 
     def read(self, address: int, length: int) -> Status:
+        self.sync()
         end = address + length
         if length == 0 or end > len(self.table):
             v1 = self.model.protocol == 1
@@ -392,6 +490,7 @@ class VirtualMotor:
         Every byte must land in a writable register, every touched register must end in its
         range, and on 2.0 the EEPROM is locked while torque is on. Nothing changes on error.
         """
+        self.sync()
         v1 = self.model.protocol == 1
         end = address + len(data)
         if end > len(self.table):
@@ -415,9 +514,7 @@ class VirtualMotor:
             self._set_registered(1)
             return 0
         self.table[:] = scratch
-        names = {r.name for r in touched}
-        if names & {"operating_mode", "cw_angle_limit", "ccw_angle_limit"}:
-            self._update_sensors()
+        self._table_changed()
         return 0
 
     def _registers_in(self, start: int, end: int) -> list[Register]:
@@ -481,6 +578,9 @@ class Emulator:
     ``receive`` takes the bytes the host sent, finishing at time ``t``, at the host's baud rate,
     and returns the replies with their start times. Motors whose own baud rate differs from the
     host's hear noise and stay silent, like real ones.
+
+    The emulator does not keep time. Its owner (a :class:`servolab.sim.Simulation`) calls
+    :meth:`step` once per physics step and moves time to ``t`` before handing it bytes.
     """
 
     def __init__(self, protocol: int | Protocol, motors: Iterable[VirtualMotor] = (), *,
@@ -488,7 +588,10 @@ class Emulator:
         self.protocol = protocol if isinstance(protocol, Protocol) else protocol_for(protocol)
         self.motors: list[VirtualMotor] = []
         self.faults = faults or Faults()
-        self.time = 0.0
+        #: physics steps taken, and their length (s; nan before the first)
+        self.steps = 0
+        self.dt = math.nan
+        self._eager: list[VirtualMotor] = []  # motors whose plant a world steps
         self._parser = self.protocol.parser(keep_rejected=True)
         self.instructions_seen = 0
         for motor in motors:
@@ -498,7 +601,13 @@ class Emulator:
         if motor.model.protocol != self.protocol.version:
             raise ConfigError(f"{motor.model.name} speaks protocol {motor.model.protocol}.0, "
                               f"this bus protocol {self.protocol.version}.0")
+        if motor._emulator is not None:
+            raise ConfigError(f"motor {motor.id} is already on an emulated bus")
+        motor._emulator = self
+        motor._steps_done = self.steps
         self.motors.append(motor)
+        if not motor._lazy:
+            self._eager.append(motor)
         return motor
 
     def motor(self, motor_id: int) -> VirtualMotor:
@@ -508,17 +617,20 @@ class Emulator:
                 return m
         raise KeyError(f"no emulated motor with ID {motor_id}")
 
-    def advance(self, t: float) -> None:
-        """Move every motor's physics forward to time ``t``."""
-        dt = t - self.time
-        if dt > 0:
+    def step(self, dt: float) -> None:
+        """One physics step of ``dt`` seconds has passed. The motors' own plants catch up when
+        next looked at; the firmware of motors whose plant a world steps does its per-step
+        duty now (the world has stepped their plants already)."""
+        if dt != self.dt and self.steps and self.motors:
             for m in self.motors:
-                m.step(dt)
-            self.time = t
+                m.sync()  # a new step length: settle what the old one owes first
+        self.dt = dt
+        self.steps += 1
+        for m in self._eager:
+            m._after_step(self.steps)
 
     def receive(self, data: bytes, t: float, baudrate: float) -> list[Reply]:
         """Take the host's bytes (the last one ends at ``t``); return what goes back."""
-        self.advance(t)
         replies: list[Reply] = []
         for frame in self._parser.feed(data):
             self.instructions_seen += 1
@@ -544,12 +656,18 @@ class Emulator:
         return [Reply(start, self.faults.apply(_collide(encoded)))]
 
     # -- who answers what ------------------------------------------------------------------
-    def _listening(self, baudrate: float) -> list[VirtualMotor]:
-        return [m for m in self.motors if m.responsive and baud_matches(m.baudrate, baudrate)]
+    def _listening(self, baudrate: float, motors: list[VirtualMotor] | None = None
+                   ) -> list[VirtualMotor]:
+        return [m for m in (self.motors if motors is None else motors)
+                if m.responsive and baud_matches(m.baudrate, baudrate)]
 
     def _answer(self, inst: Instruction, t: float, baudrate: float) -> list[Reply]:
         name = self.protocol.instruction_name(inst.instruction)
-        motors = self._listening(baudrate)
+        unicast = inst.id != BROADCAST_ID and name not in _MULTI_MOTOR
+        # A unicast instruction concerns the motors with its ID only: ask only them whether
+        # they can hear it (a 20-motor bus answers READs without looking at 19 of them).
+        motors = self._listening(baudrate, [m for m in self.motors if m.id == inst.id]
+                                 if unicast else self.motors)
         v1 = self.protocol.version == 1
         if name == "SYNC_WRITE":
             self._sync_write(inst, motors)

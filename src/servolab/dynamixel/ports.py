@@ -1,27 +1,54 @@
 """Ports: where the bus bytes go.
 
 Three kinds, one interface (:class:`Port`): a USB serial adapter through pyserial
-(:class:`SerialPort`), an in-memory wire straight to an :class:`~.emulator.Emulator`
-(:class:`MemoryPort`), and a pseudo-terminal that serves an emulator to any other program
+(:class:`SerialPort`), an in-memory wire straight to a :class:`Device` such as an emulated bus
+(:class:`MemoryPort`), and a pseudo-terminal that serves a device to any other program
 (:class:`PtyServer`), so the official SDK or the Dynamixel Wizard can talk to emulated motors.
+
+:func:`open_port` opens a port by name, as pyserial's ``serial_for_url`` does: a device path
+(``/dev/ttyUSB0``, ``COM3``) is a serial port; ``scheme://...`` goes to the handler that
+:data:`URL_SCHEMES` names for the scheme, imported only when such a URL is opened. That is how
+``emu://rx28:11-16`` reaches the emulator without the driver importing it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib
 import logging
+import math
 import os
 import sys
 import threading
 from abc import ABC, abstractmethod
 from collections import deque
+from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
+from typing import Any, Protocol
 
-from ..clock import Clock, VirtualClock, WallClock
-from .emulator import Emulator, byte_time
+from ..clock import Clock, WallClock
 from .errors import ConfigError
+from .wire import byte_time
 
 log = logging.getLogger(__name__)
+
+
+class Reply(Protocol):
+    """Bytes a device puts on the wire, starting at ``start`` (seconds)."""
+
+    @property
+    def start(self) -> float: ...
+
+    @property
+    def data(self) -> bytes: ...
+
+
+class Device(Protocol):
+    """The far end of an in-memory wire: takes the host's bytes, finished at ``t`` at the
+    host's ``baudrate``, and returns what it answers, each reply with the time it starts."""
+
+    def receive(self, data: bytes, t: float, baudrate: float) -> list[Any]: ...
 
 
 class Port(ABC):
@@ -32,6 +59,8 @@ class Port(ABC):
     clock: Clock
     #: seconds the adapter may hold received bytes before passing them on (FTDI latency timer)
     latency: float = 0.0
+    #: the protocol the port knows its bus speaks (an emulated bus does), else None
+    protocol: int | None = None
 
     @abstractmethod
     def write(self, data: bytes) -> None: ...
@@ -58,58 +87,71 @@ class Port(ABC):
 
 
 class MemoryPort(Port):
-    """A wire from the driver straight into an emulator, in this process.
+    """A wire from the driver straight into a :class:`Device` (an emulated bus), in this
+    process.
 
-    On a :class:`~servolab.clock.VirtualClock` it models the wire exactly: every byte takes
-    10 bits' time at the baud rate, motors answer after their return delay, and the clock moves
-    accordingly, so bus-time figures come out without sleeping. On the wall clock, answers are
-    there at once (plus any injected delay).
+    On a virtual clock it models the wire exactly: every byte takes 10 bits' time at the baud
+    rate, motors answer after their return delay, and the port asks the clock's owner to move
+    time on accordingly (so worlds step while bytes travel), which gives bus-time figures
+    without sleeping. On the wall clock, answers are there at once (plus any injected delay).
     """
 
-    def __init__(self, emulator: Emulator, baudrate: int = 1_000_000, *,
-                 clock: Clock | None = None, name: str = "memory") -> None:
+    def __init__(self, device: Device, baudrate: int = 1_000_000, *, clock: Clock,
+                 name: str = "memory", protocol: int | None = None,
+                 lock: AbstractContextManager[Any] | None = None) -> None:
         if baudrate <= 0:
             raise ConfigError(f"baud rate {baudrate} must be positive")
-        self.emulator = emulator
+        self.device = device
         self.baudrate = int(baudrate)
-        self.clock = clock if clock is not None else VirtualClock()
+        self.clock = clock
         self.name = name
+        self.protocol = protocol
+        self._lock = lock if lock is not None else nullcontext()
         self._rx: deque[tuple[float, int]] = deque()  # (time the byte is complete, byte)
         self.bytes_written = 0
         self.bytes_read = 0
-        emulator.time = max(emulator.time, self.clock.now())
+
+    @property
+    def emulator(self) -> Device:
+        """The device on the wire (an :class:`~.emulator.Emulator` when emulated)."""
+        return self.device
 
     def write(self, data: bytes) -> None:
         data = bytes(data)
+        virtual = self.clock.virtual
         now = self.clock.now()
         tick = byte_time(self.baudrate)
-        end = now + len(data) * tick if self.clock.virtual else now
-        if self.clock.virtual:
-            self.clock.advance_to(end)  # type: ignore[attr-defined]
+        end = now + len(data) * tick if virtual else now
+        if virtual:
+            self.clock.advance_to(end)
         self.bytes_written += len(data)
-        for reply in self.emulator.receive(data, end, self.baudrate):
-            start = reply.start if self.clock.virtual else now + self.emulator.faults.delay
+        with self._lock:
+            replies = self.device.receive(data, end, self.baudrate)
+        # On the wall clock only an injected delay (a device's ``faults.delay``) holds answers.
+        delay = getattr(getattr(self.device, "faults", None), "delay", 0.0)
+        for reply in replies:
+            start = reply.start if virtual else now + delay
             for i, byte in enumerate(reply.data):
-                self._rx.append((start + (i + 1) * tick if self.clock.virtual else start, byte))
+                self._rx.append((start + (i + 1) * tick if virtual else start, byte))
 
     def read(self, size: int, timeout: float) -> bytes:
         deadline = self.clock.now() + timeout
         out = bytearray()
-        while len(out) < size and self._rx and self._rx[0][0] <= deadline:
-            ready, byte = self._rx[0]
-            if ready > self.clock.now():
-                self.clock.sleep(ready - self.clock.now())
-            self._rx.popleft()
+        rx = self._rx
+        last = -math.inf
+        while len(out) < size and rx and rx[0][0] <= deadline:
+            ready, byte = rx.popleft()
+            last = ready
             out.append(byte)
+        if last > self.clock.now():
+            self.clock.advance_to(last)  # the bytes come one after another: wait for the last
         if len(out) < size:
             if self.clock.virtual:
-                self.clock.advance_to(deadline)  # type: ignore[attr-defined]
-            elif not self._rx:
-                pass  # nothing more can come from an in-process emulator: no need to wait
-            else:
+                self.clock.advance_to(deadline)
+            elif self._rx:  # an answer is still on its way (injected delay): wait for it
                 self.clock.sleep(deadline - self.clock.now())
+            # else nothing more can come from an in-process device: no need to wait
         self.bytes_read += len(out)
-        self.emulator.advance(self.clock.now())
         return bytes(out)
 
     def reset_input(self) -> None:
@@ -202,23 +244,28 @@ def latency_warning(device: str, timer_ms: int | None) -> str | None:
 
 
 class PtyServer:
-    """Serve an emulator on a pseudo-terminal, so any serial client can talk to it.
+    """Serve a device (an emulated bus) on a pseudo-terminal, so any serial client can talk to
+    it.
 
-    The client opens :attr:`device` as a serial port. Replies are timed on the wall clock
-    (return delay and wire time at the emulator's baud are honoured). When the client sets a
+    The client opens :attr:`device` as a serial port. Replies are timed on ``clock``, which
+    must run at wall speed (a :class:`servolab.sim.Simulation` in real time, whose thread steps
+    the motors; ``lock`` is held while the device answers, so the two never meet halfway);
+    return delay and wire time at the bus's baud are honoured. When the client sets a
     standard line speed that no motor can understand (beyond 3 %), motors stay silent, as
     they would on a real wire; ``line_baud`` overrides what the client set.
     """
 
-    def __init__(self, emulator: Emulator, baudrate: int, *, link: str | Path | None = None,
-                 clock: Clock | None = None) -> None:
+    def __init__(self, emulator: Device, baudrate: int, *, link: str | Path | None = None,
+                 clock: Clock | None = None,
+                 lock: AbstractContextManager[Any] | None = None) -> None:
         import pty
         import termios
         import tty
 
         self.emulator = emulator
         self.baudrate = int(baudrate)
-        self.clock = clock or WallClock()
+        self.clock: Clock = clock or WallClock()
+        self._lock = lock if lock is not None else nullcontext()
         self._master, self._slave = pty.openpty()
         tty.setraw(self._slave, termios.TCSANOW)
         self.device = os.ttyname(self._slave)
@@ -229,7 +276,6 @@ class PtyServer:
             self.link.symlink_to(self.device)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="pty-emulator", daemon=True)
-        self.emulator.time = self.clock.now()
 
     def start(self) -> PtyServer:
         self._thread.start()
@@ -249,13 +295,14 @@ class PtyServer:
                 pending.remove(item)
                 os.write(self._master, item[1])
             if not ready:
-                self.emulator.advance(now)
                 continue
             try:
                 data = os.read(self._master, 4096)
             except OSError:
                 break
-            for reply in self.emulator.receive(data, now, self.line_baud()):
+            with self._lock:
+                replies = self.emulator.receive(data, now, self.line_baud())
+            for reply in replies:
                 pending.append((reply.start, reply.data))
             pending.sort(key=lambda p: p[0])
 
@@ -307,6 +354,26 @@ def client_line_speed(fd: int) -> int | None:
     return None
 
 
-def open_port(device: str, baudrate: int) -> Port:
-    """Open a serial port by device path (``/dev/ttyUSB0``, ``COM3``, a pty path)."""
-    return SerialPort(device, baudrate)
+#: URL schemes and the function that opens each, as ``"module:function"``; the module is
+#: imported only when such a URL is opened. The function takes (the URL after ``scheme://``,
+#: baudrate, **options) and returns a :class:`Port`.
+URL_SCHEMES: dict[str, str] = {
+    "emu": "servolab.sim.emulated:open_emulated_url",
+}
+
+
+def open_port(url: str, baudrate: int, **options: Any) -> Port:
+    """Open a port by name: a serial device (``/dev/ttyUSB0``, ``COM3``, a pty path) or a URL
+    (``emu://rx28:11-16`` for emulated motors). ``options`` go to the URL's handler (for
+    ``emu://``: ``simulation``, ``faults``) or, for a serial device, to :class:`SerialPort`."""
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        return SerialPort(url, baudrate, **options)
+    target = URL_SCHEMES.get(scheme)
+    if target is None:
+        known = ", ".join(f"{s}://" for s in URL_SCHEMES)
+        raise ConfigError(f"port {url!r}: unknown scheme {scheme!r}; use a serial device "
+                          f"such as /dev/ttyUSB0 or {known}")
+    module_name, _, function = target.partition(":")
+    opener: Callable[..., Port] = getattr(importlib.import_module(module_name), function)
+    return opener(rest, baudrate, **options)

@@ -62,9 +62,9 @@ def to_si(model: Model, register: Register, raw: int) -> float:
     if kind == "position_offset":
         return raw * model.rad_per_tick
     if kind == "speed_sign_bit":
-        return _sign_bit_to_si(raw, model.speed_unit_rpm * RPM)
+        return _sign_bit_to_si(raw, velocity_unit(model))
     if kind == "velocity":
-        return raw * model.speed_unit_rpm * RPM
+        return raw * velocity_unit(model)
     if kind == "acceleration":
         return raw * model.acceleration_unit_rpm2 * RPM / 60.0
     if kind == "load_sign_bit":
@@ -88,6 +88,73 @@ def to_si(model: Model, register: Register, raw: int) -> float:
     raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")
 
 
+def position_ticks(model: Model, position: float) -> float:
+    """The encoder count of an angle, unbounded and unrounded: what the firmware counts as the
+    horn turns (``position`` in rad from the model's centre tick)."""
+    return position / model.rad_per_tick + model.position_center
+
+
+def ticks_position(model: Model, ticks: float) -> float:
+    """The angle (rad) of an unbounded encoder count; the inverse of :func:`position_ticks`."""
+    return (ticks - model.position_center) * model.rad_per_tick
+
+
+def velocity_unit(model: Model) -> float:
+    """rad/s per unit of the model's speed registers (moving speed, goal/present velocity)."""
+    return model.speed_unit_rpm * RPM
+
+
+def reading(model: Model, register: Register, value: float) -> int:
+    """The raw value a sensor register shows for an SI ``value``: rounded, and held at what
+    the register can hold (a servo's present speed, load or voltage saturates; it does not
+    fail).
+
+    The emulated firmware writes every present_* register through here, so the readings and
+    the driver's :func:`to_si` use the same scales."""
+    kind = register.unit
+    if kind in ("speed_sign_bit", "load_sign_bit"):
+        scale = velocity_unit(model) if kind == "speed_sign_bit" else 0.001
+        magnitude = min(0x3FF, round(abs(value) / scale))
+        return magnitude | 0x400 if value < 0 and magnitude else magnitude
+    raw = _raw(model, register, float(value))
+    bits = 8 * register.size  # what the register can hold, not what a host may write to it
+    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if register.signed else (
+        0, (1 << bits) - 1)
+    return max(low, min(high, raw))
+
+
+def _raw(model: Model, register: Register, value: float) -> int:
+    """SI -> raw for the kinds without a sign bit, unchecked."""
+    kind = register.unit
+    if kind in ("raw", "bool"):
+        return round(value)
+    if kind == "position":
+        return round(value / model.rad_per_tick) + model.position_center
+    if kind == "position_offset":
+        return round(value / model.rad_per_tick)
+    if kind == "velocity":
+        return round(value / velocity_unit(model))
+    if kind == "acceleration":
+        return round(value / (model.acceleration_unit_rpm2 * RPM / 60.0))
+    if kind == "load":
+        return round(value / 0.001)
+    if kind == "torque_ratio":
+        return round(value * 1023.0)
+    if kind == "pwm":
+        return round(value * 885.0)
+    if kind == "current":
+        return round(value / model.current_unit_a)
+    if kind == "voltage":
+        return round(value / 0.1)
+    if kind == "temperature":
+        return round(value)
+    if kind == "delay_2us":
+        return round(value / 2e-6)
+    if kind == "baud":
+        return model.baud_register_for(int(value))
+    raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")
+
+
 def from_si(model: Model, register: Register, value: float) -> int:
     """Convert an SI value to the raw register value, or raise :class:`ConfigError` when the
     value is not a finite number or falls outside the register's range."""
@@ -99,44 +166,20 @@ def from_si(model: Model, register: Register, value: float) -> int:
     if not math.isfinite(value):
         raise ConfigError(f"{model.name} {register.name}: {value!r} is not a finite number")
     kind = register.unit
-    if kind in ("raw", "bool"):
-        if value != int(value):
-            raise ConfigError(f"{model.name} {register.name}: {value!r} is not a whole number")
-        raw = int(value)
-    elif kind == "position":
-        raw = round(value / model.rad_per_tick) + model.position_center
-    elif kind == "position_offset":
-        raw = round(value / model.rad_per_tick)
-    elif kind == "speed_sign_bit":
-        raw = _si_to_sign_bit(value, model.speed_unit_rpm * RPM)
-        if round(abs(value) / (model.speed_unit_rpm * RPM)) > 0x3FF:
+    if kind in ("raw", "bool") and value != int(value):
+        raise ConfigError(f"{model.name} {register.name}: {value!r} is not a whole number")
+    if kind == "speed_sign_bit":
+        raw = _si_to_sign_bit(value, velocity_unit(model))
+        if round(abs(value) / velocity_unit(model)) > 0x3FF:
             raw = register.raw_max + 1  # the magnitude does not fit its 10 bits
-    elif kind == "velocity":
-        raw = round(value / (model.speed_unit_rpm * RPM))
-    elif kind == "acceleration":
-        raw = round(value / (model.acceleration_unit_rpm2 * RPM / 60.0))
     elif kind == "load_sign_bit":
         raw = _si_to_sign_bit(value, 0.001)
         if round(abs(value) / 0.001) > 0x3FF:
             raw = register.raw_max + 1
-    elif kind == "load":
-        raw = round(value / 0.001)
-    elif kind == "torque_ratio":
-        raw = round(value * 1023.0)
-    elif kind == "pwm":
-        raw = round(value * 885.0)
-    elif kind == "current":
-        raw = round(value / model.current_unit_a)
-    elif kind == "voltage":
-        raw = round(value / 0.1)
-    elif kind == "temperature":
-        raw = round(value)
-    elif kind == "delay_2us":
-        raw = round(value / 2e-6)
-    elif kind == "baud":
-        raw = model.baud_register_for(int(value))
+    elif kind in ("raw", "bool"):
+        raw = int(value)
     else:
-        raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")
+        raw = _raw(model, register, value)
     if not register.raw_min <= raw <= register.raw_max:
         if kind.endswith("sign_bit"):
             top = to_si(model, register, min(register.raw_max, 0x3FF))

@@ -4,9 +4,9 @@ Transports deliver from their own threads (Zenoh's, a publisher's); the executor
 work and runs it on the thread that spins, one callback at a time, as rclpy's
 ``SingleThreadedExecutor`` does, so a node's callbacks never race each other.
 
-On a :class:`~servolab.clock.VirtualClock`, an executor with nothing to do jumps the clock to
-the next timer instead of waiting: a simulated robot runs as fast as the CPU allows and the
-same way every time.
+On a virtual clock, an executor with nothing to do asks the clock's owner to move time to the
+next timer instead of waiting (on a :class:`servolab.sim.Simulation` that steps every world on
+the way): a simulated robot runs as fast as the CPU allows and the same way every time.
 """
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ class Executor:
                     if wake is None:
                         self._cond.wait(0.05)  # only another thread can bring work
                     else:
-                        clock.advance_to(wake)  # type: ignore[attr-defined]
+                        clock.advance_to(wake)
                     continue
                 self._cond.wait(None if wake is None else max(0.0, wake - now))
 

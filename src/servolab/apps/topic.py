@@ -1,37 +1,32 @@
-"""What ``servolab topic`` and ``servolab param`` do: look at and poke a running graph, as
-``ros2 topic`` / ``rostopic`` and ``ros2 param`` do.
+"""``servolab topic``: look at and poke a running graph's topics, as ``ros2 topic`` /
+``rostopic`` do.
 
 Every function takes an open :class:`~servolab.middleware.context.Context` and a ``say``
 function for its output, so the CLI stays a parser and the tests can capture what is printed.
-Values are checked before anything is published or set.
+Values are checked before anything is published. The middleware (and Zenoh) is imported
+inside the functions, so that ``servolab --help`` does not load it.
 """
 
 from __future__ import annotations
 
-import statistics
+import argparse
+import sys
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import yaml
+from servolab.middleware.errors import MessageError
 
-from servolab.middleware.context import Context
-from servolab.middleware.errors import MessageError, ParameterError, ServiceError
-from servolab.middleware.node import Node
-from servolab.middleware.parameters import from_parameter_value, to_parameter_value
+from .arguments import add_transport, transport_options
+from .registry import Command
+
+if TYPE_CHECKING:
+    from servolab.middleware.context import Context
 
 Say = Callable[[str], None]
+#: Seconds to listen for the graph's announcements before answering what is in it.
 DISCOVERY_S = 0.5
-
-
-def _tool_node(ctx: Context, what: str) -> Node:
-    """A hidden node (its name starts with ``_``, as ``ros2`` CLI nodes' do)."""
-    return Node(ctx, f"_servolab_{what}_{time.time_ns() % 1_000_000}")
-
-
-def _hidden(node: str) -> bool:
-    return node.rsplit("/", 1)[-1].startswith("_")
 
 
 def topics(ctx: Context, timeout: float = DISCOVERY_S) -> dict[str, set[str]]:
@@ -45,7 +40,9 @@ def topics(ctx: Context, timeout: float = DISCOVERY_S) -> dict[str, set[str]]:
 
 def topic_list(ctx: Context, say: Say, *, show_types: bool = False,
                verbose: bool = False) -> list[str]:
-    graph = [e for e in ctx.transport.graph(DISCOVERY_S) if not _hidden(e.node)]
+    from ._graph import hidden
+
+    graph = [e for e in ctx.transport.graph(DISCOVERY_S) if not hidden(e.node)]
     names = sorted({e.name for e in graph if e.kind in ("MP", "MS")})
     for name in names:
         kinds = sorted({e.type_name for e in graph if e.name == name and e.kind in ("MP", "MS")})
@@ -90,7 +87,11 @@ def topic_echo(ctx: Context, topic: str, say: Say, *, type_name: str | None = No
                count: int = 0, no_arrays: bool = False, wait: float = 5.0) -> int:
     """Print each message as YAML followed by ``---``, as ``ros2 topic echo`` does; stops
     after ``count`` messages (0: until Ctrl-C). Returns the number printed."""
-    node = _tool_node(ctx, "echo")
+    import yaml
+
+    from ._graph import tool_node
+
+    node = tool_node(ctx, "echo")
     topic = node.resolve(topic)
     kind = find_type(ctx, topic, type_name, wait)
     printed = 0
@@ -117,11 +118,13 @@ def topic_pub(ctx: Context, topic: str, type_name: str, values: str, say: Say, *
     """Publish ``values`` (YAML, as ``rostopic pub`` takes them) ``count`` times (0: until
     Ctrl-C) at ``rate`` Hz (0: as fast as possible). Waits up to ``wait_matching`` s for a
     subscription first, so the first messages are not lost. Returns the number published."""
+    from ._graph import tool_node
+
     kind = ctx.types.check(type_name)
     msg = ctx.types.from_yaml(kind, values)  # refused here, before anything is published
     if rate < 0 or count < 0:
         raise MessageError(f"--rate {rate:g} and --count {count} must be >= 0")
-    node = _tool_node(ctx, "pub")
+    node = tool_node(ctx, "pub")
     topic = node.resolve(topic)
     pub = node.create_publisher(kind, topic, depth=0)
     end = time.monotonic() + wait_matching
@@ -149,7 +152,11 @@ def topic_hz(ctx: Context, topic: str, say: Say, *, type_name: str | None = None
              reports: int = 0) -> list[float]:
     """Print the average rate over the last ``window`` messages every ``report_every`` s, as
     ``ros2 topic hz`` does; returns the rates reported."""
-    node = _tool_node(ctx, "hz")
+    import statistics
+
+    from ._graph import tool_node
+
+    node = tool_node(ctx, "hz")
     topic = node.resolve(topic)
     kind = find_type(ctx, topic, type_name, wait)
     stamps: deque[float] = deque(maxlen=window + 1)
@@ -174,60 +181,63 @@ def topic_hz(ctx: Context, topic: str, say: Say, *, type_name: str | None = None
     return rates
 
 
-# -- parameters -------------------------------------------------------------------------------
-
-def _param_nodes(ctx: Context) -> list[str]:
-    return sorted({e.node for e in ctx.transport.graph(DISCOVERY_S)
-                   if e.kind == "SS" and e.name == f"{e.node}/list_parameters"
-                   and not _hidden(e.node)})
-
-
-def _client(ctx: Context, node_name: str, service: str) -> Any:
-    node = _tool_node(ctx, "param")
-    target = node_name if node_name.startswith("/") else f"/{node_name}"
-    srv = "".join(p.capitalize() for p in service.split("_"))
-    return node.create_client(f"rcl_interfaces/srv/{srv}", f"{target}/{service}")
-
-
-def param_list(ctx: Context, say: Say, node_name: str | None = None,
-               timeout: float = 2.0) -> dict[str, list[str]]:
-    """Every node's parameter names (or one node's), as ``ros2 param list`` prints them."""
-    nodes = [node_name if node_name.startswith("/") else f"/{node_name}"] if node_name \
-        else _param_nodes(ctx)
-    listing: dict[str, list[str]] = {}
-    for name in nodes:
-        names = list(_client(ctx, name, "list_parameters").call(timeout=timeout).result.names)
-        listing[name] = names
-        say(f"{name}:")
-        for param in names:
-            say(f"  {param}")
-    return listing
-
-
-def param_get(ctx: Context, node_name: str, name: str, say: Say, timeout: float = 2.0) -> Any:
-    client = _client(ctx, node_name, "get_parameters")
-    values = client.call(client.request(names=[name]), timeout=timeout).values
-    value = from_parameter_value(values[0]) if values else None
-    if value is None:
-        raise ParameterError(f"{node_name} has no parameter {name!r}")
-    say(f"{name}: {value!r}")
-    return value
+def _add_arguments(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    p = actions.add_parser("list", help="topics in the graph")
+    p.add_argument("-t", "--show-types", action="store_true", help="show each topic's type")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="types, and how many publishers and subscriptions")
+    add_transport(p)
+    p = actions.add_parser("echo", help="print a topic's messages as YAML")
+    p.add_argument("topic")
+    p.add_argument("--type", dest="type_name", help="message type (default: from the graph)")
+    p.add_argument("--count", type=int, default=0, help="stop after N messages")
+    p.add_argument("--no-arr", action="store_true", help="abbreviate long arrays")
+    add_transport(p)
+    p = actions.add_parser("pub", help="publish YAML values, as rostopic pub")
+    p.add_argument("topic")
+    p.add_argument("type_name", metavar="TYPE", help="e.g. geometry_msgs/msg/Twist")
+    p.add_argument("values", metavar="VALUES", nargs="?", default="",
+                   help="YAML, e.g. \"{linear: {x: 0.1}, angular: {z: 0.5}}\"")
+    p.add_argument("--rate", type=float, default=1.0, help="Hz; 0: as fast as possible")
+    p.add_argument("--count", type=int, default=0, help="publish N times (default: forever)")
+    p.add_argument("--once", action="store_const", const=1, dest="count",
+                   help="publish once (--count 1)")
+    add_transport(p)
+    p = actions.add_parser("hz", help="measure a topic's rate")
+    p.add_argument("topic")
+    p.add_argument("--type", dest="type_name", help="message type (default: from the graph)")
+    p.add_argument("--window", type=int, default=100,
+                   help="average over the last N messages (default 100)")
+    add_transport(p)
 
 
-def param_set(ctx: Context, node_name: str, name: str, text: str, say: Say,
-              timeout: float = 2.0) -> None:
-    try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError:
-        raise ParameterError(f"value {text!r} for {name} is not YAML") from None
-    parameter = {"name": name, "value": to_parameter_value(ctx.types, value)}
-    client = _client(ctx, node_name, "set_parameters")
-    results = client.call(client.request(parameters=[parameter]), timeout=timeout).results
-    if not results or not results[0].successful:
-        reason = results[0].reason if results else "no answer"
-        raise ParameterError(f"setting {name} on {node_name} failed: {reason}")
-    say(f"set {name} = {value!r} on {node_name}")
+def _run(args: argparse.Namespace) -> int:
+    from servolab.middleware.context import Context
+
+    from ._graph import say
+
+    with Context.open(transport_options(args)) as ctx:
+        if args.action == "list":
+            topic_list(ctx, say, show_types=args.show_types, verbose=args.verbose)
+        elif args.action == "echo":
+            topic_echo(ctx, args.topic, say, type_name=args.type_name, count=args.count,
+                       no_arrays=args.no_arr)
+        elif args.action == "pub":
+            sent = topic_pub(ctx, args.topic, args.type_name, args.values, say,
+                             rate=args.rate, count=args.count)
+            print(f"published {sent} message(s)", file=sys.stderr)
+        elif args.action == "hz":
+            topic_hz(ctx, args.topic, say, type_name=args.type_name, window=args.window)
+    return 0
 
 
-__all__ = ["ServiceError", "param_get", "param_list", "param_set", "topic_echo", "topic_hz",
-           "topic_list", "topic_pub", "topics"]
+COMMAND = Command(
+    name="topic", group="graph", help="list, echo, publish and time topics",
+    description="Look at and poke the topics of a running graph, as 'ros2 topic' does.",
+    examples=("servolab topic list -t",
+              "servolab topic echo /cmd_vel --count 5",
+              "servolab topic pub /cmd_vel geometry_msgs/msg/Twist "
+              "\"{linear: {x: 0.1}}\" --rate 10",
+              "servolab topic hz /cmd_vel --connect tcp/robot.local:7447"),
+    add_arguments=_add_arguments, run=_run)

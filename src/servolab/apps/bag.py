@@ -1,4 +1,9 @@
-"""What ``servolab bag record | play | info`` do."""
+"""``servolab bag record | play | info``: MCAP bags in the rosbag2 layout, as ``ros2 bag``.
+
+Each function takes plain values and a ``say`` function for its output, so tests can call it
+and capture what is printed. The middleware (and Zenoh) is imported inside the functions, so
+that ``servolab --help`` does not load it.
+"""
 
 from __future__ import annotations
 
@@ -6,14 +11,16 @@ import argparse
 import math
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from servolab.middleware.bag import BagReader, format_info, play
-from servolab.middleware.context import Context
 from servolab.middleware.errors import MessageError
-from servolab.middleware.messages import MessageTypes
-from servolab.middleware.node import Node, Publisher
-from servolab.middleware.recorder import Recorder
-from servolab.middleware.transport import TransportOptions
+
+from .arguments import add_transport, transport_options
+from .registry import Command
+
+if TYPE_CHECKING:
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Publisher
 
 Say = Callable[[str], None]
 
@@ -33,6 +40,8 @@ def parse_topic_types(pairs: list[str]) -> dict[str, str]:
 def record(ctx: Context, output: str, topics: list[str], say: Say, *,
            types: dict[str, str] | None = None) -> dict[str, int]:
     """Record until Ctrl-C or SIGTERM; the bag is complete either way. Returns the counts."""
+    from servolab.middleware.recorder import Recorder
+
     recorder = Recorder(ctx, output, topics, types=types)
     say(f"recording to {recorder.writer.path} (Ctrl-C to stop)")
     if recorder.waiting_for:
@@ -50,6 +59,9 @@ def record(ctx: Context, output: str, topics: list[str], say: Say, *,
 def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
              topics: list[str] | None = None, wait_matching: float = 1.0) -> int:
     """Publish a bag's messages on their topics at the bag's pace times ``rate``."""
+    from servolab.middleware.bag import BagReader, play
+    from servolab.middleware.node import Node
+
     reader = BagReader(path, ctx.types)
     info = reader.info()
     chosen = [t for t in info.topics if topics is None or t.name in topics]
@@ -78,15 +90,49 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     return played
 
 
-def dispatch(args: argparse.Namespace,
-             options: Callable[[argparse.Namespace], TransportOptions], say: Say) -> int:
+def _add_arguments(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    p = actions.add_parser("record", help="record topics to an MCAP bag (rosbag2 layout)")
+    p.add_argument("topics", nargs="+", metavar="TOPIC")
+    p.add_argument("-o", "--output", required=True, metavar="PATH", help="bag folder to create")
+    p.add_argument("--type", dest="types", action="append", default=[], metavar="TOPIC:TYPE",
+                   help="type of a topic not yet in the graph, e.g. /cmd_vel:geometry_msgs/"
+                   "msg/Twist")
+    add_transport(p)
+    p = actions.add_parser("play", help="publish a bag's messages at its own (or a scaled) rate")
+    p.add_argument("path")
+    p.add_argument("--rate", type=float, default=1.0, help="speed factor; 0: as fast as "
+                   "possible")
+    p.add_argument("--topics", nargs="+", metavar="TOPIC", help="play only these topics")
+    add_transport(p)
+    p = actions.add_parser("info", help="topics, types, counts and duration of a bag")
+    p.add_argument("path")
+
+
+def _run(args: argparse.Namespace) -> int:
+    from servolab.middleware.bag import BagReader, format_info
+    from servolab.middleware.context import Context
+    from servolab.middleware.messages import MessageTypes
+
+    from ._graph import say
+
     if args.action == "info":
         say(format_info(BagReader(args.path, MessageTypes()).info()))
         return 0
     types = parse_topic_types(args.types) if args.action == "record" else None
-    with Context.open(options(args)) as ctx:
+    with Context.open(transport_options(args)) as ctx:
         if args.action == "record":
             record(ctx, args.output, args.topics, say, types=types)
         elif args.action == "play":
             play_bag(ctx, args.path, say, rate=args.rate, topics=args.topics)
     return 0
+
+
+COMMAND = Command(
+    name="bag", group="graph", help="record, play and inspect MCAP bags",
+    description="Record topics to an MCAP bag in the rosbag2 layout (Foxglove and ros2 bag "
+    "open it), play one back, or show what is in one.",
+    examples=("servolab bag record /cmd_vel /odom -o runs/drive1",
+              "servolab bag info runs/drive1",
+              "servolab bag play runs/drive1 --rate 2"),
+    add_arguments=_add_arguments, run=_run)

@@ -1,0 +1,125 @@
+"""Arguments more than one command takes, written once so they read the same everywhere.
+
+The ``add_*`` functions add options to a command's parser; the value parsers (``int_range``,
+``protocol``, ``baud``) turn text into values or raise :class:`argparse.ArgumentTypeError`,
+which argparse prints as ``servolab COMMAND: error: ...`` with exit status 2.
+Imported by every command module when ``servolab --help`` runs, so only the standard library
+and the middleware's exception classes are imported at the top.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from typing import TYPE_CHECKING
+
+from servolab.middleware.errors import TransportError
+
+if TYPE_CHECKING:
+    from servolab.middleware.transport import TransportOptions
+
+PORT_HELP = ("serial device (/dev/ttyUSB0, COM3), the pty 'servolab sim' printed, or "
+             "emu://MODEL:IDS for emulated motors, e.g. emu://rx28:11-16")
+
+
+# -- value parsers ------------------------------------------------------------------------------
+
+def int_range(text: str) -> range:
+    """``"12"`` or ``"0-252"``, both ends included, as the Dynamixel Wizard writes ID ranges."""
+    try:
+        if "-" in text:
+            a, b = (int(x) for x in text.split("-", 1))
+        else:
+            a = b = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an ID or a range like 0-252"
+                                         ) from None
+    if a > b:
+        raise argparse.ArgumentTypeError(f"range {text!r} runs backwards")
+    return range(a, b + 1)
+
+
+def protocol(text: str) -> int:
+    """``1`` or ``2``; ``1.0`` and ``2.0`` too, as the e-Manual names them."""
+    if text in ("1", "1.0"):
+        return 1
+    if text in ("2", "2.0"):
+        return 2
+    raise argparse.ArgumentTypeError(f"protocol {text!r} is not 1 or 2")
+
+
+def baud(text: str) -> int:
+    """A positive baud rate; ``1e6`` is accepted for 1000000."""
+    try:
+        value = int(float(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"baud rate {text!r} is not a number") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"baud rate {text!r} must be positive")
+    return value
+
+
+# -- options ------------------------------------------------------------------------------------
+
+def add_out(p: argparse.ArgumentParser) -> None:
+    """``--out DIR``, the run folder of a command that leaves one (see :mod:`servolab.runs`)."""
+    p.add_argument("--out", metavar="DIR", help="run folder for summary.json and plots "
+                   "(default: runs/<command>-<timestamp>/)")
+
+
+def add_port(p: argparse.ArgumentParser) -> None:
+    """``--port``: a device path or a URL; which one is for :meth:`Bus.open` to tell."""
+    p.add_argument("--port", required=True, metavar="PORT", help=PORT_HELP)
+
+
+def add_bus(p: argparse.ArgumentParser, *, default_baud: int = 57600) -> None:
+    """``--port``, ``--protocol`` and ``--baud`` of a command that talks to motors on one bus.
+
+    ``--protocol`` defaults to None: an emulated bus speaks its models' protocol and a serial
+    port 2.0, so the default is the port's to decide, not the parser's.
+    """
+    add_port(p)
+    p.add_argument("--protocol", type=protocol, default=None, metavar="{1,2}",
+                   help="1 or 2 (default: an emulated bus's models' protocol, else 2)")
+    p.add_argument("--baud", type=baud, default=default_baud,
+                   help=f"baud rate (default {default_baud}: factory default of X-series, "
+                   "and within 1 %% of the RX-28's 57142)")
+
+
+def add_motor(p: argparse.ArgumentParser) -> None:
+    """``--id`` (as ``motor_id``) and ``--model`` of a command that addresses one motor."""
+    p.add_argument("--id", type=int, required=True, dest="motor_id", metavar="ID",
+                   help="the motor's ID")
+    p.add_argument("--model", help="the motor's model, e.g. rx28; skips the PING that learns "
+                   "it")
+
+
+def add_transport(p: argparse.ArgumentParser, default: str = "zenoh") -> None:
+    """``--transport``, ``--listen``, ``--connect`` and ``--domain-id`` of a command that joins
+    the graph; ``default`` "" leaves the choice to the command (a launch file has its own)."""
+    shown = default or "the launch file's"
+    p.add_argument("--transport", choices=["local", "zenoh"], default=default,
+                   help="local: this process only; zenoh: other processes and machines "
+                   f"(default: {shown})")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                   help="Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                   help="Zenoh endpoint to connect to, e.g. tcp/robot.local:7447")
+    p.add_argument("--domain-id", type=int, default=None, metavar="N",
+                   help="ROS domain id (default: $ROS_DOMAIN_ID or 0)")
+
+
+def transport_options(args: argparse.Namespace, default: str = "zenoh") -> TransportOptions:
+    """The options :func:`add_transport` added, checked, as the middleware takes them."""
+    from servolab.middleware.transport import TransportOptions
+
+    domain = args.domain_id
+    if domain is None:
+        text = os.environ.get("ROS_DOMAIN_ID", "0") or "0"
+        if not text.isdigit():
+            raise TransportError(f"ROS_DOMAIN_ID={text!r} is not a number")
+        domain = int(text)
+    if not 0 <= domain <= 232:
+        raise TransportError(f"--domain-id {domain} is outside 0..232")
+    kind = args.transport or default
+    return TransportOptions(kind, list(args.listen), list(args.connect), domain)

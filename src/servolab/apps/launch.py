@@ -1,0 +1,39 @@
+"""``servolab launch``: start the nodes of a launch file, handing the file and flags to the
+launch supervisor (:func:`servolab.middleware.launch.launch_main`).
+
+The supervisor runs each process group as ``servolab launch FILE --process GROUP``, so
+``--process`` is an argument here too, hidden from ``--help``. The middleware (and Zenoh) is
+imported inside the run function, so that ``servolab --help`` does not load it.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .arguments import add_transport
+from .registry import Command
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="a launch file, e.g. configs/talker_listener.launch.yaml")
+    p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
+    p.add_argument("--process", help=argparse.SUPPRESS)
+    add_transport(p, default="")
+
+
+def _run(args: argparse.Namespace) -> int:
+    from servolab.middleware.launch import launch_main
+
+    from ._graph import say
+
+    return launch_main(args.file, machine=args.machine, process=args.process,
+                       transport=args.transport or None, listen=args.listen,
+                       connect=args.connect, domain_id=args.domain_id, out=say)
+
+
+COMMAND = Command(
+    name="launch", group="graph", help="start the nodes of a launch file",
+    description="Start the nodes a launch file gives this machine (the format is in "
+    "docs/middleware.md); Ctrl-C stops them all.",
+    examples=("servolab launch configs/talker_listener.launch.yaml",),
+    add_arguments=_add_arguments, run=_run)

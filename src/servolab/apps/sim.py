@@ -1,0 +1,94 @@
+"""``servolab sim``: emulated motors on a pseudo-terminal, for programs that open a serial port.
+
+:func:`sim` takes plain values (already parsed), prints for a person and returns what it saw,
+so tests and other code can call it without a shell. The Dynamixel layer is imported inside
+the functions, so that ``servolab --help`` does not load it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import TYPE_CHECKING, TextIO
+
+from .arguments import add_out, baud, protocol
+from .registry import Command
+
+if TYPE_CHECKING:
+    from ..dynamixel.motorspec import MotorSpec
+    from ..runs import RunFolder
+
+
+def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
+        stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr,
+        duration: float | None = None) -> dict[str, object]:
+    """Serve emulated motors on a pseudo-terminal until Ctrl-C / SIGTERM (or ``duration`` s).
+
+    The motors live in a :class:`~servolab.sim.Simulation` that runs in real time on its own
+    thread, so they move whether or not the client talks. The device path is the first line
+    on stdout, so scripts can read it."""
+    from ..dynamixel.emulator import build_emulator
+    from ..dynamixel.ports import PtyServer
+    from ..signals import on_stop_signals, raise_keyboard_interrupt
+    from ..sim import Simulation
+
+    simulation = Simulation()
+    emulator = simulation.add_emulator(build_emulator(spec))
+    baud = spec.baudrate or spec.motors[0].model.baud_from_register(
+        spec.motors[0].model.register("baud_rate").default or 0)
+    simulation.start_real_time()
+    server = PtyServer(emulator, baud, link=link, clock=simulation, lock=simulation.lock)
+    print(server.device, file=stdout, flush=True)
+    names = sorted({e.model.name for e in spec.motors})
+    ids = ",".join(str(e.id) for e in spec.motors)
+    print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
+          f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
+          f"{f' (link {link})' if link else ''}; Ctrl-C stops", file=stderr, flush=True)
+    started = time.monotonic()
+    with on_stop_signals(raise_keyboard_interrupt), server:
+        try:
+            while duration is None or time.monotonic() - started < duration:
+                time.sleep(0.2)
+        except KeyboardInterrupt:
+            pass
+    simulation.stop_real_time()
+    figures = {"device": server.device, "protocol": spec.protocol, "baudrate": baud,
+               "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
+               "instructions_received": emulator.instructions_seen,
+               "served_s": round(time.monotonic() - started, 3),
+               "physics_steps": simulation.steps}
+    run.write_summary(figures)
+    print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
+          f"summary in {run.path}", file=stderr, flush=True)
+    return figures
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--motors", required=True, metavar="SPEC",
+                   help="'rx28:11-16,21-26', 'xm430-w210:100-102', or a YAML file")
+    p.add_argument("--pty", action="store_true", required=True,
+                   help="serve on a pseudo-terminal (prints its path on the first line)")
+    p.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the pty")
+    p.add_argument("--baud", type=baud, help="motors' baud rate (default: factory default)")
+    p.add_argument("--protocol", type=protocol, help="1 or 2 (default: the models')")
+    add_out(p)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..dynamixel import motorspec
+    from ..runs import RunFolder
+
+    spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
+    sim(spec, run=RunFolder.create("sim", args.out), link=args.link)
+    return 0
+
+
+COMMAND = Command(
+    name="sim", group="bus", help="serve emulated motors on a pseudo-terminal",
+    description="Serve emulated motors on a pseudo-terminal until Ctrl-C. The pty's path is "
+    "the first line printed; give it to --port of scan, read and write, or to any program "
+    "that opens a serial port.",
+    examples=("servolab sim --pty --motors rx28:11-16 --link /tmp/dxl",
+              "servolab scan --port /tmp/dxl --protocol 1   # in another terminal"),
+    add_arguments=_add_arguments, run=_run)

@@ -1,0 +1,328 @@
+"""The servo plant: the physical joint behind an emulated motor's firmware, in SI units.
+
+An emulated Dynamixel is two things. Its *firmware* (:class:`~.emulator.VirtualMotor`) is the
+control table, the instructions and the errors: it turns registers into a
+:class:`ServoCommand` and reads the joint back into present_* registers. Its *plant* is the
+physics: where the horn is, how fast it turns, what load it carries, how warm the motor is.
+The two meet only here, in radians, rad/s, fractions of stall torque and degrees Celsius, so a
+world can swap the plant — a wheel whose speed a floor integrates, an omni-wheel coupled to a
+ball, a joint whose state a physics engine owns — and the firmware answers on the bus from it.
+
+:class:`KinematicServo` is the default plant: the horn moves toward the goal at the commanded
+speed, capped by the model's no-load speed less what an external load takes, as the emulator
+always did. It can be stepped lazily (:meth:`KinematicServo.advance`): the state after ``n``
+fixed steps is computed in closed form from the start of the current motion, by the same
+expressions one step at a time uses, so catching up is bit-for-bit the same as stepping and a
+bus of twenty idle servos costs nothing while no one talks to it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+AMBIENT_C = 25.0
+#: Winding temperature above ambient with no load (electronics and holding current).
+IDLE_RISE_C = 7.0
+#: Further steady-state rise at 100 % load.
+STALL_HEATING_C = 60.0
+THERMAL_TIME_CONSTANT_S = 300.0
+#: Load fraction that friction takes at rest and, additionally, at full speed.
+FRICTION_STATIC = 0.04
+FRICTION_VISCOUS = 0.12
+
+
+@dataclass(frozen=True)
+class ServoCommand:
+    """What the firmware asks of the joint, in SI units.
+
+    ``velocity_control`` selects between holding ``goal_velocity`` (wheel mode, velocity,
+    PWM and current modes) and going to ``goal_position`` (joint and position modes) at
+    ``profile_velocity`` (0: as fast as the motor can). ``goal_position`` is unbounded: the
+    firmware has already placed it in the right turn.
+    """
+
+    torque_enabled: bool = False
+    velocity_control: bool = False
+    goal_position: float = 0.0      # rad
+    profile_velocity: float = 0.0   # rad/s, magnitude; 0 = the motor's top speed
+    goal_velocity: float = 0.0      # rad/s, signed
+    torque_limit: float = 1.0       # fraction of stall torque the firmware allows
+
+
+class ServoPlant(Protocol):
+    """The interface between an emulated motor's firmware and its joint.
+
+    The firmware sets :attr:`command` whenever its registers change and reads the four state
+    properties when a register is read. Whoever owns the plant steps it once per physics step
+    (:meth:`step`): the emulator for its own default plants, a world for the plants it put in.
+    """
+
+    command: ServoCommand
+
+    @property
+    def position(self) -> float:
+        """Horn angle, rad, unbounded (counts turns), 0 at the model's centre tick."""
+        ...
+
+    @property
+    def velocity(self) -> float:
+        """Horn speed, rad/s, counter-clockwise positive."""
+        ...
+
+    @property
+    def effort(self) -> float:
+        """Load on the motor as a signed fraction of stall torque (present_load's -1..1)."""
+        ...
+
+    @property
+    def temperature(self) -> float:
+        """Motor temperature, °C."""
+        ...
+
+    def step(self, dt: float) -> None:
+        """Move the physics on by one fixed step of ``dt`` seconds."""
+        ...
+
+
+class KinematicServo:
+    """The default plant: an ideal position/velocity servo with a linear torque-speed curve.
+
+    In position control the horn moves straight to the goal at the commanded speed and stops
+    on it; in velocity control it turns at the commanded speed. Either speed is capped by
+    ``no_load_speed`` × (1 − |external_load|), the DC motor's torque-speed line; when the
+    external load exceeds the torque limit the horn stalls. The load it reports is friction
+    plus the external load; the temperature follows the load with a first-order lag.
+
+    ``external_load`` is the torque the world applies to the horn, as a fraction of stall
+    torque (negative pushes clockwise).
+    """
+
+    def __init__(self, no_load_speed: float, position: float = 0.0, *,
+                 ambient: float = AMBIENT_C) -> None:
+        if not no_load_speed > 0:
+            raise ValueError(f"no_load_speed {no_load_speed!r} rad/s must be positive")
+        self.no_load_speed = float(no_load_speed)
+        self.ambient = float(ambient)
+        self._command = ServoCommand()
+        self._external_load = 0.0
+        self._decay: tuple[float, float] = (math.nan, 1.0)  # (dt, exp(-dt / tau))
+        # Segment: the motion since the last change of command or load, in closed form.
+        self._p0 = float(position)      # position at the segment's start
+        self._t0 = self.ambient + IDLE_RISE_C  # temperature at the segment's start
+        self._v0 = 0.0                  # velocity and effort at the start: until the first
+        self._e0 = 0.0                  # step of a new command, the joint is as it was
+        self._j = 0                     # steps taken in the segment
+        self._cached_j = -1
+        self._cached = (0.0, 0.0, 0.0, 0.0)
+        self._plan()
+
+    # -- inputs ---------------------------------------------------------------------------------
+    @property
+    def command(self) -> ServoCommand:
+        return self._command
+
+    @command.setter
+    def command(self, command: ServoCommand) -> None:
+        if command != self._command:
+            self._restart()
+            self._command = command
+            self._plan()
+
+    @property
+    def external_load(self) -> float:
+        return self._external_load
+
+    @external_load.setter
+    def external_load(self, load: float) -> None:
+        if not math.isfinite(load):
+            raise ValueError(f"external_load {load!r} is not a finite number")
+        if load != self._external_load:
+            self._restart()
+            self._external_load = float(load)
+            self._plan()
+
+    # -- state ----------------------------------------------------------------------------------
+    @property
+    def position(self) -> float:
+        return self._state()[0]
+
+    @property
+    def velocity(self) -> float:
+        return self._state()[1]
+
+    @property
+    def effort(self) -> float:
+        return self._state()[2]
+
+    @property
+    def temperature(self) -> float:
+        return self._state()[3]
+
+    def _state(self) -> tuple[float, float, float, float]:
+        """(position, velocity, effort, temperature) now, computed once per step."""
+        if self._cached_j != self._j:
+            j = self._j
+            velocity = self._velocity(j) if j else self._v0
+            self._cached = (self._position(j), velocity,
+                            self._effort(velocity) if j else self._e0, self._temperature(j))
+            self._cached_j = j
+        return self._cached
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        self.advance(1, dt)
+
+    def advance(self, steps: int, dt: float, *, temperature_limit: float = math.inf) -> int:
+        """Take ``steps`` fixed steps of ``dt`` — bit for bit what as many calls of
+        :meth:`step` give — but stop after the first step that leaves the temperature above
+        ``temperature_limit`` (the firmware's overheating shutdown must act there). Returns
+        the steps taken."""
+        if steps <= 0:
+            return 0
+        if dt != self._decay[0]:
+            self._restart()
+            self._decay = (dt, math.exp(-dt / THERMAL_TIME_CONSTANT_S))
+            self._plan_steps(dt)
+        first, last = self._j + 1, self._j + steps
+        hot = self._first_above(first, last, temperature_limit)
+        self._j = last if hot is None else hot
+        return self._j - first + 1
+
+    # -- the closed form ------------------------------------------------------------------------
+    def _restart(self) -> None:
+        """Start a new segment where the current one stands."""
+        self._p0, self._t0 = self.position, self.temperature
+        self._v0, self._e0 = self.velocity, self.effort
+        self._j = 0
+        self._cached_j = -1
+
+    def _max_speed(self) -> float:
+        load = abs(self._external_load)
+        if load > self._command.torque_limit:
+            return 0.0  # the load beats the torque the firmware allows: stalled
+        return self.no_load_speed * max(0.0, 1.0 - load)
+
+    def _plan(self) -> None:
+        """Decide the segment's motion from the command and the load (dt-independent)."""
+        cmd = self._command
+        top = self._max_speed()
+        if not cmd.torque_enabled:
+            self._speed, self._target = 0.0, math.nan
+        elif cmd.velocity_control:
+            self._speed, self._target = max(-top, min(top, cmd.goal_velocity)), math.nan
+        else:
+            want = abs(cmd.profile_velocity)
+            self._speed = top if want == 0 else min(want, top)
+            self._target = cmd.goal_position
+        self._plan_steps(self._decay[0])
+
+    def _plan_steps(self, dt: float) -> None:
+        """The segment's per-step figures for this ``dt``: travel per step, the step on which
+        a move arrives (the first ``j`` with ``|error| <= travel * j``), the velocity and load
+        while moving and at rest, and the temperatures they tend to. Before the first step
+        ``dt`` is not known yet (nan) and nothing has moved."""
+        self._cached_j = -1
+        self._travel = self._speed * dt if not math.isnan(dt) else 0.0
+        self._arrive = 0  # 0: no goal (velocity control); -1: stalled short of it
+        torque = self._command.torque_enabled
+        if not math.isnan(self._target):
+            error = abs(self._target - self._p0)
+            if error == 0:
+                self._arrive = 1
+            elif self._travel > 0:
+                j = max(1, math.ceil(error / self._travel))
+                while j > 1 and error <= self._travel * (j - 1):
+                    j -= 1
+                while not error <= self._travel * j:
+                    j += 1
+                self._arrive = j
+            else:
+                self._arrive = -1  # pushed to a standstill short of the goal
+            self._step_travel = math.copysign(self._travel, self._target - self._p0)
+        if not torque:
+            self._v_move = 0.0
+        elif math.isnan(self._target):
+            self._v_move = self._speed
+        else:
+            self._v_move = 0.0 if self._arrive == -1 else math.copysign(
+                self._speed, self._target - self._p0)
+        self._e_move, self._e_rest = self._effort(self._v_move), self._effort(0.0)
+        self._steady_move = self._steady(self._e_move)
+        self._steady_rest = self._steady(self._e_rest)
+        # The first step at rest after moving, when the segment has both parts.
+        self._first_rest = (None if math.isnan(self._target) or not torque
+                            else (self._arrive if self._arrive > 1 else 1))
+        self._t_before_rest = self._t0
+        if self._first_rest is not None and self._first_rest > 1:
+            self._t_before_rest = self._temperature(self._first_rest - 1)
+
+    def _moving(self, j: int) -> bool:
+        if j <= 0 or not self._command.torque_enabled:
+            return False
+        if math.isnan(self._target):
+            return self._speed != 0
+        return self._arrive == -1 or j < self._arrive
+
+    def _position(self, j: int) -> float:
+        if j <= 0 or not self._command.torque_enabled:
+            return self._p0
+        if math.isnan(self._target):
+            return self._p0 + self._travel * j
+        if self._arrive == -1:
+            return self._p0
+        if j >= self._arrive:
+            return self._target
+        return self._p0 + self._step_travel * j
+
+    def _velocity(self, j: int) -> float:
+        return self._v_move if self._moving(j) else 0.0
+
+    def _effort(self, velocity: float) -> float:
+        if not self._command.torque_enabled:
+            return 0.0
+        top = self._max_speed()
+        friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
+        load = (math.copysign(friction, velocity) if velocity else 0.0) + self._external_load
+        return max(-1.0, min(1.0, load))
+
+    def _steady(self, effort: float) -> float:
+        return self.ambient + IDLE_RISE_C + STALL_HEATING_C * abs(effort)
+
+    def _temperature(self, j: int) -> float:
+        """Temperature after step ``j`` of the segment: a first-order lag toward the steady
+        temperature of the load, in closed form over each part of constant load (moving,
+        then at rest once arrived)."""
+        if j <= 0:
+            return self._t0
+        a = self._decay[1]
+        first_rest = self._first_rest
+        if first_rest is None or j < first_rest:
+            steady = self._steady_move
+            return steady + (self._t0 - steady) * a ** j
+        steady = self._steady_rest
+        return steady + (self._t_before_rest - steady) * a ** (j - first_rest + 1)
+
+    def _first_above(self, first: int, last: int, limit: float) -> int | None:
+        """The first step in ``first..last`` whose temperature exceeds ``limit``, or None.
+        The temperature is monotonic within each part of the segment, so each part is
+        searched by bisection on the exact per-step expression."""
+        if math.isinf(limit) or max(self._t0, self._steady_move, self._steady_rest) <= limit:
+            return None  # it cannot get there: each part only approaches its steady value
+        rest = self._first_rest
+        parts = [(first, last)] if rest is None or rest > last or rest <= first else [
+            (first, rest - 1), (rest, last)]
+        for lo, hi in parts:
+            if self._temperature(lo) > limit:
+                return lo
+            if not self._temperature(hi) > limit:
+                continue
+            while hi - lo > 1:  # temperature(lo) <= limit < temperature(hi)
+                mid = (lo + hi) // 2
+                if self._temperature(mid) > limit:
+                    hi = mid
+                else:
+                    lo = mid
+            return hi
+        return None

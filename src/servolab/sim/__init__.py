@@ -1,0 +1,23 @@
+"""Simulated worlds and the one owner of simulated time.
+
+- :mod:`.simulation` — :class:`Simulation`: virtual time, fixed physics steps, real time
+- :mod:`.world` — :class:`World`: the interface a world implements
+- :mod:`.floor` — :class:`DiffDriveFloor`: two wheels on a flat floor
+- :mod:`.emulated` — emulated buses in a simulation (what ``emu://`` opens)
+
+``docs/sim.md`` explains time, plants and worlds for someone who will write a world.
+"""
+
+from .emulated import emulated_port
+from .floor import DiffDriveFloor, DiffDriveGeometry
+from .simulation import DEFAULT_PHYSICS_STEP, Simulation, SimulationError
+from .world import World
+
+#: Every world servolab ships, by name. Each passes the contract test of
+#: tests/sim/test_world_contract.py; add a new world here to have it checked.
+WORLDS: dict[str, type[World]] = {
+    DiffDriveFloor.name: DiffDriveFloor,
+}
+
+__all__ = ["DEFAULT_PHYSICS_STEP", "WORLDS", "DiffDriveFloor", "DiffDriveGeometry",
+           "Simulation", "SimulationError", "World", "emulated_port"]

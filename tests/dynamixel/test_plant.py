@@ -1,0 +1,149 @@
+"""The default servo plant: catching up lazily is bit for bit stepping one step at a time,
+through the plant alone and through the firmware on the bus."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from servolab.dynamixel import Bus
+from servolab.dynamixel.plant import (
+    AMBIENT_C,
+    IDLE_RISE_C,
+    STALL_HEATING_C,
+    KinematicServo,
+    ServoCommand,
+)
+from servolab.sim import Simulation, World
+
+commands = st.builds(
+    ServoCommand,
+    torque_enabled=st.booleans(),
+    velocity_control=st.booleans(),
+    goal_position=st.floats(-7, 7),
+    profile_velocity=st.sampled_from([0.0, 0.3, 2.0, 50.0]),
+    goal_velocity=st.floats(-10, 10),
+    torque_limit=st.sampled_from([1.0, 0.5, 0.0]),
+)
+phases = st.lists(st.tuples(commands, st.sampled_from([0.0, 0.3, -0.95, 1.0]),
+                            st.integers(0, 2500)), min_size=1, max_size=6)
+
+
+def _state(p: KinematicServo) -> tuple[float, float, float, float]:
+    return (p.position, p.velocity, p.effort, p.temperature)
+
+
+@settings(max_examples=150, deadline=None)
+@given(phases)
+def test_advancing_n_steps_is_n_single_steps_bit_for_bit(plan: list) -> None:
+    lazy, eager = KinematicServo(6.27, 0.2), KinematicServo(6.27, 0.2)
+    for command, load, steps in plan:
+        for p in (lazy, eager):
+            p.command, p.external_load = command, load
+        assert lazy.advance(steps, 0.001) == steps
+        for _ in range(steps):
+            eager.step(0.001)
+        assert _state(lazy) == _state(eager)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0.5, 1.0), st.integers(1, 400_000), st.floats(33.0, 91.0))
+def test_overheating_stop_lands_on_the_first_step_above_the_limit(load: float, steps: int,
+                                                                   limit: float) -> None:
+    plant = KinematicServo(6.27)
+    plant.command = ServoCommand(True, False, 0.0)
+    plant.external_load = load  # holding against a load: the motor warms toward its steady
+    taken = plant.advance(steps, 0.001, temperature_limit=limit)
+    probe = KinematicServo(6.27)
+    probe.command, probe.external_load = plant.command, load
+    for k in range(1, taken + 1):
+        probe.step(0.001)
+        if probe.temperature > limit:
+            assert k == taken
+            break
+    else:
+        assert taken == steps
+    assert _state(probe) == _state(plant)
+
+
+def test_motion_matches_the_closed_form() -> None:
+    """1 rad/s toward +1 rad: at 0.5 s half way, at 1 s there and at rest; load is friction
+    while moving; temperature rises toward its steady value with the 300 s lag."""
+    p = KinematicServo(6.27)
+    p.command = ServoCommand(True, False, goal_position=1.0, profile_velocity=1.0)
+    p.advance(500, 0.001)
+    assert (p.position, p.velocity) == (0.5, 1.0)
+    assert p.effort == pytest.approx(0.04 + 0.12 / 6.27)
+    steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * p.effort
+    start = AMBIENT_C + IDLE_RISE_C
+    assert p.temperature == pytest.approx(steady + (start - steady) * math.exp(-0.5 / 300))
+    p.advance(500, 0.001)
+    assert (p.position, p.velocity, p.effort) == (1.0, 0.0, 0.0)
+
+
+def test_a_load_above_the_torque_limit_stalls_the_horn() -> None:
+    p = KinematicServo(6.27)
+    p.command = ServoCommand(True, True, goal_velocity=3.0, torque_limit=0.3)
+    p.external_load = -0.5
+    p.advance(1000, 0.001)
+    assert (p.position, p.velocity) == (0.0, 0.0)
+    p.external_load = -0.2          # within the limit: turns at what the torque-speed line allows
+    p.advance(1000, 0.001)
+    assert p.velocity == 3.0 and p.position == pytest.approx(3.0)
+
+
+class _Eager(World):
+    """Steps KinematicServo plants every step, as a world would."""
+
+    name = "eager"
+
+    def __init__(self) -> None:
+        self.plants: list[KinematicServo] = []
+
+    def step(self, dt: float) -> None:
+        for p in self.plants:
+            p.step(dt)
+
+    def ground_truth(self) -> dict[str, float]:
+        return {}
+
+    @classmethod
+    def example(cls, simulation: Simulation) -> World:
+        raise NotImplementedError
+
+
+def _session(eager: bool, spec: str, baud: int) -> list[object]:
+    """The same bus session on motors whose plants the emulator catches up lazily, or that a
+    world steps every step; returns every answer."""
+    sim = Simulation()
+    bus = Bus.open(f"emu://{spec}", baudrate=baud, simulation=sim)
+    ids = [m.id for m in bus.emulator.motors]
+    if eager:
+        world = sim.add(_Eager())
+        for m in bus.emulator.motors:
+            plant = KinematicServo(m.model.no_load_speed, m.plant.position)
+            world.plants.append(plant)
+            m.attach_plant(plant)
+    regs = ["present_position", "present_temperature"]
+    answers: list[object] = []
+    bus.write(ids[0], "temperature_limit", 40, raw=True)
+    bus.sync_write("torque_enable", {i: 1 for i in ids})
+    bus.emulator.motor(ids[0]).external_load = 0.9   # heats past 40 °C: overheating shutdown
+    for k in range(60):
+        if k % 9 == 0:
+            bus.sync_write("goal_position", {i: 0.4 * math.sin(k + i) for i in ids})
+        motor = ids[k % len(ids)]
+        answers.append(bus.read(motor, regs, raw=True, check=False))
+        answers.append(bus.emulator.motor(motor).hardware_error)
+        bus.port.clock.advance(0.011 * (1 + k % 4) + (60.0 if k == 30 else 0.0))
+    return answers
+
+
+@pytest.mark.parametrize(("spec", "baud"), [("rx28:1-3", 57142), ("xm430-w210:1-2", 1_000_000)])
+def test_lazy_firmware_answers_as_if_stepped_every_step(spec: str, baud: int) -> None:
+    lazy, eager = _session(False, spec, baud), _session(True, spec, baud)
+    assert lazy == eager
+    assert any(a for a in lazy if isinstance(a, int)), "the session should overheat a motor"

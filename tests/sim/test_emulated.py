@@ -1,0 +1,90 @@
+"""``emu://`` opens emulated motors the way pyserial opens its test ports: by URL, through the
+same ``Bus.open`` and the same driver code as a serial port."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from servolab.dynamixel import Bus, MemoryPort
+from servolab.dynamixel.errors import ConfigError, NoResponse
+from servolab.dynamixel.motorspec import parse_short
+from servolab.sim import Simulation, emulated_port
+
+
+def test_url_opens_the_spec_at_the_ports_baud_in_a_simulation_of_its_own() -> None:
+    bus = Bus.open("emu://rx28:11-13", baudrate=57142)
+    assert isinstance(bus.port, MemoryPort) and isinstance(bus.port.clock, Simulation)
+    assert bus.proto.version == 1                       # the models' protocol
+    assert [m.id for m in bus.emulator.motors] == [11, 12, 13]
+    assert {m.baudrate for m in bus.emulator.motors} == {57142}
+    assert [r.id for r in bus.scan(range(20))] == [11, 12, 13]
+    other = Bus.open("emu://rx28:11-13", baudrate=57142)
+    assert other.port.clock is not bus.port.clock       # separate buses, separate times
+
+
+def test_the_same_session_through_url_and_through_a_spec_object() -> None:
+    """``Bus.open("emu://...")`` and a port built from the same MotorSpec answer alike, byte
+    for byte and in the same time."""
+    def session(bus: Bus) -> tuple[object, ...]:
+        bus.write(2, "torque_enable", 1)
+        bus.write(2, {"goal_position": 0.5, "moving_speed": 1.0})
+        bus.port.clock.advance(0.3)
+        return (bus.read(2, ["present_position", "present_speed"], raw=True),
+                bus.port.clock.now(), bus.stats)
+
+    by_url = session(Bus.open("emu://rx28:1-3", baudrate=1_000_000))
+    spec = parse_short("rx28:1-3", baudrate=1_000_000)
+    by_spec = session(Bus(emulated_port(spec)))
+    assert by_url == by_spec
+
+
+def test_buses_share_a_simulation_when_given_one() -> None:
+    sim = Simulation()
+    a = Bus.open("emu://xm430-w210:1", baudrate=1_000_000, simulation=sim)
+    b = Bus.open("emu://rx28:5", baudrate=57142, simulation=sim)
+    assert a.port.clock is sim and b.port.clock is sim
+    assert sim.emulators == [a.emulator, b.emulator]
+    a.ping(1)
+    t = sim.now()
+    b.ping(5)
+    assert sim.now() > t                    # one clock: the second bus's wire time adds on
+
+
+def test_motors_at_another_baud_stay_silent() -> None:
+    bus = Bus.open("emu://xm430-w210:1?baud=57600", baudrate=1_000_000, retries=0)
+    with pytest.raises(NoResponse, match="motor 1"):
+        bus.ping(1)
+    assert bus.emulator.motor(1).baudrate == 57600
+
+
+def test_faults_from_the_url() -> None:
+    bus = Bus.open("emu://rx28:1?drop_rate=1&seed=3", baudrate=57142, retries=0)
+    assert bus.emulator.faults.drop_rate == 1.0 and bus.emulator.faults.seed == 3
+    with pytest.raises(NoResponse):
+        bus.ping(1)
+
+
+def test_a_yaml_spec_by_path(tmp_path: Path) -> None:
+    spec = tmp_path / "legs.yaml"
+    spec.write_text("motors:\n  - {model: RX-28, ids: 11-12}\n  - {model: RX-28, id: 21, "
+                    "position: 0.5}\n")
+    bus = Bus.open(f"emu://{spec}", baudrate=57142)
+    assert [m.id for m in bus.emulator.motors] == [11, 12, 21]
+    assert bus.read(21, "present_position") == pytest.approx(0.5, abs=0.006)
+
+
+@pytest.mark.parametrize(("url", "message"), [
+    ("emu://", "name the motors"),
+    ("emu://rx28:1?speed=3", "unknown option 'speed'"),
+    ("emu://rx28:1?drop_rate=lots", "drop_rate='lots' is not a number"),
+    ("emu://rx28:1?baud=fast", "baud='fast' is not a whole number"),
+    ("emu://rx99:1", "unknown Dynamixel model 'rx99'"),
+    ("emu://rx28:1?drop_rate=2", "not a probability"),
+    ("tcp://robot:7", "unknown scheme 'tcp'"),
+])
+def test_bad_urls_are_one_line_errors(url: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message) as info:
+        Bus.open(url, baudrate=57142)
+    assert "\n" not in str(info.value)
