@@ -119,3 +119,22 @@ def test_values_round_trip_through_cdr(x: float, n: int, names: list[str]) -> No
     msg = TYPES.from_value("sensor_msgs/msg/JointState", value)
     back = TYPES.deserialize(TYPES.serialize(msg), "sensor_msgs/msg/JointState")
     assert TYPES.to_value(back) == value
+
+
+def test_the_package_re_exports_its_public_api_lazily() -> None:
+    """``from servolab.middleware import Node, Context, ...`` works for every name in
+    ``__all__``, each the class its module defines, without importing them all up front."""
+    import subprocess
+    import sys
+
+    import servolab.middleware as middleware
+
+    assert set(middleware.__all__) == set(middleware._EXPORTS)
+    for name in middleware.__all__:
+        value = getattr(middleware, name)
+        assert value.__module__.startswith("servolab.middleware."), name
+    code = ("import sys, servolab.middleware.errors\n"
+            "print('servolab.middleware.bag' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=60, check=True).stdout
+    assert out.strip() == "False"

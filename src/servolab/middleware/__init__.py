@@ -1,0 +1,81 @@
+"""The middleware: ROS 2-style nodes, topics, parameters, services, bags and launch files, with
+no ROS installation.
+
+- :mod:`.context` — :class:`Context`: what the nodes of one process share (transport, types,
+  clock, executor, parameter overrides)
+- :mod:`.node` — :class:`Node` and its entities (:class:`Publisher`, :class:`Subscription`,
+  :class:`Service`, :class:`Client`, :class:`Rate`)
+- :mod:`.executor` — callbacks on one thread; virtual time asked of its owner
+- :mod:`.messages` — ROS 2 message types and CDR (rosbags), dynamixel_msgs
+- :mod:`.local`, :mod:`.zenoh_transport`, :mod:`.rmw_zenoh` — in-process and Zenoh transports
+- :mod:`.bag`, :mod:`.recorder` — MCAP bags in the rosbag2 layout
+- :mod:`.launch_file`, :mod:`.launch` — launch files and the supervisor that runs them
+
+``docs/middleware.md`` is the user's guide.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+#: Each public name and the module it lives in. They are imported on first use (PEP 562), so
+#: that importing one light module of the package (its errors, say, as ``servolab --help``
+#: does) does not load the bag, the launch supervisor and the message types with it.
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("BagInfo", "BagMessage", "BagReader", "BagWriter", "play"), "bag"),
+    "Context": "context",
+    **dict.fromkeys(("BagError", "LaunchError", "MessageError", "MiddlewareError",
+                     "ParameterError", "ServiceError", "TransportError"), "errors"),
+    **dict.fromkeys(("Executor", "Timer"), "executor"),
+    **dict.fromkeys(("launch_main", "run_launch"), "launch"),
+    **dict.fromkeys(("LaunchFile", "load_launch"), "launch_file"),
+    "MessageTypes": "messages",
+    **dict.fromkeys(("Client", "Node", "Publisher", "Rate", "Service", "Subscription"), "node"),
+    **dict.fromkeys(("Parameter", "ParameterOverrides"), "parameters"),
+    "Recorder": "recorder",
+    **dict.fromkeys(("MessageInfo", "TransportOptions"), "transport"),
+}
+
+__all__ = [
+    "BagError", "BagInfo", "BagMessage", "BagReader", "BagWriter", "Client", "Context",
+    "Executor", "LaunchError", "LaunchFile", "MessageError", "MessageInfo", "MessageTypes",
+    "MiddlewareError", "Node", "Parameter", "ParameterError", "ParameterOverrides", "Publisher",
+    "Rate", "Recorder", "Service", "ServiceError", "Subscription", "Timer", "TransportError",
+    "TransportOptions", "launch_main", "load_launch", "play", "run_launch",
+]
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:
+    from .bag import BagInfo, BagMessage, BagReader, BagWriter, play
+    from .context import Context
+    from .errors import (
+        BagError,
+        LaunchError,
+        MessageError,
+        MiddlewareError,
+        ParameterError,
+        ServiceError,
+        TransportError,
+    )
+    from .executor import Executor, Timer
+    from .launch import launch_main, run_launch
+    from .launch_file import LaunchFile, load_launch
+    from .messages import MessageTypes
+    from .node import Client, Node, Publisher, Rate, Service, Subscription
+    from .parameters import Parameter, ParameterOverrides
+    from .recorder import Recorder
+    from .transport import MessageInfo, TransportOptions
