@@ -6,8 +6,10 @@ user reading a traceback knows what to fix without opening the code.
 
 from __future__ import annotations
 
+from ..errors import ConfigFileError, ServolabError
 
-class DynamixelError(Exception):
+
+class DynamixelError(ServolabError):
     """Base of every error raised by :mod:`servolab.dynamixel`."""
 
 
@@ -16,6 +18,11 @@ class ConfigError(DynamixelError, ValueError):
 
     Raised before anything is sent, so nothing is written to a motor.
     """
+
+
+class MotorSpecFileError(ConfigFileError, ConfigError):
+    """A motor spec YAML file that cannot be used; carries ``path``, ``line`` and ``key``
+    (a :class:`ConfigError` too, so callers catching that keep working)."""
 
 
 class PacketError(DynamixelError, ValueError):

@@ -10,18 +10,25 @@ YAML file::
       - {model: RX-28, ids: 11-16}
       - {model: RX-28, id: 21, position: 0.5}   # initial horn angle, rad
 
-Errors name the file, the line and the field.
+Errors name the file, the line and the field (:class:`.errors.MotorSpecFileError`, read
+by :mod:`servolab.configfile`, which also refuses a key given twice).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
-from .errors import ConfigError
+from ..configfile import ConfigList, ConfigMapping, ConfigScalar, ConfigValue, suggest
+from ..configfile import load as load_config
+from ..errors import ServolabError
+from .errors import ConfigError, MotorSpecFileError
 from .models import Model, model
+
+_TOP_KEYS = ("protocol", "baudrate", "motors")
+_MOTOR_KEYS = ("model", "id", "ids", "position")
 
 
 @dataclass(frozen=True)
@@ -57,33 +64,45 @@ def _ids(text: str, where: str) -> list[int]:
     return ids
 
 
+#: Makes the error of a check of the whole spec: ``index`` is the motor entry at fault (None:
+#: the spec as a whole), so a file's error can point at that entry's line.
+_Fail = Callable[[int | None, str], ServolabError]
+
+
 def _finish(entries: list[MotorEntry], protocol: int | None, baudrate: int | None,
-            where: str) -> MotorSpec:
+            fail: _Fail) -> MotorSpec:
     if not entries:
-        raise ConfigError(f"{where}: no motors")
+        raise fail(None, "no motors")
     versions = {e.model.protocol for e in entries}
     if protocol is None:
         if len(versions) != 1:
-            raise ConfigError(f"{where}: mixes protocol 1.0 and 2.0 models; a bus speaks one")
+            raise fail(None, "mixes protocol 1.0 and 2.0 models; a bus speaks one")
         protocol = versions.pop()
-    bad = [e for e in entries if e.model.protocol != protocol]
-    if bad:
-        raise ConfigError(f"{where}: {bad[0].model.name} speaks protocol "
-                          f"{bad[0].model.protocol}.0, the bus {protocol}.0")
+    for index, e in enumerate(entries):
+        if e.model.protocol != protocol:
+            raise fail(index, f"{e.model.name} speaks protocol {e.model.protocol}.0, "
+                       f"the bus {protocol}.0")
     seen: set[int] = set()
-    for e in entries:
+    for index, e in enumerate(entries):
         max_id = 253 if protocol == 1 else 252
         if not 0 <= e.id <= max_id:
-            raise ConfigError(f"{where}: motor ID {e.id} is outside protocol {protocol}.0's "
-                              f"range 0..{max_id}")
+            raise fail(index, f"motor ID {e.id} is outside protocol {protocol}.0's "
+                       f"range 0..{max_id}")
         if e.id in seen:
-            raise ConfigError(f"{where}: motor ID {e.id} is listed twice; two motors with one ID "
-                              "garble each other's answers (build such a bus in code to test it)")
+            raise fail(index, f"motor ID {e.id} is listed twice; two motors with one ID "
+                       "garble each other's answers (build such a bus in code to test it)")
         seen.add(e.id)
     if baudrate is not None:
         for e in entries:
             e.model.baud_register_for(baudrate)  # raises if the model cannot run at it
     return MotorSpec(protocol, baudrate, tuple(entries))
+
+
+def _prefixed(where: str) -> _Fail:
+    """Errors of the short form: the spec itself names the place."""
+    def fail(index: int | None, message: str) -> ServolabError:
+        return ConfigError(f"{where}: {message}")
+    return fail
 
 
 def parse_short(spec: str, *, protocol: int | None = None,
@@ -99,69 +118,103 @@ def parse_short(spec: str, *, protocol: int | None = None,
         name, ids = group.split(":", 1)
         m = model(name)
         entries += [MotorEntry(m, i) for i in _ids(ids, f"motor spec {group!r}")]
-    return _finish(entries, protocol, baudrate, f"motor spec {spec!r}")
+    return _finish(entries, protocol, baudrate, _prefixed(f"motor spec {spec!r}"))
 
 
 def load_yaml(path: str | Path, *, protocol: int | None = None,
               baudrate: int | None = None) -> MotorSpec:
-    """Read a motor spec YAML file, naming file, line and field in every error."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read motor spec ({exc.strerror})") from None
-    try:
-        root = yaml.compose(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f":{mark.line + 1}" if mark else ""
-        raise ConfigError(f"{path}{line}: not valid YAML ({getattr(exc, 'problem', exc)})"
-                          ) from None
-    if not isinstance(root, yaml.MappingNode):
-        raise ConfigError(f"{path}: expected a mapping with a 'motors' list")
-    top = {k.value: v for k, v in root.value}
-    for key in top:
-        if key not in ("protocol", "baudrate", "motors"):
-            raise ConfigError(f"{path}: unknown key {key!r} (use protocol, baudrate, motors)")
-
-    def scalar(node: yaml.Node, field: str, kind: type) -> object:
-        where = f"{path}:{node.start_mark.line + 1}: {field}"
-        if not isinstance(node, yaml.ScalarNode):
-            raise ConfigError(f"{where}: expected a single value")
-        try:
-            return kind(node.value)
-        except ValueError:
-            raise ConfigError(f"{where}: {node.value!r} is not a {kind.__name__}") from None
-
-    if "protocol" in top:
-        protocol = int(scalar(top["protocol"], "protocol", float))  # type: ignore[arg-type]
-    if "baudrate" in top:
-        baudrate = scalar(top["baudrate"], "baudrate", int)  # type: ignore[assignment]
-    motors = top.get("motors")
-    if not isinstance(motors, yaml.SequenceNode):
-        raise ConfigError(f"{path}: 'motors' must be a list of {{model, id or ids}}")
+    """Read a motor spec YAML file; every error is a :class:`MotorSpecFileError` naming the
+    file, line and field. ``protocol`` and ``baudrate`` apply unless the file gives them."""
+    root = load_config(path, what="motor spec", error=MotorSpecFileError)
+    if not isinstance(root, ConfigMapping):
+        raise root.error("expected a mapping with a 'motors' list")
+    for key in root:
+        if key not in _TOP_KEYS:
+            close = suggest(key, _TOP_KEYS)
+            hint = f"did you mean {close!r}? " if close else ""
+            raise root.key_of(key).error(f"unknown key {key!r} ({hint}use protocol, "
+                                         "baudrate, motors)")
+    if (value := root.get("protocol")) is not None:
+        protocol = int(_float(value, "protocol"))
+    baud_value = root.get("baudrate")
+    if baud_value is not None:
+        baudrate = _int(baud_value, "baudrate")
+    motors = root.get("motors")
+    if not isinstance(motors, ConfigList):
+        raise (motors if motors is not None else root).error(
+            "'motors' must be a list of {model, id or ids}")
     entries: list[MotorEntry] = []
-    for item in motors.value:
-        where = f"{path}:{item.start_mark.line + 1}"
-        if not isinstance(item, yaml.MappingNode):
-            raise ConfigError(f"{where}: a motor is a mapping like {{model: rx28, id: 1}}")
-        fields = {k.value: v for k, v in item.value}
-        unknown = set(fields) - {"model", "id", "ids", "position"}
-        if unknown:
-            raise ConfigError(f"{where}: unknown field {sorted(unknown)[0]!r} "
-                              "(use model, id, ids, position)")
-        if "model" not in fields or ("id" in fields) == ("ids" in fields):
-            raise ConfigError(f"{where}: a motor needs 'model' and one of 'id' or 'ids'")
+    origins: list[ConfigValue] = []  # the item of each entry, for its line
+    for item in motors:
+        if not isinstance(item, ConfigMapping):
+            raise item.error("a motor is a mapping like {model: rx28, id: 1}")
+        for key in item:
+            if key not in _MOTOR_KEYS:
+                close = suggest(key, _MOTOR_KEYS)
+                hint = f"did you mean {close!r}? " if close else ""
+                raise item.key_of(key).error(f"unknown field {key!r} ({hint}use model, id, "
+                                             "ids, position)")
+        if "model" not in item or ("id" in item) == ("ids" in item):
+            raise item.error("a motor needs 'model' and one of 'id' or 'ids'")
+        model_value = item.require("model")
         try:
-            m = model(str(scalar(fields["model"], "model", str)))
+            m = model(_text(model_value, "model"))
+        except MotorSpecFileError:
+            raise
         except ConfigError as exc:
-            raise ConfigError(f"{where}: model: {exc}") from None
-        ids = ([int(scalar(fields["id"], "id", int))]  # type: ignore[arg-type]
-               if "id" in fields else _ids(fields["ids"].value, f"{where}: ids"))
-        position = float(scalar(fields["position"], "position", float)  # type: ignore[arg-type]
-                         ) if "position" in fields else 0.0
+            raise model_value.error(f"model: {exc}") from None
+        if (id_value := item.get("id")) is not None:
+            ids = [_int(id_value, "id")]
+        else:
+            ids_value = item.require("ids")
+            try:
+                ids = _ids(_text(ids_value, "ids"), "ids")
+            except MotorSpecFileError:
+                raise
+            except ConfigError as exc:
+                raise ids_value.error(str(exc)) from None
+        position_value = item.get("position")
+        position = _float(position_value, "position") if position_value is not None else 0.0
         entries += [MotorEntry(m, i, position) for i in ids]
-    return _finish(entries, protocol, baudrate, str(path))
+        origins += [item] * len(ids)
+
+    def fail(index: int | None, message: str) -> ServolabError:
+        return (origins[index] if index is not None else motors).error(message)
+
+    try:
+        return _finish(entries, protocol, baudrate, fail)
+    except MotorSpecFileError:
+        raise
+    except ConfigError as exc:  # a model cannot run at the baud rate: the file's, if it gave one
+        if baud_value is None:
+            raise
+        raise baud_value.error(f"baudrate: {exc}") from None
+
+
+def _text(value: ConfigValue, field: str) -> str:
+    """A scalar as written (``model: 28`` is the text "28")."""
+    if not isinstance(value, ConfigScalar):
+        raise value.error(f"{field}: expected a single value")
+    return value.text
+
+
+def _int(value: ConfigValue, field: str) -> int:
+    text = _text(value, field)
+    try:
+        return int(text)
+    except ValueError:
+        raise value.error(f"{field}: {text!r} is not a int") from None
+
+
+def _float(value: ConfigValue, field: str) -> float:
+    text = _text(value, field)
+    try:
+        number = float(text)
+    except ValueError:
+        raise value.error(f"{field}: {text!r} is not a float") from None
+    if not math.isfinite(number):
+        raise value.error(f"{field}: {text!r} is not a finite number")
+    return number
 
 
 def load(spec: str, *, protocol: int | None = None, baudrate: int | None = None) -> MotorSpec:

@@ -6,8 +6,10 @@ field, file, line or key at fault, so the user knows what to fix.
 
 from __future__ import annotations
 
+from ..errors import ConfigFileError, ServolabError
 
-class MiddlewareError(Exception):
+
+class MiddlewareError(ServolabError):
     """Base of every error raised by :mod:`servolab.middleware`."""
 
 
@@ -19,12 +21,20 @@ class ParameterError(MiddlewareError, ValueError):
     """An undeclared parameter, a value of the wrong type, or a bad parameter file."""
 
 
+class ParameterFileError(ConfigFileError, ParameterError):
+    """A ROS 2 parameter file that cannot be used; carries ``path``, ``line`` and ``key``."""
+
+
 class ServiceError(MiddlewareError):
     """A service that is not there, did not answer in time, or failed in its handler."""
 
 
 class LaunchError(MiddlewareError, ValueError):
-    """A malformed launch file."""
+    """A malformed launch file, or launch options that do not fit it."""
+
+
+class LaunchFileError(ConfigFileError, LaunchError):
+    """A mistake at a line of a launch file; carries ``path``, ``line`` and ``key``."""
 
 
 class BagError(MiddlewareError, ValueError):

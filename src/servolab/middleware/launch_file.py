@@ -28,7 +28,6 @@ imported and the commands looked up before anything starts.
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import re
 import shlex
@@ -39,9 +38,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from .errors import LaunchError, MessageError, ParameterError
+from ..configfile import (
+    ConfigList,
+    ConfigMapping,
+    ConfigScalar,
+    ConfigValue,
+    load,
+    unknown_key,
+)
+from .errors import LaunchError, LaunchFileError, MessageError, ParameterError
 from .node import Node
 from .parameters import ParameterOverrides, type_of
 from .rmw_zenoh import check_node_name, node_namespace
@@ -130,13 +135,19 @@ class LaunchFile:
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
     lines: dict[str, int] = field(default_factory=dict, repr=False, compare=False)
 
-    def error(self, entry: NodeEntry | None, key: str | None, message: str) -> LaunchError:
-        """A one-line error at ``key`` of ``entry`` (or of the file's top level)."""
+    def error(self, entry: NodeEntry | None, key: str | None, message: str
+              ) -> LaunchFileError:
+        """A one-line error at ``key`` of ``entry`` (or of the file's top level), for the
+        checks made after parsing (such as importing the node classes)."""
         lines = entry.lines if entry is not None else self.lines
         line = lines.get(key or "", entry.line if entry is not None else 1)
         where = f"node {entry.name!r}: " if entry is not None else ""
         what = f"key {key!r}: " if key else ""
-        return LaunchError(f"{self.path}:{line}: {where}{what}{message}")
+        index = next((i for i, e in enumerate(self.nodes) if e is entry), None)
+        key_path = f"nodes[{index}]" if index is not None else ""
+        if key:
+            key_path = f"{key_path}.{key}" if key_path else key
+        return LaunchFileError(self.path, line, key_path, f"{where}{what}{message}")
 
     def process_groups(self, entries: Sequence[NodeEntry] | None = None
                        ) -> dict[str, list[NodeEntry]]:
@@ -192,142 +203,109 @@ def is_local_address(address: str) -> bool:
 
 
 def load_launch(path: str | Path) -> LaunchFile:
-    """Read and check a launch file; errors are one :class:`LaunchError` line naming the
+    """Read and check a launch file; errors are one :class:`LaunchFileError` line naming the
     file, line and key. Node classes are imported later, by :func:`check_entries`, because a
     machine need only have the classes of the nodes it runs."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise LaunchError(f"launch file {path}: {exc.strerror}") from None
-    return _Parser(path).parse(text)
-
-
-def _line(node: yaml.Node) -> int:
-    return node.start_mark.line + 1
-
-
-def _value(node: yaml.Node) -> Any:
-    """The Python value of a composed YAML node (composing keeps the lines; this the types)."""
-    return yaml.safe_load(yaml.serialize(node))
+    return _Parser(path).parse(load(path, what="launch file", error=LaunchFileError))
 
 
 class _Parser:
     def __init__(self, path: Path) -> None:
         self.path = path
         self.directory = path.parent
+        self.entry_fields: list[ConfigMapping] = []  # of each entry of launch.nodes
 
-    def error(self, node: yaml.Node | int, where: str, message: str) -> LaunchError:
-        line = node if isinstance(node, int) else _line(node)
-        return LaunchError(f"{self.path}:{line}: {where + ': ' if where else ''}{message}")
+    def error(self, value: ConfigValue, where: str, message: str) -> LaunchFileError:
+        error = value.error(f"{where + ': ' if where else ''}{message}")
+        assert isinstance(error, LaunchFileError)
+        return error
 
-    def mapping(self, node: yaml.Node, where: str, what: str,
-                keys: Sequence[str]) -> dict[str, tuple[yaml.Node, yaml.Node]]:
-        """The key and value nodes of a mapping whose keys must be among ``keys``."""
-        if not isinstance(node, yaml.MappingNode):
+    def mapping(self, node: ConfigValue, where: str, what: str,
+                keys: Sequence[str]) -> ConfigMapping:
+        """A mapping whose keys must be among ``keys`` (any, if empty)."""
+        if not isinstance(node, ConfigMapping):
             raise self.error(node, where, f"{what} must be a mapping")
-        fields: dict[str, tuple[yaml.Node, yaml.Node]] = {}
-        for key, value in node.value:
-            name = key.value if isinstance(key, yaml.ScalarNode) else None
-            if not isinstance(name, str) or not name:
-                raise self.error(key, where, "keys must be names")
-            if name in fields:
-                raise self.error(key, where, f"duplicate key {name!r} "
-                                 f"(also on line {_line(fields[name][0])})")
-            fields[name] = (key, value)
-        for name, (key, _) in fields.items():
-            if keys and name not in keys:
-                raise self.error(key, where, _unknown_key(name, keys))
-        return fields
+        if keys:
+            node.check_keys(keys, what=where or None)
+        return node
 
-    def text(self, node: yaml.Node, where: str, key: str) -> str:
-        value = _value(node) if isinstance(node, yaml.ScalarNode) else None
-        if not isinstance(value, str) or not value:
-            raise self.error(node, where, f"key {key!r}: must be a non-empty string")
-        return value
+    @staticmethod
+    def subject(where: str, key: str) -> str:
+        return f"{where + ': ' if where else ''}key {key!r}"
 
-    def flag(self, node: yaml.Node, where: str, key: str) -> bool:
-        value = _value(node) if isinstance(node, yaml.ScalarNode) else None
-        if not isinstance(value, bool):
-            raise self.error(node, where, f"key {key!r}: must be true or false")
-        return value
+    def text(self, node: ConfigValue, where: str, key: str) -> str:
+        return node.as_str(self.subject(where, key), nonempty=True)
 
-    def texts(self, node: yaml.Node, where: str, key: str) -> list[tuple[yaml.Node, str]]:
-        """A string or a list of strings (each with its node, for its line)."""
-        items = node.value if isinstance(node, yaml.SequenceNode) else [node]
-        return [(item, self.text(item, where, key)) for item in items]
+    def flag(self, node: ConfigValue, where: str, key: str) -> bool:
+        return node.as_bool(self.subject(where, key))
+
+    def texts(self, node: ConfigValue, where: str, key: str) -> list[tuple[ConfigValue, str]]:
+        """A string or a list of strings (each with its value, for its line)."""
+        return [(item, self.text(item, where, key)) for item in node.one_or_many()]
 
     # -- the file ----------------------------------------------------------------------------
 
-    def parse(self, text: str) -> LaunchFile:
-        try:
-            root = yaml.compose(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            line = mark.line + 1 if mark is not None else 1
-            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-            context, context_mark = getattr(exc, "context", None), getattr(exc, "context_mark",
-                                                                          None)
-            if context and context_mark is not None and context_mark.line + 1 != line:
-                problem += f"; {context} on line {context_mark.line + 1}"  # an unclosed [
-            raise self.error(line, "", f"not valid YAML ({problem})") from None
-        if root is None:
-            raise self.error(1, "", "key 'nodes' missing (the file is empty)")
+    def parse(self, root: ConfigValue) -> LaunchFile:
+        if isinstance(root, ConfigScalar) and root.value is None:
+            raise self.error(root, "", "key 'nodes' missing (the file is empty)")
         fields = self.mapping(root, "", "a launch file", _TOP_KEYS)
-        launch = LaunchFile(self.path, lines={k: _line(n) for k, (n, _) in fields.items()})
-        if "transport" in fields:
-            value = fields["transport"][1]
+        launch = LaunchFile(self.path, lines={k: fields.key_of(k).line for k in fields})
+        if (value := fields.get("transport")) is not None:
             launch.transport = self.text(value, "", "transport")
             if launch.transport not in ("local", "zenoh"):
                 raise self.error(value, "", f"key 'transport': {launch.transport!r} is not "
                                  "local or zenoh")
         if "zenoh" in fields:
-            self.zenoh(fields["zenoh"], launch)
-        if "machines" in fields:
-            self.machines(fields["machines"][1], launch)
-        if "parameters" in fields:
-            for item, name in self.texts(fields["parameters"][1], "", "parameters"):
+            self.zenoh(fields, launch)
+        if (value := fields.get("machines")) is not None:
+            self.machines(value, launch)
+        if (value := fields.get("parameters")) is not None:
+            for item, name in self.texts(value, "", "parameters"):
                 launch.parameters.merge(self.parameter_file(item, "", name))
-        if "nodes" not in fields:
-            raise self.error(root, "", "key 'nodes' missing")
-        nodes = fields["nodes"][1]
-        if not isinstance(nodes, yaml.SequenceNode) or not nodes.value:
+        nodes = fields.require("nodes")
+        if not isinstance(nodes, ConfigList) or not nodes.items:
             raise self.error(nodes, "", "key 'nodes': must be a list of node entries")
         default = next((m.name for m in launch.machines.values() if m.default), None)
         launch.nodes = [self.entry(item, index, launch, default)
-                        for index, item in enumerate(nodes.value, 1)]
+                        for index, item in enumerate(nodes, 1)]
         self.check_together(launch)
         return launch
 
-    def zenoh(self, fields: tuple[yaml.Node, yaml.Node], launch: LaunchFile) -> None:
-        key, value = fields
+    def zenoh(self, fields: ConfigMapping, launch: LaunchFile) -> None:
         if launch.transport != "zenoh":
-            raise self.error(key, "", "key 'zenoh': endpoints need transport: zenoh")
-        for name, (_, endpoints) in self.mapping(value, "zenoh", "key 'zenoh'",
-                                                 _ZENOH_KEYS).items():
-            found = [] if _value(endpoints) in (None, []) else self.texts(endpoints, "zenoh",
-                                                                           name)
+            raise self.error(fields.key_of("zenoh"), "", "key 'zenoh': endpoints need "
+                             "transport: zenoh")
+        zenoh = self.mapping(fields.require("zenoh"), "zenoh", "key 'zenoh'", _ZENOH_KEYS)
+        for name, endpoints in zenoh.items():
+            empty = (isinstance(endpoints, ConfigScalar) and endpoints.value is None) or (
+                isinstance(endpoints, ConfigList) and not endpoints.items)
+            found = [] if empty else self.texts(endpoints, "zenoh", name)
             for item, endpoint in found:
                 if not _ENDPOINT.fullmatch(endpoint):
                     raise self.error(item, "zenoh", f"key {name!r}: {endpoint!r} is not a "
                                      "Zenoh endpoint such as tcp/127.0.0.1:7447")
             getattr(launch, name).extend(endpoint for _, endpoint in found)
 
-    def machines(self, node: yaml.Node, launch: LaunchFile) -> None:
-        for name, (key, value) in self.mapping(node, "", "key 'machines'", ()).items():
+    def machines(self, node: ConfigValue, launch: LaunchFile) -> None:
+        machines = self.mapping(node, "", "key 'machines'", ())
+        for name, value in machines.items():
+            key = machines.key_of(name)
             where = f"machine {name!r}"
             fields = self.mapping(value, where, "a machine", _MACHINE_KEYS)
             if "address" not in fields:
                 raise self.error(key, where, "key 'address' missing")
-            default = "default" in fields and self.flag(fields["default"][1], where, "default")
+            flag = fields.get("default")
+            default = flag is not None and self.flag(flag, where, "default")
             if default and (other := next((m for m in launch.machines.values() if m.default),
                                           None)):
-                raise self.error(fields["default"][0], where, "key 'default': only one "
+                raise self.error(fields.key_of("default"), where, "key 'default': only one "
                                  f"machine can be the default ({other.name!r} is)")
             launch.machines[name] = Machine(
-                name, self.text(fields["address"][1], where, "address"), default, _line(key))
+                name, self.text(fields.require("address"), where, "address"), default,
+                key.line)
 
-    def parameter_file(self, node: yaml.Node, where: str, name: str) -> ParameterOverrides:
+    def parameter_file(self, node: ConfigValue, where: str, name: str) -> ParameterOverrides:
         path = self.directory / name
         if not path.is_file():
             raise self.error(node, where, f"key 'parameters': file {name!r} not found "
@@ -339,13 +317,11 @@ class _Parser:
 
     # -- one entry ---------------------------------------------------------------------------
 
-    def entry(self, item: yaml.Node, index: int, launch: LaunchFile,
+    def entry(self, item: ConfigValue, index: int, launch: LaunchFile,
               default_machine: str | None) -> NodeEntry:
         where = f"node #{index}"
         fields = self.mapping(item, where, "a node entry", ())
-        if "name" not in fields:
-            raise self.error(item, where, "key 'name' missing")
-        name_node = fields["name"][1]
+        name_node = fields.require("name", where)
         name = self.text(name_node, where, "name")
         where = f"node {name!r}"
         try:
@@ -353,26 +329,25 @@ class _Parser:
         except MessageError as exc:
             raise self.error(name_node, where, f"key 'name': {exc}") from None
         if "node" in fields and "exec" in fields:
-            raise self.error(fields["exec"][0], where, "key 'exec': give 'node' or 'exec', "
-                             "not both")
+            raise self.error(fields.key_of("exec"), where, "key 'exec': give 'node' or "
+                             "'exec', not both")
         if "node" not in fields and "exec" not in fields:
-            raise self.error(item, where, "key 'node' missing (module:Class), or 'exec' (a "
+            raise self.error(fields, where, "key 'node' missing (module:Class), or 'exec' (a "
                              "command)")
         allowed = _EXEC_KEYS if "exec" in fields else _NODE_KEYS
-        for key, (key_node, _) in fields.items():
+        for key in fields:
             if key not in allowed:
                 message = (f"key {key!r} is for node entries, not exec ones"
-                           if key in _NODE_KEYS else _unknown_key(key, allowed))
-                raise self.error(key_node, where, message)
-        entry = NodeEntry(name, line=_line(item),
-                          lines={k: _line(n) for k, (n, _) in fields.items()})
-        if "exec" in fields:
-            entry.command = self.command(fields["exec"][1], where, launch)
+                           if key in _NODE_KEYS else unknown_key(key, allowed))
+                raise self.error(fields.key_of(key), where, message)
+        entry = NodeEntry(name, line=fields.line,
+                          lines={k: fields.key_of(k).line for k in fields})
+        if (command := fields.get("exec")) is not None:
+            entry.command = self.command(command, where, launch)
             entry.process = ""
         else:
             self.node_fields(entry, fields, where)
-        if "machine" in fields:
-            machine_node = fields["machine"][1]
+        if (machine_node := fields.get("machine")) is not None:
             entry.machine = self.text(machine_node, where, "machine")
             if entry.machine not in launch.machines:
                 raise self.error(machine_node, where, f"key 'machine': no machine "
@@ -380,33 +355,31 @@ class _Parser:
                                  f"{', '.join(launch.machines) or 'none'})")
         else:
             entry.machine = default_machine
-        if "required" in fields:
-            entry.required = self.flag(fields["required"][1], where, "required")
+        if (required := fields.get("required")) is not None:
+            entry.required = self.flag(required, where, "required")
+        self.entry_fields.append(fields)
         return entry
 
-    def node_fields(self, entry: NodeEntry, fields: dict[str, tuple[yaml.Node, yaml.Node]],
-                    where: str) -> None:
-        value = fields["node"][1]
+    def node_fields(self, entry: NodeEntry, fields: ConfigMapping, where: str) -> None:
+        value = fields.require("node", where)
         entry.node = self.text(value, where, "node")
         if not _CLASS_PATH.fullmatch(entry.node):
             raise self.error(value, where, f"key 'node': {entry.node!r} is not module:Class "
                              "(e.g. servolab.middleware.demo_nodes:Talker)")
-        if "namespace" in fields:
-            value = fields["namespace"][1]
-            namespace = self.text(value, where, "namespace")
+        if (namespace_node := fields.get("namespace")) is not None:
+            namespace = self.text(namespace_node, where, "namespace")
             try:
                 entry.namespace = node_namespace(namespace, entry.name)
             except MessageError as exc:
-                raise self.error(value, where, f"key 'namespace': {exc}") from None
-        if "process" in fields:
-            value = fields["process"][1]
-            entry.process = self.text(value, where, "process")
+                raise self.error(namespace_node, where, f"key 'namespace': {exc}") from None
+        if (process := fields.get("process")) is not None:
+            entry.process = self.text(process, where, "process")
             if not _PROCESS_NAME.fullmatch(entry.process):
-                raise self.error(value, where, f"key 'process': {entry.process!r} is not a "
+                raise self.error(process, where, f"key 'process': {entry.process!r} is not a "
                                  "name (letters, digits, '_', '.', '-')")
-        if "remappings" in fields:
-            remaps = self.mapping(fields["remappings"][1], where, "key 'remappings'", ())
-            for source, (_, target_node) in remaps.items():
+        if (remappings := fields.get("remappings")) is not None:
+            remaps = self.mapping(remappings, where, "key 'remappings'", ())
+            for source, target_node in remaps.items():
                 target = self.text(target_node, where, "remappings")
                 try:
                     resolve_name(source, entry.namespace, entry.name)
@@ -414,13 +387,11 @@ class _Parser:
                 except MessageError as exc:
                     raise self.error(target_node, where, f"key 'remappings': {exc}") from None
                 entry.remappings[source] = target
-        if "parameters" in fields:
-            value = fields["parameters"][1]
-            items = value.value if isinstance(value, yaml.SequenceNode) else [value]
-            for item in items:
-                if isinstance(item, yaml.MappingNode):
+        if (parameters := fields.get("parameters")) is not None:
+            for item in parameters.one_or_many():
+                if isinstance(item, ConfigMapping):
                     self.flatten(item, "", entry.parameters, where)
-                elif isinstance(item, yaml.ScalarNode):
+                elif isinstance(item, ConfigScalar):
                     name = self.text(item, where, "parameters")
                     overrides = self.parameter_file(item, where, name)
                     entry.parameters.update(overrides.for_node(entry.fully_qualified_name))
@@ -428,14 +399,14 @@ class _Parser:
                     raise self.error(item, where, "key 'parameters': must be a mapping, a "
                                      "file, or a list of them")
 
-    def flatten(self, node: yaml.MappingNode, prefix: str, out: dict[str, Any],
+    def flatten(self, node: ConfigMapping, prefix: str, out: dict[str, Any],
                 where: str) -> None:
         """Nested mappings become dotted names, as in a ROS 2 parameter file."""
-        for name, (_, value) in self.mapping(node, where, "key 'parameters'", ()).items():
-            if isinstance(value, yaml.MappingNode):
+        for name, value in node.items():
+            if isinstance(value, ConfigMapping):
                 self.flatten(value, f"{prefix}{name}.", out, where)
                 continue
-            data = _value(value)
+            data = value.plain()
             try:
                 type_of(data)
             except ParameterError as exc:
@@ -443,14 +414,16 @@ class _Parser:
                                  f"{exc}") from None
             out[f"{prefix}{name}"] = data
 
-    def command(self, node: yaml.Node, where: str, launch: LaunchFile) -> list[str]:
-        if isinstance(node, yaml.ScalarNode):
-            argv = shlex.split(str(node.value))
-        elif isinstance(node, yaml.SequenceNode) and all(
-                isinstance(item, yaml.ScalarNode) for item in node.value):
-            argv = [str(item.value) for item in node.value]  # as typed: `5` stays "5"
-        else:
-            argv = []
+    def command(self, node: ConfigValue, where: str, launch: LaunchFile) -> list[str]:
+        argv: list[str] = []
+        if isinstance(node, ConfigScalar):
+            try:
+                argv = shlex.split(node.text)
+            except ValueError as exc:  # an unclosed quote
+                raise self.error(node, where, f"key 'exec': {exc}") from None
+        elif isinstance(node, ConfigList) and all(isinstance(item, ConfigScalar)
+                                                  for item in node):
+            argv = [item.text for item in node if isinstance(item, ConfigScalar)]  # as typed
         if not argv:
             raise self.error(node, where, "key 'exec': must be a command (a list of "
                              "arguments, or a string)")
@@ -470,28 +443,28 @@ class _Parser:
         seen: dict[str, NodeEntry] = {}
         machine_of: dict[str, NodeEntry] = {}
         processes: set[tuple[str, str | None]] = set()
-        for entry in launch.nodes:
+        for entry, fields in zip(launch.nodes, self.entry_fields, strict=True):
             where = f"node {entry.name!r}"
             fqn = entry.fully_qualified_name
             if fqn in seen:
-                raise self.error(entry.lines["name"], where, f"key 'name': duplicate name "
+                raise self.error(fields.key_of("name"), where, f"key 'name': duplicate name "
                                  f"{fqn} (also on line {seen[fqn].lines['name']})")
             seen[fqn] = entry
             if entry.is_exec:
                 key = "exec"
             else:
-                key = "machine" if "machine" in entry.lines and "process" not in entry.lines \
+                key = "machine" if "machine" in fields and "process" not in fields \
                     else "process"
-            line = entry.lines.get(key, entry.line)
+            at: ConfigValue = fields.key_of(key) if key in fields else fields
             processes.add((entry.process or f"exec {entry.name}", entry.machine))
             if len(processes) > 1 and launch.transport == "local":
-                raise self.error(line, where, f"key {key!r}: a second process needs "
+                raise self.error(at, where, f"key {key!r}: a second process needs "
                                  "transport: zenoh (transport is local)")
             if not entry.is_exec:
                 first = machine_of.setdefault(entry.process, entry)
                 if first.machine != entry.machine:
-                    raise self.error(entry.lines.get("process", entry.line), where,
-                                     f"key 'process': process {entry.process!r} "
+                    at = fields.key_of("process") if "process" in fields else fields
+                    raise self.error(at, where, f"key 'process': process {entry.process!r} "
                                      f"has nodes on machines {_machine(first.machine)} and "
                                      f"{_machine(entry.machine)}; give them different "
                                      "processes")
@@ -499,11 +472,6 @@ class _Parser:
 
 def _machine(name: str | None) -> str:
     return repr(name) if name is not None else "(none)"
-
-
-def _unknown_key(key: str, allowed: Sequence[str]) -> str:
-    close = difflib.get_close_matches(key, allowed, n=1)
-    return f"unknown key {key!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
 
 
 # -- checks before anything starts -----------------------------------------------------------

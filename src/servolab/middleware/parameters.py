@@ -23,7 +23,8 @@ from typing import Any
 
 import yaml
 
-from .errors import ParameterError
+from ..configfile import ConfigMapping, ConfigScalar, ConfigValue, load, load_text
+from .errors import ParameterError, ParameterFileError
 
 # rcl_interfaces/msg/ParameterType
 NOT_SET, BOOL, INTEGER, DOUBLE, STRING, BYTE_ARRAY = 0, 1, 2, 3, 4, 5
@@ -137,63 +138,53 @@ class ParameterOverrides:
 
     @classmethod
     def from_file(cls, path: str | Path) -> ParameterOverrides:
-        """Read a ROS 2 parameter file; errors name the file, line and key."""
-        path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as exc:
-            raise ParameterError(f"parameter file {path}: {exc.strerror}") from None
-        return cls.from_text(text, str(path))
+        """Read a ROS 2 parameter file; errors (:class:`ParameterFileError`) name the file,
+        line and key."""
+        return cls._from_root(load(path, what="parameter file", error=ParameterFileError))
 
     @classmethod
     def from_text(cls, text: str, source: str = "<parameters>") -> ParameterOverrides:
-        try:
-            root = yaml.compose(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            line = f":{mark.line + 1}" if mark is not None else ""
-            raise ParameterError(f"{source}{line}: not valid YAML "
-                                 f"({getattr(exc, 'problem', exc)})") from None
+        """Read the text of a ROS 2 parameter file; ``source`` stands for its path in errors."""
+        return cls._from_root(load_text(text, source, error=ParameterFileError))
+
+    @classmethod
+    def _from_root(cls, root: ConfigValue) -> ParameterOverrides:
         overrides = cls()
-        if root is None:
-            return overrides
-        if not isinstance(root, yaml.MappingNode):
-            raise ParameterError(f"{source}:{root.start_mark.line + 1}: a parameter file is a "
-                                 "mapping of node names to {ros__parameters: ...}")
-        for key_node, node_value in root.value:
-            node = key_node.value
-            where = f"{source}:{key_node.start_mark.line + 1}"
-            if not isinstance(node_value, yaml.MappingNode):
-                raise ParameterError(f"{where}: node {node!r} needs a mapping with "
-                                     "ros__parameters")
-            entries = {k.value: (k, v) for k, v in node_value.value}
-            if "ros__parameters" not in entries:
-                raise ParameterError(f"{where}: key 'ros__parameters' missing under {node!r}")
-            for other, (k, _) in entries.items():
+        if isinstance(root, ConfigScalar) and root.value is None:
+            return overrides  # an empty file sets nothing
+        if not isinstance(root, ConfigMapping):
+            raise root.error("a parameter file is a mapping of node names to "
+                             "{ros__parameters: ...}")
+        for node, node_value in root.items():
+            key = root.key_of(node)
+            if not isinstance(node_value, ConfigMapping):
+                raise key.error(f"node {node!r} needs a mapping with ros__parameters")
+            if "ros__parameters" not in node_value:
+                raise key.error(f"key 'ros__parameters' missing under {node!r}")
+            for other in node_value:
                 if other != "ros__parameters":
-                    raise ParameterError(f"{source}:{k.start_mark.line + 1}: unexpected key "
-                                         f"{other!r} under {node!r} (only ros__parameters)")
-            params_node = entries["ros__parameters"][1]
+                    raise node_value.key_of(other).error(
+                        f"unexpected key {other!r} under {node!r} (only ros__parameters)")
             values: dict[str, Any] = {}
-            _flatten(params_node, "", values, source)
+            _flatten(node_value.require("ros__parameters"), "", values)
             overrides.by_node.setdefault(_node_key(node), {}).update(values)
         return overrides
 
 
-def _flatten(node: yaml.Node, prefix: str, out: dict[str, Any], source: str) -> None:
-    if not isinstance(node, yaml.MappingNode):
-        raise ParameterError(f"{source}:{node.start_mark.line + 1}: ros__parameters must be a "
-                             "mapping of names to values")
-    for key, value in node.value:
-        name = f"{prefix}{key.value}"
-        if isinstance(value, yaml.MappingNode):
-            _flatten(value, f"{name}.", out, source)
+def _flatten(node: ConfigValue, prefix: str, out: dict[str, Any]) -> None:
+    """Nested mappings become dotted names (``camera: {width: 640}`` is ``camera.width``)."""
+    if not isinstance(node, ConfigMapping):
+        raise node.error("ros__parameters must be a mapping of names to values")
+    for key, value in node.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, ConfigMapping):
+            _flatten(value, f"{name}.", out)
             continue
-        data = yaml.safe_load(yaml.serialize(value))
+        data = value.plain()
         try:
             type_of(data)
         except ParameterError as exc:
-            raise ParameterError(f"{source}:{value.start_mark.line + 1}: {name}: {exc}") from None
+            raise value.error(f"{name}: {exc}") from None
         out[name] = data
 
 

@@ -1,0 +1,407 @@
+"""One loader for the YAML files a user writes: every value keeps its file, line and key path.
+
+Why one loader: launch files, ROS 2 parameter files and motor specs each used to compose YAML
+and track lines their own way, and more formats are coming (controller, costmap and robot base
+configurations). A mistake in any of them should read the same way, ``path:line: message``,
+raised as one class, :class:`servolab.errors.ConfigFileError` (a consumer passes its own
+subclass, so its callers keep catching the family's error too).
+
+Why not ``yaml.safe_load``: it forgets where a value was written, and it silently keeps the last
+of two equal keys, so a doubled ``rate:`` is a value the user never sees being ignored. Here the
+file is composed with PyYAML's SafeLoader (lines kept), duplicate keys are refused naming both
+lines, and each scalar is built with the safe constructor, so the values are those
+``safe_load`` would give. Mapping keys are names: the key as written (``1:`` is the key ``"1"``).
+
+The result is a tree of :class:`ConfigValue`: :class:`ConfigMapping`, :class:`ConfigList` and
+:class:`ConfigScalar`. Each knows its ``path``, ``line`` (from 1) and ``key``, the dotted path
+from the top with ``[i]`` for list items counted from 0 (``nodes[2].parameters.rate``), and
+makes errors there with :meth:`ConfigValue.error`. The typed accessors (``as_int``,
+``as_bool``, ...) are strict, in the spirit of rosbags' checks: ``true`` is not a number,
+``.nan`` is not a usable float unless asked for, a list is not a string. Their messages say
+``<what>: must be <kind>, not <what was written>``, where ``what`` defaults to
+``key '<key path>'`` and a consumer may name the value in its own words.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Collection, Iterator
+from datetime import date
+from pathlib import Path
+from typing import TypeAlias
+
+import yaml
+from yaml.constructor import SafeConstructor
+
+from .errors import ConfigFileError
+
+#: What a scalar can hold: what ``yaml.safe_load`` makes of one (``!!binary`` gives bytes,
+#: a timestamp a date or datetime).
+ScalarValue: TypeAlias = bool | int | float | str | bytes | date | None
+#: The plain Python value of a subtree, as ``yaml.safe_load`` would give it (keys as written).
+Plain: TypeAlias = ScalarValue | list["Plain"] | dict[str, "Plain"]
+
+_MAP_TAG = "tag:yaml.org,2002:map"
+_SEQ_TAG = "tag:yaml.org,2002:seq"
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+#: Tags PyYAML gives the plain scalars ``<<`` and ``=`` but cannot construct; as values they
+#: are the text written, as ``=`` in a command's arguments.
+_TEXT_TAGS = (_MERGE_TAG, "tag:yaml.org,2002:value")
+_SCALAR_TYPES = (type(None), bool, int, float, str, bytes, date)
+
+
+def suggest(name: str, choices: Collection[str]) -> str | None:
+    """The choice ``name`` was most likely meant to be, if one is close (a typo)."""
+    close = difflib.get_close_matches(name, list(choices), n=1)
+    return close[0] if close else None
+
+
+def unknown_key(name: str, allowed: Collection[str]) -> str:
+    """``unknown key 'x'``, with ``(did you mean 'y'?)`` when an allowed key is close."""
+    close = suggest(name, allowed)
+    return f"unknown key {name!r}" + (f" (did you mean {close!r}?)" if close else "")
+
+
+class ConfigValue:
+    """A value of a configuration file and where it was written.
+
+    The accessors check the kind of value a consumer needs and return it as a Python value,
+    or raise the file's error class at this value's line; ``what`` replaces
+    ``key '<key path>'`` at the start of their messages (e.g. ``"node 'talker': key 'rate'"``).
+    """
+
+    __slots__ = ("_error", "key", "line", "path")
+
+    def __init__(self, path: str, line: int, key: str, error: type[ConfigFileError]) -> None:
+        self.path = path
+        self.line = line
+        self.key = key
+        self._error = error
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.key or '(top)'!r} at {self.path}:{self.line}>"
+
+    def error(self, message: str) -> ConfigFileError:
+        """An error at this value: ``path:line: message``, carrying path, line and key."""
+        return self._error(self.path, self.line, self.key, message)
+
+    def describe(self) -> str:
+        """What was written here, in a few words, for an error message."""
+        raise NotImplementedError
+
+    def plain(self) -> Plain:
+        """The plain Python value of this subtree (for values passed on as they are, such as
+        ROS parameter values)."""
+        raise NotImplementedError
+
+    def child_key(self, name: str | int) -> str:
+        """The key path of an entry of this mapping (a name) or item of this list (an index)."""
+        if isinstance(name, int):
+            return f"{self.key}[{name}]"
+        return f"{self.key}.{name}" if self.key else name
+
+    def _subject(self, what: str | None) -> str:
+        if what is not None:
+            return what
+        return f"key {self.key!r}" if self.key else "the file"
+
+    def _wrong(self, what: str | None, wanted: str) -> ConfigFileError:
+        return self.error(f"{self._subject(what)}: must be {wanted}, not {self.describe()}")
+
+    def as_mapping(self, what: str | None = None) -> ConfigMapping:
+        raise self._wrong(what, "a mapping")
+
+    def as_list(self, what: str | None = None) -> ConfigList:
+        raise self._wrong(what, "a list")
+
+    def as_str(self, what: str | None = None, *, nonempty: bool = False) -> str:
+        """A string as YAML reads it: ``5`` or ``true`` is refused, ``"5"`` is a string."""
+        raise self._wrong(what, "a non-empty string" if nonempty else "a string")
+
+    def as_int(self, what: str | None = None) -> int:
+        """An integer; ``true`` and ``2.0`` are refused (YAML's bool is a Python int)."""
+        raise self._wrong(what, "an integer")
+
+    def as_float(self, what: str | None = None, *, finite: bool = True) -> float:
+        """A number as a float (``2`` is 2.0); ``true`` is refused, and so are ``.nan`` and
+        ``.inf`` unless ``finite`` is False."""
+        raise self._wrong(what, "a finite number" if finite else "a number")
+
+    def as_bool(self, what: str | None = None) -> bool:
+        """``true`` or ``false`` (YAML 1.1 also reads ``yes``/``no``/``on``/``off``)."""
+        raise self._wrong(what, "true or false")
+
+    def one_or_many(self) -> list[ConfigValue]:
+        """The items of a list, or this value alone (for keys taking one thing or several)."""
+        return [self]
+
+    def as_strings(self, what: str | None = None, *, nonempty: bool = False) -> list[str]:
+        """A string or a list of strings, as a list."""
+        return [item.as_str(what, nonempty=nonempty) for item in self.one_or_many()]
+
+
+class ConfigScalar(ConfigValue):
+    """A single value: ``value`` as ``yaml.safe_load`` reads it, ``text`` as written."""
+
+    __slots__ = ("text", "value")
+
+    def __init__(self, path: str, line: int, key: str, error: type[ConfigFileError],
+                 value: ScalarValue, text: str) -> None:
+        super().__init__(path, line, key, error)
+        self.value = value
+        self.text = text
+
+    def describe(self) -> str:
+        if isinstance(self.value, str):
+            shown = self.value if len(self.value) <= 40 else self.value[:37] + "..."
+            return repr(shown)
+        if self.value is None:
+            return self.text or "nothing"
+        if isinstance(self.value, bytes):
+            return "binary data"
+        return self.text
+
+    def plain(self) -> ScalarValue:
+        return self.value
+
+    def as_str(self, what: str | None = None, *, nonempty: bool = False) -> str:
+        if isinstance(self.value, str) and (self.value or not nonempty):
+            return self.value
+        return super().as_str(what, nonempty=nonempty)
+
+    def as_int(self, what: str | None = None) -> int:
+        if isinstance(self.value, int) and not isinstance(self.value, bool):
+            return self.value
+        return super().as_int(what)
+
+    def as_float(self, what: str | None = None, *, finite: bool = True) -> float:
+        value = self.value
+        if (isinstance(value, int | float) and not isinstance(value, bool)
+                and (not finite or math.isfinite(value))):
+            return float(value)
+        return super().as_float(what, finite=finite)
+
+    def as_bool(self, what: str | None = None) -> bool:
+        if isinstance(self.value, bool):
+            return self.value
+        return super().as_bool(what)
+
+
+class ConfigList(ConfigValue):
+    """A sequence; its items are located values too."""
+
+    __slots__ = ("items",)
+
+    def __init__(self, path: str, line: int, key: str, error: type[ConfigFileError],
+                 items: tuple[ConfigValue, ...]) -> None:
+        super().__init__(path, line, key, error)
+        self.items = items
+
+    def __iter__(self) -> Iterator[ConfigValue]:
+        return iter(self.items)
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __getitem__(self, index: int) -> ConfigValue:
+        return self.items[index]
+
+    def describe(self) -> str:
+        return "a list"
+
+    def plain(self) -> list[Plain]:
+        return [item.plain() for item in self.items]
+
+    def as_list(self, what: str | None = None) -> ConfigList:
+        return self
+
+    def one_or_many(self) -> list[ConfigValue]:
+        return list(self.items)
+
+
+class ConfigMapping(ConfigValue):
+    """A mapping of names (in file order, without duplicates) to located values; each key is
+    located too (:meth:`key_of`), for errors about the key itself rather than its value."""
+
+    __slots__ = ("_entries",)
+
+    def __init__(self, path: str, line: int, key: str, error: type[ConfigFileError],
+                 entries: dict[str, tuple[ConfigScalar, ConfigValue]]) -> None:
+        super().__init__(path, line, key, error)
+        self._entries = entries
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def items(self) -> Iterator[tuple[str, ConfigValue]]:
+        for name, (_, value) in self._entries.items():
+            yield name, value
+
+    def key_of(self, name: str) -> ConfigScalar:
+        """Where the key ``name`` is written (a KeyError if it is not: check first)."""
+        return self._entries[name][0]
+
+    def get(self, name: str) -> ConfigValue | None:
+        entry = self._entries.get(name)
+        return entry[1] if entry is not None else None
+
+    def require(self, name: str, what: str | None = None) -> ConfigValue:
+        """The value of ``name``, or an error at this mapping saying it is missing
+        (``what`` names the mapping, e.g. ``"node 'talker'"``)."""
+        entry = self._entries.get(name)
+        if entry is None:
+            raise self.error(self._key_message(what, name, "key {} missing"))
+        return entry[1]
+
+    def check_keys(self, allowed: Collection[str], *, required: Collection[str] = (),
+                   what: str | None = None) -> None:
+        """Refuse any key not in ``allowed`` (at the key, suggesting the closest allowed one),
+        then any key of ``required`` that is missing (at the mapping)."""
+        for name, (key, _) in self._entries.items():
+            if name not in allowed:
+                close = suggest(name, allowed)
+                hint = f" (did you mean {close!r}?)" if close else ""
+                raise key.error(self._key_message(what, name, "unknown key {}") + hint)
+        for name in required:
+            self.require(name, what)
+
+    def describe(self) -> str:
+        return "a mapping"
+
+    def plain(self) -> dict[str, Plain]:
+        return {name: value.plain() for name, (_, value) in self._entries.items()}
+
+    def as_mapping(self, what: str | None = None) -> ConfigMapping:
+        return self
+
+    def _key_message(self, what: str | None, name: str, template: str) -> str:
+        if what is not None:
+            return f"{what}: " + template.format(repr(name))
+        return template.format(repr(self.child_key(name)))
+
+
+# -- loading ---------------------------------------------------------------------------------
+
+
+def load(path: str | Path, *, what: str = "configuration file",
+         error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
+    """Read and compose a YAML file; ``what`` names the kind of file in the error when it
+    cannot be read, ``error`` is the class every error of this file is raised as.
+
+    An empty file (or one of comments only) is a null scalar on line 1.
+    """
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise error(path, 0, "", f"cannot read {what} ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise error(path, line, "", f"not UTF-8 text (byte 0x{data[exc.start]:02x}; "
+                    f"is this a {what}?)") from None
+    return load_text(text, str(path), error=error)
+
+
+def load_text(text: str, source: str = "<text>", *,
+              error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
+    """Compose YAML text; ``source`` stands for the path in errors."""
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        line, problem = _yaml_problem(exc, text)
+        raise error(source, line, "", f"not valid YAML ({problem})") from None
+    except RecursionError:
+        raise error(source, 0, "", "not valid YAML (nested too deeply)") from None
+    if root is None:
+        return ConfigScalar(source, 1, "", error, None, "")
+    try:
+        return _Builder(source, error).build(root, "", frozenset())
+    except RecursionError:
+        raise error(source, 0, "", "nested too deeply") from None
+
+
+def _yaml_problem(exc: yaml.YAMLError, text: str) -> tuple[int, str]:
+    """The line and one-line description of a YAML syntax error."""
+    if isinstance(exc, yaml.reader.ReaderError):  # a character YAML does not allow
+        return text.count("\n", 0, exc.position) + 1, str(exc).splitlines()[0]
+    mark = getattr(exc, "problem_mark", None)
+    line = mark.line + 1 if mark is not None else 1
+    problem = str(getattr(exc, "problem", None) or str(exc).splitlines()[0])
+    context, context_mark = getattr(exc, "context", None), getattr(exc, "context_mark", None)
+    if context and context_mark is not None and context_mark.line + 1 != line:
+        problem += f"; {context} on line {context_mark.line + 1}"  # e.g. an unclosed [
+    return line, problem
+
+
+class _Builder:
+    """Turns composed nodes into located values, refusing what ``safe_load`` would not read
+    the same way (duplicate keys, merge keys) and what no consumer can use (keys that are
+    not names, tags of collections)."""
+
+    def __init__(self, source: str, error: type[ConfigFileError]) -> None:
+        self.source = source
+        self.error = error
+        self.constructor = SafeConstructor()
+
+    def fail(self, node: yaml.Node, key: str, message: str) -> ConfigFileError:
+        return self.error(self.source, node.start_mark.line + 1, key, message)
+
+    def build(self, node: yaml.Node, key: str, parents: frozenset[int]) -> ConfigValue:
+        line = node.start_mark.line + 1
+        if id(node) in parents:
+            raise self.fail(node, key, "an alias refers to a value that contains it")
+        if isinstance(node, yaml.ScalarNode):
+            return self.scalar(node, key)
+        parents = parents | {id(node)}
+        if isinstance(node, yaml.SequenceNode):
+            if node.tag != _SEQ_TAG:
+                raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+            items = tuple(self.build(item, f"{key}[{index}]", parents)
+                          for index, item in enumerate(node.value))
+            return ConfigList(self.source, line, key, self.error, items)
+        assert isinstance(node, yaml.MappingNode)
+        if node.tag != _MAP_TAG:
+            raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+        entries: dict[str, tuple[ConfigScalar, ConfigValue]] = {}
+        for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode) or not key_node.value:
+                raise self.fail(key_node, key, "keys must be names")
+            name = str(key_node.value)
+            child = f"{key}.{name}" if key else name
+            if key_node.tag == _MERGE_TAG:
+                raise self.fail(key_node, child, "merge keys (<<) are not supported; write "
+                                "the keys out")
+            if name in entries:
+                first = entries[name][0].line
+                raise self.fail(key_node, child, f"duplicate key {child!r} (first on line "
+                                f"{first}, again on line {key_node.start_mark.line + 1})")
+            located = ConfigScalar(self.source, key_node.start_mark.line + 1, child,
+                                   self.error, name, name)
+            entries[name] = (located, self.build(value_node, child, parents))
+        return ConfigMapping(self.source, line, key, self.error, entries)
+
+    def scalar(self, node: yaml.ScalarNode, key: str) -> ConfigScalar:
+        text = str(node.value)
+        value: object
+        if node.tag in _TEXT_TAGS:
+            value = text
+        else:
+            try:
+                value = self.constructor.construct_object(node, deep=True)
+            except yaml.YAMLError as exc:
+                raise self.fail(node, key, "not valid YAML "
+                                f"({getattr(exc, 'problem', None) or exc})") from None
+            except (ValueError, TypeError):  # an explicit tag that does not fit: !!int x
+                raise self.fail(node, key, f"not valid YAML ({text!r} is not a "
+                                f"{node.tag.rsplit(':', 1)[-1]})") from None
+        if not isinstance(value, _SCALAR_TYPES):
+            raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+        return ConfigScalar(self.source, node.start_mark.line + 1, key, self.error, value, text)
