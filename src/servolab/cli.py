@@ -80,42 +80,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"servolab {args.command}: interrupted", file=sys.stderr)
         return 130
-    except Exception as exc:
-        reported = _report(exc)
-        if reported is None:
-            raise  # not raised on purpose: a bug, whose traceback is the useful report
-        status, label = reported
+    except ServolabError as exc:
+        status, label = _report(exc)
         name = f"{args.command} {getattr(args, 'action', '')}".strip()
         print(f"servolab {name}: {label}: {exc}", file=sys.stderr)
         return status
+    # Anything else was not raised on purpose: a bug, whose traceback is the useful report.
 
 
-def _report(exc: Exception) -> tuple[int, str] | None:
+def _report(exc: ServolabError) -> tuple[int, str]:
     """The exit status and label of an error servolab raised on purpose: ``(2, "error")`` for
-    bad input, ``(1, "error")`` for a service that failed, ``(1, class name)`` for a failure
-    on the bus (``NoResponse``, ``MotorError``: the name says what went wrong); None for any
-    other exception.
+    bad input — a value, an argument or a file of the user's, all value errors —,
+    ``(1, "error")`` for a service that failed, ``(1, class name)`` for a failure at run time
+    such as the bus's (``NoResponse``, ``MotorError``: the name says what went wrong).
 
     The layers' classes are imported here rather than at the top: the Dynamixel package
     takes some 70 ms to import, which ``servolab --help`` need not pay, and when one of its
     errors is in flight it is loaded already.
     """
-    from .dynamixel.errors import ConfigError, DynamixelError
     from .middleware.errors import MiddlewareError, ServiceError
 
-    # TODO: once DynamixelError and MiddlewareError derive from ServolabError, this test is
-    # isinstance(exc, ServolabError) alone.
-    if not isinstance(exc, ServolabError | DynamixelError | MiddlewareError):
-        return None
     if isinstance(exc, ServiceError):
         return 1, "error"
-    if isinstance(exc, MiddlewareError | ConfigError):
+    if isinstance(exc, ValueError | MiddlewareError):
         return 2, "error"
-    if isinstance(exc, DynamixelError):
-        return 1, type(exc).__name__
-    # The rest of ServolabError, e.g. servolab.errors.ConfigFileError: a ValueError is a
-    # value or file of the user's, anything else a failure at run time.
-    return (2, "error") if isinstance(exc, ValueError) else (1, type(exc).__name__)
+    return 1, type(exc).__name__
 
 
 if __name__ == "__main__":
