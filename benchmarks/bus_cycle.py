@@ -206,7 +206,7 @@ def ours_cycle(bus: Bus, ids: Sequence[int], *, raw: bool = True
 
     def cycle(goals: Mapping[int, float]) -> Mapping[int, float]:
         bus.sync_write("goal_position", goals, raw=raw)
-        return bus.sync_read("present_position", ids, raw=raw)  # type: ignore[return-value]
+        return bus.sync_read("present_position", ids, raw=raw)
 
     return cycle
 

@@ -32,7 +32,9 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    say = lambda text="": print(text, file=stdout, flush=True)  # noqa: E731
+    def say(text: str = "") -> None:
+        print(text, file=stdout, flush=True)
+
     figures: dict[str, object] = {}
 
     # -- 1. Armstrong's left leg: six RX-28 on Protocol 1.0 at the factory 57142 bps --------
@@ -50,7 +52,6 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     t0 = clock.now()
     while clock.now() - t0 < 1.0:
         state = bus.read(12, ["present_position", "present_speed"])
-        assert isinstance(state, dict)
         times.append(clock.now() - t0)
         positions.append(float(state["present_position"]))
         speeds.append(float(state["present_speed"]))

@@ -30,7 +30,6 @@ def read(device: str, motor_id: int, names: Sequence[str], *, protocol: int | No
         for name in names:
             m.register(name)  # unknown names fail before anything is sent
         values = bus.read(motor_id, list(names), raw=True)
-        assert isinstance(values, dict)
         out: dict[str, float | int] = {}
         for name in names:
             reg = m.register(name)

@@ -13,7 +13,7 @@ import itertools
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, overload
 
 from . import units
 from .errors import ConfigError, CorruptResponse, MotorError, NoResponse
@@ -21,11 +21,22 @@ from .models import Model, Register, model, model_by_number, supports
 from .packets import Instruction, Protocol, Status
 from .ports import Port, open_port
 from .protocol import protocol as protocol_for
+from .protocol1 import Protocol1
+from .protocol2 import (
+    FACTORY_RESET_ALL,
+    FACTORY_RESET_EXCEPT_ID,
+    FACTORY_RESET_EXCEPT_ID_BAUD,
+    Protocol2,
+)
 from .wire import byte_time
 
 MAX_RETURN_DELAY = 254 * 2e-6
 Value = float | int
 Names = str | Sequence[str]
+#: Several register names. The overloads of read/sync_read/sync_write take a list or tuple
+#: rather than any Sequence[str], because a str is itself a Sequence[str]: with Sequence the
+#: one-name and several-names call shapes would overlap and neither could have a precise type.
+NameList = list[str] | tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -327,6 +338,14 @@ class Bus:
         return {n: self._decode(m, m.register(n), block, start, raw) for n in names}
 
     # -- one motor ---------------------------------------------------------------------------
+    @overload
+    def read(self, motor_id: int, names: str, *, raw: bool = False,
+             check: bool = True) -> Value: ...
+
+    @overload
+    def read(self, motor_id: int, names: NameList, *, raw: bool = False,
+             check: bool = True) -> dict[str, Value]: ...
+
     def read(self, motor_id: int, names: Names, *, raw: bool = False,
              check: bool = True) -> Value | dict[str, Value]:
         """Read one register (returns its value) or several (returns a dict), in SI units
@@ -345,10 +364,11 @@ class Bus:
         (``write(1, {"goal_position": 0.5, "moving_speed": 1.0})``) in one WRITE.
         ``registered`` sends REG_WRITE, applied by a later :meth:`action`."""
         m = self.model_of(motor_id)
-        values = dict(name) if isinstance(name, Mapping) else {name: value}
-        if any(v is None for v in values.values()):
+        given: dict[str, Value | None] = dict(name) if isinstance(name, Mapping) else {name: value}
+        values = {n: v for n, v in given.items() if v is not None}
+        if len(values) != len(given):
             raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
-        start, block = self._block(m, values, raw)  # type: ignore[arg-type]
+        start, block = self._block(m, values, raw)
         level_ok = self._status_expected(motor_id, m)
         self.transact(self.proto.write(motor_id, start, block, registered=registered),
                       {motor_id: 0} if level_ok else None)
@@ -379,12 +399,12 @@ class Bus:
         self.transact(self.proto.action())
 
     def reboot(self, motor_id: int) -> None:
-        if self.proto.version != 2:
+        proto = self.proto
+        if not isinstance(proto, Protocol2):
             raise ConfigError("REBOOT exists only in protocol 2.0")
         # The status goes out before the reboot, so it still carries the hardware-error alert
         # that the reboot clears: only the instruction's own error counts.
-        status = self.transact(self.proto.reboot(motor_id),  # type: ignore[attr-defined]
-                               {motor_id: 0}, check=False)[motor_id]
+        status = self.transact(proto.reboot(motor_id), {motor_id: 0}, check=False)[motor_id]
         if status.error & 0x7F:
             raise MotorError(motor_id, "REBOOT", self.proto.error_names(status.error & 0x7F),
                              status.error)
@@ -392,20 +412,25 @@ class Bus:
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
                       keep_baud: bool = True) -> None:
         """Restore factory defaults (1.0 RESET resets everything, ID and baud too)."""
-        if self.proto.version == 1:
-            self.transact(self.proto.reset(motor_id), {motor_id: 0})  # type: ignore[attr-defined]
+        proto = self.proto
+        if isinstance(proto, Protocol1):
+            self.transact(proto.reset(motor_id), {motor_id: 0})
             return
-        from .protocol2 import (
-            FACTORY_RESET_ALL,
-            FACTORY_RESET_EXCEPT_ID,
-            FACTORY_RESET_EXCEPT_ID_BAUD,
-        )
+        if not isinstance(proto, Protocol2):
+            raise ConfigError(f"FACTORY_RESET does not exist in protocol {proto.version}.0")
         option = (FACTORY_RESET_EXCEPT_ID_BAUD if keep_id and keep_baud else
                   FACTORY_RESET_EXCEPT_ID if keep_id else FACTORY_RESET_ALL)
-        self.transact(self.proto.factory_reset(motor_id, option),  # type: ignore[attr-defined]
-                      {motor_id: 0})
+        self.transact(proto.factory_reset(motor_id, option), {motor_id: 0})
 
     # -- many motors ---------------------------------------------------------------------------
+    @overload
+    def sync_write(self, names: str, values: Mapping[int, Value], *,
+                   raw: bool = False) -> None: ...
+
+    @overload
+    def sync_write(self, names: NameList, values: Mapping[int, Sequence[Value]], *,
+                   raw: bool = False) -> None: ...
+
     def sync_write(self, names: Names, values: Mapping[int, Value | Sequence[Value]], *,
                    raw: bool = False) -> None:
         """One SYNC_WRITE of the same register(s) on many motors:
@@ -416,7 +441,16 @@ class Bus:
         layout: tuple[int, int] | None = None
         for motor_id, value in values.items():
             m = self.model_of(motor_id)
-            vals = [value] if isinstance(names, str) else list(value)  # type: ignore[arg-type]
+            # One register name takes one number per motor; a list of names, a sequence each.
+            if isinstance(names, str):
+                if isinstance(value, Sequence):
+                    raise ConfigError(f"{m.name} {names}: {value!r} is not a number")
+                vals: list[Value] = [value]
+            elif isinstance(value, Iterable):
+                vals = list(value)
+            else:
+                raise ConfigError(f"motor {motor_id}: one value {value!r} for {len(wanted)} "
+                                  f"registers {wanted}")
             if len(vals) != len(wanted):
                 raise ConfigError(f"motor {motor_id}: {len(vals)} values for {len(wanted)} "
                                   f"registers {wanted}")
@@ -432,27 +466,38 @@ class Bus:
             return
         self.transact(self.proto.sync_write(layout[0], layout[1], blocks))
 
+    @overload
+    def sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
+                  check: bool = True) -> dict[int, Value]: ...
+
+    @overload
+    def sync_read(self, names: NameList, ids: Iterable[int], *, raw: bool = False,
+                  check: bool = True) -> dict[int, dict[str, Value]]: ...
+
     def sync_read(self, names: Names, ids: Iterable[int], *, raw: bool = False,
-                  check: bool = True) -> dict[int, Value | dict[str, Value]]:
+                  check: bool = True) -> dict[int, Value] | dict[int, dict[str, Value]]:
         """The same register(s) of many motors: one SYNC_READ on 2.0, one BULK_READ on 1.0
-        models that have it, else one READ each. Returns {id: value or dict}."""
+        models that have it, else one READ each. Returns {id: value} for one register name,
+        {id: {name: value}} for a list of names."""
         ids = list(ids)
         wanted = self._names(names)
         models = {i: self.model_of(i) for i in ids}
         if not ids:
             return {}
         spans = {m.span(wanted) for m in models.values()}
-        if self.proto.version == 2 and len(spans) == 1 and all(
+        proto = self.proto
+        out: dict[int, dict[str, Value]]
+        if isinstance(proto, Protocol2) and len(spans) == 1 and all(
                 supports(m, "SYNC_READ") for m in models.values()):
             start, length = spans.pop()
-            got = self.transact(self.proto.sync_read(start, length, ids),  # type: ignore[attr-defined]
+            got = self.transact(proto.sync_read(start, length, ids),
                                 {i: length for i in ids}, check=check)
             out = {i: self._unpack(models[i], wanted, got[i].params, start, raw) for i in ids}
         else:
-            out = self.bulk_read({i: wanted for i in ids}, raw=raw, check=check)  # type: ignore[assignment]
+            out = self.bulk_read({i: wanted for i in ids}, raw=raw, check=check)
         if isinstance(names, str):
-            return {i: v[names] for i, v in out.items()}  # type: ignore[index]
-        return out  # type: ignore[return-value]
+            return {i: v[names] for i, v in out.items()}
+        return out
 
     def bulk_read(self, requests: Mapping[int, Names], *, raw: bool = False,
                   check: bool = True) -> dict[int, dict[str, Value]]:
@@ -486,9 +531,9 @@ class Bus:
             m = self.model_of(motor_id)
             start, block = self._block(m, regs, raw)
             blocks.append((motor_id, m, start, block))
-        if self.proto.version == 2 and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
-            self.transact(self.proto.bulk_write(  # type: ignore[attr-defined]
-                [(i, start, block) for i, _, start, block in blocks]))
+        proto = self.proto
+        if isinstance(proto, Protocol2) and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
+            self.transact(proto.bulk_write([(i, start, block) for i, _, start, block in blocks]))
             return
         for motor_id, m, start, block in blocks:
             self.transact(self.proto.write(motor_id, start, block),

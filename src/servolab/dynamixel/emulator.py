@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import random
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from . import protocol1 as p1
@@ -682,8 +682,7 @@ class Emulator:
             if name == "PING" and not v1:
                 # Broadcast ping (2.0): every motor answers, in ID order, one after another.
                 order = sorted(motors, key=lambda m: m.id)
-                return self._chain([(m.id, None) for m in order], order, t, baudrate,
-                                   instruction="PING")
+                return self._chain([(m.id, None) for m in order], order, t, baudrate)
             for m in motors:
                 m.execute(inst, name)
             return []
@@ -704,11 +703,11 @@ class Emulator:
             return level >= 1
         return level >= 2
 
-    def _chain(self, requests: list[tuple[int, tuple[int, int] | None]],
-               motors: list[VirtualMotor], t: float, baudrate: float,
-               instruction: str = "READ") -> list[Reply]:
+    def _chain(self, requests: Sequence[tuple[int, tuple[int, int] | None]],
+               motors: list[VirtualMotor], t: float, baudrate: float) -> list[Reply]:
         """Replies of a SYNC_READ, BULK_READ or broadcast ping: each motor waits for the
-        status of the one before it, then its own return delay."""
+        status of the one before it, then its own return delay. ``requests`` are (id, block)
+        pairs: the (address, length) each motor reads, or None for a PING."""
         replies: list[Reply] = []
         for motor_id, block in requests:
             targets = [m for m in motors if m.id == motor_id]
@@ -720,10 +719,10 @@ class Emulator:
                 continue
             statuses = []
             for m in targets:
-                if instruction == "PING":
+                if block is None:
                     status = m.execute(Instruction(m.id, p2.PING), "PING")
                 else:
-                    status = m.read(*block)  # type: ignore[misc]
+                    status = m.read(*block)
                 statuses.append((m, status))
             encoded = [self.protocol.encode_status(s) for _, s in statuses]
             start = t + max(m.return_delay for m, _ in statuses) + self.faults.delay

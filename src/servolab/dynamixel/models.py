@@ -60,7 +60,7 @@ class Register:
     def encode(self, raw: int) -> bytes:
         return int(raw).to_bytes(self.size, "little", signed=self.signed and raw < 0)
 
-    def decode(self, data: bytes) -> int:
+    def decode(self, data: bytes | bytearray) -> int:
         return int.from_bytes(data[: self.size], "little", signed=self.signed)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar, Literal, TypeAlias
 
 from .errors import ConfigError, PacketError
 
@@ -46,6 +47,11 @@ class Frame:
     id: int
     code: int
     params: bytes
+
+
+#: What :meth:`StreamParser._try_frame` finds at the start of its buffer: a whole packet and its
+#: size on the wire, None when the packet is not complete yet, False when the candidate is corrupt.
+FrameResult: TypeAlias = tuple[Frame, int] | Literal[False] | None
 
 
 class StreamParser(ABC):
@@ -98,7 +104,7 @@ class StreamParser(ABC):
             del self._buffer[:size]
             frames.append(frame)
 
-    def _reject(self, motor_id: int) -> bool:
+    def _reject(self, motor_id: int) -> Literal[False]:
         if self._keep_rejected:
             self.rejected.append(Frame(motor_id, -1, b""))
         return False
@@ -108,10 +114,10 @@ class StreamParser(ABC):
             del self._buffer[:n]
             self.dropped += n
 
-    header: bytes = b""
+    header: ClassVar[bytes] = b""
 
     @abstractmethod
-    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+    def _try_frame(self) -> FrameResult:
         """Read one packet at the start of the buffer: (frame, size), None if it is not
         complete yet, or False if it is corrupt."""
 
@@ -119,13 +125,13 @@ class StreamParser(ABC):
 class Protocol(ABC):
     """One version of the Dynamixel protocol, both host and device side."""
 
-    version: int
-    broadcast_id: int = BROADCAST_ID
-    max_id: int
+    version: ClassVar[int]
+    broadcast_id: ClassVar[int] = BROADCAST_ID
+    max_id: ClassVar[int]
     #: instruction name -> code, for the instructions this version defines
-    instructions: dict[str, int]
+    instructions: ClassVar[dict[str, int]]
     #: error bit -> name, as the e-Manual calls it
-    error_bits: dict[int, str]
+    error_bits: ClassVar[dict[int, str]]
 
     # -- framing -----------------------------------------------------------------------------
     @abstractmethod
@@ -223,7 +229,7 @@ class Protocol(ABC):
 
     # -- address and length fields ----------------------------------------------------------
     #: bytes of an address or length field: 1 on 1.0, 2 (little-endian) on 2.0
-    field_size: int
+    field_size: ClassVar[int]
 
     def field(self, value: int) -> bytes:
         return int(value).to_bytes(self.field_size, "little")

@@ -10,7 +10,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .errors import PacketError
-from .packets import BROADCAST_ID, Frame, Instruction, Protocol, Status, StreamParser
+from .packets import (
+    BROADCAST_ID,
+    Frame,
+    FrameResult,
+    Instruction,
+    Protocol,
+    Status,
+    StreamParser,
+)
 
 HEADER = b"\xff\xff"
 
@@ -43,7 +51,7 @@ ERROR_BITS = {
 }
 
 
-def checksum(body: bytes) -> int:
+def checksum(body: bytes | bytearray) -> int:
     """The 1.0 checksum of ID, LENGTH, CODE and parameters."""
     return ~sum(body) & 0xFF
 
@@ -60,7 +68,7 @@ def encode(motor_id: int, code: int, params: bytes = b"") -> bytes:
 class Parser(StreamParser):
     header = HEADER
 
-    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+    def _try_frame(self) -> FrameResult:
         buf = self._buffer
         if len(buf) < 4:
             return None

@@ -13,7 +13,15 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 from .errors import PacketError
-from .packets import BROADCAST_ID, Frame, Instruction, Protocol, Status, StreamParser
+from .packets import (
+    BROADCAST_ID,
+    Frame,
+    FrameResult,
+    Instruction,
+    Protocol,
+    Status,
+    StreamParser,
+)
 
 HEADER = b"\xff\xff\xfd\x00"
 MAX_LENGTH = 1024  # as the ROBOTIS SDK bounds RX/TX packets; longer is taken as corruption
@@ -79,7 +87,7 @@ def _crc_table() -> list[int]:
 _CRC_TABLE = _crc_table()
 
 
-def crc16(data: bytes, crc: int = 0) -> int:
+def crc16(data: bytes | bytearray, crc: int = 0) -> int:
     """CRC-16 of Protocol 2.0 over ``data``."""
     for byte in data:
         crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
@@ -115,7 +123,7 @@ def encode(motor_id: int, code: int, params: bytes = b"") -> bytes:
 class Parser(StreamParser):
     header = b"\xff\xff\xfd"
 
-    def _try_frame(self) -> tuple[Frame, int] | bool | None:
+    def _try_frame(self) -> FrameResult:
         buf = self._buffer
         if len(buf) < 7:
             return None

@@ -207,6 +207,8 @@ class BagWriter:
         except OSError as exc:
             raise BagError(f"cannot create bag {self.path}: {exc.strerror or exc}") from None
         try:
+            # mcap annotates ``output`` as IO[Any] but only calls write, tell and flush,
+            # which _DirectFile has: its annotation is narrower than what it needs.
             self._mcap = Writer(self._file, chunk_size=chunk_size,  # type: ignore[arg-type]
                                 compression=kind)
             self._mcap.start(profile="ros2", library=LIBRARY)

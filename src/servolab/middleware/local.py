@@ -138,13 +138,13 @@ class LocalTransport(Transport):
                     self._endpoints.remove(endpoint)
         return _Registration(undo)
 
-    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future:
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
         entry = self._services.get(name)
         if entry is None:
             raise ServiceError(f"no service {name} (is its node running?)")
         if entry[0].name != srv.name:
             raise ServiceError(f"service {name} is a {entry[0].name}, not a {srv.name}")
-        future: Future = Future()
+        future: Future[Any] = Future()
 
         def reply(response: Any) -> None:
             if isinstance(response, Exception):

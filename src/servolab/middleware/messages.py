@@ -17,14 +17,17 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
+from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.typesys.base import Nodetype
 
 from .errors import MessageError
+
+if TYPE_CHECKING:
+    from rosbags.interfaces.typing import BaseDesc, FieldDesc, NameDesc
 
 #: ``dynamixel_msgs`` of the ROS 1 ``dynamixel_motor`` stack (001 Figure 3.2), field for field.
 #: ``MotorState`` is in the motor's raw units, as the original is; ``JointState`` is in radians.
@@ -206,10 +209,10 @@ class MessageTypes:
         return full
 
     def type_of(self, msg: Any) -> str:
-        try:
-            return msg.__msgtype__
-        except AttributeError:
-            raise MessageError(f"{type(msg).__name__} is not a ROS message") from None
+        name = getattr(msg, "__msgtype__", None)
+        if not isinstance(name, str):
+            raise MessageError(f"{type(msg).__name__} is not a ROS message")
+        return name
 
     # -- bytes ------------------------------------------------------------------------------
 
@@ -290,29 +293,33 @@ class MessageTypes:
                 kwargs[field] = self._field_default(desc, where)
         return self.store.types[name](**kwargs)
 
-    def _field_default(self, desc: tuple, where: str) -> Any:
-        kind, detail = desc
-        if kind == Nodetype.BASE:
-            return "" if detail[0] in ("string", "wstring") else self._scalar(detail[0], 0, where)
-        if kind == Nodetype.NAME:
-            return self.from_value(detail, {}, where)
-        if kind == Nodetype.ARRAY:
-            return self._field(desc, [self._element_default(detail[0], where)] * detail[1], where)
+    # rosbags describes a field as (Nodetype, detail); what the detail is depends on the
+    # Nodetype, so these branch on ``desc[0]``, which tells the type checker which one it is.
+    def _field_default(self, desc: FieldDesc, where: str) -> Any:
+        if desc[0] == Nodetype.BASE:
+            base = desc[1][0]
+            return "" if base in ("string", "wstring") else self._scalar(base, 0, where)
+        if desc[0] == Nodetype.NAME:
+            return self.from_value(desc[1], {}, where)
+        if desc[0] == Nodetype.ARRAY:
+            sub, count = desc[1]
+            return self._field(desc, [self._element_default(sub, where)] * count, where)
         return self._field(desc, [], where)
 
-    def _element_default(self, sub: tuple, where: str) -> Any:
+    def _element_default(self, sub: BaseDesc | NameDesc, where: str) -> Any:
         return self._field_default(sub, where)
 
-    def _field(self, desc: tuple, value: Any, where: str) -> Any:
-        kind, detail = desc
-        if kind == Nodetype.BASE:
-            return self._scalar(detail[0], value, where, detail[1])
-        if kind == Nodetype.NAME:
-            if detail == "builtin_interfaces/msg/Time" and value == "now":
+    def _field(self, desc: FieldDesc, value: Any, where: str) -> Any:
+        if desc[0] == Nodetype.BASE:
+            return self._scalar(desc[1][0], value, where, desc[1][1])
+        if desc[0] == Nodetype.NAME:
+            name = desc[1]
+            if name == "builtin_interfaces/msg/Time" and value == "now":
                 ns = time.time_ns()
                 value = {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
-            return self.from_value(detail, value, where)
-        sub, count = detail
+            return self.from_value(name, value, where)
+        kind = desc[0]
+        sub, count = desc[1]
         if isinstance(value, bytes | bytearray | memoryview):
             value = np.frombuffer(value, dtype=np.uint8)
         if isinstance(value, np.ndarray) and sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:

@@ -189,7 +189,7 @@ class Client:
             raise ServiceError(f"service {self.name} did not answer within "
                                f"{timeout:g} s") from None
 
-    def call_async(self, request: Any | None = None, timeout: float = 5.0) -> Future:
+    def call_async(self, request: Any | None = None, timeout: float = 5.0) -> Future[Any]:
         request = self.request() if request is None else request
         if getattr(request, "__msgtype__", None) != self.srv.request:
             raise MessageError(f"{self.name} takes a {self.srv.request}, not "

@@ -113,9 +113,10 @@ class Transport(ABC):
         ...
 
     @abstractmethod
-    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future:
-        """Send a request; the future holds the response, or a :class:`ServiceError` when
-        no server answers. The caller waits on it (spinning, if it must run the server)."""
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
+        """Send a request; the future holds the response (a message of ``srv``'s response
+        type, a class rosbags generates at run time: hence Any), or a :class:`ServiceError`
+        when no server answers. The caller waits on it (spinning, if it must run the server)."""
 
     @abstractmethod
     def announce_node(self, node: NodeInfo) -> Closeable: ...

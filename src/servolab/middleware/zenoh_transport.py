@@ -186,9 +186,12 @@ class ZenohTransport(Transport):
     def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
         def on_query(query: zenoh.Query) -> None:
             request = query.payload.to_bytes() if query.payload is not None else b""
+            if query.attachment is None:
+                query.reply_err(b"request without rmw_zenoh attachment")
+                return
             try:
                 asked = decode_attachment(query.attachment.to_bytes())
-            except (MessageError, AttributeError):
+            except MessageError:
                 query.reply_err(b"request without rmw_zenoh attachment")
                 return
 
@@ -207,8 +210,8 @@ class ZenohTransport(Transport):
                                                    complete=True)
         return _Declared(queryable, token)
 
-    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future:
-        future: Future = Future()
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
+        future: Future[Any] = Future()
         payload = self.types.serialize(request, srv.request)
         entity_id = next(self._entity_ids)
         attachment = encode_attachment(entity_id, time.time_ns(),
@@ -224,9 +227,13 @@ class ZenohTransport(Transport):
                     if reply.ok is not None:
                         future.set_result(self.types.deserialize(reply.ok.payload.to_bytes(),
                                                                  srv.response))
-                    else:
+                    elif reply.err is not None:
                         why = reply.err.payload.to_bytes().decode(errors="replace")
                         future.set_exception(ServiceError(f"service {name} failed: {why}"))
+                    else:  # Zenoh sets exactly one of ok and err; never hang on a third case
+                        future.set_exception(TransportError(
+                            f"service {name}: Zenoh reply carries neither a response nor an "
+                            "error"))
                     return
                 future.set_exception(ServiceError(
                     f"no service {name} answered within {timeout:g} s (is its node running, "
