@@ -88,6 +88,7 @@ class Bus:
             self.protocol = self.port.protocol or 2
         if not isinstance(self.protocol, Protocol):
             self.protocol = protocol_for(self.protocol)
+        self._proto: Protocol = self.protocol
         if self.retries < 0:
             raise ConfigError(f"retries {self.retries} must be 0 or more")
         if self.timeout is not None and self.timeout <= 0:
@@ -107,8 +108,8 @@ class Bus:
 
     @property
     def proto(self) -> Protocol:
-        assert isinstance(self.protocol, Protocol)
-        return self.protocol
+        """The protocol object (``protocol`` as given may be a version number)."""
+        return self._proto
 
     @property
     def baudrate(self) -> int:

@@ -168,9 +168,18 @@ class VirtualMotor:
 
     def _table_changed(self) -> None:
         """Registers changed: refresh what the firmware keeps decoded and tell the plant."""
-        self._id = self.get_raw("id")
+        motor_id = self.get_raw("id")
+        if getattr(self, "_id", motor_id) != motor_id and self._emulator is not None:
+            self._emulator._by_id = None  # the bus's ID index is out of date
+        self._id = motor_id
         self._baudrate = self.model.baud_from_register(self.get_raw("baud_rate"))
         self._temperature_limit = float(self.get_raw("temperature_limit"))
+        self._return_delay = self.get_raw("return_delay_time") * 2e-6
+        self._status_level = self.get_raw("status_return_level")
+        self._wheel = (self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
+                       if self.model.protocol == 1 else
+                       self.get_raw("operating_mode") in (0, 1, 16))
+        self._one_turn = self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5)
         if hasattr(self, "_plant"):
             self._plant.command = self._command()
             self._stale = True
@@ -185,7 +194,7 @@ class VirtualMotor:
 
     @property
     def return_delay(self) -> float:
-        return self.get_raw("return_delay_time") * 2e-6
+        return self._return_delay
 
     @property
     def torque_enabled(self) -> bool:
@@ -194,9 +203,7 @@ class VirtualMotor:
     @property
     def wheel_mode(self) -> bool:
         """1.0: both angle limits 0. 2.0: velocity, PWM or current mode."""
-        if self.model.protocol == 1:
-            return self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
-        return self.get_raw("operating_mode") in (0, 1, 16)
+        return self._wheel
 
     # -- the joint -----------------------------------------------------------------------------
     @property
@@ -356,7 +363,7 @@ class VirtualMotor:
         """goal_position as an angle of the joint: in the one-turn position modes of 2.0 the
         goal is an angle within the current turn."""
         goal = float(self.get_raw("goal_position"))
-        if self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5):
+        if self._one_turn:
             ticks = units.position_ticks(self.model, self._plant.position) - self._offset_ticks
             goal += math.floor(ticks / self.model.resolution) * self.model.resolution
         return units.ticks_position(self.model, goal + self._offset_ticks)
@@ -376,7 +383,7 @@ class VirtualMotor:
             self._show("present_voltage", voltage)
             self.set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
-            if self.get_raw("operating_mode") in (3, 5):
+            if self._one_turn:
                 present = ticks % m.resolution
             else:
                 present = (ticks + 2**31) % 2**32 - 2**31
@@ -592,6 +599,7 @@ class Emulator:
         self.steps = 0
         self.dt = math.nan
         self._eager: list[VirtualMotor] = []  # motors whose plant a world steps
+        self._by_id: dict[int, list[VirtualMotor]] | None = None  # None: to be rebuilt
         self._parser = self.protocol.parser(keep_rejected=True)
         self.instructions_seen = 0
         for motor in motors:
@@ -606,6 +614,7 @@ class Emulator:
         motor._emulator = self
         motor._steps_done = self.steps
         self.motors.append(motor)
+        self._by_id = None
         if not motor._lazy:
             self._eager.append(motor)
         return motor
@@ -656,6 +665,13 @@ class Emulator:
         return [Reply(start, self.faults.apply(_collide(encoded)))]
 
     # -- who answers what ------------------------------------------------------------------
+    def _with_id(self, motor_id: int) -> list[VirtualMotor]:
+        if self._by_id is None:
+            self._by_id = {}
+            for m in self.motors:
+                self._by_id.setdefault(m.id, []).append(m)
+        return self._by_id.get(motor_id, [])
+
     def _listening(self, baudrate: float, motors: list[VirtualMotor] | None = None
                    ) -> list[VirtualMotor]:
         return [m for m in (self.motors if motors is None else motors)
@@ -666,8 +682,7 @@ class Emulator:
         unicast = inst.id != BROADCAST_ID and name not in _MULTI_MOTOR
         # A unicast instruction concerns the motors with its ID only: ask only them whether
         # they can hear it (a 20-motor bus answers READs without looking at 19 of them).
-        motors = self._listening(baudrate, [m for m in self.motors if m.id == inst.id]
-                                 if unicast else self.motors)
+        motors = self._listening(baudrate, self._with_id(inst.id) if unicast else self.motors)
         v1 = self.protocol.version == 1
         if name == "SYNC_WRITE":
             self._sync_write(inst, motors)
@@ -696,7 +711,7 @@ class Emulator:
         return [Reply(start, self.faults.apply(_collide(encoded)))]
 
     def _returns_status(self, motor: VirtualMotor, name: str) -> bool:
-        level = motor.get_raw("status_return_level")
+        level = motor._status_level
         if name == "PING":
             return True
         if name == "READ":
