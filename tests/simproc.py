@@ -8,7 +8,6 @@ import select
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -40,13 +39,3 @@ def sim_process(*args: str, out_dir: Path) -> Iterator[tuple[str, subprocess.Pop
             if stream:
                 stream.close()
 
-
-def wait_until(predicate: object, timeout: float = 5.0, step: float = 0.02) -> bool:
-    """Poll ``predicate()`` until true or ``timeout`` s: for conditions on a live process,
-    never a timing assertion."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():  # type: ignore[operator]
-            return True
-        time.sleep(step)
-    return bool(predicate())  # type: ignore[operator]

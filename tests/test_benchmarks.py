@@ -1,6 +1,8 @@
-"""Smoke test of benchmarks/bus_cycle.py: its main runs end to end on a few cycles, prints the
-three buses' lines and writes finite, positive figures. It checks that the benchmark works, not
-how fast anything is."""
+"""Smoke tests of the two benchmarks, benchmarks/bus_cycle.py and benchmarks/middleware.py:
+each main runs end to end on a few cycles or messages and writes its figures with ``--json``;
+the figures are checked there (every bus's or setup's present, finite, positive, and the
+configurations the benchmark promises), the printed tables only for naming their ratio lines.
+They check that the benchmarks work, not how fast anything is."""
 
 from __future__ import annotations
 
@@ -8,8 +10,8 @@ import importlib.util
 import json
 import math
 import os
-import re
 import sys
+from dataclasses import asdict
 from pathlib import Path
 from types import ModuleType
 
@@ -18,7 +20,6 @@ import pytest
 pytest.importorskip("dynamixel_sdk")
 
 BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "bus_cycle.py"
-NUMBER = r"([-+]?\d+(?:\.\d+)?)"
 
 
 def _load(path: Path = BENCHMARK, name: str = "bus_cycle") -> ModuleType:
@@ -37,6 +38,12 @@ def _positive(value: float) -> bool:
     return isinstance(value, int | float) and math.isfinite(value) and value > 0
 
 
+# What the three buses are: (model, protocol, baud rate, motors), as bus_cycle.CONFIGS says.
+BUSES = {"a": ("RX-28", 1, 57_142, 20), "b": ("RX-28", 1, 1_000_000, 20),
+         "c": ("XM430-W210", 2, 1_000_000, 5)}
+RETURN_DELAYS = [250, 0]  # raw: the factory 0.5 ms, then tuned to none
+
+
 @pytest.mark.timeout(30)
 def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bench = _load()
@@ -44,40 +51,41 @@ def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert bench.main(["--cycles", "3", "--rounds", "1", "--warmup", "1",
                        "--json", str(out_json)]) == 0
     out = capsys.readouterr().out
-
-    # One ratio line per bus, each a finite positive number.
-    ratios = re.findall(rf"^\(([abc])\) (.+): ratio ours/sdk = {NUMBER}$", out, re.MULTILINE)
-    assert [key for key, _, _ in ratios] == ["a", "b", "c"], out
-    assert "57142 bps" in ratios[0][1] and "RX-28" in ratios[0][1]
-    assert "1000000 bps" in ratios[1][1] and "RX-28" in ratios[1][1]
-    assert "XM430-W210" in ratios[2][1] and "protocol 2.0" in ratios[2][1]
-    assert all(_positive(float(r)) for _, _, r in ratios)
-
-    # Wire-time rows: two return delays per bus; emulated, analytic and SDK figures positive.
-    wire = re.findall(rf"^\(([abc])\)\s+(\d+) \([\d.]+ ms\)\s+(\d+)/(\d+)\s+{NUMBER}\s+{NUMBER}"
-                      rf"\s+{NUMBER}%\s+{NUMBER}\s+{NUMBER}$", out, re.MULTILINE)
-    assert [(key, delay) for key, delay, *_ in wire] == [
-        (k, d) for k in "abc" for d in ("250", "0")], out
-    for _, _, _, _, emulated, analytic, _, sdk_ms, rate in wire:
-        assert all(_positive(float(x)) for x in (emulated, analytic, sdk_ms, rate))
-
-    # Host CPU rows: ours, ours SI and SDK per bus.
-    cpu = re.findall(rf"^\(([abc])\)\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s", out,
-                     re.MULTILINE)
-    assert [row[0] for row in cpu] == ["a", "b", "c"], out
-    assert all(_positive(float(x)) for row in cpu for x in row[1:])
-
     figures = json.loads(out_json.read_text())
-    assert sorted(figures["configs"]) == ["a", "b", "c"]
-    for config in figures["configs"].values():
-        assert len(config["wire"]) == 2
+    assert (figures["cycles"], figures["rounds"], figures["warmup"]) == (3, 1, 1)
+
+    # The three buses, as the benchmark promises them.
+    configs = figures["configs"]
+    assert sorted(configs) == ["a", "b", "c"]
+    for key, (model, protocol, baudrate, motors) in BUSES.items():
+        config = configs[key]
+        assert (config["model"], config["protocol"], config["baudrate"], len(config["ids"])) \
+            == (model, protocol, baudrate, motors), (key, config)
+        assert f"{baudrate} bps" in config["label"] and model in config["label"]
+        assert f"protocol {protocol}.0" in config["label"]
+
+    for key, config in configs.items():
+        # Wire time: two return delays per bus; emulated, analytic and SDK figures positive,
+        # the emulated wire time within 3 % of the one computed from the packet sizes.
+        assert [row["return_delay_raw"] for row in config["wire"]] == RETURN_DELAYS, key
+        bus = next(c for c in bench.CONFIGS if c.key == key)
         for row in config["wire"]:
-            for key in ("emulated_ms", "analytic_ms", "sdk_emulated_ms", "max_rate_hz"):
-                assert _positive(row[key]), (key, row)
+            for name in ("emulated_ms", "analytic_ms", "sdk_emulated_ms", "max_rate_hz"):
+                assert _positive(row[name]), (key, name, row)
             assert abs(row["emulated_ms"] - row["analytic_ms"]) <= 0.03 * row["analytic_ms"]
+            assert abs(row["difference"]) <= 0.03, (key, row)
+            expected = bench.analytic(bus, row["return_delay_raw"])
+            assert (row["bytes_out"], row["bytes_in"]) == (expected["bytes_out"],
+                                                          expected["bytes_in"]), (key, row)
+        # Host CPU time: ours, ours SI and the SDK's, and their ratio.
         for side in ("ours", "ours_si", "sdk"):
-            assert _positive(config["cpu"][side]["host_us"]), config["cpu"][side]
-        assert _positive(config["cpu"]["ratio_ours_sdk"])
+            assert _positive(config["cpu"][side]["host_us"]), (key, side, config["cpu"][side])
+        assert _positive(config["cpu"]["ratio_ours_sdk"]), key
+
+    # The printed report names each bus's ratio line (its figures are checked above).
+    assert out.strip(), "the benchmark printed nothing"
+    for key in "abc":
+        assert f"({key}) {configs[key]['label']}: ratio ours/sdk = " in out, out
 
 
 def test_bus_cycle_wire_figures_match_packet_sizes() -> None:
@@ -96,6 +104,11 @@ def test_bus_cycle_wire_figures_match_packet_sizes() -> None:
 MIDDLEWARE = BENCHMARK.with_name("middleware.py")
 
 
+MESSAGES = ("Twist", "Image")
+SETUPS = [("servolab", 1), ("zenoh", 1), ("servolab", 2), ("zenoh", 2)]
+PROCESSES = {1: "one process", 2: "two processes"}
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_middleware_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -106,26 +119,33 @@ def test_middleware_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     out_json = tmp_path / "figures.json"
     assert bench.main(["--quick", "--json", str(out_json)], progress=lambda s: None) == 0
     out = capsys.readouterr().out
-
-    rows = re.findall(rf"^(Twist|Image)\s+(servolab|zenoh), (one process|two processes)\s+"
-                      rf"(\d+)\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out, re.MULTILINE)
-    assert [(m, e, p) for m, e, p, *_ in rows] == [
-        (m, e, p) for m in ("Twist", "Image") for p in ("one process", "two processes")
-        for e in ("servolab", "zenoh")], out
-    sizes = {m: int(b) for m, _, _, b, *_ in rows}
-    assert sizes == {"Twist": 52, "Image": 640 * 376 + 52}, sizes  # CDR of the two messages
-    for *_, p50, p99, msg_s, _ in rows:
-        assert all(_positive(float(x)) for x in (p50, p99, msg_s))
-        assert float(p99) >= float(p50)
-
-    ratios = re.findall(rf"^ratio (Twist|Image) (one process|two processes): latency p50 "
-                        rf"x{NUMBER}, p99 x{NUMBER}, time per message x{NUMBER}$", out,
-                        re.MULTILINE)
-    assert len(ratios) == 4, out
-    assert all(_positive(float(x)) for *_, a, b, c in ratios for x in (a, b, c))
-
     figures = json.loads(out_json.read_text())
-    assert len(figures["rows"]) == 8 and len(figures["ratios"]) == 4
+    assert figures["sizes"] == {bench.SHORT_NAMES[k]: asdict(v) for k, v in bench.QUICK.items()}
+
+    rows = figures["rows"]
+    assert len(rows) == 8
+    assert [(r["message"], r["engine"], r["processes"]) for r in rows] == [
+        (m, e, p) for m in MESSAGES for e, p in SETUPS], rows
+    assert all(r["setup"] == f"{r['engine']}, {PROCESSES[r['processes']]}" for r in rows)
+    sizes = {r["message"]: r["cdr_bytes"] for r in rows}
+    assert sizes == {"Twist": 52, "Image": 640 * 376 + 52}, sizes  # CDR of the two messages
+    for r in rows:
+        for name in ("latency_p50_us", "latency_p99_us", "throughput_msg_s", "throughput_mb_s"):
+            assert _positive(r[name]), (name, r)
+        assert r["latency_p99_us"] >= r["latency_p50_us"], r
+
+    ratios = figures["ratios"]
+    assert len(ratios) == 4
+    assert [(q["message"], q["processes"]) for q in ratios] == [
+        (m, p) for m in MESSAGES for p in (1, 2)], ratios
+    for q in ratios:
+        for name in ("latency_p50", "latency_p99", "time_per_message"):
+            assert _positive(q[name]), (name, q)
+
+    # The printed report names each ratio line (its figures are checked above).
+    assert out.strip(), "the benchmark printed nothing"
+    for q in ratios:
+        assert f"ratio {q['message']} {PROCESSES[q['processes']]}: latency p50 x" in out, out
     assert not _children_running("--child"), "an echo process outlived the benchmark"
 
 

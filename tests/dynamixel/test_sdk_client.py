@@ -13,7 +13,8 @@ from pathlib import Path
 import dynamixel_sdk
 import pytest
 
-from tests.simproc import sim_process, wait_until
+from tests.simproc import sim_process
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.slow
 
@@ -57,7 +58,7 @@ def test_sdk_drives_protocol1_rx28_through_pty(tmp_path: Path) -> None:
                 seen.append(pos)
                 return pos == 800
 
-            assert wait_until(arrived, timeout=10.0)
+            assert wait_until(arrived, timeout=10.0), f"motor 1 never reached 800: {seen}"
             # It moved toward the goal, never away from it, and got there.
             assert seen == sorted(seen)
             assert len(set(seen)) > 2  # seen in motion, not teleported
@@ -72,7 +73,8 @@ def test_sdk_drives_protocol1_rx28_through_pty(tmp_path: Path) -> None:
                 (goal,) = _ok(ph.read2ByteTxRx(port, motor_id, 30))
                 assert goal == 300
             assert wait_until(lambda: all(
-                _ok(ph.read2ByteTxRx(port, i, 36))[0] == 300 for i in (1, 2, 3)), timeout=10.0)
+                _ok(ph.read2ByteTxRx(port, i, 36))[0] == 300 for i in (1, 2, 3)), timeout=10.0), \
+                "motors 1-3 never all reached goal_position 300"
         finally:
             port.closePort()
 
@@ -116,7 +118,7 @@ def test_sdk_drives_protocol2_xm430_through_pty(tmp_path: Path) -> None:
 
             first = positions()
             assert wait_until(lambda: all(abs(positions()[i] - first[i]) > 50 for i in ids),
-                              timeout=10.0)
+                              timeout=10.0), f"wheels did not all turn: {first} -> {positions()}"
             later = positions()
             for motor_id, goal in goals.items():
                 # Each wheel turned the way its goal_velocity says.

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import signal
 import subprocess
-import time
 import warnings
 from pathlib import Path
 
@@ -13,23 +12,11 @@ import yaml
 
 from tests.middleware.conftest import free_port
 from tests.middleware.test_cli_graph import CLI, cli, started
+from tests.waiting import wait_for_bag, wait_for_graph_at, wait_for_line
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)
     from mcap_ros2.reader import read_ros2_messages
-
-
-def wait_for_line(proc: subprocess.Popen, text: str, timeout: float = 15.0) -> list[str]:
-    lines = []
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        lines.append(line)
-        if text in line:
-            return lines
-    raise AssertionError(f"{text!r} never printed; got {lines}")
 
 
 @pytest.mark.slow
@@ -47,7 +34,7 @@ def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
         paced = cli("topic", "pub", "/odom_x", "std_msgs/msg/Float64", "3.5", "--rate", "100",
                     "--count", "7", "--connect", endpoint)
         assert paced.returncode == 0, paced.stderr
-        time.sleep(0.5)
+        wait_for_bag(bag, 10007)  # every message received and flushed before the SIGINT
         recorder.send_signal(signal.SIGINT)
         out, err = recorder.communicate(timeout=30)
     assert recorder.returncode == 0, err
@@ -82,7 +69,7 @@ def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
         for k in range(5):
             cli("topic", "pub", "/chatter", "std_msgs/msg/String", f"{{data: 'hello {k}'}}",
                 "--once", "--connect", endpoint)
-        time.sleep(0.3)
+        wait_for_bag(bag, 5)  # every message received and flushed before the SIGTERM
         recorder.send_signal(signal.SIGTERM)
         recorder.communicate(timeout=30)
     assert recorder.returncode == 0
@@ -91,7 +78,7 @@ def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
     endpoint2 = f"tcp/127.0.0.1:{free_port()}"
     with started([*CLI, "topic", "echo", "/chatter", "--type", "std_msgs/msg/String",
                   "--count", "5", "--listen", endpoint2]) as echo:
-        time.sleep(1.0)
+        wait_for_graph_at(endpoint2, ("MS", None, "/chatter"))  # the echo listens, subscribed
         played = cli("bag", "play", str(bag), "--rate", "4", "--connect", endpoint2)
         assert played.returncode == 0, played.stderr
         assert "played 5 message(s)" in played.stdout

@@ -16,6 +16,7 @@ import pytest
 import yaml
 
 from tests.middleware.conftest import free_port
+from tests.waiting import wait_for_graph_at, wait_for_line
 
 CLI = [sys.executable, "-m", "servolab"]
 TWIST_VALUES = "{linear: {x: 0.1, y: -0.2}, angular: {z: 0.5}}"
@@ -51,6 +52,9 @@ def test_two_processes_exchange_twist_on_cmd_vel_over_zenoh() -> None:
     echo_args = [*CLI, "topic", "echo", "/cmd_vel", "--type", "geometry_msgs/msg/Twist",
                  "--count", "20", "--listen", f"tcp/127.0.0.1:{port}"]
     with started(echo_args) as echo:
+        # the echo listens and is subscribed before the publisher looks for it (it looks for
+        # 2 s only, and a slow start of the echo would lose the first messages)
+        wait_for_graph_at(f"tcp/127.0.0.1:{port}", ("MS", None, "/cmd_vel"))
         pub = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", TWIST_VALUES,
                   "--rate", "50", "--count", "20", "--connect", f"tcp/127.0.0.1:{port}")
         assert pub.returncode == 0, pub.stderr
@@ -79,7 +83,7 @@ TALKER = textwrap.dedent("""
 def test_topic_list_hz_and_params_of_a_running_node() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with started([sys.executable, "-c", TALKER, endpoint]) as talker:
-        assert talker.stdout.readline().strip() == "ready"
+        assert wait_for_line(talker, "ready", timeout=20.0)[-1].strip() == "ready"
         listing = cli("topic", "list", "-t", "--connect", endpoint)
         assert "/robot/cmd_vel [geometry_msgs/msg/Twist]" in listing.stdout, listing
         params = cli("param", "list", "--connect", endpoint)

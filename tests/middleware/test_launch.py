@@ -37,6 +37,7 @@ from servolab.middleware.launch import (
     run_process_group,
 )
 from servolab.middleware.transport import TransportOptions
+from tests.waiting import alive, wait_for_queued_lines, wait_gone
 
 DEMO = "servolab.middleware.demo_nodes"
 PY = json.dumps(sys.executable)  # JSON strings are YAML strings
@@ -54,33 +55,9 @@ def script(code: str) -> str:
     return json.dumps([sys.executable, "-c", textwrap.dedent(code)])
 
 
-def alive(pid: int) -> bool:
-    """Whether ``pid`` still runs (a zombie waiting for its reaper counts as gone)."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-        return stat.rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
-    except OSError:  # no /proc: ask the kernel
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return False
-        return True
-
-
 def started_pids(lines: list[str]) -> dict[str, int]:
     found = (re.fullmatch(r"\[launch\] started (\S+) \(pid (\d+)\)", line) for line in lines)
     return {m[1]: int(m[2]) for m in found if m}
-
-
-def wait_gone(pid: int, timeout: float = 5.0) -> bool:
-    end = time.monotonic() + timeout
-    while alive(pid):
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.02)
-    return True
 
 
 # -- parsing ---------------------------------------------------------------------------------
@@ -468,11 +445,23 @@ def test_a_child_ignoring_sigint_gets_sigterm_and_the_required_code_is_returned(
 
 
 def test_when_every_child_ends_the_first_failure_is_the_exit_code(tmp_path: Path) -> None:
+    done = tmp_path / "ok-done"
+    # bad fails only once ok has done its work (it leaves a file last); it gives up with 5
     path = write(tmp_path, f"""\
         transport: zenoh
         nodes:
-          - {{name: ok, exec: {script("print('fine')")}}}
-          - {{name: bad, exec: {script("import sys, time; time.sleep(0.2); sys.exit(4)")}}}
+          - name: ok
+            exec: {script(f'''
+                import pathlib
+                print('fine')
+                pathlib.Path({str(done)!r}).touch()''')}
+          - name: bad
+            exec: {script(f'''
+                import pathlib, sys, time
+                end = time.monotonic() + 15
+                while not pathlib.Path({str(done)!r}).exists() and time.monotonic() < end:
+                    time.sleep(0.01)
+                sys.exit(4 if pathlib.Path({str(done)!r}).exists() else 5)''')}
         """)
     lines: list[str] = []
     assert run_launch(load_launch(path), out=lines.append) == 4
@@ -504,9 +493,7 @@ def test_a_signal_to_the_supervisor_stops_everything(tmp_path: Path,
                                               for line in supervisor.stdout or ()], daemon=True)
     reader.start()
     try:
-        end = time.monotonic() + 15
-        while not {"[sleeper] ready", "[napper] ready"} <= set(seen):
-            seen.append(lines.get(timeout=max(0.1, end - time.monotonic())))
+        wait_for_queued_lines(lines, seen, {"[sleeper] ready", "[napper] ready"}, timeout=15)
         supervisor.send_signal(sig)
         assert supervisor.wait(timeout=15) == 0
         reader.join(timeout=5)

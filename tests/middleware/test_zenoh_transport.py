@@ -9,18 +9,12 @@ import pytest
 from servolab.middleware.context import Context
 from servolab.middleware.errors import ServiceError, TransportError
 from servolab.middleware.node import Node
-from servolab.middleware.rmw_zenoh import decode_attachment, parse_token
+from servolab.middleware.rmw_zenoh import decode_attachment, parse_token, topic_keyexpr
 from servolab.middleware.transport import TransportOptions
 from tests.middleware.conftest import free_port
+from tests.waiting import wait_for_route, wait_for_subscriber, wait_until
 
 TWIST = "geometry_msgs/msg/Twist"
-
-
-def wait_for(predicate, timeout: float = 3.0) -> bool:
-    end = time.monotonic() + timeout
-    while not predicate() and time.monotonic() < end:
-        time.sleep(0.01)
-    return predicate()
 
 
 def test_twist_crosses_sessions_with_every_value(zenoh_pair) -> None:
@@ -30,7 +24,7 @@ def test_twist_crosses_sessions_with_every_value(zenoh_pair) -> None:
     listener.create_subscription(TWIST, "cmd_vel", lambda m, info: got.append((m, info)),
                                  depth=0)
     pub = talker.create_publisher(TWIST, "cmd_vel")
-    assert wait_for(lambda: any(e.kind == "MS" for e in a.transport.graph(0.2)))
+    wait_for_subscriber(a, "/robot1/cmd_vel", TWIST, "/robot1/listener")
     sent = [talker.message(TWIST, linear={"x": k * 0.01, "y": -k}, angular={"z": k / 7})
             for k in range(50)]
     for msg in sent:
@@ -50,11 +44,14 @@ def test_wire_layout_is_rmw_zenohs(zenoh_pair) -> None:
     try:
         node = Node(a, "talker")
         pub = node.create_publisher("std_msgs/msg/String", "chatter")
-        time.sleep(0.3)
+        # the raw subscriber has no liveliness token, so the graph cannot show it: wait until
+        # a's session routes the publisher's key to it
+        wait_for_route(a.transport.session, topic_keyexpr(
+            0, "/chatter", "std_msgs/msg/String", a.types.rihs01("std_msgs/msg/String")))
         msg = node.message("std_msgs/msg/String", data="Hello World: 1")
         before = time.time_ns()
         pub.publish(msg)
-        assert wait_for(lambda: samples)
+        assert wait_until(lambda: samples, timeout=3.0), "the raw subscriber got nothing"
         sample = samples[0]
         assert str(sample.key_expr) == ("0/chatter/std_msgs::msg::dds_::String_/RIHS01_"
                                         "df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e"
@@ -79,7 +76,7 @@ def test_foreign_rmw_zenoh_style_publisher_reaches_a_node(zenoh_pair) -> None:
     a, b, _ = zenoh_pair
     got: list = []
     Node(b, "listener").create_subscription("std_msgs/msg/String", "/chatter", got.append)
-    time.sleep(0.3)
+    wait_for_subscriber(a, "/chatter", "std_msgs/msg/String", "/listener")
     from servolab.middleware.rmw_zenoh import encode_attachment
     key = ("0/chatter/std_msgs::msg::dds_::String_/"
            + a.types.rihs01("std_msgs/msg/String"))
@@ -124,8 +121,9 @@ def test_graph_shows_both_sessions(zenoh_pair) -> None:
     a, b, _ = zenoh_pair
     Node(a, "talker").create_publisher(TWIST, "/cmd_vel")
     Node(b, "listener").create_subscription(TWIST, "/cmd_vel", lambda m: None)
-    assert wait_for(lambda: {(e.kind, e.node) for e in a.transport.graph(0.3)} >= {
-        ("MP", "/talker"), ("MS", "/listener"), ("NN", "/talker"), ("NN", "/listener")})
+    assert wait_until(lambda: {(e.kind, e.node) for e in a.transport.graph(0.3)} >= {
+        ("MP", "/talker"), ("MS", "/listener"), ("NN", "/talker"), ("NN", "/listener")},
+        timeout=3.0), a.transport.graph(0.3)
 
 
 @pytest.mark.parametrize("endpoint", ["127.0.0.1:7447", "tcp/localhost", "carrier-pigeon/x"])

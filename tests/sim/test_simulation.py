@@ -16,7 +16,7 @@ from servolab.dynamixel.wire import byte_time
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.sim import DiffDriveFloor, Simulation, SimulationError, World
-from tests.simproc import wait_until  # TEMP
+from tests.waiting import wait_until
 
 
 def test_steps_happen_at_boundaries_that_time_passes() -> None:
