@@ -3,8 +3,9 @@
 It shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (RX-28 on
 Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Protocol 2.0 at
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
-listener node on ``/cmd_vel``, recorded to an MCAP bag. It saves a plot, the bag and
-summary.json in the run folder. Every robot that servolab grows adds its own short run here.
+listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
+floor, stepped by the simulation that owns time. It saves a plot, the bag and summary.json in
+the run folder. Every robot that servolab grows adds its own short run here.
 
 The Dynamixel layer, the middleware and matplotlib are imported inside the functions, so that
 ``servolab --help`` does not load them.
@@ -90,6 +91,8 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     # -- 3. Nodes and topics: a talker, a listener and a recorder, in one process ----------------
     say()
     figures["nodes"] = _nodes(run_folder, say)
+    say()
+    figures["floor"] = _floor(say)
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -105,6 +108,26 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say()
     say(f"Plot: {plot}\nSummary: {summary}")
     return figures
+
+
+def _floor(say: Callable[[str], None]) -> dict[str, object]:
+    """The smallest world: a two-wheel base on a floor, its wheels emulated XM430s."""
+    import time
+
+    from ..sim import DiffDriveFloor, Simulation
+
+    say("4. A simulated world: two emulated XM430-W210 wheels on a floor (see docs/sim.md)")
+    sim = Simulation()
+    world = DiffDriveFloor.example(sim)  # velocity mode, left 2 rad/s, right 3 rad/s
+    started = time.perf_counter()
+    sim.advance(5.0)
+    host = time.perf_counter() - started
+    truth = world.ground_truth()
+    say(f"   after 5 s of simulated time ({sim.steps} physics steps of 1 ms, "
+        f"{5.0 / host:.0f}x faster than real time): x = {truth['x']:+.3f} m, "
+        f"y = {truth['y']:+.3f} m, yaw = {truth['yaw']:+.3f} rad")
+    return {"ground_truth": truth, "physics_steps": sim.steps,
+            "real_time_factor": 5.0 / host}
 
 
 def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
