@@ -128,7 +128,9 @@ class VirtualMotor:
 
     def _hold_position(self) -> None:
         """Set goal_position to where the horn is, as the firmware does at power-up, so that
-        enabling torque does not make the motor jump."""
+        enabling torque does not make the motor jump. (Also after a reset, which may have
+        changed the mode the position is read in: decode the table first.)"""
+        self._table_changed()
         self._update_sensors()
         self.set_raw("goal_position", self.get_raw("present_position"))
 
