@@ -147,3 +147,20 @@ def test_lazy_firmware_answers_as_if_stepped_every_step(spec: str, baud: int) ->
     lazy, eager = _session(False, spec, baud), _session(True, spec, baud)
     assert lazy == eager
     assert any(a for a in lazy if isinstance(a, int)), "the session should overheat a motor"
+
+
+def test_set_raw_acts_from_now_not_in_the_past() -> None:
+    """A register set by hand after time passed acts from the present step: the horn does not
+    jump to where it would be had the change been made when it was last looked at."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, "torque_enable", 1)
+    bus.port.clock.advance(1.0)
+    motor.set_raw("goal_position", 1023)
+    assert motor.position == pytest.approx(0.0)       # nothing moved yet
+    bus.port.clock.advance(0.1)
+    assert 0.0 < motor.position < 1.0                 # 0.1 s at the no-load speed
+    motor.set_raw("status_return_level", 1)           # a setting the firmware keeps decoded
+    # level 1: the motor no longer answers a WRITE, at once and not after the next WRITE
+    assert bus.emulator.receive(bus.proto.encode_instruction(bus.proto.write(1, 25, b"\x01")),
+                                bus.port.clock.now(), 57142) == []

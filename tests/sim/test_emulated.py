@@ -88,3 +88,33 @@ def test_bad_urls_are_one_line_errors(url: str, message: str) -> None:
     with pytest.raises(ConfigError, match=message) as info:
         Bus.open(url, baudrate=57142)
     assert "\n" not in str(info.value)
+
+
+def test_which_baud_rate_the_motors_and_the_port_run_at(tmp_path: Path) -> None:
+    """The motors: the URL's baud, else the file's, else the port's, else the factory rate;
+    the port: the rate given, else the motors'."""
+    spec = tmp_path / "ex.yaml"
+    spec.write_text("baudrate: 1000000\nmotors:\n  - {model: EX-106+, ids: 1-2}\n")
+    bus = Bus.open(f"emu://{spec}")                              # the file's rate, both ends
+    assert (bus.baudrate, bus.emulator.motor(1).baudrate) == (1_000_000, 1_000_000)
+    assert bus.ping(1).model_name == "EX-106+"
+    bus = Bus.open(f"emu://{spec}?baud=57142")                   # the URL beats the file
+    assert (bus.baudrate, bus.emulator.motor(2).baudrate) == (57142, 57142)
+    bus = Bus.open("emu://rx28:1")                               # factory rate, both ends
+    assert (bus.baudrate, bus.emulator.motor(1).baudrate) == (57142, 57142)
+    assert bus.ping(1).model_name == "RX-28"
+    assert Bus(emulated_port("xm430-w210:1")).ping(1).model_name == "XM430-W210"
+    bus = Bus.open(f"emu://{spec}", baudrate=57600, retries=0)   # the file's motors, another
+    with pytest.raises(NoResponse):                              # port rate: silence, as on
+        bus.ping(1)                                              # a real wire
+
+
+@pytest.mark.parametrize(("url", "message"), [
+    ("emu://rx28:1?baud=57142&baud=1000000", "given twice"),
+    ("emu://rx28:1?delay=nan", "not a finite time"),
+    ("emu://rx28:1?baud=4000000", "not a baud rate this model can use"),
+    ("emu://rx28:1?drop_rate", "KEY=VALUE"),
+])
+def test_more_bad_urls(url: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        Bus.open(url)

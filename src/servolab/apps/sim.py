@@ -35,8 +35,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
 
     simulation = Simulation()
     emulator = simulation.add_emulator(build_emulator(spec))
-    baud = spec.baudrate or spec.motors[0].model.baud_from_register(
-        spec.motors[0].model.register("baud_rate").default or 0)
+    baud = spec.motor_baudrate
     simulation.start_real_time()
     server = PtyServer(emulator, baud, link=link, clock=simulation, lock=simulation.lock)
     print(server.device, file=stdout, flush=True)

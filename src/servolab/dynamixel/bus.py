@@ -97,12 +97,13 @@ class Bus:
 
     # -- construction ----------------------------------------------------------------------------
     @classmethod
-    def open(cls, url: str, *, protocol: int | None = None, baudrate: int = 57600,
+    def open(cls, url: str, *, protocol: int | None = None, baudrate: int | None = None,
              retries: int = 2, timeout: float | None = None, **port_options: Any) -> Bus:
         """A bus on a port named by ``url``: a serial device (``/dev/ttyUSB0``, ``COM3``, the
-        pty ``servolab sim`` printed) or emulated motors (``emu://rx28:11-16``, every motor at
-        ``baudrate``, in a simulation of their own unless ``simulation=`` names one).
-        ``protocol`` None: the emulated models', or 2 on a serial port. ``port_options`` go to
+        pty ``servolab sim`` printed; ``baudrate`` default 57600) or emulated motors
+        (``emu://rx28:11-16``, in a simulation of their own unless ``simulation=`` names one;
+        see :mod:`servolab.sim.emulated` for which baud rate they run at). ``protocol`` None:
+        the emulated models', or 2 on a serial port. ``port_options`` go to
         :func:`~.ports.open_port`."""
         return cls(open_port(url, baudrate, **port_options), protocol, retries, timeout)
 

@@ -33,9 +33,10 @@ from .wire import baud_matches, byte_time
 #: Registers whose value the firmware keeps decoded or commands the joint with: a change
 #: of any of them, however made, refreshes both.
 _SETTINGS = frozenset({
-    "id", "baud_rate", "temperature_limit", "torque_enable", "goal_position", "moving_speed",
-    "torque_limit", "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity",
-    "goal_pwm", "goal_current", "profile_velocity", "pwm_limit", "current_limit"})
+    "id", "baud_rate", "temperature_limit", "return_delay_time", "status_return_level",
+    "torque_enable", "goal_position", "moving_speed", "torque_limit", "cw_angle_limit",
+    "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm", "goal_current",
+    "profile_velocity", "pwm_limit", "current_limit"})
 
 
 #: Instructions that address several motors whatever their packet's ID says.
@@ -69,10 +70,10 @@ class Faults:
     def __post_init__(self) -> None:
         for name in ("drop_rate", "corrupt_rate"):
             value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
+            if not 0.0 <= value <= 1.0:  # (nan fails this too)
                 raise ConfigError(f"faults: {name} {value} is not a probability in 0..1")
-        if self.delay < 0:
-            raise ConfigError(f"faults: delay {self.delay} s is negative")
+        if not (math.isfinite(self.delay) and self.delay >= 0):
+            raise ConfigError(f"faults: delay {self.delay} s is not a finite time >= 0")
         self._rng = random.Random(self.seed)
 
     @property
@@ -108,9 +109,9 @@ class VirtualMotor:
         self.protocol: Protocol = protocol_for(model.protocol)
         self.table = bytearray(model.table_size)
         self._load_defaults(keep=())
-        self.set_raw("id", _check_id(model, motor_id))
+        self._set_raw("id", _check_id(model, motor_id))
         if baudrate is not None:
-            self.set_raw("baud_rate", model.baud_register_for(baudrate))
+            self._set_raw("baud_rate", model.baud_register_for(baudrate))
         #: False makes the motor deaf and mute, as if its cable were cut
         self.responsive = True
         #: hardware error bits (protocol 1.0 error-byte bits or 2.0 hardware_error_status bits)
@@ -132,7 +133,7 @@ class VirtualMotor:
         changed the mode the position is read in: decode the table first.)"""
         self._table_changed()
         self._update_sensors()
-        self.set_raw("goal_position", self.get_raw("present_position"))
+        self._set_raw("goal_position", self.get_raw("present_position"))
 
     # -- control table -------------------------------------------------------------------------
     def _load_defaults(self, keep: Iterable[str]) -> None:
@@ -141,16 +142,22 @@ class VirtualMotor:
         for reg in self.model.registers:
             if reg.default is not None:
                 self.table[reg.address:reg.address + reg.size] = reg.encode(reg.default)
-        self.set_raw("firmware_version", self.model.firmware)
+        self._set_raw("firmware_version", self.model.firmware)
         for name, value in kept.items():
-            self.set_raw(name, value)
+            self._set_raw(name, value)
 
     def get_raw(self, name: str) -> int:
         reg = self.model.register(name)
         return reg.decode(self.table[reg.address:reg.address + reg.size])
 
     def set_raw(self, name: str, value: int) -> None:
-        """Set a register directly, bypassing access rights (the motor's own firmware)."""
+        """Set a register directly, bypassing access rights, as the motor's own firmware
+        would — now: the joint is brought up to the present step first, so the change acts
+        from here on and not in the past."""
+        self.sync()
+        self._set_raw(name, value)
+
+    def _set_raw(self, name: str, value: int) -> None:
         reg = self.model.register(name)
         self.table[reg.address:reg.address + reg.size] = reg.encode(value)
         if name in _SETTINGS:
@@ -176,7 +183,7 @@ class VirtualMotor:
         self._id = motor_id
         self._baudrate = self.model.baud_from_register(self.get_raw("baud_rate"))
         self._temperature_limit = float(self.get_raw("temperature_limit"))
-        self._return_delay = self.get_raw("return_delay_time") * 2e-6
+        self._return_delay = self._si("return_delay_time")
         self._status_level = self.get_raw("status_return_level")
         self._wheel = (self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
                        if self.model.protocol == 1 else
@@ -220,10 +227,10 @@ class VirtualMotor:
         self.sync()
         plant.command = self._plant.command
         self._plant = plant
-        self._lazy = False
         self._stale = True
-        if self._emulator is not None:
+        if self._lazy and self._emulator is not None:
             self._emulator._eager.append(self)
+        self._lazy = False
 
     @property
     def position(self) -> float:
@@ -285,7 +292,7 @@ class VirtualMotor:
     def _hardware_error(self, bit: int) -> None:
         self.hardware_error |= bit
         if self.get_raw("shutdown") & bit:
-            self.set_raw("torque_enable", 0)
+            self._set_raw("torque_enable", 0)
         self._sync_hardware_register()
 
     def clear_hardware_error(self) -> None:
@@ -294,7 +301,7 @@ class VirtualMotor:
 
     def _sync_hardware_register(self) -> None:
         if self.model.has("hardware_error_status"):
-            self.set_raw("hardware_error_status", self.hardware_error)
+            self._set_raw("hardware_error_status", self.hardware_error)
 
     # -- time ----------------------------------------------------------------------------------
     @property
@@ -379,17 +386,17 @@ class VirtualMotor:
         if m.protocol == 1:
             present = ticks % m.resolution if self.wheel_mode else min(max(ticks, 0),
                                                                      m.resolution - 1)
-            self.set_raw("present_position", present)
+            self._set_raw("present_position", present)
             self._show("present_speed", velocity)
             self._show("present_load", load)
             self._show("present_voltage", voltage)
-            self.set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
+            self._set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
             if self._one_turn:
                 present = ticks % m.resolution
             else:
                 present = (ticks + 2**31) % 2**32 - 2**31
-            self.set_raw("present_position", present)
+            self._set_raw("present_position", present)
             self._show("present_velocity", velocity)
             if m.has("present_current"):
                 self._show("present_current", load * self._si("current_limit"))
@@ -397,9 +404,9 @@ class VirtualMotor:
                 self._show("present_load", load)
             self._show("present_pwm", velocity / m.no_load_speed)
             self._show("present_input_voltage", voltage)
-            self.set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
-            self.set_raw("velocity_trajectory", self.get_raw("present_velocity"))
-            self.set_raw("position_trajectory", present)
+            self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
+            self._set_raw("velocity_trajectory", self.get_raw("present_velocity"))
+            self._set_raw("position_trajectory", present)
         self._show("present_temperature", plant.temperature)
         self._stale = False
         self._sensed_step = self._steps_done
@@ -471,7 +478,7 @@ class VirtualMotor:
                       if r.area == "EEPROM" and r.writable}
             self._load_defaults(keep=())
             for reg_name, value in eeprom.items():
-                self.set_raw(reg_name, value)
+                self._set_raw(reg_name, value)
             self.clear_hardware_error()
             self._hold_position()
             return status
@@ -532,7 +539,7 @@ class VirtualMotor:
 
     def _set_registered(self, value: int) -> None:
         name = "registered" if self.model.protocol == 1 else "registered_instruction"
-        self.set_raw(name, value)
+        self._set_raw(name, value)
 
     def _check_value(self, reg: Register, value: int, table: bytearray) -> int:
         v1 = self.model.protocol == 1

@@ -46,6 +46,20 @@ class MotorSpec:
     baudrate: int | None
     motors: tuple[MotorEntry, ...]
 
+    @property
+    def motor_baudrate(self) -> int:
+        """The rate the motors run at: the spec's, else the first model's factory default."""
+        if self.baudrate is not None:
+            return self.baudrate
+        first = self.motors[0].model
+        return first.baud_from_register(first.register("baud_rate").default or 0)
+
+    def at_baudrate(self, baudrate: int) -> MotorSpec:
+        """The same motors at ``baudrate``; ConfigError if a model cannot run at it."""
+        for entry in self.motors:
+            entry.model.baud_register_for(baudrate)
+        return MotorSpec(self.protocol, baudrate, self.motors)
+
 
 def _ids(text: str, where: str) -> list[int]:
     ids: list[int] = []

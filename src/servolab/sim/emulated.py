@@ -8,9 +8,13 @@ given as ``simulation=``, or a new one of their own — and wires a
 
 The URL is ``emu://SPEC[?OPTION=VALUE&...]``. SPEC is the short form of
 :mod:`servolab.dynamixel.motorspec` (``rx28:11-16,21-26``, ``xm430-w210:1-3;xl430-w250:4``)
-or the path of a motor-spec YAML file. Options: ``baud`` (the motors' rate, default: the
-port's, so they answer), ``drop_rate``, ``corrupt_rate``, ``delay`` and ``seed`` (injected
-faults, see :class:`~servolab.dynamixel.emulator.Faults`).
+or the path of a motor-spec YAML file. Options: ``baud``, ``drop_rate``, ``corrupt_rate``,
+``delay`` and ``seed`` (injected faults, see :class:`~servolab.dynamixel.emulator.Faults`).
+
+Baud rates: the motors run at the URL's ``baud``, else at the YAML file's ``baudrate``, else
+at the port's rate when one is given (so that they answer it), else at their factory rate;
+the port runs at the rate given, else at the motors'. Each opening builds new motors: nothing
+carries over from one ``emu://`` bus to the next.
 """
 
 from __future__ import annotations
@@ -33,21 +37,23 @@ def emulated_port(spec: str | MotorSpec, baudrate: int | None = None, *,
     """A port wired to emulated motors in ``simulation`` (a new one if None).
 
     ``spec`` is a :class:`MotorSpec` or its short form / YAML path. The motors run at the
-    spec's baud rate, else at ``baudrate``; the port runs at ``baudrate``, else the spec's,
-    else 1 Mbps. The emulator is ``port.emulator``, the simulation ``port.clock``."""
+    spec's baud rate, else at ``baudrate``, else at their factory rate; the port runs at
+    ``baudrate``, else at the motors' rate. The emulator is ``port.emulator``, the simulation
+    ``port.clock``."""
     if isinstance(spec, str):
         spec = motorspec.load(spec, protocol=protocol, baudrate=baudrate)
     elif spec.baudrate is None and baudrate is not None:
-        spec = MotorSpec(spec.protocol, baudrate, spec.motors)
+        spec = spec.at_baudrate(baudrate)
     sim = simulation if simulation is not None else Simulation()
     emulator: Emulator = sim.add_emulator(build_emulator(spec, faults=faults))
-    rate = baudrate or spec.baudrate or 1_000_000
+    rate = baudrate or spec.motor_baudrate
     name = "emu://" + ",".join(f"{e.model.name}:{e.id}" for e in spec.motors)
     return MemoryPort(emulator, rate, clock=sim, name=name, protocol=spec.protocol,
                       lock=sim.lock)
 
 
-def open_emulated_url(rest: str, baudrate: int, *, simulation: Simulation | None = None,
+def open_emulated_url(rest: str, baudrate: int | None, *,
+                      simulation: Simulation | None = None,
                       faults: Faults | None = None, protocol: int | None = None) -> MemoryPort:
     """The ``emu://`` handler: ``rest`` is what follows ``emu://``; see the module docstring."""
     spec_text, _, query = rest.partition("?")
@@ -55,13 +61,20 @@ def open_emulated_url(rest: str, baudrate: int, *, simulation: Simulation | None
         raise ConfigError("port 'emu://': name the motors, e.g. emu://rx28:11-16 or "
                           "emu://motors.yaml")
     options: dict[str, str] = {}
-    for key, value in parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query)):
+    try:
+        pairs = parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query))
+    except ValueError:
+        raise ConfigError(f"port 'emu://{rest}': options are KEY=VALUE joined by '&'"
+                          ) from None
+    for key, value in pairs:
         if key not in ("baud", *_FAULT_OPTIONS):
             raise ConfigError(f"port 'emu://{rest}': unknown option {key!r} (use baud, "
                               f"{', '.join(_FAULT_OPTIONS)})")
+        if key in options:
+            raise ConfigError(f"port 'emu://{rest}': option {key!r} is given twice")
         options[key] = value
     motor_baud = int(_number(options.pop("baud"), "baud", rest, int)) if "baud" in options \
-        else baudrate
+        else None
     if options:
         if faults is not None:
             raise ConfigError(f"port 'emu://{rest}': faults given twice (URL and faults=)")
@@ -70,7 +83,9 @@ def open_emulated_url(rest: str, baudrate: int, *, simulation: Simulation | None
                                              rest),
                         delay=_number(options.get("delay", "0"), "delay", rest),
                         seed=int(_number(options.get("seed", "0"), "seed", rest, int)))
-    spec = motorspec.load(spec_text, protocol=protocol, baudrate=motor_baud)
+    spec = motorspec.load(spec_text, protocol=protocol, baudrate=baudrate)
+    if motor_baud is not None:
+        spec = spec.at_baudrate(motor_baud)
     return emulated_port(spec, baudrate, simulation=simulation, faults=faults)
 
 
