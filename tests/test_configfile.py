@@ -399,3 +399,21 @@ def test_located_values_are_typed_nodes() -> None:
     b = root.as_mapping().require("a").as_mapping().require("b")
     assert isinstance(b, ConfigList) and isinstance(b[0], ConfigScalar)
     assert b.plain() == [1]
+
+
+def test_nested_aliases_cannot_blow_up(tmp_path: Path) -> None:
+    """Seven levels of ten aliases stand for 10^7 values: refused, naming the file, instead
+    of building them for a minute (PyYAML's safe_load shares them; we do not, so each use
+    keeps its own key path)."""
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    for level in range(1, 8):
+        refs = ", ".join([f"*a{level - 1}"] * 10)
+        lines.append(f"a{level}: &a{level} [{refs}]")
+    path = tmp_path / "laughs.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ConfigFileError, match="aliases") as info:
+        load(path)
+    assert info.value.path == str(path)
+    few = tmp_path / "few.yaml"                         # aliases within reason still work
+    few.write_text("\n".join(lines[:3]) + "\n")
+    assert len(load(few).plain()["a2"]) == 10

@@ -346,16 +346,26 @@ class _Builder:
     the same way (duplicate keys, merge keys) and what no consumer can use (keys that are
     not names, tags of collections)."""
 
+    #: Values one file may hold once its aliases are expanded. Every alias is built anew (so
+    #: each use keeps its own key path), so a few nested aliases could otherwise stand for
+    #: billions of values (the "billion laughs").
+    MAX_VALUES = 200_000
+
     def __init__(self, source: str, error: type[ConfigFileError]) -> None:
         self.source = source
         self.error = error
         self.constructor = SafeConstructor()
+        self.built = 0
 
     def fail(self, node: yaml.Node, key: str, message: str) -> ConfigFileError:
         return self.error(self.source, node.start_mark.line + 1, key, message)
 
     def build(self, node: yaml.Node, key: str, parents: frozenset[int]) -> ConfigValue:
         line = node.start_mark.line + 1
+        self.built += 1
+        if self.built > self.MAX_VALUES:
+            raise self.fail(node, key, f"more than {self.MAX_VALUES} values once its aliases "
+                            "are expanded; write the file without nested aliases")
         if id(node) in parents:
             raise self.fail(node, key, "an alias refers to a value that contains it")
         if isinstance(node, yaml.ScalarNode):

@@ -93,6 +93,10 @@ def test_a_load_above_the_torque_limit_stalls_the_horn() -> None:
     p.external_load = -0.2          # within the limit: turns at what the torque-speed line allows
     p.advance(1000, 0.001)
     assert p.velocity == 3.0 and p.position == pytest.approx(3.0)
+    p.command = ServoCommand(True, True, goal_velocity=3.0, torque_limit=0.0)
+    p.external_load = 0.0           # torque_limit 0: no torque at all, even unloaded
+    p.advance(1000, 0.001)
+    assert p.velocity == 0.0 and p.position == pytest.approx(3.0)
 
 
 class _Eager(World):

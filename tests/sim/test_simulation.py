@@ -186,3 +186,35 @@ def test_real_time_steps_on_its_own_thread_and_stops() -> None:
     steps = floor.steps
     time.sleep(0.02)
     assert floor.steps == steps  # stopped: time stands still again
+
+
+class _Slow(World):
+    """A world slower than real time: each 1 ms step takes 2 ms of the host's."""
+
+    name = "slow"
+
+    def __init__(self) -> None:
+        self.steps = 0
+
+    def step(self, dt: float) -> None:
+        time.sleep(0.002)  # the cost of the physics, not a wait for anything
+        self.steps += 1
+
+    def ground_truth(self) -> dict[str, float]:
+        return {"steps": float(self.steps)}
+
+    @classmethod
+    def example(cls, simulation: Simulation) -> World:
+        raise NotImplementedError
+
+
+def test_real_time_waits_for_the_physics_and_stops_with_every_step_taken() -> None:
+    sim = Simulation()
+    slow = sim.add(_Slow())
+    with sim.real_time():
+        sim.advance_to(0.03)          # returns once the steps are taken, not when the wall
+        assert slow.steps >= 30       # clock says 30 ms
+        with pytest.raises(SimulationError, match="real time"):
+            sim.step()
+    assert sim.virtual
+    assert slow.steps == sim.steps == math.floor(sim.now() / sim.physics_step + 1e-9)

@@ -22,6 +22,8 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from .errors import ConfigError
+
 AMBIENT_C = 25.0
 #: Winding temperature above ambient with no load (electronics and holding current).
 IDLE_RISE_C = 7.0
@@ -101,8 +103,8 @@ class KinematicServo:
 
     def __init__(self, no_load_speed: float, position: float = 0.0, *,
                  ambient: float = AMBIENT_C) -> None:
-        if not no_load_speed > 0:
-            raise ValueError(f"no_load_speed {no_load_speed!r} rad/s must be positive")
+        if not (math.isfinite(no_load_speed) and no_load_speed > 0):
+            raise ConfigError(f"no_load_speed {no_load_speed!r} rad/s must be positive")
         self.no_load_speed = float(no_load_speed)
         self.ambient = float(ambient)
         self._command = ServoCommand()
@@ -137,7 +139,7 @@ class KinematicServo:
     @external_load.setter
     def external_load(self, load: float) -> None:
         if not math.isfinite(load):
-            raise ValueError(f"external_load {load!r} is not a finite number")
+            raise ConfigError(f"external_load {load!r} is not a finite number")
         if load != self._external_load:
             self._restart()
             self._external_load = float(load)
@@ -200,8 +202,9 @@ class KinematicServo:
 
     def _max_speed(self) -> float:
         load = abs(self._external_load)
-        if load > self._command.torque_limit:
-            return 0.0  # the load beats the torque the firmware allows: stalled
+        limit = self._command.torque_limit
+        if limit <= 0 or load > limit:
+            return 0.0  # no torque allowed, or the load beats it: stalled
         return self.no_load_speed * max(0.0, 1.0 - load)
 
     def _plan(self) -> None:

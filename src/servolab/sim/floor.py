@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ..dynamixel.emulator import VirtualMotor
 from ..dynamixel.plant import KinematicServo
-from .simulation import Simulation
+from .simulation import Simulation, SimulationError
 from .world import World
 
 
@@ -36,10 +36,10 @@ class DiffDriveGeometry:
         for name in ("wheel_radius", "wheel_separation"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} {value!r} m must be a positive number")
+                raise SimulationError(f"{name} {value!r} m must be a positive number")
         for name in ("left_forward", "right_forward"):
             if getattr(self, name) not in (1, -1):
-                raise ValueError(f"{name} must be 1 or -1, not {getattr(self, name)!r}")
+                raise SimulationError(f"{name} must be 1 or -1, not {getattr(self, name)!r}")
 
 
 class DiffDriveFloor(World):

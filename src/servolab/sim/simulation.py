@@ -63,6 +63,7 @@ class Simulation:
         #: held while the simulation steps; whoever else touches the motors from another
         #: thread (the pty server in real time) holds it too
         self.lock = threading.RLock()
+        self._stepped = threading.Condition(self.lock)  # notified after each advance
         self._time = self.start
         self._steps = 0
         self._real_time: threading.Thread | None = None
@@ -112,21 +113,31 @@ class Simulation:
 
     def advance_to(self, t: float) -> None:
         """Move time to ``t``, taking every physics step whose boundary it passes. In real
-        time this waits for the simulation's own thread to get there instead."""
-        if self._real_time is not None:
-            while self.now() < t and self._real_time is not None:
-                time.sleep(min(self.physics_step, max(0.0, t - self.now())))
+        time this waits instead until the simulation's own thread has taken those steps
+        (which, with worlds slower than real time, is later than the wall clock says)."""
+        if self._real_time is None:
+            self._advance(t)
             return
-        self._advance(t)
+        boundary = self._boundary(t)
+        with self._stepped:
+            while self._real_time is not None and (self._steps < boundary or self.now() < t):
+                self._stepped.wait(self.physics_step)
 
     def step(self, count: int = 1) -> None:
-        """Take ``count`` physics steps from the current step boundary."""
+        """Take ``count`` physics steps from the current step boundary (virtual time only)."""
+        if self._real_time is not None:
+            raise SimulationError("step(): the simulation runs in real time; its own thread "
+                                  "takes the steps (stop_real_time() first)")
         with self.lock:
             self._advance(self.start + (self._steps + count) * self.physics_step)
 
+    def _boundary(self, t: float) -> int:
+        """The number of the last step boundary at or before ``t``."""
+        return math.floor((t - self.start) / self.physics_step + _BOUNDARY_SLACK)
+
     def _advance(self, t: float) -> None:
         with self.lock:
-            boundary = math.floor((t - self.start) / self.physics_step + _BOUNDARY_SLACK)
+            boundary = self._boundary(t)
             dt = self.physics_step
             worlds, emulators = self.worlds, self.emulators
             while self._steps < boundary:
@@ -138,28 +149,31 @@ class Simulation:
                 self._time = max(self._time, self.start + self._steps * dt)
             if t > self._time:
                 self._time = t
+            self._stepped.notify_all()
 
     # -- real time ------------------------------------------------------------------------------
     def start_real_time(self) -> None:
         """Step on a thread of its own as wall time passes, from the current time on."""
         if self._real_time is not None:
             return
-        self._stop_real_time.clear()
-        self._wall_origin = time.monotonic() - self._time
-        self._real_time = threading.Thread(target=self._run_real_time, name="simulation",
-                                           daemon=True)
+        stop = self._stop_real_time = threading.Event()  # each thread its own: an old one
+        self._wall_origin = time.monotonic() - self._time  # that outlived its join stays off
+        self._real_time = threading.Thread(target=self._run_real_time, args=(stop,),
+                                           name="simulation", daemon=True)
         self._real_time.start()
 
     def stop_real_time(self) -> None:
-        """Stop the real-time thread; time stands still (and is virtual) again."""
+        """Stop the real-time thread; time stands still (and is virtual) again, with every
+        step up to the moment it stopped taken."""
         thread = self._real_time
         if thread is None:
             return
         self._stop_real_time.set()
         thread.join(timeout=2.0)
         with self.lock:
-            self._time = max(self._time, time.monotonic() - self._wall_origin)
+            stopped_at = time.monotonic() - self._wall_origin
             self._real_time = None
+            self._advance(stopped_at)
 
     @contextmanager
     def real_time(self) -> Iterator[Simulation]:
@@ -170,11 +184,14 @@ class Simulation:
         finally:
             self.stop_real_time()
 
-    def _run_real_time(self) -> None:
-        while not self._stop_real_time.is_set():
-            self._advance(time.monotonic() - self._wall_origin)
+    def _run_real_time(self, stop: threading.Event) -> None:
+        while not stop.is_set():
+            with self.lock:
+                if stop.is_set():
+                    return
+                self._advance(time.monotonic() - self._wall_origin)
             next_step = self.start + (self._steps + 1) * self.physics_step
-            self._stop_real_time.wait(max(0.0, next_step - self.now()))
+            stop.wait(max(0.0, next_step - (time.monotonic() - self._wall_origin)))
 
     def __repr__(self) -> str:
         return (f"Simulation(physics_step={self.physics_step}, t={self.now():.6f}, "
