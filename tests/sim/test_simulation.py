@@ -4,9 +4,11 @@ worlds' plants read back by the firmware, real time on a thread of its own."""
 from __future__ import annotations
 
 import math
+import os
 import struct
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -17,6 +19,8 @@ from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.sim import DiffDriveFloor, Simulation, SimulationError, World
 from tests.waiting import wait_until
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_steps_happen_at_boundaries_that_time_passes() -> None:
@@ -218,3 +222,18 @@ def test_real_time_waits_for_the_physics_and_stops_with_every_step_taken() -> No
             sim.step()
     assert sim.virtual
     assert slow.steps == sim.steps == math.floor(sim.now() / sim.physics_step + 1e-9)
+
+
+def test_runs_in_two_processes_with_different_hash_seeds_are_identical() -> None:
+    """Nothing in a run may depend on the interpreter's hash seed (set or dict order of
+    strings) or on anything else that differs between processes."""
+    import subprocess
+    import sys
+
+    code = ("from tests.sim.test_simulation import _scenario\n"
+            "answers, truth = _scenario()\nprint(repr(answers), truth)")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           timeout=120, check=True, env={**os.environ, "PYTHONHASHSEED": seed},
+                           cwd=ROOT).stdout
+            for seed in ("1", "2")]
+    assert runs[0] == runs[1] and len(runs[0]) > 100
