@@ -281,3 +281,15 @@ def test_an_error_not_raised_on_purpose_keeps_its_traceback(
     monkeypatch.setattr(cli, "commands", lambda: (_failing(ZeroDivisionError("bug")),))
     with pytest.raises(ZeroDivisionError):
         main(["fail", "go"])
+
+
+def test_out_that_is_a_file_is_one_line_exit_2(tmp_path: Path) -> None:
+    target = tmp_path / "taken"
+    target.write_text("")
+    result = subprocess.run([sys.executable, "-m", "servolab", "scan", "--port", "emu://rx28:1",
+                             "--ids", "0-2", "--out", str(target)], capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        f"servolab scan: error: --out {target}: exists and is not a folder; name a folder (it "
+        "is created if missing)"]

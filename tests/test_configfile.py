@@ -417,3 +417,10 @@ def test_nested_aliases_cannot_blow_up(tmp_path: Path) -> None:
     few = tmp_path / "few.yaml"                         # aliases within reason still work
     few.write_text("\n".join(lines[:3]) + "\n")
     assert len(load(few).plain()["a2"]) == 10
+
+
+def test_a_motor_spec_protocol_is_1_or_2(tmp_path: Path) -> None:
+    path = tmp_path / "motors.yaml"
+    path.write_text("protocol: 1.5\nmotors:\n  - {model: rx28, id: 1}\n")
+    with pytest.raises(MotorSpecFileError, match=r"motors.yaml:1: protocol: 1.5 is not 1 or 2"):
+        motorspec.load_yaml(path)

@@ -18,8 +18,13 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
+from .errors import ServolabError
 
 DEFAULT_ROOT = Path("runs")
+
+
+class RunFolderError(ServolabError, ValueError):
+    """A run folder that cannot be made where the user asked."""
 
 
 @dataclass
@@ -36,7 +41,8 @@ class RunFolder:
         if out is not None:
             path = Path(out)
             if path.exists() and not path.is_dir():
-                raise ValueError(f"--out {path}: exists and is not a folder")
+                raise RunFolderError(f"--out {path}: exists and is not a folder; name a "
+                                     "folder (it is created if missing)")
         else:
             stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
             path = Path(root) / f"{command}-{stamp}"

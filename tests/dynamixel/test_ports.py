@@ -74,3 +74,19 @@ def test_pty_reports_the_line_speed_the_client_set(baud: int) -> None:
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_the_driver_loads_no_emulator() -> None:
+    """The driver and its ports import nothing of the emulator, the plant or the simulation:
+    an emulated bus is reached only through the emu:// URL, whose handler is imported when
+    such a URL is opened."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom servolab.dynamixel import Bus\nfrom servolab.dynamixel.bus "
+            "import Bus as B\nBus.open\n"
+            "print(sorted(m for m in sys.modules if m.endswith(('.emulator', '.plant')) "
+            "or m.startswith('servolab.sim')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=60, check=True).stdout
+    assert out.strip() == "[]"

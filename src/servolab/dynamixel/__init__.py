@@ -11,21 +11,24 @@ Emulated motors live in a simulation (:mod:`servolab.sim`), which owns their tim
 as a port like any other: ``Bus.open("emu://rx28:11-16", baudrate=57142)``.
 """
 
-from .bus import Bus, BusStats, PingResult
-from .emulator import Emulator, Faults, VirtualMotor, build_emulator
-from .errors import (
-    CommError,
-    ConfigError,
-    CorruptResponse,
-    DynamixelError,
-    MotorError,
-    NoResponse,
-    PacketError,
-)
-from .models import MODELS, Model, Register, model, model_by_number
-from .motorspec import MotorSpec
-from .plant import KinematicServo, ServoCommand, ServoPlant
-from .ports import MemoryPort, Port, PtyServer, SerialPort, open_port
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_exports
+
+#: Each public name and the module it lives in, imported on first use, so that the driver
+#: (``from servolab.dynamixel.bus import Bus``) loads no emulator.
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("Bus", "BusStats", "PingResult"), "bus"),
+    **dict.fromkeys(("Emulator", "Faults", "VirtualMotor", "build_emulator"), "emulator"),
+    **dict.fromkeys(("CommError", "ConfigError", "CorruptResponse", "DynamixelError",
+                     "MotorError", "NoResponse", "PacketError"), "errors"),
+    **dict.fromkeys(("MODELS", "Model", "Register", "model", "model_by_number"), "models"),
+    "MotorSpec": "motorspec",
+    **dict.fromkeys(("KinematicServo", "ServoCommand", "ServoPlant"), "plant"),
+    **dict.fromkeys(("MemoryPort", "Port", "PtyServer", "SerialPort", "open_port"), "ports"),
+}
 
 __all__ = [
     "MODELS", "Bus", "BusStats", "CommError", "ConfigError", "CorruptResponse",
@@ -34,3 +37,22 @@ __all__ = [
     "Register", "SerialPort", "ServoCommand", "ServoPlant", "VirtualMotor", "build_emulator",
     "model", "model_by_number", "open_port",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+if TYPE_CHECKING:
+    from .bus import Bus, BusStats, PingResult
+    from .emulator import Emulator, Faults, VirtualMotor, build_emulator
+    from .errors import (
+        CommError,
+        ConfigError,
+        CorruptResponse,
+        DynamixelError,
+        MotorError,
+        NoResponse,
+        PacketError,
+    )
+    from .models import MODELS, Model, Register, model, model_by_number
+    from .motorspec import MotorSpec
+    from .plant import KinematicServo, ServoCommand, ServoPlant
+    from .ports import MemoryPort, Port, PtyServer, SerialPort, open_port

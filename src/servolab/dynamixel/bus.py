@@ -110,6 +110,9 @@ class Bus:
     @property
     def proto(self) -> Protocol:
         """The protocol object (``protocol`` as given may be a version number)."""
+        if self.protocol is not self._proto:  # reassigned since: decode it again
+            self._proto = (self.protocol if isinstance(self.protocol, Protocol)
+                           else protocol_for(self.protocol or 2))
         return self._proto
 
     @property

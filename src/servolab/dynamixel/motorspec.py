@@ -149,7 +149,10 @@ def load_yaml(path: str | Path, *, protocol: int | None = None,
             raise root.key_of(key).error(f"unknown key {key!r} ({hint}use protocol, "
                                          "baudrate, motors)")
     if (value := root.get("protocol")) is not None:
-        protocol = int(_float(value, "protocol"))
+        number = _float(value, "protocol")
+        if number not in (1.0, 2.0):
+            raise value.error(f"protocol: {number:g} is not 1 or 2")
+        protocol = int(number)
     baud_value = root.get("baudrate")
     if baud_value is not None:
         baudrate = _int(baud_value, "baudrate")
