@@ -689,3 +689,26 @@ def test_protocol1_reset_restores_id_1() -> None:
         bus.ping(7, retries=0)
     assert bus.ping(1).model_number == 28
     assert bus.read(1, "return_delay_time", raw=True) == 250
+
+
+def test_protocol1_joint_mode_after_wheel_mode_reads_within_one_turn() -> None:
+    """An RX-28 turned several times in wheel mode, then put back in joint mode, reads its
+    potentiometer: the angle within one turn, and a goal inside the range is reached without
+    unwinding the turns it made (e-Manual: joint mode is 0..300°)."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)   # wheel mode
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "moving_speed", 5.0)
+    bus.port.clock.advance(4.0)                         # about three turns and a bit
+    assert motor.plant.position > 3 * 2 * math.pi
+    bus.write(1, "moving_speed", 0.0)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 1023}, raw=True)  # joint mode
+    horn = math.remainder(motor.plant.position, 2 * math.pi)
+    if abs(horn) < 2.6:                                 # outside the pot's dead zone
+        assert bus.read(1, "present_position") == pytest.approx(horn, abs=0.006)
+    before = motor.plant.position
+    bus.write(1, {"goal_position": 0.0, "moving_speed": 0.0})
+    bus.port.clock.advance(2.0)
+    assert bus.read(1, "present_position") == pytest.approx(0.0, abs=0.006)
+    assert abs(motor.plant.position - before) < math.pi  # not three turns back

@@ -185,9 +185,17 @@ class VirtualMotor:
         self._temperature_limit = float(self.get_raw("temperature_limit"))
         self._return_delay = self._si("return_delay_time")
         self._status_level = self.get_raw("status_return_level")
-        self._wheel = (self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
-                       if self.model.protocol == 1 else
-                       self.get_raw("operating_mode") in (0, 1, 16))
+        wheel = (self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
+                 if self.model.protocol == 1 else self.get_raw("operating_mode") in (0, 1, 16))
+        if (self.model.protocol == 1 and getattr(self, "_wheel", False) and not wheel
+                and hasattr(self, "_plant")):
+            # Back in joint mode a 1.0 servo reads its potentiometer, which knows no turns:
+            # the firmware's angle is the horn's within one turn from here on.
+            angle = units.ticks_position(self.model, units.position_ticks(
+                self.model, self._plant.position) - self._offset_ticks)
+            self._offset_ticks += (angle - math.remainder(angle, 2 * math.pi)) \
+                / self.model.rad_per_tick
+        self._wheel = wheel
         self._one_turn = self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5)
         if hasattr(self, "_plant"):
             self._plant.command = self._command()
