@@ -1,6 +1,6 @@
 """Smoke tests of the benchmarks, benchmarks/bus_cycle.py, benchmarks/middleware.py and
-benchmarks/sim.py: each main runs end to end on a few cycles or messages and writes its figures with ``--json``;
-the figures are checked there (every bus's or setup's present, finite, positive, and the
+benchmarks/sim.py: each main runs end to end on a short run and writes its figures with
+``--json``; the figures are checked there (every bus's or setup's present, finite, positive, and the
 configurations the benchmark promises), the printed tables only for naming their ratio lines.
 They check that the benchmarks work, not how fast anything is."""
 
