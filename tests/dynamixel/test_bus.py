@@ -278,3 +278,28 @@ def test_scan_rejects_bad_baud_rate() -> None:
     with pytest.raises(ConfigError, match="0"):
         bus.scan([1], [57142, 0])
     assert bus.emulator.instructions_seen == seen
+
+
+# The e-Manual's Status Return Level table (ROBOTIS-GIT/emanual,
+# _includes/en/dxl/control_table_status_return_lv.md, included by the RX-28 and X-series
+# pages): 0 returns a status for PING only, 1 for PING and READ, 2 for all instructions.
+@pytest.mark.parametrize(("spec", "baud"), [("rx28:1-2", 57142), ("xm430-w210:1-2", 1_000_000)])
+def test_writing_status_return_level_updates_what_the_bus_waits_for(spec: str,
+                                                                     baud: int) -> None:
+    bus = Bus.open(f"emu://{spec}", baudrate=baud, retries=0)
+    bus.write(1, "status_return_level", 1)          # no need to tell the bus first
+    assert bus.status_return_level[1] == 1
+    bus.write(1, "led", 1)                          # level 1: no status to WRITE, none awaited
+    assert bus.read(1, "led", raw=True) == 1        # ... READ still answered
+    assert bus.stats.timeouts == 0
+    bus.sync_write("status_return_level", {1: 0, 2: 0})
+    assert bus.status_return_level == {1: 0, 2: 0}
+    with pytest.raises(ConfigError, match="motor 1: status return level 0 answers PING only"):
+        bus.read(1, "present_position")             # refused before anything is sent
+    seen = bus.emulator.instructions_seen
+    with pytest.raises(ConfigError, match="status return level 0"):
+        bus.sync_read("present_position", [1, 2])
+    assert bus.emulator.instructions_seen == seen
+    bus.write(2, "status_return_level", 2)          # back to 2: that WRITE is answered
+    assert bus.read(2, "status_return_level", raw=True) == 2
+    assert bus.stats.timeouts == 0

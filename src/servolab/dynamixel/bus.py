@@ -358,6 +358,7 @@ class Bus:
         m = self.model_of(motor_id)
         wanted = self._names(names)
         start, length = m.span(wanted)
+        self._check_reads_answered([motor_id])
         status = self.transact(self.proto.read(motor_id, start, length), {motor_id: length},
                                check=check)[motor_id]
         values = self._unpack(m, wanted, status.params, start, raw)
@@ -374,9 +375,10 @@ class Bus:
         if len(values) != len(given):
             raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
         start, block = self._block(m, values, raw)
-        level_ok = self._status_expected(motor_id, m)
+        level = self._level_after(motor_id, m, start, block, registered=registered)
         self.transact(self.proto.write(motor_id, start, block, registered=registered),
-                      {motor_id: 0} if level_ok else None)
+                      {motor_id: 0} if level >= 2 else None)
+        self.status_return_level[motor_id] = level
 
     def _block(self, m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int, bytes]:
         regs = sorted((m.register(n) for n in values), key=lambda r: r.address)
@@ -387,14 +389,33 @@ class Bus:
         block = b"".join(self._encode(m, r, values[r.name], raw) for r in regs)
         return regs[0].address, block
 
-    def _status_expected(self, motor_id: int, m: Model) -> bool:
-        """Whether the motor sends a status after WRITE (status return level 2, the default).
+    def _level_after(self, motor_id: int, m: Model, start: int, block: bytes, *,
+                     registered: bool = False) -> int:
+        """The status return level ``motor_id`` has once ``block`` is written at ``start``:
+        the value written when the block covers the register (the motor answers that WRITE
+        already by its new level), else the level the bus knows (2, the factory default,
+        until told). A REG_WRITE changes nothing before its ACTION."""
+        known = self.status_return_level.get(motor_id, 2)
+        if registered or not m.has("status_return_level"):
+            return known
+        reg = m.register("status_return_level")
+        if start <= reg.address < start + len(block):
+            return reg.decode(block[reg.address - start:])
+        return known
 
-        Set ``bus.status_return_level[id]`` when a motor's level was lowered."""
-        return self.status_return_level.get(motor_id, 2) >= 2
+    def _check_reads_answered(self, ids: Iterable[int]) -> None:
+        """Refuse, before anything is sent, to READ a motor whose status return level is 0:
+        it answers PING only (e-Manual, Status Return Level), so the read could only time
+        out."""
+        for motor_id in ids:
+            if self.status_return_level.get(motor_id, 2) == 0:
+                raise ConfigError(f"motor {motor_id}: status return level 0 answers PING only; "
+                                  "write status_return_level 1 or 2 to read it")
 
     @property
     def status_return_level(self) -> dict[int, int]:
+        """The status return level of each motor as this bus last wrote it (2, the factory
+        default, for motors not in it); it decides which instructions the bus waits on."""
         if not hasattr(self, "_srl"):
             self._srl: dict[int, int] = {}
         return self._srl
@@ -470,6 +491,9 @@ class Bus:
         if not blocks or layout is None:
             return
         self.transact(self.proto.sync_write(layout[0], layout[1], blocks))
+        for motor_id, block in blocks:
+            self.status_return_level[motor_id] = self._level_after(
+                motor_id, self.model_of(motor_id), layout[0], block)
 
     @overload
     def sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
@@ -489,6 +513,7 @@ class Bus:
         models = {i: self.model_of(i) for i in ids}
         if not ids:
             return {}
+        self._check_reads_answered(ids)
         spans = {m.span(wanted) for m in models.values()}
         proto = self.proto
         out: dict[int, dict[str, Value]]
@@ -515,6 +540,7 @@ class Bus:
             plan.append((motor_id, m, wanted, *m.span(wanted)))
         if not plan:
             return {}
+        self._check_reads_answered(requests)
         if all(supports(m, "BULK_READ") for _, m, *_ in plan):
             inst = self.proto.bulk_read([(i, start, n) for i, _, _, start, n in plan])
             got = self.transact(inst, {i: n for i, _, _, _, n in plan}, check=check)
@@ -539,7 +565,12 @@ class Bus:
         proto = self.proto
         if isinstance(proto, Protocol2) and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
             self.transact(proto.bulk_write([(i, start, block) for i, _, start, block in blocks]))
+        else:
+            for motor_id, m, start, block in blocks:
+                level = self._level_after(motor_id, m, start, block)
+                self.transact(self.proto.write(motor_id, start, block),
+                              {motor_id: 0} if level >= 2 else None)
+                self.status_return_level[motor_id] = level
             return
         for motor_id, m, start, block in blocks:
-            self.transact(self.proto.write(motor_id, start, block),
-                          {motor_id: 0} if self._status_expected(motor_id, m) else None)
+            self.status_return_level[motor_id] = self._level_after(motor_id, m, start, block)
