@@ -424,3 +424,14 @@ def test_a_motor_spec_protocol_is_1_or_2(tmp_path: Path) -> None:
     path.write_text("protocol: 1.5\nmotors:\n  - {model: rx28, id: 1}\n")
     with pytest.raises(MotorSpecFileError, match=r"motors.yaml:1: protocol: 1.5 is not 1 or 2"):
         motorspec.load_yaml(path)
+
+
+def test_a_motor_spec_position_the_motor_cannot_reach_is_refused(tmp_path: Path) -> None:
+    """An RX-28's goal_position covers 0..1023 ticks, ±150° around the centre (e-Manual,
+    RX-28 Goal Position(30)): 3 rad is outside, named with its line."""
+    path = tmp_path / "motors.yaml"
+    path.write_text("motors:\n  - {model: rx28, id: 1, position: 0.5}\n"
+                    "  - {model: rx28, id: 2, position: 3.0}\n")
+    with pytest.raises(MotorSpecFileError, match=r"motors.yaml:3: position: RX-28 "
+                       r"goal_position: 3 rad is outside"):
+        motorspec.load_yaml(path)

@@ -303,3 +303,26 @@ def test_writing_status_return_level_updates_what_the_bus_waits_for(spec: str,
     bus.write(2, "status_return_level", 2)          # back to 2: that WRITE is answered
     assert bus.read(2, "status_return_level", raw=True) == 2
     assert bus.stats.timeouts == 0
+
+
+def test_scan_holds_the_bus_while_it_changes_the_baud_rate() -> None:
+    """While scan() has the port at another rate, no other thread can start a transaction
+    (which would go out at the wrong baud rate)."""
+    import threading
+
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    free_during_scan: list[bool] = []
+
+    def other_thread_tries() -> None:
+        def attempt() -> None:
+            got = bus._lock.acquire(blocking=False)
+            if got:
+                bus._lock.release()
+            free_during_scan.append(got)
+        thread = threading.Thread(target=attempt)
+        thread.start()
+        thread.join()
+
+    bus.scan([1], [1_000_000, 57142], progress=lambda baud, motor_id: other_thread_tries())
+    assert free_during_scan == [False, False]
+    assert bus.baudrate == 57142

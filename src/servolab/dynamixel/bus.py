@@ -283,18 +283,21 @@ class Bus:
                 raise ConfigError(f"baud rate {rate} must be positive")
         original = self.baudrate
         found: list[PingResult] = []
-        try:
-            for rate in rates:
-                self.port.set_baudrate(rate)
-                for motor_id in ids:
-                    if progress:
-                        progress(rate, motor_id)
-                    try:
-                        found.append(self.ping(motor_id, retries=0))
-                    except (NoResponse, CorruptResponse):
-                        continue
-        finally:
-            self.port.set_baudrate(original)
+        # Hold the bus for the whole scan: another thread's transaction must never go out
+        # at one of the scan's baud rates.
+        with self._lock:
+            try:
+                for rate in rates:
+                    self.port.set_baudrate(rate)
+                    for motor_id in ids:
+                        if progress:
+                            progress(rate, motor_id)
+                        try:
+                            found.append(self.ping(motor_id, retries=0))
+                        except (NoResponse, CorruptResponse):
+                            continue
+            finally:
+                self.port.set_baudrate(original)
         return found
 
     def model_of(self, motor_id: int) -> Model:

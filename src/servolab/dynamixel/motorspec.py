@@ -24,6 +24,7 @@ from pathlib import Path
 from ..configfile import ConfigList, ConfigMapping, ConfigScalar, ConfigValue, suggest
 from ..configfile import load as load_config
 from ..errors import ServolabError
+from . import units
 from .errors import ConfigError, MotorSpecFileError
 from .models import Model, model
 
@@ -192,6 +193,11 @@ def load_yaml(path: str | Path, *, protocol: int | None = None,
                 raise ids_value.error(str(exc)) from None
         position_value = item.get("position")
         position = _float(position_value, "position") if position_value is not None else 0.0
+        if position_value is not None:
+            try:  # an angle the motor could be sent to: within its goal_position range
+                units.from_si(m, m.register("goal_position"), position)
+            except ConfigError as exc:
+                raise position_value.error(f"position: {exc}") from None
         entries += [MotorEntry(m, i, position) for i in ids]
         origins += [item] * len(ids)
 
