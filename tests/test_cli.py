@@ -293,3 +293,15 @@ def test_out_that_is_a_file_is_one_line_exit_2(tmp_path: Path) -> None:
     assert result.stderr.strip().splitlines() == [
         f"servolab scan: error: --out {target}: exists and is not a folder; name a folder (it "
         "is created if missing)"]
+
+
+def test_a_silent_motor_on_the_wrong_protocol_is_told_so() -> None:
+    """RX-28s speak protocol 1.0 only (e-Manual, RX-28: Protocol 1.0 control table): asked in
+    2.0 they stay silent, and the one-line error says which flag to try."""
+    result = subprocess.run([sys.executable, "-m", "servolab", "read", "--port", "emu://rx28:1",
+                             "--protocol", "2", "--id", "1", "present_position"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("servolab read: NoResponse: motor 1:")
+    assert lines[0].endswith("if it speaks protocol 1.0, add --protocol 1")

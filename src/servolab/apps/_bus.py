@@ -6,7 +6,11 @@ A helper (its name starts with ``_``), so the registry does not import it for
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 from ..dynamixel.bus import Bus
+from ..dynamixel.errors import NoResponse
 
 
 def open_bus(device: str, protocol: int | None, baudrate: int, model: str | None,
@@ -18,3 +22,15 @@ def open_bus(device: str, protocol: int | None, baudrate: int, model: str | None
     if model is not None:
         bus.declare(motor_id, model)
     return bus
+
+
+@contextmanager
+def hint_protocol(bus: Bus) -> Iterator[Bus]:
+    """A motor that stays silent may simply speak the other protocol (an RX-28 on a bus
+    opened for 2.0, the default of a serial port): say so in the one-line error."""
+    try:
+        yield bus
+    except NoResponse as exc:
+        other = 1 if bus.proto.version == 2 else 2
+        raise NoResponse(f"{exc}; if it speaks protocol {other}.0, add --protocol {other}",
+                         motor_id=exc.motor_id, instruction=exc.instruction) from None

@@ -23,9 +23,9 @@ def read(device: str, motor_id: int, names: Sequence[str], *, protocol: int | No
 
     ``protocol`` None: the port's (see :func:`servolab.apps._bus.open_bus`)."""
     from ..dynamixel import units
-    from ._bus import open_bus
+    from ._bus import hint_protocol, open_bus
 
-    with open_bus(device, protocol, baudrate, model, motor_id) as bus:
+    with open_bus(device, protocol, baudrate, model, motor_id) as bus, hint_protocol(bus):
         m = bus.model_of(motor_id)
         for name in names:
             m.register(name)  # unknown names fail before anything is sent

@@ -23,10 +23,10 @@ def write(device: str, motor_id: int, name: str, value: str, *, protocol: int | 
     ``protocol`` None: the port's (see :func:`servolab.apps._bus.open_bus`)."""
     from ..dynamixel import units
     from ..dynamixel.errors import ConfigError
-    from ._bus import open_bus
+    from ._bus import hint_protocol, open_bus
 
     number = parse_value(value, name)
-    with open_bus(device, protocol, baudrate, model, motor_id) as bus:
+    with open_bus(device, protocol, baudrate, model, motor_id) as bus, hint_protocol(bus):
         m = bus.model_of(motor_id)
         reg = m.register(name)
         if not reg.writable:
