@@ -712,3 +712,29 @@ def test_protocol1_joint_mode_after_wheel_mode_reads_within_one_turn() -> None:
     bus.port.clock.advance(2.0)
     assert bus.read(1, "present_position") == pytest.approx(0.0, abs=0.006)
     assert abs(motor.plant.position - before) < math.pi  # not three turns back
+
+
+# The Protocol 2.0 error table (ROBOTIS-GIT/emanual, docs/en/dxl/protocol2.md, "Error"):
+# 0x02 Instruction Error — "Action has been used without Reg Write"; 0x05 Data Length Error —
+# "Attempt to write Data that is shorter than the data length of the corresponding Address
+# (ex: when you attempt to only use 2 bytes of a item that has been defined as 4 bytes)".
+def test_protocol2_writing_part_of_an_item_is_a_data_length_error() -> None:
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    motor = bus.emulator.motor(1)
+    table = bytes(motor.table)
+    for inst in (PROTOCOL2.write(1, 116, (100).to_bytes(2, "little")),    # 2 of 4 bytes
+                 PROTOCOL2.write(1, 118, (1).to_bytes(2, "little"))):     # the other half
+        with pytest.raises(MotorError) as info:
+            bus.transact(inst, {1: 0})
+        assert info.value.errors == ("data length",)
+    assert bytes(motor.table) == table
+
+
+def test_protocol2_action_with_nothing_registered_is_an_instruction_error() -> None:
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    with pytest.raises(MotorError) as info:
+        bus.transact(PROTOCOL2.action(1), {1: 0})
+    assert info.value.errors == ("instruction",)
+    bus.write(1, "led", 1, registered=True)
+    bus.transact(PROTOCOL2.action(1), {1: 0})          # registered first: no error
+    assert bus.read(1, "led", raw=True) == 1

@@ -458,7 +458,9 @@ class VirtualMotor:
         if name == "ACTION":
             error = 0
             if self._pending is None:
-                error = p1.INSTRUCTION if v1 else 0
+                # Nothing registered: an instruction error on both protocols (the Protocol
+                # 2.0 error table: "Action has been used without Reg Write").
+                error = p1.INSTRUCTION if v1 else p2.INSTRUCTION_ERROR
             else:
                 address, data = self._pending
                 self._pending = None
@@ -520,6 +522,11 @@ class VirtualMotor:
         if end > len(self.table):
             return p1.RANGE if v1 else p2.ACCESS
         touched = self._registers_in(address, end)
+        if not v1 and any(r.address < end and r.address + r.size > address
+                          and r not in touched for r in self.model.registers):
+            # Part of an item only, e.g. 2 bytes of the 4 of goal_position: the Protocol 2.0
+            # error table's Data Length Error (0x05).
+            return p2.DATA_LENGTH
         covered = sum(r.size for r in touched)
         if covered != len(data) or any(not r.writable for r in touched):
             return p1.RANGE if v1 else p2.ACCESS
