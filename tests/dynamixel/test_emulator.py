@@ -738,3 +738,35 @@ def test_protocol2_action_with_nothing_registered_is_an_instruction_error() -> N
     bus.write(1, "led", 1, registered=True)
     bus.transact(PROTOCOL2.action(1), {1: 0})          # registered first: no error
     assert bus.read(1, "led", raw=True) == 1
+
+
+def test_status_return_level_0_keeps_a_sync_read_slot_silent() -> None:
+    """Level 0 returns a status for PING only (e-Manual, Status Return Level table), so a
+    SYNC_READ gets no answer from that motor; on 2.0 the others still answer in turn."""
+    bus = Bus.open("emu://xm430-w210:1-3", baudrate=1_000_000, retries=0)
+    bus.emulator.motor(2).set_raw("status_return_level", 0)
+    inst = PROTOCOL2.sync_read(132, 4, [1, 2, 3])
+    with pytest.raises(NoResponse, match="motor 2"):
+        bus.transact(inst, {1: 4, 2: 4, 3: 4})
+    got = bus.transact(inst, {1: 4, 3: 4})
+    assert sorted(got) == [1, 3]
+
+
+# e-Manual, X-series Homing Offset(20) (ROBOTIS-GIT/emanual,
+# _includes/en/dxl/control_table_homingoffset.md): "Present Position(132) = Actual Position +
+# Homing Offset(20)"; in the one-turn position mode values outside -1024..1024 are ignored.
+def test_x_homing_offset_shifts_present_position_and_goals() -> None:
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    motor = bus.emulator.motor(1)
+    bus.write(1, "homing_offset", 1024, raw=True)
+    assert bus.read(1, "present_position", raw=True) == 2048 + 1024   # the horn has not moved
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 2048, raw=True)      # in present-position terms: 90° back
+    bus.port.clock.advance(2.0)
+    assert bus.read(1, "present_position", raw=True) == 2048
+    assert motor.plant.position == pytest.approx(-math.pi / 2, abs=0.002)
+    bus.write(1, "torque_enable", 0)
+    bus.write(1, "homing_offset", 2000, raw=True)      # outside ±1024 in mode 3: ignored
+    assert bus.read(1, "present_position", raw=True) == 1024
+    bus.write(1, "operating_mode", 4, raw=True)        # extended position mode: it counts
+    assert bus.read(1, "present_position", raw=True) == 1024 + 2000

@@ -33,7 +33,7 @@ from .wire import baud_matches, byte_time
 #: Registers whose value the firmware keeps decoded or commands the joint with: a change
 #: of any of them, however made, refreshes both.
 _SETTINGS = frozenset({
-    "id", "baud_rate", "temperature_limit", "return_delay_time", "status_return_level",
+    "id", "baud_rate", "homing_offset", "temperature_limit", "return_delay_time", "status_return_level",
     "torque_enable", "goal_position", "moving_speed", "torque_limit", "cw_angle_limit",
     "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm", "goal_current",
     "profile_velocity", "pwm_limit", "current_limit"})
@@ -197,6 +197,10 @@ class VirtualMotor:
                 / self.model.rad_per_tick
         self._wheel = wheel
         self._one_turn = self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5)
+        # Present Position = Actual Position + Homing Offset; in the one-turn position mode
+        # a homing offset outside -1024..1024 is ignored (e-Manual, Homing Offset(20)).
+        homing = self.get_raw("homing_offset") if self.model.has("homing_offset") else 0
+        self._homing = homing if not self._one_turn or -1024 <= homing <= 1024 else 0
         if hasattr(self, "_plant"):
             self._plant.command = self._command()
             self._stale = True
@@ -247,8 +251,12 @@ class VirtualMotor:
 
     @property
     def ticks(self) -> float:
-        """Horn angle as the firmware counts it: encoder ticks, unbounded and unrounded."""
-        return units.position_ticks(self.model, self.plant.position) - self._offset_ticks
+        """Horn angle as present_position counts it: ticks, unbounded and unrounded (the
+        homing offset added, the turns a CLEAR dropped taken away)."""
+        return self._present_ticks(self.plant.position)
+
+    def _present_ticks(self, joint: float) -> float:
+        return units.position_ticks(self.model, joint) - self._offset_ticks + self._homing
 
     @property
     def velocity(self) -> float:
@@ -381,15 +389,15 @@ class VirtualMotor:
         goal is an angle within the current turn."""
         goal = float(self.get_raw("goal_position"))
         if self._one_turn:
-            ticks = units.position_ticks(self.model, self._plant.position) - self._offset_ticks
+            ticks = self._present_ticks(self._plant.position)
             goal += math.floor(ticks / self.model.resolution) * self.model.resolution
-        return units.ticks_position(self.model, goal + self._offset_ticks)
+        return units.ticks_position(self.model, goal + self._offset_ticks - self._homing)
 
     def _update_sensors(self) -> None:
         m = self.model
         plant = self._plant
         velocity, load = plant.velocity, plant.effort
-        ticks = round(units.position_ticks(m, plant.position) - self._offset_ticks)
+        ticks = round(self._present_ticks(plant.position))
         voltage = self._supply_voltage - 0.3 * abs(load)
         if m.protocol == 1:
             present = ticks % m.resolution if self.wheel_mode else min(max(ticks, 0),
@@ -715,7 +723,8 @@ class Emulator:
             self._bulk_write(inst, motors)
             return []
         if name in ("SYNC_READ", "BULK_READ"):
-            able = [m for m in motors if supports(m.model, name)]
+            # Status return level 0 answers PING only: a motor there keeps its slot silent.
+            able = [m for m in motors if supports(m.model, name) and m._status_level >= 1]
             return self._chain(self._read_requests(inst, name), able, t, baudrate)
         if inst.id == BROADCAST_ID:
             if name == "PING" and not v1:
