@@ -34,9 +34,9 @@ from .wire import baud_matches, byte_time
 #: of any of them, however made, refreshes both.
 _SETTINGS = frozenset({
     "id", "baud_rate", "homing_offset", "temperature_limit", "return_delay_time",
-    "status_return_level",    "torque_enable", "goal_position", "moving_speed", "torque_limit", "cw_angle_limit",
-    "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm", "goal_current",
-    "profile_velocity", "pwm_limit", "current_limit"})
+    "status_return_level", "torque_enable", "goal_position", "moving_speed", "torque_limit",
+    "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm",
+    "goal_current", "profile_velocity", "pwm_limit", "current_limit"})
 
 
 #: Instructions that address several motors whatever their packet's ID says.
