@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from servolab.dynamixel import Bus
-from servolab.sim import DiffDriveFloor, Simulation
+from servolab.sim import DiffDriveFloor, Simulation, port_to
 
 RX28_IDS = list(range(1, 21))
 STATE = ["present_position", "present_speed", "present_load", "present_voltage",
@@ -132,10 +132,7 @@ def floor_loop() -> tuple[Simulation, Callable[[float], int], Bus | None]:
 
 def _example_bus(sim: Simulation) -> Bus:
     """A driver on the floor example's own emulated bus (the example keeps no Bus)."""
-    from servolab.dynamixel.ports import MemoryPort
-
-    emulator = sim.emulators[0]
-    return Bus(MemoryPort(emulator, 1_000_000, clock=sim, protocol=2, lock=sim.lock))
+    return Bus(port_to(sim.emulators[0], sim, 1_000_000))
 
 
 def floor_alone() -> tuple[Simulation, Callable[[float], int], Bus | None]:

@@ -75,12 +75,11 @@ def cycle_time(path: Path) -> None:
 def floor_world(path: Path) -> None:
     """The floor world's example: two wheels told to drive an arc, the base's true path beside
     what the driver reads back from the wheel motors."""
-    from servolab.dynamixel.ports import MemoryPort
-    from servolab.sim import DiffDriveFloor, Simulation
+    from servolab.sim import DiffDriveFloor, Simulation, port_to
 
     sim = Simulation()
     world = DiffDriveFloor.example(sim)
-    bus = Bus(MemoryPort(sim.emulators[0], 1_000_000, clock=sim, lock=sim.lock))
+    bus = Bus(port_to(sim.emulators[0], sim, 1_000_000))
     times, xs, ys, left, right = [], [], [], [], []
     while sim.now() < 6.0:
         truth = world.ground_truth()

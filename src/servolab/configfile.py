@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import difflib
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Collection, Iterator
 from datetime import date
 from pathlib import Path
@@ -63,7 +64,7 @@ def unknown_key(name: str, allowed: Collection[str]) -> str:
     return f"unknown key {name!r}" + (f" (did you mean {close!r}?)" if close else "")
 
 
-class ConfigValue:
+class ConfigValue(ABC):
     """A value of a configuration file and where it was written.
 
     The accessors check the kind of value a consumer needs and return it as a Python value,
@@ -86,14 +87,14 @@ class ConfigValue:
         """An error at this value: ``path:line: message``, carrying path, line and key."""
         return self._error(self.path, self.line, self.key, message)
 
+    @abstractmethod
     def describe(self) -> str:
         """What was written here, in a few words, for an error message."""
-        raise NotImplementedError
 
+    @abstractmethod
     def plain(self) -> Plain:
         """The plain Python value of this subtree (for values passed on as they are, such as
         ROS parameter values)."""
-        raise NotImplementedError
 
     def child_key(self, name: str | int) -> str:
         """The key path of an entry of this mapping (a name) or item of this list (an index)."""

@@ -118,3 +118,14 @@ def test_which_baud_rate_the_motors_and_the_port_run_at(tmp_path: Path) -> None:
 def test_more_bad_urls(url: str, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         Bus.open(url)
+
+
+def test_a_second_port_to_a_bus_in_the_simulation() -> None:
+    from servolab.sim import DiffDriveFloor, port_to
+
+    sim = Simulation()
+    DiffDriveFloor.example(sim)
+    bus = Bus(port_to(sim.emulators[0], sim, 1_000_000))
+    assert bus.proto.version == 2 and bus.ping(2).model_name == "XM430-W210"
+    with pytest.raises(ConfigError, match="not in the simulation"):
+        port_to(sim.emulators[0], Simulation(), 1_000_000)

@@ -143,12 +143,7 @@ def load_yaml(path: str | Path, *, protocol: int | None = None,
     root = load_config(path, what="motor spec", error=MotorSpecFileError)
     if not isinstance(root, ConfigMapping):
         raise root.error("expected a mapping with a 'motors' list")
-    for key in root:
-        if key not in _TOP_KEYS:
-            close = suggest(key, _TOP_KEYS)
-            hint = f"did you mean {close!r}? " if close else ""
-            raise root.key_of(key).error(f"unknown key {key!r} ({hint}use protocol, "
-                                         "baudrate, motors)")
+    _check_keys(root, _TOP_KEYS, "key")
     if (value := root.get("protocol")) is not None:
         number = _float(value, "protocol")
         if number not in (1.0, 2.0):
@@ -166,12 +161,7 @@ def load_yaml(path: str | Path, *, protocol: int | None = None,
     for item in motors:
         if not isinstance(item, ConfigMapping):
             raise item.error("a motor is a mapping like {model: rx28, id: 1}")
-        for key in item:
-            if key not in _MOTOR_KEYS:
-                close = suggest(key, _MOTOR_KEYS)
-                hint = f"did you mean {close!r}? " if close else ""
-                raise item.key_of(key).error(f"unknown field {key!r} ({hint}use model, id, "
-                                             "ids, position)")
+        _check_keys(item, _MOTOR_KEYS, "field")
         if "model" not in item or ("id" in item) == ("ids" in item):
             raise item.error("a motor needs 'model' and one of 'id' or 'ids'")
         model_value = item.require("model")
@@ -227,6 +217,16 @@ def _int(value: ConfigValue, field: str) -> int:
         return int(text)
     except ValueError:
         raise value.error(f"{field}: {text!r} is not a int") from None
+
+
+def _check_keys(mapping: ConfigMapping, allowed: tuple[str, ...], word: str) -> None:
+    """Refuse a key not in ``allowed``, suggesting the closest and listing them all."""
+    for key in mapping:
+        if key not in allowed:
+            close = suggest(key, allowed)
+            hint = f"did you mean {close!r}? " if close else ""
+            raise mapping.key_of(key).error(f"unknown {word} {key!r} ({hint}use "
+                                            f"{', '.join(allowed)})")
 
 
 def _float(value: ConfigValue, field: str) -> float:

@@ -8,7 +8,7 @@
 ``docs/sim.md`` explains time, plants and worlds for someone who will write a world.
 """
 
-from .emulated import emulated_port
+from .emulated import emulated_port, port_to
 from .floor import DiffDriveFloor, DiffDriveGeometry
 from .simulation import DEFAULT_PHYSICS_STEP, Simulation, SimulationError
 from .world import World
@@ -20,4 +20,4 @@ WORLDS: dict[str, type[World]] = {
 }
 
 __all__ = ["DEFAULT_PHYSICS_STEP", "WORLDS", "DiffDriveFloor", "DiffDriveGeometry",
-           "Simulation", "SimulationError", "World", "emulated_port"]
+           "Simulation", "SimulationError", "World", "emulated_port", "port_to"]

@@ -46,10 +46,17 @@ def emulated_port(spec: str | MotorSpec, baudrate: int | None = None, *,
         spec = spec.at_baudrate(baudrate)
     sim = simulation if simulation is not None else Simulation()
     emulator: Emulator = sim.add_emulator(build_emulator(spec, faults=faults))
-    rate = baudrate or spec.motor_baudrate
-    name = "emu://" + ",".join(f"{e.model.name}:{e.id}" for e in spec.motors)
-    return MemoryPort(emulator, rate, clock=sim, name=name, protocol=spec.protocol,
-                      lock=sim.lock)
+    return port_to(emulator, sim, baudrate or spec.motor_baudrate)
+
+
+def port_to(emulator: Emulator, simulation: Simulation, baudrate: int) -> MemoryPort:
+    """Another port to an emulated bus already in ``simulation`` — e.g. a world's example,
+    which keeps no driver of its own: ``Bus(port_to(sim.emulators[0], sim, 1_000_000))``."""
+    if emulator not in simulation.emulators:
+        raise ConfigError("port_to: this emulated bus is not in the simulation given")
+    name = "emu://" + ",".join(f"{m.model.name}:{m.id}" for m in emulator.motors)
+    return MemoryPort(emulator, baudrate, clock=simulation, name=name,
+                      protocol=emulator.protocol.version, lock=simulation.lock)
 
 
 def open_emulated_url(rest: str, baudrate: int | None, *,
