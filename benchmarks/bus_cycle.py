@@ -36,7 +36,7 @@ emulator's own time (its ``receive``, wrapped with a ``time.perf_counter``
 accumulators) is subtracted from both sides, with the accumulator's own per-call overhead, so
 what remains is the driver's work (plus the in-memory port's byte handling, the same bytes on
 both sides). The emulated motors' physics is frozen during this measurement (nothing steps their
-simulation; torque stays off, so nothing would move anyway); ``--live-physics`` runs the
+simulation; their torque limit is 0, so nothing would move anyway); ``--live-physics`` runs the
 simulation in real time on its own thread, which only adds noise. Both sides must read back
 exactly the positions the emulated motors hold and leave the goals they wrote in the motors'
 control tables, and must put the same number of bytes and instructions on the wire; the run
@@ -178,6 +178,11 @@ class Workload:
                                   for goals in self.goal_sets)
         emulator = bus.emulator
         assert emulator is not None
+        for i in config.ids:
+            # A 1.0 goal write switches torque on (as on the hardware): with no torque allowed
+            # the horns stay where they are, so every cycle must read the same positions.
+            motor = emulator.motor(i)
+            motor.set_raw("torque_limit" if m.protocol == 1 else "pwm_limit", 0)
         self.expected = {i: emulator.motor(i).get_raw("present_position") for i in config.ids}
         if len(set(self.expected.values())) != n:
             raise BenchmarkError("emulated motors should all stand at different positions")

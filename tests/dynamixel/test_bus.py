@@ -60,7 +60,8 @@ def test_several_registers_of_one_motor_are_one_contiguous_read() -> None:
     assert got["present_position"] == 512
     assert got["present_speed"] == 0
     assert got["present_load"] == 1024 + 300       # 30 %, clockwise bit
-    assert got["present_voltage"] == pytest.approx(120, abs=5)
+    # the emulated supply is the model's nominal voltage (RX-28: 18.5 V, e-Manual)
+    assert got["present_voltage"] == pytest.approx(10 * motor.model.nominal_voltage, abs=5)
 
 
 def test_read_of_distant_registers_spans_the_gap_in_one_read() -> None:

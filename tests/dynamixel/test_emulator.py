@@ -29,6 +29,10 @@ from servolab.sim import emulated_port
 RX28_DEG_PER_TICK = 300.0 / 1023        # e-Manual: 0..1023 over 300°
 EX106_DEG_PER_TICK = 250.92 / 4095      # e-Manual (EX-106+): 0..4095 over 250.92°
 X_TICKS_PER_REV = 4096
+# No-load speeds, RX-28 85 rpm and EX-106+ 91 rpm, both at 18.5 V (their e-Manual pages,
+# Specifications); the emulated supply is the nominal voltage the model's page gives.
+RX28_NO_LOAD_RPM = 85.0
+EX106_NO_LOAD_RPM = 91.0
 
 
 def rpm_to_ticks_per_s(rpm: float, deg_per_tick: float) -> float:
@@ -87,7 +91,7 @@ def test_joint_mode_moves_at_moving_speed_and_stops_at_goal(goal: int, sign: int
 
 
 @pytest.mark.parametrize(("spec_text", "rpm", "deg_per_tick", "goal"), [
-    ("rx28:1", model("RX-28").no_load_speed_rpm, RX28_DEG_PER_TICK, 1000),
+    ("rx28:1", RX28_NO_LOAD_RPM, RX28_DEG_PER_TICK, 1000),
     ("mx28:1", 55.0, 360.0 / 4096, 4000),       # e-Manual MX-28: 55 rpm at 12 V
 ])
 def test_moving_speed_zero_means_no_load_speed(spec_text: str, rpm: float,
@@ -102,31 +106,72 @@ def test_moving_speed_zero_means_no_load_speed(spec_text: str, rpm: float,
     assert p2 - p1 == pytest.approx(rpm_to_ticks_per_s(rpm, deg_per_tick) * elapsed, abs=2)
 
 
-@pytest.mark.parametrize(("spec_text", "deg_per_tick", "modulus"), [
-    ("ex106+:1", EX106_DEG_PER_TICK, 4096),
-    ("rx28:1", RX28_DEG_PER_TICK, 1024),
-])
 @pytest.mark.parametrize("clockwise", [True, False])
-def test_wheel_mode_turns_at_commanded_speed_and_wraps(spec_text: str, deg_per_tick: float,
-                                                       modulus: int, clockwise: bool) -> None:
-    """1.0 wheel mode (both angle limits 0): moving_speed is a signed speed (bit 10 =
-    clockwise), the horn turns endlessly, and present_position wraps at the model's
-    resolution."""
-    bus = Bus.open(f"emu://{spec_text}", baudrate=57142)
+def test_ex106_wheel_mode_moving_speed_is_output_and_position_counts_to_65535(
+        clockwise: bool) -> None:
+    """EX-106+ wheel mode: moving_speed 400 is 39 % output, so 400/1023 of 91 rpm unloaded,
+    and present_position is the encoder count, 0.06° per count, from 65535 back to 0 (e-Manual,
+    EX-106+ Present Position: "If it is decreased when the value is 0, it becomes 65535")."""
+    bus = Bus.open("emu://ex106+:1", baudrate=57142)
     bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
     units = 400
-    bus.write(1, "moving_speed", units | (0x400 if clockwise else 0), raw=True)
     bus.write(1, "torque_enable", 1)
-    p1, p2, elapsed = two_samples(bus, 1, "present_position", 1.5)
-    travel = rpm_to_ticks_per_s(units * 0.111, deg_per_tick) * elapsed
-    assert travel > modulus             # the reading must have wrapped at least once
-    expected = p1 + (-travel if clockwise else travel)
-    assert 0 <= p2 < modulus
-    assert circular_diff(p2, expected, modulus) <= 2
+    bus.write(1, "moving_speed", units | (0x400 if clockwise else 0), raw=True)
+    p1, p2, elapsed = two_samples(bus, 1, "present_position", 2.0)
+    rpm = units / 1023 * EX106_NO_LOAD_RPM
+    travel = rpm_to_ticks_per_s(rpm, EX106_DEG_PER_TICK) * elapsed
+    assert circular_diff(p2, p1 + (-travel if clockwise else travel), 65536) <= 2
     speed = bus.read(1, "present_speed", raw=True)
-    assert speed & 0x3FF == pytest.approx(units, abs=1)
+    assert speed & 0x3FF == pytest.approx(units, abs=1)     # the output ratio, 0.1 % units
     assert bool(speed & 0x400) == clockwise
-    assert bus.read(1, "present_speed") * (-1 if clockwise else 1) > 0
+    # Past the wrap: 65 536 counts at full output (91 rpm) take under 7.5 s.
+    bus.write(1, "moving_speed", 1023 | (0x400 if clockwise else 0), raw=True)
+    q1, q2, elapsed = two_samples(bus, 1, "present_position", 9.0)
+    travel = rpm_to_ticks_per_s(EX106_NO_LOAD_RPM, EX106_DEG_PER_TICK) * elapsed
+    assert travel > 65536
+    assert 0 <= q2 <= 65535
+    assert circular_diff(q2, q1 + (-travel if clockwise else travel), 65536) <= 2
+
+
+def test_rx28_wheel_mode_reads_its_potentiometer_every_360_degrees() -> None:
+    """RX-28 wheel mode: the potentiometer reads 0..1023 over 300° of each turn of the horn
+    (e-Manual: 0.29° per unit, 300° range; "the value cannot be used to measure the moving
+    distance" in wheel mode), so a full 360° turn brings back the same reading."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "moving_speed", 1023, raw=True)           # full output: 85 rpm
+    seconds_per_turn = 60.0 / RX28_NO_LOAD_RPM
+    samples = []
+    for _ in range(12):
+        bus.port.clock.advance(seconds_per_turn / 5)
+        motor.sync()      # the firmware's reading now, without a packet's wire time
+        reading = motor.get_raw("present_position")
+        horn_deg = math.degrees(motor.plant.position) + 150.0   # tick 0 is at 0°
+        samples.append((horn_deg % 360.0, reading))
+    assert max(h for h, _ in samples) - min(h for h, _ in samples) > 200   # went round
+    for horn, reading in samples:
+        if horn <= 299.0:
+            assert reading == pytest.approx(horn / RX28_DEG_PER_TICK, abs=2)
+        elif horn >= 301.0:
+            assert reading in (0, 1023)                     # the 60° it cannot read
+    speed = bus.read(1, "present_speed", raw=True)
+    assert speed == 1023                                    # 100 % output, CCW
+
+
+def test_rx28_wheel_mode_at_full_output_turns_at_no_load_speed() -> None:
+    """RX-28 wheel mode at moving_speed 1023 (100 % output) turns at the no-load speed of
+    85 rpm at 18.5 V (e-Manual, RX-28 Specifications)."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    bus.write(1, "moving_speed", 1023, raw=True)
+    bus.port.clock.advance(0.01)
+    start = motor.plant.position
+    bus.port.clock.advance(1.0)
+    assert (motor.plant.position - start) / (2 * math.pi) * 60 == pytest.approx(
+        RX28_NO_LOAD_RPM, rel=0.01)
 
 
 def test_x_velocity_mode_counts_turns_and_position_mode_stays_in_one_turn() -> None:
@@ -169,7 +214,7 @@ def test_x_position_mode_moves_to_goal() -> None:
 
 def test_speed_is_capped_at_no_load_speed() -> None:
     """A commanded speed above what the motor can do gives the no-load speed, not more:
-    XL430-W250 at 12 V turns at most 57 rpm (e-Manual), even told its velocity limit of
+    XL430-W250 at 11.1 V turns at most 57 rpm (e-Manual), even told its velocity limit of
     265 × 0.229 = 60.7 rpm."""
     bus = Bus.open("emu://xl430-w250:1", baudrate=1_000_000)
     bus.write(1, "operating_mode", 1, raw=True)
@@ -194,18 +239,6 @@ def test_goal_velocity_range_follows_velocity_limit() -> None:
     assert p2 - p1 == pytest.approx(77.0 / 60 * 4096 * elapsed, abs=2)
 
 
-def test_rx28_wheel_speed_is_capped_at_no_load_speed() -> None:
-    """RX-28 wheel mode at moving_speed 1023 (113.6 rpm) turns at the no-load speed."""
-    bus = Bus.open("emu://rx28:1", baudrate=57142)
-    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
-    bus.write(1, "moving_speed", 1023, raw=True)
-    bus.write(1, "torque_enable", 1)
-    bus.port.clock.advance(0.1)
-    speed = bus.read(1, "present_speed", raw=True)
-    assert speed == pytest.approx(model("RX-28").no_load_speed_rpm / 0.111, abs=1)
-    assert speed < 1023
-
-
 def test_rx28_joint_speed_is_capped_at_no_load_speed() -> None:
     """Joint mode too: moving_speed 1023 (113.6 rpm) moves the horn at the no-load speed,
     the same as moving_speed 0."""
@@ -214,40 +247,153 @@ def test_rx28_joint_speed_is_capped_at_no_load_speed() -> None:
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 1000, raw=True)
     p1, p2, elapsed = two_samples(bus, 1, "present_position", 0.1)
-    no_load = rpm_to_ticks_per_s(model("RX-28").no_load_speed_rpm, RX28_DEG_PER_TICK)
+    no_load = rpm_to_ticks_per_s(RX28_NO_LOAD_RPM, RX28_DEG_PER_TICK)
     assert p2 - p1 == pytest.approx(no_load * elapsed, abs=2)
 
 
 def test_torque_off_means_no_motion() -> None:
     """With torque off the horn is free: goals and speeds are stored but nothing moves."""
     bus = Bus.open("emu://rx28:1", baudrate=57142)
-    bus.write(1, "goal_position", 1000, raw=True)
-    bus.write(1, "moving_speed", 500, raw=True)
+    bus.write(1, {"goal_position": 1000, "moving_speed": 500}, raw=True)
+    bus.write(1, "torque_enable", 0)      # the goal write switched it on (1.0); off again
     p1, p2, _ = two_samples(bus, 1, "present_position", 1.0)
-    assert p1 == p2 == 512
+    assert abs(p1 - p2) <= 1 and bus.read(1, "moving", raw=True) == 0
     assert bus.read(1, "goal_position", raw=True) == 1000
-    assert bus.read(1, "moving", raw=True) == 0
 
     xbus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000)
     xbus.write(1, "operating_mode", 1, raw=True)
-    xbus.write(1, "goal_velocity", 100, raw=True)
+    xbus.write(1, "goal_velocity", 100, raw=True)   # drive_mode bit 3 is 0 by default
     q1, q2, _ = two_samples(xbus, 1, "present_position", 1.0)
     assert q1 == q2 == 2048
+    assert xbus.read(1, "torque_enable", raw=True) == 0
 
 
-@pytest.mark.parametrize(("spec_text", "baud", "voltage_reg", "load_reg"), [
-    ("rx28:1", 57142, "present_voltage", "present_load"),
-    ("mx28:1", 57142, "present_voltage", "present_load"),
-    ("xm430-w210:1", 1_000_000, "present_input_voltage", "present_current"),
-    ("xl430-w250:1", 1_000_000, "present_input_voltage", "present_load"),
+# -- torque rules ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("register", ["goal_position", "moving_speed"])
+@pytest.mark.parametrize("spec_text", ["rx28:1", "ex106+:1", "mx28:1"])
+def test_protocol1_goal_or_speed_write_switches_torque_on(spec_text: str,
+                                                          register: str) -> None:
+    """Protocol 1.0 servos switch torque on when goal_position or moving_speed is written:
+    seed 000 drives its EX-106+ wheels with a SYNC_WRITE of moving_speed alone and ROS
+    dynamixel_motor (seed 001) writes goal positions without a torque write, and both move
+    their robots (the e-Manual does not describe it; the seeds' working programs do)."""
+    bus = Bus.open(f"emu://{spec_text}", baudrate=57142)
+    assert bus.read(1, "torque_enable", raw=True) == 0        # factory: torque off
+    value = 600 if register == "goal_position" else 200
+    bus.write(1, register, value, raw=True)
+    assert bus.read(1, "torque_enable", raw=True) == 1
+    if register == "goal_position":
+        bus.port.clock.advance(3.0)
+        assert bus.read(1, "present_position", raw=True) == 600
+
+
+@pytest.mark.parametrize("via", ["write", "sync_write"])
+def test_x_series_goal_switches_torque_on_only_with_drive_mode_bit_3(via: str) -> None:
+    """X-series (firmware 45): with Drive Mode(10) bit 3 "Torque On by Goal Update" a goal
+    written with torque off switches it on; without it the goal waits for a torque write
+    (e-Manual, Drive Mode(10), available from firmware V45)."""
+    bus = Bus.open("emu://xm430-w210:1-2", baudrate=1_000_000)
+    bus.write(2, "drive_mode", 0x08, raw=True)
+
+    def send(goals: dict[int, int]) -> None:
+        if via == "write":
+            for motor_id, goal in goals.items():
+                bus.write(motor_id, "goal_position", goal, raw=True)
+        else:
+            bus.sync_write("goal_position", goals, raw=True)
+
+    send({1: 3000, 2: 3000})
+    bus.port.clock.advance(2.0)
+    assert bus.sync_read("torque_enable", [1, 2], raw=True) == {1: 0, 2: 1}
+    assert bus.sync_read("present_position", [1, 2], raw=True) == {1: 2048, 2: 3000}
+
+
+def test_x_series_drive_mode_reverse_mirrors_position_but_not_homing_offset() -> None:
+    """Drive Mode bit 0 (Reverse): "Goal Position, Present Position will have an inverted
+    direction", while "the sign of Homing Offset value will not be reversed" (e-Manual,
+    Drive Mode(10) and Homing Offset(20)). The same goal turns the two horns opposite ways."""
+    bus = Bus.open("emu://xl430-w250:1-2", baudrate=1_000_000)
+    bus.write(2, {"drive_mode": 0x01}, raw=True)
+    bus.write(2, "homing_offset", 100, raw=True)
+    assert bus.read(2, "present_position", raw=True) == 2048 + 100
+    for motor_id in (1, 2):
+        bus.write(motor_id, "torque_enable", 1)
+        bus.write(motor_id, "goal_position", 2548, raw=True)
+    bus.port.clock.advance(2.0)
+    assert bus.sync_read("present_position", [1, 2], raw=True) == {1: 2548, 2: 2548}
+    horn1 = bus.emulator.motor(1).plant.position
+    horn2 = bus.emulator.motor(2).plant.position
+    assert horn1 == pytest.approx(500 * 2 * math.pi / 4096)
+    assert horn2 == pytest.approx(-400 * 2 * math.pi / 4096)   # mirrored, offset unmirrored
+
+
+def test_torque_limit_zero_holds_the_horn() -> None:
+    """1.0 Torque Limit(34) caps the output: "only 50 % of the maximum torque will be used" at
+    512, none at 0 (e-Manual, Torque Limit) — with torque limit 0 the motor does not move."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    bus.write(1, "torque_limit", 0, raw=True)
+    bus.write(1, "goal_position", 900, raw=True)
+    bus.port.clock.advance(1.0)
+    assert bus.read(1, "present_position", raw=True) == 512
+    assert bus.read(1, "torque_enable", raw=True) == 1
+
+
+def test_max_torque_is_the_torque_limit_at_power_up() -> None:
+    """"When the power is turned on, Torque Limit(34) is reset to the value of Max
+    Torque(14)" (e-Manual, Torque Limit)."""
+    m = VirtualMotor(model("RX-28"), 1)
+    m.set_raw("max_torque", 400)
+    m.execute(PROTOCOL1.reset(1), "RESET")   # defaults again: max torque 1023
+    assert m.get_raw("torque_limit") == 1023
+    fresh = VirtualMotor(model("EX-106+"), 1)
+    assert fresh.get_raw("torque_limit") == fresh.get_raw("max_torque") == 1023
+
+
+def test_x_series_current_based_position_is_multi_turn_and_limited_by_goal_current() -> None:
+    """Current-based Position (mode 5) takes goals over -1 048 575..1 048 575 and counts turns
+    (e-Manual, Goal Position(116)); Goal Current(102) "sets a limit to current" there (e-Manual,
+    Goal Current(102)): with goal current 0 the horn stays put."""
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "operating_mode", 5, raw=True)
+    bus.write(1, "goal_current", 0, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 2048 + 3 * 4096, raw=True)
+    bus.port.clock.advance(1.0)
+    assert bus.read(1, "present_position", raw=True) == 2048
+    bus.write(1, "goal_current", 600, raw=True)
+    bus.port.clock.advance(5.0)
+    assert bus.read(1, "present_position", raw=True) == 2048 + 3 * 4096
+    bus.write(1, "goal_position", -1_048_575, raw=True)      # the range's end is accepted
+    assert bus.read(1, "goal_position", raw=True) == -1_048_575
+
+
+def test_x_series_extended_position_counts_turns() -> None:
+    """Extended Position (mode 4): -256..256 turns, present position counts them (e-Manual,
+    Goal Position(116))."""
+    bus = Bus.open("emu://xl430-w250:1", baudrate=1_000_000)
+    bus.write(1, "operating_mode", 4, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", -2 * 4096 + 100, raw=True)
+    bus.port.clock.advance(8.0)
+    assert bus.read(1, "present_position", raw=True) == -2 * 4096 + 100
+
+
+# The supply is the voltage each model's e-Manual page rates its speed at: RX-28 18.5 V,
+# MX-28 12 V, XM430 12 V, XL430-W250 11.1 V.
+@pytest.mark.parametrize(("spec_text", "baud", "voltage_reg", "load_reg", "volts"), [
+    ("rx28:1", 57142, "present_voltage", "present_load", 18.5),
+    ("mx28:1", 57142, "present_voltage", "present_load", 12.0),
+    ("xm430-w210:1", 1_000_000, "present_input_voltage", "present_current", 12.0),
+    ("xl430-w250:1", 1_000_000, "present_input_voltage", "present_load", 11.1),
 ])
 def test_sensors_are_plausible(spec_text: str, baud: int, voltage_reg: str,
-                               load_reg: str) -> None:
-    """Voltage near the 12 V supply, temperature between 20 and 80 °C, load within ±100 %,
+                               load_reg: str, volts: float) -> None:
+    """Voltage near the supply, temperature between 20 and 80 °C, load within ±100 %,
     whether still or moving."""
     bus = Bus.open(f"emu://{spec_text}", baudrate=baud)
     for _ in range(2):
-        assert bus.read(1, voltage_reg) == pytest.approx(12.0, abs=0.5)
+        assert bus.read(1, voltage_reg) == pytest.approx(volts, abs=0.5)
         assert 20.0 <= bus.read(1, "present_temperature") <= 80.0
         load = bus.read(1, load_reg)
         assert abs(load) <= (1.0 if load_reg == "present_load" else 1193 * 0.00269)
@@ -486,9 +632,11 @@ def test_unresponsive_motor_raises_no_response_naming_it(spec_text: str, baud: i
 
 # -- hardware errors ---------------------------------------------------------------------------
 
-def test_protocol1_overload_sets_bit_in_every_status_and_turns_torque_off() -> None:
+def test_protocol1_overload_sets_bit_in_every_status_and_zeroes_torque_limit() -> None:
     """1.0: a hardware error is a bit of every status error byte until cleared; overload is
-    in the default alarm shutdown set, so torque goes off."""
+    in the default alarm shutdown set (36), so "the motor output becomes 0 % by resetting the
+    value of Torque Limit(34) to 0" while torque enable stays; a torque limit other than 0
+    lets it run again (e-Manual, Alarm Shutdown and Torque Limit)."""
     bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "torque_enable", 1)
     bus.emulator.motor(1).inject_hardware_error("overload")
@@ -499,7 +647,15 @@ def test_protocol1_overload_sets_bit_in_every_status_and_turns_torque_off() -> N
             action()
         assert "overload" in info.value.errors
         assert info.value.raw & 0x20
-    assert bus.read(1, "torque_enable", raw=True, check=False) == 0
+    assert bus.read(1, ["torque_enable", "torque_limit"], raw=True, check=False) == {
+        "torque_enable": 1, "torque_limit": 0}
+    bus.emulator.motor(1).set_raw("goal_position", 900)
+    bus.port.clock.advance(1.0)
+    assert bus.read(1, "present_position", raw=True, check=False) == 512   # no output
+    bus.emulator.motor(1).clear_hardware_error()
+    bus.write(1, "torque_limit", 1023, raw=True)
+    bus.port.clock.advance(2.0)
+    assert bus.read(1, "present_position", raw=True) == 900
 
 
 def test_protocol2_hardware_error_sets_alert_and_status_register() -> None:
@@ -530,6 +686,24 @@ def test_reboot_clears_hardware_error() -> None:
     assert bus.read(1, "hardware_error_status", raw=True) == 0
     assert bus.read(1, "return_delay_time", raw=True) == 10
     assert bus.read(1, "torque_enable", raw=True) == 0
+    bus.write(1, "torque_enable", 1)
+    assert bus.read(1, "torque_enable", raw=True) == 1
+
+
+def test_x_series_torque_stays_off_after_shutdown_until_reboot() -> None:
+    """"REBOOT is the only method to reset Torque Enable(64) to '1' after the shutdown"
+    (e-Manual, Shutdown(63)): neither a torque write nor Drive Mode bit 3 brings it back."""
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "drive_mode", 0x08, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).inject_hardware_error("overload")
+    for name, value in (("torque_enable", 1), ("goal_position", 3000)):
+        with pytest.raises(MotorError):          # every status carries the alert
+            bus.write(1, name, value, raw=True)
+        assert bus.read(1, "torque_enable", raw=True, check=False) == 0
+    bus.reboot(1)
+    bus.write(1, "goal_position", 3000, raw=True)   # bit 3 switches it on again
+    assert bus.read(1, "torque_enable", raw=True) == 1
 
 
 # -- injected faults -------------------------------------------------------------------------
@@ -699,11 +873,11 @@ def test_protocol1_joint_mode_after_wheel_mode_reads_within_one_turn() -> None:
     motor = bus.emulator.motor(1)
     bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)   # wheel mode
     bus.write(1, "torque_enable", 1)
-    bus.write(1, "moving_speed", 5.0)
-    bus.port.clock.advance(4.0)                         # about three turns and a bit
+    bus.write(1, "moving_speed", 5.0)                   # wheel mode: 42 % output
+    bus.port.clock.advance(8.0)                         # more than three turns
     assert motor.plant.position > 3 * 2 * math.pi
-    bus.write(1, "moving_speed", 0.0)
-    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 1023}, raw=True)  # joint mode
+    bus.write(1, "torque_enable", 0)                    # stopped, and limp while it
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 1023}, raw=True)  # goes joint
     horn = math.remainder(motor.plant.position, 2 * math.pi)
     if abs(horn) < 2.6:                                 # outside the pot's dead zone
         assert bus.read(1, "present_position") == pytest.approx(horn, abs=0.006)

@@ -205,11 +205,12 @@ def test_x_series_factory_defaults(name: str) -> None:
 
 
 @pytest.mark.parametrize(("name", "rpm", "volts"), [
+    ("RX-28", 85.0, 18.5),
     ("EX-106+", 91.0, 18.5),
     ("MX-28", 55.0, 12.0),
     ("XM430-W210", 77.0, 12.0),
     ("XM430-W350", 46.0, 12.0),
-    ("XL430-W250", 57.0, 12.0),
+    ("XL430-W250", 57.0, 11.1),  # e-Manual: 57 rpm at the recommended 11.1 V
 ])
 def test_no_load_speed_matches_emanual(name: str, rpm: float, volts: float) -> None:
     """The emulator moves at this speed when told 'as fast as you can'; it must be the

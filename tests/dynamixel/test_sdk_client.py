@@ -153,3 +153,85 @@ def test_motors_are_silent_at_another_baud_rate(tmp_path: Path) -> None:
             assert number == 107   # EX-106+
         finally:
             port.closePort()
+
+
+def test_sdk_goal_write_without_torque_write_moves_a_protocol1_servo(tmp_path: Path) -> None:
+    """What seed 001's dynamixel_motor does, done with the SDK: PING, then write a goal position
+    and never torque_enable; a Protocol 1.0 servo switches torque on by itself and goes there
+    (the seeds' working programs rely on it)."""
+    with sim_process("--motors", "rx28:7", out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 1.0)
+        try:
+            (number,) = _ok(ph.ping(port, 7))
+            assert number == 28
+            _ok(ph.write2ByteTxRx(port, 7, 30, 700))            # goal_position only
+            seen: list[int] = []
+
+            def arrived() -> bool:
+                (pos,) = _ok(ph.read2ByteTxRx(port, 7, 36))
+                seen.append(pos)
+                return pos == 700
+
+            assert wait_until(arrived, timeout=10.0), f"never reached 700: {seen}"
+            assert len(set(seen)) > 2 and seen == sorted(seen)   # moved there, monotonically
+            (torque,) = _ok(ph.read1ByteTxRx(port, 7, 24))
+            assert torque == 1
+        finally:
+            port.closePort()
+
+
+def _seed000_tx(m12: int, m34: int) -> bytes:
+    """The SYNC_WRITE packet of seed 000's ``tx.m``, byte for byte as its MATLAB builds it
+    through the old ROBOTIS dynamixel library: broadcast ID, length 16, instruction 0x83,
+    start address 32 (moving speed), 2 bytes per motor, IDs 1-4. Its slips are kept: motor 3
+    gets the high byte of the constant 34 and motor 4 both bytes of it, instead of ``m34``."""
+    low, high = (lambda v: v & 0xFF), (lambda v: (v >> 8) & 0xFF)
+    params = [32, 2, 1, low(m12), high(m12), 2, low(m12), high(m12),
+              3, low(m34), high(34), 4, low(34), high(34)]
+    body = [0xFE, 16, 0x83, *params]
+    return bytes([0xFF, 0xFF, *body, ~sum(body) & 0xFF])
+
+
+def test_seed000_sync_write_of_moving_speed_turns_ex106_wheels(tmp_path: Path) -> None:
+    """Seed 000 drives four EX-106+ in wheel mode at 1 Mbps: ``tx(1023+s, s)`` with s = 30 %
+    of 1023 sends motors 1-2 clockwise at 30 % output and 3-4 counter-clockwise, with no
+    torque write anywhere; the robot drives until the encoder count of motor 4 (wheel mode:
+    0..65535, e-Manual EX-106+ Present Position) has moved the distance, then
+    ``dxl_write_word(254, 32, 0)`` stops all. The bytes go to the emulator exactly as the seed
+    sends them."""
+    with sim_process("--motors", "ex106+:1-4", "--baud", "1000000",
+                     out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 1.0)
+        try:
+            assert port.setBaudRate(1_000_000)
+            for motor_id in (1, 2, 3, 4):                   # the robot's wheel-mode setup
+                _ok(ph.write2ByteTxRx(port, motor_id, 6, 0))
+                _ok(ph.write2ByteTxRx(port, motor_id, 8, 0))
+            s = round(30 / 100 * 1023)                      # "Speed Percentage: 30"
+            starts = {i: _ok(ph.read2ByteTxRx(port, i, 36))[0] for i in (1, 2, 3, 4)}
+            port.writePort(list(_seed000_tx(1023 + s, s)))   # tx(a, b) for a positive distance
+            counted = 0
+            p = starts[4]
+
+            def odometry_reached() -> bool:
+                nonlocal counted, p
+                (q,) = _ok(ph.read2ByteTxRx(port, 4, 36))   # the seed's loop, motor m = 4
+                counted += q - p if q - p >= 0 else q - p + 65535
+                p = q
+                return counted > 1000
+            assert wait_until(odometry_reached, timeout=20.0), counted
+            for motor_id in (1, 2, 3, 4):
+                (torque,) = _ok(ph.read1ByteTxRx(port, motor_id, 24))
+                assert torque == 1                          # switched on by the speed write
+                (speed,) = _ok(ph.read2ByteTxRx(port, motor_id, 38))
+                assert bool(speed & 0x400) == (motor_id in (1, 2))   # 1-2 clockwise
+            (speed1,) = _ok(ph.read2ByteTxRx(port, 1, 38))
+            assert speed1 & 0x3FF == pytest.approx(s, abs=2)  # 30 % output, 0.1 % units
+            ph.write2ByteTxOnly(port, 254, 32, 0)           # "transmit 0% speed to all"
+
+            def stopped() -> bool:
+                return all(_ok(ph.read2ByteTxRx(port, i, 38))[0] & 0x3FF == 0
+                           for i in (1, 2, 3, 4))
+            assert wait_until(stopped, timeout=5.0)
+        finally:
+            port.closePort()

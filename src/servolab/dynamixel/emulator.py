@@ -14,6 +14,7 @@ pseudo-terminal.
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 from collections.abc import Iterable, Sequence
@@ -36,7 +37,29 @@ _SETTINGS = frozenset({
     "id", "baud_rate", "homing_offset", "temperature_limit", "return_delay_time",
     "status_return_level", "torque_enable", "goal_position", "moving_speed", "torque_limit",
     "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm",
-    "goal_current", "profile_velocity", "pwm_limit", "current_limit"})
+    "goal_current", "profile_velocity", "pwm_limit", "current_limit", "drive_mode",
+    "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
+    "multi_turn_offset", "resolution_divider"})
+
+#: Protocol 1.0: writing either of these switches torque on (the seeds' programs rely on it:
+#: seed 000 drives its EX-106+ wheels with a SYNC_WRITE of moving_speed alone, and ROS
+#: dynamixel_motor's joint controllers write goal_position without ever writing torque_enable).
+_TORQUE_ON_1 = frozenset({"goal_position", "moving_speed"})
+#: X-series goal registers: what Drive Mode bit 3 (Torque On by Goal Update, firmware V45)
+#: reacts to, and what a bus watchdog error makes read-only (e-Manual, Drive Mode(10) and
+#: Bus Watchdog(98)).
+_GOALS_2 = frozenset({"goal_position", "goal_velocity", "goal_current", "goal_pwm"})
+#: Firmware from which Drive Mode bit 3 exists on the X-series (e-Manual, Drive Mode(10)).
+_TORQUE_ON_BY_GOAL_FIRMWARE = 45
+#: Firmware from which a broadcast FACTORY_RESET with option 0xFF (reset all) is ignored
+#: (e-Manual, Protocol 2.0, Factory Reset, firmware v42 and above).
+_BROADCAST_RESET_ALL_IGNORED_FROM = 42
+#: Bus Watchdog(98) counts in 20 ms units (e-Manual, Bus Watchdog(98)).
+_WATCHDOG_UNIT_S = 0.020
+#: MX-28 multi-turn mode's position range, ±28 672 (e-Manual, MX-28 CW/CCW Angle Limit).
+_MULTI_TURN_1 = 28672
+#: A Secondary ID of 253 or more switches the secondary ID off (e-Manual, Secondary ID(12)).
+_SECONDARY_OFF = 253
 
 
 #: Instructions that address several motors whatever their packet's ID says.
@@ -124,6 +147,8 @@ class VirtualMotor:
         self._steps_done = 0
         self._stale = True          # present_* registers need refreshing from the plant
         self._pending: tuple[int, bytes] | None = None
+        self._heard_step = 0        # the step of the last instruction that reached the motor
+        self._watchdog_tripped = False
         self._table_changed()
         self._hold_position()
 
@@ -137,6 +162,7 @@ class VirtualMotor:
 
     # -- control table -------------------------------------------------------------------------
     def _load_defaults(self, keep: Iterable[str]) -> None:
+        """The table as at power-up: factory defaults (but the registers in ``keep``)."""
         kept = {name: self.get_raw(name) for name in keep}
         self.table[:] = bytes(len(self.table))
         for reg in self.model.registers:
@@ -145,6 +171,13 @@ class VirtualMotor:
         self._set_raw("firmware_version", self.model.firmware)
         for name, value in kept.items():
             self._set_raw(name, value)
+        if self.model.has("max_torque"):
+            # "When the power is turned on, Torque Limit(34) is reset to the value of Max
+            # Torque(14)" (e-Manual, Torque Limit).
+            reg = self.model.register("torque_limit")
+            self.table[reg.address:reg.address + reg.size] = reg.encode(
+                self.get_raw("max_torque"))
+        self._watchdog_tripped = False
 
     def get_raw(self, name: str) -> int:
         reg = self.model.register(name)
@@ -177,31 +210,60 @@ class VirtualMotor:
 
     def _table_changed(self) -> None:
         """Registers changed: refresh what the firmware keeps decoded and tell the plant."""
+        m = self.model
+        v1 = m.protocol == 1
         motor_id = self.get_raw("id")
-        if getattr(self, "_id", motor_id) != motor_id and self._emulator is not None:
-            self._emulator._by_id = None  # the bus's ID index is out of date
+        secondary_id = self._try_get("secondary_id", _SECONDARY_OFF)
+        secondary = secondary_id if secondary_id < _SECONDARY_OFF else None
+        emulator = getattr(self, "_emulator", None)
+        if emulator is not None and (getattr(self, "_id", motor_id), getattr(
+                self, "_secondary_id", secondary)) != (motor_id, secondary):
+            emulator._by_id = None  # the bus's ID index is out of date
         self._id = motor_id
-        self._baudrate = self.model.baud_from_register(self.get_raw("baud_rate"))
+        self._secondary_id = secondary
+        self._baudrate = m.baud_from_register(self.get_raw("baud_rate"))
         self._temperature_limit = float(self.get_raw("temperature_limit"))
         self._return_delay = self._si("return_delay_time")
         self._status_level = self.get_raw("status_return_level")
-        wheel = (self.get_raw("cw_angle_limit") == 0 == self.get_raw("ccw_angle_limit")
-                 if self.model.protocol == 1 else self.get_raw("operating_mode") in (0, 1, 16))
-        if (self.model.protocol == 1 and getattr(self, "_wheel", False) and not wheel
-                and hasattr(self, "_plant")):
+        mode = -1 if v1 else self.get_raw("operating_mode")
+        if v1:
+            limits = (self.get_raw("cw_angle_limit"), self.get_raw("ccw_angle_limit"))
+            wheel = limits == (0, 0)
+            # MX-28: both angle limits at 4095 is multi-turn mode (e-Manual, MX-28 CW/CCW
+            # Angle Limit).
+            top = m.register("ccw_angle_limit").raw_max
+            self._multi_turn = m.has("multi_turn_offset") and limits == (top, top)
+        else:
+            wheel = mode in (0, 1, 16)
+            self._multi_turn = False
+        drive = self._try_get("drive_mode")
+        # Drive Mode bit 0 reverses the direction; EX-106+ and MX-106 ignore it in wheel mode
+        # (e-Manual, Drive Mode(10)).
+        reverse = bool(drive & 0x01) and not (v1 and wheel)
+        if hasattr(self, "_plant") and getattr(self, "_sign", 1) != (-1 if reverse else 1):
+            self._offset_ticks = -self._offset_ticks  # the count mirrors about the centre
+        self._sign = -1 if reverse else 1
+        self._torque_on_goal = (not v1 and bool(drive & 0x08)
+                                and m.firmware >= _TORQUE_ON_BY_GOAL_FIRMWARE)
+        if v1 and getattr(self, "_wheel", False) and not wheel and hasattr(self, "_plant"):
             # Back in joint mode a 1.0 servo reads its potentiometer, which knows no turns:
             # the firmware's angle is the horn's within one turn from here on.
-            angle = units.ticks_position(self.model, units.position_ticks(
-                self.model, self._plant.position) - self._offset_ticks)
+            angle = units.ticks_position(m, self._firmware_ticks(self._plant.position))
             self._offset_ticks += (angle - math.remainder(angle, 2 * math.pi)) \
-                / self.model.rad_per_tick
+                / m.rad_per_tick
         self._wheel = wheel
-        self._one_turn = self.model.protocol == 2 and self.get_raw("operating_mode") in (3, 5)
+        # Only Position Control Mode (3) is confined to one turn: Extended Position (4) and
+        # Current-based Position (5) count turns, goals -1 048 575..1 048 575 (e-Manual,
+        # Goal Position(116)).
+        self._one_turn = mode == 3
         # Present Position = Actual Position + Homing Offset; in the one-turn position mode
         # a homing offset outside -1024..1024 is ignored (e-Manual, Homing Offset(20)).
-        homing = self.get_raw("homing_offset") if self.model.has("homing_offset") else 0
+        homing = self._try_get("homing_offset")
         self._homing = homing if not self._one_turn or -1024 <= homing <= 1024 else 0
+        if self._try_get("bus_watchdog") >= 0:
+            self._watchdog_tripped = False  # writing 0 clears a bus watchdog error
         if hasattr(self, "_plant"):
+            self._check_voltage()
             self._plant.command = self._command()
             self._stale = True
 
@@ -255,8 +317,15 @@ class VirtualMotor:
         homing offset added, the turns a CLEAR dropped taken away)."""
         return self._present_ticks(self.plant.position)
 
+    def _firmware_ticks(self, joint: float) -> float:
+        """The count the firmware keeps for a joint angle: mirrored in reverse mode, less the
+        turns a CLEAR (or a return to joint mode) dropped."""
+        return units.position_ticks(self.model, self._sign * joint) - self._offset_ticks
+
     def _present_ticks(self, joint: float) -> float:
-        return units.position_ticks(self.model, joint) - self._offset_ticks + self._homing
+        # "In the case of Reverse Mode ... the sign of Homing Offset value will not be
+        # reversed" (e-Manual, Homing Offset(20)): the offset is added after the mirror.
+        return self._firmware_ticks(joint) + self._homing
 
     @property
     def velocity(self) -> float:
@@ -295,7 +364,23 @@ class VirtualMotor:
     def supply_voltage(self, volts: float) -> None:
         self.sync()
         self._supply_voltage = float(volts)
+        self._check_voltage()
         self._stale = True
+
+    def _check_voltage(self) -> None:
+        """Input Voltage Error while the supply is outside Min/Max Voltage Limit (e-Manual,
+        Min/Max Voltage Limit). A 1.0 servo reports the condition as it stands; an X-series
+        keeps the bit in Hardware Error Status until a REBOOT."""
+        if not self.model.has("min_voltage_limit"):
+            return
+        bit = _hardware_bit(self.model, "input voltage")
+        low, high = self._si("min_voltage_limit"), self._si("max_voltage_limit")
+        outside = not low <= self._supply_voltage <= high
+        if outside and not self.hardware_error & bit:
+            self._hardware_error(bit)
+        elif not outside and self.hardware_error & bit and self.model.protocol == 1:
+            self.hardware_error &= ~bit
+            self._sync_hardware_register()
 
     def inject_hardware_error(self, name: str) -> None:
         """Raise a hardware error as the real motor would: ``overload``, ``overheating``,
@@ -308,8 +393,21 @@ class VirtualMotor:
     def _hardware_error(self, bit: int) -> None:
         self.hardware_error |= bit
         if self.get_raw("shutdown") & bit:
-            self._set_raw("torque_enable", 0)
+            if self.model.protocol == 1:
+                # 1.0: "the motor output becomes 0 % by resetting the value of Torque
+                # Limit(34) to 0"; torque enable stays, and writing a torque limit other than
+                # 0 lets the motor run again (e-Manual, Alarm Shutdown and Torque Limit).
+                self._set_raw("torque_limit", 0)
+            else:
+                # X-series: "Torque Enable(64) is cleared to '0' ... REBOOT is the only method
+                # to reset Torque Enable(64) to '1' after the shutdown" (e-Manual, Shutdown).
+                self._set_raw("torque_enable", 0)
         self._sync_hardware_register()
+
+    def _shut_down(self) -> bool:
+        """An X-series motor stopped by a shutdown error, until a REBOOT."""
+        return self.model.protocol == 2 and bool(self.hardware_error
+                                                 & self.get_raw("shutdown"))
 
     def clear_hardware_error(self) -> None:
         self.hardware_error = 0
@@ -331,11 +429,40 @@ class VirtualMotor:
         emulator = self._emulator
         if emulator is not None and emulator.steps > self._steps_done:
             if self._lazy:
+                deadline = self._watchdog_deadline()
+                if deadline is not None and deadline <= emulator.steps:
+                    # The bus watchdog fires on its own step: move the joint to it first.
+                    self._catch_up(max(0, deadline - self._steps_done), emulator.dt)
+                    self._steps_done = max(self._steps_done, deadline)
+                    self._watchdog_trip()
                 self._catch_up(emulator.steps - self._steps_done, emulator.dt)
             self._steps_done = emulator.steps
             self._stale = True
         if self._stale:
             self._update_sensors()
+
+    def _heard(self) -> None:
+        """An instruction reached the motor: the bus watchdog counts from now."""
+        if self._emulator is not None:
+            self._heard_step = self._emulator.steps
+
+    def _watchdog_deadline(self) -> int | None:
+        """The step at which the bus watchdog stops the motor, or None while it is not armed.
+
+        It watches "the communication interval ... when Torque Enable(64) is '1'", in units of
+        20 ms (e-Manual, Bus Watchdog(98))."""
+        period = self._try_get("bus_watchdog")
+        emulator = self._emulator
+        if (period <= 0 or self._watchdog_tripped or emulator is None
+                or not emulator.dt > 0 or not self.get_raw("torque_enable")):
+            return None
+        return self._heard_step + math.ceil(period * _WATCHDOG_UNIT_S / emulator.dt - 1e-9)
+
+    def _watchdog_trip(self) -> None:
+        """No instruction for longer than the bus watchdog: the motor stops and Bus
+        Watchdog(98) reads -1 until a host writes 0 (e-Manual, Bus Watchdog(98))."""
+        self._watchdog_tripped = True
+        self._set_raw("bus_watchdog", -1)
 
     def _catch_up(self, steps: int, dt: float) -> None:
         """Step the default plant ``steps`` steps, stopping where it overheats so that the
@@ -353,6 +480,9 @@ class VirtualMotor:
         """A world stepped this motor's plant: the firmware's per-step duty."""
         self._steps_done = steps
         self._stale = True
+        deadline = self._watchdog_deadline()
+        if deadline is not None and steps >= deadline:
+            self._watchdog_trip()
         overheating = _hardware_bit(self.model, "overheating")
         if (self._plant.temperature > self._temperature_limit
                 and not self.hardware_error & overheating):
@@ -361,51 +491,99 @@ class VirtualMotor:
     def _command(self) -> ServoCommand:
         """The registers as the joint sees them: torque, the goal and the limits, in SI."""
         m = self.model
+        sign = self._sign
         torque = bool(self.get_raw("torque_enable"))
         if m.protocol == 1:
-            speed = self._si("moving_speed")
             limit = self._si("torque_limit")
             if self.wheel_mode:
-                return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
+                if not m.wheel_output_ratio:
+                    return ServoCommand(torque, True, goal_velocity=self._si("moving_speed"),
+                                        torque_limit=limit)
+                # Wheel mode on AX/RX/EX: moving_speed is the output in 0.1 % steps, bit 10
+                # clockwise; "only the output control is possible, not speed" (e-Manual,
+                # Moving Speed). Unloaded, the horn turns at that share of the no-load speed.
+                raw = self.get_raw("moving_speed")
+                share = (raw & 0x3FF) / 1023 * (-1 if raw & 0x400 else 1)
+                return ServoCommand(torque, True, goal_velocity=share * m.no_load_speed,
+                                    torque_limit=limit)
             return ServoCommand(torque, False, goal_position=self._goal_angle(),
-                                profile_velocity=abs(speed), torque_limit=limit)
+                                profile_velocity=abs(self._si("moving_speed")),
+                                torque_limit=limit)
         mode = self.get_raw("operating_mode")
+        # Effort: PWM Limit(36) caps the output, and on current-sensing models Current Limit(38)
+        # the current (as a share of its factory maximum); in Current-based Position mode
+        # Goal Current(102) "sets a limit to current" (e-Manual, Goal Current(102)).
         limit = self._si("pwm_limit")
+        if m.has("current_limit"):
+            full = m.register("current_limit").raw_max
+            limit = min(limit, self.get_raw("current_limit") / full)
+            if mode == 5:
+                limit = min(limit, abs(self.get_raw("goal_current")) / full)
+        if self._watchdog_tripped:
+            # The bus watchdog stopped the motor: it holds still whatever the goals say.
+            return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
+                                goal_position=self._plant.position)
         if mode == 1:
-            return ServoCommand(torque, True, goal_velocity=self._si("goal_velocity"),
+            return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
                                 torque_limit=limit)
         if mode == 16:
             return ServoCommand(torque, True, torque_limit=limit,
-                                goal_velocity=self._si("goal_pwm") * m.no_load_speed)
+                                goal_velocity=sign * self._si("goal_pwm") * m.no_load_speed)
         if mode == 0:
             share = self._try_get("goal_current") / max(1, self._try_get("current_limit", 1))
-            return ServoCommand(torque, True, goal_velocity=share * m.no_load_speed,
+            return ServoCommand(torque, True, goal_velocity=sign * share * m.no_load_speed,
                                 torque_limit=limit)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=self._si("profile_velocity"), torque_limit=limit)
 
     def _goal_angle(self) -> float:
-        """goal_position as an angle of the joint: in the one-turn position modes of 2.0 the
+        """goal_position as an angle of the joint: in the one-turn position mode of 2.0 the
         goal is an angle within the current turn."""
         goal = float(self.get_raw("goal_position"))
         if self._one_turn:
             ticks = self._present_ticks(self._plant.position)
             goal += math.floor(ticks / self.model.resolution) * self.model.resolution
-        return units.ticks_position(self.model, goal + self._offset_ticks - self._homing)
+        elif self._multi_turn:
+            # Present Position = (Real Position / Resolution Divider) + Multi-turn Offset
+            # (e-Manual, MX-28 Resolution Divider(22)); goals are in the same units.
+            goal = (goal - self._try_get("multi_turn_offset")) \
+                * self._try_get("resolution_divider", 1)
+        firmware = units.ticks_position(self.model, goal + self._offset_ticks - self._homing)
+        return self._sign * firmware
 
     def _update_sensors(self) -> None:
         m = self.model
         plant = self._plant
-        velocity, load = plant.velocity, plant.effort
+        velocity, load = self._sign * plant.velocity, self._sign * plant.effort
         ticks = round(self._present_ticks(plant.position))
         voltage = self._supply_voltage - 0.3 * abs(load)
         if m.protocol == 1:
-            present = ticks % m.resolution if self.wheel_mode else min(max(ticks, 0),
-                                                                     m.resolution - 1)
+            if self.wheel_mode:
+                present = wheel_position(m, ticks)
+            elif self._multi_turn:
+                # MX-28 multi-turn: -28 672..28 672, "(Real Position / Resolution Divider) +
+                # Multi-turn Offset" (e-Manual, MX-28 Angle Limit and Resolution Divider(22)).
+                present = ticks // self._try_get("resolution_divider", 1) \
+                    + self._try_get("multi_turn_offset")
+                present = max(-_MULTI_TURN_1, min(_MULTI_TURN_1, present))
+            else:
+                present = min(max(ticks, 0), m.resolution - 1)
             self._set_raw("present_position", present)
-            self._show("present_speed", velocity)
+            if self.wheel_mode and m.wheel_output_ratio:
+                # In wheel mode present speed is the output ratio, 0.1 % per unit (e-Manual,
+                # EX-106+ Present Speed).
+                magnitude = min(0x3FF, round(abs(velocity) / m.no_load_speed * 1023))
+                self._set_raw("present_speed",
+                              magnitude | 0x400 if velocity < 0 and magnitude else magnitude)
+            else:
+                self._show("present_speed", velocity)
             self._show("present_load", load)
             self._show("present_voltage", voltage)
+            if m.has("sensed_current"):
+                # 512 is 0 mA; below it the motor pushes CCW, above it CW, 10 mA per unit
+                # (e-Manual, EX-106+ Sensed Current).
+                amps = load * m.stall_current_a
+                self._set_raw("sensed_current", max(0, min(1023, 512 - round(amps / 0.01))))
             self._set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
             if self._one_turn:
@@ -423,6 +601,10 @@ class VirtualMotor:
             self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
             self._set_raw("velocity_trajectory", self.get_raw("present_velocity"))
             self._set_raw("position_trajectory", present)
+        if m.has("realtime_tick") and self._emulator is not None and self._steps_done:
+            # Realtime Tick: milliseconds, 0..32767, then again from 0 (e-Manual).
+            elapsed_ms = self._steps_done * self._emulator.dt * 1000.0
+            self._set_raw("realtime_tick", int(elapsed_ms) % 32768)
         self._show("present_temperature", plant.temperature)
         self._stale = False
         self._sensed_step = self._steps_done
@@ -434,9 +616,11 @@ class VirtualMotor:
             return error | self.hardware_error
         return error | (p2.ALERT if self.hardware_error else 0)
 
-    def execute(self, inst: Instruction, name: str) -> Status:
-        """Act on an instruction addressed to this motor; return the status it would send."""
+    def execute(self, inst: Instruction, name: str, *, secondary: bool = False) -> Status:
+        """Act on an instruction addressed to this motor; return the status it would send.
+        ``secondary``: it came to the motor's Secondary ID, which may change RAM only."""
         self.sync()
+        self._heard()
         v1 = self.model.protocol == 1
         if not supports(self.model, name):
             return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else
@@ -461,7 +645,8 @@ class VirtualMotor:
             if len(params) <= split:
                 return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else p2.DATA_LENGTH))
             address = int.from_bytes(params[:split], "little")
-            error = self.write(address, params[split:], registered=name == "REG_WRITE")
+            error = self.write(address, params[split:], registered=name == "REG_WRITE",
+                               secondary=secondary)
             return Status(self.id, self.error_byte(error))
         if name == "ACTION":
             error = 0
@@ -482,6 +667,12 @@ class VirtualMotor:
             return status
         if name == "FACTORY_RESET":
             option = params[0] if params else p2.FACTORY_RESET_ALL
+            if (inst.id == BROADCAST_ID and option == p2.FACTORY_RESET_ALL
+                    and self.model.firmware >= _BROADCAST_RESET_ALL_IGNORED_FROM):
+                # "In case of when Packet ID is a Broadcast ID 0xFE and Option is Reset All
+                # 0xFF, Factory Reset Instruction(0x06) will NOT be activated" (e-Manual,
+                # Protocol 2.0, Factory Reset): a broadcast cannot wipe every ID on the bus.
+                return Status(self.id, self.error_byte())
             keep = {p2.FACTORY_RESET_ALL: (), p2.FACTORY_RESET_EXCEPT_ID: ("id",),
                     p2.FACTORY_RESET_EXCEPT_ID_BAUD: ("id", "baud_rate")}.get(option)
             if keep is None:
@@ -512,37 +703,84 @@ class VirtualMotor:
 
     def read(self, address: int, length: int) -> Status:
         self.sync()
+        self._heard()
         end = address + length
         if length == 0 or end > len(self.table):
             v1 = self.model.protocol == 1
             return Status(self.id, self.error_byte(p1.RANGE if v1 else p2.ACCESS))
-        return Status(self.id, self.error_byte(), bytes(self.table[address:end]))
+        data = bytearray(self.table[address:end])
+        layout = _layout(self.model)
+        if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
+            # Indirect Data n reads the byte its Indirect Address n points at (e-Manual,
+            # Indirect Address and Indirect Data).
+            for data_address, target in self._indirect_targets(address, end):
+                data[data_address - address] = self.table[target]
+        return Status(self.id, self.error_byte(), bytes(data))
 
-    def write(self, address: int, data: bytes, *, registered: bool = False) -> int:
+    def _indirect_targets(self, start: int, end: int) -> list[tuple[int, int]]:
+        """(indirect data address, the address it stands for) for indirect data in start..end."""
+        table = self.table
+        out = []
+        for data_address, pointer in _layout(self.model).indirect:
+            if start <= data_address < end:
+                target = table[pointer] | table[pointer + 1] << 8
+                if target < len(table):
+                    out.append((data_address, target))
+        return out
+
+    def write(self, address: int, data: bytes, *, registered: bool = False,
+              secondary: bool = False) -> int:
         """Write ``data`` at ``address`` as the firmware would; return the error (0 if none).
 
         Every byte must land in a writable register, every touched register must end in its
-        range, and on 2.0 the EEPROM is locked while torque is on. Nothing changes on error.
+        range, and on 2.0 the EEPROM is locked while torque is on (and to a Secondary ID); on
+        1.0 the Lock register locks it. Bytes written to Indirect Data go on to the address
+        their Indirect Address names. Nothing changes on error.
         """
         self.sync()
-        v1 = self.model.protocol == 1
+        self._heard()
+        m = self.model
+        v1 = m.protocol == 1
+        range_error = p1.RANGE if v1 else p2.ACCESS
         end = address + len(data)
         if end > len(self.table):
-            return p1.RANGE if v1 else p2.ACCESS
-        touched = self._registers_in(address, end)
-        if not v1 and any(r.address < end and r.address + r.size > address
-                          and r not in touched for r in self.model.registers):
-            # Part of an item only, e.g. 2 bytes of the 4 of goal_position: the Protocol 2.0
-            # error table's Data Length Error (0x05).
-            return p2.DATA_LENGTH
-        covered = sum(r.size for r in touched)
-        if covered != len(data) or any(not r.writable for r in touched):
-            return p1.RANGE if v1 else p2.ACCESS
-        if not v1 and self.torque_enabled and any(
-                r.area == "EEPROM" for r in touched):
+            return range_error
+        assigned = dict(zip(range(address, end), data, strict=True))
+        layout = _layout(m)
+        if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
+            for data_address, target in self._indirect_targets(address, end):
+                assigned[target] = assigned[data_address]
+        at = layout.at
+        touched_set: set[Register] = set()
+        for a in assigned:
+            reg = at[a]
+            if reg is None:
+                return range_error       # a byte outside every register
+            touched_set.add(reg)
+        touched = sorted(touched_set, key=lambda r: r.address)
+        for reg in touched:
+            if any(a not in assigned for a in range(reg.address, reg.address + reg.size)):
+                # Part of an item only, e.g. 2 bytes of the 4 of goal_position: on 2.0 the
+                # error table's Data Length Error (0x05).
+                return range_error if v1 else p2.DATA_LENGTH
+            if not reg.writable:
+                return range_error
+        names = {r.name for r in touched}
+        eeprom = any(r.area == "EEPROM" for r in touched)
+        if not v1 and eeprom and (secondary or self.torque_enabled):
             return p2.ACCESS
+        if v1 and self.get_raw("lock") and (eeprom or "lock" in names):
+            # "If Lock is set to 1, the power must be turned off and then turned on again to
+            # change into 0" (e-Manual, Lock); a locked address answers a range error (AX-12
+            # manual, example 20).
+            return p1.RANGE
+        if self._watchdog_tripped and names & _GOALS_2:
+            # After a bus watchdog error the goals are read-only: a Data Range Error
+            # (e-Manual, Bus Watchdog(98)).
+            return p2.DATA_RANGE
         scratch = bytearray(self.table)
-        scratch[address:end] = data
+        for a, byte in assigned.items():
+            scratch[a] = byte
         for reg in touched:
             value = reg.decode(scratch[reg.address:reg.address + reg.size])
             error = self._check_value(reg, value, scratch)
@@ -553,12 +791,25 @@ class VirtualMotor:
             self._set_registered(1)
             return 0
         self.table[:] = scratch
+        self._torque_rules(names)
         self._table_changed()
         return 0
 
-    def _registers_in(self, start: int, end: int) -> list[Register]:
-        return [r for r in self.model.registers if r.address >= start and
-                r.address + r.size <= end]
+    def _torque_rules(self, written: set[str]) -> None:
+        """What a write does to torque besides what it wrote."""
+        torque = self.model.register("torque_enable")
+        if self.model.protocol == 1:
+            # Protocol 1.0: a goal position or moving speed switches torque on.
+            if written & _TORQUE_ON_1 and "torque_enable" not in written:
+                self.table[torque.address] = 1
+            return
+        if self._shut_down():
+            self.table[torque.address] = 0   # only a REBOOT brings torque back
+        elif (self._torque_on_goal and written & _GOALS_2
+              and "torque_enable" not in written):
+            # Drive Mode bit 3: "If the value of Torque Enable(64) is '0' and the command is
+            # given, the Torque Enable(64) switches to '1'" (e-Manual, Drive Mode(10)).
+            self.table[torque.address] = 1
 
     def _set_registered(self, value: int) -> None:
         name = "registered" if self.model.protocol == 1 else "registered_instruction"
@@ -574,9 +825,13 @@ class VirtualMotor:
         if not reg.raw_min <= value <= reg.raw_max:
             return p1.RANGE if v1 else p2.DATA_RANGE
         if v1:
-            wheel = other("cw_angle_limit") == 0 == other("ccw_angle_limit")
+            limits = (other("cw_angle_limit"), other("ccw_angle_limit"))
+            wheel = limits == (0, 0)
+            top = self.model.register("ccw_angle_limit").raw_max
+            multi_turn = self.model.has("multi_turn_offset") and limits == (top, top)
             if reg.name == "goal_position" and not wheel and not (
-                    other("cw_angle_limit") <= value <= other("ccw_angle_limit")):
+                    -_MULTI_TURN_1 <= value <= _MULTI_TURN_1 if multi_turn
+                    else limits[0] <= value <= limits[1]):
                 return p1.ANGLE_LIMIT
             if reg.name == "moving_speed" and not wheel and value > 1023:
                 return p1.RANGE
@@ -586,7 +841,7 @@ class VirtualMotor:
             return p2.DATA_RANGE
         if reg.name == "goal_velocity" and abs(value) > other("velocity_limit"):
             return p2.DATA_LIMIT
-        if reg.name == "goal_position" and other("operating_mode") in (3, 5) and not (
+        if reg.name == "goal_position" and other("operating_mode") == 3 and not (
                 other("min_position_limit") <= value <= other("max_position_limit")):
             return p2.DATA_LIMIT
         if reg.name == "goal_current" and abs(value) > other("current_limit"):
@@ -594,6 +849,53 @@ class VirtualMotor:
         if reg.name == "goal_pwm" and abs(value) > other("pwm_limit"):
             return p2.DATA_LIMIT
         return 0
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """What the firmware looks up on every write, per model: the register each byte of the
+    table belongs to, and where the indirect data are and where their addresses are kept."""
+
+    at: tuple[Register | None, ...]
+    indirect: tuple[tuple[int, int], ...]   # (Indirect Data n, address of Indirect Address n)
+    indirect_start: int
+    indirect_end: int                       # the last Indirect Data address (inclusive)
+
+
+@functools.cache
+def _layout(model: Model) -> _Layout:
+    at: list[Register | None] = [None] * model.table_size
+    for reg in model.registers:
+        for a in range(reg.address, reg.address + reg.size):
+            at[a] = reg
+    indirect = tuple(sorted(
+        (reg.address, model.register("indirect_address_" + reg.name[len("indirect_data_"):])
+         .address)
+        for reg in model.registers if reg.name.startswith("indirect_data_")))
+    data = [d for d, _ in indirect]
+    return _Layout(tuple(at), indirect, min(data, default=0), max(data, default=-1))
+
+
+def wheel_position(model: Model, ticks: int) -> int:
+    """present_position of a 1.0 model in wheel mode, for the unbounded count ``ticks``
+    (:attr:`~.models.Model.wheel_position` says which sensor the model has).
+
+    EX-106+: the encoder count, 0..65535 and round again (e-Manual, EX-106+ Present Position:
+    "If it is decreased when the value is 0, it becomes 65535"). AX/RX: a potentiometer that
+    reads 0..1023 over 300° of each turn; in the 60° it cannot read, servolab reports the
+    nearer end of the track (the e-Manual says only that the value cannot be used to measure
+    distance there). MX: the magnetic encoder's 0..4095 of each turn.
+    """
+    if model.wheel_position == "encoder16":
+        return ticks % 65536
+    if model.wheel_position == "potentiometer":
+        per_tick = model.angle_range_deg / (model.resolution - 1)
+        angle = (ticks * per_tick) % 360.0
+        if angle <= model.angle_range_deg:
+            return min(model.resolution - 1, round(angle / per_tick))
+        gap = 360.0 - model.angle_range_deg
+        return model.resolution - 1 if angle - model.angle_range_deg < gap / 2 else 0
+    return ticks % model.resolution
 
 
 def _check_id(model: Model, motor_id: int) -> int:
@@ -632,6 +934,7 @@ class Emulator:
         self.dt = math.nan
         self._eager: list[VirtualMotor] = []  # motors whose plant a world steps
         self._by_id: dict[int, list[VirtualMotor]] | None = None  # None: to be rebuilt
+        self._by_secondary: dict[int, list[VirtualMotor]] = {}
         self._parser = self.protocol.parser(keep_rejected=True)
         self.instructions_seen = 0
         for motor in motors:
@@ -699,10 +1002,24 @@ class Emulator:
     # -- who answers what ------------------------------------------------------------------
     def _with_id(self, motor_id: int) -> list[VirtualMotor]:
         if self._by_id is None:
-            self._by_id = {}
-            for m in self.motors:
-                self._by_id.setdefault(m.id, []).append(m)
+            self._index()
+            assert self._by_id is not None
         return self._by_id.get(motor_id, [])
+
+    def _with_secondary_id(self, motor_id: int) -> list[VirtualMotor]:
+        """Motors that take ``motor_id`` as their Secondary ID: those whose own ID it is not
+        ("ID(7) has a greater priority", e-Manual, Secondary ID(12))."""
+        if self._by_id is None:
+            self._index()
+        return self._by_secondary.get(motor_id, [])
+
+    def _index(self) -> None:
+        self._by_id = {}
+        self._by_secondary = {}
+        for m in self.motors:
+            self._by_id.setdefault(m.id, []).append(m)
+            if m._secondary_id is not None and m._secondary_id != m.id:
+                self._by_secondary.setdefault(m._secondary_id, []).append(m)
 
     def _listening(self, baudrate: float, motors: list[VirtualMotor] | None = None
                    ) -> list[VirtualMotor]:
@@ -734,6 +1051,11 @@ class Emulator:
             for m in motors:
                 m.execute(inst, name)
             return []
+        if unicast and not v1:
+            # Motors with this Secondary ID act on the instruction (RAM only) and never
+            # answer it (e-Manual, Secondary ID(12)).
+            for m in self._listening(baudrate, self._with_secondary_id(inst.id)):
+                m.execute(inst, name, secondary=True)
         targets = [m for m in motors if m.id == inst.id]
         statuses = [(m, m.execute(inst, name)) for m in targets]
         statuses = [(m, s) for m, s in statuses if self._returns_status(m, name)]
