@@ -229,3 +229,20 @@ def test_indirect_data_stand_for_the_addresses_they_point_at() -> None:
     with pytest.raises(MotorError) as info:
         bus.transact(bus.proto.write(1, 225, b"\x00\x08"), {1: 0})
     assert "data length" in " ".join(info.value.errors)
+
+
+# -- Sensed current (EX-106+) ------------------------------------------------------------------
+
+def test_ex106_sensed_current_is_512_at_rest_and_moves_with_the_load() -> None:
+    """Sensed Current(56): "512 is equal to 0mA"; 10 mA per unit; below 512 the motor torques
+    CCW, above it CW (e-Manual, EX-106+ Sensed Current); under a load it follows present_load,
+    7 A at stall (EX-106+ Specifications: 10.9 N*m at 18.5 V, 7 A)."""
+    bus = Bus.open("emu://ex106+:1", baudrate=57142)
+    assert bus.read(1, "sensed_current", raw=True) == 512
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).external_load = -0.3        # 30 % of stall torque, clockwise
+    bus.port.clock.advance(0.1)
+    load = bus.read(1, "present_load")
+    current = bus.read(1, "sensed_current", raw=True)
+    assert (current < 512) == (load > 0)
+    assert abs(current - 512) * 0.010 == pytest.approx(abs(load) * 7.0, abs=0.02)  # 7 A stall
