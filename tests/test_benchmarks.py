@@ -44,6 +44,11 @@ BUSES = {"a": ("RX-28", 1, 57_142, 20), "b": ("RX-28", 1, 1_000_000, 20),
 RETURN_DELAYS = [250, 0]  # raw: the factory 0.5 ms, then tuned to none
 
 
+# The operations the driver-alone measurement times, per protocol (bus_cycle.make_ops).
+REPLAY_OPS = [f"{p} {op}" for p in ("1.0", "2.0") for op in ("READ", "SYNC_WRITE", "SYNC_READ",
+                                                             "sweep")]
+
+
 @pytest.mark.timeout(30)
 def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bench = _load()
@@ -77,15 +82,43 @@ def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str])
             expected = bench.analytic(bus, row["return_delay_raw"])
             assert (row["bytes_out"], row["bytes_in"]) == (expected["bytes_out"],
                                                           expected["bytes_in"]), (key, row)
-        # Host CPU time: ours, ours SI and the SDK's, and their ratio.
+        # Host CPU time of the cycle on replayed bytes: ours, ours SI and the SDK's, and
+        # their ratio.
         for side in ("ours", "ours_si", "sdk"):
             assert _positive(config["cpu"][side]["host_us"]), (key, side, config["cpu"][side])
         assert _positive(config["cpu"]["ratio_ours_sdk"]), key
+        # The cycle rate over the wire limit, per return delay, for both drivers: a share of
+        # the limit (the host's time only adds to the wire's).
+        assert [row["return_delay_raw"] for row in config["rates"]] == RETURN_DELAYS, key
+        for row, wire in zip(config["rates"], config["wire"], strict=True):
+            assert row["wire_limit_hz"] == pytest.approx(1e3 / wire["emulated_ms"])
+            for side in ("ours", "sdk"):
+                assert _positive(row[f"{side}_rate_hz"]), (key, side, row)
+                assert 0 < row[f"{side}_share"] <= 1, (key, side, row)
+                assert row[f"{side}_rate_hz"] == pytest.approx(
+                    row[f"{side}_share"] * row["wire_limit_hz"])
 
-    # The printed report names each bus's ratio line (its figures are checked above).
+    # The driver alone on recorded replies: READ, SYNC_WRITE, SYNC_READ and the full-state
+    # sweep on each protocol, each with both drivers' figures and the ratio.
+    replay = figures["replay"]
+    assert sorted(replay) == sorted(REPLAY_OPS)
+    for key, op in replay.items():
+        assert op["label"], key
+        for side in ("ours", "ours_si", "sdk"):
+            assert _positive(op[side]["host_us"]), (key, side, op[side])
+        assert op["ratio_ours_sdk"] == pytest.approx(op["ours"]["host_us"]
+                                                     / op["sdk"]["host_us"])
+
+    # The printed report names each bus's ratio line (its figures are checked above) and says
+    # which goals are met; the JSON holds the same verdicts.
     assert out.strip(), "the benchmark printed nothing"
     for key in "abc":
         assert f"({key}) {configs[key]['label']}: ratio ours/sdk = " in out, out
+    assert "Goals:" in out
+    assert figures["goals"] and all(line.strip().startswith(("met:", "NOT met:"))
+                                    for line in figures["goals"])
+    for line in figures["goals"]:
+        assert line in out
 
 
 def test_bus_cycle_wire_figures_match_packet_sizes() -> None:

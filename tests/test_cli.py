@@ -306,3 +306,52 @@ def test_a_silent_motor_on_the_wrong_protocol_is_told_so() -> None:
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("servolab read: NoResponse: motor 1:")
     assert lines[0].endswith("if it speaks protocol 1.0, add --protocol 1")
+
+
+# -- read / write check against the model before the wire -----------------------------------------
+# (bus driver, issue 14): register name, range and access are checked against the motor's
+# control table before any instruction is sent. With --model nothing at all goes out; without
+# it, only what learns the model (PING, and on 1.0 a READ of the model number).
+
+@pytest.mark.parametrize(("command", "args", "named"), [
+    ("write", ("goal_positoin", "0.1"), "goal_positoin"),
+    ("write", ("goal_position", "9"), "goal_position: 9 rad is outside"),
+    ("write", ("goal_position", "1024", True), "outside 0..1023"),
+    ("write", ("goal_position", "1.5", True), "not an integer"),
+    ("write", ("present_position", "0.1"), "read-only"),
+    ("read", (["present_position", "goal_positoin"],), "goal_positoin"),
+], ids=["unknown-register", "si-range", "raw-range", "raw-not-integer", "read-only",
+        "read-unknown-register"])
+@pytest.mark.parametrize("declared", [True, False], ids=["with-model", "pinged"])
+def test_read_and_write_check_the_model_before_the_wire(
+        monkeypatch: pytest.MonkeyPatch, command: str, args: tuple, named: str,
+        declared: bool) -> None:
+    import io
+
+    from servolab.apps.read import read
+    from servolab.apps.write import write
+    from servolab.dynamixel.ports import MemoryPort
+    from servolab.dynamixel.protocol1 import PROTOCOL1
+
+    sent: list[bytes] = []
+    real_write = MemoryPort.write
+
+    def recording(self: MemoryPort, data: bytes) -> None:
+        sent.append(bytes(data))
+        real_write(self, data)
+
+    monkeypatch.setattr(MemoryPort, "write", recording)
+    options = {"baudrate": 57142, "model": "rx28" if declared else None,
+               "stdout": io.StringIO()}
+    with pytest.raises(ConfigError) as info:
+        if command == "write":
+            write("emu://rx28:12", 12, args[0], args[1], raw=len(args) > 2, **options)
+        else:
+            read("emu://rx28:12", 12, args[0], **options)
+    assert named in str(info.value)
+    packets = [PROTOCOL1.decode_instruction(p) for p in sent]
+    if declared:
+        assert packets == []
+    else:  # the PING that learns the model, and on 1.0 the READ of its number (0..2)
+        assert [PROTOCOL1.instruction_name(p.instruction) for p in packets] == ["PING", "READ"]
+        assert packets[1].params == bytes((0, 3))

@@ -1,17 +1,22 @@
-"""Ports: the serial port's checks and its latency-timer advice, and the pty's line speed."""
+"""Ports: the serial port's checks and its latency-timer advice, the pty's line speed, and the
+pty server's loop (clients that come and go, an idle line, half duplex)."""
 
 from __future__ import annotations
 
 import logging
 import os
 import pty
+import time
 from pathlib import Path
 
 import pytest
 import serial
 
-from servolab.dynamixel import ports
+from servolab.dynamixel import model, ports
+from servolab.dynamixel.emulator import Emulator, Faults, VirtualMotor
 from servolab.dynamixel.errors import ConfigError
+from servolab.dynamixel.protocol2 import PROTOCOL2
+from tests.waiting import wait_for
 
 
 def test_missing_serial_port_is_named_with_what_to_do() -> None:
@@ -90,3 +95,89 @@ def test_the_driver_loads_no_emulator() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=60, check=True).stdout
     assert out.strip() == "[]"
+
+
+# -- the pseudo-terminal server ---------------------------------------------------------------
+
+
+def _pty_bus() -> tuple[Emulator, bytes]:
+    emulator = Emulator(2, [VirtualMotor(model("xm430-w210"), 1, baudrate=57600)])
+    return emulator, PROTOCOL2.encode_instruction(PROTOCOL2.ping(1))
+
+
+def _read_status(client: serial.Serial) -> bytes:
+    """One 2.0 PING status (14 bytes), or whatever came within the client's timeout."""
+    got = b""
+    while len(got) < 14:
+        chunk = client.read(14 - len(got))
+        if not chunk:
+            break
+        got += chunk
+    return got
+
+
+def _thread_cpu_seconds(native_id: int) -> float:
+    fields = Path(f"/proc/self/task/{native_id}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_pty_server_serves_a_client_that_closes_and_opens_again() -> None:
+    """A client may go away at any time, even with a reply on its way, and come back: the
+    server neither stops nor blocks, and answers the new client."""
+    emulator, ping = _pty_bus()
+    with ports.PtyServer(emulator, 57600) as server:
+        for _ in range(3):
+            client = serial.Serial(server.device, 57600, timeout=1.0)
+            client.write(ping)
+            assert PROTOCOL2.decode_status(_read_status(client)).id == 1
+            client.write(ping)          # and leave without reading the answer
+            client.close()
+        client = serial.Serial(server.device, 57600, timeout=1.0)
+        try:
+            client.reset_input_buffer()
+            client.write(ping)
+            got = _read_status(client)
+            assert PROTOCOL2.decode_status(got[-14:]).id == 1
+        finally:
+            client.close()
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs /proc")
+def test_pty_server_sleeps_while_the_line_is_idle() -> None:
+    """No busy loop: with nothing to send and nothing received (after a partial packet the
+    emulator drops when the line stays idle), the server thread uses next to no CPU."""
+    emulator, _ = _pty_bus()
+    with ports.PtyServer(emulator, 57600) as server:
+        client = serial.Serial(server.device, 57600, timeout=1.0)
+        try:
+            client.write(bytes.fromhex("FF FF FD 00 01 40 00"))   # a header cut short
+            wait_for(lambda: emulator.partial_packets_dropped == 1,
+                     "the emulator to drop the partial packet")
+            tid = server._thread.native_id
+            assert tid is not None
+            before = _thread_cpu_seconds(tid)
+            time.sleep(0.5)                               # the window measured
+            assert _thread_cpu_seconds(tid) - before < 0.05
+            assert server._thread.is_alive()
+        finally:
+            client.close()
+
+
+def test_pty_reply_on_its_way_is_lost_when_the_client_sends_again() -> None:
+    """Half duplex: a status still to come when the client sends again would meet the
+    client's bytes on the wire; it is lost, and only the second PING is answered. (Answers
+    are held back 0.5 s here, so that the second PING surely comes before the first status.)"""
+    emulator, ping = _pty_bus()
+    emulator.faults = Faults(delay=0.5)
+    with ports.PtyServer(emulator, 57600) as server:
+        client = serial.Serial(server.device, 57600, timeout=5.0)
+        try:
+            client.write(ping)
+            wait_for(lambda: emulator.instructions_seen == 1, "the server to read the PING")
+            client.write(ping)
+            assert PROTOCOL2.decode_status(_read_status(client)).id == 1
+            assert server.replies_lost == 1
+            client.timeout = 0.2
+            assert client.read(64) == b""       # and nothing else comes
+        finally:
+            client.close()

@@ -5,18 +5,37 @@ one READ, checks the status packet and returns radians. Several registers of one
 as one contiguous READ; many motors go out as SYNC_WRITE / SYNC_READ / BULK_READ where the
 model has them, and fall back to one packet per motor where it does not (RX-28 has no
 BULK_READ). Everything is checked before the first byte is sent, so bad input writes nothing.
+
+**Robust.** A status is taken as the answer only if it comes from a motor asked, with the
+length the instruction asks for; anything else (a late answer to an earlier instruction, a
+stray packet) is counted in :attr:`BusStats.stale` and ignored. After an instruction that got
+no valid answer, the next one first waits out the time in which the late answer could still
+come (return delay and wire time) and throws away whatever came: a late answer is never read
+as the answer to the next request. Hardware errors (overload, overheating, ...) are not failed
+instructions: the data comes back, and the motor is named in :attr:`Bus.alerts` (and logged);
+only an instruction error (checksum, range, access, ...) raises :class:`MotorError`.
+
+**Fast.** What a read or a write of the same registers of the same motors repeats is worked
+out once and kept (a *plan*): the instruction packet, the status packets it is answered with
+and where each one's data sits, one :class:`struct.Struct` that decodes them. A reply that is
+exactly as expected is checked in place (header, ID, length, checksum/CRC, error byte) and
+decoded in one call; only one that is not goes through the stream parser, which finds what it
+can in noise, partial and stray packets.
 """
 
 from __future__ import annotations
 
 import itertools
+import logging
+import struct
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, overload
 
 from . import units
-from .errors import ConfigError, CorruptResponse, MotorError, NoResponse
+from .errors import CommError, ConfigError, CorruptResponse, MotorError, NoResponse
 from .models import Model, Register, model, model_by_number, supports
 from .packets import Instruction, Protocol, Status
 from .ports import Port, open_port
@@ -26,17 +45,28 @@ from .protocol2 import (
     FACTORY_RESET_ALL,
     FACTORY_RESET_EXCEPT_ID,
     FACTORY_RESET_EXCEPT_ID_BAUD,
+    HARDWARE_ERRORS,
     Protocol2,
+    crc16_at,
 )
 from .wire import byte_time
 
+log = logging.getLogger(__name__)
+
 MAX_RETURN_DELAY = 254 * 2e-6
+#: What the ROBOTIS SDK allows each ID to answer a broadcast PING in, besides the status
+#: packet's wire time (protocol2_packet_handler.broadcastPing: 3 ms per ID, + 16 ms).
+SDK_BROADCAST_PING_PER_ID = 0.003
+SDK_BROADCAST_PING_MARGIN = 0.016
 Value = float | int
 Names = str | Sequence[str]
 #: Several register names. The overloads of read/sync_read/sync_write take a list or tuple
 #: rather than any Sequence[str], because a str is itself a Sequence[str]: with Sequence the
 #: one-name and several-names call shapes would overlap and neither could have a precise type.
 NameList = list[str] | tuple[str, ...]
+#: plans kept per bus before the cache starts again (a robot uses a handful)
+MAX_PLANS = 4096
+_INT = frozenset((int,))
 
 
 @dataclass(frozen=True)
@@ -64,6 +94,227 @@ class BusStats:
     corrupt: int = 0
     bytes_out: int = 0
     bytes_in: int = 0
+    #: status packets thrown away: late answers to an earlier instruction, answers from a
+    #: motor not asked or of the wrong length
+    stale: int = 0
+
+
+# -- plans: what a repeated transaction works out once --------------------------------------------
+class _Replies:
+    """The status packets that answer one instruction, in the order they come (ID -> number of
+    data bytes), and where each sits in the reply when every one comes as expected."""
+
+    __slots__ = ("counts", "data_at", "delays", "expect", "ids", "prefixes", "single", "sizes",
+                 "starts", "states", "total")
+
+    def __init__(self, proto: Protocol, expect: Mapping[int, int]) -> None:
+        self.expect = dict(expect)
+        self.ids = tuple(self.expect)
+        self.counts = tuple(self.expect.values())
+        self.sizes = tuple(proto.status_size(n) for n in self.counts)
+        starts = list(itertools.accumulate(self.sizes, initial=0))
+        self.total = starts.pop()
+        self.starts = tuple(starts)
+        self.data_at = tuple(start + proto.params_at for start in starts)
+        self.prefixes = tuple(proto.status_prefix(i, n) for i, n in self.expect.items())
+        self.states = tuple(proto.prefix_state(prefix) for prefix in self.prefixes)
+        self.single = len(self.ids) == 1
+        self.delays = len(self.ids) * MAX_RETURN_DELAY  # the longest each answer may wait
+
+
+_STRUCT_CODES = {(1, False): "B", (2, False): "H", (4, False): "I",
+                 (1, True): "b", (2, True): "h", (4, True): "i"}
+
+
+class _Fields:
+    """Named registers of one model, read as one block: the block's (start, length), and one
+    :class:`struct.Struct` that takes every value out of it at once."""
+
+    __slots__ = ("_order", "_struct", "convert", "length", "names", "regs", "single", "start")
+
+    def __init__(self, m: Model, names: Names) -> None:
+        self.single = isinstance(names, str)
+        self.names = list(dict.fromkeys([names] if isinstance(names, str) else names))
+        self.regs = [m.register(n) for n in self.names]  # ConfigError for an unknown name
+        if not self.regs:
+            raise ConfigError(f"{m.name}: no register named to read")
+        self.start, self.length = m.span(self.names)
+        self.convert = [_si_decoder(m, r) for r in self.regs]
+        by_address = sorted(range(len(self.regs)), key=lambda k: self.regs[k].address)
+        fmt, at = "<", self.start
+        for k in by_address:
+            reg = self.regs[k]
+            code = _STRUCT_CODES.get((reg.size, reg.signed))
+            if code is None or reg.address < at:  # no struct code, or overlapping registers
+                fmt = ""
+                break
+            fmt += (f"{reg.address - at}x" if reg.address > at else "") + code
+            at = reg.address + reg.size
+        self._struct = struct.Struct(fmt) if fmt else None
+        # the struct gives values in address order; the caller wants them in its own
+        self._order = (None if by_address == sorted(by_address)
+                       else [by_address.index(k) for k in range(len(by_address))])
+
+    def raw(self, buf: bytes, at: int) -> Sequence[int]:
+        """The raw values (in the order named) of the block that starts at ``buf[at]``."""
+        if self._struct is None:
+            return [r.decode(buf[at + r.address - self.start:]) for r in self.regs]
+        values = self._struct.unpack_from(buf, at)
+        return values if self._order is None else [values[k] for k in self._order]
+
+    def values(self, buf: bytes, at: int, raw: bool) -> Any:
+        """One value (one name given as a str) or {name: value}, raw or in SI units."""
+        raws = self.raw(buf, at)
+        values: Sequence[Value] = raws if raw else [
+            v if c is None else c(v) for v, c in zip(raws, self.convert, strict=True)]
+        return values[0] if self.single else dict(zip(self.names, values, strict=True))
+
+
+class _Read:
+    """One READ of named registers of one motor: instruction bytes, reply layout, decoder."""
+
+    __slots__ = ("fields", "model", "motor_id", "proto", "replies", "request")
+
+    def __init__(self, proto: Protocol, motor_id: int, m: Model, fields: _Fields) -> None:
+        self.proto, self.motor_id, self.model, self.fields = proto, motor_id, m, fields
+        self.request = proto.encode_instruction(proto.read(motor_id, fields.start,
+                                                           fields.length))
+        self.replies = _Replies(proto, {motor_id: fields.length})
+
+
+class _MultiRead:
+    """A read of many motors: one SYNC_READ or BULK_READ (``request`` and ``replies``, one
+    decoder per motor), or else one READ per motor (``reads``)."""
+
+    __slots__ = ("fields", "ids", "models", "name", "proto", "reads", "replies", "request")
+
+    def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
+                 fields: list[_Fields], *, allow_sync: bool) -> None:
+        self.proto, self.ids, self.models, self.fields = proto, ids, models, fields
+        spans = {(f.start, f.length) for f in fields}
+        self.reads: list[_Read] = []
+        self.request = b""
+        if (allow_sync and isinstance(proto, Protocol2) and len(spans) == 1
+                and all(supports(m, "SYNC_READ") for m in models)):
+            start, length = spans.pop()
+            self.name = "SYNC_READ"
+            self.request = proto.encode_instruction(proto.sync_read(start, length, ids))
+        elif all(supports(m, "BULK_READ") for m in models):
+            self.name = "BULK_READ"
+            self.request = proto.encode_instruction(proto.bulk_read(
+                [(i, f.start, f.length) for i, f in zip(ids, fields, strict=True)]))
+        else:
+            self.name = "READ"
+            self.reads = [_Read(proto, i, m, f)
+                          for i, m, f in zip(ids, models, fields, strict=True)]
+        self.replies = _Replies(proto, {i: f.length for i, f in zip(ids, fields, strict=True)})
+
+
+def _si_decoder(m: Model, reg: Register) -> Callable[[int], Value] | None:
+    """Raw -> SI for one register, as :func:`.units.to_si` computes it (the same operations
+    on the same numbers, so the same floats), with the model's scale looked up once; None
+    for the kinds that stay raw."""
+    kind = reg.unit
+    if kind in ("raw", "bool"):
+        return None
+    if kind == "position":
+        center, tick = m.position_center, m.rad_per_tick
+        return lambda raw: (raw - center) * tick
+    if kind == "velocity":
+        unit = units.velocity_unit(m)
+        return lambda raw: raw * unit
+    if kind in ("speed_sign_bit", "load_sign_bit"):  # 1.0: 10 bits of magnitude, bit 10 CW
+        scale = units.velocity_unit(m) if kind == "speed_sign_bit" else 0.001
+        return lambda raw: -(raw & 0x3FF) * scale if raw & 0x400 else (raw & 0x3FF) * scale
+    if kind == "load":
+        return lambda raw: raw * 0.001
+    if kind == "current":
+        amperes = m.current_unit_a
+        return lambda raw: raw * amperes
+    if kind == "pwm":
+        return lambda raw: raw / 885.0
+    if kind == "voltage":
+        return lambda raw: raw * 0.1
+    if kind == "temperature":
+        return float
+    return partial(units.to_si, m, reg)
+
+
+def _si_encoder(m: Model, reg: Register) -> Callable[[float], int] | None:
+    """SI -> raw as :func:`.units.from_si` computes it, unchecked, for the goals a control
+    loop writes every cycle (position, velocity); None for other kinds."""
+    if reg.unit == "position":
+        center, tick = m.position_center, m.rad_per_tick
+        return lambda value: round(value / tick) + center
+    if reg.unit == "velocity":
+        unit = units.velocity_unit(m)
+        return lambda value: round(value / unit)
+    return None
+
+
+class _SyncWrite:
+    """A SYNC_WRITE of one register on the same motors again: the packet with every ID in
+    place, where each motor's value goes, its range, its struct code and its SI scale."""
+
+    __slots__ = ("covers_level", "crc_from", "crc_state", "data_at", "high", "ids", "low",
+                 "models", "packer", "proto", "si", "template")
+
+    def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
+                 reg: Register, covers_level: bool) -> None:
+        self.proto, self.ids, self.models = proto, ids, models
+        self.covers_level = covers_level
+        self.si = (_si_encoder(models[0], reg) if all(m is models[0] for m in models)
+                   else None)
+        self.low, self.high = reg.raw_min, reg.raw_max
+        code = _STRUCT_CODES[(reg.size, reg.signed)]
+        self.packer = struct.Struct("<" + code)
+        # check that every in-range value fits the code (pack_into would raise otherwise)
+        self.packer.pack(self.low)
+        self.packer.pack(self.high)
+        blank = [(i, bytes(reg.size)) for i in ids]
+        self.template = bytearray(proto.encode_instruction(
+            proto.sync_write(reg.address, reg.size, blank)))
+        # the parameters (after address and length fields) start where the status's data
+        # would: 7 bytes of header on 1.0 (FF FF ID LEN INST ADDR LEN), 12 on 2.0
+        first = 5 + 2 * proto.field_size if proto.version == 1 else 8 + 2 * proto.field_size
+        self.data_at = tuple(first + k * (1 + reg.size) + 1 for k in range(len(ids)))
+        self.crc_from = first
+        self.crc_state = crc16_at(self.template, 0, first) if proto.version == 2 else 0
+
+    def encode(self, values: Iterable[Any], raw: bool) -> bytes | None:
+        """The packet for these values (one per motor, in the plan's ID order), or None if
+        any is not a number in the register's range, or not one this plan converts (the
+        caller then takes the checked path, which says what is wrong)."""
+        buf = bytearray(self.template)
+        pack, low, high = self.packer.pack_into, self.low, self.high
+        if raw:
+            for at, value in zip(self.data_at, values, strict=True):
+                if type(value) is not int or not low <= value <= high:
+                    return None
+                pack(buf, at, value)
+        else:
+            convert = self.si
+            if convert is None:
+                return None
+            for at, value in zip(self.data_at, values, strict=True):
+                kind = type(value)
+                if kind is not float and kind is not int:
+                    return None
+                try:
+                    ticks = convert(value)
+                except (ValueError, OverflowError):  # nan, inf
+                    return None
+                if not low <= ticks <= high:
+                    return None
+                pack(buf, at, ticks)
+        if self.proto.version == 1:
+            buf[-1] = ~sum(memoryview(buf)[2:-1]) & 0xFF
+        else:
+            if buf.find(b"\xff\xff\xfd", 7, len(buf) - 2) >= 0:
+                return None  # would need byte stuffing: the general encoder does it
+            crc = crc16_at(buf, self.crc_from, len(buf) - 2, self.crc_state)
+            buf[-2], buf[-1] = crc & 0xFF, crc >> 8
+        return bytes(buf)
 
 
 @dataclass
@@ -94,6 +345,11 @@ class Bus:
         if self.timeout is not None and self.timeout <= 0:
             raise ConfigError(f"timeout {self.timeout} s must be positive")
         self._lock = threading.RLock()
+        self._srl: dict[int, int] = {}
+        self._alerts: dict[int, int] = {}
+        self._plans: dict[Any, Any] = {}
+        #: after a transaction that got no valid answer: until when a late one may still come
+        self._quiet_until: float | None = None
 
     # -- construction ----------------------------------------------------------------------------
     @classmethod
@@ -135,87 +391,228 @@ class Bus:
         self.close()
 
     # -- transactions ------------------------------------------------------------------------
-    def _wait_for(self, n_bytes_out: int, replies: int, n_bytes_in: int) -> float:
-        if self.timeout is not None:
-            return self.timeout
-        tick = byte_time(self.port.baudrate)
-        return ((n_bytes_out + n_bytes_in) * tick + replies * MAX_RETURN_DELAY
-                + 2 * self.port.latency + 0.002)
+    def _settle(self) -> None:
+        """The last transaction got no valid answer: let the time in which its answer could
+        still come pass, and throw away whatever came meanwhile, so that a late answer is
+        never taken for the answer to the next request. (Costs nothing after a transaction
+        that went well: :attr:`_quiet_until` is None then.)"""
+        until, self._quiet_until = self._quiet_until, None
+        if until is None:
+            return
+        port, clock = self.port, self.port.clock
+        left = until - clock.now()
+        if left > 0:
+            late = port.read(1 << 16, left)
+            self.stats.bytes_in += len(late)
+            left = until - clock.now()
+            if left > 0:
+                clock.sleep(left)
+        port.reset_input()
+
+    def _send(self, data: bytes) -> None:
+        """A transaction that no status answers (broadcast, or status return level < 2)."""
+        with self._lock:
+            if self._quiet_until is not None:
+                self._settle()
+            self.stats.transactions += 1
+            self.port.reset_input()
+            self.port.write(data)
+            self.stats.bytes_out += len(data)
 
     def transact(self, inst: Instruction, expect: Mapping[int, int] | None = None, *,
                  check: bool = True, retries: int | None = None) -> dict[int, Status]:
         """Send ``inst`` and collect status packets from the IDs in ``expect`` (ID -> number of
         parameters each answer carries). Retries on silence or corruption; raises
         :class:`NoResponse` / :class:`CorruptResponse` when they run out, and
-        :class:`MotorError` for error bits when ``check``."""
-        expect = dict(expect or {})
-        name = self.proto.instruction_name(inst.instruction)
-        data = self.proto.encode_instruction(inst)
+        :class:`MotorError` when ``check`` and a status says the instruction failed (a
+        hardware error alone does not: it is recorded in :attr:`alerts`)."""
+        proto = self.proto
+        data = proto.encode_instruction(inst)
+        if not expect:
+            self._send(data)
+            return {}
+        replies = _Replies(proto, expect)
+        statuses: dict[int, Status] = {}
+        buf, data_at, errors = self._exchange(data, proto.instruction_name(inst.instruction),
+                                              replies, check, retries, statuses)
+        if statuses:  # the stream parser found them: as they came
+            return statuses
+        return {i: Status(i, errors[k] if errors else 0, buf[at:at + n])
+                for k, (i, n, at) in enumerate(zip(replies.ids, replies.counts, data_at,
+                                                   strict=True))}
+
+    def _exchange(self, data: bytes, name: str, replies: _Replies, check: bool,
+                  retries: int | None, statuses: dict[int, Status] | None = None
+                  ) -> tuple[bytes, Sequence[int], Sequence[int]]:
+        """Send ``data`` and take the status packets ``replies`` describes: returns the reply
+        bytes, where each motor's data starts in them, and the error bytes (``()`` when all
+        are 0). The fast path reads exactly the bytes expected and checks them in place; when
+        they are not as expected, the stream parser looks for the packets until the timeout
+        (``statuses``, when given, receives them as found)."""
+        port, stats, proto = self.port, self.stats, self.proto
+        total = replies.total
+        # How long after sending the answers can take at most: the wire time of the bytes
+        # both ways, each answer's longest return delay (254 x 2 us), twice the adapter's
+        # latency, and 2 ms. The timeout unless one is set; the late-answer window always.
+        longest = ((len(data) + total) * 10.0 / port.baudrate + replies.delays
+                   + 2 * port.latency + 0.002)
+        timeout = longest if self.timeout is None else self.timeout
         attempts = 1 + (self.retries if retries is None else retries)
         with self._lock:
             for attempt in range(attempts):
-                self.stats.transactions += 1
+                if self._quiet_until is not None:
+                    self._settle()
+                port.reset_input()
+                port.write(data)
+                sent = port.clock.now()
+                buf = port.read(total, timeout)
+                stats.transactions += 1
+                stats.bytes_out += len(data)
+                stats.bytes_in += len(buf)
                 if attempt:
-                    self.stats.retries += 1
-                self.port.reset_input()
-                self.port.write(data)
-                self.stats.bytes_out += len(data)
-                if not expect:
-                    return {}
-                try:
-                    got = self._collect(name, len(data), expect)
-                except (NoResponse, CorruptResponse):
-                    if attempt + 1 == attempts:
-                        raise
-                    continue
-                if check:
-                    for status in got.values():
-                        if status.error:
-                            raise MotorError(status.id, name, self.proto.error_names(
-                                status.error), status.error)
-                return got
+                    stats.retries += 1
+                errors: Sequence[int] | None = None
+                if len(buf) == total:
+                    if replies.single:
+                        error = proto.match_status(buf, replies.prefixes[0], replies.states[0])
+                        errors = () if not error else None if error < 0 else [error]
+                    else:
+                        errors = proto.match_statuses(buf, replies.starts, replies.sizes,
+                                                      replies.prefixes, replies.states)
+                if errors is None:
+                    try:
+                        found = self._collect(buf, name, replies, sent, timeout)
+                    except CommError:
+                        # its answer may still be on its way: keep it from the next request
+                        self._quiet_until = sent + longest
+                        if attempt + 1 == attempts:
+                            raise
+                        continue
+                    if statuses is not None:
+                        statuses.update(found)
+                    buf, errors = self._normalise(found, replies)
+                if errors or self._alerts:
+                    self._note(replies.ids, errors, name, check)
+                return buf, replies.data_at, errors
         raise AssertionError("unreachable")  # pragma: no cover
 
-    def _collect(self, name: str, n_out: int, expect: dict[int, int]) -> dict[int, Status]:
-        parser = self.proto.parser()
-        sizes = {i: self.proto.status_size(n) for i, n in expect.items()}
-        timeout = self._wait_for(n_out, len(expect), sum(sizes.values()))
-        clock = self.port.clock
-        deadline = clock.now() + timeout
+    def _note(self, ids: Sequence[int], errors: Sequence[int], name: str, check: bool) -> None:
+        """Record the hardware errors the statuses report (:attr:`alerts`) and raise
+        :class:`MotorError` for an instruction that failed, when ``check``."""
+        proto, alerts = self.proto, self._alerts
+        for k, motor_id in enumerate(ids):
+            bits = proto.alert(errors[k]) if errors else 0
+            if bits:
+                if alerts.get(motor_id) != bits:  # once, when it starts or changes
+                    log.warning(
+                        "motor %d reports a hardware error (%s) in its %s status; the "
+                        "instruction was carried out%s", motor_id,
+                        "alert bit" if proto.version == 2 else ", ".join(
+                            proto.error_names(bits)), name,
+                        "; its hardware_error_status says which, REBOOT clears it"
+                        if proto.version == 2 else "")
+                alerts[motor_id] = bits
+            else:
+                alerts.pop(motor_id, None)
+        if check and errors:
+            for motor_id, error in zip(ids, errors, strict=True):
+                if proto.failed(error):
+                    raise MotorError(motor_id, name, proto.error_names(error), error)
+
+    def _normalise(self, found: dict[int, Status], replies: _Replies
+                   ) -> tuple[bytes, list[int] | tuple[()]]:
+        """Statuses found by the parser, laid out as the fast path lays them: each motor's
+        data at ``replies.data_at`` (zeros where a failed instruction brought none)."""
+        buf = bytearray(replies.total)
+        errors = [0] * len(replies.ids)
+        for k, (motor_id, n, at) in enumerate(zip(replies.ids, replies.counts,
+                                                  replies.data_at, strict=True)):
+            status = found[motor_id]
+            buf[at:at + len(status.params)] = status.params[:n]
+            errors[k] = status.error
+        return bytes(buf), errors if any(errors) else ()
+
+    def _collect(self, first: bytes, name: str, replies: _Replies, sent: float,
+                 timeout: float) -> dict[int, Status]:
+        """The slow path: find the expected statuses in ``first`` and whatever else comes
+        before ``deadline``. A status counts only from a motor asked (and not yet answered)
+        with the data length asked for, or none when its error byte says the instruction
+        failed; others are late answers to an earlier instruction or strays, and are
+        dropped."""
+        proto, port, clock, stats = self.proto, self.port, self.port.clock, self.stats
+        expect = replies.expect
+        sizes = dict(zip(replies.ids, replies.sizes, strict=True))
+        deadline = sent + timeout
+        parser = proto.parser()
         got: dict[int, Status] = {}
-        while len(got) < len(expect):
+        wrong: dict[int, int] = {}  # motor asked -> data length of a status that did not fit
+        chunk = first
+        while True:
+            for frame in parser.feed(chunk):
+                try:
+                    status = proto.as_status(frame)
+                except ValueError:
+                    stats.stale += 1
+                    continue
+                n = expect.get(status.id)
+                if n is None or status.id in got:
+                    stats.stale += 1
+                elif len(status.params) == n or (not status.params
+                                                 and proto.failed(status.error)):
+                    got[status.id] = status
+                else:
+                    stats.stale += 1
+                    wrong[status.id] = len(status.params)
+            if len(got) == len(expect):
+                return got
             remaining = deadline - clock.now()
             if remaining <= 0:
                 break
             want = max(1, sum(s for i, s in sizes.items() if i not in got) - parser.pending)
-            chunk = self.port.read(want, remaining)
-            self.stats.bytes_in += len(chunk)
-            for frame in parser.feed(chunk):
-                try:
-                    status = self.proto.as_status(frame)
-                except ValueError:
-                    continue
-                if status.id in expect and status.id not in got:
-                    if len(status.params) != expect[status.id] and not status.error:
-                        raise CorruptResponse(
-                            f"motor {status.id}: {name} status has {len(status.params)} data "
-                            f"bytes, expected {expect[status.id]}", motor_id=status.id,
-                            instruction=name)
-                    got[status.id] = status
-        if len(got) < len(expect):
-            missing = sorted(set(expect) - set(got))
-            who = ", ".join(str(i) for i in missing)
-            if parser.dropped or parser.pending:
-                self.stats.corrupt += 1
-                raise CorruptResponse(
-                    f"motor {who}: {name} got a corrupt status packet "
-                    f"({parser.dropped + parser.pending} bad bytes) at {self.baudrate} bps",
-                    motor_id=missing[0], instruction=name)
-            self.stats.timeouts += 1
-            raise NoResponse(f"motor {who}: no answer to {name} within {timeout * 1000:.1f} ms "
-                             f"at {self.baudrate} bps (is it powered, at this baud rate and "
-                             f"ID?)", motor_id=missing[0], instruction=name)
-        return got
+            chunk = port.read(want, remaining)
+            stats.bytes_in += len(chunk)
+        missing = [i for i in replies.ids if i not in got]
+        who = ", ".join(str(i) for i in missing)
+        if parser.dropped or parser.pending or any(i in wrong for i in missing):
+            stats.corrupt += 1
+            detail = (f"({parser.dropped + parser.pending} bad bytes)"
+                      if parser.dropped or parser.pending else
+                      "(a status of " + ", ".join(f"{wrong[i]} data bytes from motor {i}"
+                                                  for i in missing if i in wrong)
+                      + f", expected {expect[missing[0]]}: a late answer?)")
+            raise CorruptResponse(f"motor {who}: {name} got a corrupt status packet {detail} "
+                                  f"at {self.baudrate} bps", motor_id=missing[0],
+                                  instruction=name)
+        stats.timeouts += 1
+        raise NoResponse(f"motor {who}: no answer to {name} within {timeout * 1000:.1f} ms "
+                         f"at {self.baudrate} bps (is it powered, at this baud rate and ID?)",
+                         motor_id=missing[0], instruction=name)
+
+    @property
+    def alerts(self) -> dict[int, int]:
+        """Motors whose last status reported a hardware error: ID -> those error bits.
+
+        A hardware error is the motor's state, not a failed instruction: the instruction was
+        carried out and its data is valid (e-Manual, Protocol 1.0 "Status Packet" and Protocol
+        2.0 "Error"). On 1.0 the bits say which (0x01 input voltage, 0x04 overheating, 0x20
+        overload); on 2.0 only the alert bit 0x80 comes, and the motor's
+        ``hardware_error_status`` register says which (:meth:`hardware_errors` reads it).
+        Every status the bus takes updates it; a motor leaves it with its first status
+        without them (on 2.0 after a REBOOT)."""
+        return self._alerts
+
+    def hardware_errors(self, motor_id: int) -> tuple[str, ...]:
+        """The hardware errors ``motor_id`` reports now, by name (``()`` for none): on 2.0 from
+        its ``hardware_error_status`` register, on 1.0 from the error byte of a PING's
+        status."""
+        m = self.model_of(motor_id)
+        if self.proto.version == 2 and m.has("hardware_error_status"):
+            bits = int(self.read(motor_id, "hardware_error_status", raw=True))
+            return tuple(name for bit, name in sorted(HARDWARE_ERRORS.items()) if bits & bit)
+        v1 = self.proto.version == 1
+        status = self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3},
+                               check=False)[motor_id]
+        return self.proto.error_names(self.proto.alert(status.error))
 
     # -- discovery ---------------------------------------------------------------------------
     def ping(self, motor_id: int, *, retries: int | None = None) -> PingResult:
@@ -242,29 +639,57 @@ class Bus:
             self.motors[motor_id] = found
         return PingResult(motor_id, number, firmware, self.baudrate, found)
 
+    def broadcast_ping_wait(self) -> float:
+        """How long :meth:`broadcast_ping` listens (s), unless ``timeout`` is set.
+
+        "When the Packet ID field is 0xFE (Broadcast ID): All devices send their Status
+        Packet according to their arranged order" (e-Manual, Protocol 2.0, Ping): in ID
+        order, each in its own slot, so a motor with ID 252 answers after the slots of IDs
+        0..251 whether they are on the bus or not. 253 slots of one status packet (14 bytes)
+        and the longest return delay (254 x 2 us), plus twice the adapter latency and 2 ms;
+        or, if longer, the ROBOTIS SDK's wait (protocol2_packet_handler.broadcastPing:
+        14 bytes x 252 IDs of wire time + 3 ms per ID + 16 ms), which allows each ID more
+        time than its return delay."""
+        tick = byte_time(self.baudrate)
+        slot = self.proto.status_size(3) * tick + MAX_RETURN_DELAY
+        ours = (self.proto.max_id + 1) * slot + 2 * self.port.latency + 0.002
+        sdk = (self.proto.max_id * (self.proto.status_size(3) * tick + SDK_BROADCAST_PING_PER_ID)
+               + SDK_BROADCAST_PING_MARGIN)
+        return max(ours, sdk)
+
     def broadcast_ping(self) -> list[PingResult]:
-        """Protocol 2.0 broadcast PING: every motor answers, in one transaction."""
+        """Protocol 2.0 broadcast PING: every motor answers, in one transaction (which lasts
+        :meth:`broadcast_ping_wait`, enough for ID 252 to answer in its slot)."""
         if self.proto.version != 2:
             raise ConfigError("broadcast ping exists only in protocol 2.0; use scan()")
         data = self.proto.encode_instruction(self.proto.ping(self.proto.broadcast_id))
-        slot = self.proto.status_size(3) * byte_time(self.baudrate) + MAX_RETURN_DELAY
-        timeout = self.timeout or (self.proto.max_id + 1) * slot + 2 * self.port.latency + 0.002
+        timeout = self.timeout or self.broadcast_ping_wait()
         parser = self.proto.parser()
         found: dict[int, PingResult] = {}
         with self._lock:
-            self.port.reset_input()
-            self.port.write(data)
-            deadline = self.port.clock.now() + timeout
-            while (remaining := deadline - self.port.clock.now()) > 0:
-                for frame in parser.feed(self.port.read(4096, remaining)):
-                    status = self.proto.as_status(frame)
-                    if len(status.params) == 3 and status.id not in found:
-                        number = int.from_bytes(status.params[0:2], "little")
-                        m = model_by_number(number)
-                        if m:
-                            self.motors[status.id] = m
-                        found[status.id] = PingResult(status.id, number, status.params[2],
-                                                      self.baudrate, m)
+            self._send(data)
+            clock = self.port.clock
+            deadline = clock.now() + timeout
+            while (remaining := deadline - clock.now()) > 0:
+                chunk = self.port.read(4096, remaining)
+                self.stats.bytes_in += len(chunk)
+                if not chunk and not clock.virtual:
+                    clock.sleep(min(remaining, 0.001))  # an in-process port returns at once
+                for frame in parser.feed(chunk):
+                    try:
+                        status = self.proto.as_status(frame)
+                    except ValueError:
+                        self.stats.stale += 1
+                        continue
+                    if len(status.params) != 3 or status.id in found:
+                        self.stats.stale += 1
+                        continue
+                    number = int.from_bytes(status.params[0:2], "little")
+                    m = model_by_number(number)
+                    if m:
+                        self.motors[status.id] = m
+                    found[status.id] = PingResult(status.id, number, status.params[2],
+                                                  self.baudrate, m)
         return [found[i] for i in sorted(found)]
 
     def scan(self, ids: Iterable[int] | None = None, baudrates: Iterable[int] | None = None,
@@ -336,14 +761,43 @@ class Bus:
             raw_value = units.from_si(m, reg, value)
         return reg.encode(raw_value)
 
-    @staticmethod
-    def _decode(m: Model, reg: Register, block: bytes, start: int, raw: bool) -> Value:
-        value = reg.decode(block[reg.address - start:])
-        return value if raw else units.to_si(m, reg, value)
+    # -- plans ---------------------------------------------------------------------------------
+    def _plan(self, key: Any) -> Any:
+        try:
+            return self._plans.get(key)
+        except TypeError:  # an unhashable ID or name: the checked path says what is wrong
+            return None
 
-    def _unpack(self, m: Model, names: list[str], block: bytes, start: int,
-                raw: bool) -> dict[str, Value]:
-        return {n: self._decode(m, m.register(n), block, start, raw) for n in names}
+    def _keep(self, key: Any, plan: Any) -> None:
+        try:
+            if len(self._plans) >= MAX_PLANS:
+                self._plans.clear()
+            self._plans[key] = plan
+        except TypeError:
+            pass
+
+    def _read_plan(self, motor_id: int, names: Names, key: Any) -> _Read:
+        m = self.model_of(motor_id)
+        plan = _Read(self.proto, motor_id, m, _Fields(m, names))
+        self._keep(key, plan)
+        return plan
+
+    def _multi_plan(self, requests: Sequence[tuple[int, Names]], key: Any, *,
+                    allow_sync: bool) -> _MultiRead:
+        """The plan of a read of many motors, each model learnt and each name checked."""
+        ids = tuple(i for i, _ in requests)
+        models = [self.model_of(i) for i in ids]
+        fields = [_Fields(m, names) for m, (_, names) in zip(models, requests, strict=True)]
+        plan = _MultiRead(self.proto, ids, models, fields, allow_sync=allow_sync)
+        self._keep(key, plan)
+        return plan
+
+    def _fresh(self, plan: _MultiRead | _SyncWrite | None, ids: tuple[int, ...]) -> bool:
+        """Whether a plan still holds: same protocol, every motor still the same model, and
+        the IDs plain ints (``True`` would find motor 1's plan)."""
+        return (plan is not None and plan.proto is self.proto
+                and list(map(self.motors.get, ids)) == plan.models
+                and set(map(type, ids)) <= _INT)
 
     # -- one motor ---------------------------------------------------------------------------
     @overload
@@ -358,14 +812,17 @@ class Bus:
              check: bool = True) -> Value | dict[str, Value]:
         """Read one register (returns its value) or several (returns a dict), in SI units
         unless ``raw``. Several registers go out as one contiguous READ."""
-        m = self.model_of(motor_id)
-        wanted = self._names(names)
-        start, length = m.span(wanted)
-        self._check_reads_answered([motor_id])
-        status = self.transact(self.proto.read(motor_id, start, length), {motor_id: length},
-                               check=check)[motor_id]
-        values = self._unpack(m, wanted, status.params, start, raw)
-        return values[wanted[0]] if isinstance(names, str) else values
+        if not isinstance(names, str | list | tuple):
+            names = list(names)  # any other iterable: read it once
+        key = (motor_id, names if isinstance(names, str) else tuple(names))
+        plan = self._plan(key)
+        if (plan is None or type(motor_id) is not int or plan.proto is not self.proto
+                or self.motors.get(motor_id) is not plan.model):
+            plan = self._read_plan(motor_id, names, key)
+        if 0 in self._srl.values():
+            self._check_reads_answered((motor_id,))
+        buf, data_at, _ = self._exchange(plan.request, "READ", plan.replies, check, None)
+        return plan.fields.values(buf, data_at[0], raw)  # type: ignore[no-any-return]
 
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
               *, raw: bool = False, registered: bool = False) -> None:
@@ -419,8 +876,6 @@ class Bus:
     def status_return_level(self) -> dict[int, int]:
         """The status return level of each motor as this bus last wrote it (2, the factory
         default, for motors not in it); it decides which instructions the bus waits on."""
-        if not hasattr(self, "_srl"):
-            self._srl: dict[int, int] = {}
         return self._srl
 
     def action(self) -> None:
@@ -432,11 +887,9 @@ class Bus:
         if not isinstance(proto, Protocol2):
             raise ConfigError("REBOOT exists only in protocol 2.0")
         # The status goes out before the reboot, so it still carries the hardware-error alert
-        # that the reboot clears: only the instruction's own error counts.
-        status = self.transact(proto.reboot(motor_id), {motor_id: 0}, check=False)[motor_id]
-        if status.error & 0x7F:
-            raise MotorError(motor_id, "REBOOT", self.proto.error_names(status.error & 0x7F),
-                             status.error)
+        # that the reboot clears: only the instruction's own error counts (as everywhere).
+        self.transact(proto.reboot(motor_id), {motor_id: 0})
+        self._alerts.pop(motor_id, None)
 
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
                       keep_baud: bool = True) -> None:
@@ -465,6 +918,21 @@ class Bus:
         """One SYNC_WRITE of the same register(s) on many motors:
         ``sync_write("goal_position", {11: 0.1, 12: -0.2})`` or, for adjacent registers,
         ``sync_write(["goal_position", "moving_speed"], {11: (0.1, 2.0)})``."""
+        key: tuple[str, str, tuple[int, ...]] | None = None
+        if isinstance(names, str):
+            ids = tuple(values)
+            key = ("sync_write", names, ids)
+            plan = self._plan(key)
+            if self._fresh(plan, ids):
+                data = plan.encode(values.values(), raw)
+                if data is not None:
+                    self._send(data)
+                    if plan.covers_level:  # it wrote status_return_level (raw: no SI kind)
+                        for motor_id in plan.ids:
+                            level = values[motor_id]
+                            assert isinstance(level, int)  # the plan's encode checked it
+                            self.status_return_level[motor_id] = level
+                    return
         wanted = self._names(names)
         blocks: list[tuple[int, bytes]] = []
         layout: tuple[int, int] | None = None
@@ -494,9 +962,30 @@ class Bus:
         if not blocks or layout is None:
             return
         self.transact(self.proto.sync_write(layout[0], layout[1], blocks))
+        if key is not None:  # one register: the next time, through a plan
+            self._keep(key, self._sync_write_plan(key[1], key[2]))
         for motor_id, block in blocks:
             self.status_return_level[motor_id] = self._level_after(
                 motor_id, self.model_of(motor_id), layout[0], block)
+
+    def _sync_write_plan(self, name: str, ids: tuple[int, ...]) -> _SyncWrite | None:
+        """The plan of a SYNC_WRITE of ``name`` to ``ids`` like the one just sent (which
+        checked the register and every value), or None where the template cannot serve."""
+        models = [self.motors[i] for i in ids]
+        reg = models[0].register(name)
+        if (any(m.register(name) != reg for m in models)
+                or (reg.size, reg.signed) not in _STRUCT_CODES):
+            return None
+        covers = any(m.has("status_return_level")
+                     and m.register("status_return_level").address == reg.address
+                     for m in models)
+        try:
+            plan = _SyncWrite(self.proto, ids, models, reg, covers)
+        except (struct.error, ValueError):
+            return None
+        expected = self.proto.encode_instruction(self.proto.sync_write(
+            reg.address, reg.size, [(i, bytes(reg.size)) for i in ids]))
+        return plan if len(expected) == len(plan.template) else None
 
     @overload
     def sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
@@ -510,51 +999,46 @@ class Bus:
                   check: bool = True) -> dict[int, Value] | dict[int, dict[str, Value]]:
         """The same register(s) of many motors: one SYNC_READ on 2.0, one BULK_READ on 1.0
         models that have it, else one READ each. Returns {id: value} for one register name,
-        {id: {name: value}} for a list of names."""
-        ids = list(ids)
-        wanted = self._names(names)
-        models = {i: self.model_of(i) for i in ids}
-        if not ids:
+        {id: {name: value}} for a list of names. Motors that report a hardware error answer
+        all the same: their data is returned and they are named in :attr:`alerts`."""
+        ids_t = tuple(dict.fromkeys(ids))
+        if not ids_t:
             return {}
-        self._check_reads_answered(ids)
-        spans = {m.span(wanted) for m in models.values()}
-        proto = self.proto
-        out: dict[int, dict[str, Value]]
-        if isinstance(proto, Protocol2) and len(spans) == 1 and all(
-                supports(m, "SYNC_READ") for m in models.values()):
-            start, length = spans.pop()
-            got = self.transact(proto.sync_read(start, length, ids),
-                                {i: length for i in ids}, check=check)
-            out = {i: self._unpack(models[i], wanted, got[i].params, start, raw) for i in ids}
-        else:
-            out = self.bulk_read({i: wanted for i in ids}, raw=raw, check=check)
-        if isinstance(names, str):
-            return {i: v[names] for i, v in out.items()}
-        return out
+        if not isinstance(names, str):
+            names = tuple(names)
+        key = ("sync_read", names, ids_t)
+        plan = self._plan(key)
+        if not self._fresh(plan, ids_t):
+            plan = self._multi_plan([(i, names) for i in ids_t], key, allow_sync=True)
+        return self._run_multi(plan, raw, check)
 
     def bulk_read(self, requests: Mapping[int, Names], *, raw: bool = False,
                   check: bool = True) -> dict[int, dict[str, Value]]:
         """Different registers of different motors: {id: names} -> {id: {name: value}}.
         One BULK_READ where every model has it, else one contiguous READ per motor."""
-        plan = []
-        for motor_id, names in requests.items():
-            m = self.model_of(motor_id)
-            wanted = self._names(names)
-            plan.append((motor_id, m, wanted, *m.span(wanted)))
-        if not plan:
+        if not requests:
             return {}
-        self._check_reads_answered(requests)
-        if all(supports(m, "BULK_READ") for _, m, *_ in plan):
-            inst = self.proto.bulk_read([(i, start, n) for i, _, _, start, n in plan])
-            got = self.transact(inst, {i: n for i, _, _, _, n in plan}, check=check)
-            return {i: self._unpack(m, w, got[i].params, start, raw)
-                    for i, m, w, start, _ in plan}
-        out = {}
-        for motor_id, m, wanted, start, length in plan:
-            status = self.transact(self.proto.read(motor_id, start, length),
-                                   {motor_id: length}, check=check)[motor_id]
-            out[motor_id] = self._unpack(m, wanted, status.params, start, raw)
-        return out
+        pairs = [(i, [n] if isinstance(n, str) else list(n)) for i, n in requests.items()]
+        ids = tuple(i for i, _ in pairs)
+        key = ("bulk_read", tuple((i, tuple(n)) for i, n in pairs))
+        plan = self._plan(key)
+        if not self._fresh(plan, ids):
+            plan = self._multi_plan(pairs, key, allow_sync=False)
+        return self._run_multi(plan, raw, check)
+
+    def _run_multi(self, plan: _MultiRead, raw: bool, check: bool) -> dict[int, Any]:
+        if 0 in self._srl.values():
+            self._check_reads_answered(plan.ids)
+        if plan.reads:
+            out = {}
+            for read in plan.reads:
+                buf, data_at, _ = self._exchange(read.request, "READ", read.replies, check,
+                                                 None)
+                out[read.motor_id] = read.fields.values(buf, data_at[0], raw)
+            return out
+        buf, data_at, _ = self._exchange(plan.request, plan.name, plan.replies, check, None)
+        return {i: f.values(buf, at, raw)
+                for i, f, at in zip(plan.ids, plan.fields, data_at, strict=True)}
 
     def bulk_write(self, values: Mapping[int, Mapping[str, Value]], *,
                    raw: bool = False) -> None:

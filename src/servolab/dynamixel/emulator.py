@@ -973,19 +973,76 @@ class Emulator:
         for m in self._eager:
             m._after_step(self.steps)
 
+    # -- the line: what the firmware's receiver does with the host's bytes ---------------------
+    #: Seconds of silence after which the motors drop a packet they have only partly received
+    #: and look for a new header. ROBOTIS publish no figure for the servos' own firmware. Their
+    #: device-side parser in Dynamixel2Arduino (src/utility/protocol.cpp, commit 0f9999d:
+    #: ``dxlInit`` sets ``rx_timeout = 500*1000`` µs and ``dxlRxPacket1_0/2_0`` go back to
+    #: IDLE when ``micros() - prev_time > rx_timeout`` before taking a byte; DynamixelShield's
+    #: src/util/dxl.cpp the same) uses 500 ms, longer than the ROBOTIS SDK's own packet timeout
+    #: (2 x LATENCY_TIMER 16 ms + 2 ms + the status's wire time, port_handler.setPacketTimeout):
+    #: with it a truncated header would swallow a dozen of the SDK's retries. servolab uses
+    #: 10 ms: twice Python's 5 ms thread switch interval (a pause the pty server itself can put
+    #: between two reads of one packet), and well under the SDK's 34 ms, so that the retry after
+    #: a transaction that timed out always starts a fresh packet.
+    idle_timeout: float = 0.010
+    #: Protocol 2.0 broadcast PING: how long the motors wait for the status of an ID that does
+    #: not answer before the next ID takes its turn (see :meth:`_chain`).
+    ping_slot: float = 0.003
+    #: partly received packets dropped after ``idle_timeout`` of silence
+    partial_packets_dropped: int = 0
+    _heard_until: float = -math.inf  # when the last byte received ended
+
     def receive(self, data: bytes, t: float, baudrate: float) -> list[Reply]:
-        """Take the host's bytes (the last one ends at ``t``); return what goes back."""
+        """Take the host's bytes (the last one ends at ``t``); return what goes back.
+
+        As a servo's firmware does, the motors first drop a packet they were partway through
+        if the line was silent for more than :attr:`idle_timeout` before these bytes began
+        (``t - len(data) * byte_time(baudrate)``), and resynchronise on the next header.
+
+        A motor never answers late: every packet that completes is acted on, but only the one
+        the host's last byte completes is answered, at ``t`` plus the return delay. A status
+        to an earlier packet would have been on the wire while the host was still sending
+        (the bus is half duplex: it is lost in the collision), and a packet the parser finds
+        inside junk that had swallowed it is long stale. When the last byte completes a packet
+        with a bad checksum/CRC, the motors were inside that one: its checksum error is the
+        answer, whatever the parser then finds within it.
+        """
+        data = bytes(data)
+        if not data:
+            return []
+        self.idle(t - len(data) * byte_time(baudrate))
+        self._heard_until = t
+        parser = self._parser
+        stale = parser.feed(data[:-1])          # packets the host sent more bytes after
+        parser.rejected.clear()
+        last = parser.feed(data[-1:])           # what the last byte completes, first
+        rejected = [bad.id for bad in parser.rejected]
+        parser.rejected.clear()
+        frames = stale + last
+        self.instructions_seen += len(frames)
         replies: list[Reply] = []
-        for frame in self._parser.feed(data):
-            self.instructions_seen += 1
-            inst = self.protocol.as_instruction(frame)
-            replies += self._answer(inst, t, baudrate)
-            if replies:
-                t = max(t, replies[-1].start + len(replies[-1].data) * byte_time(baudrate))
-        for bad in self._parser.rejected:
-            replies += self._checksum_error(bad.id, t, baudrate)
-        self._parser.rejected.clear()
+        for i, frame in enumerate(frames):
+            answers = self._answer(self.protocol.as_instruction(frame), t, baudrate)
+            if i == len(stale) and not rejected:
+                replies = answers
+        if rejected:
+            replies = self._checksum_error(rejected[0], t, baudrate)
         return replies
+
+    def idle(self, t: float) -> None:
+        """The line has been silent from the last byte received until ``t``: if longer than
+        :attr:`idle_timeout`, drop the packet the motors were partway through (the owner of a
+        real-time line calls this when nothing comes; :meth:`receive` does it by itself)."""
+        if self._parser.pending and t - self._heard_until > self.idle_timeout:
+            self._parser.reset()
+            self.partial_packets_dropped += 1
+
+    @property
+    def idle_deadline(self) -> float | None:
+        """When the packet the motors are partway through is dropped if no byte comes (the
+        first time :meth:`idle` drops it is any time after this); None when there is none."""
+        return self._heard_until + self.idle_timeout if self._parser.pending else None
 
     def _checksum_error(self, motor_id: int, t: float, baudrate: float) -> list[Reply]:
         """A unicast packet that arrived whole but with a bad checksum/CRC: the motor with
@@ -1045,9 +1102,10 @@ class Emulator:
             return self._chain(self._read_requests(inst, name), able, t, baudrate)
         if inst.id == BROADCAST_ID:
             if name == "PING" and not v1:
-                # Broadcast ping (2.0): every motor answers, in ID order, one after another.
-                order = sorted(motors, key=lambda m: m.id)
-                return self._chain([(m.id, None) for m in order], order, t, baudrate)
+                # Broadcast ping (2.0): every ID up to the highest present has its turn, in
+                # ID order; an ID nobody answers for costs a ping_slot of silence.
+                top = max((m.id for m in motors), default=-1)
+                return self._chain([(i, None) for i in range(top + 1)], motors, t, baudrate)
             for m in motors:
                 m.execute(inst, name)
             return []
@@ -1077,15 +1135,30 @@ class Emulator:
                motors: list[VirtualMotor], t: float, baudrate: float) -> list[Reply]:
         """Replies of a SYNC_READ, BULK_READ or broadcast ping: each motor waits for the
         status of the one before it, then its own return delay. ``requests`` are (id, block)
-        pairs: the (address, length) each motor reads, or None for a PING."""
+        pairs: the (address, length) each motor reads, or None for a PING.
+
+        Broadcast PING (2.0): the e-Manual says only that "all devices send their Status
+        Packet according to their arranged order" (Protocol 2.0, Ping). ROBOTIS's device-side
+        code has the order: Dynamixel2Arduino (src/utility/protocol.cpp, commit 0f9999d,
+        ``DXL_PROCESS_BROAD_PING``) counts IDs from 1 after the ping, moves to ID k + 1 as
+        soon as it hears ID k's status and otherwise every 3000 µs, and answers when the count
+        reaches its own ID. So motor k starts at the end of the ping plus, for each lower ID,
+        that ID's return delay and status (14 bytes) if it answers or ``ping_slot`` (3 ms) if
+        not, plus its own return delay. The SDK's wait for a broadcast ping allows exactly
+        that per ID (protocol2_packet_handler.broadcastPing: 14 bytes x 252 + 3 ms x 252 +
+        16 ms). ID 0, which that counter reaches only when it wraps, answers first here and
+        costs no slot when absent."""
         replies: list[Reply] = []
         for motor_id, block in requests:
             targets = [m for m in motors if m.id == motor_id]
             if not targets:
                 # Real motors wait for the previous answer; a missing one stalls the rest
-                # (1.0 BULK_READ), while 2.0 motors time out and go on. Both lose this slot.
+                # (1.0 BULK_READ), while 2.0 motors time out and go on. Both lose this slot;
+                # a silent ID in a broadcast ping costs ping_slot.
                 if self.protocol.version == 1:
                     break
+                if block is None and motor_id > 0:
+                    t += self.ping_slot
                 continue
             statuses = []
             for m in targets:

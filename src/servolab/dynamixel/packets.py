@@ -153,6 +153,63 @@ class Protocol(ABC):
     def status_size(self, n_params: int) -> int:
         """Bytes on the wire of a status packet with ``n_params`` parameters (no stuffing)."""
 
+    # -- status packets checked in place (the driver's fast path) ----------------------------
+    #: index of the error byte in a status packet, and of its first parameter
+    error_at: ClassVar[int]
+    params_at: ClassVar[int]
+
+    @abstractmethod
+    def status_prefix(self, motor_id: int, n_params: int) -> bytes:
+        """The bytes a status packet from ``motor_id`` with ``n_params`` parameters starts
+        with, up to its error byte: what the driver expects before it reads the packet."""
+
+    @abstractmethod
+    def match_status_at(self, buf: bytes, start: int, size: int, prefix: bytes,
+                        state: int) -> int:
+        """The error byte of the status packet the driver expects at ``buf[start:start +
+        size]``, starting with ``prefix`` (``state`` is what the checksum/CRC of the prefix
+        leaves, see :meth:`prefix_state`), checked without copying it out; -1 when it is not
+        exactly as expected."""
+
+    def match_statuses(self, buf: bytes, starts: Sequence[int], sizes: Sequence[int],
+                       prefixes: Sequence[bytes], states: Sequence[int]
+                       ) -> list[int] | tuple[()] | None:
+        """Check status packets laid end to end in ``buf`` where the driver expects them
+        (packet k at ``starts[k]``, ``sizes[k]`` bytes, see :meth:`match_status_at`).
+        Returns their error bytes (``()`` when all are 0), or None when any packet is not
+        exactly as expected: then the driver's stream parser reads the bytes instead."""
+        errors: list[int] | None = None
+        match = self.match_status_at
+        for k, (start, size, prefix, state) in enumerate(zip(starts, sizes, prefixes, states,
+                                                             strict=True)):
+            error = match(buf, start, size, prefix, state)
+            if error < 0:
+                return None
+            if error:
+                if errors is None:
+                    errors = [0] * len(starts)
+                errors[k] = error
+        return () if errors is None else errors
+
+    def match_status(self, buf: bytes, prefix: bytes, state: int) -> int:
+        """:meth:`match_status_at` for one status packet that is the whole of ``buf``."""
+        return self.match_status_at(buf, 0, len(buf), prefix, state)
+
+    def prefix_state(self, prefix: bytes) -> int:
+        """The running checksum/CRC after ``prefix`` (the part of a status packet the driver
+        knows in advance), so that :meth:`match_statuses` checks only the rest."""
+        return 0
+
+    @abstractmethod
+    def failed(self, error: int) -> int:
+        """The bits of a status error byte that say the instruction itself failed (nothing
+        was read or written); 0 when it was carried out."""
+
+    @abstractmethod
+    def alert(self, error: int) -> int:
+        """The bits of a status error byte that report the motor's hardware state (overload,
+        overheating, ...): they come with an instruction carried out and valid data."""
+
     def decode_instruction(self, data: bytes) -> Instruction:
         return self.as_instruction(self._one_frame(data))
 
@@ -169,10 +226,12 @@ class Protocol(ABC):
 
     # -- names ---------------------------------------------------------------------------------
     def instruction_name(self, code: int) -> str:
-        for name, value in self.instructions.items():
-            if value == code:
-                return name
-        return f"0x{code:02X}"
+        names = self.__dict__.get("_names_by_code")
+        if names is None:
+            names = self.__dict__["_names_by_code"] = {v: k for k, v in
+                                                       reversed(self.instructions.items())}
+        name = names.get(code)
+        return name if name is not None else f"0x{code:02X}"
 
     def error_names(self, error: int) -> tuple[str, ...]:
         """Names of the error bits set in a status packet's error byte."""

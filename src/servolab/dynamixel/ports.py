@@ -20,6 +20,7 @@ import math
 import os
 import sys
 import threading
+import time
 from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable
@@ -107,7 +108,10 @@ class MemoryPort(Port):
         self.name = name
         self.protocol = protocol
         self._lock = lock if lock is not None else nullcontext()
-        self._rx: deque[tuple[float, int]] = deque()  # (time the byte is complete, byte)
+        #: replies on their way, oldest first: [start, byte time, data, bytes already read];
+        #: byte i of a reply is complete at start + (i + 1) * byte time (all at start when
+        #: the byte time is 0, on the wall clock)
+        self._rx: deque[list[Any]] = deque()
         self.bytes_written = 0
         self.bytes_read = 0
 
@@ -127,37 +131,88 @@ class MemoryPort(Port):
         self.bytes_written += len(data)
         with self._lock:
             replies = self.device.receive(data, end, self.baudrate)
+        if not replies:
+            return
         # On the wall clock only an injected delay (a device's ``faults.delay``) holds answers.
         delay = getattr(getattr(self.device, "faults", None), "delay", 0.0)
         for reply in replies:
-            start = reply.start if virtual else now + delay
-            for i, byte in enumerate(reply.data):
-                self._rx.append((start + (i + 1) * tick if virtual else start, byte))
+            if reply.data:
+                self._rx.append([reply.start, tick, bytes(reply.data), 0] if virtual
+                                else [now + delay, 0.0, bytes(reply.data), 0])
+
+    @staticmethod
+    def _ready(chunk: list[Any], t: float) -> int:
+        """How many bytes of ``chunk`` (counted from its start) are complete at ``t``."""
+        start, tick, data, _ = chunk
+        if not tick:
+            return len(data) if start <= t else 0
+        # the largest i with start + i * tick <= t, computed as the byte times are
+        i = min(len(data), max(0, int((t - start) / tick)))
+        while i < len(data) and start + (i + 1) * tick <= t:
+            i += 1
+        while i > 0 and start + i * tick > t:
+            i -= 1
+        return i
+
+    def available(self) -> int:
+        """Bytes received and not yet read (complete by now)."""
+        now = self.clock.now()
+        total = 0
+        for chunk in self._rx:
+            ready = self._ready(chunk, now) - chunk[3]
+            if ready <= 0:
+                break
+            total += ready
+            if chunk[3] + ready < len(chunk[2]):
+                break
+        return total
 
     def read(self, size: int, timeout: float) -> bytes:
-        deadline = self.clock.now() + timeout
-        out = bytearray()
+        clock = self.clock
+        deadline = clock.now() + timeout
         rx = self._rx
+        parts: list[bytes] = []
+        got = 0
         last = -math.inf
-        while len(out) < size and rx and rx[0][0] <= deadline:
-            ready, byte = rx.popleft()
-            last = ready
-            out.append(byte)
-        if last > self.clock.now():
-            self.clock.advance_to(last)  # the bytes come one after another: wait for the last
-        if len(out) < size:
-            if self.clock.virtual:
-                self.clock.advance_to(deadline)
-            elif self._rx:  # an answer is still on its way (injected delay): wait for it
-                self.clock.sleep(deadline - self.clock.now())
+        while got < size and rx:
+            chunk = rx[0]
+            start, tick, data, pos = chunk
+            ready = self._ready(chunk, deadline)
+            take = min(size - got, ready - pos)
+            if take <= 0:
+                break
+            parts.append(data[pos:pos + take])
+            got += take
+            pos += take
+            last = start + pos * tick if tick else start
+            if pos == len(data):
+                rx.popleft()
+            else:
+                chunk[3] = pos
+                break
+        if last > clock.now():
+            clock.advance_to(last)  # the bytes come one after another: wait for the last
+        if got < size:
+            if clock.virtual:
+                clock.advance_to(deadline)
+            elif rx:  # an answer is still on its way (injected delay): wait for it
+                clock.sleep(deadline - clock.now())
             # else nothing more can come from an in-process device: no need to wait
-        self.bytes_read += len(out)
-        return bytes(out)
+        self.bytes_read += got
+        return parts[0] if len(parts) == 1 else b"".join(parts)
 
     def reset_input(self) -> None:
+        rx = self._rx
+        if not rx:
+            return
         now = self.clock.now()
-        while self._rx and self._rx[0][0] <= now:
-            self._rx.popleft()
+        while rx:
+            chunk = rx[0]
+            ready = self._ready(chunk, now)
+            if ready < len(chunk[2]):
+                chunk[3] = max(chunk[3], ready)
+                return
+            rx.popleft()
 
     def set_baudrate(self, baudrate: int) -> None:
         if baudrate <= 0:
@@ -166,7 +221,12 @@ class MemoryPort(Port):
 
 
 class SerialPort(Port):
-    """A real serial port (USB2Dynamixel, U2D2, OpenCM, ...) through pyserial."""
+    """A real serial port (USB2Dynamixel, U2D2, OpenCM, ...) through pyserial.
+
+    Reads and writes go straight to the port's file descriptor where there is one (POSIX):
+    pyserial applies its whole port configuration again (tcsetattr) each time its ``timeout``
+    is set, which a read with a per-call deadline would otherwise do on every transaction.
+    """
 
     def __init__(self, device: str, baudrate: int = 57600, *, latency: float | None = None
                  ) -> None:
@@ -182,6 +242,9 @@ class SerialPort(Port):
         except (serial.SerialException, ValueError, OSError) as exc:
             raise ConfigError(f"cannot open serial port {device!r} at {baudrate} bps: "
                               f"{exc}") from None
+        self._timeout: float | None = 0.0  # what pyserial's timeout is set to
+        #: the (non-blocking) descriptor pyserial opened, on POSIX; None elsewhere
+        self._fd: int | None = getattr(self._serial, "fd", None)
         self.name = device
         self.baudrate = int(baudrate)
         self.clock = WallClock()
@@ -193,12 +256,63 @@ class SerialPort(Port):
             timer / 1000.0 if timer is not None else 0.016)
 
     def write(self, data: bytes) -> None:
+        # No flush() (tcdrain) after the write: it would block until the last byte has left
+        # the UART, which only matters to a controller that switches the half-duplex line's
+        # direction itself ("When changing the direction, the TXD_SHIFT_REGISTER_EMPTY_BIT
+        # must be checked", e-Manual, Protocol 1.0, Tx/Rx Direction). The USB adapters do that
+        # in hardware (the U2D2's and USB2Dynamixel's FTDI chip drives the direction pin from
+        # its own transmitter), the reply cannot come before the request has left anyway, and
+        # the read timeout counts the request's wire time. The ROBOTIS SDK does not drain
+        # either (PortHandler.writePort is ser.write alone); on a USB adapter tcdrain costs a
+        # round trip to the chip, up to a USB frame (1 ms), per transaction.
+        fd = self._fd
+        if fd is not None:
+            try:
+                sent = os.write(fd, data)
+            except BlockingIOError:
+                sent = 0
+            if sent == len(data):
+                return
+            data = data[sent:]  # the kernel's buffer is full: let pyserial wait for room
         self._serial.write(bytes(data))
-        self._serial.flush()
 
     def read(self, size: int, timeout: float) -> bytes:
-        self._serial.timeout = max(0.0, timeout)
-        return bytes(self._serial.read(size))
+        fd = self._fd
+        if fd is None:
+            timeout = max(0.0, timeout)
+            if timeout != self._timeout:  # setting it reconfigures the port: only on change
+                self._serial.timeout = self._timeout = timeout
+            return bytes(self._serial.read(size))
+        import select
+
+        try:
+            data = os.read(fd, size)
+        except (BlockingIOError, InterruptedError):
+            data = b""
+        if len(data) >= size or timeout <= 0:
+            return data
+        buf = bytearray(data)
+        deadline = time.monotonic() + timeout
+        while len(buf) < size:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            ready, _, _ = select.select([fd], [], [], left)
+            if not ready:
+                break
+            try:
+                chunk = os.read(fd, size - len(buf))
+            except (BlockingIOError, InterruptedError):
+                continue
+            if not chunk:
+                import serial
+
+                # as pyserial: a descriptor that is ready but reads nothing is gone
+                raise serial.SerialException(
+                    f"{self.name}: device reports readiness to read but returned no data "
+                    "(device disconnected or multiple access on port?)")
+            buf += chunk
+        return bytes(buf)
 
     def reset_input(self) -> None:
         self._serial.reset_input_buffer()
@@ -209,6 +323,7 @@ class SerialPort(Port):
 
     def close(self) -> None:
         self._serial.close()
+        self._fd = None
 
 
 USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
@@ -249,10 +364,21 @@ class PtyServer:
 
     The client opens :attr:`device` as a serial port. Replies are timed on ``clock``, which
     must run at wall speed (a :class:`servolab.sim.Simulation` in real time, whose thread steps
-    the motors; ``lock`` is held while the device answers, so the two never meet halfway);
-    return delay and wire time at the bus's baud are honoured. When the client sets a
-    standard line speed that no motor can understand (beyond 3 %), motors stay silent, as
-    they would on a real wire; ``line_baud`` overrides what the client set.
+    the motors; ``lock`` is held while the device answers, so the two never meet halfway).
+    When the client sets a standard line speed that no motor can understand (beyond 3 %),
+    motors stay silent, as they would on a real wire; ``line_baud`` overrides what the client
+    set.
+
+    The wire is modelled at the client's line speed: the client's bytes go onto it when they
+    arrive (or when the bytes before them have left it) and take 10 bits each, and each reply
+    is written to the pty whole when its last byte has crossed the wire (``reply.start`` plus
+    its wire time), never earlier. Whole, not byte by byte: a USB adapter hands received bytes
+    to the host in packets anyway, and a thread woken once per byte would add as much jitter
+    (about 0.1 ms) as a byte lasts at 57600 bps. The bus is half duplex: a reply not yet
+    finished when the client starts sending again collides with the client's bytes and is
+    lost (:attr:`replies_lost`). Bytes the client leaves unread beyond the pty's buffer are
+    dropped (:attr:`bytes_overflowed`), as by a UART whose FIFO is full; the server never
+    blocks on the client, which may close the port and open it again at any time.
     """
 
     def __init__(self, emulator: Device, baudrate: int, *, link: str | Path | None = None,
@@ -268,53 +394,107 @@ class PtyServer:
         self._lock = lock if lock is not None else nullcontext()
         self._master, self._slave = pty.openpty()
         tty.setraw(self._slave, termios.TCSANOW)
+        os.set_blocking(self._master, False)
+        # Our own end of the slave stays open, so the master never sees the client hang up.
         self.device = os.ttyname(self._slave)
         self.link = Path(link) if link else None
         if self.link:
             if self.link.is_symlink() or self.link.exists():
                 self.link.unlink()
             self.link.symlink_to(self.device)
+        #: replies lost because the client was sending when they were on the wire
+        self.replies_lost = 0
+        #: reply bytes dropped because the client did not read them
+        self.bytes_overflowed = 0
         self._stop = threading.Event()
+        self._wake_r, self._wake_w = os.pipe()  # close() wakes the server through it
         self._thread = threading.Thread(target=self._serve, name="pty-emulator", daemon=True)
 
     def start(self) -> PtyServer:
         self._thread.start()
         return self
 
+    #: how long after a device's idle deadline the server tells it the line stayed silent
+    _IDLE_MARGIN = 1e-3
+
     def _serve(self) -> None:
+        import heapq
+        import itertools
         import select
 
-        pending: list[tuple[float, bytes]] = []
+        master = self._master
+        # (time the reply's last byte has crossed the wire, order, bytes)
+        pending: list[tuple[float, int, bytes]] = []
+        order = itertools.count()
+        wire_end = -math.inf   # when the client's bytes so far have left the wire
+        idle = getattr(self.emulator, "idle", None)
         while not self._stop.is_set():
             now = self.clock.now()
-            wait = 0.05 if not pending else max(0.0, min(t for t, _ in pending) - now)
-            ready, _, _ = select.select([self._master], [], [], wait)
-            now = self.clock.now()
-            due = [p for p in pending if p[0] <= now]
-            for item in due:
-                pending.remove(item)
-                os.write(self._master, item[1])
-            if not ready:
+            wake = pending[0][0] if pending else math.inf
+            idle_at = getattr(self.emulator, "idle_deadline", None)
+            if idle is not None and idle_at is not None:
+                if idle_at + self._IDLE_MARGIN <= now:
+                    with self._lock:
+                        idle(now)   # the line stayed silent: drop a partial packet
+                    idle_at = getattr(self.emulator, "idle_deadline", None)
+                if idle_at is not None and idle_at + self._IDLE_MARGIN > now:
+                    wake = min(wake, idle_at + self._IDLE_MARGIN)
+            timeout = None if wake == math.inf else max(0.0, wake - now)
+            try:
+                ready, _, _ = select.select([master, self._wake_r], [], [], timeout)
+            except (OSError, ValueError):   # closed under us
+                return
+            arrival = self.clock.now()      # the best time the client's bytes are known by
+            while pending and pending[0][0] <= arrival:
+                self._write(heapq.heappop(pending)[2])
+            if master not in ready:
                 continue
             try:
-                data = os.read(self._master, 4096)
-            except OSError:
-                break
+                data = os.read(master, 4096)
+            except BlockingIOError:
+                continue
+            except OSError:  # EIO: no one has the slave open (not while we hold it)
+                self._stop.wait(0.05)
+                continue
+            if not data:
+                self._stop.wait(0.05)
+                continue
+            baud = self.line_baud()
+            tick = byte_time(baud)
+            sent = max(arrival, wire_end)
+            wire_end = sent + len(data) * tick
+            if any(p[0] > sent for p in pending):
+                kept = [p for p in pending if p[0] <= sent]
+                self.replies_lost += len(pending) - len(kept)
+                pending[:] = kept
+                heapq.heapify(pending)
             with self._lock:
-                replies = self.emulator.receive(data, now, self.line_baud())
+                replies = self.emulator.receive(data, wire_end, baud)
             for reply in replies:
-                pending.append((reply.start, reply.data))
-            pending.sort(key=lambda p: p[0])
+                payload = bytes(reply.data)
+                heapq.heappush(pending, (reply.start + len(payload) * tick, next(order),
+                                         payload))
+
+    def _write(self, data: bytes) -> None:
+        try:
+            written = os.write(self._master, data)
+        except OSError:     # full (the client reads nothing) or gone
+            written = 0
+        self.bytes_overflowed += len(data) - written
 
     def line_baud(self) -> int:
         """The line speed the client set on its end, or our own rate if it cannot be told."""
         return client_line_speed(self._slave) or self.baudrate
 
     def close(self) -> None:
+        if self._stop.is_set():
+            return          # closed already: its descriptors may belong to others by now
         self._stop.set()
+        with contextlib.suppress(OSError):
+            os.write(self._wake_w, b"x")
         if self._thread.is_alive():
             self._thread.join(timeout=1.0)
-        for fd in (self._master, self._slave):
+        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
             with contextlib.suppress(OSError):
                 os.close(fd)
         if self.link and self.link.is_symlink():

@@ -49,6 +49,14 @@ ERROR_BITS = {
     INPUT_VOLTAGE: "input voltage", ANGLE_LIMIT: "angle limit", OVERHEATING: "overheating",
     RANGE: "range", CHECKSUM: "checksum", OVERLOAD: "overload", INSTRUCTION: "instruction",
 }
+#: The bits that say the instruction was refused: undefined instruction or ACTION without
+#: REG_WRITE, bad checksum, a value out of range, a Goal Position outside the angle limits
+#: (e-Manual, Protocol 1.0, "Status Packet", Error; its bit 7 is always 0, so a status with
+#: it set is taken as failed too). The others (overload, overheating, input voltage) describe
+#: the motor's state: they are set in every status while the condition lasts, and the
+#: instruction is carried out all the same (a READ returns its data).
+INSTRUCTION_ERRORS = INSTRUCTION | CHECKSUM | RANGE | ANGLE_LIMIT | 0x80
+HARDWARE_ERRORS = OVERLOAD | OVERHEATING | INPUT_VOLTAGE
 
 
 def checksum(body: bytes | bytearray) -> int:
@@ -104,6 +112,26 @@ class Protocol1(Protocol):
 
     def status_size(self, n_params: int) -> int:
         return 6 + n_params
+
+    # -- status packets checked in place ----------------------------------------------------------
+    error_at = 4
+    params_at = 5
+
+    def status_prefix(self, motor_id: int, n_params: int) -> bytes:
+        return HEADER + bytes((motor_id, n_params + 2))
+
+    def match_status_at(self, buf: bytes, start: int, size: int, prefix: bytes,
+                        state: int) -> int:
+        last = start + size - 1
+        if buf.startswith(prefix, start) and ~sum(buf[start + 2:last]) & 0xFF == buf[last]:
+            return buf[start + 4]
+        return -1
+
+    def failed(self, error: int) -> int:
+        return error & INSTRUCTION_ERRORS
+
+    def alert(self, error: int) -> int:
+        return error & HARDWARE_ERRORS
 
     # -- builders ------------------------------------------------------------------------------
     def reset(self, motor_id: int) -> Instruction:

@@ -10,6 +10,7 @@ Status packets carry instruction 0x55 and then the error byte.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from struct import unpack_from as _unpack_from
 from typing import ClassVar
 
 from .errors import PacketError
@@ -85,12 +86,38 @@ def _crc_table() -> list[int]:
 
 
 _CRC_TABLE = _crc_table()
+_CRC_WORDS: list[int] | None = None
+
+
+def _word_table() -> list[int]:
+    """The CRC after two more bytes, indexed by the CRC so far XOR those bytes (big-endian):
+    the register is 16 bits wide, so two bytes shift all of it out and the result depends on
+    that XOR alone. Half as many steps as the byte table; built on first use (65 536 entries,
+    a few ms), whole before it is published (two threads may both build it, harmlessly)."""
+    global _CRC_WORDS
+    table = _CRC_WORDS
+    if table is None:
+        t = _CRC_TABLE
+        table = [((t[hi] & 0xFF) << 8) ^ t[lo ^ (t[hi] >> 8)]
+                 for hi in range(256) for lo in range(256)]
+        _CRC_WORDS = table
+    return table
 
 
 def crc16(data: bytes | bytearray, crc: int = 0) -> int:
     """CRC-16 of Protocol 2.0 over ``data``."""
-    for byte in data:
-        crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
+    return crc16_at(data, 0, len(data), crc)
+
+
+def crc16_at(data: bytes | bytearray, start: int, stop: int, crc: int = 0) -> int:
+    """CRC-16 of ``data[start:stop]``, continuing from ``crc``, without copying the slice."""
+    n = stop - start
+    if n >= 2:
+        words = _CRC_WORDS or _word_table()
+        for word in _unpack_from(f">{n >> 1}H", data, start):
+            crc = words[crc ^ word]
+    if n & 1:
+        crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ data[stop - 1]) & 0xFF]) & 0xFFFF
     return crc
 
 
@@ -166,6 +193,36 @@ class Protocol2(Protocol):
 
     def status_size(self, n_params: int) -> int:
         return 11 + n_params
+
+    # -- status packets checked in place ----------------------------------------------------------
+    error_at = 8
+    params_at = 9
+
+    def status_prefix(self, motor_id: int, n_params: int) -> bytes:
+        length = n_params + 4  # instruction, error, parameters, CRC
+        return HEADER + bytes((motor_id, length & 0xFF, length >> 8, STATUS))
+
+    def prefix_state(self, prefix: bytes) -> int:
+        return crc16(prefix)
+
+    def match_status_at(self, buf: bytes, start: int, size: int, prefix: bytes,
+                        state: int) -> int:
+        end = start + size
+        if (buf.startswith(prefix, start) and crc16_at(buf, start + 8, end - 2, state)
+                == buf[end - 2] | buf[end - 1] << 8):
+            return buf[start + 8]
+        return -1
+
+    def failed(self, error: int) -> int:
+        # "Error Number: When there has been an Error in the processing of the Instruction
+        # Packet" (e-Manual, Protocol 2.0, Status Packet, Error): bits 0-6.
+        return error & 0x7F
+
+    def alert(self, error: int) -> int:
+        # "Alert: When there has been a problem in the Device, this field is set as 1.
+        # Checking the Hardware error status value of the Control Table can indicate the
+        # cause of the problem" (ibid.): bit 7, which says nothing about the instruction.
+        return error & ALERT
 
     def error_names(self, error: int) -> tuple[str, ...]:
         names = []
