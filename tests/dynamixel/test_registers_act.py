@@ -247,3 +247,23 @@ def test_ex106_sensed_current_is_512_at_rest_and_moves_with_the_load() -> None:
     current = bus.read(1, "sensed_current", raw=True)
     assert (current < 512) == (load > 0)
     assert abs(current - 512) * 0.010 == pytest.approx(abs(load) * 7.0, abs=0.02)  # 7 A stall
+
+
+def test_protocol1_overheating_lasts_as_long_as_the_heat() -> None:
+    """1.0: the status error byte reports overheating while "the internal temperature is out
+    of the range of operating temperature set in the Control Table" (e-Manual, Alarm
+    Shutdown bit 2); its shutdown zeroes the torque limit, and once cool the bit goes."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, "temperature_limit", 40, raw=True)
+    bus.write(1, "torque_enable", 1)
+    motor.external_load = 0.9                       # heats past 40 °C
+    bus.port.clock.advance(300.0)
+    bus.read(1, "present_temperature")
+    assert bus.alerts == {1: 0x04}
+    assert bus.read(1, "torque_limit", raw=True) == 0   # shutdown: output 0 %
+    motor.external_load = 0.0
+    bus.write(1, "torque_enable", 0)
+    bus.port.clock.advance(1500.0)                  # five time constants to cool
+    assert bus.read(1, "present_temperature") < 40
+    assert bus.alerts == {}

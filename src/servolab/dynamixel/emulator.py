@@ -148,6 +148,7 @@ class VirtualMotor:
         self._stale = True          # present_* registers need refreshing from the plant
         self._pending: tuple[int, bytes] | None = None
         self._heard_step = 0        # the step of the last instruction that reached the motor
+        self._too_hot = False       # overheating found by the firmware (not injected)
         self._watchdog_tripped = False
         self._table_changed()
         self._hold_position()
@@ -475,6 +476,16 @@ class VirtualMotor:
             steps -= plant.advance(steps, dt, temperature_limit=limit)
             if plant.temperature > limit:
                 self._hardware_error(overheating)
+                self._too_hot = True
+        self._cooled_down(overheating)
+
+    def _cooled_down(self, overheating: int) -> None:
+        """A 1.0 servo reports overheating while it lasts (its status error byte is the
+        condition now); an X-series keeps it in Hardware Error Status until a REBOOT."""
+        if (self._too_hot and self.model.protocol == 1
+                and self._plant.temperature <= self._temperature_limit):
+            self.hardware_error &= ~overheating
+            self._too_hot = False
 
     def _after_step(self, steps: int) -> None:
         """A world stepped this motor's plant: the firmware's per-step duty."""
@@ -487,6 +498,8 @@ class VirtualMotor:
         if (self._plant.temperature > self._temperature_limit
                 and not self.hardware_error & overheating):
             self._hardware_error(overheating)
+            self._too_hot = True
+        self._cooled_down(overheating)
 
     def _command(self) -> ServoCommand:
         """The registers as the joint sees them: torque, the goal and the limits, in SI."""
@@ -937,6 +950,9 @@ class Emulator:
         self._by_secondary: dict[int, list[VirtualMotor]] = {}
         self._parser = self.protocol.parser(keep_rejected=True)
         self.instructions_seen = 0
+        #: partly received packets dropped after ``idle_timeout`` of silence
+        self.partial_packets_dropped = 0
+        self._heard_until = -math.inf  # when the last byte received ended
         for motor in motors:
             self.add(motor)
 
@@ -989,9 +1005,6 @@ class Emulator:
     #: Protocol 2.0 broadcast PING: how long the motors wait for the status of an ID that does
     #: not answer before the next ID takes its turn (see :meth:`_chain`).
     ping_slot: float = 0.003
-    #: partly received packets dropped after ``idle_timeout`` of silence
-    partial_packets_dropped: int = 0
-    _heard_until: float = -math.inf  # when the last byte received ended
 
     def receive(self, data: bytes, t: float, baudrate: float) -> list[Reply]:
         """Take the host's bytes (the last one ends at ``t``); return what goes back.
