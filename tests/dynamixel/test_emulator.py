@@ -290,7 +290,7 @@ def test_protocol1_goal_or_speed_write_switches_torque_on(spec_text: str,
 
 @pytest.mark.parametrize("via", ["write", "sync_write"])
 def test_x_series_goal_switches_torque_on_only_with_drive_mode_bit_3(via: str) -> None:
-    """X-series (firmware 45): with Drive Mode(10) bit 3 "Torque On by Goal Update" a goal
+    """X-series (firmware 45 and later): with Drive Mode(10) bit 3 "Torque On by Goal Update" a goal
     written with torque off switches it on; without it the goal waits for a torque write
     (e-Manual, Drive Mode(10), available from firmware V45)."""
     bus = Bus.open("emu://xm430-w210:1-2", baudrate=1_000_000)

@@ -192,7 +192,7 @@ def x_table(number: int, velocity_limit: int, *, xl430: bool) -> Table:
         ("return_delay_time", 9, 1, "RW", 250, 0, 254),
         # XL430 table 0~13; the XM430 table still says 0~5, but its Drive Mode(10) description
         # (control_table_drivemode.md, product group dxl_x430) has bit 3, Torque On by Goal
-        # Update, from firmware V45 (the firmware modelled): 0~13.
+        # Update, from firmware V45 (the emulated X-series run 46): 0~13.
         ("drive_mode", 10, 1, "RW", 0, 0, 13),
         ("operating_mode", 11, 1, "RW", 3, 0, 16),
         # The table says 0~252, yet its initial value is 255: the description

@@ -4,7 +4,10 @@
 one READ, checks the status packet and returns radians. Several registers of one motor go out
 as one contiguous READ; many motors go out as SYNC_WRITE / SYNC_READ / BULK_READ where the
 model has them, and fall back to one packet per motor where it does not (RX-28 has no
-BULK_READ). Everything is checked before the first byte is sent, so bad input writes nothing.
+BULK_READ). On X-series firmware 46 and later, ``fast_sync_read`` / ``fast_bulk_read`` (or
+``fast=True``/``None``) send FAST_SYNC_READ / FAST_BULK_READ, answered by one status packet
+for all the motors. Everything is checked before the first byte is sent, so bad input writes
+nothing.
 
 **Robust.** A status is taken as the answer only if it comes from a motor asked, with the
 length the instruction asks for; anything else (a late answer to an earlier instruction, a
@@ -30,13 +33,13 @@ import logging
 import struct
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any, overload
 
 from . import units
 from .errors import CommError, ConfigError, CorruptResponse, MotorError, NoResponse
-from .models import Model, Register, model, model_by_number, supports
+from .models import FAST_READ_FIRMWARE, Model, Register, model, model_by_number, supports
 from .packets import Instruction, Protocol, Status
 from .ports import Port, open_port
 from .protocol import protocol as protocol_for
@@ -45,9 +48,14 @@ from .protocol2 import (
     FACTORY_RESET_ALL,
     FACTORY_RESET_EXCEPT_ID,
     FACTORY_RESET_EXCEPT_ID_BAUD,
+    FAST_HEAD,
     HARDWARE_ERRORS,
     Protocol2,
     crc16_at,
+    fast_status_head,
+    fast_status_length,
+    match_fast_status,
+    read_fast_status,
 )
 from .wire import byte_time
 
@@ -67,6 +75,15 @@ NameList = list[str] | tuple[str, ...]
 #: plans kept per bus before the cache starts again (a robot uses a handful)
 MAX_PLANS = 4096
 _INT = frozenset((int,))
+
+
+def _at_firmware(found: Model | None, firmware: int | None) -> Model | None:
+    """The model as the motor's own firmware has it: what it supports depends on the version
+    its PING reports (e.g. Fast Sync Read from firmware 46), not on the version servolab's
+    table describes."""
+    if found is None or firmware is None or firmware == found.firmware:
+        return found
+    return replace(found, firmware=firmware)
 
 
 @dataclass(frozen=True)
@@ -104,13 +121,33 @@ class _Replies:
     """The status packets that answer one instruction, in the order they come (ID -> number of
     data bytes), and where each sits in the reply when every one comes as expected."""
 
-    __slots__ = ("counts", "data_at", "delays", "expect", "ids", "prefixes", "single", "sizes",
-                 "starts", "states", "total")
+    __slots__ = ("counts", "data_at", "delays", "ends", "expect", "fast", "ids", "prefixes",
+                 "single", "sizes", "starts", "states", "total")
 
-    def __init__(self, proto: Protocol, expect: Mapping[int, int]) -> None:
+    def __init__(self, proto: Protocol, expect: Mapping[int, int], *,
+                 fast: bool = False) -> None:
         self.expect = dict(expect)
         self.ids = tuple(self.expect)
         self.counts = tuple(self.expect.values())
+        #: one fast status packet (FAST_SYNC_READ / FAST_BULK_READ, protocol 2.0) for all
+        self.fast = fast
+        self.ends: tuple[int, ...] = ()
+        if fast:
+            # The packet's 8-byte head, then per motor a block ERR ID DATA CRC (4 + n bytes)
+            # ending with the running CRC at ``ends[k]`` (protocol2.fast_block). Only the
+            # first motor waits its return delay; the others append their block at once.
+            self.sizes = tuple(4 + n for n in self.counts)
+            starts = list(itertools.accumulate(self.sizes, initial=FAST_HEAD))
+            self.total = starts.pop()
+            self.starts = tuple(starts)
+            self.data_at = tuple(start + 2 for start in starts)
+            self.ends = tuple(at + n for at, n in zip(self.data_at, self.counts, strict=True))
+            head = fast_status_head(fast_status_length(self.counts))
+            self.prefixes: tuple[bytes, ...] = (head,)
+            self.states: tuple[int, ...] = (crc16_at(head, 0, FAST_HEAD),)
+            self.single = False
+            self.delays = MAX_RETURN_DELAY
+            return
         self.sizes = tuple(proto.status_size(n) for n in self.counts)
         starts = list(itertools.accumulate(self.sizes, initial=0))
         self.total = starts.pop()
@@ -184,16 +221,47 @@ class _Read:
 
 class _MultiRead:
     """A read of many motors: one SYNC_READ or BULK_READ (``request`` and ``replies``, one
-    decoder per motor), or else one READ per motor (``reads``)."""
+    decoder per motor), or their fast forms (one status packet for all), or else one READ per
+    motor (``reads``). ``fast``: True takes the fast form or raises ConfigError (before
+    anything is sent) where a motor lacks it, None takes it where every motor has it, False
+    never."""
 
     __slots__ = ("fields", "ids", "models", "name", "proto", "reads", "replies", "request")
 
     def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
-                 fields: list[_Fields], *, allow_sync: bool) -> None:
+                 fields: list[_Fields], *, allow_sync: bool, fast: bool | None = False
+                 ) -> None:
         self.proto, self.ids, self.models, self.fields = proto, ids, models, fields
         spans = {(f.start, f.length) for f in fields}
         self.reads: list[_Read] = []
         self.request = b""
+        if fast is not False:
+            # FAST_SYNC_READ where SYNC_READ would go (one span for all), else FAST_BULK_READ.
+            name = "FAST_SYNC_READ" if allow_sync and len(spans) == 1 else "FAST_BULK_READ"
+            lacking = next(((i, m) for i, m in zip(ids, models, strict=True)
+                            if m.protocol != 2 or not supports(m, name)), None)
+            if lacking is None and isinstance(proto, Protocol2):
+                self.name = name
+                if name == "FAST_SYNC_READ":
+                    start, length = spans.pop()
+                    inst = proto.sync_read(start, length, ids, fast=True)
+                else:
+                    inst = proto.bulk_read([(i, f.start, f.length)
+                                            for i, f in zip(ids, fields, strict=True)],
+                                           fast=True)
+                self.request = proto.encode_instruction(inst)
+                self.replies = _Replies(proto, {i: f.length for i, f in
+                                                zip(ids, fields, strict=True)}, fast=True)
+                return
+            if fast:
+                if lacking is None or lacking[1].protocol != 2:
+                    raise ConfigError(f"{name} exists only in protocol 2.0 (X-series firmware "
+                                      f"{FAST_READ_FIRMWARE} and later); this bus speaks "
+                                      f"{proto.version}.0")
+                motor_id, m = lacking
+                raise ConfigError(f"motor {motor_id} ({m.name}, firmware {m.firmware}) has "
+                                  f"no {name}: X-series firmware {FAST_READ_FIRMWARE} and "
+                                  "later only; fast=None falls back to the plain instruction")
         if (allow_sync and isinstance(proto, Protocol2) and len(spans) == 1
                 and all(supports(m, "SYNC_READ") for m in models)):
             start, length = spans.pop()
@@ -473,15 +541,19 @@ class Bus:
                     stats.retries += 1
                 errors: Sequence[int] | None = None
                 if len(buf) == total:
-                    if replies.single:
+                    if replies.fast:
+                        errors = match_fast_status(buf, replies.prefixes[0], replies.states[0],
+                                                   replies.ids, replies.ends)
+                    elif replies.single:
                         error = proto.match_status(buf, replies.prefixes[0], replies.states[0])
                         errors = () if not error else None if error < 0 else [error]
                     else:
                         errors = proto.match_statuses(buf, replies.starts, replies.sizes,
                                                       replies.prefixes, replies.states)
                 if errors is None:
+                    collect = self._collect_fast if replies.fast else self._collect
                     try:
-                        found = self._collect(buf, name, replies, sent, timeout)
+                        found = collect(buf, name, replies, sent, timeout)
                     except CommError:
                         # its answer may still be on its way: keep it from the next request
                         self._quiet_until = sent + longest
@@ -588,6 +660,53 @@ class Bus:
                          f"at {self.baudrate} bps (is it powered, at this baud rate and ID?)",
                          motor_id=missing[0], instruction=name)
 
+    def _collect_fast(self, first: bytes, name: str, replies: _Replies, sent: float,
+                      timeout: float) -> dict[int, Status]:
+        """The slow path of a FAST_SYNC_READ / FAST_BULK_READ: find the one status packet
+        (its head as expected, LEN included) in ``first`` and whatever else comes before the
+        deadline, and take its blocks as far as they came whole and valid. The motors build
+        the packet along the chain, so when one of them does not answer, the ones after it
+        (which wait for its block) do not either: all are named, the first one as the cause."""
+        port, clock, stats = self.port, self.port.clock, self.stats
+        deadline = sent + timeout
+        head, total = replies.prefixes[0], replies.total
+        buf = bytearray(first)
+        while True:
+            at = buf.find(head)
+            if at >= 0 and len(buf) - at >= total:
+                break
+            remaining = deadline - clock.now()
+            if remaining <= 0:
+                break
+            chunk = port.read(max(1, total - (len(buf) - at if at >= 0 else 0)), remaining)
+            stats.bytes_in += len(chunk)
+            buf += chunk
+        got: list[Status] = []
+        broken = bool(buf)  # bytes came, but no head as expected among them
+        while at >= 0:  # the head's first occurrence may be data: take the best one
+            blocks, cut = read_fast_status(bytes(buf), at, replies.ids, replies.counts)
+            if len(blocks) > len(got) or at == buf.find(head):
+                got, broken = blocks, cut
+            at = buf.find(head, at + 1)
+        if len(got) == len(replies.ids):
+            return {status.id: status for status in got}
+        missing = replies.ids[len(got):]
+        who = ", ".join(str(i) for i in missing)
+        rest = ", ".join(str(i) for i in missing[1:])
+        after = (f"; {'motors' if len(missing) > 2 else 'motor'} {rest} after it in the "
+                 f"chain send only after its block" if rest else "")
+        if broken:
+            stats.corrupt += 1
+            raise CorruptResponse(f"motor {who}: {name} got a corrupt status packet (the block "
+                                  f"of motor {missing[0]} cut short or failing its CRC) at "
+                                  f"{self.baudrate} bps{after}", motor_id=missing[0],
+                                  instruction=name)
+        stats.timeouts += 1
+        raise NoResponse(f"motor {who}: no block in the {name} status within "
+                         f"{timeout * 1000:.1f} ms at {self.baudrate} bps (is motor "
+                         f"{missing[0]} powered, at this baud rate and ID?){after}",
+                         motor_id=missing[0], instruction=name)
+
     @property
     def alerts(self) -> dict[int, int]:
         """Motors whose last status reported a hardware error: ID -> those error bits.
@@ -634,7 +753,7 @@ class Bus:
         else:
             number = int.from_bytes(status.params[0:2], "little")
             firmware = status.params[2]
-        found = model_by_number(number)
+        found = _at_firmware(model_by_number(number), firmware)
         if found is not None:
             self.motors[motor_id] = found
         return PingResult(motor_id, number, firmware, self.baudrate, found)
@@ -685,7 +804,7 @@ class Bus:
                         self.stats.stale += 1
                         continue
                     number = int.from_bytes(status.params[0:2], "little")
-                    m = model_by_number(number)
+                    m = _at_firmware(model_by_number(number), status.params[2])
                     if m:
                         self.motors[status.id] = m
                     found[status.id] = PingResult(status.id, number, status.params[2],
@@ -783,12 +902,12 @@ class Bus:
         return plan
 
     def _multi_plan(self, requests: Sequence[tuple[int, Names]], key: Any, *,
-                    allow_sync: bool) -> _MultiRead:
+                    allow_sync: bool, fast: bool | None = False) -> _MultiRead:
         """The plan of a read of many motors, each model learnt and each name checked."""
         ids = tuple(i for i, _ in requests)
         models = [self.model_of(i) for i in ids]
         fields = [_Fields(m, names) for m, (_, names) in zip(models, requests, strict=True)]
-        plan = _MultiRead(self.proto, ids, models, fields, allow_sync=allow_sync)
+        plan = _MultiRead(self.proto, ids, models, fields, allow_sync=allow_sync, fast=fast)
         self._keep(key, plan)
         return plan
 
@@ -989,42 +1108,81 @@ class Bus:
 
     @overload
     def sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
-                  check: bool = True) -> dict[int, Value]: ...
+                  check: bool = True, fast: bool | None = False) -> dict[int, Value]: ...
 
     @overload
     def sync_read(self, names: NameList, ids: Iterable[int], *, raw: bool = False,
-                  check: bool = True) -> dict[int, dict[str, Value]]: ...
+                  check: bool = True, fast: bool | None = False
+                  ) -> dict[int, dict[str, Value]]: ...
 
     def sync_read(self, names: Names, ids: Iterable[int], *, raw: bool = False,
-                  check: bool = True) -> dict[int, Value] | dict[int, dict[str, Value]]:
+                  check: bool = True, fast: bool | None = False
+                  ) -> dict[int, Value] | dict[int, dict[str, Value]]:
         """The same register(s) of many motors: one SYNC_READ on 2.0, one BULK_READ on 1.0
         models that have it, else one READ each. Returns {id: value} for one register name,
         {id: {name: value}} for a list of names. Motors that report a hardware error answer
-        all the same: their data is returned and they are named in :attr:`alerts`."""
+        all the same: their data is returned and they are named in :attr:`alerts`.
+
+        ``fast``: True sends FAST_SYNC_READ, one status packet for all the motors (see
+        :meth:`fast_sync_read`), and raises :class:`ConfigError` before sending anything
+        where a motor's model lacks it; None sends it where every motor has it and the plain
+        instruction otherwise; False, the default, never. (Not None by default: the packets
+        this method sends are those of the ROBOTIS SDK's GroupSyncRead.txRxPacket, which the
+        bus_cycle benchmark replays byte for byte to both drivers, and what existing users
+        of SYNC_READ count on; a motor on old firmware stays silent to 0x8A, and a declared
+        model cannot tell the firmware a real motor runs.)"""
         ids_t = tuple(dict.fromkeys(ids))
         if not ids_t:
             return {}
         if not isinstance(names, str):
             names = tuple(names)
-        key = ("sync_read", names, ids_t)
+        key = ("sync_read", names, ids_t, fast)
         plan = self._plan(key)
         if not self._fresh(plan, ids_t):
-            plan = self._multi_plan([(i, names) for i in ids_t], key, allow_sync=True)
+            plan = self._multi_plan([(i, names) for i in ids_t], key, allow_sync=True,
+                                    fast=fast)
         return self._run_multi(plan, raw, check)
 
     def bulk_read(self, requests: Mapping[int, Names], *, raw: bool = False,
-                  check: bool = True) -> dict[int, dict[str, Value]]:
+                  check: bool = True, fast: bool | None = False
+                  ) -> dict[int, dict[str, Value]]:
         """Different registers of different motors: {id: names} -> {id: {name: value}}.
-        One BULK_READ where every model has it, else one contiguous READ per motor."""
+        One BULK_READ where every model has it, else one contiguous READ per motor.
+        ``fast`` as in :meth:`sync_read`, for FAST_BULK_READ."""
         if not requests:
             return {}
         pairs = [(i, [n] if isinstance(n, str) else list(n)) for i, n in requests.items()]
         ids = tuple(i for i, _ in pairs)
-        key = ("bulk_read", tuple((i, tuple(n)) for i, n in pairs))
+        key = ("bulk_read", tuple((i, tuple(n)) for i, n in pairs), fast)
         plan = self._plan(key)
         if not self._fresh(plan, ids):
-            plan = self._multi_plan(pairs, key, allow_sync=False)
+            plan = self._multi_plan(pairs, key, allow_sync=False, fast=fast)
         return self._run_multi(plan, raw, check)
+
+    @overload
+    def fast_sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
+                       check: bool = True) -> dict[int, Value]: ...
+
+    @overload
+    def fast_sync_read(self, names: NameList, ids: Iterable[int], *, raw: bool = False,
+                       check: bool = True) -> dict[int, dict[str, Value]]: ...
+
+    def fast_sync_read(self, names: Names, ids: Iterable[int], *, raw: bool = False,
+                       check: bool = True) -> dict[int, Value] | dict[int, dict[str, Value]]:
+        """:meth:`sync_read` with FAST_SYNC_READ (0x8A): the motors answer with one status
+        packet between them, each after the first appending its block at once, which saves
+        the header and the return delay of every status packet but one. X-series firmware
+        46 and later only (:data:`.models.FAST_READ_FIRMWARE`): other models are refused
+        with :class:`ConfigError` before anything is sent. A motor that does not answer
+        stops the chain: the :class:`NoResponse` names it, and the motors after it."""
+        if isinstance(names, str):
+            return self.sync_read(names, ids, raw=raw, check=check, fast=True)
+        return self.sync_read(tuple(names), ids, raw=raw, check=check, fast=True)
+
+    def fast_bulk_read(self, requests: Mapping[int, Names], *, raw: bool = False,
+                       check: bool = True) -> dict[int, dict[str, Value]]:
+        """:meth:`bulk_read` with FAST_BULK_READ (0x9A), as :meth:`fast_sync_read`."""
+        return self.bulk_read(requests, raw=raw, check=check, fast=True)
 
     def _run_multi(self, plan: _MultiRead, raw: bool, check: bool) -> dict[int, Any]:
         if 0 in self._srl.values():

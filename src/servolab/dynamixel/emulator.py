@@ -63,7 +63,8 @@ _SECONDARY_OFF = 253
 
 
 #: Instructions that address several motors whatever their packet's ID says.
-_MULTI_MOTOR = frozenset({"SYNC_WRITE", "SYNC_READ", "BULK_READ", "BULK_WRITE"})
+_MULTI_MOTOR = frozenset({"SYNC_WRITE", "SYNC_READ", "BULK_READ", "BULK_WRITE",
+                          "FAST_SYNC_READ", "FAST_BULK_READ"})
 
 
 def _hardware_bit(model: Model, name: str) -> int:
@@ -1113,6 +1114,12 @@ class Emulator:
             # Status return level 0 answers PING only: a motor there keeps its slot silent.
             able = [m for m in motors if supports(m.model, name) and m._status_level >= 1]
             return self._chain(self._read_requests(inst, name), able, t, baudrate)
+        if name in ("FAST_SYNC_READ", "FAST_BULK_READ") and not v1:
+            # The same: a motor at level 0, or whose model or firmware lacks the instruction,
+            # sends no block (and so stops the chain, see _fast_chain).
+            able = [m for m in motors if supports(m.model, name) and m._status_level >= 1]
+            return self._fast_chain(self._read_requests(inst, name.removeprefix("FAST_")),
+                                    able, t, baudrate)
         if inst.id == BROADCAST_ID:
             if name == "PING" and not v1:
                 # Broadcast ping (2.0): every ID up to the highest present has its turn, in
@@ -1185,6 +1192,56 @@ class Emulator:
             data = self.faults.apply(_collide(encoded))
             replies.append(Reply(start, data))
             t = start + len(data) * byte_time(baudrate)
+        return replies
+
+    def _fast_chain(self, requests: Sequence[tuple[int, tuple[int, int]]],
+                    motors: list[VirtualMotor], t: float, baudrate: float) -> list[Reply]:
+        """The reply to a FAST_SYNC_READ or FAST_BULK_READ: one status packet, built along the
+        chain (the layout: :func:`.protocol2.fast_block`). ``requests`` are (id, (address,
+        length)) in the order of the instruction.
+
+        Timing. The first motor of the request sends the packet's head and its block after its
+        return delay, as it would its own status; every next motor appends its block the moment
+        the block before it has ended, without a return delay of its own. ROBOTIS publish no
+        timing for these instructions; this follows what is published about them: one status
+        packet, whose LEN the first motor gives for all blocks and whose running CRC each motor
+        continues from the bytes before its own (so each must hear them, and the packet is one
+        unbroken frame to the SDK, whose rxPacket waits for LEN bytes under a single packet
+        timeout), and the report that with them "return delays do not compound with n_servos"
+        (pollen-robotics/rustypot PR #122, a third-party host driver of 0x8A). No gap between
+        blocks either: none is published, and a motor that took one would leave the line idle
+        in mid-packet.
+
+        A motor of the request that is absent (or silent: status return level 0, a model or
+        firmware without the instruction) sends nothing, and the motor after it, which waits
+        for that block to go on from, never starts: the chain stops there and the host gets a
+        packet cut short after the last block sent. (How long a real motor waits before it
+        gives up is not published; none of them answers late here.) Two motors with one ID
+        send together and the line carries the AND of their bytes, whose CRC the next motor
+        then goes on from, having heard nothing else."""
+        lengths = [length for _, (_, length) in requests]
+        head = p2.fast_status_head(p2.fast_status_length(lengths))
+        crc = 0
+        replies: list[Reply] = []
+        tick = byte_time(baudrate)
+        for motor_id, (address, length) in requests:
+            targets = [m for m in motors if m.id == motor_id]
+            if not targets:
+                break
+            pieces = []
+            for m in targets:
+                status = m.read(address, length)
+                # A read that failed (an access error) brings no data; the block keeps its
+                # length all the same, so the motors after it still find where it ends.
+                data = status.params.ljust(length, b"\0")
+                pieces.append(p2.fast_block(head, crc, status.error, m.id, data))
+            sent = _collide(pieces)
+            crc = p2.crc16(sent, crc)
+            if not replies:
+                t += max(m.return_delay for m in targets) + self.faults.delay
+            replies.append(Reply(t, self.faults.apply(sent)))
+            t += len(sent) * tick  # the next motor heard the whole block (faults: the host's)
+            head = b""
         return replies
 
     def _read_requests(self, inst: Instruction, name: str) -> list[tuple[int, tuple[int, int]]]:

@@ -180,8 +180,20 @@ class Model:
 
 _V1_BASIC = frozenset({"PING", "READ", "WRITE", "REG_WRITE", "ACTION", "RESET", "SYNC_WRITE"})
 _V1_MX = _V1_BASIC | {"BULK_READ"}
+#: Fast Sync Read (0x8A) and Fast Bulk Read (0x9A): one status packet for all the motors read.
+#: ROBOTIS: "DYNAMIXEL X Series only", not the MX series in 2.0 firmware (ROBOTIS forum,
+#: "No response to fast sync read command with Dynamixel MX28-AR", forum.robotis.com/t/820).
+#: From which firmware is less certain. A third party gives XL330 firmware v46 and later
+#: (pollen-robotics/rustypot PR #122, "may need a firmware update (XL330: v46+)"); the
+#: e-Manual copies at hand (ROBOTIS-GIT/emanual docs/en/dxl/protocol2.md) predate the Fast
+#: instructions and give no figure for the X430 models, whose firmware in March 2022 answered
+#: Fast Sync Read (an XL430-W250 "updated to the current released firmware", Dynamixel2Arduino
+#: issue #95). servolab takes v46 for every X model, the one figure published: it may refuse an
+#: X430 whose older firmware would answer, never send to one that stays silent.
+FAST_READS = frozenset({"FAST_SYNC_READ", "FAST_BULK_READ"})
+FAST_READ_FIRMWARE = 46
 _V2_X = frozenset({"PING", "READ", "WRITE", "REG_WRITE", "ACTION", "FACTORY_RESET", "REBOOT",
-                   "CLEAR", "SYNC_READ", "SYNC_WRITE", "BULK_READ", "BULK_WRITE"})
+                   "CLEAR", "SYNC_READ", "SYNC_WRITE", "BULK_READ", "BULK_WRITE"}) | FAST_READS
 
 X_SERIES_BAUDS: dict[int, int] = {
     0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,
@@ -401,8 +413,10 @@ def _x_series_table(*, number: int, velocity_limit: int, has_current: bool,
     return tuple(sorted(rows, key=lambda r: r.address))
 
 
+#: The X models are emulated at firmware 46: every V45 feature (Drive Mode bit 3, Startup
+#: Configuration) and the Fast Sync/Bulk Read instructions (see FAST_READ_FIRMWARE).
 XM430_W210 = Model(
-    name="XM430-W210", number=1030, protocol=2, firmware=45, instruction_set=_V2_X,
+    name="XM430-W210", number=1030, protocol=2, firmware=46, instruction_set=_V2_X,
     registers=_x_series_table(number=1030, velocity_limit=330, has_current=True,
                               temperature_limit=80, max_voltage=160, min_voltage=95,
                               position_p=800, position_d=0, velocity_i=1920),
@@ -411,7 +425,7 @@ XM430_W210 = Model(
 )
 
 XM430_W350 = Model(
-    name="XM430-W350", number=1020, protocol=2, firmware=45, instruction_set=_V2_X,
+    name="XM430-W350", number=1020, protocol=2, firmware=46, instruction_set=_V2_X,
     registers=_x_series_table(number=1020, velocity_limit=200, has_current=True,
                               temperature_limit=80, max_voltage=160, min_voltage=95,
                               position_p=800, position_d=0, velocity_i=1920),
@@ -420,7 +434,7 @@ XM430_W350 = Model(
 )
 
 XL430_W250 = Model(
-    name="XL430-W250", number=1060, protocol=2, firmware=45, instruction_set=_V2_X,
+    name="XL430-W250", number=1060, protocol=2, firmware=46, instruction_set=_V2_X,
     registers=_x_series_table(number=1060, velocity_limit=265, has_current=False,
                               temperature_limit=72, max_voltage=140, min_voltage=60,
                               position_p=640, position_d=4000, velocity_i=1000),
@@ -442,6 +456,11 @@ BY_NUMBER: dict[int, Model] = {m.number: m for m in MODELS.values()}
 
 
 def supports(model: Model, instruction: str) -> bool:
+    """Whether ``model`` (at its firmware) carries out ``instruction`` (a name of
+    :data:`.protocol2.INSTRUCTIONS` or :data:`.protocol1.INSTRUCTIONS`)."""
+    if instruction in FAST_READS:
+        return (instruction in model.instruction_set and model.protocol == 2
+                and model.firmware >= FAST_READ_FIRMWARE)
     return instruction in model.instruction_set
 
 

@@ -38,14 +38,17 @@ CLEAR = 0x10
 STATUS = 0x55
 SYNC_READ = 0x82
 SYNC_WRITE = 0x83
+FAST_SYNC_READ = 0x8A
 BULK_READ = 0x92
 BULK_WRITE = 0x93
+FAST_BULK_READ = 0x9A
 
 INSTRUCTIONS = {
     "PING": PING, "READ": READ, "WRITE": WRITE, "REG_WRITE": REG_WRITE, "ACTION": ACTION,
     "FACTORY_RESET": FACTORY_RESET, "REBOOT": REBOOT, "CLEAR": CLEAR,
     "SYNC_READ": SYNC_READ, "SYNC_WRITE": SYNC_WRITE, "BULK_READ": BULK_READ,
-    "BULK_WRITE": BULK_WRITE,
+    "BULK_WRITE": BULK_WRITE, "FAST_SYNC_READ": FAST_SYNC_READ,
+    "FAST_BULK_READ": FAST_BULK_READ,
 }
 
 # The error byte: the low 7 bits are a number, bit 7 is the hardware-error alert.
@@ -147,6 +150,105 @@ def encode(motor_id: int, code: int, params: bytes = b"") -> bytes:
     return packet + bytes((crc & 0xFF, crc >> 8))
 
 
+# -- Fast Sync Read / Fast Bulk Read status ----------------------------------------------------
+# The instruction packets are SYNC_READ's and BULK_READ's with the instruction 0x8A / 0x9A
+# (dynamixel_sdk 4.1.0, protocol2_packet_handler.syncReadTx / bulkReadTx with fast_option).
+# The answer is ONE status packet from the broadcast ID for all the motors read:
+#
+#     FF FF FD 00  FE  LEN_L LEN_H  55  | ERR ID DATA... CRC_L CRC_H | ERR ID DATA... CRC | ...
+#
+# one block per motor, in the order of the request. LEN = 1 + sum(4 + L_k), the instruction
+# and the blocks (3 motors x 4 bytes: 25, the e-Manual's example). Each block ends with the
+# CRC-16 of every byte of the packet from the header up to that CRC, the CRCs of the blocks
+# before it included (a running CRC: the last one is the packet's CRC, the one the SDK checks
+# in rxPacket). The bytes are not stuffed: the SDK's rxPacket(port, fast_option=True)
+# does not unstuff them, and its fastSyncReadRx / fastBulkReadRx find each block by counting
+# 4 + L_k bytes. The first motor of the request sends the 8 bytes of head and its block.
+#: bytes before the first block: header, reserved, ID 0xFE, LEN (2), instruction 0x55
+FAST_HEAD = 8
+
+
+def fast_status_length(lengths: Sequence[int]) -> int:
+    """LEN of the fast status packet whose blocks carry ``lengths`` data bytes each."""
+    return 1 + sum(4 + n for n in lengths)
+
+
+def fast_status_head(length: int) -> bytes:
+    """The 8 bytes the first motor sends before its block, for a packet of LEN ``length``."""
+    return HEADER + bytes((BROADCAST_ID, length & 0xFF, length >> 8, STATUS))
+
+
+def fast_block(head: bytes, crc: int, error: int, motor_id: int, data: bytes) -> bytes:
+    """What one motor puts on the wire: ``head`` (:func:`fast_status_head` for the first
+    motor, else nothing), its error byte, ID and data, and the running CRC, which goes on
+    from ``crc``: the CRC of every byte of the packet before these."""
+    piece = head + bytes((error, motor_id)) + data
+    crc = crc16(piece, crc)
+    return piece + bytes((crc & 0xFF, crc >> 8))
+
+
+def encode_fast_status(blocks: Sequence[tuple[int, int, bytes]]) -> bytes:
+    """The whole fast status packet of ``blocks``, (id, error, data) each, in request order."""
+    if not blocks:
+        raise PacketError("protocol 2.0: a fast status packet has at least one block")
+    head = fast_status_head(fast_status_length([len(data) for _, _, data in blocks]))
+    crc = 0
+    out = bytearray()
+    for motor_id, error, data in blocks:
+        piece = fast_block(head, crc, error, motor_id, data)
+        crc = crc16(piece, crc)
+        out += piece
+        head = b""
+    return bytes(out)
+
+
+def match_fast_status(buf: bytes, prefix: bytes, state: int, ids: Sequence[int],
+                      ends: Sequence[int]) -> list[int] | tuple[()] | None:
+    """Check in place a fast status packet that is the whole of ``buf``: it starts with
+    ``prefix`` (its :func:`fast_status_head`; ``state`` the CRC of it), block k comes from
+    ``ids[k]`` and its CRC sits at ``buf[ends[k]]``. Returns the blocks' error bytes (``()``
+    when all are 0), or None when anything is not exactly as expected."""
+    if not buf.startswith(prefix) or len(buf) != ends[-1] + 2:
+        return None
+    crc, at = state, len(prefix)
+    errors: list[int] | None = None
+    for k, (motor_id, end) in enumerate(zip(ids, ends, strict=True)):
+        if buf[at + 1] != motor_id:
+            return None
+        crc = crc16_at(buf, at, end, crc)
+        if crc != buf[end] | buf[end + 1] << 8:
+            return None
+        crc = crc16_at(buf, end, end + 2, crc)
+        if buf[at]:
+            if errors is None:
+                errors = [0] * len(ids)
+            errors[k] = buf[at]
+        at = end + 2
+    return () if errors is None else errors
+
+
+def read_fast_status(buf: bytes, at: int, ids: Sequence[int], lengths: Sequence[int]
+                     ) -> tuple[list[Status], bool]:
+    """The blocks of the fast status packet whose head starts at ``buf[at]``, as far as they
+    came whole and valid (the right ID at its place, its running CRC right), as statuses; and
+    whether it stopped at a block that came corrupt or only in part (False: it stopped where
+    the bytes ended, between two blocks)."""
+    crc = crc16_at(buf, at, at + FAST_HEAD)
+    pos = at + FAST_HEAD
+    found: list[Status] = []
+    for motor_id, n in zip(ids, lengths, strict=True):
+        end = pos + 2 + n
+        if end + 2 > len(buf):
+            return found, pos < len(buf)
+        crc = crc16_at(buf, pos, end, crc)
+        if buf[pos + 1] != motor_id or crc != buf[end] | buf[end + 1] << 8:
+            return found, True
+        crc = crc16_at(buf, end, end + 2, crc)
+        found.append(Status(motor_id, buf[pos], bytes(buf[pos + 2:end])))
+        pos = end + 2
+    return found, False
+
+
 class Parser(StreamParser):
     header = b"\xff\xff\xfd"
 
@@ -246,20 +348,30 @@ class Protocol2(Protocol):
         self.check_id(motor_id, broadcast=True)
         return Instruction(motor_id, REBOOT)
 
-    def sync_read(self, address: int, length: int, ids: Sequence[int]) -> Instruction:
+    def sync_read(self, address: int, length: int, ids: Sequence[int], *,
+                  fast: bool = False) -> Instruction:
+        """SYNC_READ, or FAST_SYNC_READ (the same parameters) when ``fast``."""
         self.check_address(address, length)
         for motor_id in ids:
             self.check_id(motor_id)
         params = self.field(address) + self.field(length) + bytes(ids)
-        return Instruction(BROADCAST_ID, SYNC_READ, params)
+        return Instruction(BROADCAST_ID, FAST_SYNC_READ if fast else SYNC_READ, params)
 
-    def bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
+    def bulk_read(self, requests: Sequence[tuple[int, int, int]], *,
+                  fast: bool = False) -> Instruction:
+        """BULK_READ, or FAST_BULK_READ (the same parameters) when ``fast``."""
         params = bytearray()
         for motor_id, address, length in requests:
             self.check_id(motor_id)
             self.check_address(address, length)
             params += bytes((motor_id,)) + self.field(address) + self.field(length)
-        return Instruction(BROADCAST_ID, BULK_READ, bytes(params))
+        return Instruction(BROADCAST_ID, FAST_BULK_READ if fast else BULK_READ, bytes(params))
+
+    def fast_sync_read(self, address: int, length: int, ids: Sequence[int]) -> Instruction:
+        return self.sync_read(address, length, ids, fast=True)
+
+    def fast_bulk_read(self, requests: Sequence[tuple[int, int, int]]) -> Instruction:
+        return self.bulk_read(requests, fast=True)
 
     def bulk_write(self, blocks: Sequence[tuple[int, int, bytes]]) -> Instruction:
         """``blocks`` are (id, address, data) triples."""
