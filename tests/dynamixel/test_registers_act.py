@@ -7,11 +7,16 @@ through the Bus on a virtual clock, so the seconds below cost nothing.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import pytest
 
-from servolab.dynamixel import Bus, ConfigError, MotorError
+from servolab.dynamixel import Bus, ConfigError, MotorError, VirtualMotor, model
 from servolab.dynamixel.packets import BROADCAST_ID, Instruction
+from servolab.dynamixel.plant import ServoCommand
 from servolab.dynamixel.protocol2 import FACTORY_RESET, FACTORY_RESET_ALL
+from servolab.sim import Simulation
 
 # -- Input voltage -----------------------------------------------------------------------------
 
@@ -119,7 +124,11 @@ def test_bus_watchdog_stops_a_motor_whose_host_fell_silent() -> None:
     with pytest.raises(MotorError) as info:
         bus.write(1, "goal_velocity", 150, raw=True)
     assert "data range" in " ".join(info.value.errors)
+    with pytest.raises(MotorError):        # only 0 clears the error
+        bus.write(1, "bus_watchdog", 100, raw=True)
     bus.write(1, "bus_watchdog", 0, raw=True)
+    clock.advance(0.5)                     # cleared, but no new goal yet: still stopped
+    assert bus.read(1, "present_velocity", raw=True) == 0
     bus.write(1, "goal_velocity", 150, raw=True)
     clock.advance(0.5)
     assert bus.read(1, "present_velocity", raw=True) == pytest.approx(150, abs=1)
@@ -199,9 +208,10 @@ def test_mx28_multi_turn_mode_goes_several_turns_and_reads_them() -> None:
     bus.write(1, "torque_enable", 0)
     bus.write(1, {"multi_turn_offset": 1024, "resolution_divider": 4}, raw=True)
     assert bus.read(1, "present_position", raw=True) == -20000 // 4 + 1024
-    # Back in joint mode the reading is within one turn again, offset and divider ignored.
+    # Back in joint mode the magnetic encoder reads the horn within one turn again, offset
+    # and divider ignored: -20000 counts is 480 of its turn.
     bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 4095}, raw=True)
-    assert 0 <= bus.read(1, "present_position", raw=True) <= 4095
+    assert bus.read(1, "present_position", raw=True) == -20000 % 4096 == 480
 
 
 # -- Indirect address / data (X) ---------------------------------------------------------------
@@ -267,3 +277,163 @@ def test_protocol1_overheating_lasts_as_long_as_the_heat() -> None:
     bus.port.clock.advance(1500.0)                  # five time constants to cool
     assert bus.read(1, "present_temperature") < 40
     assert bus.alerts == {}
+
+
+# -- Present Position's turns (X) --------------------------------------------------------------
+
+def test_x_present_position_counts_turns_until_position_mode_resets_it() -> None:
+    """"Present Position(132) represents a 4 byte continuous range ... when Torque is turned
+    off regardless of Operating Mode(11)", and is "reset to an absolute position value within
+    one full rotation" 1. when the mode is changed to Position Control Mode, 2. when torque is
+    turned on in Position Control Mode, 3. at power-up or REBOOT (e-Manual, Present Position
+    note, control_table_opmode_note.md)."""
+    bus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000)
+    motor = bus.emulator.motor(1)
+    turn = 4096
+    bus.write(1, "operating_mode", 4, raw=True)             # extended position
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 2048 + 2 * turn + 100, raw=True)
+    bus.port.clock.advance(10.0)
+    assert bus.read(1, "present_position", raw=True) == 2048 + 2 * turn + 100
+    bus.reboot(1)                                            # 3: within one turn again
+    assert bus.read(1, "present_position", raw=True) == 2148
+    bus.write(1, "operating_mode", 1, raw=True)              # velocity: counts turns
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 100, raw=True)
+    bus.port.clock.advance(5.0)
+    bus.write(1, "goal_velocity", 0, raw=True)
+    bus.write(1, "torque_enable", 0)
+    counted = bus.read(1, "present_position", raw=True)
+    assert counted > 2 * turn
+    bus.write(1, "operating_mode", 3, raw=True)              # 1: mode changed to position
+    assert bus.read(1, "present_position", raw=True) == counted % turn
+    # Torque off in position mode: the count runs on past a turn (turned by hand) ...
+    motor.external_load = 0.0
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", -100, raw=True)
+    bus.port.clock.advance(3.0)
+    bus.write(1, "torque_enable", 0)
+    bus.write(1, "operating_mode", 3, raw=True)
+    base = bus.read(1, "present_position", raw=True)
+    assert 0 <= base < turn
+    motor.set_raw("torque_enable", 0)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 100, raw=True)
+    bus.port.clock.advance(4.0)
+    bus.write(1, "torque_enable", 0)                         # torque off: keep counting
+    over = bus.read(1, "present_position", raw=True)
+    assert over > turn
+    bus.write(1, {"operating_mode": 3}, raw=True)            # ... until position mode
+    assert bus.read(1, "present_position", raw=True) == over % turn
+
+
+class HandTurned:
+    """A joint a hand turns while the torque is off: a plant whose angle the test sets."""
+
+    def __init__(self) -> None:
+        self.command = ServoCommand()
+        self.position = 0.0
+        self.velocity = self.effort = 0.0
+        self.temperature = 30.0
+
+    def step(self, dt: float) -> None:
+        pass
+
+
+def test_x_torque_on_in_position_mode_resets_the_count() -> None:
+    """Case 2 of the e-Manual's note: torque turned on in Position Control Mode. With torque
+    off the count follows the horn past a turn; torque on brings it within one."""
+    sim = Simulation()
+    bus = Bus.open("emu://xl430-w250:1", baudrate=1_000_000, simulation=sim)
+    hand = HandTurned()
+    bus.emulator.motor(1).attach_plant(hand)
+    hand.position = 3 * math.pi                              # one and a half turns by hand
+    bus.port.clock.advance(0.01)
+    assert bus.read(1, "present_position", raw=True) == 2048 + 3 * 2048
+    bus.write(1, "torque_enable", 1)
+    assert bus.read(1, "present_position", raw=True) == (2048 + 3 * 2048) % 4096
+
+
+# -- Firmware-dependent behaviour ---------------------------------------------------------------
+
+def test_drive_mode_bit_3_needs_firmware_45() -> None:
+    """"Torque On by Goal Update is available from firmware V45" (e-Manual, Drive Mode(10)):
+    an X-series on firmware 44 keeps torque off when a goal is written."""
+    old = VirtualMotor(dataclasses.replace(model("XM430-W210"), firmware=44), 1)
+    new = VirtualMotor(model("XM430-W210"), 2)
+    for motor in (old, new):
+        motor.set_raw("drive_mode", 0x08)
+        assert motor.write(116, (3000).to_bytes(4, "little")) == 0
+    assert (old.get_raw("torque_enable"), new.get_raw("torque_enable")) == (0, 1)
+
+
+def test_broadcast_factory_reset_all_is_carried_out_by_firmware_before_42() -> None:
+    """The broadcast FACTORY_RESET 0xFF guard is a firmware-42 feature (e-Manual, Protocol
+    2.0, Factory Reset); an older motor resets."""
+    old = VirtualMotor(dataclasses.replace(model("XM430-W210"), firmware=41), 1)
+    old.set_raw("return_delay_time", 10)
+    old.execute(Instruction(BROADCAST_ID, FACTORY_RESET, bytes((FACTORY_RESET_ALL,))),
+                "FACTORY_RESET")
+    assert old.get_raw("return_delay_time") == 250
+
+
+# -- Reverse mode --------------------------------------------------------------------------------
+
+def test_ex106_ignores_reverse_in_wheel_mode_and_x_reverses_velocity() -> None:
+    """"When MX-106 and EX-106+ are set to Wheel Mode(endless), Normal/Reverse Mode is not
+    available" (e-Manual, Drive Mode(10)); an X-series in reverse turns the other way for the
+    same goal velocity, and reports its velocity in its own (reversed) sense."""
+    bus = Bus.open("emu://ex106+:1", baudrate=57142)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    bus.write(1, "drive_mode", 0x01, raw=True)
+    bus.write(1, "moving_speed", 500, raw=True)              # CCW at 49 % output
+    bus.port.clock.advance(0.5)
+    assert bus.emulator.motor(1).plant.velocity > 0
+    xbus = Bus.open("emu://xm430-w210:1-2", baudrate=1_000_000)
+    xbus.write(2, "drive_mode", 0x01, raw=True)
+    for motor_id in (1, 2):
+        xbus.write(motor_id, "operating_mode", 1, raw=True)
+        xbus.write(motor_id, "torque_enable", 1)
+        xbus.write(motor_id, "goal_velocity", 100, raw=True)
+    xbus.port.clock.advance(0.5)
+    horns = [xbus.emulator.motor(i).plant.velocity for i in (1, 2)]
+    assert horns[0] == pytest.approx(-horns[1]) and horns[0] > 0
+    assert xbus.sync_read("present_velocity", [1, 2], raw=True) == {1: 100, 2: 100}
+
+
+# -- Realtime tick (MX-28) -------------------------------------------------------------------------
+
+def test_mx28_realtime_tick_counts_milliseconds() -> None:
+    """MX-28 (1.0, firmware 40 and later): Realtime Tick(50), 1 ms, 0..32767 (e-Manual,
+    MX-28)."""
+    bus = Bus.open("emu://mx28:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    first = bus.read(1, "realtime_tick", raw=True)
+    step = motor.sensed_step
+    bus.port.clock.advance(2.0)
+    second = bus.read(1, "realtime_tick", raw=True)
+    elapsed_ms = (motor.sensed_step - step) * bus.port.clock.physics_step * 1000
+    assert (second - first) % 32768 == pytest.approx(elapsed_ms, abs=1)
+
+
+# -- Wheel-mode present speed (1.0) ----------------------------------------------------------------
+
+def test_wheel_mode_present_speed_is_the_output_not_the_speed() -> None:
+    """EX-106+ wheel mode: present speed is the output ratio ("if it is set to 512, it means
+    that the torque is controlled by 50 % of the maximum torque", e-Manual EX-106+ Present
+    Speed): a load that slows the horn leaves it where moving_speed put it."""
+    bus = Bus.open("emu://ex106+:1", baudrate=57142)
+    motor = bus.emulator.motor(1)
+    bus.write(1, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+    bus.write(1, "moving_speed", 512, raw=True)
+    bus.port.clock.advance(0.5)
+    free = motor.plant.velocity
+    assert bus.read(1, "present_speed", raw=True) == 512
+    motor.external_load = -0.6                   # caps the horn at 40 % of no-load speed
+    bus.port.clock.advance(0.5)
+    assert motor.plant.velocity < free
+    assert bus.read(1, "present_speed", raw=True) == 512
+    bus.write(1, "torque_enable", 0)
+    assert bus.read(1, "present_speed", raw=True) == 0

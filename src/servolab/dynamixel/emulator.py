@@ -62,6 +62,9 @@ _MULTI_TURN_1 = 28672
 _SECONDARY_OFF = 253
 
 
+#: Instructions after which a motor is at its factory (or EEPROM) settings.
+_RESETS = frozenset({"REBOOT", "FACTORY_RESET", "RESET"})
+
 #: Instructions that address several motors whatever their packet's ID says.
 _MULTI_MOTOR = frozenset({"SYNC_WRITE", "SYNC_READ", "BULK_READ", "BULK_WRITE",
                           "FAST_SYNC_READ", "FAST_BULK_READ"})
@@ -151,7 +154,12 @@ class VirtualMotor:
         self._heard_step = 0        # the step of the last instruction that reached the motor
         self._too_hot = False       # overheating found by the firmware (not injected)
         self._watchdog_tripped = False
+        self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
+        self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
+        self._layout = _layout(model)
         self._table_changed()
+        if model.protocol == 2:
+            self._drop_turns()      # at power-up the count is within one turn
         self._hold_position()
 
     def _hold_position(self) -> None:
@@ -179,7 +187,7 @@ class VirtualMotor:
             reg = self.model.register("torque_limit")
             self.table[reg.address:reg.address + reg.size] = reg.encode(
                 self.get_raw("max_torque"))
-        self._watchdog_tripped = False
+        self._watchdog_tripped = self._watchdog_hold = False
 
     def get_raw(self, name: str) -> int:
         reg = self.model.register(name)
@@ -247,23 +255,35 @@ class VirtualMotor:
         self._sign = -1 if reverse else 1
         self._torque_on_goal = (not v1 and bool(drive & 0x08)
                                 and m.firmware >= _TORQUE_ON_BY_GOAL_FIRMWARE)
-        if v1 and getattr(self, "_wheel", False) and not wheel and hasattr(self, "_plant"):
-            # Back in joint mode a 1.0 servo reads its potentiometer, which knows no turns:
-            # the firmware's angle is the horn's within one turn from here on.
+        joint = v1 and not wheel and not self._multi_turn
+        if joint and hasattr(self, "_plant") and not getattr(self, "_joint_before", True):
+            # Back in joint mode (from wheel or multi-turn) a 1.0 servo reads its
+            # potentiometer or absolute encoder, which knows no turns: the firmware's angle is
+            # the horn's within one turn from here on.
             angle = units.ticks_position(m, self._firmware_ticks(self._plant.position))
             self._offset_ticks += (angle - math.remainder(angle, 2 * math.pi)) \
                 / m.rad_per_tick
         self._wheel = wheel
+        self._joint_before = joint
         # Only Position Control Mode (3) is confined to one turn: Extended Position (4) and
         # Current-based Position (5) count turns, goals -1 048 575..1 048 575 (e-Manual,
         # Goal Position(116)).
         self._one_turn = mode == 3
+        torque = self.get_raw("torque_enable")
+        if not v1 and hasattr(self, "_plant") and mode == 3 and (
+                self._mode_before != 3 or (torque and not self._torque_before)):
+            # Present Position counts turns (4 bytes) whatever the mode, but "will be reset to
+            # an absolute position value within one full rotation ... when the Operating
+            # Mode(11) is changed to Position Control Mode [and] when torque is turned on in
+            # Position Control Mode" (e-Manual, Present Position note).
+            self._drop_turns()
+        self._mode_before, self._torque_before = mode, torque
         # Present Position = Actual Position + Homing Offset; in the one-turn position mode
         # a homing offset outside -1024..1024 is ignored (e-Manual, Homing Offset(20)).
         homing = self._try_get("homing_offset")
         self._homing = homing if not self._one_turn or -1024 <= homing <= 1024 else 0
         if self._try_get("bus_watchdog") >= 0:
-            self._watchdog_tripped = False  # writing 0 clears a bus watchdog error
+            self._watchdog_tripped = False  # 0 written: the bus watchdog error is cleared
         if hasattr(self, "_plant"):
             self._check_voltage()
             self._plant.command = self._command()
@@ -318,6 +338,13 @@ class VirtualMotor:
         """Horn angle as present_position counts it: ticks, unbounded and unrounded (the
         homing offset added, the turns a CLEAR dropped taken away)."""
         return self._present_ticks(self.plant.position)
+
+    def _drop_turns(self) -> None:
+        """From now on count the horn's angle within one turn, 0..resolution-1 (before the
+        homing offset): what an X-series does at power-up, REBOOT, and on entering
+        Position Control Mode or switching torque on in it."""
+        ticks = self._firmware_ticks(self._plant.position)
+        self._offset_ticks += math.floor(ticks / self.model.resolution) * self.model.resolution
 
     def _firmware_ticks(self, joint: float) -> float:
         """The count the firmware keeps for a joint angle: mirrored in reverse mode, less the
@@ -462,8 +489,11 @@ class VirtualMotor:
 
     def _watchdog_trip(self) -> None:
         """No instruction for longer than the bus watchdog: the motor stops and Bus
-        Watchdog(98) reads -1 until a host writes 0 (e-Manual, Bus Watchdog(98))."""
+        Watchdog(98) reads -1 until a host writes 0 (e-Manual, Bus Watchdog(98)). It stays
+        stopped until a new goal comes: clearing the error alone does not send it on toward a
+        goal from before the silence (the e-Manual's example writes a new goal)."""
         self._watchdog_tripped = True
+        self._watchdog_hold = True
         self._set_raw("bus_watchdog", -1)
 
     def _catch_up(self, steps: int, dt: float) -> None:
@@ -533,8 +563,8 @@ class VirtualMotor:
             limit = min(limit, self.get_raw("current_limit") / full)
             if mode == 5:
                 limit = min(limit, abs(self.get_raw("goal_current")) / full)
-        if self._watchdog_tripped:
-            # The bus watchdog stopped the motor: it holds still whatever the goals say.
+        if self._watchdog_hold:
+            # The bus watchdog stopped the motor: it holds still until a new goal.
             return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
                                 goal_position=self._plant.position)
         if mode == 1:
@@ -551,13 +581,11 @@ class VirtualMotor:
                             profile_velocity=self._si("profile_velocity"), torque_limit=limit)
 
     def _goal_angle(self) -> float:
-        """goal_position as an angle of the joint: in the one-turn position mode of 2.0 the
-        goal is an angle within the current turn."""
+        """goal_position as an angle of the joint (in Position Control Mode the count was
+        brought within one turn when the mode or the torque came on, see :meth:`_drop_turns`,
+        so a goal 0..4095 is an angle within that turn)."""
         goal = float(self.get_raw("goal_position"))
-        if self._one_turn:
-            ticks = self._present_ticks(self._plant.position)
-            goal += math.floor(ticks / self.model.resolution) * self.model.resolution
-        elif self._multi_turn:
+        if self._multi_turn:
             # Present Position = (Real Position / Resolution Divider) + Multi-turn Offset
             # (e-Manual, MX-28 Resolution Divider(22)); goals are in the same units.
             goal = (goal - self._try_get("multi_turn_offset")) \
@@ -584,11 +612,12 @@ class VirtualMotor:
                 present = min(max(ticks, 0), m.resolution - 1)
             self._set_raw("present_position", present)
             if self.wheel_mode and m.wheel_output_ratio:
-                # In wheel mode present speed is the output ratio, 0.1 % per unit (e-Manual,
-                # EX-106+ Present Speed).
-                magnitude = min(0x3FF, round(abs(velocity) / m.no_load_speed * 1023))
-                self._set_raw("present_speed",
-                              magnitude | 0x400 if velocity < 0 and magnitude else magnitude)
+                # In wheel mode present speed is the output the firmware drives, 0.1 % per
+                # unit: "if it is set to 512, it means that the torque is controlled by 50 %
+                # of the maximum torque" (e-Manual, EX-106+ Present Speed), so a load that
+                # slows the horn does not change it.
+                driving = self.get_raw("torque_enable") and self.get_raw("torque_limit")
+                self._set_raw("present_speed", self.get_raw("moving_speed") if driving else 0)
             else:
                 self._show("present_speed", velocity)
             self._show("present_load", load)
@@ -600,10 +629,7 @@ class VirtualMotor:
                 self._set_raw("sensed_current", max(0, min(1023, 512 - round(amps / 0.01))))
             self._set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
-            if self._one_turn:
-                present = ticks % m.resolution
-            else:
-                present = (ticks + 2**31) % 2**32 - 2**31
+            present = (ticks + 2**31) % 2**32 - 2**31
             self._set_raw("present_position", present)
             self._show("present_velocity", velocity)
             if m.has("present_current"):
@@ -703,6 +729,7 @@ class VirtualMotor:
             for reg_name, value in eeprom.items():
                 self._set_raw(reg_name, value)
             self.clear_hardware_error()
+            self._drop_turns()          # "when rebooted", as at power-up (Present Position)
             self._hold_position()
             return status
         if name == "CLEAR":
@@ -723,7 +750,7 @@ class VirtualMotor:
             v1 = self.model.protocol == 1
             return Status(self.id, self.error_byte(p1.RANGE if v1 else p2.ACCESS))
         data = bytearray(self.table[address:end])
-        layout = _layout(self.model)
+        layout = self._layout
         if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
             # Indirect Data n reads the byte its Indirect Address n points at (e-Manual,
             # Indirect Address and Indirect Data).
@@ -735,7 +762,7 @@ class VirtualMotor:
         """(indirect data address, the address it stands for) for indirect data in start..end."""
         table = self.table
         out = []
-        for data_address, pointer in _layout(self.model).indirect:
+        for data_address, pointer in self._layout.indirect:
             if start <= data_address < end:
                 target = table[pointer] | table[pointer + 1] << 8
                 if target < len(table):
@@ -760,7 +787,7 @@ class VirtualMotor:
         if end > len(self.table):
             return range_error
         assigned = dict(zip(range(address, end), data, strict=True))
-        layout = _layout(m)
+        layout = self._layout
         if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
             for data_address, target in self._indirect_targets(address, end):
                 assigned[target] = assigned[data_address]
@@ -788,9 +815,11 @@ class VirtualMotor:
             # change into 0" (e-Manual, Lock); a locked address answers a range error (AX-12
             # manual, example 20).
             return p1.RANGE
-        if self._watchdog_tripped and names & _GOALS_2:
-            # After a bus watchdog error the goals are read-only: a Data Range Error
-            # (e-Manual, Bus Watchdog(98)).
+        if self._watchdog_tripped and (names & _GOALS_2 or (
+                "bus_watchdog" in names and assigned[m.register("bus_watchdog").address])):
+            # After a bus watchdog error the goals are read-only, a Data Range Error; "If the
+            # value of Bus Watchdog(98) is changed to '0', Bus Watchdog Error will be cleared"
+            # (e-Manual, Bus Watchdog(98)): 0 is the only way out.
             return p2.DATA_RANGE
         scratch = bytearray(self.table)
         for a, byte in assigned.items():
@@ -805,6 +834,8 @@ class VirtualMotor:
             self._set_registered(1)
             return 0
         self.table[:] = scratch
+        if names & _GOALS_2:
+            self._watchdog_hold = False     # a new goal after a bus watchdog stop
         self._torque_rules(names)
         self._table_changed()
         return 0
@@ -1135,8 +1166,12 @@ class Emulator:
             for m in self._listening(baudrate, self._with_secondary_id(inst.id)):
                 m.execute(inst, name, secondary=True)
         targets = [m for m in motors if m.id == inst.id]
+        # The status of a REBOOT or reset goes out before the motor resets, so it follows
+        # the status return level from before; a WRITE is answered by the level it leaves.
+        before = [self._returns_status(m, name) for m in targets]
         statuses = [(m, m.execute(inst, name)) for m in targets]
-        statuses = [(m, s) for m, s in statuses if self._returns_status(m, name)]
+        statuses = [(m, st) for (m, st), answered in zip(statuses, before, strict=True)
+                    if (answered if name in _RESETS else self._returns_status(m, name))]
         if not statuses:
             return []
         encoded = [self.protocol.encode_status(s) for _, s in statuses]
