@@ -870,7 +870,8 @@ def replay_bus_ops(rb: ReplayBus, calls: int, rounds: int, warmup: int
     ops = make_ops(rb, held, goal_sets)
     results = {}
     for op in ops:
-        table = record(bus, lambda b, op=op: [op.ours(b, True, k) for k in (0, 1)])
+        table = record(bus, lambda b, op=op: [op.ours(b, raw, k) for raw in (True, False)
+                                              for k in (0, 1)])
         results[op.key] = measure(op, table, dict(bus.motors), rb.baudrate, m.protocol,
                                   calls, rounds, warmup)
     return results
@@ -881,7 +882,8 @@ def replay_cycle(config: Config, calls: int, rounds: int, warmup: int) -> dict[s
     bus = make_bus(config, virtual=False)
     work = Workload(config, bus)
     op = cycle_op(config, work)
-    table = record(bus, lambda b: [op.ours(b, True, k) for k in (0, 1)])
+    table = record(bus, lambda b: [op.ours(b, raw, k) for raw in (True, False)
+                                   for k in (0, 1)])
     return measure(op, table, dict(bus.motors), config.baudrate, config.protocol, calls,
                    rounds, warmup)
 

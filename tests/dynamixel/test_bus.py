@@ -19,10 +19,12 @@ X_TICK = 2 * math.pi / 4096
 
 
 def rx_bus(ids: str = "1-3") -> Bus:
-    """RX-28s at the factory rate, each already pinged so that later counts are exact."""
+    """RX-28s at the factory rate, each already pinged, and its mode known (which the SI
+    units of moving_speed depend on), so that later counts are exact."""
     bus = Bus.open(f"emu://rx28:{ids}", baudrate=57142)
     for m in bus.emulator.motors:
         bus.ping(m.id)
+        assert not bus.wheel_mode(m.id)
     return bus
 
 

@@ -25,6 +25,7 @@ from servolab.dynamixel import bus as bus_module
 from servolab.dynamixel.protocol1 import PROTOCOL1
 from servolab.dynamixel.protocol2 import PROTOCOL2
 from servolab.dynamixel.units import from_si, to_si
+from tests.waiting import wait_for
 
 SENSORS = ("present_", "velocity_trajectory", "position_trajectory", "realtime_tick",
            "moving", "registered")
@@ -254,7 +255,7 @@ def test_serial_port_reads_without_reconfiguring_and_writes_without_draining(
     os.write(master, b"xy")
     assert port.read(5, 0.05) == b"xy"               # part of what was asked, then timeout
     os.write(master, b"123456")
-    time.sleep(0.01)
+    wait_for(lambda: port._serial.in_waiting == 6, "the 6 bytes to reach the port")
     port.reset_input()
     assert port.read(6, 0.01) == b""
     for timeout in (0.001, 0.002, 0.003):

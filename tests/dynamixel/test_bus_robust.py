@@ -20,7 +20,15 @@ from dataclasses import dataclass
 import pytest
 
 from servolab.clock import VirtualClock
-from servolab.dynamixel import Bus, CorruptResponse, Faults, MemoryPort, MotorError, NoResponse
+from servolab.dynamixel import (
+    Bus,
+    CorruptResponse,
+    Emulator,
+    Faults,
+    MemoryPort,
+    MotorError,
+    NoResponse,
+)
 from servolab.dynamixel.models import model
 from servolab.dynamixel.packets import Protocol, Status
 from servolab.dynamixel.protocol1 import PROTOCOL1
@@ -258,16 +266,21 @@ def test_instruction_error_with_alert_still_raises() -> None:
 # -- broadcast ping ----------------------------------------------------------------------------
 
 @pytest.mark.parametrize("baud", [57600, 1_000_000])
-def test_broadcast_ping_finds_id_252(baud: int) -> None:
+@pytest.mark.parametrize("timeout", [None, 0.01])
+def test_broadcast_ping_finds_id_252(baud: int, timeout: float | None) -> None:
     """"When the Packet ID field is 0xFE (Broadcast ID): All devices send their Status Packet
     according to their arranged order" (e-Manual, Protocol 2.0, Ping): ID 252 answers last,
-    after the slots of every ID before it, and must be found."""
-    bus = Bus.open("emu://xm430-w210:0,1,252", baudrate=baud)
+    after the turn of every ID before it, and must be found; a short per-transaction timeout
+    set on the bus (10 ms) does not cut the broadcast ping short."""
+    bus = Bus.open("emu://xm430-w210:0,1,252", baudrate=baud, timeout=timeout)
     found = bus.broadcast_ping()
     assert [(r.id, r.model_name) for r in found] == [(0, "XM430-W210"), (1, "XM430-W210"),
                                                     (252, "XM430-W210")]
+    # The motors wait Emulator.ping_slot (3 ms, ROBOTIS's device code) for each absent ID,
+    # and an answer's time for a present one: the bus listens for the longer of the two for
+    # each of the IDs 0..251, and then ID 252's answer.
     tick = byte_time(baud)
-    assert bus.broadcast_ping_wait() >= 253 * (14 * tick + 254 * 2e-6)
-    # at least as long as the ROBOTIS SDK listens (broadcastPing: 14 bytes x 252 IDs of wire
-    # time + 3 ms per ID + 16 ms)
-    assert bus.broadcast_ping_wait() >= 14 * 252 * tick + 0.003 * 252 + 0.016 - 1e-12
+    answer = 14 * tick + 254 * 2e-6
+    assert Emulator.ping_slot == 0.003
+    assert bus.broadcast_ping_wait() >= 252 * max(Emulator.ping_slot, answer) + answer
+    assert bus.broadcast_ping_wait() < 252 * max(Emulator.ping_slot, answer) + answer + 0.01

@@ -3,9 +3,11 @@ pty server's loop (clients that come and go, an idle line, half duplex)."""
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import pty
+import threading
 import time
 from pathlib import Path
 
@@ -14,7 +16,7 @@ import serial
 
 from servolab.dynamixel import model, ports
 from servolab.dynamixel.emulator import Emulator, Faults, VirtualMotor
-from servolab.dynamixel.errors import ConfigError
+from servolab.dynamixel.errors import ConfigError, PortError
 from servolab.dynamixel.protocol2 import PROTOCOL2
 from tests.waiting import wait_for
 
@@ -181,3 +183,128 @@ def test_pty_reply_on_its_way_is_lost_when_the_client_sends_again() -> None:
             assert client.read(64) == b""       # and nothing else comes
         finally:
             client.close()
+
+
+# -- the serial port when the device goes away -------------------------------------------------
+
+
+@pytest.fixture
+def pty_port():
+    """A SerialPort on a pty's slave, and the master (None once a test closed it)."""
+    master, slave = pty.openpty()
+    port = ports.SerialPort(os.ttyname(slave), 57600, latency=0.001)
+    ends = {"master": master}
+    try:
+        yield port, ends
+    finally:
+        port.close()
+        if ends["master"] is not None:
+            os.close(ends["master"])
+        os.close(slave)
+
+
+def _one_line_naming_the_port(exc: BaseException, port: ports.SerialPort) -> None:
+    message = str(exc)
+    assert port.name in message and "unplugged" in message and "\n" not in message
+
+
+def test_serial_port_gone_is_one_line_naming_it(pty_port) -> None:
+    """Reading a pty whose other end is closed fails with EIO, as a USB adapter does once it
+    is unplugged: a PortError (which the CLI prints on one line), not an OSError's
+    traceback."""
+    port, ends = pty_port
+    os.close(ends["master"])
+    ends["master"] = None
+    with pytest.raises(PortError) as info:
+        port.read(4, 0.2)
+    _one_line_naming_the_port(info.value, port)
+    assert isinstance(info.value.__cause__, OSError)
+
+
+def test_serial_port_write_error_is_one_line_naming_it(pty_port,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    port, _ = pty_port
+
+    def eio(fd: int, data: bytes) -> int:
+        raise OSError(errno.EIO, "Input/output error")
+
+    monkeypatch.setattr(ports.os, "write", eio)
+    with pytest.raises(PortError) as info:
+        port.write(b"\xff\xff\x01\x02\x01\xfb")
+    _one_line_naming_the_port(info.value, port)
+    assert "Input/output error" in str(info.value)
+
+
+def test_cli_reports_a_port_error_as_a_failure_at_run_time() -> None:
+    """``servolab read`` and the others print it as "servolab read: PortError: ..." and exit
+    with status 1 (not 2, which says the user typed something wrong)."""
+    from servolab.cli import _report
+
+    assert _report(PortError("serial port /dev/ttyUSB0: reading failed")) == (1, "PortError")
+
+
+def test_serial_port_waits_on_a_descriptor_above_1023() -> None:
+    """select() cannot wait on a descriptor from 1024 on (FD_SETSIZE), which a process with
+    many files open gets: the port must still wait for its bytes."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    want = 1200
+    if soft < want:
+        if hard != resource.RLIM_INFINITY and hard < want:
+            pytest.skip(f"cannot open {want} files (hard limit {hard})")
+        resource.setrlimit(resource.RLIMIT_NOFILE, (want, hard))
+    master, slave = pty.openpty()
+    filler: list[int] = []
+    port = None
+    try:
+        while not filler or filler[-1] < 1100:       # the lowest free descriptors taken
+            filler.append(os.dup(slave))
+        port = ports.SerialPort(os.ttyname(slave), 57600, latency=0.001)
+        assert port._fd is not None and port._fd > 1100
+        for fd in filler:
+            os.close(fd)
+        filler.clear()
+        threading.Timer(0.05, os.write, (master, b"late")).start()
+        assert port.read(4, 2.0) == b"late"          # came while the port waited
+    finally:
+        if port is not None:
+            port.close()
+        for fd in filler:
+            os.close(fd)
+        os.close(master)
+        os.close(slave)
+        if soft < want:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
+def test_pty_server_close_leaves_the_descriptors_to_a_thread_still_serving() -> None:
+    """close() waits 1 s for the serving thread; a thread still inside the device then must
+    not find its descriptors closed under it (their numbers may belong to other files by
+    then): it closes them itself when it stops."""
+    emulator, ping = _pty_bus()
+    inside, release = threading.Event(), threading.Event()
+    receive = emulator.receive
+
+    def slow(data: bytes, t: float, baudrate: float):  # type: ignore[no-untyped-def]
+        inside.set()
+        release.wait(10)
+        return receive(data, t, baudrate)
+
+    emulator.receive = slow  # type: ignore[method-assign]
+    server = ports.PtyServer(emulator, 57600).start()
+    client = serial.Serial(server.device, 57600, timeout=1.0)
+    try:
+        client.write(ping)
+        wait_for(inside.is_set, "the server to be inside the device")
+        server.close()                              # gives up after 1 s
+        assert server._thread.is_alive()
+        os.fstat(server._master)                    # still open: not closed under the thread
+        release.set()
+        server._thread.join(5)
+        assert not server._thread.is_alive()
+        with pytest.raises(OSError):
+            os.fstat(server._master)                # closed by the thread as it stopped
+    finally:
+        release.set()
+        client.close()

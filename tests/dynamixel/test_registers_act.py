@@ -63,8 +63,9 @@ def test_lowering_the_max_voltage_limit_below_the_supply_is_an_error() -> None:
 
 def test_lock_makes_the_eeprom_read_only_until_power_off() -> None:
     """Lock(47): "1: EEPROM area cannot be modified ... If Lock is set to 1, the power must be
-    turned off and then turned on again to change into 0" (e-Manual, Lock); the refused write
-    answers a range error (AX-12 user's manual, example 20). RAM stays writable."""
+    turned off and then turned on again to change into 0" (e-Manual, Lock). The refused write
+    answers a range error, as in the AX-12 user's manual's example 20 (whose older text locks
+    all but addresses 24-35; servolab follows the e-Manual's EEPROM). RAM stays writable."""
     bus = Bus.open("emu://rx28:1", baudrate=57142)
     bus.write(1, "lock", 1, raw=True)
     for name, value in (("return_delay_time", 10), ("lock", 0)):

@@ -33,7 +33,7 @@ def read(device: str, motor_id: int, names: Sequence[str], *, protocol: int | No
         out: dict[str, float | int] = {}
         for name in names:
             reg = m.register(name)
-            si = units.to_si(m, reg, int(values[name]))
+            si = bus.to_si(motor_id, name, int(values[name]))  # by the motor's mode
             out[name] = values[name] if raw else si
             unit = units.KINDS.get(reg.unit, "")
             if raw:

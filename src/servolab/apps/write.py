@@ -21,7 +21,6 @@ def write(device: str, motor_id: int, name: str, value: str, *, protocol: int | 
     """Write one register of one motor (SI units unless ``raw``); returns the raw value.
 
     ``protocol`` None: the port's (see :func:`servolab.apps._bus.open_bus`)."""
-    from ..dynamixel import units
     from ..dynamixel.errors import ConfigError
     from ._bus import hint_protocol, open_bus
 
@@ -33,7 +32,7 @@ def write(device: str, motor_id: int, name: str, value: str, *, protocol: int | 
             raise ConfigError(f"{m.name} {name} is read-only")
         if raw and not number.is_integer():
             raise ConfigError(f"{m.name} {name}: raw value {value!r} is not an integer")
-        raw_value = int(number) if raw else units.from_si(m, reg, number)
+        raw_value = int(number) if raw else bus.from_si(motor_id, name, number)
         if raw:
             reg.check(raw_value, m)
         bus.write(motor_id, name, raw_value, raw=True)

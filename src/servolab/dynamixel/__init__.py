@@ -23,7 +23,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("Bus", "BusStats", "PingResult"), "bus"),
     **dict.fromkeys(("Emulator", "Faults", "VirtualMotor", "build_emulator"), "emulator"),
     **dict.fromkeys(("CommError", "ConfigError", "CorruptResponse", "DynamixelError",
-                     "MotorError", "NoResponse", "PacketError"), "errors"),
+                     "MotorError", "NoResponse", "PacketError", "PortError"), "errors"),
     **dict.fromkeys(("MODELS", "Model", "Register", "model", "model_by_number"), "models"),
     "MotorSpec": "motorspec",
     **dict.fromkeys(("KinematicServo", "ServoCommand", "ServoPlant"), "plant"),
@@ -33,7 +33,8 @@ _EXPORTS: dict[str, str] = {
 __all__ = [
     "MODELS", "Bus", "BusStats", "CommError", "ConfigError", "CorruptResponse",
     "DynamixelError", "Emulator", "Faults", "KinematicServo", "MemoryPort", "Model",
-    "MotorError", "MotorSpec", "NoResponse", "PacketError", "PingResult", "Port", "PtyServer",
+    "MotorError", "MotorSpec", "NoResponse", "PacketError", "PingResult", "Port", "PortError",
+    "PtyServer",
     "Register", "SerialPort", "ServoCommand", "ServoPlant", "VirtualMotor", "build_emulator",
     "model", "model_by_number", "open_port",
 ]
@@ -51,6 +52,7 @@ if TYPE_CHECKING:
         MotorError,
         NoResponse,
         PacketError,
+        PortError,
     )
     from .models import MODELS, Model, Register, model, model_by_number
     from .motorspec import MotorSpec

@@ -35,6 +35,7 @@ import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
+from types import MappingProxyType
 from typing import Any, overload
 
 from . import units
@@ -62,10 +63,13 @@ from .wire import byte_time
 log = logging.getLogger(__name__)
 
 MAX_RETURN_DELAY = 254 * 2e-6
-#: What the ROBOTIS SDK allows each ID to answer a broadcast PING in, besides the status
-#: packet's wire time (protocol2_packet_handler.broadcastPing: 3 ms per ID, + 16 ms).
-SDK_BROADCAST_PING_PER_ID = 0.003
-SDK_BROADCAST_PING_MARGIN = 0.016
+#: Protocol 2.0 broadcast PING: how long the motors wait for the status of an ID before the
+#: next ID takes its turn, 3000 us (ROBOTIS's device-side code, Dynamixel2Arduino
+#: src/utility/protocol.cpp, DXL_PROCESS_BROAD_PING; the emulator's ``Emulator.ping_slot``).
+BROADCAST_PING_SLOT = 0.003
+#: The registers of a 1.0 motor that set its mode: both 0 is wheel mode (e-Manual, CW/CCW
+#: Angle Limit).
+_ANGLE_LIMITS = ("cw_angle_limit", "ccw_angle_limit")
 Value = float | int
 Names = str | Sequence[str]
 #: Several register names. The overloads of read/sync_read/sync_write take a list or tuple
@@ -165,9 +169,15 @@ _STRUCT_CODES = {(1, False): "B", (2, False): "H", (4, False): "I",
 
 class _Fields:
     """Named registers of one model, read as one block: the block's (start, length), and one
-    :class:`struct.Struct` that takes every value out of it at once."""
+    :class:`struct.Struct` that takes every value out of it at once.
 
-    __slots__ = ("_order", "_struct", "convert", "length", "names", "regs", "single", "start")
+    ``moded``: a register among them converts to SI by the motor's mode (moving/present
+    speed of a model whose wheel mode sets the output, :attr:`.Model.wheel_output_ratio`);
+    the caller then says which mode the motor is in, and ``wheel_convert`` serves wheel mode.
+    """
+
+    __slots__ = ("_order", "_struct", "convert", "length", "moded", "names", "regs", "single",
+                 "start", "wheel_convert")
 
     def __init__(self, m: Model, names: Names) -> None:
         self.single = isinstance(names, str)
@@ -177,6 +187,10 @@ class _Fields:
             raise ConfigError(f"{m.name}: no register named to read")
         self.start, self.length = m.span(self.names)
         self.convert = [_si_decoder(m, r) for r in self.regs]
+        self.moded = m.wheel_output_ratio and any(r.unit == "speed_sign_bit"
+                                                  for r in self.regs)
+        self.wheel_convert = ([_si_decoder(m, r, wheel=True) for r in self.regs] if self.moded
+                              else self.convert)
         by_address = sorted(range(len(self.regs)), key=lambda k: self.regs[k].address)
         fmt, at = "<", self.start
         for k in by_address:
@@ -199,11 +213,13 @@ class _Fields:
         values = self._struct.unpack_from(buf, at)
         return values if self._order is None else [values[k] for k in self._order]
 
-    def values(self, buf: bytes, at: int, raw: bool) -> Any:
-        """One value (one name given as a str) or {name: value}, raw or in SI units."""
+    def values(self, buf: bytes, at: int, raw: bool, wheel: bool = False) -> Any:
+        """One value (one name given as a str) or {name: value}, raw or in SI units (those
+        of wheel mode when ``wheel``, see ``moded``)."""
         raws = self.raw(buf, at)
         values: Sequence[Value] = raws if raw else [
-            v if c is None else c(v) for v, c in zip(raws, self.convert, strict=True)]
+            v if c is None else c(v)
+            for v, c in zip(raws, self.wheel_convert if wheel else self.convert, strict=True)]
         return values[0] if self.single else dict(zip(self.names, values, strict=True))
 
 
@@ -226,12 +242,15 @@ class _MultiRead:
     anything is sent) where a motor lacks it, None takes it where every motor has it, False
     never."""
 
-    __slots__ = ("fields", "ids", "models", "name", "proto", "reads", "replies", "request")
+    __slots__ = ("fields", "ids", "moded", "models", "name", "proto", "reads", "replies",
+                 "request")
 
     def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
                  fields: list[_Fields], *, allow_sync: bool, fast: bool | None = False
                  ) -> None:
         self.proto, self.ids, self.models, self.fields = proto, ids, models, fields
+        #: the motors whose SI values depend on their mode (see _Fields.moded)
+        self.moded = tuple(i for i, f in zip(ids, fields, strict=True) if f.moded)
         spans = {(f.start, f.length) for f in fields}
         self.reads: list[_Read] = []
         self.request = b""
@@ -278,13 +297,16 @@ class _MultiRead:
         self.replies = _Replies(proto, {i: f.length for i, f in zip(ids, fields, strict=True)})
 
 
-def _si_decoder(m: Model, reg: Register) -> Callable[[int], Value] | None:
+def _si_decoder(m: Model, reg: Register, *, wheel: bool = False
+                ) -> Callable[[int], Value] | None:
     """Raw -> SI for one register, as :func:`.units.to_si` computes it (the same operations
     on the same numbers, so the same floats), with the model's scale looked up once; None
-    for the kinds that stay raw."""
+    for the kinds that stay raw. ``wheel``: the motor is in 1.0 wheel mode."""
     kind = reg.unit
     if kind in ("raw", "bool"):
         return None
+    if wheel and kind == "speed_sign_bit" and m.wheel_output_ratio:
+        return partial(units.wheel_speed, m)
     if kind == "position":
         center, tick = m.position_center, m.rad_per_tick
         return lambda raw: (raw - center) * tick
@@ -392,7 +414,8 @@ class Bus:
     ``protocol`` None means the port's own (an emulated bus knows its models'), else 2.
     ``retries`` is how many times a transaction that got no valid answer is sent again.
     ``timeout`` (s), when given, replaces the computed wait for a reply (wire time of the
-    expected bytes + return delays + twice the adapter latency + 2 ms).
+    expected bytes + return delays + twice the adapter latency + 2 ms); a broadcast ping
+    listens at least :meth:`broadcast_ping_wait` all the same.
     """
 
     port: Port
@@ -415,6 +438,10 @@ class Bus:
         self._lock = threading.RLock()
         self._srl: dict[int, int] = {}
         self._alerts: dict[int, int] = {}
+        #: (1.0) each motor's raw CW and CCW angle limits as last written or read: its mode
+        self._limits: dict[int, tuple[int, int]] = {}
+        #: each motor's REG_WRITE waiting for ACTION: (start address, block)
+        self._registered: dict[int, tuple[int, bytes]] = {}
         self._plans: dict[Any, Any] = {}
         #: after a transaction that got no valid answer: until when a late one may still come
         self._quiet_until: float | None = None
@@ -510,13 +537,14 @@ class Bus:
                                                    strict=True))}
 
     def _exchange(self, data: bytes, name: str, replies: _Replies, check: bool,
-                  retries: int | None, statuses: dict[int, Status] | None = None
-                  ) -> tuple[bytes, Sequence[int], Sequence[int]]:
+                  retries: int | None, statuses: dict[int, Status] | None = None, *,
+                  alerts: bool = True) -> tuple[bytes, Sequence[int], Sequence[int]]:
         """Send ``data`` and take the status packets ``replies`` describes: returns the reply
         bytes, where each motor's data starts in them, and the error bytes (``()`` when all
         are 0). The fast path reads exactly the bytes expected and checks them in place; when
         they are not as expected, the stream parser looks for the packets until the timeout
-        (``statuses``, when given, receives them as found)."""
+        (``statuses``, when given, receives them as found). ``alerts`` False: the statuses'
+        hardware-error bits are not the motors' state now (see :meth:`reboot`)."""
         port, stats, proto = self.port, self.stats, self.proto
         total = replies.total
         # How long after sending the answers can take at most: the wire time of the bytes
@@ -564,15 +592,17 @@ class Bus:
                         statuses.update(found)
                     buf, errors = self._normalise(found, replies)
                 if errors or self._alerts:
-                    self._note(replies.ids, errors, name, check)
+                    self._note(replies.ids, errors, name, check, alerts)
                 return buf, replies.data_at, errors
         raise AssertionError("unreachable")  # pragma: no cover
 
-    def _note(self, ids: Sequence[int], errors: Sequence[int], name: str, check: bool) -> None:
-        """Record the hardware errors the statuses report (:attr:`alerts`) and raise
-        :class:`MotorError` for an instruction that failed, when ``check``."""
+    def _note(self, ids: Sequence[int], errors: Sequence[int], name: str, check: bool,
+              record: bool = True) -> None:
+        """Record the hardware errors the statuses report (:attr:`alerts`), unless not
+        ``record``, and raise :class:`MotorError` for an instruction that failed, when
+        ``check``."""
         proto, alerts = self.proto, self._alerts
-        for k, motor_id in enumerate(ids):
+        for k, motor_id in enumerate(ids if record else ()):
             bits = proto.alert(errors[k]) if errors else 0
             if bits:
                 if alerts.get(motor_id) != bits:  # once, when it starts or changes
@@ -708,8 +738,9 @@ class Bus:
                          motor_id=missing[0], instruction=name)
 
     @property
-    def alerts(self) -> dict[int, int]:
-        """Motors whose last status reported a hardware error: ID -> those error bits.
+    def alerts(self) -> Mapping[int, int]:
+        """Motors whose last status reported a hardware error: ID -> those error bits (a
+        read-only view, kept up to date by the bus).
 
         A hardware error is the motor's state, not a failed instruction: the instruction was
         carried out and its data is valid (e-Manual, Protocol 1.0 "Status Packet" and Protocol
@@ -718,7 +749,7 @@ class Bus:
         ``hardware_error_status`` register says which (:meth:`hardware_errors` reads it).
         Every status the bus takes updates it; a motor leaves it with its first status
         without them (on 2.0 after a REBOOT)."""
-        return self._alerts
+        return MappingProxyType(self._alerts)
 
     def hardware_errors(self, motor_id: int) -> tuple[str, ...]:
         """The hardware errors ``motor_id`` reports now, by name (``()`` for none): on 2.0 from
@@ -759,30 +790,33 @@ class Bus:
         return PingResult(motor_id, number, firmware, self.baudrate, found)
 
     def broadcast_ping_wait(self) -> float:
-        """How long :meth:`broadcast_ping` listens (s), unless ``timeout`` is set.
+        """How long :meth:`broadcast_ping` listens (s) at least.
 
         "When the Packet ID field is 0xFE (Broadcast ID): All devices send their Status
         Packet according to their arranged order" (e-Manual, Protocol 2.0, Ping): in ID
-        order, each in its own slot, so a motor with ID 252 answers after the slots of IDs
-        0..251 whether they are on the bus or not. 253 slots of one status packet (14 bytes)
-        and the longest return delay (254 x 2 us), plus twice the adapter latency and 2 ms;
-        or, if longer, the ROBOTIS SDK's wait (protocol2_packet_handler.broadcastPing:
-        14 bytes x 252 IDs of wire time + 3 ms per ID + 16 ms), which allows each ID more
-        time than its return delay."""
+        order, each ID in its turn whether a motor has it or not. ROBOTIS's device-side code
+        (Dynamixel2Arduino src/utility/protocol.cpp, DXL_PROCESS_BROAD_PING) moves on to the
+        next ID as soon as it hears a status, and otherwise after :data:`BROADCAST_PING_SLOT`
+        (3 ms). So each of the IDs 0..251 before ID 252 takes at most the longer of a slot
+        and an answer (the longest return delay, 254 x 2 us, and a 14-byte status), and ID
+        252 its own answer: with the PING's own wire time, twice the adapter latency and
+        2 ms, that is the wait."""
         tick = byte_time(self.baudrate)
-        slot = self.proto.status_size(3) * tick + MAX_RETURN_DELAY
-        ours = (self.proto.max_id + 1) * slot + 2 * self.port.latency + 0.002
-        sdk = (self.proto.max_id * (self.proto.status_size(3) * tick + SDK_BROADCAST_PING_PER_ID)
-               + SDK_BROADCAST_PING_MARGIN)
-        return max(ours, sdk)
+        proto = self.proto
+        answer = proto.status_size(3) * tick + MAX_RETURN_DELAY
+        ping = len(proto.encode_instruction(proto.ping(proto.broadcast_id))) * tick
+        return (ping + proto.max_id * max(BROADCAST_PING_SLOT, answer) + answer
+                + 2 * self.port.latency + 0.002)
 
     def broadcast_ping(self) -> list[PingResult]:
         """Protocol 2.0 broadcast PING: every motor answers, in one transaction (which lasts
-        :meth:`broadcast_ping_wait`, enough for ID 252 to answer in its slot)."""
+        :meth:`broadcast_ping_wait`, enough for ID 252 to answer in its turn, or the bus's
+        ``timeout`` if that is longer: a short per-transaction timeout does not cut it
+        short)."""
         if self.proto.version != 2:
             raise ConfigError("broadcast ping exists only in protocol 2.0; use scan()")
         data = self.proto.encode_instruction(self.proto.ping(self.proto.broadcast_id))
-        timeout = self.timeout or self.broadcast_ping_wait()
+        timeout = max(self.timeout or 0.0, self.broadcast_ping_wait())
         parser = self.proto.parser()
         found: dict[int, PingResult] = {}
         with self._lock:
@@ -861,6 +895,8 @@ class Bus:
         if m.protocol != self.proto.version:
             raise ConfigError(f"{m.name} speaks protocol {m.protocol}.0, this bus "
                               f"{self.proto.version}.0")
+        if self.motors.get(motor_id) != m:
+            self._limits.pop(motor_id, None)
         self.motors[motor_id] = m
 
     # -- conversions -------------------------------------------------------------------------
@@ -868,7 +904,44 @@ class Bus:
     def _names(names: Names) -> list[str]:
         return [names] if isinstance(names, str) else list(names)
 
-    def _encode(self, m: Model, reg: Register, value: Value, raw: bool) -> bytes:
+    def wheel_mode(self, motor_id: int) -> bool:
+        """Whether ``motor_id`` (protocol 1.0) is in wheel mode, both angle limits 0 (e-Manual,
+        CW/CCW Angle Limit): as this bus last wrote them, else read from the motor once and
+        kept. False on 2.0, whose modes are its operating_mode."""
+        m = self.model_of(motor_id)
+        return m.protocol == 1 and m.has("cw_angle_limit") and self._wheel(motor_id)
+
+    def _wheel(self, motor_id: int) -> bool:
+        limits = self._limits.get(motor_id)
+        if limits is None:
+            got = self.read(motor_id, list(_ANGLE_LIMITS), raw=True)
+            limits = (int(got[_ANGLE_LIMITS[0]]), int(got[_ANGLE_LIMITS[1]]))
+            self._limits[motor_id] = limits
+        return limits == (0, 0)
+
+    def _wheel_si(self, motor_id: int, m: Model, reg: Register) -> bool:
+        """Whether ``reg`` of ``motor_id`` converts to SI as in wheel mode: moving/present
+        speed of a model whose wheel mode sets the output (:attr:`.Model.wheel_output_ratio`),
+        in wheel mode (see :func:`.units.wheel_speed`)."""
+        return (reg.unit == "speed_sign_bit" and m.wheel_output_ratio
+                and self._wheel(motor_id))
+
+    def to_si(self, motor_id: int, name: str, raw: int) -> Value:
+        """A raw value of register ``name`` of ``motor_id`` in SI units, as :meth:`read`
+        converts it (by the motor's mode where it matters, see :meth:`wheel_mode`)."""
+        m = self.model_of(motor_id)
+        reg = m.register(name)
+        return units.to_si(m, reg, int(raw), wheel=self._wheel_si(motor_id, m, reg))
+
+    def from_si(self, motor_id: int, name: str, value: float) -> int:
+        """The raw value :meth:`write` sends for ``value`` (SI units) in register ``name`` of
+        ``motor_id``; :class:`ConfigError` when it is out of range."""
+        m = self.model_of(motor_id)
+        reg = m.register(name)
+        return units.from_si(m, reg, value, wheel=self._wheel_si(motor_id, m, reg))
+
+    def _encode(self, motor_id: int, m: Model, reg: Register, value: Value, raw: bool
+                ) -> bytes:
         if not reg.writable:
             raise ConfigError(f"{m.name} {reg.name} is read-only")
         if raw:
@@ -877,7 +950,7 @@ class Bus:
             raw_value = int(value)
             reg.check(raw_value, m)
         else:
-            raw_value = units.from_si(m, reg, value)
+            raw_value = units.from_si(m, reg, value, wheel=self._wheel_si(motor_id, m, reg))
         return reg.encode(raw_value)
 
     # -- plans ---------------------------------------------------------------------------------
@@ -930,7 +1003,8 @@ class Bus:
     def read(self, motor_id: int, names: Names, *, raw: bool = False,
              check: bool = True) -> Value | dict[str, Value]:
         """Read one register (returns its value) or several (returns a dict), in SI units
-        unless ``raw``. Several registers go out as one contiguous READ."""
+        unless ``raw``. Several registers go out as one contiguous READ. (Moving and present
+        speed of an RX-28 or EX-106+ in wheel mode: the unloaded speed, see :meth:`write`.)"""
         if not isinstance(names, str | list | tuple):
             names = list(names)  # any other iterable: read it once
         key = (motor_id, names if isinstance(names, str) else tuple(names))
@@ -940,33 +1014,70 @@ class Bus:
             plan = self._read_plan(motor_id, names, key)
         if 0 in self._srl.values():
             self._check_reads_answered((motor_id,))
+        # moving/present speed in wheel mode on AX/RX/EX: the motor's mode decides the unit
+        wheel = not raw and plan.fields.moded and self._wheel(motor_id)
         buf, data_at, _ = self._exchange(plan.request, "READ", plan.replies, check, None)
-        return plan.fields.values(buf, data_at[0], raw)  # type: ignore[no-any-return]
+        return plan.fields.values(buf, data_at[0], raw, wheel)  # type: ignore[no-any-return]
 
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
               *, raw: bool = False, registered: bool = False) -> None:
         """Write one register (``write(1, "goal_position", 0.5)``) or several adjacent ones
         (``write(1, {"goal_position": 0.5, "moving_speed": 1.0})``) in one WRITE.
-        ``registered`` sends REG_WRITE, applied by a later :meth:`action`."""
+        ``registered`` sends REG_WRITE, applied by a later :meth:`action`.
+
+        On models whose wheel mode sets the output rather than a speed (RX-28, EX-106+:
+        :attr:`.Model.wheel_output_ratio`), a moving_speed in rad/s is, in wheel mode, the
+        speed of the unloaded horn (:func:`.units.wheel_speed`); the bus knows the mode from
+        the angle limits it wrote, or reads them once (:meth:`wheel_mode`)."""
         m = self.model_of(motor_id)
         given: dict[str, Value | None] = dict(name) if isinstance(name, Mapping) else {name: value}
         values = {n: v for n, v in given.items() if v is not None}
         if len(values) != len(given):
             raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
-        start, block = self._block(m, values, raw)
+        start, block = self._block(motor_id, m, values, raw)
         level = self._level_after(motor_id, m, start, block, registered=registered)
         self.transact(self.proto.write(motor_id, start, block, registered=registered),
                       {motor_id: 0} if level >= 2 else None)
-        self.status_return_level[motor_id] = level
+        if registered:  # the motor keeps one REG_WRITE, the last, until ACTION
+            self._registered[motor_id] = (start, block)
+        else:
+            self._learn(motor_id, m, start, block)
 
-    def _block(self, m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int, bytes]:
+    def _block(self, motor_id: int, m: Model, values: Mapping[str, Value], raw: bool
+               ) -> tuple[int, bytes]:
         regs = sorted((m.register(n) for n in values), key=lambda r: r.address)
         for a, b in itertools.pairwise(regs):
             if a.address + a.size != b.address:
                 raise ConfigError(f"{m.name}: {a.name} and {b.name} are not adjacent; write "
                                   "them separately")
-        block = b"".join(self._encode(m, r, values[r.name], raw) for r in regs)
+        block = b"".join(self._encode(motor_id, m, r, values[r.name], raw) for r in regs)
         return regs[0].address, block
+
+    def _learn(self, motor_id: int, m: Model, start: int, block: bytes) -> None:
+        """What a write of ``block`` at ``start``, carried out by ``motor_id``, tells the bus
+        where the block covers them: the motor's status return level, and (1.0) its angle
+        limits, hence its mode."""
+        end = start + len(block)
+        if m.has("status_return_level"):
+            reg = m.register("status_return_level")
+            if start <= reg.address < end:
+                self._srl[motor_id] = reg.decode(block[reg.address - start:])
+        if m.protocol != 1 or not m.has(_ANGLE_LIMITS[0]):
+            return
+        regs = [m.register(n) for n in _ANGLE_LIMITS]
+        if not any(start < r.address + r.size and r.address < end for r in regs):
+            return
+        known = self._limits.get(motor_id)
+        limits: list[int] = []
+        for k, reg in enumerate(regs):
+            if start <= reg.address and reg.address + reg.size <= end:
+                limits.append(reg.decode(block[reg.address - start:]))
+            elif known is not None:
+                limits.append(known[k])
+        if len(limits) == 2:
+            self._limits[motor_id] = (limits[0], limits[1])
+        else:  # one written, the other unknown: read both when next needed
+            self._limits.pop(motor_id, None)
 
     def _level_after(self, motor_id: int, m: Model, start: int, block: bytes, *,
                      registered: bool = False) -> int:
@@ -974,7 +1085,7 @@ class Bus:
         the value written when the block covers the register (the motor answers that WRITE
         already by its new level), else the level the bus knows (2, the factory default,
         until told). A REG_WRITE changes nothing before its ACTION."""
-        known = self.status_return_level.get(motor_id, 2)
+        known = self._srl.get(motor_id, 2)
         if registered or not m.has("status_return_level"):
             return known
         reg = m.register("status_return_level")
@@ -987,41 +1098,110 @@ class Bus:
         it answers PING only (e-Manual, Status Return Level), so the read could only time
         out."""
         for motor_id in ids:
-            if self.status_return_level.get(motor_id, 2) == 0:
+            if self._srl.get(motor_id, 2) == 0:
                 raise ConfigError(f"motor {motor_id}: status return level 0 answers PING only; "
                                   "write status_return_level 1 or 2 to read it")
 
     @property
     def status_return_level(self) -> dict[int, int]:
-        """The status return level of each motor as this bus last wrote it (2, the factory
-        default, for motors not in it); it decides which instructions the bus waits on."""
+        """The status return level of each motor as this bus knows it (2, the factory
+        default, for motors not in it); it decides which instructions the bus waits on.
+
+        The bus keeps it up to date from what it sends: writes of ``status_return_level``
+        (WRITE, SYNC_WRITE, BULK_WRITE, and a REG_WRITE once its :meth:`action` is sent),
+        :meth:`reboot` (which brings a level kept in RAM, as on the X-series, back to 2) and
+        :meth:`factory_reset`. This is the bus's own dict, not a copy: set an entry to tell
+        the bus of a level it cannot know (set by another program, or kept in a motor's
+        EEPROM from before)."""
         return self._srl
 
     def action(self) -> None:
-        """Broadcast ACTION: every motor applies its REG_WRITE at once."""
+        """Broadcast ACTION: every motor applies its REG_WRITE at once (and the bus learns
+        what those writes set, e.g. a status return level)."""
         self.transact(self.proto.action())
+        registered, self._registered = self._registered, {}
+        for motor_id, (start, block) in registered.items():
+            m = self.motors.get(motor_id)
+            if m is not None:
+                self._learn(motor_id, m, start, block)
 
     def reboot(self, motor_id: int) -> None:
+        """REBOOT (protocol 2.0; ``motor_id`` may be the broadcast ID): the motor starts again
+        as at power-up, its RAM at factory values (the X-series' status_return_level,
+        address 68, among them: back to 2), its EEPROM kept, its hardware error cleared.
+
+        The motor sends its status before it restarts, so by the status return level it had
+        before (only at level 2) and with the hardware-error alert the reboot then clears:
+        the bus waits for a status only at level 2, and takes only the instruction's own
+        error from it (no alert is logged or recorded)."""
         proto = self.proto
         if not isinstance(proto, Protocol2):
             raise ConfigError("REBOOT exists only in protocol 2.0")
-        # The status goes out before the reboot, so it still carries the hardware-error alert
-        # that the reboot clears: only the instruction's own error counts (as everywhere).
-        self.transact(proto.reboot(motor_id), {motor_id: 0})
-        self._alerts.pop(motor_id, None)
+        ids = self._targets(motor_id)
+        self._reset_exchange(proto.reboot(motor_id), "REBOOT", motor_id, alerts=False)
+        for i in ids:
+            self._alerts.pop(i, None)
+            self._registered.pop(i, None)  # RAM: a REG_WRITE waiting for ACTION is gone
+            m = self.motors.get(i)
+            if m is None or not m.has("status_return_level") \
+                    or m.register("status_return_level").area == "RAM":
+                self._srl.pop(i, None)     # the factory level, 2
 
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
                       keep_baud: bool = True) -> None:
-        """Restore factory defaults (1.0 RESET resets everything, ID and baud too)."""
+        """Restore factory defaults; ``motor_id`` may be the broadcast ID.
+
+        Protocol 1.0 RESET resets the whole control table, "to the factory default values"
+        (e-Manual, Protocol 1.0, Factory Reset), whatever ``keep_id`` and ``keep_baud`` say:
+        the motor is then ID 1 ("The factory default setting ID is 1", ibid., ID), at
+        baud_rate 34 (57142 bps) and status return level 2. Protocol 2.0 FACTORY_RESET keeps
+        the ID and baud rate (``keep_id`` and ``keep_baud``), the ID only (``keep_id``), or
+        nothing (ID 1, 57600 bps).
+
+        The bus follows: the motor is at status return level 2; where its ID changes, the
+        bus forgets what it knew of the old ID and of ID 1 (model, level, mode, alerts),
+        which the next access learns again. It does not follow a baud rate the reset
+        changes: the motor is then heard only at its new rate (see :meth:`scan`). As for
+        :meth:`reboot`, the status goes out before the reset, by the level before it."""
         proto = self.proto
         if isinstance(proto, Protocol1):
-            self.transact(proto.reset(motor_id), {motor_id: 0})
-            return
-        if not isinstance(proto, Protocol2):
+            inst, name, moves = proto.reset(motor_id), "RESET", True
+        elif isinstance(proto, Protocol2):
+            option = (FACTORY_RESET_EXCEPT_ID_BAUD if keep_id and keep_baud else
+                      FACTORY_RESET_EXCEPT_ID if keep_id else FACTORY_RESET_ALL)
+            inst, name = proto.factory_reset(motor_id, option), "FACTORY_RESET"
+            moves = not keep_id
+        else:
             raise ConfigError(f"FACTORY_RESET does not exist in protocol {proto.version}.0")
-        option = (FACTORY_RESET_EXCEPT_ID_BAUD if keep_id and keep_baud else
-                  FACTORY_RESET_EXCEPT_ID if keep_id else FACTORY_RESET_ALL)
-        self.transact(proto.factory_reset(motor_id, option), {motor_id: 0})
+        ids = self._targets(motor_id)
+        self._reset_exchange(inst, name, motor_id)
+        for i in [*ids, 1] if moves else ids:
+            self._srl.pop(i, None)
+            self._registered.pop(i, None)
+            self._limits.pop(i, None)
+            if moves:
+                self.motors.pop(i, None)
+                self._alerts.pop(i, None)
+
+    def _targets(self, motor_id: int) -> list[int]:
+        """The motors an instruction to ``motor_id`` reaches, as far as the bus knows them."""
+        if motor_id != self.proto.broadcast_id:
+            self.proto.check_id(motor_id)
+            return [motor_id]
+        return sorted({*self.motors, *self._srl, *self._alerts, *self._limits,
+                       *self._registered})
+
+    def _reset_exchange(self, inst: Instruction, name: str, motor_id: int, *,
+                        alerts: bool = True) -> None:
+        """Send a REBOOT, FACTORY_RESET or RESET, and take its status where one comes: from
+        a unicast to a motor at status return level 2 before the instruction (the status
+        goes out before the motor resets)."""
+        proto = self.proto
+        data = proto.encode_instruction(inst)
+        if motor_id == proto.broadcast_id or self._srl.get(motor_id, 2) < 2:
+            self._send(data)
+            return
+        self._exchange(data, name, _Replies(proto, {motor_id: 0}), True, None, alerts=alerts)
 
     # -- many motors ---------------------------------------------------------------------------
     @overload
@@ -1050,7 +1230,7 @@ class Bus:
                         for motor_id in plan.ids:
                             level = values[motor_id]
                             assert isinstance(level, int)  # the plan's encode checked it
-                            self.status_return_level[motor_id] = level
+                            self._srl[motor_id] = level
                     return
         wanted = self._names(names)
         blocks: list[tuple[int, bytes]] = []
@@ -1070,7 +1250,7 @@ class Bus:
             if len(vals) != len(wanted):
                 raise ConfigError(f"motor {motor_id}: {len(vals)} values for {len(wanted)} "
                                   f"registers {wanted}")
-            start, block = self._block(m, dict(zip(wanted, vals, strict=True)), raw)
+            start, block = self._block(motor_id, m, dict(zip(wanted, vals, strict=True)), raw)
             if layout is None:
                 layout = (start, len(block))
             elif layout != (start, len(block)):
@@ -1084,17 +1264,16 @@ class Bus:
         if key is not None:  # one register: the next time, through a plan
             self._keep(key, self._sync_write_plan(key[1], key[2]))
         for motor_id, block in blocks:
-            self.status_return_level[motor_id] = self._level_after(
-                motor_id, self.model_of(motor_id), layout[0], block)
+            self._learn(motor_id, self.motors[motor_id], layout[0], block)
 
     def _sync_write_plan(self, name: str, ids: tuple[int, ...]) -> _SyncWrite | None:
         """The plan of a SYNC_WRITE of ``name`` to ``ids`` like the one just sent (which
         checked the register and every value), or None where the template cannot serve."""
         models = [self.motors[i] for i in ids]
         reg = models[0].register(name)
-        if (any(m.register(name) != reg for m in models)
+        if (any(m.register(name) != reg for m in models) or name in _ANGLE_LIMITS
                 or (reg.size, reg.signed) not in _STRUCT_CODES):
-            return None
+            return None  # (the angle limits: the checked path learns the motors' mode)
         covers = any(m.has("status_return_level")
                      and m.register("status_return_level").address == reg.address
                      for m in models)
@@ -1187,14 +1366,20 @@ class Bus:
     def _run_multi(self, plan: _MultiRead, raw: bool, check: bool) -> dict[int, Any]:
         if 0 in self._srl.values():
             self._check_reads_answered(plan.ids)
+        # the motors whose speeds convert as in wheel mode (see read)
+        wheel = {i for i in plan.moded if self._wheel(i)} if plan.moded and not raw else None
         if plan.reads:
             out = {}
             for read in plan.reads:
                 buf, data_at, _ = self._exchange(read.request, "READ", read.replies, check,
                                                  None)
-                out[read.motor_id] = read.fields.values(buf, data_at[0], raw)
+                out[read.motor_id] = read.fields.values(
+                    buf, data_at[0], raw, wheel is not None and read.motor_id in wheel)
             return out
         buf, data_at, _ = self._exchange(plan.request, plan.name, plan.replies, check, None)
+        if wheel:
+            return {i: f.values(buf, at, raw, i in wheel)
+                    for i, f, at in zip(plan.ids, plan.fields, data_at, strict=True)}
         return {i: f.values(buf, at, raw)
                 for i, f, at in zip(plan.ids, plan.fields, data_at, strict=True)}
 
@@ -1205,7 +1390,7 @@ class Bus:
         blocks = []
         for motor_id, regs in values.items():
             m = self.model_of(motor_id)
-            start, block = self._block(m, regs, raw)
+            start, block = self._block(motor_id, m, regs, raw)
             blocks.append((motor_id, m, start, block))
         proto = self.proto
         if isinstance(proto, Protocol2) and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
@@ -1215,7 +1400,7 @@ class Bus:
                 level = self._level_after(motor_id, m, start, block)
                 self.transact(self.proto.write(motor_id, start, block),
                               {motor_id: 0} if level >= 2 else None)
-                self.status_return_level[motor_id] = level
+                self._learn(motor_id, m, start, block)
             return
         for motor_id, m, start, block in blocks:
-            self.status_return_level[motor_id] = self._level_after(motor_id, m, start, block)
+            self._learn(motor_id, m, start, block)

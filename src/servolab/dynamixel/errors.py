@@ -29,6 +29,12 @@ class PacketError(DynamixelError, ValueError):
     """A packet that cannot be encoded or decoded (wrong header, length, checksum or CRC)."""
 
 
+class PortError(DynamixelError):
+    """The port itself failed: reading or writing the serial device gave an I/O error (the
+    USB adapter unplugged, the device gone). Nothing more can go through it; the message
+    names the port and what to do."""
+
+
 class CommError(DynamixelError):
     """The bus did not deliver a valid answer: timeout or corrupt status packet."""
 

@@ -225,12 +225,18 @@ class Protocol(ABC):
         return frames[0]
 
     # -- names ---------------------------------------------------------------------------------
+    #: code -> instruction name, built from ``instructions`` with the class (the first name
+    #: of a code wins)
+    _names_by_code: ClassVar[dict[int, str]] = {}
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        super().__init_subclass__(**kwargs)
+        instructions = getattr(cls, "instructions", None)
+        if instructions is not None:
+            cls._names_by_code = {v: k for k, v in reversed(instructions.items())}
+
     def instruction_name(self, code: int) -> str:
-        names = self.__dict__.get("_names_by_code")
-        if names is None:
-            names = self.__dict__["_names_by_code"] = {v: k for k, v in
-                                                       reversed(self.instructions.items())}
-        name = names.get(code)
+        name = self._names_by_code.get(code)
         return name if name is not None else f"0x{code:02X}"
 
     def error_names(self, error: int) -> tuple[str, ...]:

@@ -14,6 +14,8 @@ Three kinds, one interface (:class:`Port`): a USB serial adapter through pyseria
 from __future__ import annotations
 
 import contextlib
+import errno
+import functools
 import importlib
 import logging
 import math
@@ -29,7 +31,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..clock import Clock, WallClock
-from .errors import ConfigError
+from .errors import ConfigError, PortError
 from .wire import byte_time
 
 log = logging.getLogger(__name__)
@@ -220,12 +222,25 @@ class MemoryPort(Port):
         self.baudrate = int(baudrate)
 
 
+@functools.cache
+def _io_errors() -> tuple[type[Exception], ...]:
+    """What an I/O error of a serial port can raise: OSError (pyserial's SerialException is
+    one) and, where there is termios, its error (tcflush, tcsetattr on a device gone)."""
+    try:
+        import termios
+    except ImportError:  # Windows
+        return (OSError,)
+    return (OSError, termios.error)
+
+
 class SerialPort(Port):
     """A real serial port (USB2Dynamixel, U2D2, OpenCM, ...) through pyserial.
 
     Reads and writes go straight to the port's file descriptor where there is one (POSIX):
     pyserial applies its whole port configuration again (tcsetattr) each time its ``timeout``
     is set, which a read with a per-call deadline would otherwise do on every transaction.
+    An I/O error of the device (EIO once the adapter is unplugged) raises :class:`PortError`,
+    one line naming the port and what to do.
     """
 
     def __init__(self, device: str, baudrate: int = 57600, *, latency: float | None = None
@@ -245,6 +260,14 @@ class SerialPort(Port):
         self._timeout: float | None = 0.0  # what pyserial's timeout is set to
         #: the (non-blocking) descriptor pyserial opened, on POSIX; None elsewhere
         self._fd: int | None = getattr(self._serial, "fd", None)
+        #: waits for it to be readable: poll, not select, which fails for descriptors from
+        #: 1024 on (FD_SETSIZE), as a process with many files open has
+        self._poll: Any = None
+        if self._fd is not None:
+            import select
+
+            self._poll = select.poll()
+            self._poll.register(self._fd, select.POLLIN)
         self.name = device
         self.baudrate = int(baudrate)
         self.clock = WallClock()
@@ -255,7 +278,22 @@ class SerialPort(Port):
         self.latency = latency if latency is not None else (
             timer / 1000.0 if timer is not None else 0.016)
 
+    def _failed(self, what: str, exc: BaseException) -> PortError:
+        """The error for an I/O error of the port (EIO once a USB adapter is unplugged): one
+        line naming the port and what to do."""
+        reason = (exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+                  or type(exc).__name__)
+        return PortError(f"serial port {self.name}: {what} failed ({reason}); was the adapter "
+                         "unplugged or the device closed? Check the cable and the port, then "
+                         "open it again")
+
     def write(self, data: bytes) -> None:
+        try:
+            self._write(data)
+        except _io_errors() as exc:
+            raise self._failed("writing", exc) from exc
+
+    def _write(self, data: bytes) -> None:
         # No flush() (tcdrain) after the write: it would block until the last byte has left
         # the UART, which only matters to a controller that switches the half-duplex line's
         # direction itself ("When changing the direction, the TXD_SHIFT_REGISTER_EMPTY_BIT
@@ -277,14 +315,18 @@ class SerialPort(Port):
         self._serial.write(bytes(data))
 
     def read(self, size: int, timeout: float) -> bytes:
+        try:
+            return self._read(size, timeout)
+        except _io_errors() as exc:
+            raise self._failed("reading", exc) from exc
+
+    def _read(self, size: int, timeout: float) -> bytes:
         fd = self._fd
         if fd is None:
             timeout = max(0.0, timeout)
             if timeout != self._timeout:  # setting it reconfigures the port: only on change
                 self._serial.timeout = self._timeout = timeout
             return bytes(self._serial.read(size))
-        import select
-
         try:
             data = os.read(fd, size)
         except (BlockingIOError, InterruptedError):
@@ -297,31 +339,35 @@ class SerialPort(Port):
             left = deadline - time.monotonic()
             if left <= 0:
                 break
-            ready, _, _ = select.select([fd], [], [], left)
-            if not ready:
+            if not self._poll.poll(left * 1000.0):
                 break
             try:
                 chunk = os.read(fd, size - len(buf))
             except (BlockingIOError, InterruptedError):
                 continue
             if not chunk:
-                import serial
-
                 # as pyserial: a descriptor that is ready but reads nothing is gone
-                raise serial.SerialException(
-                    f"{self.name}: device reports readiness to read but returned no data "
-                    "(device disconnected or multiple access on port?)")
+                raise OSError(errno.EIO, "the device reports data to read but gives none")
             buf += chunk
         return bytes(buf)
 
     def reset_input(self) -> None:
-        self._serial.reset_input_buffer()
+        try:
+            self._serial.reset_input_buffer()
+        except _io_errors() as exc:
+            raise self._failed("discarding its input", exc) from exc
 
     def set_baudrate(self, baudrate: int) -> None:
-        self._serial.baudrate = int(baudrate)
+        try:
+            self._serial.baudrate = int(baudrate)
+        except _io_errors() as exc:
+            raise self._failed(f"setting {int(baudrate)} bps", exc) from exc
         self.baudrate = int(baudrate)
 
     def close(self) -> None:
+        if self._poll is not None and self._fd is not None:
+            with contextlib.suppress(KeyError, ValueError, OSError):
+                self._poll.unregister(self._fd)
         self._serial.close()
         self._fd = None
 
@@ -408,7 +454,9 @@ class PtyServer:
         self.bytes_overflowed = 0
         self._stop = threading.Event()
         self._wake_r, self._wake_w = os.pipe()  # close() wakes the server through it
-        self._thread = threading.Thread(target=self._serve, name="pty-emulator", daemon=True)
+        self._thread = threading.Thread(target=self._run, name="pty-emulator", daemon=True)
+        self._fds_lock = threading.Lock()
+        self._fds_closed = False
 
     def start(self) -> PtyServer:
         self._thread.start()
@@ -417,12 +465,23 @@ class PtyServer:
     #: how long after a device's idle deadline the server tells it the line stayed silent
     _IDLE_MARGIN = 1e-3
 
+    def _run(self) -> None:
+        try:
+            self._serve()
+        finally:
+            if self._stop.is_set():  # close() may have given up waiting for this thread
+                self._close_fds()
+
     def _serve(self) -> None:
         import heapq
         import itertools
         import select
 
         master = self._master
+        # poll, not select, which fails for descriptors from 1024 on (FD_SETSIZE)
+        poller = select.poll()
+        poller.register(master, select.POLLIN)
+        poller.register(self._wake_r, select.POLLIN)
         # (time the reply's last byte has crossed the wire, order, bytes)
         pending: list[tuple[float, int, bytes]] = []
         order = itertools.count()
@@ -439,10 +498,12 @@ class PtyServer:
                     idle_at = getattr(self.emulator, "idle_deadline", None)
                 if idle_at is not None and idle_at + self._IDLE_MARGIN > now:
                     wake = min(wake, idle_at + self._IDLE_MARGIN)
-            timeout = None if wake == math.inf else max(0.0, wake - now)
+            timeout = None if wake == math.inf else max(0.0, wake - now) * 1000.0
             try:
-                ready, _, _ = select.select([master, self._wake_r], [], [], timeout)
-            except (OSError, ValueError):   # closed under us
+                ready = {fd for fd, _ in poller.poll(timeout)}
+            except (OSError, ValueError):
+                return
+            if self._stop.is_set():
                 return
             arrival = self.clock.now()      # the best time the client's bytes are known by
             while pending and pending[0][0] <= arrival:
@@ -494,17 +555,43 @@ class PtyServer:
             os.write(self._wake_w, b"x")
         if self._thread.is_alive():
             self._thread.join(timeout=1.0)
-        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
-            with contextlib.suppress(OSError):
-                os.close(fd)
+        if self._thread.is_alive():
+            # Still in the device (e.g. a slow emulator step): its descriptors stay open until
+            # it sees the stop and closes them itself (_run), never under it, where their
+            # numbers may already belong to files opened since.
+            log.warning("pty server %s: the serving thread did not stop within 1 s; it "
+                        "closes the pty when it does", self.device)
+        else:
+            self._close_fds()
         if self.link and self.link.is_symlink():
             self.link.unlink()
+
+    def _close_fds(self) -> None:
+        with self._fds_lock:
+            if self._fds_closed:
+                return
+            self._fds_closed = True
+            for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+                with contextlib.suppress(OSError):
+                    os.close(fd)
 
     def __enter__(self) -> PtyServer:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+@functools.cache
+def _standard_speeds() -> dict[int, int]:
+    """termios speed code (``termios.B57600``, ...) -> bps, built once."""
+    import termios
+
+    speeds: dict[int, int] = {}
+    for name in dir(termios):
+        if name.startswith("B") and name[1:].isdigit():
+            speeds.setdefault(getattr(termios, name), int(name[1:]))
+    return speeds
 
 
 def client_line_speed(fd: int) -> int | None:
@@ -515,10 +602,9 @@ def client_line_speed(fd: int) -> int | None:
         attrs = termios.tcgetattr(fd)
     except termios.error:
         return None
-    speed = attrs[5]
-    for name in dir(termios):
-        if name.startswith("B") and name[1:].isdigit() and getattr(termios, name) == speed:
-            return int(name[1:])
+    bps = _standard_speeds().get(attrs[5])
+    if bps is not None:
+        return bps
     if sys.platform.startswith("linux"):
         # Custom rates (termios2, BOTHER): read c_ospeed with the TCGETS2 ioctl.
         import fcntl

@@ -9,6 +9,7 @@ Status packets carry instruction 0x55 and then the error byte.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from struct import unpack_from as _unpack_from
 from typing import ClassVar
@@ -89,22 +90,15 @@ def _crc_table() -> list[int]:
 
 
 _CRC_TABLE = _crc_table()
-_CRC_WORDS: list[int] | None = None
-
-
+@functools.cache
 def _word_table() -> list[int]:
     """The CRC after two more bytes, indexed by the CRC so far XOR those bytes (big-endian):
     the register is 16 bits wide, so two bytes shift all of it out and the result depends on
     that XOR alone. Half as many steps as the byte table; built on first use (65 536 entries,
-    a few ms), whole before it is published (two threads may both build it, harmlessly)."""
-    global _CRC_WORDS
-    table = _CRC_WORDS
-    if table is None:
-        t = _CRC_TABLE
-        table = [((t[hi] & 0xFF) << 8) ^ t[lo ^ (t[hi] >> 8)]
-                 for hi in range(256) for lo in range(256)]
-        _CRC_WORDS = table
-    return table
+    a few ms) and kept."""
+    t = _CRC_TABLE
+    return [((t[hi] & 0xFF) << 8) ^ t[lo ^ (t[hi] >> 8)]
+            for hi in range(256) for lo in range(256)]
 
 
 def crc16(data: bytes | bytearray, crc: int = 0) -> int:
@@ -116,7 +110,7 @@ def crc16_at(data: bytes | bytearray, start: int, stop: int, crc: int = 0) -> in
     """CRC-16 of ``data[start:stop]``, continuing from ``crc``, without copying the slice."""
     n = stop - start
     if n >= 2:
-        words = _CRC_WORDS or _word_table()
+        words = _word_table()
         for word in _unpack_from(f">{n >> 1}H", data, start):
             crc = words[crc ^ word]
     if n & 1:

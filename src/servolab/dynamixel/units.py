@@ -52,8 +52,33 @@ def _si_to_sign_bit(value: float, scale: float) -> int:
     return magnitude | 0x400 if value < 0 and magnitude else magnitude
 
 
-def to_si(model: Model, register: Register, raw: int) -> float:
-    """Convert a raw register value (already sign-extended where signed) to SI."""
+def wheel_speed(model: Model, raw: int) -> float:
+    """A 1.0 wheel-mode moving/present speed of a model whose wheel mode sets the output
+    (:attr:`~.models.Model.wheel_output_ratio`, AX/RX/EX) as rad/s: the share of the output
+    it gives (0.1 % a unit, 1023 = 100 %, bit 10 = clockwise; e-Manual, Moving Speed and
+    EX-106+ Present Speed) times the model's no-load speed.
+
+    That is the speed of the *unloaded* horn: "In Wheel Mode, only the output control is
+    possible, not speed" (e-Manual, Moving Speed), so under load the horn turns slower than
+    the figure written, and present_speed reads the output the firmware applies, not the
+    horn's speed."""
+    share = (raw & 0x3FF) / 1023
+    return -share * model.no_load_speed if raw & 0x400 else share * model.no_load_speed
+
+
+def wheel_speed_raw(model: Model, value: float) -> int:
+    """The inverse of :func:`wheel_speed`: ``round(|value| / no_load_speed * 1023)``, held at
+    1023 (full output; a faster unloaded speed cannot be asked for), bit 10 when negative."""
+    magnitude = min(0x3FF, round(abs(value) / model.no_load_speed * 1023))
+    return magnitude | 0x400 if value < 0 and magnitude else magnitude
+
+
+def to_si(model: Model, register: Register, raw: int, *, wheel: bool = False) -> float:
+    """Convert a raw register value (already sign-extended where signed) to SI.
+
+    ``wheel``: the motor is in 1.0 wheel mode (both angle limits 0); on the models where that
+    makes moving/present speed an output ratio (:attr:`~.models.Model.wheel_output_ratio`)
+    they convert by :func:`wheel_speed`. It changes nothing elsewhere."""
     kind = register.unit
     if kind in ("raw", "bool"):
         return raw
@@ -62,6 +87,8 @@ def to_si(model: Model, register: Register, raw: int) -> float:
     if kind == "position_offset":
         return raw * model.rad_per_tick
     if kind == "speed_sign_bit":
+        if wheel and model.wheel_output_ratio:
+            return wheel_speed(model, raw)
         return _sign_bit_to_si(raw, velocity_unit(model))
     if kind == "velocity":
         return raw * velocity_unit(model)
@@ -155,9 +182,13 @@ def _raw(model: Model, register: Register, value: float) -> int:
     raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")
 
 
-def from_si(model: Model, register: Register, value: float) -> int:
+def from_si(model: Model, register: Register, value: float, *, wheel: bool = False) -> int:
     """Convert an SI value to the raw register value, or raise :class:`ConfigError` when the
-    value is not a finite number or falls outside the register's range."""
+    value is not a finite number or falls outside the register's range.
+
+    ``wheel`` as in :func:`to_si`: a wheel-mode moving speed on a model whose wheel mode sets
+    the output converts by :func:`wheel_speed_raw` (the unloaded speed; held at full
+    output)."""
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -168,7 +199,9 @@ def from_si(model: Model, register: Register, value: float) -> int:
     kind = register.unit
     if kind in ("raw", "bool") and value != int(value):
         raise ConfigError(f"{model.name} {register.name}: {value!r} is not a whole number")
-    if kind == "speed_sign_bit":
+    if kind == "speed_sign_bit" and wheel and model.wheel_output_ratio:
+        raw = wheel_speed_raw(model, value)
+    elif kind == "speed_sign_bit":
         raw = _si_to_sign_bit(value, velocity_unit(model))
         if round(abs(value) / velocity_unit(model)) > 0x3FF:
             raw = register.raw_max + 1  # the magnitude does not fit its 10 bits
