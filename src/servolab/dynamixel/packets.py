@@ -69,6 +69,7 @@ class StreamParser(ABC):
         #: device side: a real motor answers such a packet with a checksum/CRC error)
         self.rejected: list[Frame] = []
         self._keep_rejected = keep_rejected
+        self._skip = 0   # bytes of a rejected packet the device side skips in one go
 
     def reset(self) -> None:
         self.dropped += len(self._buffer)
@@ -98,15 +99,23 @@ class StreamParser(ABC):
             if result is None:          # incomplete: wait for more bytes
                 return frames
             if result is False:         # corrupt: skip this header byte and search again
-                self._drop(1)
+                self._drop(self._skip or 1)
+                self._skip = 0
                 continue
             frame, size = result
             del self._buffer[:size]
             frames.append(frame)
 
-    def _reject(self, motor_id: int) -> Literal[False]:
+    def _reject(self, motor_id: int, size: int) -> Literal[False]:
+        """A whole packet of ``size`` bytes whose checksum/CRC failed. The host side looks
+        for a header again from its second byte (an answer may hide inside noise); the device
+        side, like a servo's receiver, takes the bytes as that packet and looks for the next
+        header after its end (ROBOTIS's device-side parser, Dynamixel2Arduino protocol.cpp,
+        goes back to idle once the packet's length is in), so an instruction that a corrupt
+        header swallowed is lost as it is on a real bus."""
         if self._keep_rejected:
             self.rejected.append(Frame(motor_id, -1, b""))
+            self._skip = size
         return False
 
     def _drop(self, n: int) -> None:

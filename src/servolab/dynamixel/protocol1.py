@@ -87,7 +87,7 @@ class Parser(StreamParser):
         if len(buf) < size:
             return None
         if checksum(buf[2:size - 1]) != buf[size - 1]:
-            return self._reject(buf[2])
+            return self._reject(buf[2], size)
         return Frame(motor_id, buf[4], bytes(buf[5:size - 1])), size
 
 

@@ -260,7 +260,7 @@ class Parser(StreamParser):
             return None
         crc = buf[size - 2] | (buf[size - 1] << 8)
         if crc16(buf[:size - 2]) != crc:
-            return self._reject(buf[4])
+            return self._reject(buf[4], size)
         body = unstuff(bytes(buf[7:size - 2]))
         return Frame(buf[4], body[0], body[1:]), size
 
