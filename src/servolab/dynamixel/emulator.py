@@ -56,8 +56,6 @@ _TORQUE_ON_BY_GOAL_FIRMWARE = 45
 _BROADCAST_RESET_ALL_IGNORED_FROM = 42
 #: Bus Watchdog(98) counts in 20 ms units (e-Manual, Bus Watchdog(98)).
 _WATCHDOG_UNIT_S = 0.020
-#: MX-28 multi-turn mode's position range, ±28 672 (e-Manual, MX-28 CW/CCW Angle Limit).
-_MULTI_TURN_1 = 28672
 #: A Secondary ID of 253 or more switches the secondary ID off (e-Manual, Secondary ID(12)).
 _SECONDARY_OFF = 253
 
@@ -157,6 +155,7 @@ class VirtualMotor:
         self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._layout = _layout(model)
+        self._overheating_bit = _hardware_bit(model, "overheating")
         self._table_changed()
         if model.protocol == 2:
             self._drop_turns()      # at power-up the count is within one turn
@@ -237,12 +236,8 @@ class VirtualMotor:
         self._status_level = self.get_raw("status_return_level")
         mode = -1 if v1 else self.get_raw("operating_mode")
         if v1:
-            limits = (self.get_raw("cw_angle_limit"), self.get_raw("ccw_angle_limit"))
-            wheel = limits == (0, 0)
-            # MX-28: both angle limits at 4095 is multi-turn mode (e-Manual, MX-28 CW/CCW
-            # Angle Limit).
-            top = m.register("ccw_angle_limit").raw_max
-            self._multi_turn = m.has("multi_turn_offset") and limits == (top, top)
+            wheel, self._multi_turn = _angle_limit_modes(
+                m, self.get_raw("cw_angle_limit"), self.get_raw("ccw_angle_limit"))
         else:
             wheel = mode in (0, 1, 16)
             self._multi_turn = False
@@ -501,7 +496,7 @@ class VirtualMotor:
         shutdown happens on the step it would on the motor."""
         plant = self._plant
         assert isinstance(plant, KinematicServo)
-        overheating = _hardware_bit(self.model, "overheating")
+        overheating = self._overheating_bit
         while steps > 0:
             limit = math.inf if self.hardware_error & overheating else self._temperature_limit
             steps -= plant.advance(steps, dt, temperature_limit=limit)
@@ -525,7 +520,7 @@ class VirtualMotor:
         deadline = self._watchdog_deadline()
         if deadline is not None and steps >= deadline:
             self._watchdog_trip()
-        overheating = _hardware_bit(self.model, "overheating")
+        overheating = self._overheating_bit
         if (self._plant.temperature > self._temperature_limit
                 and not self.hardware_error & overheating):
             self._hardware_error(overheating)
@@ -607,7 +602,8 @@ class VirtualMotor:
                 # Multi-turn Offset" (e-Manual, MX-28 Angle Limit and Resolution Divider(22)).
                 present = ticks // self._try_get("resolution_divider", 1) \
                     + self._try_get("multi_turn_offset")
-                present = max(-_MULTI_TURN_1, min(_MULTI_TURN_1, present))
+                span = m.register("goal_position")       # ±28 672 in this mode
+                present = max(span.raw_min, min(span.raw_max, present))
             else:
                 present = min(max(ticks, 0), m.resolution - 1)
             self._set_raw("present_position", present)
@@ -870,13 +866,11 @@ class VirtualMotor:
         if not reg.raw_min <= value <= reg.raw_max:
             return p1.RANGE if v1 else p2.DATA_RANGE
         if v1:
-            limits = (other("cw_angle_limit"), other("ccw_angle_limit"))
-            wheel = limits == (0, 0)
-            top = self.model.register("ccw_angle_limit").raw_max
-            multi_turn = self.model.has("multi_turn_offset") and limits == (top, top)
-            if reg.name == "goal_position" and not wheel and not (
-                    -_MULTI_TURN_1 <= value <= _MULTI_TURN_1 if multi_turn
-                    else limits[0] <= value <= limits[1]):
+            cw, ccw = other("cw_angle_limit"), other("ccw_angle_limit")
+            wheel, multi_turn = _angle_limit_modes(self.model, cw, ccw)
+            # In multi-turn mode the register's own range (±28 672) is the limit.
+            if reg.name == "goal_position" and not wheel and not multi_turn and not (
+                    cw <= value <= ccw):
                 return p1.ANGLE_LIMIT
             if reg.name == "moving_speed" and not wheel and value > 1023:
                 return p1.RANGE
@@ -919,6 +913,13 @@ def _layout(model: Model) -> _Layout:
         for reg in model.registers if reg.name.startswith("indirect_data_")))
     data = [d for d, _ in indirect]
     return _Layout(tuple(at), indirect, min(data, default=0), max(data, default=-1))
+
+
+def _angle_limit_modes(model: Model, cw: int, ccw: int) -> tuple[bool, bool]:
+    """(wheel mode, multi-turn mode) of a 1.0 servo with these angle limits: wheel when both
+    are 0, multi-turn (MX-28) when both are 4095 (e-Manual, CW/CCW Angle Limit)."""
+    top = model.register("ccw_angle_limit").raw_max
+    return (cw == ccw == 0, model.has("multi_turn_offset") and cw == ccw == top)
 
 
 def wheel_position(model: Model, ticks: int) -> int:
@@ -1096,10 +1097,15 @@ class Emulator:
         targets = [m for m in self._listening(baudrate) if m.id == motor_id]
         if not targets or motor_id == BROADCAST_ID:
             return []
-        encoded = [self.protocol.encode_status(Status(m.id, m.error_byte(error)))
-                   for m in targets]
-        start = t + max(m.return_delay for m in targets) + self.faults.delay
-        return [Reply(start, self.faults.apply(_collide(encoded)))]
+        return [self._reply([(m, Status(m.id, m.error_byte(error))) for m in targets], t)]
+
+    def _reply(self, statuses: Sequence[tuple[VirtualMotor, Status]], t: float) -> Reply:
+        """What the motors answering at once put on the wire after ``t``: each after its
+        return delay (the slowest sets the start), their bytes ANDed where they overlap, plus
+        any injected fault."""
+        encoded = [self.protocol.encode_status(status) for _, status in statuses]
+        start = t + max(m.return_delay for m, _ in statuses) + self.faults.delay
+        return Reply(start, self.faults.apply(_collide(encoded)))
 
     # -- who answers what ------------------------------------------------------------------
     def _with_id(self, motor_id: int) -> list[VirtualMotor]:
@@ -1174,9 +1180,7 @@ class Emulator:
                     if (answered if name in _RESETS else self._returns_status(m, name))]
         if not statuses:
             return []
-        encoded = [self.protocol.encode_status(s) for _, s in statuses]
-        start = t + max(m.return_delay for m, _ in statuses) + self.faults.delay
-        return [Reply(start, self.faults.apply(_collide(encoded)))]
+        return [self._reply(statuses, t)]
 
     def _returns_status(self, motor: VirtualMotor, name: str) -> bool:
         level = motor._status_level
@@ -1222,11 +1226,9 @@ class Emulator:
                 else:
                     status = m.read(*block)
                 statuses.append((m, status))
-            encoded = [self.protocol.encode_status(s) for _, s in statuses]
-            start = t + max(m.return_delay for m, _ in statuses) + self.faults.delay
-            data = self.faults.apply(_collide(encoded))
-            replies.append(Reply(start, data))
-            t = start + len(data) * byte_time(baudrate)
+            reply = self._reply(statuses, t)
+            replies.append(reply)
+            t = reply.start + len(reply.data) * byte_time(baudrate)
         return replies
 
     def _fast_chain(self, requests: Sequence[tuple[int, tuple[int, int]]],
