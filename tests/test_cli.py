@@ -311,7 +311,7 @@ def test_a_silent_motor_on_the_wrong_protocol_is_told_so() -> None:
 # -- read / write check against the model before the wire -----------------------------------------
 # (bus driver, issue 14): register name, range and access are checked against the motor's
 # control table before any instruction is sent. With --model nothing at all goes out; without
-# it, only what learns the model (PING, and on 1.0 a READ of the model number).
+# it, only what learns the model (PING, and on 1.0 a READ of the model number and mode).
 
 @pytest.mark.parametrize(("command", "args", "named"), [
     ("write", ("goal_positoin", "0.1"), "goal_positoin"),
@@ -352,6 +352,7 @@ def test_read_and_write_check_the_model_before_the_wire(
     packets = [PROTOCOL1.decode_instruction(p) for p in sent]
     if declared:
         assert packets == []
-    else:  # the PING that learns the model, and on 1.0 the READ of its number (0..2)
+    else:  # the PING that learns the model, and on 1.0 the READ of its number, firmware and
+        # angle limits (0..9)
         assert [PROTOCOL1.instruction_name(p.instruction) for p in packets] == ["PING", "READ"]
-        assert packets[1].params == bytes((0, 3))
+        assert packets[1].params == bytes((0, 10))

@@ -65,19 +65,26 @@ def test_wheel_speed_in_si_is_the_unloaded_horn_speed(m, speed: float) -> None:
     assert bus.read(1, "moving_speed", raw=True) == motor.get_raw("moving_speed")
 
 
-def test_wheel_speed_saturates_at_full_output_and_joint_speed_does_not() -> None:
+def test_speed_beyond_full_output_is_refused_in_both_modes() -> None:
+    """Full output (1023) unloaded is the no-load speed: a faster wheel speed cannot be asked
+    for, and is refused before anything is sent, as a joint speed beyond 1023 x 0.111 rpm."""
     bus = v1_bus("ex106+", "1-2")
     wheel(bus, 1)
-    bus.write(1, "moving_speed", -100.0)             # beyond the no-load speed: 100 % CW
+    bus.write(1, "moving_speed", -EX106.no_load_speed)   # exactly full output, clockwise
     assert bus.emulator.motor(1).get_raw("moving_speed") == 0x400 | 1023
+    before = seen(bus)
+    with pytest.raises(ConfigError, match="full output"):
+        bus.write(1, "moving_speed", -100.0)
     with pytest.raises(ConfigError, match="moving_speed"):
         bus.write(2, "moving_speed", 100.0)          # joint mode: 1023 x 0.111 rpm at most
+    assert seen(bus) == before
 
 
 def test_mode_unknown_is_read_once_then_kept() -> None:
     """A motor put in wheel mode behind the bus's back (here a raw instruction the bus does
     not look into): the first SI speed reads both angle limits, once."""
-    bus = v1_bus("ex106+")
+    bus = Bus.open("emu://ex106+:1", baudrate=57142, retries=0)
+    bus.declare(1, "ex106+")                                 # no PING: mode unknown
     bus.transact(PROTOCOL1.write(1, 6, bytes(4)), {1: 0})   # CW, CCW angle limit = 0
     bus.write(1, "moving_speed", 2.0)
     before = seen(bus)
@@ -152,7 +159,8 @@ def test_units_convert_wheel_speed_by_model() -> None:
     assert from_si(MX28, speed, 3.0, wheel=True) == from_si(MX28, speed, 3.0)
     moving = EX106.register("moving_speed")
     assert from_si(EX106, moving, -EX106.no_load_speed / 2, wheel=True) == 0x400 | 512
-    assert from_si(EX106, moving, 50.0, wheel=True) == 1023
+    with pytest.raises(ConfigError, match="full output"):
+        from_si(EX106, moving, 50.0, wheel=True)
 
 
 # -- status return level ------------------------------------------------------------------------
@@ -267,3 +275,33 @@ def test_alerts_is_a_read_only_view() -> None:
     bus.emulator.motor(1).clear_hardware_error()
     bus.read(1, "led")
     assert alerts == {}                              # a view: up to date
+
+
+def test_ping_learns_the_mode_with_the_model_number() -> None:
+    """On 1.0 the READ after a PING takes addresses 0-9 (model number to CCW angle limit, the
+    same on every 1.0 model, e-Manual control tables): no extra READ for the mode later, and
+    nothing is sent before a ConfigError for an out-of-range SI speed."""
+    bus = Bus.open("emu://ex106+:1", baudrate=57142, retries=0)
+    motor = bus.emulator.motor(1)
+    motor.set_raw("cw_angle_limit", 0)
+    motor.set_raw("ccw_angle_limit", 0)
+    bus.ping(1)
+    assert bus.wheel_mode(1)
+    before = seen(bus)
+    with pytest.raises(ConfigError):
+        bus.write(1, "moving_speed", 10 * EX106.no_load_speed)
+    assert seen(bus) == before
+
+
+def test_a_mode_that_cannot_be_read_is_an_error_before_the_wire() -> None:
+    """At status return level 0 a motor answers no READ (e-Manual, Status Return Level): the
+    bus says to declare the mode instead of sending a READ that cannot be answered."""
+    bus = Bus.open("emu://rx28:1", baudrate=57142, retries=0)
+    bus.declare(1, "rx28")
+    bus.status_return_level[1] = 0
+    with pytest.raises(ConfigError, match="wheel_mode"):
+        bus.sync_write("moving_speed", {1: 1.0})
+    bus.declare(1, "rx28", wheel_mode=True)
+    bus.sync_write("moving_speed", {1: 1.0})
+    assert bus.emulator.motor(1).get_raw("moving_speed") == round(
+        1.0 / RX28.no_load_speed * 1023)

@@ -323,7 +323,6 @@ def test_sdk_fast_reads_through_the_pty(tmp_path: Path) -> None:
                 return seen[-1] == goals
 
             assert wait_until(arrived, timeout=10.0), seen[-3:]
-            assert len(seen) > 1   # read in motion, then there
 
             bulk = sdk.GroupBulkRead(port, ph)
             assert bulk.addParam(1, GOAL_POSITION, 4)

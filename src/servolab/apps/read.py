@@ -33,14 +33,15 @@ def read(device: str, motor_id: int, names: Sequence[str], *, protocol: int | No
         out: dict[str, float | int] = {}
         for name in names:
             reg = m.register(name)
-            si = bus.to_si(motor_id, name, int(values[name]))  # by the motor's mode
-            out[name] = values[name] if raw else si
-            unit = units.KINDS.get(reg.unit, "")
             if raw:
+                out[name] = values[name]
                 print(f"{name} = {values[name]}", file=stdout)
-            else:
-                print(f"{name} = {_fmt(si)}{' ' + unit if unit else ''} (raw {values[name]})",
-                      file=stdout)
+                continue
+            si = bus.to_si(motor_id, name, int(values[name]))  # by the motor's mode
+            out[name] = si
+            unit = units.KINDS.get(reg.unit, "")
+            print(f"{name} = {_fmt(si)}{' ' + unit if unit else ''} (raw {values[name]})",
+                  file=stdout)
         return out
 
 

@@ -28,6 +28,7 @@ can in noise, partial and stray packets.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import struct
@@ -81,12 +82,23 @@ MAX_PLANS = 4096
 _INT = frozenset((int,))
 
 
+#: Bytes a 1.0 PING reads after it: model number, firmware, ID, baud, return delay and the CW
+#: and CCW angle limits (addresses 0-9, the same on every 1.0 model).
+_PING_READ_1 = 10
+
+
 def _at_firmware(found: Model | None, firmware: int | None) -> Model | None:
     """The model as the motor's own firmware has it: what it supports depends on the version
     its PING reports (e.g. Fast Sync Read from firmware 46), not on the version servolab's
-    table describes."""
+    table describes. One object per (model, firmware), so that motors of one model and
+    firmware share the bus's precomputed plans."""
     if found is None or firmware is None or firmware == found.firmware:
         return found
+    return _model_at_firmware(found, firmware)
+
+
+@functools.cache
+def _model_at_firmware(found: Model, firmware: int) -> Model:
     return replace(found, firmware=firmware)
 
 
@@ -771,16 +783,21 @@ class Bus:
         v1 = self.proto.version == 1
         status = self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3},
                                check=False, retries=retries)[motor_id]
+        self._limits.pop(motor_id, None)   # perhaps another motor now, or other limits
         if v1:
-            # 1.0 PING carries no model number: read it (addresses 0-2). A motor at status
+            # 1.0 PING carries no model number: read it (addresses 0-2), and in the same READ
+            # the angle limits (6-9), which tell joint from wheel mode. A motor at status
             # return level 0 answers PING but not READ; it is found, model unknown.
             try:
-                read = self.transact(self.proto.read(motor_id, 0, 3), {motor_id: 3},
-                                     check=False, retries=retries)[motor_id]
+                read = self.transact(self.proto.read(motor_id, 0, _PING_READ_1),
+                                     {motor_id: _PING_READ_1}, check=False,
+                                     retries=retries)[motor_id]
             except NoResponse:
                 return PingResult(motor_id, 0, None, self.baudrate, None)
             number = int.from_bytes(read.params[0:2], "little")
             firmware: int | None = read.params[2]
+            self._limits[motor_id] = (int.from_bytes(read.params[6:8], "little"),
+                                      int.from_bytes(read.params[8:10], "little"))
         else:
             number = int.from_bytes(status.params[0:2], "little")
             firmware = status.params[2]
@@ -888,8 +905,11 @@ class Bus:
                                   "not one servolab knows; declare it with bus.motors[id] = ...")
         return self.motors[motor_id]
 
-    def declare(self, motor_id: int, model_name: str | Model) -> None:
-        """Tell the bus which model ``motor_id`` is, so no PING is needed to learn it."""
+    def declare(self, motor_id: int, model_name: str | Model, *,
+                wheel_mode: bool | None = None) -> None:
+        """Tell the bus which model ``motor_id`` is, so no PING is needed to learn it, and
+        (1.0) whether it is in wheel mode, which decides how its speeds convert to SI; left
+        None, the bus reads the angle limits the first time it needs them."""
         self.proto.check_id(motor_id)
         m = model_name if isinstance(model_name, Model) else model(model_name)
         if m.protocol != self.proto.version:
@@ -898,6 +918,9 @@ class Bus:
         if self.motors.get(motor_id) != m:
             self._limits.pop(motor_id, None)
         self.motors[motor_id] = m
+        if wheel_mode is not None and m.has(_ANGLE_LIMITS[1]):
+            self._limits[motor_id] = (0, 0) if wheel_mode else (
+                0, m.register(_ANGLE_LIMITS[1]).raw_max)
 
     # -- conversions -------------------------------------------------------------------------
     @staticmethod
@@ -914,6 +937,11 @@ class Bus:
     def _wheel(self, motor_id: int) -> bool:
         limits = self._limits.get(motor_id)
         if limits is None:
+            if self.status_return_level.get(motor_id, 2) == 0:
+                raise ConfigError(
+                    f"motor {motor_id}: wheel or joint mode unknown and it answers no READ "
+                    "(status return level 0); declare it with bus.declare(id, model, "
+                    "wheel_mode=True/False) or write its angle limits through this bus")
             got = self.read(motor_id, list(_ANGLE_LIMITS), raw=True)
             limits = (int(got[_ANGLE_LIMITS[0]]), int(got[_ANGLE_LIMITS[1]]))
             self._limits[motor_id] = limits
@@ -1169,6 +1197,13 @@ class Bus:
         elif isinstance(proto, Protocol2):
             option = (FACTORY_RESET_EXCEPT_ID_BAUD if keep_id and keep_baud else
                       FACTORY_RESET_EXCEPT_ID if keep_id else FACTORY_RESET_ALL)
+            if motor_id == proto.broadcast_id and option == FACTORY_RESET_ALL:
+                # "In case of when Packet ID is a Broadcast ID 0xFE and Option is Reset All
+                # 0xFF, Factory Reset Instruction(0x06) will NOT be activated" (e-Manual,
+                # Protocol 2.0): sending it would change nothing but what the bus believes.
+                raise ConfigError("a broadcast FACTORY_RESET of everything is ignored by the "
+                                  "motors (e-Manual); reset them one ID at a time, or keep "
+                                  "their IDs (keep_id=True)")
             inst, name = proto.factory_reset(motor_id, option), "FACTORY_RESET"
             moves = not keep_id
         else:

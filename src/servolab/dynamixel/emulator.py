@@ -149,6 +149,7 @@ class VirtualMotor:
         self._steps_done = 0
         self._stale = True          # present_* registers need refreshing from the plant
         self._pending: tuple[int, bytes] | None = None
+        self._joint_before = True   # (1.0) joint mode as _table_changed last saw it
         self._heard_step = 0        # the step of the last instruction that reached the motor
         self._too_hot = False       # overheating found by the firmware (not injected)
         self._watchdog_tripped = False
@@ -156,9 +157,7 @@ class VirtualMotor:
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._layout = _layout(model)
         self._overheating_bit = _hardware_bit(model, "overheating")
-        self._table_changed()
-        if model.protocol == 2:
-            self._drop_turns()      # at power-up the count is within one turn
+        self._table_changed()       # (in mode 3 at power-up: the count within one turn)
         self._hold_position()
 
     def _hold_position(self) -> None:
@@ -187,6 +186,7 @@ class VirtualMotor:
             self.table[reg.address:reg.address + reg.size] = reg.encode(
                 self.get_raw("max_torque"))
         self._watchdog_tripped = self._watchdog_hold = False
+        self._pending = None    # a REG_WRITE does not survive a reset or REBOOT
 
     def get_raw(self, name: str) -> int:
         reg = self.model.register(name)
@@ -252,6 +252,7 @@ class VirtualMotor:
                                 and m.firmware >= _TORQUE_ON_BY_GOAL_FIRMWARE)
         joint = v1 and not wheel and not self._multi_turn
         if joint and hasattr(self, "_plant") and not getattr(self, "_joint_before", True):
+            # (getattr: the first calls come from __init__, before the attribute is set)
             # Back in joint mode (from wheel or multi-turn) a 1.0 servo reads its
             # potentiometer or absolute encoder, which knows no turns: the firmware's angle is
             # the horn's within one turn from here on.
@@ -732,8 +733,9 @@ class VirtualMotor:
             if params[:5] != b"\x01\x44\x58\x4c\x22" or self.torque_enabled:
                 return Status(self.id, self.error_byte(p2.RESULT_FAIL if params[:1] == b"\x01"
                                                        else p2.DATA_RANGE))
-            turn = math.floor(self.ticks / self.model.resolution) * self.model.resolution
-            self._offset_ticks += turn
+            # As at REBOOT: the count within one turn, the homing offset still added to it
+            # (e-Manual, Present Position note).
+            self._drop_turns()
             self._table_changed()
             return Status(self.id, self.error_byte())
         return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else p2.INSTRUCTION_ERROR))
@@ -1147,16 +1149,22 @@ class Emulator:
         if name == "BULK_WRITE" and not v1:
             self._bulk_write(inst, motors)
             return []
-        if name in ("SYNC_READ", "BULK_READ"):
-            # Status return level 0 answers PING only: a motor there keeps its slot silent.
+        if name in ("SYNC_READ", "BULK_READ", "FAST_SYNC_READ", "FAST_BULK_READ"):
+            fast = name.startswith("FAST_")
+            if fast and v1:
+                return []
+            requests = self._read_requests(inst, name.removeprefix("FAST_"))
+            asked = {motor_id for motor_id, _ in requests}
+            for m in motors:
+                if m.id in asked:
+                    m._heard()   # whether or not its turn comes: it received the packet
+            # Status return level 0 answers PING only: a motor there keeps its slot silent;
+            # for the fast forms, a motor whose model or firmware lacks the instruction sends
+            # no block (and so stops the chain, see _fast_chain).
             able = [m for m in motors if supports(m.model, name) and m._status_level >= 1]
-            return self._chain(self._read_requests(inst, name), able, t, baudrate)
-        if name in ("FAST_SYNC_READ", "FAST_BULK_READ") and not v1:
-            # The same: a motor at level 0, or whose model or firmware lacks the instruction,
-            # sends no block (and so stops the chain, see _fast_chain).
-            able = [m for m in motors if supports(m.model, name) and m._status_level >= 1]
-            return self._fast_chain(self._read_requests(inst, name.removeprefix("FAST_")),
-                                    able, t, baudrate)
+            if fast:
+                return self._fast_chain(requests, able, t, baudrate)
+            return self._chain(requests, able, t, baudrate)
         if inst.id == BROADCAST_ID:
             if name == "PING" and not v1:
                 # Broadcast ping (2.0): every ID up to the highest present has its turn, in

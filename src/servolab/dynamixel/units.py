@@ -67,9 +67,13 @@ def wheel_speed(model: Model, raw: int) -> float:
 
 
 def wheel_speed_raw(model: Model, value: float) -> int:
-    """The inverse of :func:`wheel_speed`: ``round(|value| / no_load_speed * 1023)``, held at
-    1023 (full output; a faster unloaded speed cannot be asked for), bit 10 when negative."""
-    magnitude = min(0x3FF, round(abs(value) / model.no_load_speed * 1023))
+    """The inverse of :func:`wheel_speed`: ``round(|value| / no_load_speed * 1023)``, bit 10
+    when negative; :class:`ConfigError` beyond full output (a faster unloaded speed cannot be
+    asked for)."""
+    magnitude = round(abs(value) / model.no_load_speed * 1023)
+    if not magnitude <= 0x3FF:   # (nan fails too)
+        raise ConfigError(f"{model.name} moving_speed: {value} rad/s in wheel mode is more than "
+                          f"full output gives unloaded ({model.no_load_speed:.3f} rad/s)")
     return magnitude | 0x400 if value < 0 and magnitude else magnitude
 
 
@@ -187,8 +191,8 @@ def from_si(model: Model, register: Register, value: float, *, wheel: bool = Fal
     value is not a finite number or falls outside the register's range.
 
     ``wheel`` as in :func:`to_si`: a wheel-mode moving speed on a model whose wheel mode sets
-    the output converts by :func:`wheel_speed_raw` (the unloaded speed; held at full
-    output)."""
+    the output converts by :func:`wheel_speed_raw` (the unloaded speed, at most the no-load
+    speed)."""
     try:
         value = float(value)
     except (TypeError, ValueError):
