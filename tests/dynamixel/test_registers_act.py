@@ -15,7 +15,7 @@ import pytest
 from servolab.dynamixel import Bus, ConfigError, MotorError, VirtualMotor, model
 from servolab.dynamixel.packets import BROADCAST_ID, Instruction
 from servolab.dynamixel.plant import ServoCommand
-from servolab.dynamixel.protocol2 import FACTORY_RESET, FACTORY_RESET_ALL
+from servolab.dynamixel.protocol2 import ACTION, CLEAR, FACTORY_RESET, FACTORY_RESET_ALL
 from servolab.sim import Simulation
 
 # -- Input voltage -----------------------------------------------------------------------------
@@ -427,3 +427,64 @@ def test_wheel_mode_present_speed_is_the_output_not_the_speed() -> None:
     assert bus.read(1, "present_speed", raw=True) == 512
     bus.write(1, "torque_enable", 0)
     assert bus.read(1, "present_speed", raw=True) == 0
+
+
+# -- Resets --------------------------------------------------------------------------------------
+
+def test_a_registered_write_does_not_survive_a_reboot() -> None:
+    """REBOOT restarts the firmware: a REG_WRITE waiting for its ACTION is gone, so an ACTION
+    then has nothing registered, the Protocol 2.0 error table's Instruction Error ("Action
+    has been used without Reg Write")."""
+    bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+    bus.write(1, "led", 1, raw=True, registered=True)
+    assert bus.read(1, "registered_instruction", raw=True) == 1
+    bus.reboot(1)
+    assert bus.read(1, "registered_instruction", raw=True) == 0
+    with pytest.raises(MotorError) as info:
+        bus.transact(Instruction(1, ACTION), {1: 0})
+    assert "instruction" in " ".join(info.value.errors)
+    assert bus.read(1, "led", raw=True) == 0
+
+
+def test_clear_keeps_the_homing_offset_as_reboot_does() -> None:
+    """CLEAR and REBOOT both bring the count within one turn, which "will still be affected
+    by the configured Homing Offset(20)" (e-Manual, Present Position note)."""
+    present = {}
+    for how in ("clear", "reboot"):
+        bus = Bus.open("emu://xm430-w210:1", baudrate=1_000_000)
+        bus.write(1, {"operating_mode": 4}, raw=True)
+        bus.write(1, "homing_offset", 1000, raw=True)
+        bus.write(1, "torque_enable", 1)
+        bus.write(1, "goal_position", 2048 + 1000 + 4096 + 500, raw=True)
+        bus.port.clock.advance(6.0)
+        bus.write(1, "torque_enable", 0)
+        if how == "clear":
+            # CLEAR of the multi-turn count: option 0x01 and the key "DXL\"" (e-Manual,
+            # Protocol 2.0, Clear)
+            bus.transact(Instruction(1, CLEAR, bytes.fromhex("01 44 58 4C 22")), {1: 0})
+        else:
+            bus.reboot(1)
+        present[how] = bus.read(1, "present_position", raw=True)
+    assert present == {"clear": 2048 + 500 + 1000, "reboot": 2048 + 500 + 1000}
+
+
+def test_the_bus_refuses_a_broadcast_factory_reset_of_everything() -> None:
+    """The motors ignore it (e-Manual, Protocol 2.0, Factory Reset): the bus says so before
+    sending anything, instead of forgetting what it knows of every motor."""
+    bus = Bus.open("emu://xm430-w210:1-2", baudrate=1_000_000)
+    sent = bus.port.bytes_written
+    with pytest.raises(ConfigError, match="broadcast"):
+        bus.factory_reset(BROADCAST_ID, keep_id=False)
+    assert bus.port.bytes_written == sent
+
+
+def test_motors_of_one_model_and_firmware_share_one_model_object() -> None:
+    """The bus keeps one Model per (model, firmware) a PING reports, so that motors of the
+    same kind share the plans it precomputes."""
+    emulator_model = dataclasses.replace(model("XM430-W210"), firmware=44)
+    bus = Bus.open("emu://xm430-w210:1-2", baudrate=1_000_000)
+    for motor in bus.emulator.motors:
+        motor.set_raw("firmware_version", emulator_model.firmware)
+    bus.ping(1)
+    bus.ping(2)
+    assert bus.motors[1].firmware == 44 and bus.motors[1] is bus.motors[2]
