@@ -218,6 +218,8 @@ def _run(args: argparse.Namespace) -> int:
     from ._graph import say
 
     with Context.open(transport_options(args)) as ctx:
+        if args.action in ("list", "echo", "hz"):
+            ctx.transport.check_reachable()  # not an empty graph from an endpoint gone wrong
         if args.action == "list":
             topic_list(ctx, say, show_types=args.show_types, verbose=args.verbose)
         elif args.action == "echo":

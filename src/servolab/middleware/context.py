@@ -104,10 +104,12 @@ class Context:
         if self._closed:
             return
         self._closed = True
-        for node in list(reversed(self.nodes)):
-            node.destroy()
-        self.executor.shutdown()
-        self.transport.close()
+        try:
+            for node in list(reversed(self.nodes)):
+                node.destroy()
+            self.executor.shutdown()  # raises what stopped spin_in_thread, if not yet raised
+        finally:
+            self.transport.close()
 
     def __enter__(self) -> Context:
         return self

@@ -7,18 +7,34 @@ work and runs it on the thread that spins, one callback at a time, as rclpy's
 On a virtual clock, an executor with nothing to do asks the clock's owner to move time to the
 next timer instead of waiting (on a :class:`servolab.sim.Simulation` that steps every world on
 the way): a simulated robot runs as fast as the CPU allows and the same way every time.
+
+Due timers come before queued message callbacks, as in rclpy's executor, so a flood of
+messages cannot starve a control loop's timer: a due timer waits for at most the one callback
+already running. (Should timers alone keep the executor busy, a waiting message callback runs
+between two timer callbacks, so messages are never starved either.)
+
+:meth:`Executor.spin_in_thread` never dies silently: a callback that raises stops the thread
+and is raised again to the owner by the next ``spin_*``/``Rate.sleep`` call, by
+:meth:`Executor.shutdown` or by the thread's ``join()``; with ``on_error="log"`` it is logged
+and the thread keeps spinning.
 """
 
 from __future__ import annotations
 
 import heapq
 import itertools
+import logging
 import threading
 from collections import deque
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
 from servolab.clock import Clock
+
+#: What :meth:`Executor.spin_in_thread` does with a callback that raises.
+OnError = Literal["raise", "log"]
+
+_log = logging.getLogger("servolab.executor")
 
 
 class Timer:
@@ -38,6 +54,40 @@ class Timer:
         self.cancelled = True
 
 
+class SpinThread(threading.Thread):
+    """The thread of :meth:`Executor.spin_in_thread`. :attr:`exception` is the callback
+    error that stopped it (``on_error="raise"``); :meth:`join` raises it to the owner unless
+    the owner has already been given it."""
+
+    def __init__(self, executor: Executor, on_error: OnError) -> None:
+        super().__init__(name="servolab-executor", daemon=True)
+        self.executor = executor
+        self.on_error: OnError = on_error
+        self.exception: BaseException | None = None
+
+    def run(self) -> None:
+        executor = self.executor
+        executor._spinning = threading.get_ident()
+        try:
+            while not executor.is_shutdown:
+                try:
+                    executor.spin_once(0.1)
+                except Exception as exc:
+                    if self.on_error == "log":
+                        _log.exception("callback failed; executor keeps spinning")
+                        continue
+                    self.exception = exc
+                    executor._failed(exc)
+                    return
+        finally:
+            executor._spinning = None
+
+    def join(self, timeout: float | None = None) -> None:
+        super().join(timeout)
+        if not self.is_alive():
+            self.executor.raise_if_failed()
+
+
 class Executor:
     """Runs queued work and due timers; see the module docstring."""
 
@@ -47,9 +97,11 @@ class Executor:
         self._ready: deque[Callable[[], None]] = deque()
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
-        self._thread: threading.Thread | None = None
+        self._thread: SpinThread | None = None
         self._spinning: int | None = None
         self._shutdown = False
+        self._last_was_timer = False
+        self._error: BaseException | None = None  # from the spin thread, not yet raised
 
     # -- queueing (any thread) --------------------------------------------------------------
 
@@ -57,6 +109,11 @@ class Executor:
         with self._cond:
             self._ready.append(work)
             self._cond.notify()
+
+    @property
+    def pending(self) -> int:
+        """Pieces of work queued and waiting (not counting timers)."""
+        return len(self._ready)
 
     def _add_timer(self, timer: Timer) -> None:
         with self._cond:
@@ -74,9 +131,30 @@ class Executor:
         """True when another thread spins this executor (so a ``Rate`` may just sleep)."""
         return self._spinning is not None and not self.in_executor_thread
 
+    @property
+    def exception(self) -> BaseException | None:
+        """The callback error that stopped :meth:`spin_in_thread`'s thread and that the owner
+        has not been given yet."""
+        return self._error
+
+    def raise_if_failed(self) -> None:
+        """Raise (once) the error that stopped the spin thread, if any."""
+        with self._cond:
+            error, self._error = self._error, None
+        if error is not None:
+            raise error
+
+    def _failed(self, error: BaseException) -> None:
+        with self._cond:
+            if self._error is None:
+                self._error = error
+            self._cond.notify_all()
+
     def spin_once(self, timeout: float | None = None) -> bool:
         """Run one piece of ready work or one due timer, waiting up to ``timeout`` seconds
-        (None: until there is some). Returns whether anything ran."""
+        (None: until there is some). Returns whether anything ran. Due timers go first."""
+        if self._error is not None and not self.in_executor_thread:
+            self.raise_if_failed()
         work = self._next_work(timeout)
         if work is None:
             return False
@@ -94,13 +172,15 @@ class Executor:
             while True:
                 if self._shutdown:
                     return None
-                if self._ready:
-                    return self._ready.popleft()
                 while self._timers and self._timers[0][2].cancelled:
                     heapq.heappop(self._timers)
                 now = clock.now()
                 due = self._timers[0][0] if self._timers else None
+                if self._ready and (self._last_was_timer or due is None or due > now):
+                    self._last_was_timer = False
+                    return self._ready.popleft()
                 if due is not None and due <= now:
+                    self._last_was_timer = True
                     _, _, timer = heapq.heappop(self._timers)
                     timer.next_due = due + timer.period
                     if timer.next_due <= now:  # far behind: skip ticks rather than burst
@@ -141,22 +221,31 @@ class Executor:
         while not self._shutdown:
             self.spin_once(0.1)
 
-    def spin_in_thread(self) -> threading.Thread:
-        """Spin on a daemon thread, for scripts whose main thread runs a ``Rate`` loop."""
+    def spin_in_thread(self, *, on_error: OnError = "raise") -> SpinThread:
+        """Spin on a daemon thread, for scripts whose main thread runs a ``Rate`` loop.
+
+        A callback that raises stops the thread (``on_error="raise"``): the owner gets the
+        error from its next ``spin_*`` or ``Rate.sleep`` call, from :meth:`shutdown` or from
+        the thread's ``join()``. ``on_error="log"`` logs it and keeps spinning."""
+        if on_error not in ("raise", "log"):
+            raise ValueError(f"on_error must be 'raise' or 'log', got {on_error!r}")
+        self.raise_if_failed()
         if self._thread is None or not self._thread.is_alive():
-            def run() -> None:
-                self._spinning = threading.get_ident()
-                self.spin()
-            self._thread = threading.Thread(target=run, name="servolab-executor", daemon=True)
+            self._thread = SpinThread(self, on_error)
             self._thread.start()
+        else:
+            self._thread.on_error = on_error
         return self._thread
 
     def shutdown(self) -> None:
+        """Stop spinning; from the owner, raise an error that stopped the spin thread and
+        that it was not given yet."""
         with self._cond:
             self._shutdown = True
             self._cond.notify_all()
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
+            threading.Thread.join(self._thread, timeout=2.0)
+            self.raise_if_failed()
 
     @property
     def is_shutdown(self) -> bool:

@@ -75,6 +75,10 @@ class Subscription:
     Up to ``depth`` messages wait for the executor (ROS's KEEP_LAST); when more arrive, the
     oldest are dropped and counted in :attr:`dropped`. ``depth=0`` keeps all (KEEP_ALL), which
     is what a recorder needs. ``raw=True`` hands the callback the CDR bytes.
+
+    The executor holds one piece of work per message waiting, not per message received: a
+    KEEP_LAST(depth) subscription never has more than ``depth`` callbacks pending, however
+    fast messages arrive, and callbacks keep the order in which messages arrived.
     """
 
     def __init__(self, node: Node, type_name: str, topic: str, callback: Callable[..., Any],
@@ -91,6 +95,7 @@ class Subscription:
         self._with_info = _takes_two(callback)
         self._queue: deque[tuple[Any, MessageInfo]] = deque(maxlen=depth or None)
         self._lock = threading.Lock()
+        self._takes = 0  # _take calls queued in the executor
         self._executor = node.context.executor
         self._inner = node.context.transport.subscribe(node.info, topic, type_name, depth,
                                                        self._deliver, raw=raw)
@@ -101,21 +106,31 @@ class Subscription:
                 self.dropped += 1
             self._queue.append((data, info))
             self.received += 1
+            if self._takes >= len(self._queue):
+                return  # a message was dropped: its queued _take will take this one
+            self._takes += 1
         self._executor.submit(self._take)
+
+    @property
+    def pending(self) -> int:
+        """Messages waiting for the callback (at most ``depth`` unless KEEP_ALL)."""
+        return len(self._queue)
 
     def drain(self) -> int:
         """Run the callback for every message still queued (a recorder stopping keeps what
         had already arrived); returns how many."""
         n = 0
         while self._queue:
-            self._take()
+            self._take(from_executor=False)
             n += 1
         return n
 
-    def _take(self) -> None:
+    def _take(self, from_executor: bool = True) -> None:
         with self._lock:
+            if from_executor:
+                self._takes -= 1
             if not self._queue:
-                return  # dropped while waiting
+                return  # drained while waiting
             data, info = self._queue.popleft()
         if not self.raw and isinstance(data, bytes | memoryview):
             data = self.node.context.types.deserialize(data, self.type_name)
@@ -225,6 +240,8 @@ class Rate:
         self._next = self._clock.now() + self.period
 
     def sleep(self) -> None:
+        if self._executor.exception is not None:
+            self._executor.raise_if_failed()  # the spin thread stopped on a callback's error
         now = self._clock.now()
         if now < self._next:
             if self._executor.spinning_elsewhere:

@@ -125,5 +125,10 @@ class Transport(ABC):
     def graph(self, timeout: float = 0.5) -> list[Endpoint]:
         """Every entity the transport can see (its own process's and, over Zenoh, others')."""
 
+    def check_reachable(self, timeout: float = 2.0) -> None:  # noqa: B027 - see below
+        """Raise :class:`~servolab.middleware.errors.TransportError` (one line) if none of the
+        endpoints the user named to connect to answers within ``timeout`` s, so that a graph
+        tool says so instead of showing an empty graph. In-process there is nothing to reach."""
+
     def close(self) -> None:  # noqa: B027 - the local transport holds nothing to release
         pass

@@ -7,11 +7,13 @@ number, source timestamp, GID); each service is a queryable on the same kind of 
 and endpoint declares rmw_zenoh's liveliness token, which is how ``topic list`` and
 ``param list`` see the graph (see :mod:`.rmw_zenoh`).
 
-The session is loopback-only unless the user names endpoints: no multicast scouting, and by
-default it listens on ``tcp/127.0.0.1:7447`` (rmw_zenoh's router port) or, if another process
-already does, connects to it and listens on a free loopback port for direct links found by
-gossip. ``--listen tcp/0.0.0.0:7447`` or ``--connect tcp/robot.local:7447`` open it to a
-network.
+The session is a peer that never takes the ROS router's port (``tcp/*:7447``, where
+``rmw_zenohd`` listens): as rmw_zenoh's default session config does, it listens on a free
+loopback port (``tcp/127.0.0.1:0``) and, unless ``--connect`` names other endpoints, connects to
+the router at ``tcp/localhost:7447`` (``$SERVOLAB_ZENOH_ROUTER`` names another; empty: none).
+A router that is not there is no error: Zenoh keeps retrying in the background, and links the
+session to the other peers the router tells it about (gossip). No multicast scouting.
+``--listen tcp/0.0.0.0:PORT`` or ``--connect tcp/robot.local:7447`` open it to a network.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import json
+import os
 import re
 import threading
 import time
@@ -53,7 +56,12 @@ from .transport import (
     TransportPublisher,
 )
 
-DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+#: Where rmw_zenoh's sessions look for the ROS router (``rmw_zenohd``) by default.
+DEFAULT_ROUTER = "tcp/localhost:7447"
+#: The environment variable naming another router endpoint ("" for none).
+ROUTER_ENV = "SERVOLAB_ZENOH_ROUTER"
+#: What a session listens on unless ``--listen`` says otherwise: a free loopback port.
+DEFAULT_LISTEN = "tcp/127.0.0.1:0"
 _ENDPOINT = re.compile(r"(tcp|udp|tls|quic|ws|unixsock-stream)/.+")
 
 
@@ -66,26 +74,38 @@ def check_endpoint(endpoint: str) -> str:
     return endpoint
 
 
+def router_endpoints() -> list[str]:
+    """The router a session connects to when ``--connect`` names none: ``$SERVOLAB_ZENOH_ROUTER``
+    if set (empty: none), else rmw_zenoh's ``tcp/localhost:7447``."""
+    text = os.environ.get(ROUTER_ENV, DEFAULT_ROUTER).strip()
+    return [check_endpoint(e) for e in text.split(",") if e.strip()]
+
+
+def session_endpoints(options: TransportOptions) -> tuple[list[str], list[str]]:
+    """``(listen, connect)`` of the session the options ask for (see the module docstring)."""
+    listen = [check_endpoint(e) for e in options.listen] or [DEFAULT_LISTEN]
+    connect = [check_endpoint(e) for e in options.connect] or router_endpoints()
+    return listen, connect
+
+
 def _config(listen: list[str], connect: list[str]) -> zenoh.Config:
     config = zenoh.Config()
     config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("listen/endpoints", json.dumps(listen))
     config.insert_json5("connect/endpoints", json.dumps(connect))
+    # an endpoint that does not answer (no router yet) is retried in the background, as
+    # rmw_zenoh's peers do, rather than failing the session
+    config.insert_json5("connect/exit_on_failure", "false")
+    config.insert_json5("connect/timeout_ms", "-1")
     return config
 
 
 def open_session(options: TransportOptions) -> zenoh.Session:
     """Open the session the options ask for (see the module docstring for the default)."""
-    listen = [check_endpoint(e) for e in options.listen]
-    connect = [check_endpoint(e) for e in options.connect]
+    listen, connect = session_endpoints(options)
     try:
-        if listen or connect:
-            return zenoh.open(_config(listen, connect))
-        try:
-            return zenoh.open(_config([DEFAULT_ENDPOINT], []))
-        except zenoh.ZError:  # another servolab process (or rmw_zenohd) holds the port
-            return zenoh.open(_config(["tcp/127.0.0.1:0"], [DEFAULT_ENDPOINT]))
+        return zenoh.open(_config(listen, connect))
     except zenoh.ZError as exc:
         first = str(exc).split(" at /")[0]
         raise TransportError(f"cannot open a Zenoh session: {first}") from None
@@ -266,6 +286,19 @@ class ZenohTransport(Transport):
             endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
                                       entity.type_name or ""))
         return endpoints
+
+    def check_reachable(self, timeout: float = 2.0) -> None:
+        if not self.options.connect:
+            return  # the router is optional: peers on this machine may meet without it
+        end = time.monotonic() + timeout
+        while True:
+            if list(self.session.info.peers_zid()) or list(self.session.info.routers_zid()):
+                return
+            if time.monotonic() >= end:
+                raise TransportError(
+                    f"no Zenoh peer or router answers at {', '.join(self.options.connect)} "
+                    f"(waited {timeout:g} s): is it running, and is the endpoint right?")
+            time.sleep(0.05)
 
     def close(self) -> None:
         with self._lock:
