@@ -4,42 +4,19 @@ talking over Zenoh on loopback, on ports chosen free at run time."""
 from __future__ import annotations
 
 import math
-import os
-import signal
 import subprocess
 import sys
 import textwrap
-from collections.abc import Iterator
-from contextlib import contextmanager
 
 import pytest
 import yaml
 
 from tests.middleware.conftest import free_port
+from tests.processes import started
 from tests.waiting import wait_for_graph_at, wait_for_line
 
 CLI = [sys.executable, "-m", "servolab"]
 TWIST_VALUES = "{linear: {x: 0.1, y: -0.2}, angular: {z: 0.5}}"
-
-
-@contextmanager
-def started(args: list[str]) -> Iterator[subprocess.Popen]:
-    """A process that is always stopped (SIGINT, then kill) when the block ends."""
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    try:
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        for stream in (proc.stdout, proc.stderr):
-            if stream is not None:
-                stream.close()
 
 
 def cli(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:

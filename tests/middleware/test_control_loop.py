@@ -241,7 +241,9 @@ def test_owner_gets_the_error_from_its_rate_loop(wctx: Context) -> None:
     assert not thread.is_alive()
 
 
-def test_owner_gets_the_error_at_shutdown(wctx: Context) -> None:
+@pytest.mark.parametrize("where", ["close", "next spin call"])
+def test_owner_gets_the_error_at_shutdown_or_its_next_spin_call(wctx: Context,
+                                                                where: str) -> None:
     node = Node(wctx, "listener")
     node.create_subscription(TWIST, "/cmd", _raise_on_negative([]))
     pub = node.create_publisher(TWIST, "/cmd")
@@ -249,18 +251,10 @@ def test_owner_gets_the_error_at_shutdown(wctx: Context) -> None:
     pub.publish(node.message(TWIST, linear={"x": -1.0}))
     wait_for(lambda: not thread.is_alive(), "the spin thread to stop")
     with pytest.raises(Boom):
-        wctx.close()
-
-
-def test_owner_gets_the_error_from_its_next_spin_call(wctx: Context) -> None:
-    node = Node(wctx, "listener")
-    node.create_subscription(TWIST, "/cmd", _raise_on_negative([]))
-    pub = node.create_publisher(TWIST, "/cmd")
-    thread = wctx.executor.spin_in_thread()
-    pub.publish(node.message(TWIST, linear={"x": -1.0}))
-    wait_for(lambda: not thread.is_alive(), "the spin thread to stop")
-    with pytest.raises(Boom):
-        wctx.spin_once(0.0)
+        if where == "close":
+            wctx.close()
+        else:
+            wctx.spin_once(0.0)
 
 
 def test_on_error_log_keeps_spinning(wctx: Context, caplog: pytest.LogCaptureFixture) -> None:

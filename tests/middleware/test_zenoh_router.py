@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -30,6 +29,7 @@ from servolab.middleware.zenoh_transport import (
     session_endpoints,
 )
 from tests.middleware.conftest import free_port
+from tests.processes import started
 from tests.waiting import wait_for, wait_for_graph_at
 
 CLI = [sys.executable, "-m", "servolab"]
@@ -61,26 +61,6 @@ def loopback(address: str) -> bool:
     if len(address) == 8:
         return address.endswith("7F")
     return address == "0" * 24 + "01000000"
-
-
-@contextmanager
-def started(args: list[str], env: dict[str, str]) -> Iterator[subprocess.Popen[str]]:
-    """A process that is always stopped (SIGINT, then kill) when the block ends."""
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**env, "PYTHONUNBUFFERED": "1"})
-    try:
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        for stream in (proc.stdout, proc.stderr):
-            if stream is not None:
-                stream.close()
 
 
 @contextmanager
