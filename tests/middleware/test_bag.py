@@ -133,7 +133,8 @@ def test_the_file_is_rosbag2_s_mcap(tmp_path: Path, types: MessageTypes) -> None
     for channel in summary.channels.values():
         assert channel.message_encoding == "cdr"
         name = summary.schemas[channel.schema_id].name
-        assert channel.metadata == {"offered_qos_profiles": "",
+        # rosbag2_storage_mcap writes YAML::Dump of an empty profile list: "[]".
+        assert channel.metadata == {"offered_qos_profiles": "[]",
                                     "topic_type_hash": types.rihs01(name)}
 
 
@@ -174,7 +175,7 @@ def test_metadata_yaml_is_rosbag2_s(tmp_path: Path, types: MessageTypes) -> None
     write_bag(tmp_path / "run1", types, records)
     meta = yaml.safe_load((tmp_path / "run1" / "metadata.yaml").read_text())
     info = meta["rosbag2_bagfile_information"]
-    assert info["version"] == 8 and info["storage_identifier"] == "mcap"
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap"
     first, last = records[0][2], records[-1][2]
     assert info["starting_time"] == {"nanoseconds_since_epoch": first}
     assert info["duration"] == {"nanoseconds": last - first}
@@ -191,7 +192,9 @@ def test_metadata_yaml_is_rosbag2_s(tmp_path: Path, types: MessageTypes) -> None
         assert entry["message_count"] == 3
         assert entry["topic_metadata"] == {
             "name": topic, "type": types.type_of(msg), "serialization_format": "cdr",
-            "offered_qos_profiles": "", "type_description_hash": types.rihs01(types.type_of(msg))}
+            "offered_qos_profiles": [],
+            "type_description_hash": types.rihs01(types.type_of(msg))}
+    assert info["custom_data"] is None and info["ros_distro"] == "jazzy"
 
 
 # -- BagReader -------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""``servolab bag record | play | info``: MCAP bags in the rosbag2 layout, as ``ros2 bag``.
+"""``servolab bag record | play | info | reindex``: MCAP bags in the rosbag2 layout, as
+``ros2 bag``.
 
 Each function takes plain values and a ``say`` function for its output, so tests can call it
 and capture what is printed. The middleware (and Zenoh) is imported inside the functions, so
@@ -90,6 +91,20 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     return played
 
 
+def reindex_bag(path: str, say: Say) -> None:
+    """Rewrite a cut-short bag as a complete one; a complete bag is left alone."""
+    from servolab.middleware.bag import reindex
+    from servolab.middleware.messages import MessageTypes
+
+    found = reindex(path, MessageTypes())
+    if found is None:
+        say(f"{path} is complete (it has its summary and index); nothing to do")
+        return
+    lost = f"; the last {found.lost_bytes} byte(s), an unfinished chunk, were dropped" if (
+        found.lost_bytes) else ""
+    say(f"reindexed {found.path}: {found.message_count} message(s) kept{lost}")
+
+
 def _add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     p = actions.add_parser("record", help="record topics to an MCAP bag (rosbag2 layout)")
@@ -107,6 +122,9 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     add_transport(p)
     p = actions.add_parser("info", help="topics, types, counts and duration of a bag")
     p.add_argument("path")
+    p = actions.add_parser("reindex", help="make a bag whose recording was killed a complete "
+                           "file (summary, index, metadata.yaml) that every MCAP reader opens")
+    p.add_argument("path", help="bag folder or .mcap file")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -118,6 +136,9 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.action == "info":
         say(format_info(BagReader(args.path, MessageTypes()).info()))
+        return 0
+    if args.action == "reindex":
+        reindex_bag(args.path, say)
         return 0
     types = parse_topic_types(args.types) if args.action == "record" else None
     with Context.open(transport_options(args)) as ctx:
@@ -131,8 +152,10 @@ def _run(args: argparse.Namespace) -> int:
 COMMAND = Command(
     name="bag", group="graph", help="record, play and inspect MCAP bags",
     description="Record topics to an MCAP bag in the rosbag2 layout (Foxglove and ros2 bag "
-    "open it), play one back, or show what is in one.",
+    "open it), play one back, show what is in one, or make a killed recording a complete "
+    "file again.",
     examples=("servolab bag record /cmd_vel /odom -o runs/drive1",
               "servolab bag info runs/drive1",
-              "servolab bag play runs/drive1 --rate 2"),
+              "servolab bag play runs/drive1 --rate 2",
+              "servolab bag reindex runs/drive1"),
     add_arguments=_add_arguments, run=_run)

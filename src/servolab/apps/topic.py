@@ -127,10 +127,17 @@ def topic_pub(ctx: Context, topic: str, type_name: str, values: str, say: Say, *
     node = tool_node(ctx, "pub")
     topic = node.resolve(topic)
     pub = node.create_publisher(kind, topic, depth=0)
+    # Wait for a subscription's token, not a fixed time: its subscriber is declared before its
+    # token (as in rmw_zenoh), so what is published once the token is seen reaches it.
     end = time.monotonic() + wait_matching
-    while time.monotonic() < end and not any(
-            e.kind == "MS" and e.name == topic for e in ctx.transport.graph(0.2)):
+    while not (matched := any(e.kind == "MS" and e.name == topic
+                              for e in ctx.transport.graph(0.2))):
+        if time.monotonic() >= end:
+            break
         time.sleep(0.05)
+    if not matched:
+        say(f"no subscription on {topic} after {wait_matching:g} s; publishing anyway "
+            "(nobody may receive it)")
     say(f"publishing {kind} on {topic}" + (f" at {rate:g} Hz" if rate else ""))
     sent = 0
     period = 1.0 / rate if rate else 0.0
@@ -203,6 +210,9 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--count", type=int, default=0, help="publish N times (default: forever)")
     p.add_argument("--once", action="store_const", const=1, dest="count",
                    help="publish once (--count 1)")
+    p.add_argument("--wait-matching", type=float, default=2.0, metavar="SECONDS",
+                   help="wait up to this long for a subscription before the first message "
+                        "(default 2; says so if none came)")
     add_transport(p)
     p = actions.add_parser("hz", help="measure a topic's rate")
     p.add_argument("topic")
@@ -227,7 +237,8 @@ def _run(args: argparse.Namespace) -> int:
                        no_arrays=args.no_arr)
         elif args.action == "pub":
             sent = topic_pub(ctx, args.topic, args.type_name, args.values, say,
-                             rate=args.rate, count=args.count)
+                             rate=args.rate, count=args.count,
+                             wait_matching=args.wait_matching)
             print(f"published {sent} message(s)", file=sys.stderr)
         elif args.action == "hz":
             topic_hz(ctx, args.topic, say, type_name=args.type_name, window=args.window)

@@ -3,8 +3,10 @@
 A bag is what ``ros2 bag record -s mcap`` leaves behind: a directory ``NAME/`` holding
 ``NAME_0.mcap`` and ``metadata.yaml``. The MCAP file follows the ``ros2`` profile as rosbag2's
 MCAP storage plugin writes it (schemas are ``ros2msg`` text, messages are CDR, each channel
-carries ``offered_qos_profiles`` and ``topic_type_hash``), so ``ros2 bag info/play``, Foxglove
-and ``rosbags`` open servolab's recordings, and servolab opens theirs.
+carries ``offered_qos_profiles`` and ``topic_type_hash``, and a ``rosbag2`` metadata record
+holds the bag's metadata, as rosbag2 Jazzy writes them), so ``ros2 bag info/play`` (on the
+directory or the lone ``.mcap``), Foxglove and ``rosbags`` open servolab's recordings, and
+servolab opens theirs. ``metadata.yaml`` is version 9, Jazzy's: offered QoS profiles a list.
 
 This module knows files and timestamps, never nodes or transports: the recorder node subscribes
 and hands bytes to :class:`BagWriter`; :func:`play` hands bytes to whatever ``publish`` callable
@@ -15,7 +17,9 @@ writer never keeps a finished chunk in a user-space buffer: each chunk reaches t
 system in one ``write`` the moment it is full, and :meth:`BagWriter.flush` ends the open chunk
 early. A killed process therefore loses at most its open chunk. Such a file has no summary or
 footer; :class:`BagReader` then scans it record by record, keeps every complete and
-CRC-checked chunk and says so (:attr:`BagInfo.recovered`).
+CRC-checked chunk and says so (:attr:`BagInfo.recovered`). Readers that seek (the ``mcap``
+library's ``make_reader``, ``ros2 bag``) need the summary and footer: :func:`reindex`
+(``servolab bag reindex``) rewrites such a file as a complete one.
 """
 
 from __future__ import annotations
@@ -25,9 +29,10 @@ import heapq
 import io
 import math
 import os
+import shutil
 import struct
 import threading
-from collections.abc import Callable, Generator, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -49,9 +54,13 @@ from .errors import BagError, MessageError
 from .messages import MessageTypes
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
-#: rosbag2 metadata version written. Version 8 keeps ``offered_qos_profiles`` a YAML string,
-#: which every rosbag2 from Humble to Rolling reads; version 9 made it a list.
-METADATA_VERSION = 8
+#: rosbag2 metadata version written: 9, as rosbag2 Jazzy writes it (``offered_qos_profiles`` a
+#: list of profiles whose policies are names, ``keep_last``, ``reliable``; version 8 had a YAML
+#: string of numbers).
+METADATA_VERSION = 9
+#: rmw's RMW_DURATION_INFINITE as rosbag2 writes a duration: what deadline, lifespan and the
+#: liveliness lease are for every profile servolab offers.
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
 #: The distribution whose message definitions (and RIHS01 hashes) servolab's types are.
 ROS_DISTRO = "jazzy"
 LIBRARY = f"servolab {__version__}"
@@ -86,6 +95,29 @@ _COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
                  "none": CompressionType.NONE, "": CompressionType.NONE}
 
 
+def qos_profile(*, reliable: bool = True, transient_local: bool = False, keep_all: bool = False,
+                depth: int = 10) -> dict[str, Any]:
+    """One offered QoS profile, field for field as rosbag2 Jazzy writes it (``qos.cpp``,
+    version 9): policies by name, durations as ``{sec, nsec}``, infinite where servolab has no
+    deadline, lifespan or liveliness lease."""
+    return {
+        "history": "keep_all" if keep_all else "keep_last",
+        "depth": depth,
+        "reliability": "reliable" if reliable else "best_effort",
+        "durability": "transient_local" if transient_local else "volatile",
+        "deadline": dict(_INFINITE),
+        "lifespan": dict(_INFINITE),
+        "liveliness": "automatic",
+        "liveliness_lease_duration": dict(_INFINITE),
+        "avoid_ros_namespace_conventions": False,
+    }
+
+
+def _yaml(value: Any) -> str:
+    """Block-style YAML, keys in the order given (as yaml-cpp's ``Dump`` writes them)."""
+    return yaml.safe_dump(value, sort_keys=False, default_flow_style=False)
+
+
 # -- what a reader reports -------------------------------------------------------------------
 
 
@@ -107,6 +139,7 @@ class BagMessage:
     type: str
     log_time_ns: int
     data: bytes
+    publish_time_ns: int | None = None
 
 
 @dataclass(frozen=True)
@@ -167,6 +200,7 @@ class _Topic:
     type: str
     channel_id: int
     type_hash: str
+    qos: list[dict[str, Any]] = field(default_factory=list)
     count: int = 0
 
 
@@ -187,7 +221,8 @@ class BagWriter:
     """
 
     def __init__(self, path: str | os.PathLike[str], types: MessageTypes, *,
-                 chunk_size: int = 1 << 20, compression: str | None = None) -> None:
+                 chunk_size: int = 1 << 20, compression: str | None = None,
+                 file_name: str | None = None) -> None:
         self.path = Path(path)
         self.types = types
         if chunk_size <= 0:
@@ -202,7 +237,10 @@ class BagWriter:
             raise BagError(f"bag directory {self.path} already exists and is not empty")
         try:
             self.path.mkdir(parents=True, exist_ok=True)
-            self.file_path = self.path / f"{self.path.name}_0.mcap"
+            if file_name is not None and (Path(file_name).name != file_name
+                                          or not file_name.endswith(".mcap")):
+                raise BagError(f"bag {self.path}: file name {file_name!r} is not NAME.mcap")
+            self.file_path = self.path / (file_name or f"{self.path.name}_0.mcap")
             self._file = _DirectFile(self.file_path)
         except OSError as exc:
             raise BagError(f"cannot create bag {self.path}: {exc.strerror or exc}") from None
@@ -230,13 +268,19 @@ class BagWriter:
     def closed(self) -> bool:
         return self._closed
 
-    def add_topic(self, topic: str, type_name: str) -> None:
+    def add_topic(self, topic: str, type_name: str,
+                  qos: Sequence[Mapping[str, Any]] = ()) -> None:
         """Declare a topic and its type (``pkg/msg/Name``); declaring it again with the same type
-        does nothing, so a recorder may call this whenever it sees a publisher."""
-        with self._lock:
-            self._add_topic(topic, type_name)
+        does nothing, so a recorder may call this whenever it sees a publisher.
 
-    def _add_topic(self, topic: str, type_name: str) -> _Topic:
+        ``qos`` is the profiles its publishers offer (see :func:`qos_profile`), written to the
+        channel's ``offered_qos_profiles`` and to ``metadata.yaml`` as rosbag2 Jazzy does, so
+        ``ros2 bag play`` offers them again."""
+        with self._lock:
+            self._add_topic(topic, type_name, qos)
+
+    def _add_topic(self, topic: str, type_name: str,
+                   qos: Sequence[Mapping[str, Any]] = ()) -> _Topic:
         self._check_open()
         if not topic or not isinstance(topic, str):
             raise BagError(f"bag {self.path}: topic name {topic!r} is empty")
@@ -253,10 +297,13 @@ class BagWriter:
                 name=name, encoding="ros2msg", data=self.types.msgdef(name).encode())
             self._schemas[name] = schema_id
         type_hash = self.types.rihs01(name)
+        profiles = [dict(p) for p in qos]
+        # rosbag2_storage_mcap: YAML::Dump of the version-9 list, "[]" when there is none.
+        offered = _yaml(profiles).rstrip("\n") if profiles else "[]"
         channel_id = self._mcap.register_channel(
             topic=topic, message_encoding="cdr", schema_id=schema_id,
-            metadata={"offered_qos_profiles": "", "topic_type_hash": type_hash})
-        entry = self._topics[topic] = _Topic(topic, name, channel_id, type_hash)
+            metadata={"offered_qos_profiles": offered, "topic_type_hash": type_hash})
+        entry = self._topics[topic] = _Topic(topic, name, channel_id, type_hash, profiles)
         return entry
 
     def write(self, topic: str, data: bytes | bytearray | memoryview | Any, log_time_ns: int,
@@ -304,14 +351,22 @@ class BagWriter:
                 raise BagError(f"bag {self.path}: cannot write: {exc.strerror or exc}") from None
 
     def close(self) -> None:
-        """Finish the MCAP file (summary, index, footer) and write ``metadata.yaml``.
-        Closing again does nothing."""
+        """Finish the MCAP file (the ``rosbag2`` metadata record, summary, index, footer) and
+        write ``metadata.yaml``. Closing again does nothing."""
         with self._lock:
             if self._closed:
                 return
             self._closed = True
             try:
                 try:
+                    # As rosbag2_storage_mcap's update_metadata (Jazzy): the bag's metadata,
+                    # without metadata.yaml's outer key, so `ros2 bag info x.mcap` needs no
+                    # metadata.yaml. Its ros_distro is inside serialized_metadata.
+                    inner = self.metadata()["rosbag2_bagfile_information"]
+                    # ROS_DISTRO is what Humble wrote and Jazzy still reads.
+                    self._mcap.add_metadata("rosbag2", {
+                        "serialized_metadata": _yaml(inner).rstrip("\n"),
+                        "ROS_DISTRO": ROS_DISTRO})
                     self._mcap.finish()
                     self._file.fsync()
                 finally:
@@ -339,7 +394,7 @@ class BagWriter:
             "topics_with_message_count": [
                 {"topic_metadata": {"name": t.name, "type": t.type,
                                     "serialization_format": "cdr",
-                                    "offered_qos_profiles": "",
+                                    "offered_qos_profiles": [dict(p) for p in t.qos],
                                     "type_description_hash": t.type_hash},
                  "message_count": t.count}
                 for t in self._topics.values()],
@@ -356,7 +411,7 @@ class BagWriter:
 
     def _write_metadata(self) -> None:
         """Written to a temporary name and renamed: a ``metadata.yaml`` is whole or absent."""
-        text = yaml.safe_dump(self.metadata(), sort_keys=False, default_flow_style=False)
+        text = _yaml(self.metadata())
         tmp = self.path / "metadata.yaml.tmp"
         tmp.write_text(text, encoding="utf-8")
         tmp.replace(self.path / "metadata.yaml")
@@ -609,7 +664,8 @@ class BagReader:
                 try:
                     for schema, channel, message in found:
                         yield BagMessage(channel.topic, schema.name if schema else "",
-                                         message.log_time, bytes(message.data))
+                                         message.log_time, bytes(message.data),
+                                         message.publish_time)
                 except (McapError, ValueError, struct.error) as exc:
                     raise BagError(f"{self.file_path} is damaged: {exc}") from None
                 return
@@ -617,7 +673,7 @@ class BagReader:
                 channel = self._index.channels[message.channel_id]
                 if wanted is None or channel.topic in wanted:
                     yield BagMessage(channel.topic, self._type_of(channel), message.log_time,
-                                     bytes(message.data))
+                                     bytes(message.data), message.publish_time)
 
     def _merge(self, f: IO[bytes]) -> Iterator[Message]:
         """Messages of a scanned file in log-time order, loading a chunk only once no message
@@ -648,6 +704,74 @@ class BagReader:
             return self.types.deserialize(msg.data, msg.type)
         except MessageError as exc:
             raise BagError(f"{msg.topic} at {msg.log_time_ns} ns: {exc}") from None
+
+
+# -- reindexing ------------------------------------------------------------------------------
+
+#: rmw's policy numbers, as version-8 metadata (and Humble's channels) write them.
+_POLICY_NAMES = {
+    "history": ("system_default", "keep_last", "keep_all", "unknown"),
+    "reliability": ("system_default", "reliable", "best_effort", "unknown", "best_available"),
+    "durability": ("system_default", "transient_local", "volatile", "unknown",
+                   "best_available"),
+    "liveliness": ("system_default", "automatic", "manual_by_node", "manual_by_topic",
+                   "unknown", "best_available"),
+}
+
+
+def _offered_qos(channel: Channel) -> list[dict[str, Any]]:
+    """A channel's ``offered_qos_profiles`` as version-9 profiles; none if it has none or
+    they do not parse."""
+    try:
+        profiles = yaml.safe_load(channel.metadata.get("offered_qos_profiles") or "[]")
+    except yaml.YAMLError:
+        return []
+    if not isinstance(profiles, list) or not all(isinstance(p, dict) for p in profiles):
+        return []
+    out = []
+    for profile in profiles:
+        profile = dict(profile)
+        for key, names in _POLICY_NAMES.items():
+            value = profile.get(key)
+            if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < len(names):
+                profile[key] = names[value]
+        out.append(profile)
+    return out
+
+
+def reindex(path: str | os.PathLike[str], types: MessageTypes, *,
+            compression: str | None = None) -> BagInfo | None:
+    """Rewrite a bag whose recording was cut short (killed: no summary, index or footer, and
+    no ``metadata.yaml``) as a complete one, which any MCAP reader, seeking ones included,
+    opens: its complete chunks are kept, in log-time order, with their topics, types, offered
+    QoS and publish times; ``metadata.yaml`` is written when ``path`` is a bag directory.
+
+    The new file is written next to the old one and renamed over it, so a reindex that is
+    itself interrupted leaves the original. Returns what was recovered (:class:`BagInfo`), or
+    ``None`` for a complete bag, which is left as it is."""
+    reader = BagReader(path, types)
+    found = reader.info()
+    if not found.recovered:
+        return None
+    source = reader.file_path
+    work = source.parent / f".{source.name}.reindex"
+    try:
+        if work.exists():
+            shutil.rmtree(work)  # what an interrupted reindex left
+        with BagWriter(work, reader.types, file_name=source.name,
+                       compression=compression) as writer:
+            for channel in sorted(reader._index.channels.values(), key=lambda c: c.id):
+                writer.add_topic(channel.topic, reader._type_of(channel), _offered_qos(channel))
+            for m in reader.messages():
+                writer.write(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
+        os.replace(work / source.name, source)
+        if reader.path.is_dir():
+            os.replace(work / "metadata.yaml", reader.path / "metadata.yaml")
+    except OSError as exc:
+        raise BagError(f"cannot reindex {source}: {exc.strerror or exc}") from None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return found
 
 
 # -- describing ------------------------------------------------------------------------------

@@ -104,7 +104,7 @@ class LocalTransport(Transport):
                 self._endpoints.remove(endpoint)
 
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int) -> LocalPublisher:
+                  depth: int, *, reliable: bool = True) -> LocalPublisher:
         return LocalPublisher(self, node, topic, type_name)
 
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,

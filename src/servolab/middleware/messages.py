@@ -77,6 +77,12 @@ SERVICES = {
     "rcl_interfaces/srv/SetParameters": (
         "rcl_interfaces/Parameter[] parameters\n",
         "rcl_interfaces/SetParametersResult[] results\n"),
+    "rcl_interfaces/srv/SetParametersAtomically": (
+        "rcl_interfaces/Parameter[] parameters\n",
+        "rcl_interfaces/SetParametersResult result\n"),
+    "rcl_interfaces/srv/DescribeParameters": (
+        "string[] names\n", "rcl_interfaces/ParameterDescriptor[] descriptors\n"),
+    "rcl_interfaces/srv/GetParameterTypes": ("string[] names\n", "uint8[] types\n"),
     # example_interfaces: the service of rmw_zenoh's design examples.
     "example_interfaces/srv/AddTwoInts": ("int64 a\nint64 b\n", "int64 sum\n"),
 }

@@ -30,8 +30,10 @@ from .executor import Timer
 from .messages import ServiceType
 from .parameters import (
     Parameter,
+    SetParametersResult,
     coerce,
     from_parameter_value,
+    list_names,
     to_parameter_value,
     type_of,
 )
@@ -163,9 +165,9 @@ class Service:
 
     def _run(self, request: Any, reply: Callable[[Any], None]) -> None:
         types = self.node.context.types
-        if isinstance(request, bytes | memoryview):
-            request = types.deserialize(request, self.srv.request)
         try:
+            if isinstance(request, bytes | memoryview):
+                request = types.deserialize(request, self.srv.request)
             response = self._handler(request, types.default(self.srv.response))
             if getattr(response, "__msgtype__", None) != self.srv.response:
                 raise ServiceError(f"handler of {self.name} returned {response!r}, not a "
@@ -274,6 +276,7 @@ class Node:
         self._overrides.update(parameter_overrides or {})
         self._parameters: dict[str, Parameter] = {}
         self._on_set: list[Callable[[str, Any], None]] = []
+        self._on_set_parameters: list[Callable[[list[Parameter]], Any]] = []
         self._entities: list[Any] = []
         self._logger = logging.getLogger(f"{LOGGER_PREFIX}{self.fully_qualified_name}")
         self._entities.append(context.transport.announce_node(self.info))
@@ -352,15 +355,61 @@ class Node:
         return self._parameter(name).value
 
     def set_parameter(self, name: str, value: Any) -> None:
-        """Change a parameter at run time; on-set callbacks may refuse it by raising."""
-        param = self._parameter(name)
-        if param.read_only:
-            raise ParameterError(f"parameter {name} of {self.fully_qualified_name} is "
-                                 "read-only")
-        value = coerce(name, param.type, value)
-        for callback in self._on_set:
-            callback(name, value)
-        param.value = value
+        """Change a parameter at run time; a refusal (read-only, wrong type, an on-set
+        callback's veto) raises :class:`ParameterError` with the reason."""
+        self._parameter(name)
+        result = self.set_parameters_atomically({name: value})
+        if not result.successful:
+            raise ParameterError(result.reason)
+
+    def set_parameters(self, values: Mapping[str, Any]) -> list[SetParametersResult]:
+        """Set each parameter on its own (rclpy's ``Node.set_parameters``): one result each."""
+        return [self.set_parameters_atomically({name: value}) for name, value in values.items()]
+
+    def set_parameters_atomically(self, values: Mapping[str, Any]) -> SetParametersResult:
+        """Set all of ``values`` or, if any is refused, none (rclpy's
+        ``Node.set_parameters_atomically``); the result says which and why. On-set callbacks
+        run once, with every new :class:`Parameter`."""
+        undeclared = [name for name in values if name not in self._parameters]
+        if undeclared:  # rclpy: ParameterNotDeclaredException, its text as the reason
+            return SetParametersResult(
+                False, f"Invalid access to undeclared parameter(s): {undeclared}")
+        new: list[Parameter] = []
+        for name, value in values.items():
+            param = self._parameters[name]
+            if param.read_only:  # rclpy's _apply_descriptor, word for word
+                return SetParametersResult(False,
+                                           f"Trying to set a read-only parameter: {name}.")
+            if value is None:  # PARAMETER_NOT_SET: rclpy undeclares only dynamic ones
+                return SetParametersResult(False, "Static parameter cannot be undeclared")
+            try:
+                value = coerce(name, param.type, value)
+            except ParameterError as exc:
+                return SetParametersResult(False, str(exc))
+            new.append(Parameter(name, value, param.type, param.description, param.read_only))
+        for callback in self._on_set_parameters:
+            result = callback(list(new))
+            if not hasattr(result, "successful"):
+                return SetParametersResult(False, f"on-set-parameters callback {callback!r} "
+                                           f"returned {result!r}, not a SetParametersResult")
+            if not result.successful:
+                return SetParametersResult(False, str(getattr(result, "reason", "")))
+        for param in new:
+            for old_style in self._on_set:
+                try:
+                    old_style(param.name, param.value)
+                except ParameterError as exc:
+                    return SetParametersResult(False, str(exc))
+        for param in new:
+            self._parameters[param.name].value = param.value
+        return SetParametersResult(True, "")
+
+    def add_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], Any]) -> None:
+        """rclpy's: ``callback(parameters)`` runs before a change with the new
+        :class:`Parameter` s and returns a :class:`SetParametersResult` (or the
+        ``rcl_interfaces`` message); ``successful=False`` refuses the whole set with its
+        ``reason``. Like rclpy, the last added runs first."""
+        self._on_set_parameters.insert(0, callback)
 
     def add_on_set_parameter_callback(self, callback: Callable[[str, Any], None]) -> None:
         """``callback(name, value)`` runs before a change; raising ParameterError refuses it."""
@@ -382,32 +431,71 @@ class Node:
         ``ros2 param`` over rmw_zenoh) can reach this node's parameters from anywhere."""
         types = self.context.types
 
-        def list_parameters(request: Any, response: Any) -> Any:
-            names = [n for n in sorted(self._parameters)
-                     if not request.prefixes or any(n.startswith(p) for p in request.prefixes)]
-            response.result.names = names
-            return response
+        # Each handler answers as rclpy's ParameterService (rclpy/parameter_service.py) does
+        # for a node that does not allow undeclared parameters: a name not declared makes
+        # get / get_types / describe answer an empty list, and a set answer unsuccessful.
+
+        def known(names: Any) -> bool:
+            return all(n in self._parameters for n in names)
+
+        def describe_parameters(request: Any, response: Any) -> Any:
+            if not known(request.names):
+                return response
+            return types.from_value(response.__msgtype__, {"descriptors": [
+                {"name": p.name, "type": p.type, "description": p.description,
+                 "read_only": p.read_only, "dynamic_typing": False}
+                for p in (self._parameters[n] for n in request.names)]})
+
+        def get_parameter_types(request: Any, response: Any) -> Any:
+            if not known(request.names):
+                return response
+            return types.from_value(response.__msgtype__, {
+                "types": [self._parameters[n].type for n in request.names]})
 
         def get_parameters(request: Any, response: Any) -> Any:
-            response.values = [to_parameter_value(types, self.get_parameter(n))
-                               for n in request.names]
+            if not known(request.names):
+                return response
+            response.values = [to_parameter_value(types, p.value, p.type)
+                               for p in (self._parameters[n] for n in request.names)]
             return response
+
+        def list_parameters(request: Any, response: Any) -> Any:
+            names, prefixes = list_names(sorted(self._parameters), list(request.prefixes),
+                                         int(request.depth))
+            return types.from_value(response.__msgtype__,
+                                    {"result": {"names": names, "prefixes": prefixes}})
+
+        def decoded(param: Any) -> tuple[str, Any] | SetParametersResult:
+            try:
+                return param.name, from_parameter_value(param.value)
+            except ParameterError as exc:
+                return SetParametersResult(False, str(exc))
+
+        def set_one(param: Any) -> SetParametersResult:
+            item = decoded(param)
+            if isinstance(item, SetParametersResult):
+                return item
+            return self.set_parameters_atomically(dict([item]))
 
         def set_parameters(request: Any, response: Any) -> Any:
-            results = []
-            for param in request.parameters:
-                try:
-                    self.set_parameter(param.name, from_parameter_value(param.value))
-                    results.append({"successful": True, "reason": ""})
-                except ParameterError as exc:
-                    results.append({"successful": False, "reason": str(exc)})
-            response.results = [types.from_value("rcl_interfaces/msg/SetParametersResult", r)
-                                for r in results]
-            return response
+            results = [set_one(p) for p in request.parameters]
+            return types.from_value(response.__msgtype__, {"results": [
+                {"successful": r.successful, "reason": r.reason} for r in results]})
 
-        for srv, handler in (("ListParameters", list_parameters),
+        def set_parameters_atomically(request: Any, response: Any) -> Any:
+            items = [decoded(p) for p in request.parameters]
+            refused = [i for i in items if isinstance(i, SetParametersResult)]
+            result = refused[0] if refused else self.set_parameters_atomically(
+                dict(i for i in items if not isinstance(i, SetParametersResult)))
+            return types.from_value(response.__msgtype__, {"result": {
+                "successful": result.successful, "reason": result.reason}})
+
+        for srv, handler in (("DescribeParameters", describe_parameters),
+                             ("GetParameterTypes", get_parameter_types),
                              ("GetParameters", get_parameters),
-                             ("SetParameters", set_parameters)):
+                             ("ListParameters", list_parameters),
+                             ("SetParameters", set_parameters),
+                             ("SetParametersAtomically", set_parameters_atomically)):
             snake = "".join(f"_{c.lower()}" if c.isupper() else c for c in srv).lstrip("_")
             self.create_service(f"rcl_interfaces/srv/{srv}", f"~/{snake}", handler)
 

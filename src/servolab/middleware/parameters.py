@@ -78,8 +78,12 @@ def coerce(name: str, kind: int, value: Any) -> Any:
         return [float(v) for v in value]
     if kind in (INTEGER_ARRAY, STRING_ARRAY, BOOL_ARRAY) and given == DOUBLE_ARRAY and not value:
         return []
-    raise ParameterError(f"parameter {name} is a {TYPE_NAMES[kind]}; {value!r} is a "
-                         f"{TYPE_NAMES[given]}")
+    raise ParameterError(f"parameter {name} is {_a(TYPE_NAMES[kind])}; {value!r} is "
+                         f"{_a(TYPE_NAMES[given])}")
+
+
+def _a(noun: str) -> str:
+    return f"an {noun}" if noun[0] in "aeiou" else f"a {noun}"
 
 
 @dataclass
@@ -91,6 +95,42 @@ class Parameter:
     type: int
     description: str = ""
     read_only: bool = False
+
+
+@dataclass
+class SetParametersResult:
+    """What an on-set-parameters callback returns, as ``rcl_interfaces/msg/SetParametersResult``
+    (any object with ``successful`` and ``reason`` will do, that message included)."""
+
+    successful: bool = True
+    reason: str = ""
+
+
+def list_names(names: list[str], prefixes: list[str], depth: int) -> tuple[list[str], list[str]]:
+    """The names and prefixes ``~/list_parameters`` answers for ``prefixes`` and ``depth``
+    (0 is DEPTH_RECURSIVE), as rclpy's ``Node.list_parameters`` (``rclpy/node.py``) does: with
+    no prefixes, names with fewer than ``depth`` dots; with prefixes, each prefix itself and
+    the names below it, at most ``depth`` levels down. Prefixes are the names' parents."""
+    def shallow(name: str) -> bool:
+        return name.count(".") < depth
+
+    def wanted(name: str) -> bool:
+        if not prefixes:
+            return depth == 0 or shallow(name)
+        return any(name == p or (name.startswith(f"{p}.")
+                                 and (depth == 0 or shallow(name[len(p) + 1:])))
+                   for p in prefixes)
+
+    found: list[str] = []
+    parents: list[str] = []
+    for name in names:
+        if not wanted(name):
+            continue
+        found.append(name)
+        parent = name.rpartition(".")[0]
+        if parent and parent not in parents:
+            parents.append(parent)
+    return found, parents
 
 
 @dataclass
@@ -195,9 +235,12 @@ def _node_key(node: str) -> str:
     return node if node.startswith("/") else f"/{node}"
 
 
-def to_parameter_value(types: Any, value: Any) -> Any:
-    """An ``rcl_interfaces/msg/ParameterValue`` message for a Python value."""
-    kind = type_of(value)
+def to_parameter_value(types: Any, value: Any, kind: int | None = None) -> Any:
+    """An ``rcl_interfaces/msg/ParameterValue`` message for a Python value (of type ``kind``
+    if given: an empty list is any array type); ``None`` is PARAMETER_NOT_SET."""
+    if value is None:
+        return types.from_value("rcl_interfaces/msg/ParameterValue", {"type": NOT_SET})
+    kind = type_of(value) if kind is None else kind
     return types.from_value("rcl_interfaces/msg/ParameterValue",
                             {"type": kind, _VALUE_FIELDS[kind]: value})
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .bag import BagWriter
+from .bag import BagWriter, qos_profile
 from .context import Context
 from .node import Node, Subscription
 from .transport import MessageInfo
@@ -47,17 +47,27 @@ class Recorder(Node):
         if not self._pending:
             return
         seen: dict[str, set[str]] = {}
-        if any(kind is None for kind in self._pending.values()):
-            for e in self.context.transport.graph(0.2):
-                if e.kind == "MP" and e.name in self._pending:
-                    seen.setdefault(e.name, set()).add(e.type_name)
+        offered: dict[str, list[dict[str, Any]]] = {}
+        # The graph is asked only when a type must come from it (asking costs up to 0.2 s).
+        graph = (self.context.transport.graph(0.2)
+                 if any(kind is None for kind in self._pending.values()) else [])
+        for e in graph:
+            if e.kind == "MP" and e.name in self._pending:
+                seen.setdefault(e.name, set()).add(e.type_name)
+                # One profile per publisher, as rosbag2 records them, when the graph has them
+                # (transport.Endpoint does not carry QoS yet: then the list is empty).
+                qos = getattr(e, "qos", None)
+                if qos is not None:
+                    offered.setdefault(e.name, []).append(qos_profile(
+                        reliable=qos.reliable, transient_local=qos.transient_local,
+                        keep_all=qos.keep_all, depth=qos.depth))
         for topic, kind in list(self._pending.items()):
             if kind is None:
                 kinds = seen.get(topic, set())
                 if len(kinds) != 1:
                     continue  # not there yet (or ambiguous: wait for --type)
                 kind = self.context.types.check(kinds.pop())
-            self.writer.add_topic(topic, kind)
+            self.writer.add_topic(topic, kind, offered.get(topic, ()))
             self._subscriptions.append(self.create_subscription(
                 kind, topic, self._writer_for(topic), depth=0, raw=True))
             del self._pending[topic]

@@ -102,7 +102,10 @@ class Transport(ABC):
 
     @abstractmethod
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int) -> TransportPublisher: ...
+                  depth: int, *, reliable: bool = True) -> TransportPublisher:
+        """A publisher with ROS's history (``depth`` messages, 0: KEEP_ALL) and reliability.
+        Its ``publish()`` must not wait on a slow or stopped subscriber unless the QoS is
+        RELIABLE + KEEP_ALL (rmw_zenoh's rule): a control loop publishes."""
 
     @abstractmethod
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,

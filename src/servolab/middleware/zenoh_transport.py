@@ -14,6 +14,11 @@ the router at ``tcp/localhost:7447`` (``$SERVOLAB_ZENOH_ROUTER`` names another; 
 A router that is not there is no error: Zenoh keeps retrying in the background, and links the
 session to the other peers the router tells it about (gossip). No multicast scouting.
 ``--listen tcp/0.0.0.0:PORT`` or ``--connect tcp/robot.local:7447`` open it to a network.
+
+As in rmw_zenoh, an entity is declared before its liveliness token (and its token undeclared
+first), so a publisher that has seen a subscription's token loses none of what it then
+publishes. Congestion control is rmw_zenoh's: DROP, except RELIABLE + KEEP_ALL (depth 0)
+which BLOCKs; a stopped subscriber therefore never stalls a KEEP_LAST publisher.
 """
 
 from __future__ import annotations
@@ -112,29 +117,44 @@ def open_session(options: TransportOptions) -> zenoh.Session:
 
 
 class _Declared:
-    """Zenoh declarations released together (entity, liveliness token)."""
+    """Zenoh declarations released together, given in the order they were declared (entity,
+    then its liveliness token) and undeclared in reverse: the token leaves the graph first,
+    as rmw_zenoh shuts an entity down, so nobody sees a token whose entity is gone."""
 
     def __init__(self, *items: Any) -> None:
         self._items = list(items)
 
     def close(self) -> None:
-        for item in self._items:
+        for item in reversed(self._items):
             with contextlib.suppress(zenoh.ZError):  # the session is already closed
                 item.undeclare()
         self._items.clear()
 
 
+def congestion_control(reliable: bool, depth: int) -> zenoh.CongestionControl:
+    """rmw_zenoh's choice (``rmw_publisher_data.cpp``): BLOCK only for RELIABLE + KEEP_ALL
+    (``depth`` 0), DROP otherwise, so that a stalled subscriber never stalls a KEEP_LAST
+    publisher's ``publish()`` (and the control loop that calls it) for more than Zenoh's
+    wait before dropping."""
+    if reliable and depth == 0:
+        return zenoh.CongestionControl.BLOCK
+    return zenoh.CongestionControl.DROP
+
+
 class ZenohPublisher(TransportPublisher):
     def __init__(self, transport: ZenohTransport, key: str, type_name: str, gid: bytes,
-                 token: Any) -> None:
+                 *, reliable: bool, depth: int) -> None:
         self._types = transport.types
         self._type_name = type_name
         self._gid = gid
         self._sequence = itertools.count(1)
-        # BLOCK rather than drop under congestion: a recorder or a controller must not lose
-        # commands silently (rmw_zenoh does this for RELIABLE + KEEP_ALL).
         self._publisher = transport.session.declare_publisher(
-            key, congestion_control=zenoh.CongestionControl.BLOCK)
+            key, congestion_control=congestion_control(reliable, depth),
+            reliability=zenoh.Reliability.RELIABLE if reliable
+            else zenoh.Reliability.BEST_EFFORT)
+        self._declared = _Declared(self._publisher)
+
+    def _add_token(self, token: Any) -> None:
         self._declared = _Declared(self._publisher, token)
 
     def publish(self, msg: Any) -> None:
@@ -169,20 +189,27 @@ class ZenohTransport(Transport):
         return topic_keyexpr(self.domain_id, name, type_name, self.types.rihs01(type_name))
 
     def _token(self, node: NodeInfo, kind: EntityKind, name: str, type_name: str,
-               depth: int) -> tuple[Any, int]:
-        entity_id = next(self._entity_ids)
+               depth: int, entity_id: int, reliable: bool = True) -> Any:
+        """Declare the entity's liveliness token: always *after* the entity itself, as
+        rmw_zenoh does, so that whoever sees the token (a publisher waiting for a
+        subscriber, a client for a service) can rely on the entity already being there."""
         key = entity_token(self.domain_id, self.session_id, node.node_id, entity_id, kind,
                            node.name, name, type_name, self.types.rihs01(type_name),
-                           namespace=node.namespace, qos=Qos(depth=depth, keep_all=depth == 0))
-        return self.session.liveliness().declare_token(key), entity_id
+                           namespace=node.namespace,
+                           qos=Qos(reliable=reliable, depth=depth, keep_all=depth == 0))
+        return self.session.liveliness().declare_token(key)
 
     # -- topics ------------------------------------------------------------------------------
 
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int) -> ZenohPublisher:
-        token, entity_id = self._token(node, EntityKind.PUBLISHER, topic, type_name, depth)
-        return ZenohPublisher(self, self._key(topic, type_name), type_name,
-                              gid_from(self.session_id, entity_id), token)
+                  depth: int, *, reliable: bool = True) -> ZenohPublisher:
+        entity_id = next(self._entity_ids)
+        publisher = ZenohPublisher(self, self._key(topic, type_name), type_name,
+                                   gid_from(self.session_id, entity_id), reliable=reliable,
+                                   depth=depth)
+        publisher._add_token(self._token(node, EntityKind.PUBLISHER, topic, type_name, depth,
+                                         entity_id, reliable))
+        return publisher
 
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
                   deliver: Deliver, *, raw: bool = False) -> Closeable:
@@ -197,8 +224,9 @@ class ZenohTransport(Transport):
                     pass  # a plain Zenoh put without rmw_zenoh's attachment: still data
             deliver(sample.payload.to_bytes(), info)
 
-        token, _ = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, depth)
         subscriber = self.session.declare_subscriber(self._key(topic, type_name), on_sample)
+        token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, depth,
+                            next(self._entity_ids))
         return _Declared(subscriber, token)
 
     # -- services ----------------------------------------------------------------------------
@@ -225,9 +253,10 @@ class ZenohTransport(Transport):
 
             handler(request, reply)
 
-        token, _ = self._token(node, EntityKind.SERVICE, name, srv.name, 10)
         queryable = self.session.declare_queryable(self._key(name, srv.name), on_query,
                                                    complete=True)
+        token = self._token(node, EntityKind.SERVICE, name, srv.name, 10,
+                            next(self._entity_ids))
         return _Declared(queryable, token)
 
     def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
