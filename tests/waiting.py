@@ -184,8 +184,9 @@ def wait_for_subscriber(context: Context, topic: str, type_name: str, node: str 
                         timeout: float = 10.0) -> None:
     """Until a message published now on ``topic`` from ``context`` reaches a subscription of
     ``node`` (any node if None): the graph shows the subscription and, on Zenoh, the session
-    routes the topic's key to a subscriber. (The subscription's liveliness token is declared
-    before its subscriber, so the graph alone can show it a moment too early.)"""
+    routes the topic's key to a subscriber. (The subscriber is declared before its liveliness
+    token, as in rmw_zenoh; the route check stays for a subscription in another process, whose
+    routes reach this session on their own path.)"""
     wait_for_graph(context, ("MS", node, topic), timeout=timeout)
     session = getattr(context.transport, "session", None)
     if session is not None:
