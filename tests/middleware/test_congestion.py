@@ -57,7 +57,7 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
         with started([sys.executable, "-c", SINK, endpoint]) as sink:
             wait_for_line(sink, "ready")
             node = Node(ctx, "camera")
-            pub = ctx.transport.advertise(node.info, "/flood", IMAGE, 10, reliable=reliable)
+            pub = node.create_publisher(IMAGE, "/flood", 10, reliable=reliable)
             wait_for_subscriber(ctx, "/flood", IMAGE, "/sink")
             msg = node.message(IMAGE, height=1, width=PAYLOAD, encoding="mono8", step=PAYLOAD,
                                data=bytes(PAYLOAD))
@@ -78,7 +78,7 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
                     f"only {len(durations)} of {MESSAGES} published"
             finally:
                 os.kill(sink.pid, signal.SIGCONT)
-            pub.close()
+            pub.destroy()
         worst = max(durations)
         assert worst <= PUBLISH_BOUND_S, (
             f"publish() took up to {worst * 1000:.1f} ms with the subscriber stopped "
@@ -86,5 +86,23 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
         assert len(ticks) >= 3, ticks
         rate = (len(ticks) - 1) / (ticks[-1] - ticks[0])
         assert rate >= 9.0, f"the 10 Hz timer ran at {rate:.1f} Hz while publishing"
+    finally:
+        ctx.close()
+
+
+@pytest.mark.parametrize(("reliable", "depth", "reliability", "control"), [
+    (True, 10, "RELIABLE", "DROP"), (True, 0, "RELIABLE", "BLOCK"),
+    (False, 10, "BEST_EFFORT", "DROP"), (False, 0, "BEST_EFFORT", "DROP")])
+def test_a_nodes_publisher_takes_its_qos_to_the_wire(types, reliable: bool, depth: int,
+                                                     reliability: str, control: str) -> None:
+    """``create_publisher(..., reliable=...)`` reaches the Zenoh publisher: its reliability,
+    and congestion control as rmw_zenoh's rmw_publisher_data.cpp sets it."""
+    ctx = Context.open(TransportOptions("zenoh", listen=[f"tcp/127.0.0.1:{free_port()}"]),
+                       types=types)
+    try:
+        pub = Node(ctx, "talker").create_publisher(IMAGE, "/qos", depth, reliable=reliable)
+        declared = pub._inner._publisher      # the zenoh publisher behind it
+        assert declared.reliability == getattr(zenoh.Reliability, reliability)
+        assert declared.congestion_control == getattr(zenoh.CongestionControl, control)
     finally:
         ctx.close()

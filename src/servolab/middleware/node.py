@@ -51,11 +51,13 @@ LOGGER_PREFIX = "servolab.node"
 class Publisher:
     """Publishes messages of one type on one topic."""
 
-    def __init__(self, node: Node, type_name: str, topic: str, depth: int) -> None:
+    def __init__(self, node: Node, type_name: str, topic: str, depth: int, *,
+                 reliable: bool = True) -> None:
         self.node = node
         self.type_name = type_name
         self.topic = topic
-        self._inner = node.context.transport.advertise(node.info, topic, type_name, depth)
+        self._inner = node.context.transport.advertise(node.info, topic, type_name, depth,
+                                                       reliable=reliable)
 
     def publish(self, msg: Any) -> None:
         if getattr(msg, "__msgtype__", None) != self.type_name:
@@ -300,8 +302,13 @@ class Node:
 
     # -- topics ------------------------------------------------------------------------------
 
-    def create_publisher(self, msg_type: str | type, topic: str, depth: int = 10) -> Publisher:
-        pub = Publisher(self, self._type_name(msg_type), self.resolve(topic), depth)
+    def create_publisher(self, msg_type: str | type, topic: str, depth: int = 10, *,
+                         reliable: bool = True) -> Publisher:
+        """A publisher keeping the last ``depth`` messages (0: all), RELIABLE by default or
+        BEST_EFFORT with ``reliable=False``. As in rmw_zenoh, only RELIABLE with depth 0
+        (KEEP_ALL) may make ``publish()`` wait for a slow subscriber."""
+        pub = Publisher(self, self._type_name(msg_type), self.resolve(topic), depth,
+                        reliable=reliable)
         self._entities.append(pub)
         return pub
 
