@@ -542,10 +542,8 @@ class VirtualMotor:
                 # Wheel mode on AX/RX/EX: moving_speed is the output in 0.1 % steps, bit 10
                 # clockwise; "only the output control is possible, not speed" (e-Manual,
                 # Moving Speed). Unloaded, the horn turns at that share of the no-load speed.
-                raw = self.get_raw("moving_speed")
-                share = (raw & 0x3FF) / 1023 * (-1 if raw & 0x400 else 1)
-                return ServoCommand(torque, True, goal_velocity=share * m.no_load_speed,
-                                    torque_limit=limit)
+                speed = units.wheel_speed(m, self.get_raw("moving_speed"))
+                return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
             return ServoCommand(torque, False, goal_position=self._goal_angle(),
                                 profile_velocity=abs(self._si("moving_speed")),
                                 torque_limit=limit)
