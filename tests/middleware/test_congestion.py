@@ -8,12 +8,14 @@ import os
 import signal
 import sys
 import time
+from dataclasses import replace
 
 import pytest
 import zenoh
 
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
+from servolab.middleware.qos import QoSProfile, ReliabilityPolicy, as_profile
 from servolab.middleware.transport import TransportOptions
 from servolab.middleware.zenoh_transport import congestion_control
 from tests.middleware.conftest import free_port
@@ -26,6 +28,7 @@ PAYLOAD = 64 * 1024
 #: The documented bound on one publish() of a KEEP_LAST publisher while a subscriber is stalled
 #: (generous: Zenoh drops after ~1 ms, 50 ms for a fragmented message).
 PUBLISH_BOUND_S = 0.05
+RELIABLE, BEST_EFFORT = ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT
 
 SINK = """
 import sys
@@ -57,7 +60,8 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
         with started([sys.executable, "-c", SINK, endpoint]) as sink:
             wait_for_line(sink, "ready")
             node = Node(ctx, "camera")
-            pub = node.create_publisher(IMAGE, "/flood", 10, reliable=reliable)
+            pub = node.create_publisher(IMAGE, "/flood", QoSProfile(
+                depth=10, reliability=RELIABLE if reliable else BEST_EFFORT))
             wait_for_subscriber(ctx, "/flood", IMAGE, "/sink")
             msg = node.message(IMAGE, height=1, width=PAYLOAD, encoding="mono8", step=PAYLOAD,
                                data=bytes(PAYLOAD))
@@ -95,12 +99,14 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
     (False, 10, "BEST_EFFORT", "DROP"), (False, 0, "BEST_EFFORT", "DROP")])
 def test_a_nodes_publisher_takes_its_qos_to_the_wire(types, reliable: bool, depth: int,
                                                      reliability: str, control: str) -> None:
-    """``create_publisher(..., reliable=...)`` reaches the Zenoh publisher: its reliability,
+    """``create_publisher(..., QoSProfile(reliability=...))`` reaches the Zenoh publisher: its reliability,
     and congestion control as rmw_zenoh's rmw_publisher_data.cpp sets it."""
     ctx = Context.open(TransportOptions("zenoh", listen=[f"tcp/127.0.0.1:{free_port()}"]),
                        types=types)
     try:
-        pub = Node(ctx, "talker").create_publisher(IMAGE, "/qos", depth, reliable=reliable)
+        qos = replace(as_profile(depth),  # a depth, 0 meaning KEEP_ALL
+                      reliability=RELIABLE if reliable else BEST_EFFORT)
+        pub = Node(ctx, "talker").create_publisher(IMAGE, "/qos", qos)
         declared = pub._inner._publisher      # the zenoh publisher behind it
         assert declared.reliability == getattr(zenoh.Reliability, reliability)
         assert declared.congestion_control == getattr(zenoh.CongestionControl, control)

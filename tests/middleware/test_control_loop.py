@@ -60,7 +60,7 @@ def test_timer_keeps_its_rate_in_a_flood_on_a_virtual_clock(vctx: Context) -> No
         clock.advance(0.002)  # the callback's 2 ms of work, while messages keep arriving
         flood_until(clock.now())
 
-    sub = node.create_subscription(TWIST, "/flood", slow, depth=0)
+    sub = node.create_subscription(TWIST, "/flood", slow, qos_profile=0)
     ticks: list[float] = []
     node.create_timer(0.1, lambda: ticks.append(node.now()))
     flood_until(0.001)
@@ -80,7 +80,7 @@ def test_timer_keeps_9_hz_in_a_1_khz_flood_on_the_wall_clock(wctx: Context) -> N
         received[0] += 1
         time.sleep(0.002)  # the callback's work
 
-    node.create_subscription(TWIST, "/flood", slow, depth=0)
+    node.create_subscription(TWIST, "/flood", slow, qos_profile=0)
     ticks: list[float] = []
     node.create_timer(0.1, lambda: ticks.append(node.now()))
     stop = threading.Event()
@@ -129,7 +129,7 @@ def test_messages_still_run_when_timers_keep_the_executor_busy(vctx: Context) ->
 def test_keep_last_holds_depth_messages_and_one_piece_of_executor_work(vctx: Context) -> None:
     node = Node(vctx, "listener")
     got: list[float] = []
-    sub = node.create_subscription(TWIST, "/cmd", lambda m: got.append(m.linear.x), depth=5)
+    sub = node.create_subscription(TWIST, "/cmd", lambda m: got.append(m.linear.x), qos_profile=5)
     pub = node.create_publisher(TWIST, "/cmd")
     for k in range(100):
         pub.publish(node.message(TWIST, linear={"x": float(k)}))
@@ -154,7 +154,7 @@ def test_keep_last_while_the_callback_is_blocked(wctx: Context) -> None:
             assert release.wait(5.0)
         got.append(m.linear.x)
 
-    sub = node.create_subscription(TWIST, "/cmd", callback, depth=5)
+    sub = node.create_subscription(TWIST, "/cmd", callback, qos_profile=5)
     pub = node.create_publisher(TWIST, "/cmd")
     wctx.executor.spin_in_thread()
     pub.publish(node.message(TWIST, linear={"x": -1.0}))  # blocks the callback
@@ -171,8 +171,8 @@ def test_keep_last_while_the_callback_is_blocked(wctx: Context) -> None:
 def test_callbacks_keep_the_order_of_arrival_across_topics(vctx: Context) -> None:
     node = Node(vctx, "fair")
     order: list[str] = []
-    node.create_subscription(TWIST, "/a", lambda m: order.append("a"), depth=0)
-    node.create_subscription(TWIST, "/b", lambda m: order.append("b"), depth=0)
+    node.create_subscription(TWIST, "/a", lambda m: order.append("a"), qos_profile=0)
+    node.create_subscription(TWIST, "/b", lambda m: order.append("b"), qos_profile=0)
     pub_a = node.create_publisher(TWIST, "/a")
     pub_b = node.create_publisher(TWIST, "/b")
     for pub in (pub_a, pub_b, pub_b, pub_a, pub_b, pub_a):
@@ -184,7 +184,7 @@ def test_callbacks_keep_the_order_of_arrival_across_topics(vctx: Context) -> Non
 def test_drain_then_new_messages_keep_the_bound(vctx: Context) -> None:
     node = Node(vctx, "listener")
     got: list[float] = []
-    sub = node.create_subscription(TWIST, "/cmd", lambda m: got.append(m.linear.x), depth=3)
+    sub = node.create_subscription(TWIST, "/cmd", lambda m: got.append(m.linear.x), qos_profile=3)
     pub = node.create_publisher(TWIST, "/cmd")
     for k in range(3):
         pub.publish(node.message(TWIST, linear={"x": float(k)}))

@@ -29,7 +29,8 @@ def test_publish_subscribe_across_namespaces_and_remapping(ctx: Context) -> None
     listener = Node(ctx, "listener", remappings={"cmd": "/robot1/cmd_vel"})
     got: list[tuple[float, int]] = []
     listener.create_subscription(TWIST, "cmd", lambda m, i: got.append((m.angular.z,
-                                                                         i.sequence_number)))
+                                                                         i.sequence_number)),
+                                 with_info=True)
     pub = talker.create_publisher(TWIST, "cmd_vel")
     assert pub.topic == "/robot1/cmd_vel"
     for k in range(5):
@@ -56,7 +57,7 @@ def test_keep_last_depth_drops_the_oldest_and_counts(ctx: Context) -> None:
     node = Node(ctx, "n")
     got: list[float] = []
     sub = node.create_subscription("std_msgs/msg/Float64", "/x", lambda m: got.append(m.data),
-                                   depth=3)
+                                   qos_profile=3)
     pub = node.create_publisher("std_msgs/msg/Float64", "/x")
     for k in range(10):
         pub.publish(node.message("std_msgs/msg/Float64", data=float(k)))
@@ -67,7 +68,7 @@ def test_keep_last_depth_drops_the_oldest_and_counts(ctx: Context) -> None:
 def test_raw_subscription_gets_cdr(ctx: Context) -> None:
     node = Node(ctx, "n")
     raw: list[bytes] = []
-    node.create_subscription(TWIST, "/cmd_vel", raw.append, raw=True, depth=0)
+    node.create_subscription(TWIST, "/cmd_vel", raw.append, raw=True, qos_profile=0)
     msg = node.message(TWIST, linear={"x": 0.25})
     node.create_publisher(TWIST, "/cmd_vel").publish(msg)
     ctx.spin_for(0.1)
@@ -151,12 +152,12 @@ def test_parameters_declared_typed_overridden_and_guarded(ctx: Context,
     ctx.parameter_overrides.merge(ParameterOverrides.from_file(params))
     ctx.parameter_overrides.merge(ParameterOverrides.from_assignments(["talker:topic:=/x"]))
     node = Node(ctx, "talker")
-    assert node.declare_parameter("rate", 4.5) == 10.0          # int given for a double
-    assert isinstance(node.get_parameter("rate"), float)
-    assert node.declare_parameter("camera.width", 320) == 640
-    assert node.declare_parameter("use_sim", False) is True
-    assert node.declare_parameter("topic", "/cmd_vel") == "/x"
-    assert node.declare_parameter("port", "/dev/ttyUSB0", read_only=True) == "/dev/ttyUSB0"
+    assert node.declare_parameter("rate", 4.5).value == 10.0          # int given for a double
+    assert isinstance(node.get_parameter("rate").value, float)
+    assert node.declare_parameter("camera.width", 320).value == 640
+    assert node.declare_parameter("use_sim", False).value is True
+    assert node.declare_parameter("topic", "/cmd_vel").value == "/x"
+    assert node.declare_parameter("port", "/dev/ttyUSB0", read_only=True).value == "/dev/ttyUSB0"
     with pytest.raises(ParameterError, match="parameter rate is a double; 'fast' is a string"):
         node.set_parameter("rate", "fast")
     with pytest.raises(ParameterError, match="read-only"):
@@ -171,7 +172,7 @@ def test_parameters_declared_typed_overridden_and_guarded(ctx: Context,
     with pytest.raises(ParameterError, match=r"rate 60\.0 Hz"):
         node.set_parameter("rate", 60)
     node.set_parameter("rate", 20)
-    assert node.get_parameter("rate") == 20.0
+    assert node.get_parameter("rate").value == 20.0
 
 
 def test_parameter_services_reach_a_node(ctx: Context) -> None:
@@ -192,7 +193,7 @@ def test_parameter_services_reach_a_node(ctx: Context) -> None:
         {"name": "rate", "value": {"type": 3, "double_value": 9.0}},
         {"name": "rate", "value": {"type": 4, "string_value": "x"}}])).results
     assert result[0].successful and not result[1].successful
-    assert "is a double" in result[1].reason and node.get_parameter("rate") == 9.0
+    assert "is a double" in result[1].reason and node.get_parameter("rate").value == 9.0
 
 
 @pytest.mark.parametrize(("text", "expected"), [

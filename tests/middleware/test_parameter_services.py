@@ -146,7 +146,7 @@ def test_set_parameters_answers_one_result_each(ctx: Context, talker: Node) -> N
     assert results[2].reason == "Invalid access to undeclared parameter(s): ['speed']"
     assert results[3].reason == "Trying to set a read-only parameter: port."
     assert results[4].reason == "Static parameter cannot be undeclared"
-    assert talker.get_parameter("rate") == 9.0 and talker.get_parameter("names") == ["a", "b"]
+    assert talker.get_parameter("rate").value == 9.0 and talker.get_parameter("names").value == ["a", "b"]
 
 
 def test_set_parameters_atomically_is_all_or_nothing(ctx: Context, talker: Node) -> None:
@@ -156,17 +156,17 @@ def test_set_parameters_atomically_is_all_or_nothing(ctx: Context, talker: Node)
         {"name": "rate", "value": {"type": DOUBLE, "double_value": 9.0}},
         {"name": "camera.width", "value": {"type": 4, "string_value": "wide"}}]).result
     assert not result.successful and "camera.width is an integer" in result.reason
-    assert talker.get_parameter("rate") == 4.5
+    assert talker.get_parameter("rate").value == 4.5
     result = call(ctx, "set_parameters_atomically", parameters=[
         {"name": "rate", "value": {"type": DOUBLE, "double_value": 9.0}},
         {"name": "nope", "value": {"type": DOUBLE, "double_value": 1.0}}]).result
     assert not result.successful and "undeclared" in result.reason
-    assert talker.get_parameter("rate") == 4.5
+    assert talker.get_parameter("rate").value == 4.5
     result = call(ctx, "set_parameters_atomically", parameters=[
         {"name": "rate", "value": {"type": DOUBLE, "double_value": 9.0}},
         {"name": "camera.width", "value": {"type": INTEGER, "integer_value": 1280}}]).result
     assert result.successful and result.reason == ""
-    assert talker.get_parameter("rate") == 9.0 and talker.get_parameter("camera.width") == 1280
+    assert talker.get_parameter("rate").value == 9.0 and talker.get_parameter("camera.width").value == 1280
 
 
 def test_on_set_parameters_callback_vetoes_with_its_reason(ctx: Context, talker: Node) -> None:
@@ -185,12 +185,12 @@ def test_on_set_parameters_callback_vetoes_with_its_reason(ctx: Context, talker:
         {"name": "camera.width", "value": {"type": INTEGER, "integer_value": 1280}}]).result
     assert (result.successful, result.reason) == (False, "more than the bus can do")
     assert seen == [[("rate", 60.0), ("camera.width", 1280)]]
-    assert talker.get_parameter("camera.width") == 640
+    assert talker.get_parameter("camera.width").value == 640
     with pytest.raises(ParameterError, match="more than the bus can do"):
         talker.set_parameter("rate", 60)
     assert talker.set_parameters({"rate": 20, "camera.width": 800}) == [
         SetParametersResult(True, ""), SetParametersResult(True, "")]
-    assert talker.get_parameter("rate") == 20.0
+    assert talker.get_parameter("rate").value == 20.0
 
     # the rcl_interfaces message itself is a result too; the last added runs first
     order: list[str] = []
@@ -203,14 +203,14 @@ def test_on_set_parameters_callback_vetoes_with_its_reason(ctx: Context, talker:
     talker.add_on_set_parameters_callback(refuse_all)
     assert talker.set_parameters_atomically({"rate": 1.0}) == SetParametersResult(False,
                                                                                  "frozen")
-    assert order == ["refuse_all"] and talker.get_parameter("rate") == 20.0
+    assert order == ["refuse_all"] and talker.get_parameter("rate").value == 20.0
 
 
 def test_on_set_parameters_callback_without_a_result_refuses(talker: Node) -> None:
     talker.add_on_set_parameters_callback(lambda parameters: None)
     result = talker.set_parameters_atomically({"rate": 1.0})
     assert not result.successful and "not a SetParametersResult" in result.reason
-    assert talker.get_parameter("rate") == 4.5
+    assert talker.get_parameter("rate").value == 4.5
 
 
 def test_a_raising_handler_answers_the_client_with_an_error(ctx: Context) -> None:

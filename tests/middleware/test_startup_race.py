@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 import threading
 
+from servolab.middleware.qos import QoSProfile
 from servolab.middleware.rmw_zenoh import parse_token
 from servolab.middleware.transport import MessageInfo, NodeInfo
 from tests.middleware.conftest import free_port
@@ -36,7 +37,7 @@ def test_publish_right_after_the_token_loses_nothing(zenoh_pair) -> None:
 
     topics = [f"/race_{k}" for k in range(REPETITIONS)]
     talker, listener = NodeInfo("talker", node_id=1), NodeInfo("listener", node_id=2)
-    publishers = {t: a.transport.advertise(talker, t, STRING, 10) for t in topics}
+    publishers = {t: a.transport.advertise(talker, t, STRING, QoSProfile()) for t in topics}
     cdr = a.types.serialize(a.types.from_value(STRING, {"data": "first"}))
     watcher = a.transport.session.liveliness().declare_subscriber("@ros2_lv/0/**", on_token)
     got: dict[str, list[bytes]] = {t: [] for t in topics}
@@ -51,7 +52,8 @@ def test_publish_right_after_the_token_loses_nothing(zenoh_pair) -> None:
             def deliver(data: bytes, info: MessageInfo, topic: str = topic) -> None:
                 got[topic].append(data)
 
-            subscriptions.append(b.transport.subscribe(listener, topic, STRING, 10, deliver))
+            subscriptions.append(b.transport.subscribe(listener, topic, STRING, QoSProfile(),
+                                                         deliver))
             # Generous bounds: a loaded 2-core machine can be slow; a lost message never comes.
             assert matched.wait(20.0), f"the token of {topic}'s subscription never arrived"
             publishers[topic].publish_serialized(cdr)  # right away, as a waiting talker does

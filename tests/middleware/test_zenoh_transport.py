@@ -22,7 +22,7 @@ def test_twist_crosses_sessions_with_every_value(zenoh_pair) -> None:
     talker, listener = Node(a, "talker", "/robot1"), Node(b, "listener", "/robot1")
     got: list = []
     listener.create_subscription(TWIST, "cmd_vel", lambda m, info: got.append((m, info)),
-                                 depth=0)
+                                 qos_profile=0, with_info=True)
     pub = talker.create_publisher(TWIST, "cmd_vel")
     wait_for_subscriber(a, "/robot1/cmd_vel", TWIST, "/robot1/listener")
     sent = [talker.message(TWIST, linear={"x": k * 0.01, "y": -k}, angular={"z": k / 7})
@@ -106,7 +106,7 @@ def test_services_and_parameters_across_sessions(zenoh_pair) -> None:
                                        "/adder/set_parameters")
     setter.call(setter.request(parameters=[{"name": "gain",
                                             "value": {"type": 2, "integer_value": 5}}]))
-    assert server.get_parameter("gain") == 5
+    assert server.get_parameter("gain").value == 5
     torque = client_node.create_client("dynamixel_controllers/srv/TorqueEnable", "/torque")
     with pytest.raises(ServiceError, match="overheating"):
         torque.call(torque.request(torque_enable=True), timeout=3.0)

@@ -21,7 +21,7 @@ from .registry import Command
 
 if TYPE_CHECKING:
     from servolab.middleware.context import Context
-    from servolab.middleware.node import Publisher
+    from servolab.middleware.publisher import Publisher
 
 Say = Callable[[str], None]
 
@@ -68,7 +68,7 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     chosen = [t for t in info.topics if topics is None or t.name in topics]
     node = Node(ctx, f"_servolab_player_{time.time_ns() % 1_000_000}")
     publishers: dict[str, Publisher] = {
-        t.name: node.create_publisher(t.type, t.name, depth=0) for t in chosen}
+        t.name: node.create_publisher(t.type, t.name, qos_profile=0) for t in chosen}
     end = time.monotonic() + wait_matching
     while time.monotonic() < end and not any(
             e.kind == "MS" and e.name in publishers for e in ctx.transport.graph(0.2)):

@@ -108,7 +108,7 @@ def topic_echo(ctx: Context, topic: str, say: Say, *, type_name: str | None = No
         if count and printed >= count:
             ctx.shutdown()
 
-    node.create_subscription(kind, topic, show, depth=0)
+    node.create_subscription(kind, topic, show, qos_profile=0)
     ctx.spin()
     return printed
 
@@ -126,7 +126,7 @@ def topic_pub(ctx: Context, topic: str, type_name: str, values: str, say: Say, *
         raise MessageError(f"--rate {rate:g} and --count {count} must be >= 0")
     node = tool_node(ctx, "pub")
     topic = node.resolve(topic)
-    pub = node.create_publisher(kind, topic, depth=0)
+    pub = node.create_publisher(kind, topic, qos_profile=0)
     # Wait for a subscription's token, not a fixed time: its subscriber is declared before its
     # token (as in rmw_zenoh), so what is published once the token is seen reaches it.
     end = time.monotonic() + wait_matching
@@ -169,7 +169,7 @@ def topic_hz(ctx: Context, topic: str, say: Say, *, type_name: str | None = None
     stamps: deque[float] = deque(maxlen=window + 1)
     rates: list[float] = []
     node.create_subscription(kind, topic, lambda m, info: stamps.append(
-        info.received_timestamp_ns / 1e9), depth=0, raw=True)
+        info.received_timestamp_ns / 1e9), qos_profile=0, raw=True, with_info=True)
 
     def report() -> None:
         if len(stamps) < 2:

@@ -3,8 +3,10 @@ no ROS installation.
 
 - :mod:`.context` — :class:`Context`: what the nodes of one process share (transport, types,
   clock, executor, parameter overrides)
-- :mod:`.node` — :class:`Node` and its entities (:class:`Publisher`, :class:`Subscription`,
-  :class:`Service`, :class:`Client`, :class:`Rate`)
+- :mod:`.node` — :class:`Node`; one module per entity it makes: :mod:`.publisher`,
+  :mod:`.subscription`, :mod:`.service`, :mod:`.client`, :mod:`.rate`; :mod:`.qos` (profiles),
+  :mod:`.logger` (rclpy's throttle / once / skip_first)
+- :mod:`.default_context` — the one context rclpy-shaped code shares (``servolab.rclpy``)
 - :mod:`.executor` — callbacks on one thread; virtual time asked of its owner
 - :mod:`.messages` — ROS 2 message types and CDR (rosbags), dynamixel_msgs
 - :mod:`.local`, :mod:`.zenoh_transport`, :mod:`.rmw_zenoh` — in-process and Zenoh transports
@@ -32,7 +34,14 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("launch_main", "run_launch"), "launch"),
     **dict.fromkeys(("LaunchFile", "load_launch"), "launch_file"),
     "MessageTypes": "messages",
-    **dict.fromkeys(("Client", "Node", "Publisher", "Rate", "Service", "Subscription"), "node"),
+    "Client": "client",
+    "Node": "node",
+    "Publisher": "publisher",
+    **dict.fromkeys(("DurabilityPolicy", "HistoryPolicy", "QoSProfile", "ReliabilityPolicy"),
+                    "qos"),
+    "Rate": "rate",
+    "Service": "service",
+    "Subscription": "subscription",
     **dict.fromkeys(("Parameter", "ParameterOverrides"), "parameters"),
     "Recorder": "recorder",
     **dict.fromkeys(("MessageInfo", "TransportOptions"), "transport"),
@@ -40,9 +49,10 @@ _EXPORTS: dict[str, str] = {
 
 __all__ = [
     "BagError", "BagInfo", "BagMessage", "BagReader", "BagWriter", "Client", "Context",
-    "Executor", "LaunchError", "LaunchFile", "MessageError", "MessageInfo", "MessageTypes",
-    "MiddlewareError", "Node", "Parameter", "ParameterError", "ParameterOverrides", "Publisher",
-    "Rate", "Recorder", "Service", "ServiceError", "Subscription", "Timer", "TransportError",
+    "DurabilityPolicy", "Executor", "HistoryPolicy", "LaunchError", "LaunchFile",
+    "MessageError", "MessageInfo", "MessageTypes", "MiddlewareError", "Node", "Parameter",
+    "ParameterError", "ParameterOverrides", "Publisher", "QoSProfile", "Rate", "Recorder",
+    "ReliabilityPolicy", "Service", "ServiceError", "Subscription", "Timer", "TransportError",
     "TransportOptions", "launch_main", "load_launch", "play", "run_launch",
 ]
 
@@ -51,6 +61,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 if TYPE_CHECKING:
     from .bag import BagInfo, BagMessage, BagReader, BagWriter, play
+    from .client import Client
     from .context import Context
     from .errors import (
         BagError,
@@ -65,7 +76,12 @@ if TYPE_CHECKING:
     from .launch import launch_main, run_launch
     from .launch_file import LaunchFile, load_launch
     from .messages import MessageTypes
-    from .node import Client, Node, Publisher, Rate, Service, Subscription
+    from .node import Node
     from .parameters import Parameter, ParameterOverrides
+    from .publisher import Publisher
+    from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from .rate import Rate
     from .recorder import Recorder
+    from .service import Service
+    from .subscription import Subscription
     from .transport import MessageInfo, TransportOptions

@@ -73,6 +73,10 @@ class Context:
 
     # -- running -----------------------------------------------------------------------------
 
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
     def ok(self) -> bool:
         return not self._closed and not self.executor.is_shutdown
 

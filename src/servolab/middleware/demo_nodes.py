@@ -27,8 +27,9 @@ class Talker(Node):
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
-        self.rate = self.declare_parameter("rate", 10.0, description="messages per second")
-        self.count = self.declare_parameter("count", 0, description="stop after this many")
+        self.rate = self.declare_parameter("rate", 10.0, description="messages per second").value
+        self.count = self.declare_parameter("count", 0,
+                                            description="stop after this many").value
         self.declare_parameter("speed", 0.1, description="linear.x in m/s (live)")
         self.sent = 0
         self.publisher = self.create_publisher(TWIST, "cmd_vel")
@@ -40,7 +41,7 @@ class Talker(Node):
         self.sent += 1
         turn = 0.5 * math.sin(self.sent / 10)
         self.publisher.publish(self.message(
-            TWIST, linear={"x": self.get_parameter("speed")}, angular={"z": turn}))
+            TWIST, linear={"x": self.get_parameter("speed").value}, angular={"z": turn}))
         self.get_logger().info("sent cmd_vel %d", self.sent)
         if self.count and self.sent >= self.count:
             self.context.shutdown()

@@ -1,9 +1,15 @@
 """The in-process transport: the default, and the fastest.
 
-Publishing hands the message *object* to every subscription of the same topic and type, with no
-serialization on the hot path (a subscriber must therefore not modify what it receives, the
-same rule as ROS 2's intra-process communication). Only raw subscriptions, such as the bag
-recorder's, get CDR bytes, serialized once per message whatever their number.
+Publishing hands every subscription of the same topic and type one *copy* of the message
+object (:func:`~.messages.copy_message`), with no serialization on the hot path: the publisher
+may change and republish its object, as rclpy allows, without changing what subscribers got.
+Subscribers share that copy and must not modify it (ROS 2's intra-process rule). Only raw
+subscriptions, such as the bag recorder's, get CDR bytes, serialized once per message whatever
+their number.
+
+A TRANSIENT_LOCAL publisher keeps its last ``depth`` messages; a TRANSIENT_LOCAL subscription
+made later receives them first, oldest first, then what is published after (in that order:
+both happen under the transport's lock, so a message is never lost or doubled in between).
 """
 
 from __future__ import annotations
@@ -11,13 +17,15 @@ from __future__ import annotations
 import itertools
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any
 
 from .errors import ServiceError
-from .messages import MessageTypes, ServiceType
+from .messages import MessageTypes, ServiceType, copy_message
+from .qos import QoSProfile
 from .transport import (
     Closeable,
     Deliver,
@@ -51,20 +59,31 @@ class _Registration:
 
 class LocalPublisher(TransportPublisher):
     def __init__(self, transport: LocalTransport, node: NodeInfo, topic: str,
-                 type_name: str) -> None:
+                 type_name: str, qos: QoSProfile) -> None:
         self._transport = transport
         self.topic = topic
         self.type_name = type_name
         self._sequence = itertools.count(1)
         self._endpoint = Endpoint("MP", node.fully_qualified_name, topic, type_name)
-        transport._add_endpoint(self._endpoint)
+        #: TRANSIENT_LOCAL's history: (message, info) for late subscriptions
+        self.kept: deque[tuple[Any, MessageInfo]] | None = (
+            deque(maxlen=qos.queue_depth or None) if qos.transient_local else None)
+        transport._add_publisher(self)
 
     def publish(self, msg: Any) -> None:
+        if self.kept is not None:
+            with self._transport._lock:  # against a subscription joining (module docstring)
+                self._publish(msg)
+        else:
+            self._publish(msg)
+
+    def _publish(self, msg: Any) -> None:
         subscribers = self._transport._subscribers.get(self.topic, ())
-        if not subscribers:
+        if not subscribers and self.kept is None:
             return
         now = time.time_ns()
         info = MessageInfo(now, now, next(self._sequence))
+        copy: Any = None
         cdr: bytes | None = None
         for sub in subscribers:
             if sub.type_name != self.type_name:
@@ -74,13 +93,17 @@ class LocalPublisher(TransportPublisher):
                     cdr = self._transport.types.serialize(msg, self.type_name)
                 sub.deliver(cdr, info)
             else:
-                sub.deliver(msg, info)
+                if copy is None:
+                    copy = copy_message(msg)
+                sub.deliver(copy, info)
+        if self.kept is not None:
+            self.kept.append((copy_message(msg) if copy is None else copy, info))
 
     def publish_serialized(self, cdr: bytes) -> None:
         self.publish(self._transport.types.deserialize(cdr, self.type_name))
 
     def close(self) -> None:
-        self._transport._remove_endpoint(self._endpoint)
+        self._transport._remove_publisher(self)
 
 
 class LocalTransport(Transport):
@@ -88,11 +111,25 @@ class LocalTransport(Transport):
 
     def __init__(self, types: MessageTypes) -> None:
         super().__init__(types)
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
         # Copy-on-write tuples: publish() reads them without taking the lock.
         self._subscribers: dict[str, tuple[_Subscriber, ...]] = {}
         self._services: dict[str, tuple[ServiceType, Handler]] = {}
+        self._publishers: dict[str, tuple[LocalPublisher, ...]] = {}
         self._endpoints: list[Endpoint] = []
+
+    def _add_publisher(self, publisher: LocalPublisher) -> None:
+        with self._lock:
+            self._publishers[publisher.topic] = (*self._publishers.get(publisher.topic, ()),
+                                                 publisher)
+            self._endpoints.append(publisher._endpoint)
+
+    def _remove_publisher(self, publisher: LocalPublisher) -> None:
+        with self._lock:
+            self._publishers[publisher.topic] = tuple(
+                p for p in self._publishers.get(publisher.topic, ()) if p is not publisher)
+            if publisher._endpoint in self._endpoints:
+                self._endpoints.remove(publisher._endpoint)
 
     def _add_endpoint(self, endpoint: Endpoint) -> None:
         with self._lock:
@@ -104,14 +141,20 @@ class LocalTransport(Transport):
                 self._endpoints.remove(endpoint)
 
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int, *, reliable: bool = True) -> LocalPublisher:
-        return LocalPublisher(self, node, topic, type_name)
+                  qos: QoSProfile) -> LocalPublisher:
+        return LocalPublisher(self, node, topic, type_name, qos)
 
-    def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
                   deliver: Deliver, *, raw: bool = False) -> Closeable:
         sub = _Subscriber(node, topic, type_name, deliver, raw)
         endpoint = Endpoint("MS", node.fully_qualified_name, topic, type_name)
         with self._lock:
+            if qos.transient_local:  # what the publishers kept, before anything new
+                for publisher in self._publishers.get(topic, ()):
+                    if publisher.kept is None or publisher.type_name != type_name:
+                        continue
+                    for msg, info in publisher.kept:
+                        deliver(self.types.serialize(msg, type_name) if raw else msg, info)
             self._subscribers[topic] = (*self._subscribers.get(topic, ()), sub)
             self._endpoints.append(endpoint)
 

@@ -16,17 +16,15 @@ the clock and the executor, so the same node code runs in one process or across 
 
 from __future__ import annotations
 
-import inspect
 import logging
-import threading
-from collections import deque
 from collections.abc import Callable, Mapping
-from concurrent.futures import Future
-from concurrent.futures import TimeoutError as FutureTimeout
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from .errors import MessageError, ParameterError, ServiceError
+from .client import Client
+from .errors import ParameterError
 from .executor import Timer
+from .logger import NodeLogger
 from .messages import ServiceType
 from .parameters import (
     Parameter,
@@ -37,9 +35,14 @@ from .parameters import (
     to_parameter_value,
     type_of,
 )
+from .publisher import Publisher
+from .qos import QoSProfile, as_profile
+from .rate import Rate
 from .rmw_zenoh import check_node_name, node_namespace
 from .rmw_zenoh import fully_qualified_name as resolve_name
-from .transport import MessageInfo, NodeInfo
+from .service import Service
+from .subscription import Subscription
+from .transport import NodeInfo
 
 if TYPE_CHECKING:
     from .context import Context
@@ -48,228 +51,31 @@ if TYPE_CHECKING:
 LOGGER_PREFIX = "servolab.node"
 
 
-class Publisher:
-    """Publishes messages of one type on one topic."""
-
-    def __init__(self, node: Node, type_name: str, topic: str, depth: int, *,
-                 reliable: bool = True) -> None:
-        self.node = node
-        self.type_name = type_name
-        self.topic = topic
-        self._inner = node.context.transport.advertise(node.info, topic, type_name, depth,
-                                                       reliable=reliable)
-
-    def publish(self, msg: Any) -> None:
-        if getattr(msg, "__msgtype__", None) != self.type_name:
-            raise MessageError(f"{self.topic} carries {self.type_name}, not "
-                               f"{getattr(msg, '__msgtype__', type(msg).__name__)}")
-        self._inner.publish(msg)
-
-    def publish_serialized(self, cdr: bytes) -> None:
-        """Publish CDR bytes of this publisher's type as they are (bag playback)."""
-        self._inner.publish_serialized(cdr)
-
-    def destroy(self) -> None:
-        self._inner.close()
-
-
-class Subscription:
-    """Calls ``callback(msg)`` (or ``callback(msg, info)``) for each message on a topic.
-
-    Up to ``depth`` messages wait for the executor (ROS's KEEP_LAST); when more arrive, the
-    oldest are dropped and counted in :attr:`dropped`. ``depth=0`` keeps all (KEEP_ALL), which
-    is what a recorder needs. ``raw=True`` hands the callback the CDR bytes.
-
-    The executor holds one piece of work per message waiting, not per message received: a
-    KEEP_LAST(depth) subscription never has more than ``depth`` callbacks pending, however
-    fast messages arrive, and callbacks keep the order in which messages arrived.
-    """
-
-    def __init__(self, node: Node, type_name: str, topic: str, callback: Callable[..., Any],
-                 depth: int, raw: bool) -> None:
-        if depth < 0:
-            raise ValueError(f"queue depth must be >= 0, got {depth}")
-        self.node = node
-        self.type_name = type_name
-        self.topic = topic
-        self.raw = raw
-        self.dropped = 0
-        self.received = 0
-        self._callback = callback
-        self._with_info = _takes_two(callback)
-        self._queue: deque[tuple[Any, MessageInfo]] = deque(maxlen=depth or None)
-        self._lock = threading.Lock()
-        self._takes = 0  # _take calls queued in the executor
-        self._executor = node.context.executor
-        self._inner = node.context.transport.subscribe(node.info, topic, type_name, depth,
-                                                       self._deliver, raw=raw)
-
-    def _deliver(self, data: Any, info: MessageInfo) -> None:
-        with self._lock:
-            if self._queue.maxlen is not None and len(self._queue) == self._queue.maxlen:
-                self.dropped += 1
-            self._queue.append((data, info))
-            self.received += 1
-            if self._takes >= len(self._queue):
-                return  # a message was dropped: its queued _take will take this one
-            self._takes += 1
-        self._executor.submit(self._take)
-
-    @property
-    def pending(self) -> int:
-        """Messages waiting for the callback (at most ``depth`` unless KEEP_ALL)."""
-        return len(self._queue)
-
-    def drain(self) -> int:
-        """Run the callback for every message still queued (a recorder stopping keeps what
-        had already arrived); returns how many."""
-        n = 0
-        while self._queue:
-            self._take(from_executor=False)
-            n += 1
-        return n
-
-    def _take(self, from_executor: bool = True) -> None:
-        with self._lock:
-            if from_executor:
-                self._takes -= 1
-            if not self._queue:
-                return  # drained while waiting
-            data, info = self._queue.popleft()
-        if not self.raw and isinstance(data, bytes | memoryview):
-            data = self.node.context.types.deserialize(data, self.type_name)
-        if self._with_info:
-            self._callback(data, info)
-        else:
-            self._callback(data)
-
-    def destroy(self) -> None:
-        self._inner.close()
-
-
-class Service:
-    """Answers requests: ``handler(request, response) -> response``, as in rclpy."""
-
-    def __init__(self, node: Node, srv: ServiceType, name: str,
-                 handler: Callable[[Any, Any], Any]) -> None:
-        self.node = node
-        self.srv = srv
-        self.name = name
-        self._handler = handler
-        self._inner = node.context.transport.serve(node.info, name, srv, self._on_request)
-
-    def _on_request(self, request: Any, reply: Callable[[Any], None]) -> None:
-        executor = self.node.context.executor
-        if executor.in_executor_thread or executor.is_shutdown:
-            self._run(request, reply)  # a call from one of our own callbacks: answer now
-        else:
-            executor.submit(lambda: self._run(request, reply))
-
-    def _run(self, request: Any, reply: Callable[[Any], None]) -> None:
-        types = self.node.context.types
-        try:
-            if isinstance(request, bytes | memoryview):
-                request = types.deserialize(request, self.srv.request)
-            response = self._handler(request, types.default(self.srv.response))
-            if getattr(response, "__msgtype__", None) != self.srv.response:
-                raise ServiceError(f"handler of {self.name} returned {response!r}, not a "
-                                   f"{self.srv.response}")
-        except Exception as exc:  # the caller learns why; the node keeps running
-            self.node.get_logger().error("service %s failed: %s", self.name, exc)
-            reply(exc)
-            return
-        reply(response)
-
-    def destroy(self) -> None:
-        self._inner.close()
-
-
-class Client:
-    """Calls a service: ``call(request)`` blocks; ``call_async`` returns a Future."""
-
-    def __init__(self, node: Node, srv: ServiceType, name: str) -> None:
-        self.node = node
-        self.srv = srv
-        self.name = name
-
-    def request(self, **fields: Any) -> Any:
-        return self.node.context.types.from_value(self.srv.request, fields)
-
-    def call(self, request: Any | None = None, timeout: float = 5.0) -> Any:
-        """The response, waiting up to ``timeout`` s. When no other thread spins the
-        executor, this one does while it waits, so a server in this process can answer."""
-        future = self.call_async(request, timeout)
-        executor = self.node.context.executor
-        if not executor.spinning_elsewhere:
-            executor.spin_until(future.done, timeout)
-        try:
-            return future.result(timeout=0 if future.done() else timeout)
-        except FutureTimeout:
-            raise ServiceError(f"service {self.name} did not answer within "
-                               f"{timeout:g} s") from None
-
-    def call_async(self, request: Any | None = None, timeout: float = 5.0) -> Future[Any]:
-        request = self.request() if request is None else request
-        if getattr(request, "__msgtype__", None) != self.srv.request:
-            raise MessageError(f"{self.name} takes a {self.srv.request}, not "
-                               f"{getattr(request, '__msgtype__', type(request).__name__)}")
-        return self.node.context.transport.call(self.name, self.srv, request, timeout)
-
-    def wait_for_service(self, timeout: float = 5.0) -> bool:
-        clock = self.node.context.clock
-        end = clock.now() + timeout
-        while True:
-            if any(e.kind == "SS" and e.name == self.name
-                   for e in self.node.context.transport.graph(0.2)):
-                return True
-            if clock.now() >= end:
-                return False
-            clock.sleep(0.05)
-
-
-class Rate:
-    """Keeps a loop at ``hz``, like ``ros::Rate``: :meth:`sleep` waits until the next tick.
-
-    While it waits it runs the node's callbacks (unless another thread spins the executor),
-    so a ROS 1-style loop needs no ``spinOnce``. Ticks are on a fixed schedule; a loop that
-    falls a whole period behind starts a new schedule instead of bursting to catch up.
-    """
-
-    def __init__(self, node: Node, hz: float) -> None:
-        if not hz > 0:
-            raise ValueError(f"rate must be > 0 Hz, got {hz!r}")
-        self.period = 1.0 / hz
-        self._executor = node.context.executor
-        self._clock = node.context.clock
-        self._next = self._clock.now() + self.period
-
-    def sleep(self) -> None:
-        if self._executor.exception is not None:
-            self._executor.raise_if_failed()  # the spin thread stopped on a callback's error
-        now = self._clock.now()
-        if now < self._next:
-            if self._executor.spinning_elsewhere:
-                self._clock.sleep(self._next - now)
-            else:
-                self._executor.spin_for(self._next - now)
-            self._next += self.period
-        else:
-            missed = (now - self._next) // self.period + 1
-            self._next += missed * self.period
-            if self._next - now > self.period:
-                self._next = now + self.period
-
-
 class Node:
     """A named member of the graph; see the module docstring."""
 
-    def __init__(self, context: Context, name: str, namespace: str = "/", *,
+    def __init__(self, context: Context | str, name: str | None = None,
+                 namespace: str | None = None, *,
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
+        """``Node(context, "name")`` puts the node on a context you opened; rclpy's
+        ``Node("name")`` (or ``Node("name", namespace="/robot")``) on the default context,
+        which :func:`servolab.rclpy.init` opens (or the first such node, in-process)."""
+        if isinstance(context, str):  # rclpy's shape: Node(node_name, *, namespace=...)
+            if name is not None and namespace is None:
+                name, namespace = context, name
+            elif name is not None:
+                raise TypeError("Node(name, namespace) takes a namespace once, not twice")
+            else:
+                name = context
+            from .default_context import default_context
+            context = default_context()
+        if name is None:
+            raise TypeError("Node(context, name): the node needs a name")
         check_node_name(name)
         self.context = context
         self.name = name
-        self.namespace = node_namespace(namespace, name)
+        self.namespace = node_namespace(namespace or "/", name)
         self.info = NodeInfo(name, self.namespace, context.next_node_id())
         self.fully_qualified_name = self.info.fully_qualified_name
         self._remap = {resolve_name(k, self.namespace, name): resolve_name(v, self.namespace, name)
@@ -280,10 +86,20 @@ class Node:
         self._on_set: list[Callable[[str, Any], None]] = []
         self._on_set_parameters: list[Callable[[list[Parameter]], Any]] = []
         self._entities: list[Any] = []
-        self._logger = logging.getLogger(f"{LOGGER_PREFIX}{self.fully_qualified_name}")
+        self._logger = NodeLogger(
+            logging.getLogger(f"{LOGGER_PREFIX}{self.fully_qualified_name}"))
         self._entities.append(context.transport.announce_node(self.info))
         context.add_node(self)
         self._parameter_services()
+
+    def get_name(self) -> str:
+        return self.name
+
+    def get_namespace(self) -> str:
+        return self.namespace
+
+    def get_fully_qualified_name(self) -> str:
+        return self.fully_qualified_name
 
     # -- names and types ---------------------------------------------------------------------
 
@@ -296,27 +112,36 @@ class Node:
         name = msg_type if isinstance(msg_type, str) else getattr(msg_type, "__msgtype__", "")
         return self.context.types.check(name or repr(msg_type))
 
+    def _service_type(self, srv_type: str | type) -> ServiceType:
+        name = srv_type if isinstance(srv_type, str) else getattr(srv_type, "__srvtype__", "")
+        return self.context.types.service(name or repr(srv_type))
+
     def message(self, type_name: str, **fields: Any) -> Any:
         """A message with the given fields and every other field at its default."""
         return self.context.types.from_value(type_name, fields)
 
     # -- topics ------------------------------------------------------------------------------
 
-    def create_publisher(self, msg_type: str | type, topic: str, depth: int = 10, *,
-                         reliable: bool = True) -> Publisher:
-        """A publisher keeping the last ``depth`` messages (0: all), RELIABLE by default or
-        BEST_EFFORT with ``reliable=False``. As in rmw_zenoh, only RELIABLE with depth 0
-        (KEEP_ALL) may make ``publish()`` wait for a slow subscriber."""
-        pub = Publisher(self, self._type_name(msg_type), self.resolve(topic), depth,
-                        reliable=reliable)
+    def create_publisher(self, msg_type: str | type, topic: str,
+                         qos_profile: QoSProfile | int = 10) -> Publisher:
+        """A publisher with the given QoS: a :class:`~.qos.QoSProfile`, or a depth as in
+        rclpy (KEEP_LAST of it, RELIABLE, VOLATILE; 0: KEEP_ALL). As in rmw_zenoh, only
+        RELIABLE + KEEP_ALL may make ``publish()`` wait for a slow subscriber;
+        TRANSIENT_LOCAL keeps the last ``depth`` messages for subscriptions that come later.
+        ``msg_type`` is a type name (``"geometry_msgs/msg/Twist"``) or a message class."""
+        pub = Publisher(self, self._type_name(msg_type), self.resolve(topic),
+                        as_profile(qos_profile))
         self._entities.append(pub)
         return pub
 
     def create_subscription(self, msg_type: str | type, topic: str,
-                            callback: Callable[..., Any], depth: int = 10, *,
-                            raw: bool = False) -> Subscription:
+                            callback: Callable[..., Any], qos_profile: QoSProfile | int = 10,
+                            *, raw: bool = False, with_info: bool = False) -> Subscription:
+        """``callback(msg)`` for each message (``callback(msg, info)`` with
+        ``with_info=True``; ``raw=True`` gives the CDR bytes). QoS as for publishers; a
+        TRANSIENT_LOCAL subscription receives what TRANSIENT_LOCAL publishers kept."""
         sub = Subscription(self, self._type_name(msg_type), self.resolve(topic), callback,
-                           depth, raw)
+                           as_profile(qos_profile), raw=raw, with_info=with_info)
         self._entities.append(sub)
         return sub
 
@@ -335,31 +160,42 @@ class Node:
 
     # -- services ----------------------------------------------------------------------------
 
-    def create_service(self, srv_type: str, name: str,
+    def create_service(self, srv_type: str | type, name: str,
                        handler: Callable[[Any, Any], Any]) -> Service:
-        service = Service(self, self.context.types.service(srv_type), self.resolve(name),
-                          handler)
+        """``handler(request, response) -> response``, as in rclpy; ``srv_type`` is a type
+        name (``"std_srvs/srv/Trigger"``) or a service class."""
+        service = Service(self, self._service_type(srv_type), self.resolve(name), handler)
         self._entities.append(service)
         return service
 
-    def create_client(self, srv_type: str, name: str) -> Client:
-        return Client(self, self.context.types.service(srv_type), self.resolve(name))
+    def create_client(self, srv_type: str | type, name: str) -> Client:
+        client = Client(self, self._service_type(srv_type), self.resolve(name))
+        self._entities.append(client)
+        return client
 
     # -- parameters --------------------------------------------------------------------------
 
     def declare_parameter(self, name: str, default: Any, *, description: str = "",
-                          read_only: bool = False) -> Any:
-        """Declare a parameter; returns its value (an override if one was given)."""
+                          read_only: bool = False) -> Parameter:
+        """Declare a parameter; returns it as rclpy does (``.value`` is an override if one
+        was given, else ``default``)."""
         if name in self._parameters:
             raise ParameterError(f"parameter {name} of {self.fully_qualified_name} is "
                                  "already declared")
         kind = type_of(default)
         value = coerce(name, kind, self._overrides.get(name, default))
         self._parameters[name] = Parameter(name, value, kind, description, read_only)
-        return value
+        return replace(self._parameters[name])
 
-    def get_parameter(self, name: str) -> Any:
-        return self._parameter(name).value
+    def get_parameter(self, name: str) -> Parameter:
+        """The parameter (a copy: ``.value``, ``.type``), as rclpy's ``get_parameter``."""
+        return replace(self._parameter(name))
+
+    def get_parameters(self, names: list[str]) -> list[Parameter]:
+        return [self.get_parameter(name) for name in names]
+
+    def has_parameter(self, name: str) -> bool:
+        return name in self._parameters
 
     def set_parameter(self, name: str, value: Any) -> None:
         """Change a parameter at run time; a refusal (read-only, wrong type, an on-set
@@ -508,8 +344,12 @@ class Node:
 
     # -- logging and life --------------------------------------------------------------------
 
-    def get_logger(self) -> logging.Logger:
+    def get_logger(self) -> NodeLogger:
         return self._logger
+
+    def get_clock(self) -> Any:
+        """The context's clock (wall time, or a simulation's): ``now()``, ``sleep()``."""
+        return self.context.clock
 
     def destroy(self) -> None:
         for entity in reversed(self._entities):
@@ -522,11 +362,7 @@ class Node:
         self._entities.clear()
         self.context.remove_node(self)
 
+    def destroy_node(self) -> None:
+        """rclpy's name for :meth:`destroy`."""
+        self.destroy()
 
-def _takes_two(callback: Callable[..., Any]) -> bool:
-    try:
-        params = [p for p in inspect.signature(callback).parameters.values()
-                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-    except (TypeError, ValueError):
-        return False
-    return len(params) >= 2

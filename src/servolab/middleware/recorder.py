@@ -15,7 +15,8 @@ from typing import Any
 
 from .bag import BagWriter, qos_profile
 from .context import Context
-from .node import Node, Subscription
+from .node import Node
+from .subscription import Subscription
 from .transport import MessageInfo
 
 
@@ -69,7 +70,8 @@ class Recorder(Node):
                 kind = self.context.types.check(kinds.pop())
             self.writer.add_topic(topic, kind, offered.get(topic, ()))
             self._subscriptions.append(self.create_subscription(
-                kind, topic, self._writer_for(topic), depth=0, raw=True))
+                kind, topic, self._writer_for(topic), qos_profile=0, raw=True,
+                with_info=True))
             del self._pending[topic]
             self.get_logger().info("recording %s [%s]", topic, kind)
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from .messages import MessageTypes, ServiceType
+from .qos import QoSProfile
 
 
 @dataclass(frozen=True)
@@ -102,14 +103,17 @@ class Transport(ABC):
 
     @abstractmethod
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int, *, reliable: bool = True) -> TransportPublisher:
-        """A publisher with ROS's history (``depth`` messages, 0: KEEP_ALL) and reliability.
-        Its ``publish()`` must not wait on a slow or stopped subscriber unless the QoS is
-        RELIABLE + KEEP_ALL (rmw_zenoh's rule): a control loop publishes."""
+                  qos: QoSProfile) -> TransportPublisher:
+        """A publisher with the profile's history, reliability and durability. Its
+        ``publish()`` must not wait on a slow or stopped subscriber unless the QoS is
+        RELIABLE + KEEP_ALL (rmw_zenoh's rule): a control loop publishes. With
+        TRANSIENT_LOCAL it keeps its last ``depth`` messages for subscriptions made later."""
 
     @abstractmethod
-    def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
-                  deliver: Deliver, *, raw: bool = False) -> Closeable: ...
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
+                  deliver: Deliver, *, raw: bool = False) -> Closeable:
+        """Call ``deliver`` for each message; with TRANSIENT_LOCAL first for what
+        TRANSIENT_LOCAL publishers kept, oldest first."""
 
     @abstractmethod
     def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:

@@ -37,6 +37,7 @@ import zenoh
 
 from .errors import MessageError, ServiceError, TransportError
 from .messages import MessageTypes, ServiceType
+from .qos import QoSProfile
 from .rmw_zenoh import (
     ADMIN_SPACE,
     EntityKind,
@@ -189,29 +190,30 @@ class ZenohTransport(Transport):
         return topic_keyexpr(self.domain_id, name, type_name, self.types.rihs01(type_name))
 
     def _token(self, node: NodeInfo, kind: EntityKind, name: str, type_name: str,
-               depth: int, entity_id: int, reliable: bool = True) -> Any:
+               qos: QoSProfile, entity_id: int) -> Any:
         """Declare the entity's liveliness token: always *after* the entity itself, as
         rmw_zenoh does, so that whoever sees the token (a publisher waiting for a
         subscriber, a client for a service) can rely on the entity already being there."""
         key = entity_token(self.domain_id, self.session_id, node.node_id, entity_id, kind,
                            node.name, name, type_name, self.types.rihs01(type_name),
                            namespace=node.namespace,
-                           qos=Qos(reliable=reliable, depth=depth, keep_all=depth == 0))
+                           qos=Qos(reliable=qos.reliable, transient_local=qos.transient_local,
+                                   keep_all=qos.keep_all, depth=qos.depth))
         return self.session.liveliness().declare_token(key)
 
     # -- topics ------------------------------------------------------------------------------
 
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
-                  depth: int, *, reliable: bool = True) -> ZenohPublisher:
+                  qos: QoSProfile) -> ZenohPublisher:
         entity_id = next(self._entity_ids)
         publisher = ZenohPublisher(self, self._key(topic, type_name), type_name,
-                                   gid_from(self.session_id, entity_id), reliable=reliable,
-                                   depth=depth)
-        publisher._add_token(self._token(node, EntityKind.PUBLISHER, topic, type_name, depth,
-                                         entity_id, reliable))
+                                   gid_from(self.session_id, entity_id), reliable=qos.reliable,
+                                   depth=qos.queue_depth)
+        publisher._add_token(self._token(node, EntityKind.PUBLISHER, topic, type_name, qos,
+                                         entity_id))
         return publisher
 
-    def subscribe(self, node: NodeInfo, topic: str, type_name: str, depth: int,
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
                   deliver: Deliver, *, raw: bool = False) -> Closeable:
         def on_sample(sample: zenoh.Sample) -> None:
             received = time.time_ns()
@@ -225,7 +227,7 @@ class ZenohTransport(Transport):
             deliver(sample.payload.to_bytes(), info)
 
         subscriber = self.session.declare_subscriber(self._key(topic, type_name), on_sample)
-        token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, depth,
+        token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, qos,
                             next(self._entity_ids))
         return _Declared(subscriber, token)
 
@@ -255,7 +257,7 @@ class ZenohTransport(Transport):
 
         queryable = self.session.declare_queryable(self._key(name, srv.name), on_query,
                                                    complete=True)
-        token = self._token(node, EntityKind.SERVICE, name, srv.name, 10,
+        token = self._token(node, EntityKind.SERVICE, name, srv.name, QoSProfile(),
                             next(self._entity_ids))
         return _Declared(queryable, token)
 

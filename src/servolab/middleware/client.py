@@ -1,0 +1,64 @@
+"""A service client: calls one service by name (rclpy's ``Client``)."""
+
+from __future__ import annotations
+
+from concurrent.futures import Future
+from concurrent.futures import TimeoutError as FutureTimeout
+from typing import TYPE_CHECKING, Any
+
+from .errors import MessageError, ServiceError
+from .messages import ServiceType
+
+if TYPE_CHECKING:
+    from .node import Node
+
+
+class Client:
+    """Calls a service: ``call(request)`` blocks; ``call_async`` returns a Future."""
+
+    def __init__(self, node: Node, srv: ServiceType, name: str) -> None:
+        self.node = node
+        self.srv = srv
+        self.name = name
+
+    def request(self, **fields: Any) -> Any:
+        return self.node.context.types.from_value(self.srv.request, fields)
+
+    def call(self, request: Any | None = None, timeout: float = 5.0) -> Any:
+        """The response, waiting up to ``timeout`` s. When no other thread spins the
+        executor, this one does while it waits, so a server in this process can answer."""
+        future = self.call_async(request, timeout)
+        executor = self.node.context.executor
+        if not executor.spinning_elsewhere:
+            executor.spin_until(future.done, timeout)
+        try:
+            return future.result(timeout=0 if future.done() else timeout)
+        except FutureTimeout:
+            raise ServiceError(f"service {self.name} did not answer within "
+                               f"{timeout:g} s") from None
+
+    def call_async(self, request: Any | None = None, timeout: float = 5.0) -> Future[Any]:
+        request = self.request() if request is None else request
+        if getattr(request, "__msgtype__", None) != self.srv.request:
+            raise MessageError(f"{self.name} takes a {self.srv.request}, not "
+                               f"{getattr(request, '__msgtype__', type(request).__name__)}")
+        return self.node.context.transport.call(self.name, self.srv, request, timeout)
+
+    def wait_for_service(self, timeout_sec: float | None = None) -> bool:
+        """True once a server of this service is in the graph; False after ``timeout_sec``
+        s (None: wait as long as it takes, as rclpy does)."""
+        clock = self.node.context.clock
+        end = None if timeout_sec is None else clock.now() + timeout_sec
+        while True:
+            if self.service_is_ready():
+                return True
+            if end is not None and clock.now() >= end:
+                return False
+            clock.sleep(0.05)
+
+    def service_is_ready(self) -> bool:
+        return any(e.kind == "SS" and e.name == self.name
+                   for e in self.node.context.transport.graph(0.2))
+
+    def destroy(self) -> None:
+        pass
