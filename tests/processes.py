@@ -10,11 +10,14 @@ from contextlib import contextmanager
 
 
 @contextmanager
-def started(args: list[str], env: dict[str, str] | None = None
-            ) -> Iterator[subprocess.Popen[str]]:
+def started(args: list[str], env: dict[str, str] | None = None, *,
+            stderr_to_stdout: bool = False) -> Iterator[subprocess.Popen[str]]:
     """A process that is always stopped (SIGINT, then kill) when the block ends; ``env``
-    defaults to this process's environment."""
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    defaults to this process's environment. ``stderr_to_stdout`` reads both as one stream
+    (a program that logs to stderr, as rclpy's loggers do)."""
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT if stderr_to_stdout else subprocess.PIPE,
+                            text=True,
                             env={**(os.environ if env is None else env),
                                  "PYTHONUNBUFFERED": "1"})
     try:

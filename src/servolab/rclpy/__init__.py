@@ -16,32 +16,95 @@ Everything here works on the default context (:mod:`servolab.middleware.default_
 
 from __future__ import annotations
 
+import logging
 from concurrent.futures import Future
 from typing import Any
 
 from servolab.middleware.context import Context
-from servolab.middleware.default_context import default_context, is_initialized
+from servolab.middleware.default_context import (
+    default_context,
+    is_initialized,
+    options_from_environment,
+)
 from servolab.middleware.default_context import init as _init
 from servolab.middleware.default_context import shutdown as _shutdown
-from servolab.middleware.node import Node
+from servolab.middleware.node import LOGGER_PREFIX, Node
 from servolab.middleware.transport import TransportOptions
 
-__all__ = ["create_node", "get_default_context", "init", "ok", "shutdown", "spin", "spin_once",
+__all__ = ["InitContextManager", "create_node", "get_default_context", "init", "ok", "shutdown",
+           "spin", "spin_once",
            "spin_until_future_complete", "try_shutdown"]
 
 
-def init(args: list[str] | None = None, *, context: Any = None, domain_id: int | None = None,
-         options: TransportOptions | None = None) -> None:
-    """Open the default context. ``args`` (ROS's ``--ros-args``) and ``context`` are accepted
-    for rclpy's signature and not used; ``domain_id`` is the ROS domain, as in rclpy."""
+class InitContextManager:
+    """What :func:`init` returns, as in rclpy: ``with rclpy.init():`` shuts the default
+    context down when the block ends."""
+
+    def __enter__(self) -> InitContextManager:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        shutdown()
+
+
+def init(*, args: list[str] | None = None, context: Any = None, domain_id: int | None = None,
+         options: TransportOptions | None = None, **_: Any) -> InitContextManager:
+    """Open the default context. ``args`` (ROS's ``--ros-args``) is accepted for rclpy's
+    signature and not used; ``domain_id`` is the ROS domain, as in rclpy. The transport is
+    ``options``, else the environment's (``SERVOLAB_TRANSPORT`` etc., see
+    :mod:`servolab.middleware.default_context`)."""
     if context is not None:
         raise ValueError("servolab.rclpy.init uses the default context; for another one, "
                          "open a servolab.middleware.Context and pass it to Node(context, name)")
     if domain_id is not None:
-        from servolab.middleware.default_context import options_from_environment
         options = options or options_from_environment()
         options.domain_id = domain_id
     _init(options)
+    _console_logging()
+    return InitContextManager()
+
+
+class _RclpyFormatter(logging.Formatter):
+    """rcutils' default console format: ``[INFO] [1700000000.123456789] [talker]: text``."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        name = record.name.removeprefix(LOGGER_PREFIX).strip("/").replace("/", ".")
+        level = "WARN" if record.levelname == "WARNING" else (
+            "FATAL" if record.levelname == "CRITICAL" else record.levelname)
+        text = f"[{level}] [{record.created:.9f}] [{name}]: {record.getMessage()}"
+        if record.exc_info:
+            text += "\n" + self.formatException(record.exc_info)
+        return text
+
+
+class _Console:
+    """The stderr handler :func:`init` adds (and :func:`shutdown` removes) when the program
+    set up no logging of its own."""
+
+    handler: logging.Handler | None = None
+    level: int = logging.NOTSET
+
+
+def _console_logging() -> None:
+    """Nodes' INFO and above to stderr, as rclpy prints them, unless the program set up
+    logging itself (then its handlers decide)."""
+    servolab = logging.getLogger("servolab")
+    if logging.getLogger().handlers or servolab.handlers:
+        return
+    _Console.handler = logging.StreamHandler()
+    _Console.handler.setFormatter(_RclpyFormatter())
+    _Console.level = servolab.level
+    servolab.addHandler(_Console.handler)
+    if servolab.level == logging.NOTSET:
+        servolab.setLevel(logging.INFO)
+
+
+def _console_logging_off() -> None:
+    if _Console.handler is not None:
+        servolab = logging.getLogger("servolab")
+        servolab.removeHandler(_Console.handler)
+        servolab.setLevel(_Console.level)
+        _Console.handler = None
 
 
 def get_default_context() -> Context:
@@ -55,13 +118,16 @@ def ok(context: Any = None) -> bool:
 
 def shutdown(context: Any = None) -> None:
     _shutdown()
+    _console_logging_off()
 
 
 def try_shutdown(context: Any = None) -> None:
-    _shutdown()
+    shutdown()
 
 
 def create_node(node_name: str, *, namespace: str | None = None, **kwargs: Any) -> Node:
+    if not is_initialized():
+        init()
     return Node(node_name, namespace=namespace, **kwargs)
 
 
