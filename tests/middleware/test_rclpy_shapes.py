@@ -283,6 +283,13 @@ def test_parameters_and_services_in_rclpys_shape(ctx: Context) -> None:
     client = node.create_client("std_srvs/srv/Trigger", "/somebody")
     assert client.wait_for_service(timeout_sec=2.0)
     assert client.call(client.request(), timeout=2.0).success is True
+    # service classes, as rclpy code names them
+    from servolab.interfaces.std_srvs.srv import SetBool
+    node.create_service(SetBool, "/switch",
+                        lambda req, resp: (setattr(resp, "success", req.data), resp)[1])
+    switch = node.create_client(SetBool, "/switch")
+    future = switch.call_async(SetBool.Request(data=True))
+    assert ctx.spin_until(future.done, timeout=2.0) and future.result().success is True
 
 
 def test_logger_throttle_once_and_skip_first(ctx: Context,

@@ -64,7 +64,7 @@ class LocalPublisher(TransportPublisher):
         self.topic = topic
         self.type_name = type_name
         self._sequence = itertools.count(1)
-        self._endpoint = Endpoint("MP", node.fully_qualified_name, topic, type_name)
+        self._endpoint = Endpoint("MP", node.fully_qualified_name, topic, type_name, qos)
         #: TRANSIENT_LOCAL's history: (message, info) for late subscriptions
         self.kept: deque[tuple[Any, MessageInfo]] | None = (
             deque(maxlen=qos.queue_depth or None) if qos.transient_local else None)
@@ -147,7 +147,7 @@ class LocalTransport(Transport):
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
                   deliver: Deliver, *, raw: bool = False) -> Closeable:
         sub = _Subscriber(node, topic, type_name, deliver, raw)
-        endpoint = Endpoint("MS", node.fully_qualified_name, topic, type_name)
+        endpoint = Endpoint("MS", node.fully_qualified_name, topic, type_name, qos)
         with self._lock:
             if qos.transient_local:  # what the publishers kept, before anything new
                 for publisher in self._publishers.get(topic, ()):

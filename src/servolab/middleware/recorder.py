@@ -16,6 +16,7 @@ from typing import Any
 from .bag import BagWriter, qos_profile
 from .context import Context
 from .node import Node
+from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from .subscription import Subscription
 from .transport import MessageInfo
 
@@ -48,29 +49,24 @@ class Recorder(Node):
         if not self._pending:
             return
         seen: dict[str, set[str]] = {}
-        offered: dict[str, list[dict[str, Any]]] = {}
-        # The graph is asked only when a type must come from it (asking costs up to 0.2 s).
-        graph = (self.context.transport.graph(0.2)
-                 if any(kind is None for kind in self._pending.values()) else [])
-        for e in graph:
+        offered: dict[str, list[QoSProfile]] = {}
+        for e in self.context.transport.graph(0.2):
             if e.kind == "MP" and e.name in self._pending:
                 seen.setdefault(e.name, set()).add(e.type_name)
-                # One profile per publisher, as rosbag2 records them, when the graph has them
-                # (transport.Endpoint does not carry QoS yet: then the list is empty).
-                qos = getattr(e, "qos", None)
-                if qos is not None:
-                    offered.setdefault(e.name, []).append(qos_profile(
-                        reliable=qos.reliable, transient_local=qos.transient_local,
-                        keep_all=qos.keep_all, depth=qos.depth))
+                if e.qos is not None:  # one profile per publisher, as rosbag2 records them
+                    offered.setdefault(e.name, []).append(e.qos)
         for topic, kind in list(self._pending.items()):
             if kind is None:
                 kinds = seen.get(topic, set())
                 if len(kinds) != 1:
                     continue  # not there yet (or ambiguous: wait for --type)
                 kind = self.context.types.check(kinds.pop())
-            self.writer.add_topic(topic, kind, offered.get(topic, ()))
+            offers = offered.get(topic, [])
+            self.writer.add_topic(topic, kind, [qos_profile(
+                reliable=q.reliable, transient_local=q.transient_local, keep_all=q.keep_all,
+                depth=q.depth) for q in offers])
             self._subscriptions.append(self.create_subscription(
-                kind, topic, self._writer_for(topic), qos_profile=0, raw=True,
+                kind, topic, self._writer_for(topic), request_for(offers), raw=True,
                 with_info=True))
             del self._pending[topic]
             self.get_logger().info("recording %s [%s]", topic, kind)
@@ -95,3 +91,17 @@ class Recorder(Node):
                 subscription.drain()
         finally:
             self.writer.close()
+
+
+def request_for(offers: list[QoSProfile]) -> QoSProfile:
+    """The subscription that hears every publisher, as rosbag2 adapts it
+    (``Rosbag2QoS::adapt_request_to_offers``, rosbag2_storage/qos.cpp): KEEP_ALL, so a burst
+    is kept whole; TRANSIENT_LOCAL only if every publisher offers it (then what they kept is
+    recorded too); RELIABLE only if every publisher is."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_ALL, depth=0,
+        reliability=(ReliabilityPolicy.RELIABLE if all(q.reliable for q in offers)
+                     else ReliabilityPolicy.BEST_EFFORT),
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL
+                    if offers and all(q.transient_local for q in offers)
+                    else DurabilityPolicy.VOLATILE))

@@ -42,6 +42,8 @@ class Endpoint:
     node: str                      # fully qualified node name
     name: str = ""                 # fully qualified topic or service name ("" for a node)
     type_name: str = ""            # pkg/msg/Name or pkg/srv/Name
+    #: the QoS a publisher offers or a subscription requests (None where the graph has none)
+    qos: QoSProfile | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ import zenoh
 
 from .errors import MessageError, ServiceError, TransportError
 from .messages import MessageTypes, ServiceType
-from .qos import QoSProfile
+from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from .rmw_zenoh import (
     ADMIN_SPACE,
     EntityKind,
@@ -315,7 +315,7 @@ class ZenohTransport(Transport):
                 continue  # a token of another rmw version or tool: not ours to judge
             fqn = f"{entity.namespace.rstrip('/')}/{entity.node_name}"
             endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
-                                      entity.type_name or ""))
+                                      entity.type_name or "", _profile(entity.qos)))
         return endpoints
 
     def check_reachable(self, timeout: float = 2.0) -> None:
@@ -337,3 +337,15 @@ class ZenohTransport(Transport):
                 return
             self._closed = True
         self.session.close()
+
+
+def _profile(qos: Qos | None) -> QoSProfile | None:
+    """A token's QoS as a profile (None for a node, whose token has none)."""
+    if qos is None:
+        return None
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_ALL if qos.keep_all else HistoryPolicy.KEEP_LAST,
+        depth=qos.depth if qos.depth or qos.keep_all else 1,
+        reliability=ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL if qos.transient_local
+                    else DurabilityPolicy.VOLATILE))
