@@ -99,8 +99,8 @@ def test_stopped_subscriber_does_not_block_publish_or_timers(types, reliable: bo
     (False, 10, "BEST_EFFORT", "DROP"), (False, 0, "BEST_EFFORT", "DROP")])
 def test_a_nodes_publisher_takes_its_qos_to_the_wire(types, reliable: bool, depth: int,
                                                      reliability: str, control: str) -> None:
-    """``create_publisher(..., QoSProfile(reliability=...))`` reaches the Zenoh publisher: its reliability,
-    and congestion control as rmw_zenoh's rmw_publisher_data.cpp sets it."""
+    """``create_publisher(..., QoSProfile(reliability=...))`` reaches the Zenoh publisher: its
+    reliability, and congestion control as rmw_zenoh's rmw_publisher_data.cpp sets it."""
     ctx = Context.open(TransportOptions("zenoh", listen=[f"tcp/127.0.0.1:{free_port()}"]),
                        types=types)
     try:

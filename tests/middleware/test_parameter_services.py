@@ -146,7 +146,8 @@ def test_set_parameters_answers_one_result_each(ctx: Context, talker: Node) -> N
     assert results[2].reason == "Invalid access to undeclared parameter(s): ['speed']"
     assert results[3].reason == "Trying to set a read-only parameter: port."
     assert results[4].reason == "Static parameter cannot be undeclared"
-    assert talker.get_parameter("rate").value == 9.0 and talker.get_parameter("names").value == ["a", "b"]
+    assert talker.get_parameter("rate").value == 9.0
+    assert talker.get_parameter("names").value == ["a", "b"]
 
 
 def test_set_parameters_atomically_is_all_or_nothing(ctx: Context, talker: Node) -> None:
@@ -166,7 +167,8 @@ def test_set_parameters_atomically_is_all_or_nothing(ctx: Context, talker: Node)
         {"name": "rate", "value": {"type": DOUBLE, "double_value": 9.0}},
         {"name": "camera.width", "value": {"type": INTEGER, "integer_value": 1280}}]).result
     assert result.successful and result.reason == ""
-    assert talker.get_parameter("rate").value == 9.0 and talker.get_parameter("camera.width").value == 1280
+    assert talker.get_parameter("rate").value == 9.0
+    assert talker.get_parameter("camera.width").value == 1280
 
 
 def test_on_set_parameters_callback_vetoes_with_its_reason(ctx: Context, talker: Node) -> None:
