@@ -93,8 +93,6 @@ def test_topic_list_hz_and_params_of_a_running_node() -> None:
      "servolab topic pub: error: unknown message type 'nav_msgs/msg/Odometryy'"),
     (["topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", "{linear: {x: fast}}"],
      "servolab topic pub: error: geometry_msgs/msg/Twist linear.x: 'fast' is not a float64"),
-    (["topic", "pub", "bad//name", "std_msgs/msg/Float64", "1"],
-     "servolab topic pub: error: invalid ROS name 'bad//name'"),
     (["topic", "list", "--connect", "localhost:7447"],
      "servolab topic list: error: Zenoh endpoint 'localhost:7447' is not"),
     (["topic", "list", "--transport", "local", "--listen", "tcp/127.0.0.1:1"],
@@ -106,3 +104,15 @@ def test_bad_input_is_one_line_naming_it(args: list[str], message: str) -> None:
     assert result.returncode == 2
     assert result.stderr.startswith(message), result.stderr
     assert result.stderr.count("\n") == 1
+
+
+def test_a_bad_name_is_shown_with_a_mark_under_its_first_bad_character() -> None:
+    """As rclpy shows a name error (rclpy/validate_topic_name.py): the rule, then the name,
+    then a caret under the first character that breaks it; exit status 2."""
+    result = cli("topic", "pub", "bad//name", "std_msgs/msg/Float64", "1", "--transport", "local")
+    assert result.returncode == 2
+    first, name, mark = result.stderr.splitlines()
+    assert first.startswith("servolab topic pub: error: Invalid topic name: topic name must not "
+                            "contain repeated '/'")
+    assert name.strip() == "'/bad//name'"
+    assert name.index("//") + 1 == mark.index("^")

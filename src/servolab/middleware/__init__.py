@@ -29,7 +29,8 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("BagInfo", "BagMessage", "BagReader", "BagWriter", "play"), "bag"),
     "Context": "context",
     **dict.fromkeys(("BagError", "LaunchError", "MessageError", "MiddlewareError",
-                     "ParameterError", "ServiceError", "TransportError"), "errors"),
+                     "NameValidationError", "ParameterError", "ServiceError",
+                     "TransportError"), "errors"),
     **dict.fromkeys(("Executor", "Timer"), "executor"),
     **dict.fromkeys(("launch_main", "run_launch"), "launch"),
     **dict.fromkeys(("LaunchFile", "load_launch"), "launch_file"),
@@ -50,10 +51,10 @@ _EXPORTS: dict[str, str] = {
 __all__ = [
     "BagError", "BagInfo", "BagMessage", "BagReader", "BagWriter", "Client", "Context",
     "DurabilityPolicy", "Executor", "HistoryPolicy", "LaunchError", "LaunchFile",
-    "MessageError", "MessageInfo", "MessageTypes", "MiddlewareError", "Node", "Parameter",
-    "ParameterError", "ParameterOverrides", "Publisher", "QoSProfile", "Rate", "Recorder",
-    "ReliabilityPolicy", "Service", "ServiceError", "Subscription", "Timer", "TransportError",
-    "TransportOptions", "launch_main", "load_launch", "play", "run_launch",
+    "MessageError", "MessageInfo", "MessageTypes", "MiddlewareError", "NameValidationError",
+    "Node", "Parameter", "ParameterError", "ParameterOverrides", "Publisher", "QoSProfile",
+    "Rate", "Recorder", "ReliabilityPolicy", "Service", "ServiceError", "Subscription", "Timer",
+    "TransportError", "TransportOptions", "launch_main", "load_launch", "play", "run_launch",
 ]
 
 
@@ -68,6 +69,7 @@ if TYPE_CHECKING:
         LaunchError,
         MessageError,
         MiddlewareError,
+        NameValidationError,
         ParameterError,
         ServiceError,
         TransportError,

@@ -1,7 +1,9 @@
 """Exceptions of the middleware.
 
 As in :mod:`servolab.dynamixel.errors`, each message is one line that names the topic, type,
-field, file, line or key at fault, so the user knows what to fix.
+field, file, line or key at fault, so the user knows what to fix — except a bad ROS name's
+(:class:`NameValidationError`), which shows the name and a caret under the bad character below
+its first line, as rclpy does.
 """
 
 from __future__ import annotations
@@ -15,6 +17,43 @@ class MiddlewareError(ServolabError):
 
 class MessageError(MiddlewareError, ValueError):
     """An unknown message type, or a value that does not fit a message field."""
+
+
+class NameValidationError(MiddlewareError, ValueError):
+    """A node name, namespace, enclave, topic or service name that breaks ROS 2's rules.
+
+    The one exception to the one-line rule: as rclpy's ``NameValidationException`` shows it,
+    the first line says which kind of name is wrong and the rule it breaks, the next two show
+    the name and a caret under its first bad character::
+
+        Invalid node name: node name must not contain characters other than alphanumerics or '_':
+          'my-node'
+             ^
+
+    The parts are kept for programs: ``kind`` ("node name", "namespace", "topic name", ...),
+    ``name``, ``reason`` (rcl's / rmw's rule text) and ``index`` (of the bad character);
+    :attr:`summary` is one line, for messages that must stay one line (config files, tokens).
+    It is a :class:`ValueError`, as every error about a value the user gave is.
+    """
+
+    def __init__(self, kind: str, name: str, reason: str, index: int) -> None:
+        self.kind = kind
+        self.name = name
+        self.reason = reason
+        self.index = index
+        # Characters that would break the display (newlines, tabs) are shown escaped, and the
+        # caret moved by as many columns as the escapes take.
+        shown = [c if c.isprintable() else repr(c)[1:-1] for c in name]
+        column = sum(len(c) for c in shown[:index])
+        super().__init__(f"Invalid {kind}: {reason}:\n  '{''.join(shown)}'\n   {' ' * column}^")
+
+    @property
+    def summary(self) -> str:
+        """The same in one line: ``invalid node name 'my-node': node name must ... (index 2)``."""
+        return f"invalid {self.kind} {self.name!r}: {self.reason} (index {self.index})"
+
+    def __reduce__(self) -> tuple[type[NameValidationError], tuple[str, str, str, int]]:
+        return type(self), (self.kind, self.name, self.reason, self.index)
 
 
 class ParameterError(MiddlewareError, ValueError):

@@ -46,11 +46,11 @@ from ..configfile import (
     load,
     unknown_key,
 )
-from .errors import LaunchError, LaunchFileError, MessageError, ParameterError
+from .errors import LaunchError, LaunchFileError, NameValidationError, ParameterError
+from .names import check_node_name, node_namespace
+from .names import fully_qualified_name as resolve_name
 from .node import Node
 from .parameters import ParameterOverrides, type_of
-from .rmw_zenoh import check_node_name, node_namespace
-from .rmw_zenoh import fully_qualified_name as resolve_name
 from .transport import TransportOptions
 
 #: The process group of a node entry that names none.
@@ -326,8 +326,8 @@ class _Parser:
         where = f"node {name!r}"
         try:
             check_node_name(name)
-        except MessageError as exc:
-            raise self.error(name_node, where, f"key 'name': {exc}") from None
+        except NameValidationError as exc:  # one line, as every launch file error
+            raise self.error(name_node, where, f"key 'name': {exc.summary}") from None
         if "node" in fields and "exec" in fields:
             raise self.error(fields.key_of("exec"), where, "key 'exec': give 'node' or "
                              "'exec', not both")
@@ -370,8 +370,9 @@ class _Parser:
             namespace = self.text(namespace_node, where, "namespace")
             try:
                 entry.namespace = node_namespace(namespace, entry.name)
-            except MessageError as exc:
-                raise self.error(namespace_node, where, f"key 'namespace': {exc}") from None
+            except NameValidationError as exc:
+                raise self.error(namespace_node, where,
+                                 f"key 'namespace': {exc.summary}") from None
         if (process := fields.get("process")) is not None:
             entry.process = self.text(process, where, "process")
             if not _PROCESS_NAME.fullmatch(entry.process):
@@ -384,8 +385,9 @@ class _Parser:
                 try:
                     resolve_name(source, entry.namespace, entry.name)
                     resolve_name(target, entry.namespace, entry.name)
-                except MessageError as exc:
-                    raise self.error(target_node, where, f"key 'remappings': {exc}") from None
+                except NameValidationError as exc:
+                    raise self.error(target_node, where,
+                                     f"key 'remappings': {exc.summary}") from None
                 entry.remappings[source] = target
         if (parameters := fields.get("parameters")) is not None:
             for item in parameters.one_or_many():

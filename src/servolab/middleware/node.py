@@ -26,6 +26,8 @@ from .errors import ParameterError
 from .executor import Timer
 from .logger import NodeLogger
 from .messages import ServiceType
+from .names import check_node_name, node_namespace
+from .names import fully_qualified_name as resolve_name
 from .parameters import (
     Parameter,
     SetParametersResult,
@@ -38,8 +40,6 @@ from .parameters import (
 from .publisher import Publisher
 from .qos import QoSProfile, as_profile
 from .rate import Rate
-from .rmw_zenoh import check_node_name, node_namespace
-from .rmw_zenoh import fully_qualified_name as resolve_name
 from .service import Service
 from .subscription import Subscription
 from .transport import NodeInfo

@@ -14,7 +14,16 @@ import struct
 from dataclasses import dataclass
 from enum import StrEnum
 
-from .errors import MessageError
+from .errors import MessageError, NameValidationError
+
+# Re-exported, explicitly: node.py imports them from here until it moves to .names.
+from .names import (
+    node_namespace,
+    validate_enclave_name,
+    validate_full_topic_name,
+    validate_namespace,
+    validate_node_name,
+)
 
 ADMIN_SPACE = "@ros2_lv"
 #: rmw_zenoh's default depth: a token leaves the depth empty only when it is this, so the
@@ -22,8 +31,6 @@ ADMIN_SPACE = "@ros2_lv"
 RMW_ZENOH_DEFAULT_DEPTH = 42
 GID_SIZE = 16
 
-_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_FQN = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 _SESSION = re.compile(r"[0-9a-f]{1,32}")
 _HASH = re.compile(r"RIHS[0-9]{2}_[0-9a-f]+")
 _ROS_TYPE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)/([a-z]+)/([A-Za-z_][A-Za-z0-9_]*)")
@@ -43,9 +50,9 @@ class EntityKind(StrEnum):
 
 
 # -- names ------------------------------------------------------------------------------------
+# ROS names (node names, namespaces, topics) are checked by :mod:`.names`, with ROS 2's rules.
 
 _RULES = {  # what -> (pattern, what it must be), for one-line errors that name the value
-    "ROS node name": (_TOKEN, "letters, digits and _, not starting with a digit"),
     "session id": (_SESSION, "1 to 32 lowercase hex digits"),
     "type hash": (_HASH, "RIHS01_<hex>"),
 }
@@ -64,44 +71,9 @@ def _check_id(value: int, what: str) -> int:
     return value
 
 
-def _check_fqn(name: str, what: str, shown: str | None = None) -> str:
-    if not _FQN.fullmatch(name):
-        raise MessageError(f"invalid ROS {what} {shown or repr(name)}: must be /-separated "
-                           "tokens of letters, digits and _, none starting with a digit, "
-                           "no // or trailing /")
-    return name
-
-
-def _namespace(namespace: str, what: str = "namespace") -> str:
-    """``/`` at the root; a relative namespace gets its leading ``/``, as rcl gives it."""
-    if namespace in ("", "/"):
-        return "/"
-    return _check_fqn(namespace if namespace.startswith("/") else f"/{namespace}", what)
-
-
-def fully_qualified_name(name: str, namespace: str = "/", node_name: str = "") -> str:
-    """``/robot1/chatter`` for ``chatter`` in ``/robot1``; ``~/x`` is ``/<ns>/<node>/x``."""
-    prefix = _namespace(namespace).rstrip("/")
-    if name == "~" or name.startswith("~/"):
-        if not node_name:
-            raise MessageError(f"private ROS name {name!r} needs a node name")
-        full = f"{prefix}/{_check('ROS node name', node_name)}{name[1:]}"
-    else:
-        full = name if name.startswith("/") else f"{prefix}/{name}"
-    return _check_fqn(full, "name", repr(name))
-
-
-def node_namespace(namespace: str, node_name: str = "") -> str:
-    """A node's namespace, fully qualified: ``/`` for the root (or ""), ``/robot1`` for
-    ``robot1``."""
-    if namespace in ("", "/"):
-        return "/"
-    return fully_qualified_name(namespace, "/", node_name)
-
-
-def check_node_name(name: str) -> str:
-    """A valid node name, or a one-line error naming it."""
-    return _check("ROS node name", name)
+def _enclave(enclave: str) -> str:
+    """``/`` for ``""`` (rcl's default enclave), else a valid enclave name."""
+    return validate_enclave_name(enclave or "/")
 
 
 def mangle(name: str) -> str:
@@ -133,7 +105,7 @@ def topic_keyexpr(domain_id: int, fqn: str, ros_type_name: str, type_hash: str) 
 
     The type name and hash are in the key so that endpoints of different types never meet."""
     _check_id(domain_id, "domain id")
-    return (f"{domain_id}/{_check_fqn(fqn, 'topic or service name')[1:]}/"
+    return (f"{domain_id}/{validate_full_topic_name(fqn)[1:]}/"
             f"{dds_type_name(ros_type_name)}/{_check('type hash', type_hash)}")
 
 
@@ -189,8 +161,8 @@ def _node_part(domain_id: int, session_id: str, node_id: int, entity_id: int, ki
                node_name: str, namespace: str, enclave: str) -> str:
     return (f"{ADMIN_SPACE}/{_check_id(domain_id, 'domain id')}/{_check('session id', session_id)}/"
             f"{_check_id(node_id, 'node id')}/{_check_id(entity_id, 'entity id')}/{kind}/"
-            f"{mangle(_namespace(enclave, 'enclave'))}/{mangle(_namespace(namespace))}/"
-            f"{_check('ROS node name', node_name)}")
+            f"{mangle(_enclave(enclave))}/{mangle(node_namespace(namespace))}/"
+            f"{validate_node_name(node_name)}")
 
 
 def node_token(domain_id: int, session_id: str, node_id: int, node_name: str,
@@ -211,7 +183,8 @@ def entity_token(domain_id: int, session_id: str, node_id: int, entity_id: int,
                            "use node_token)")
     head = _node_part(domain_id, session_id, node_id, entity_id, EntityKind(kind), node_name,
                       namespace, enclave)
-    return (f"{head}/{mangle(_check_fqn(topic, 'topic or service name'))}/"
+    topic = validate_full_topic_name(topic, is_service=kind in ("SS", "SC"))
+    return (f"{head}/{mangle(topic)}/"
             f"{dds_type_name(ros_type_name)}/{_check('type hash', type_hash)}/"
             f"{(qos or Qos()).to_keyexpr()}")
 
@@ -268,13 +241,16 @@ def parse_token(token: str) -> Entity:
         if len(chunks) != expected:
             raise ValueError(f"a {kind} token has {expected} chunks, not {len(chunks)}")
         common = (int(chunks[1]), _check("session id", chunks[2]), int(chunks[3]), int(chunks[4]),
-                  kind, _namespace(unmangle(chunks[6]), "enclave"),
-                  _namespace(unmangle(chunks[7])), _check("ROS node name", chunks[8]))
+                  kind, validate_enclave_name(unmangle(chunks[6])),
+                  validate_namespace(unmangle(chunks[7])), validate_node_name(chunks[8]))
         if kind == EntityKind.NODE:
             return Entity(*common)
-        return Entity(*common, _check_fqn(unmangle(chunks[9]), "topic or service name"),
+        service = kind in (EntityKind.SERVICE, EntityKind.CLIENT)
+        return Entity(*common, validate_full_topic_name(unmangle(chunks[9]), is_service=service),
                       ros_type_name(chunks[10]), _check("type hash", chunks[11]),
                       Qos.from_keyexpr(chunks[12]))
+    except NameValidationError as exc:  # one line here, with the token it is in
+        raise MessageError(f"malformed liveliness token {token!r}: {exc.summary}") from None
     except ValueError as exc:  # MessageError is a ValueError too
         raise MessageError(f"malformed liveliness token {token!r}: {exc}") from None
 
