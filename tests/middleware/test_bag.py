@@ -24,12 +24,12 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as RosbagsWriter
 
+from servolab.apps.bag import format_info
 from servolab.clock import VirtualClock
 from servolab.middleware.bag import (
     BagReader,
     BagWriter,
     TopicInfo,
-    format_info,
     play,
 )
 from servolab.middleware.errors import BagError

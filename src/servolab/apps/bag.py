@@ -4,6 +4,9 @@
 Each function takes plain values and a ``say`` function for its output, so tests can call it
 and capture what is printed. The middleware (and Zenoh) is imported inside the functions, so
 that ``servolab --help`` does not load it.
+
+How ``bag info`` prints a bag (:func:`format_info`, as ``ros2 bag info``) is presentation, so
+it is here, not in :mod:`servolab.middleware.bag`, which knows files and timestamps.
 """
 
 from __future__ import annotations
@@ -11,8 +14,9 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping
+from datetime import datetime
+from typing import TYPE_CHECKING, Any
 
 from servolab.middleware.errors import MessageError
 
@@ -20,6 +24,7 @@ from .arguments import add_transport, transport_options
 from .registry import Command
 
 if TYPE_CHECKING:
+    from servolab.middleware.bag import BagInfo
     from servolab.middleware.context import Context
     from servolab.middleware.publisher import Publisher
 
@@ -57,9 +62,50 @@ def record(ctx: Context, output: str, topics: list[str], say: Say, *,
     return recorder.counts
 
 
+def wait_for_subscriptions(ctx: Context, publishers: Mapping[str, Publisher],
+                           timeout: float) -> list[str]:
+    """Wait up to ``timeout`` s until every topic of ``publishers`` has a subscription that
+    what they publish reaches; returns the topics still without one (none: all matched).
+
+    A subscription counts once the graph shows it (over Zenoh: its liveliness token, which
+    rmw_zenoh declares after the subscriber) and, over Zenoh, once this session routes the
+    topic's key to a subscriber (the matching status of a probe publisher on that key), which
+    for a subscriber in another process may come a moment after its token: only then is a
+    first message not lost."""
+    from servolab.middleware.rmw_zenoh import topic_keyexpr
+    from servolab.middleware.zenoh_transport import ZenohTransport
+
+    transport = ctx.transport
+    missing = {topic: pub.type_name for topic, pub in publishers.items()}
+    probes: dict[str, Any] = {}
+    end = time.monotonic() + timeout
+    try:
+        while True:
+            graph = transport.graph(0.2)
+            seen = {t for t, kind in missing.items() if any(
+                e.kind == "MS" and e.name == t and e.type_name == kind for e in graph)}
+            if isinstance(transport, ZenohTransport):
+                for topic in seen - set(probes):
+                    kind = missing[topic]
+                    key = topic_keyexpr(transport.domain_id, topic, kind, ctx.types.rihs01(kind))
+                    probes[topic] = transport.session.declare_publisher(key)
+                seen = {t for t in seen if probes[t].matching_status.matching}
+            missing = {t: kind for t, kind in missing.items() if t not in seen}
+            if not missing or time.monotonic() >= end:
+                return sorted(missing)
+            time.sleep(0.05)
+    finally:
+        for probe in probes.values():
+            probe.undeclare()
+
+
 def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
-             topics: list[str] | None = None, wait_matching: float = 1.0) -> int:
-    """Publish a bag's messages on their topics at the bag's pace times ``rate``."""
+             topics: list[str] | None = None, wait_matching: float = 2.0) -> int:
+    """Publish a bag's messages on their topics at the bag's pace times ``rate``.
+
+    Waits up to ``wait_matching`` s for a subscription on every topic played first (not a
+    fixed time), so subscribers started just before lose no message; says so, and plays
+    anyway, for topics that have none by then."""
     from servolab.middleware.bag import BagReader, play
     from servolab.middleware.node import Node
 
@@ -67,28 +113,73 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     info = reader.info()
     chosen = [t for t in info.topics if topics is None or t.name in topics]
     node = Node(ctx, f"_servolab_player_{time.time_ns() % 1_000_000}")
-    publishers: dict[str, Publisher] = {
-        t.name: node.create_publisher(t.type, t.name, qos_profile=0) for t in chosen}
-    end = time.monotonic() + wait_matching
-    while time.monotonic() < end and not any(
-            e.kind == "MS" and e.name in publishers for e in ctx.transport.graph(0.2)):
-        time.sleep(0.05)
-    total = sum(t.count for t in chosen)
-    say(f"playing {total} message(s) of {path} at {rate:g}x")
-    shown = [time.monotonic()]
+    try:
+        publishers: dict[str, Publisher] = {
+            t.name: node.create_publisher(t.type, t.name, qos_profile=0) for t in chosen}
+        unmatched = wait_for_subscriptions(ctx, publishers, wait_matching)
+        if unmatched:
+            say(f"no subscription on {', '.join(unmatched)} after {wait_matching:g} s; "
+                "playing anyway (nobody may receive those)")
+        total = sum(t.count for t in chosen)
+        say(f"playing {total} message(s) of {path} at {rate:g}x")
+        shown = [time.monotonic()]
 
-    def progress(done: int, total: int) -> None:
-        if time.monotonic() - shown[0] >= 1.0 or done == total:
-            shown[0] = time.monotonic()
-            say(f"  {done}/{total}")
+        def progress(done: int, total: int) -> None:
+            if time.monotonic() - shown[0] >= 1.0 or done == total:
+                shown[0] = time.monotonic()
+                say(f"  {done}/{total}")
 
-    with ctx.stop_on_signals():
-        played = play(reader, lambda topic, kind, data: publishers[topic].publish_serialized(data),
-                      rate=math.inf if rate == 0 else rate, clock=ctx.clock, topics=topics,
-                      should_stop=lambda: not ctx.ok(), progress=progress)
-    time.sleep(0.2 if ctx.transport.carries_bytes else 0.0)  # let the last puts leave
+        with ctx.stop_on_signals():
+            played = play(reader,
+                          lambda topic, kind, data: publishers[topic].publish_serialized(data),
+                          rate=math.inf if rate == 0 else rate, clock=ctx.clock, topics=topics,
+                          should_stop=lambda: not ctx.ok(), progress=progress)
+        time.sleep(0.2 if ctx.transport.carries_bytes else 0.0)  # let the last puts leave
+    finally:
+        node.destroy()
     say(f"played {played} message(s)")
     return played
+
+
+def _size(n: int) -> str:
+    if n < 1024:
+        return f"{n} B"
+    value, unit = n / 1024, "KiB"
+    for bigger in ("MiB", "GiB"):
+        if value < 1024:
+            break
+        value, unit = value / 1024, bigger
+    return f"{value:.1f} {unit}"
+
+
+def _stamp(ns: int) -> str:
+    local = datetime.fromtimestamp(ns / 1e9).strftime("%b %d %Y %H:%M:%S")
+    return f"{local}.{ns % 1_000_000_000:09d} ({ns // 1_000_000_000}.{ns % 1_000_000_000:09d})"
+
+
+def format_info(info: BagInfo) -> str:
+    """The bag described as ``ros2 bag info`` does."""
+    label = 19
+    lines = [
+        f"{'Files:':<{label}}{info.path}",
+        f"{'Bag size:':<{label}}{_size(info.size_bytes)}",
+        f"{'Storage id:':<{label}}mcap",
+        f"{'Duration:':<{label}}{info.duration_s:.9f}s",
+        f"{'Start:':<{label}}{_stamp(info.start_ns)}",
+        f"{'End:':<{label}}{_stamp(info.end_ns)}",
+        f"{'Messages:':<{label}}{info.message_count}",
+    ]
+    if info.recovered:
+        lines.append(f"{'Recovered:':<{label}}the recording was cut short; "
+                     f"{info.message_count} messages read from its complete chunks, "
+                     f"last {info.lost_bytes} bytes lost")
+    name_w = max((len(t.name) for t in info.topics), default=0)
+    type_w = max((len(t.type) for t in info.topics), default=0)
+    rows = [f"Topic: {t.name:<{name_w}} | Type: {t.type:<{type_w}} | Count: {t.count} | "
+            f"Serialization Format: cdr" for t in info.topics] or ["(none)"]
+    lines.append(f"{'Topic information:':<{label}}{rows[0]}")
+    lines.extend(" " * label + row for row in rows[1:])
+    return "\n".join(lines)
 
 
 def reindex_bag(path: str, say: Say) -> None:
@@ -119,6 +210,9 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=1.0, help="speed factor; 0: as fast as "
                    "possible")
     p.add_argument("--topics", nargs="+", metavar="TOPIC", help="play only these topics")
+    p.add_argument("--wait-matching", type=float, default=2.0, metavar="SECONDS",
+                   help="wait up to this long for a subscription on every topic before the "
+                        "first message (default 2; says so for topics that have none)")
     add_transport(p)
     p = actions.add_parser("info", help="topics, types, counts and duration of a bag")
     p.add_argument("path")
@@ -128,7 +222,7 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from servolab.middleware.bag import BagReader, format_info
+    from servolab.middleware.bag import BagReader
     from servolab.middleware.context import Context
     from servolab.middleware.messages import MessageTypes
 
@@ -145,7 +239,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.action == "record":
             record(ctx, args.output, args.topics, say, types=types)
         elif args.action == "play":
-            play_bag(ctx, args.path, say, rate=args.rate, topics=args.topics)
+            play_bag(ctx, args.path, say, rate=args.rate, topics=args.topics,
+                     wait_matching=args.wait_matching)
     return 0
 
 
