@@ -125,10 +125,10 @@ class ServolabEcho(Node):
     def __init__(self, context: Context, type_name: str, flood: int) -> None:
         super().__init__(context, "bench_echo")
         self.flood, self.counted = flood, 0
-        self.pong = self.create_publisher(type_name, PONG, depth=0)
-        self.ack = self.create_publisher(COUNT, FLOOD_ACK, depth=0)
-        self.create_subscription(type_name, PING, self.pong.publish, depth=0)
-        self.create_subscription(type_name, FLOOD, self._on_flood, depth=0)
+        self.pong = self.create_publisher(type_name, PONG, 0)
+        self.ack = self.create_publisher(COUNT, FLOOD_ACK, 0)
+        self.create_subscription(type_name, PING, self.pong.publish, 0)
+        self.create_subscription(type_name, FLOOD, self._on_flood, 0)
 
     def _on_flood(self, msg: Any) -> None:
         self.counted += 1
@@ -175,10 +175,10 @@ class ServolabMain(Node):
         super().__init__(context, "bench_main")
         self.msg = msg
         self.pongs, self.acked, self.last_pong = 0, 0, None
-        self.ping = self.create_publisher(type_name, PING, depth=0)
-        self.flood_pub = self.create_publisher(type_name, FLOOD, depth=0)
-        self.create_subscription(type_name, PONG, self._on_pong, depth=0)
-        self.create_subscription(COUNT, FLOOD_ACK, self._on_ack, depth=0)
+        self.ping = self.create_publisher(type_name, PING, 0)
+        self.flood_pub = self.create_publisher(type_name, FLOOD, 0)
+        self.create_subscription(type_name, PONG, self._on_pong, 0)
+        self.create_subscription(COUNT, FLOOD_ACK, self._on_ack, 0)
 
     def _on_pong(self, msg: Any) -> None:
         self.pongs += 1

@@ -11,15 +11,23 @@ from .messages import ServiceType
 
 if TYPE_CHECKING:
     from .node import Node
+    from .transport import Closeable
 
 
 class Client:
-    """Calls a service: ``call(request)`` blocks; ``call_async`` returns a Future."""
+    """Calls a service: ``call(request)`` blocks; ``call_async`` returns a Future.
+
+    From its creation to :meth:`destroy` the client is in the graph (kind SC: over Zenoh,
+    rmw_zenoh's client liveliness token), so ``ros2 service info`` and servolab's graph views
+    count it. A server whose handler fails still answers (see :mod:`.service`); the call then
+    raises :class:`ServiceError` with the handler's reason."""
 
     def __init__(self, node: Node, srv: ServiceType, name: str) -> None:
         self.node = node
         self.srv = srv
         self.name = name
+        self._declared: Closeable | None = node.context.transport.declare_client(
+            node.info, name, srv)
 
     def request(self, **fields: Any) -> Any:
         return self.node.context.types.from_value(self.srv.request, fields)
@@ -30,6 +38,8 @@ class Client:
         future = self.call_async(request, timeout)
         executor = self.node.context.executor
         if not executor.spinning_elsewhere:
+            if not future.done():  # an answer from the transport's thread ends the wait now
+                future.add_done_callback(lambda _: executor.submit(lambda: None))
             executor.spin_until(future.done, timeout)
         try:
             return future.result(timeout=0 if future.done() else timeout)
@@ -61,4 +71,7 @@ class Client:
                    for e in self.node.context.transport.graph(0.2))
 
     def destroy(self) -> None:
-        pass
+        """Leave the graph (the SC token is undeclared); a second call does nothing."""
+        declared, self._declared = self._declared, None
+        if declared is not None:
+            declared.close()

@@ -182,6 +182,9 @@ class LocalTransport(Transport):
         return _Registration(undo)
 
     def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
+        """Hand the request object to the server's handler. A failed handler (it raised or
+        returned a wrong type) answers with the exception: the future then holds a
+        :class:`ServiceError` with its reason, as a Zenoh reply marked as failed does."""
         entry = self._services.get(name)
         if entry is None:
             raise ServiceError(f"no service {name} (is its node running?)")
@@ -197,6 +200,11 @@ class LocalTransport(Transport):
 
         entry[1](request, reply)
         return future
+
+    def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:
+        endpoint = Endpoint("SC", node.fully_qualified_name, name, srv.name)
+        self._add_endpoint(endpoint)
+        return _Registration(lambda: self._remove_endpoint(endpoint))
 
     def announce_node(self, node: NodeInfo) -> Closeable:
         endpoint = Endpoint("NN", node.fully_qualified_name)

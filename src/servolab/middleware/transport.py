@@ -141,3 +141,8 @@ class Transport(ABC):
 
     def close(self) -> None:  # noqa: B027 - the local transport holds nothing to release
         pass
+
+    @abstractmethod
+    def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:
+        """Show a service client of ``node`` in the graph (kind SC, as rmw_zenoh's clients
+        declare their liveliness token when created) until the returned handle is closed."""

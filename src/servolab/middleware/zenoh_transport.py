@@ -34,6 +34,7 @@ from concurrent.futures import Future
 from typing import Any
 
 import zenoh
+import zenoh.ext
 
 from .errors import MessageError, ServiceError, TransportError
 from .messages import MessageTypes, ServiceType
@@ -104,6 +105,9 @@ def _config(listen: list[str], connect: list[str]) -> zenoh.Config:
     # rmw_zenoh's peers do, rather than failing the session
     config.insert_json5("connect/exit_on_failure", "false")
     config.insert_json5("connect/timeout_ms", "-1")
+    # timestamped samples, as rmw_zenoh's session config has them: TRANSIENT_LOCAL's
+    # AdvancedPublisher orders its cache by timestamp
+    config.insert_json5("timestamping/enabled", "true")
     return config
 
 
@@ -144,15 +148,24 @@ def congestion_control(reliable: bool, depth: int) -> zenoh.CongestionControl:
 
 class ZenohPublisher(TransportPublisher):
     def __init__(self, transport: ZenohTransport, key: str, type_name: str, gid: bytes,
-                 *, reliable: bool, depth: int) -> None:
+                 qos: QoSProfile) -> None:
         self._types = transport.types
         self._type_name = type_name
         self._gid = gid
         self._sequence = itertools.count(1)
-        self._publisher = transport.session.declare_publisher(
-            key, congestion_control=congestion_control(reliable, depth),
-            reliability=zenoh.Reliability.RELIABLE if reliable
-            else zenoh.Reliability.BEST_EFFORT)
+        options: dict[str, Any] = {
+            "congestion_control": congestion_control(qos.reliable, qos.queue_depth),
+            "reliability": (zenoh.Reliability.RELIABLE if qos.reliable
+                            else zenoh.Reliability.BEST_EFFORT)}
+        self._publisher: zenoh.Publisher | zenoh.ext.AdvancedPublisher
+        if qos.transient_local:
+            # rmw_zenoh's TRANSIENT_LOCAL: an AdvancedPublisher that caches the last depth
+            # samples (attachments included) and answers late AdvancedSubscribers' queries
+            self._publisher = zenoh.ext.declare_advanced_publisher(
+                transport.session, key, cache=zenoh.ext.CacheConfig(max_samples=qos.depth),
+                publisher_detection=True, **options)
+        else:
+            self._publisher = transport.session.declare_publisher(key, **options)
         self._declared = _Declared(self._publisher)
 
     def _add_token(self, token: Any) -> None:
@@ -207,8 +220,7 @@ class ZenohTransport(Transport):
                   qos: QoSProfile) -> ZenohPublisher:
         entity_id = next(self._entity_ids)
         publisher = ZenohPublisher(self, self._key(topic, type_name), type_name,
-                                   gid_from(self.session_id, entity_id), reliable=qos.reliable,
-                                   depth=qos.queue_depth)
+                                   gid_from(self.session_id, entity_id), qos)
         publisher._add_token(self._token(node, EntityKind.PUBLISHER, topic, type_name, qos,
                                          entity_id))
         return publisher
@@ -226,7 +238,17 @@ class ZenohTransport(Transport):
                     pass  # a plain Zenoh put without rmw_zenoh's attachment: still data
             deliver(sample.payload.to_bytes(), info)
 
-        subscriber = self.session.declare_subscriber(self._key(topic, type_name), on_sample)
+        key = self._key(topic, type_name)
+        subscriber: zenoh.Subscriber[None] | zenoh.ext.AdvancedSubscriber[None]
+        if qos.transient_local:
+            # rmw_zenoh's TRANSIENT_LOCAL: an AdvancedSubscriber that asks publishers' caches
+            # for their history, now and whenever a new (late) publisher appears
+            subscriber = zenoh.ext.declare_advanced_subscriber(
+                self.session, key, on_sample, history=zenoh.ext.HistoryConfig(
+                    detect_late_publishers=True,
+                    max_samples=qos.depth if not qos.keep_all else None))
+        else:
+            subscriber = self.session.declare_subscriber(key, on_sample)
         token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, qos,
                             next(self._entity_ids))
         return _Declared(subscriber, token)
@@ -234,34 +256,68 @@ class ZenohTransport(Transport):
     # -- services ----------------------------------------------------------------------------
 
     def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
+        """A queryable on the service's key, then its SS token (rmw_service_data.cpp's order).
+
+        Every request with rmw_zenoh's attachment gets exactly one OK reply on the service's
+        key, with the attachment's sequence number and GID echoed (a fresh timestamp), as
+        ``ServiceData::send_response`` writes it. When the handler fails (raises, returns a
+        wrong type, or its response does not serialize) the reply is still OK, carrying a
+        default response, and is marked by its encoding (:func:`.service.error_encoding`):
+        rmw_zenoh's client drops error replies and would never learn of the failure. A query
+        without that attachment is no ROS client's: it gets a Zenoh error reply."""
+        from .service import error_encoding
+
+        key = self._key(name, srv.name)
+
         def on_query(query: zenoh.Query) -> None:
             request = query.payload.to_bytes() if query.payload is not None else b""
-            if query.attachment is None:
-                query.reply_err(b"request without rmw_zenoh attachment")
-                return
             try:
+                if query.attachment is None:
+                    raise MessageError("no attachment")
                 asked = decode_attachment(query.attachment.to_bytes())
-            except MessageError:
-                query.reply_err(b"request without rmw_zenoh attachment")
+            except MessageError as exc:
+                with contextlib.suppress(zenoh.ZError):
+                    query.reply_err(f"request without rmw_zenoh's attachment ({exc}): a ROS "
+                                    "client attaches its sequence number and GID".encode())
+                    query.drop()
                 return
 
             def reply(response: Any) -> None:
+                encoding = None
+                if not isinstance(response, Exception):
+                    try:
+                        payload = self.types.serialize(response, srv.response)
+                    except Exception as exc:  # answered below, as a failed handler
+                        response = exc
                 if isinstance(response, Exception):
-                    query.reply_err(str(response).encode())
-                    return
+                    payload = self.types.serialize(self.types.default(srv.response),
+                                                   srv.response)
+                    encoding = zenoh.Encoding(error_encoding(
+                        str(response) or type(response).__name__))
                 attachment = encode_attachment(asked.sequence_number, time.time_ns(), asked.gid)
-                query.reply(query.key_expr, self.types.serialize(response, srv.response),
-                            attachment=attachment)
+                # then drop the query at once, which ends the client's get: whatever still
+                # refers to it (an exception's traceback, a log record) would keep it open
+                with contextlib.suppress(zenoh.ZError):  # session closed, or answered before
+                    query.reply(key, payload, encoding=encoding, attachment=attachment)
+                    query.drop()
 
-            handler(request, reply)
+            try:
+                handler(request, reply)
+            except Exception as exc:  # never leave a ROS client waiting for ever
+                reply(exc)
 
-        queryable = self.session.declare_queryable(self._key(name, srv.name), on_query,
-                                                   complete=True)
+        queryable = self.session.declare_queryable(key, on_query, complete=True)
         token = self._token(node, EntityKind.SERVICE, name, srv.name, QoSProfile(),
                             next(self._entity_ids))
         return _Declared(queryable, token)
 
     def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
+        """A Zenoh ``get`` as rmw_zenoh's client sends it (``rmw_client_data.cpp``: target
+        ALL_COMPLETE, rmw_zenoh's attachment); the first reply decides. A reply marked as a
+        failed handler's (:func:`.service.error_reason`) or a Zenoh error reply is a
+        :class:`ServiceError` naming the reason."""
+        from .service import error_reason
+
         future: Future[Any] = Future()
         payload = self.types.serialize(request, srv.request)
         entity_id = next(self._entity_ids)
@@ -276,8 +332,12 @@ class ZenohTransport(Transport):
                                            timeout=timeout)
                 for reply in replies:
                     if reply.ok is not None:
-                        future.set_result(self.types.deserialize(reply.ok.payload.to_bytes(),
-                                                                 srv.response))
+                        why = error_reason(str(reply.ok.encoding))
+                        if why is not None:
+                            future.set_exception(ServiceError(f"service {name} failed: {why}"))
+                        else:
+                            future.set_result(self.types.deserialize(
+                                reply.ok.payload.to_bytes(), srv.response))
                     elif reply.err is not None:
                         why = reply.err.payload.to_bytes().decode(errors="replace")
                         future.set_exception(ServiceError(f"service {name} failed: {why}"))
@@ -295,6 +355,14 @@ class ZenohTransport(Transport):
 
         threading.Thread(target=run, daemon=True, name=f"call {name}").start()
         return future
+
+    def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:
+        """The client's SC liveliness token, as rmw_zenoh's ``ClientData`` declares it when
+        the client is created (``rmw_client_data.cpp``) and undeclares it at shutdown. A
+        client needs nothing else declared: each call is a plain ``get``."""
+        token = self._token(node, EntityKind.CLIENT, name, srv.name, QoSProfile(),
+                            next(self._entity_ids))
+        return _Declared(token)
 
     # -- graph -------------------------------------------------------------------------------
 
