@@ -512,6 +512,14 @@ def main(argv: Sequence[str] | None = None,
         where = "one process" if q["processes"] == 1 else "two processes"
         print(f"ratio {q['message']} {where}: latency p50 x{q['latency_p50']:.2f}, "
               f"p99 x{q['latency_p99']:.2f}, time per message x{q['time_per_message']:.2f}")
+    twist = next(q for q in found if q["message"] == SHORT_NAMES[TWIST] and q["processes"] == 2)
+    # issue 15's targets for a Twist between two processes (docs/middleware.md, "How fast")
+    for what, value, target, met in (
+            ("p50 latency", twist["latency_p50"], "<= x1.5", twist["latency_p50"] <= 1.5),
+            ("messages per second", 1 / twist["time_per_message"], ">= x0.5",
+             1 / twist["time_per_message"] >= 0.5)):
+        print(f"target Twist two processes, {what}: x{value:.2f} of bare zenoh "
+              f"(target {target}): {'met' if met else 'NOT met'}")
     if args.json:
         args.json.write_text(json.dumps({"rows": [asdict(r) for r in rows], "ratios": found,
                                          "sizes": {SHORT_NAMES[k]: asdict(v)
