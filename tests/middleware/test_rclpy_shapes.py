@@ -189,6 +189,9 @@ def test_the_tutorial_nodes_in_one_process_on_the_default_context(
         assert rclpy.get_default_context().spin_until(lambda: len(heard()) >= 2, timeout=5.0)
         assert heard()[:2] == ['I heard: "Hello World: 0"', 'I heard: "Hello World: 1"']
     assert not rclpy.ok()
+    with pytest.raises(RuntimeError, match="not initialized"):
+        rclpy.shutdown()  # as rclpy's: shutting down twice is an error; try_shutdown is not
+    rclpy.try_shutdown()
 
 
 def test_a_message_reused_after_publish_does_not_change_what_subscribers_got(

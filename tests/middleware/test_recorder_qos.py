@@ -32,7 +32,7 @@ def test_a_latched_topic_published_before_recording_is_recorded(tmp_path: Path,
         node.create_publisher(STRING, "/chatter", SENSOR).publish(
             node.message(STRING, data="before recording: not latched, not recorded"))
         recorder = Recorder(ctx, str(tmp_path / "run"), ["/robot_description", "/chatter"])
-        ctx.spin_until(lambda: recorder.counts["/robot_description"] == 1, timeout=5.0)
+        assert ctx.spin_until(lambda: recorder.counts["/robot_description"] == 1, timeout=5.0)
         recorder.destroy()
     with RosbagsReader(tmp_path / "run") as reader:
         offered = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}

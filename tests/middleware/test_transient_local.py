@@ -18,7 +18,12 @@ import pytest
 from servolab.middleware.context import Context
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
-from servolab.middleware.qos import DurabilityPolicy, QoSProfile
+from servolab.middleware.qos import (
+    KEEP_ALL_HISTORY,
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+)
 from servolab.middleware.transport import TransportOptions
 from tests.middleware.conftest import free_port
 from tests.processes import started
@@ -72,11 +77,39 @@ def test_late_joiner_over_zenoh(two_sessions: tuple[Context, Context]) -> None:
     _late_joiner(*two_sessions)
 
 
+KEEP_ALL_LATCHED = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=0,
+                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+@pytest.mark.parametrize("transport", ["local", "zenoh"])
+def test_keep_all_keeps_a_bounded_history(types: MessageTypes, transport: str) -> None:
+    """TRANSIENT_LOCAL + KEEP_ALL keeps every message up to servolab's bound
+    (KEEP_ALL_HISTORY) for a late subscription, in-process and over Zenoh."""
+    assert KEEP_ALL_LATCHED.history_depth == KEEP_ALL_HISTORY
+    options = TransportOptions(transport, listen=[f"tcp/127.0.0.1:{free_port()}"]
+                               if transport == "zenoh" else [])
+    with Context.open(options, types=types) as ctx:
+        node = Node(ctx, "n")
+        pub = node.create_publisher(STRING, "/log", KEEP_ALL_LATCHED)
+        for k in range(5):
+            pub.publish(node.message(STRING, data=str(k)))
+        got: list[str] = []
+        node.create_subscription(STRING, "/log", lambda m: got.append(m.data),
+                                 KEEP_ALL_LATCHED)
+        assert ctx.spin_until(lambda: len(got) == 5, timeout=10.0)
+        assert got == ["0", "1", "2", "3", "4"]
+
+
 LATE_PROCESS = """
 import sys
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
-from servolab.middleware.qos import DurabilityPolicy, QoSProfile
+from servolab.middleware.qos import (
+    KEEP_ALL_HISTORY,
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+)
 from servolab.middleware.transport import TransportOptions
 ctx = Context.open(TransportOptions("zenoh", connect=[sys.argv[1]]))
 latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)

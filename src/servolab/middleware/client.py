@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import TYPE_CHECKING, Any
@@ -39,7 +40,7 @@ class Client:
         executor = self.node.context.executor
         if not executor.spinning_elsewhere:
             if not future.done():  # an answer from the transport's thread ends the wait now
-                future.add_done_callback(lambda _: executor.submit(lambda: None))
+                future.add_done_callback(lambda _: _wake(executor))
             executor.spin_until(future.done, timeout)
         try:
             return future.result(timeout=0 if future.done() else timeout)
@@ -75,3 +76,10 @@ class Client:
         declared, self._declared = self._declared, None
         if declared is not None:
             declared.close()
+
+
+def _wake(executor: Any) -> None:
+    """Wake the spinning caller (from the transport's thread); nothing if it has stopped."""
+    if not executor.is_shutdown:
+        with contextlib.suppress(RuntimeError):
+            executor.submit(lambda: None)

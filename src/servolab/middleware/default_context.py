@@ -54,9 +54,13 @@ def init(options: TransportOptions | None = None) -> Context:
         if _HOLDER.context is not None and not _HOLDER.context.closed:
             raise RuntimeError("the default context is already initialized "
                                "(call shutdown() first)")
-        _HOLDER.context = Context.open(options or options_from_environment(),
-                                       types=_types_locked())
-        return _HOLDER.context
+        return _open_locked(options)
+
+
+def _open_locked(options: TransportOptions | None) -> Context:
+    _HOLDER.context = Context.open(options or options_from_environment(),
+                                   types=_types_locked())
+    return _HOLDER.context
 
 
 def default_types() -> MessageTypes:
@@ -74,21 +78,23 @@ def _types_locked() -> MessageTypes:
 
 def default_context() -> Context:
     """The default context, opened from the environment if :func:`init` was not called."""
-    with _HOLDER.lock:
+    with _HOLDER.lock:  # one check-and-open: two threads never open two contexts
         context = _HOLDER.context
-    if context is not None and not context.closed:
-        return context
-    try:
-        return init()
-    except RuntimeError:  # another thread opened it in between
-        with _HOLDER.lock:
-            assert _HOLDER.context is not None
-            return _HOLDER.context
+        if context is not None and not context.closed:
+            return context
+        return _open_locked(None)
 
 
 def is_initialized() -> bool:
     with _HOLDER.lock:
         return _HOLDER.context is not None and not _HOLDER.context.closed
+
+
+def ok_now() -> bool:
+    """True while the default context is open and not shut down; never opens it."""
+    with _HOLDER.lock:
+        context = _HOLDER.context
+    return context is not None and context.ok()
 
 
 def shutdown() -> None:

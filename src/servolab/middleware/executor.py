@@ -93,8 +93,10 @@ class Executor:
 
     def __init__(self, clock: Clock) -> None:
         self.clock = clock
-        self._cond = threading.Condition()
+        self._lock = threading.RLock()  # re-entrant: a virtual clock's advance may submit
+        self._cond = threading.Condition(self._lock)
         self._ready: deque[Callable[[], None]] = deque()
+        self._sleepers = 0  # spinning threads waiting on _cond for work
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
         self._thread: SpinThread | None = None
@@ -106,9 +108,13 @@ class Executor:
     # -- queueing (any thread) --------------------------------------------------------------
 
     def submit(self, work: Callable[[], None]) -> None:
-        with self._cond:
-            self._ready.append(work)
-            self._cond.notify()
+        """Queue ``work``. Only a spinner that sleeps is woken: while it is busy, a burst of
+        messages (Zenoh's thread handing over sample after sample) is queued without taking
+        the lock, and the spinner drains it with one wake-up, not one per message."""
+        self._ready.append(work)  # deque.append is atomic
+        if self._sleepers:
+            with self._cond:
+                self._cond.notify()
 
     @property
     def pending(self) -> int:
@@ -168,7 +174,7 @@ class Executor:
     def _next_work(self, timeout: float | None) -> Callable[[], None] | None:
         clock = self.clock
         deadline = None if timeout is None else clock.now() + timeout
-        with self._cond:
+        with self._lock:
             while True:
                 if self._shutdown:
                     return None
@@ -191,13 +197,19 @@ class Executor:
                                                      else min(due, deadline))
                 if deadline is not None and now >= deadline:
                     return None
-                if clock.virtual:
-                    if wake is None:
-                        self._cond.wait(0.05)  # only another thread can bring work
-                    else:
-                        clock.advance_to(wake)
+                if clock.virtual and wake is not None:
+                    clock.advance_to(wake)
                     continue
-                self._cond.wait(None if wake is None else max(0.0, wake - now))
+                # say we sleep, then look again: a submit() that came after the look above
+                # and before this either is seen now or sees _sleepers and notifies
+                self._sleepers += 1
+                try:
+                    if not self._ready and not self._shutdown:
+                        # on a virtual clock with no timer only another thread can bring work
+                        self._cond.wait(0.05 if clock.virtual else
+                                        None if wake is None else max(0.0, wake - now))
+                finally:
+                    self._sleepers -= 1
 
     def spin_until(self, done: Callable[[], bool], timeout: float | None = None) -> bool:
         """Spin until ``done()`` is true (checked after each callback) or ``timeout`` passes;

@@ -67,7 +67,7 @@ class LocalPublisher(TransportPublisher):
         self._endpoint = Endpoint("MP", node.fully_qualified_name, topic, type_name, qos)
         #: TRANSIENT_LOCAL's history: (message, info) for late subscriptions
         self.kept: deque[tuple[Any, MessageInfo]] | None = (
-            deque(maxlen=qos.queue_depth or None) if qos.transient_local else None)
+            deque(maxlen=qos.history_depth) if qos.transient_local else None)
         transport._add_publisher(self)
 
     def publish(self, msg: Any) -> None:

@@ -88,9 +88,20 @@ class QoSProfile:
         """How many messages may wait: ``depth``, or 0 (no bound) for KEEP_ALL."""
         return 0 if self.keep_all else self.depth
 
+    @property
+    def history_depth(self) -> int:
+        """How many messages a TRANSIENT_LOCAL publisher keeps for late subscriptions:
+        ``depth``, or :data:`KEEP_ALL_HISTORY` for KEEP_ALL (kept history must be bounded:
+        a publisher that runs for hours would otherwise keep every message it sent)."""
+        return KEEP_ALL_HISTORY if self.keep_all else self.depth
+
     def with_depth(self, depth: int) -> QoSProfile:
         return replace(self, depth=depth)
 
+
+#: The history a TRANSIENT_LOCAL + KEEP_ALL publisher keeps (servolab's bound; see
+#: :attr:`QoSProfile.history_depth`).
+KEEP_ALL_HISTORY = 1000
 
 #: rclpy's ``qos_profile_sensor_data``: newest data only, losses allowed.
 qos_profile_sensor_data = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)

@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import logging
 from concurrent.futures import Future
+from dataclasses import replace
 from typing import Any
 
 from servolab.middleware.context import Context
 from servolab.middleware.default_context import (
     default_context,
     is_initialized,
+    ok_now,
     options_from_environment,
 )
 from servolab.middleware.default_context import init as _init
@@ -44,7 +46,7 @@ class InitContextManager:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        shutdown()
+        try_shutdown()
 
 
 def init(*, args: list[str] | None = None, context: Any = None, domain_id: int | None = None,
@@ -57,8 +59,7 @@ def init(*, args: list[str] | None = None, context: Any = None, domain_id: int |
         raise ValueError("servolab.rclpy.init uses the default context; for another one, "
                          "open a servolab.middleware.Context and pass it to Node(context, name)")
     if domain_id is not None:
-        options = options or options_from_environment()
-        options.domain_id = domain_id
+        options = replace(options or options_from_environment(), domain_id=domain_id)
     _init(options)
     _console_logging()
     return InitContextManager()
@@ -113,16 +114,22 @@ def get_default_context() -> Context:
 
 def ok(context: Any = None) -> bool:
     """True while the default context is open and not shut down (Ctrl-C makes it False)."""
-    return is_initialized() and default_context().ok()
+    return ok_now()
 
 
 def shutdown(context: Any = None) -> None:
+    """Close the default context; a RuntimeError if it is not open, as in rclpy."""
+    if not is_initialized():
+        raise RuntimeError("rclpy.shutdown(): the default context is not initialized "
+                           "(was rclpy.init() called, or shutdown() twice?)")
     _shutdown()
     _console_logging_off()
 
 
 def try_shutdown(context: Any = None) -> None:
-    shutdown()
+    """:func:`shutdown`, silent if the context is not open."""
+    _shutdown()
+    _console_logging_off()
 
 
 def create_node(node_name: str, *, namespace: str | None = None, **kwargs: Any) -> Node:
