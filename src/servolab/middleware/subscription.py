@@ -49,6 +49,7 @@ class Subscription:
         self._lock = threading.Lock()
         self._takes = 0  # _take calls queued in the executor
         self._executor = node.context.executor
+        self._deserialize = node.context.types.deserialize
         self._inner = node.context.transport.subscribe(node.info, topic, type_name, qos,
                                                        self._deliver, raw=raw)
 
@@ -90,7 +91,7 @@ class Subscription:
                 return  # drained while waiting
             data, info = self._queue.popleft()
         if not self.raw and isinstance(data, bytes | memoryview):
-            data = self.node.context.types.deserialize(data, self.type_name)
+            data = self._deserialize(data, self.type_name)
         if self._with_info:
             self._callback(data, info)
         else:

@@ -171,6 +171,8 @@ class ZenohPublisher(TransportPublisher):
         self._types = transport.types
         self._type_name = type_name
         self._gid = gid
+        # the attachment's last 17 bytes (GID length, GID) never change: checked once here
+        self._gid_tail = encode_attachment(0, 0, gid)[_SEQUENCE_AND_TIME.size:]
         self._sequence = itertools.count(1)
         options: dict[str, Any] = {
             "congestion_control": congestion_control(qos.reliable, qos.queue_depth),
@@ -195,8 +197,8 @@ class ZenohPublisher(TransportPublisher):
         self.publish_serialized(self._types.serialize(msg, self._type_name))
 
     def publish_serialized(self, cdr: bytes) -> None:
-        attachment = encode_attachment(next(self._sequence), time.time_ns(), self._gid)
-        self._publisher.put(cdr, attachment=attachment)
+        attachment = _SEQUENCE_AND_TIME.pack(next(self._sequence), time.time_ns())
+        self._publisher.put(cdr, attachment=attachment + self._gid_tail)
 
     def close(self) -> None:
         self._declared.close()
