@@ -18,9 +18,9 @@ import pytest
 from servolab.middleware.bag import BagWriter
 from servolab.middleware.context import Context
 from servolab.middleware.messages import MessageTypes
-from servolab.middleware.qos import QoSProfile
 from servolab.middleware.transport import MessageInfo, NodeInfo
 from tests.middleware.conftest import free_port
+from tests.middleware.inboxes import subscribe_with
 from tests.middleware.test_cli_graph import cli
 from tests.processes import started
 from tests.waiting import wait_for, wait_for_line
@@ -65,8 +65,8 @@ def play_once(player: Context, listener: Context, bag: Path, topics: list[str]) 
             return all(len(got[t]) >= len(wanted[t]) for t in topics)
 
     node = NodeInfo("listener", node_id=7)
-    subscriptions = [listener.transport.subscribe(
-        node, t, STRING, QoSProfile(), lambda data, info, t=t: deliver(data, info, t),
+    subscriptions = [subscribe_with(
+        listener.transport, node, t, STRING, lambda data, info, t=t: deliver(data, info, t),
         raw=True) for t in topics]
     try:
         said: list[str] = []

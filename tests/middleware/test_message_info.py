@@ -7,7 +7,7 @@ from __future__ import annotations
 import zenoh
 
 from servolab.middleware.rmw_zenoh import encode_attachment
-from servolab.middleware.zenoh_transport import message_info
+from servolab.middleware.zenoh_inbox import message_info
 
 GID = bytes(range(16))
 

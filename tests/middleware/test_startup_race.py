@@ -10,6 +10,7 @@ from servolab.middleware.qos import QoSProfile
 from servolab.middleware.rmw_zenoh import parse_token
 from servolab.middleware.transport import MessageInfo, NodeInfo
 from tests.middleware.conftest import free_port
+from tests.middleware.inboxes import subscribe_with
 from tests.processes import started
 from tests.waiting import wait_for, wait_for_line
 
@@ -52,8 +53,7 @@ def test_publish_right_after_the_token_loses_nothing(zenoh_pair) -> None:
             def deliver(data: bytes, info: MessageInfo, topic: str = topic) -> None:
                 got[topic].append(data)
 
-            subscriptions.append(b.transport.subscribe(listener, topic, STRING, QoSProfile(),
-                                                         deliver))
+            subscriptions.append(subscribe_with(b.transport, listener, topic, STRING, deliver))
             # Generous bounds: a loaded 2-core machine can be slow; a lost message never comes.
             assert matched.wait(20.0), f"the token of {topic}'s subscription never arrived"
             publishers[topic].publish_serialized(cdr)  # right away, as a waiting talker does
@@ -124,3 +124,43 @@ def test_topic_pub_says_when_nobody_subscribes(types) -> None:
         assert any("no subscription on /nobody" in s for s in said), said
     finally:
         ctx.close()
+
+
+def test_wait_for_subscription_in_one_process(types) -> None:
+    """False when nobody subscribes (or only with another type); True as soon as a
+    subscription of the type appears, from another thread, without waiting the timeout."""
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Node
+
+    with Context.open(types=types) as ctx:
+        talker, listener = Node(ctx, "talker"), Node(ctx, "listener")
+        pub = talker.create_publisher(STRING, "/chatter")
+        assert not pub.wait_for_subscription(0.05)
+        listener.create_subscription("std_msgs/msg/Float64", "/chatter", lambda m: None)
+        assert not pub.wait_for_subscription(0.05)
+        later = threading.Timer(0.1, lambda: listener.create_subscription(
+            STRING, "/chatter", lambda m: None))
+        later.start()
+        try:
+            assert pub.wait_for_subscription(30.0)
+        finally:
+            later.join()
+
+
+def test_wait_for_subscription_over_zenoh_then_nothing_is_lost(zenoh_pair) -> None:
+    """A plain and a TRANSIENT_LOCAL publisher (an AdvancedPublisher, which has no matching
+    status of its own) wait for a subscription in another session; what they publish right
+    after arrives."""
+    from servolab.middleware.node import Node
+    from servolab.middleware.qos import qos_profile_latched
+
+    a, b, _ = zenoh_pair
+    talker, listener = Node(a, "talker"), Node(b, "listener")
+    for topic, qos in (("/plain", QoSProfile()), ("/latched", qos_profile_latched)):
+        pub = talker.create_publisher(STRING, topic, qos)
+        assert not pub.wait_for_subscription(0.05)
+        got: list[str] = []
+        listener.create_subscription(STRING, topic, lambda m, got=got: got.append(m.data), qos)
+        assert pub.wait_for_subscription(20.0), topic
+        pub.publish(talker.message(STRING, data="first"))
+        assert b.spin_until(lambda got=got: got == ["first"], timeout=10.0), (topic, got)

@@ -16,7 +16,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from datetime import datetime
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from servolab.middleware.errors import MessageError
 
@@ -62,41 +62,13 @@ def record(ctx: Context, output: str, topics: list[str], say: Say, *,
     return recorder.counts
 
 
-def wait_for_subscriptions(ctx: Context, publishers: Mapping[str, Publisher],
-                           timeout: float) -> list[str]:
-    """Wait up to ``timeout`` s until every topic of ``publishers`` has a subscription that
-    what they publish reaches; returns the topics still without one (none: all matched).
-
-    A subscription counts once the graph shows it (over Zenoh: its liveliness token, which
-    rmw_zenoh declares after the subscriber) and, over Zenoh, once this session routes the
-    topic's key to a subscriber (the matching status of a probe publisher on that key), which
-    for a subscriber in another process may come a moment after its token: only then is a
-    first message not lost."""
-    from servolab.middleware.rmw_zenoh import topic_keyexpr
-    from servolab.middleware.zenoh_transport import ZenohTransport
-
-    transport = ctx.transport
-    missing = {topic: pub.type_name for topic, pub in publishers.items()}
-    probes: dict[str, Any] = {}
+def wait_for_subscriptions(publishers: Mapping[str, Publisher], timeout: float) -> list[str]:
+    """Wait up to ``timeout`` s in all until every publisher has a subscription that what it
+    publishes reaches (:meth:`Publisher.wait_for_subscription`); the topics still without
+    one (none: all matched)."""
     end = time.monotonic() + timeout
-    try:
-        while True:
-            graph = transport.graph(0.2)
-            seen = {t for t, kind in missing.items() if any(
-                e.kind == "MS" and e.name == t and e.type_name == kind for e in graph)}
-            if isinstance(transport, ZenohTransport):
-                for topic in seen - set(probes):
-                    kind = missing[topic]
-                    key = topic_keyexpr(transport.domain_id, topic, kind, ctx.types.rihs01(kind))
-                    probes[topic] = transport.session.declare_publisher(key)
-                seen = {t for t in seen if probes[t].matching_status.matching}
-            missing = {t: kind for t, kind in missing.items() if t not in seen}
-            if not missing or time.monotonic() >= end:
-                return sorted(missing)
-            time.sleep(0.05)
-    finally:
-        for probe in probes.values():
-            probe.undeclare()
+    return sorted(topic for topic, pub in publishers.items()
+                  if not pub.wait_for_subscription(max(0.0, end - time.monotonic())))
 
 
 def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
@@ -116,7 +88,7 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     try:
         publishers: dict[str, Publisher] = {
             t.name: node.create_publisher(t.type, t.name, qos_profile=0) for t in chosen}
-        unmatched = wait_for_subscriptions(ctx, publishers, wait_matching)
+        unmatched = wait_for_subscriptions(publishers, wait_matching)
         if unmatched:
             say(f"no subscription on {', '.join(unmatched)} after {wait_matching:g} s; "
                 "playing anyway (nobody may receive those)")
@@ -134,7 +106,6 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
                           lambda topic, kind, data: publishers[topic].publish_serialized(data),
                           rate=math.inf if rate == 0 else rate, clock=ctx.clock, topics=topics,
                           should_stop=lambda: not ctx.ok(), progress=progress)
-        time.sleep(0.2 if ctx.transport.carries_bytes else 0.0)  # let the last puts leave
     finally:
         node.destroy()
     say(f"played {played} message(s)")

@@ -127,14 +127,7 @@ def topic_pub(ctx: Context, topic: str, type_name: str, values: str, say: Say, *
     node = tool_node(ctx, "pub")
     topic = node.resolve(topic)
     pub = node.create_publisher(kind, topic, qos_profile=0)
-    # Wait for a subscription's token, not a fixed time: its subscriber is declared before its
-    # token (as in rmw_zenoh), so what is published once the token is seen reaches it.
-    end = time.monotonic() + wait_matching
-    while not (matched := any(e.kind == "MS" and e.name == topic
-                              for e in ctx.transport.graph(0.2))):
-        if time.monotonic() >= end:
-            break
-        time.sleep(0.05)
+    matched = pub.wait_for_subscription(wait_matching)  # a condition, not a fixed time
     if not matched:
         say(f"no subscription on {topic} after {wait_matching:g} s; publishing anyway "
             "(nobody may receive it)")
@@ -150,7 +143,6 @@ def topic_pub(ctx: Context, topic: str, type_name: str, values: str, say: Say, *
                 say(f"publishing #{sent}")
                 next_time += period
                 ctx.executor.spin_until(lambda: False, max(0.0, next_time - time.monotonic()))
-    time.sleep(0.2 if ctx.transport.carries_bytes else 0.0)  # let the last puts leave
     return sent
 
 

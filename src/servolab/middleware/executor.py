@@ -172,6 +172,13 @@ class Executor:
         return True
 
     def _next_work(self, timeout: float | None) -> Callable[[], None] | None:
+        if self._ready and not self._timers and not self._shutdown:
+            # no timer to put first: work waiting needs neither the lock nor the clock
+            # (a flood's cost per message); a timer added meanwhile is seen next time
+            try:
+                return self._ready.popleft()
+            except IndexError:
+                pass  # another spinner took it
         clock = self.clock
         deadline = None if timeout is None else clock.now() + timeout
         with self._lock:

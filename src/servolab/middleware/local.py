@@ -24,11 +24,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import ServiceError
+from .inbox import QueueInbox, Wake
 from .messages import MessageTypes, ServiceType, copy_message
 from .qos import QoSProfile
 from .transport import (
     Closeable,
-    Deliver,
     Endpoint,
     Handler,
     MessageInfo,
@@ -43,7 +43,7 @@ class _Subscriber:
     node: NodeInfo
     topic: str
     type_name: str
-    deliver: Deliver
+    inbox: QueueInbox
     raw: bool
 
 
@@ -91,16 +91,23 @@ class LocalPublisher(TransportPublisher):
             if sub.raw:
                 if cdr is None:
                     cdr = self._transport.types.serialize(msg, self.type_name)
-                sub.deliver(cdr, info)
+                sub.inbox.put(cdr, info)
             else:
                 if copy is None:
                     copy = copy_message(msg)
-                sub.deliver(copy, info)
+                sub.inbox.put(copy, info)
         if self.kept is not None:
             self.kept.append((copy_message(msg) if copy is None else copy, info))
 
     def publish_serialized(self, cdr: bytes) -> None:
         self.publish(self._transport.types.deserialize(cdr, self.type_name))
+
+    def wait_for_subscription(self, timeout: float) -> bool:
+        def matched() -> bool:
+            return any(s.type_name == self.type_name
+                       for s in self._transport._subscribers.get(self.topic, ()))
+        with self._transport._subscribed:
+            return self._transport._subscribed.wait_for(matched, timeout)
 
     def close(self) -> None:
         self._transport._remove_publisher(self)
@@ -112,6 +119,7 @@ class LocalTransport(Transport):
     def __init__(self, types: MessageTypes) -> None:
         super().__init__(types)
         self._lock = threading.RLock()
+        self._subscribed = threading.Condition(self._lock)  # notified for each subscription
         # Copy-on-write tuples: publish() reads them without taking the lock.
         self._subscribers: dict[str, tuple[_Subscriber, ...]] = {}
         self._services: dict[str, tuple[ServiceType, Handler]] = {}
@@ -145,8 +153,9 @@ class LocalTransport(Transport):
         return LocalPublisher(self, node, topic, type_name, qos)
 
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
-                  deliver: Deliver, *, raw: bool = False) -> Closeable:
-        sub = _Subscriber(node, topic, type_name, deliver, raw)
+                  wake: Wake, *, raw: bool = False) -> QueueInbox:
+        inbox = QueueInbox(qos.queue_depth, wake)
+        sub = _Subscriber(node, topic, type_name, inbox, raw)
         endpoint = Endpoint("MS", node.fully_qualified_name, topic, type_name, qos)
         with self._lock:
             if qos.transient_local:  # what the publishers kept, before anything new
@@ -154,9 +163,10 @@ class LocalTransport(Transport):
                     if publisher.kept is None or publisher.type_name != type_name:
                         continue
                     for msg, info in publisher.kept:
-                        deliver(self.types.serialize(msg, type_name) if raw else msg, info)
+                        inbox.put(self.types.serialize(msg, type_name) if raw else msg, info)
             self._subscribers[topic] = (*self._subscribers.get(topic, ()), sub)
             self._endpoints.append(endpoint)
+            self._subscribed.notify_all()
 
         def undo() -> None:
             with self._lock:
@@ -164,7 +174,8 @@ class LocalTransport(Transport):
                     s for s in self._subscribers.get(topic, ()) if s is not sub)
                 if endpoint in self._endpoints:
                     self._endpoints.remove(endpoint)
-        return _Registration(undo)
+        inbox.on_close(undo)
+        return inbox
 
     def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
         endpoint = Endpoint("SS", node.fully_qualified_name, name, srv.name)

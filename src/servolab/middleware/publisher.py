@@ -49,5 +49,12 @@ class Publisher:
         return sum(1 for e in graph if e.kind == "MS" and e.name == self.topic
                    and e.type_name == self.type_name)
 
+    def wait_for_subscription(self, timeout_sec: float) -> bool:
+        """Wait up to ``timeout_sec`` s for a subscription that this publisher's messages
+        reach; whether there is one. What a talker does before its first message, so that
+        the message is not lost to start-up (``topic pub`` and ``bag play`` wait this way,
+        on a condition, not a fixed time)."""
+        return self._inner.wait_for_subscription(timeout_sec)
+
     def destroy(self) -> None:
         self._inner.close()

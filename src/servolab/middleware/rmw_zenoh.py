@@ -36,7 +36,11 @@ _HASH = re.compile(r"RIHS[0-9]{2}_[0-9a-f]+")
 _ROS_TYPE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)/([a-z]+)/([A-Za-z_][A-Za-z0-9_]*)")
 _DDS_TYPE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)::([a-z]+)::dds_::([A-Za-z_][A-Za-z0-9_]*)_")
 _NUMBER = re.compile(r"[0-9]+")
-_ATTACHMENT = struct.Struct("<qqB16s")
+#: rmw_zenoh's 33-byte attachment (``attachment_helpers.cpp``): sequence number, source
+#: timestamp (ns), GID length, GID, little-endian
+ATTACHMENT = struct.Struct("<qqB16s")
+#: its first two fields, which change with every message
+ATTACHMENT_SEQUENCE_AND_TIME = struct.Struct("<qq")
 
 
 class EntityKind(StrEnum):
@@ -272,7 +276,7 @@ def encode_attachment(sequence_number: int, source_timestamp_ns: int, gid: bytes
     if len(gid) != GID_SIZE:
         raise MessageError(f"GID is {len(gid)} bytes, not {GID_SIZE}")
     try:
-        return _ATTACHMENT.pack(sequence_number, source_timestamp_ns, GID_SIZE, bytes(gid))
+        return ATTACHMENT.pack(sequence_number, source_timestamp_ns, GID_SIZE, bytes(gid))
     except struct.error as exc:
         raise MessageError(f"attachment sequence number or timestamp: {exc}") from None
 
@@ -280,10 +284,10 @@ def encode_attachment(sequence_number: int, source_timestamp_ns: int, gid: bytes
 def decode_attachment(data: bytes | bytearray | memoryview) -> Attachment:
     """The inverse of :func:`encode_attachment`; anything but 33 bytes with a 16-byte GID is
     refused rather than guessed at."""
-    if len(data) != _ATTACHMENT.size:
-        raise MessageError(f"attachment is {len(data)} bytes, not {_ATTACHMENT.size} "
+    if len(data) != ATTACHMENT.size:
+        raise MessageError(f"attachment is {len(data)} bytes, not {ATTACHMENT.size} "
                            "(sequence number, timestamp, GID length, GID)")
-    sequence_number, timestamp, gid_size, gid = _ATTACHMENT.unpack(data)
+    sequence_number, timestamp, gid_size, gid = ATTACHMENT.unpack(data)
     if gid_size != GID_SIZE:
         raise MessageError(f"attachment GID length is {gid_size}, not {GID_SIZE}")
     return Attachment(sequence_number, timestamp, gid)

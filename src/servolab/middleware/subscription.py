@@ -4,8 +4,6 @@
 from __future__ import annotations
 
 import inspect
-import threading
-from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -20,13 +18,14 @@ class Subscription:
     """Calls ``callback(msg)``, or ``callback(msg, info)`` when created with
     ``with_info=True``, for each message on a topic.
 
-    Up to ``qos.depth`` messages wait for the executor (KEEP_LAST); when more arrive, the
-    oldest are dropped and counted in :attr:`dropped`. KEEP_ALL keeps all, which is what a
-    recorder needs. ``raw=True`` hands the callback the CDR bytes.
+    Messages wait in the transport's :mod:`.inbox`: up to ``qos.depth`` of them (KEEP_LAST;
+    when more arrive, the oldest are dropped), or all (KEEP_ALL, what a recorder needs).
+    ``raw=True`` hands the callback the CDR bytes.
 
-    The executor holds one piece of work per message waiting, not per message received: a
-    KEEP_LAST(depth) subscription never has more than ``depth`` callbacks pending, however
-    fast messages arrive, and callbacks keep the order in which messages arrived.
+    However fast messages arrive, a subscription has at most one piece of work queued in the
+    executor: it takes one message, runs the callback, and queues itself again while messages
+    wait. So due timers still come first, and subscriptions with messages waiting take turns,
+    one callback each, as in rclpy's executor.
 
     The callback's signature is said, not guessed: a callback that needs two arguments
     without ``with_info=True`` is refused when the subscription is made, not when the first
@@ -41,55 +40,47 @@ class Subscription:
         self.topic = topic
         self.qos = qos
         self.raw = raw
-        self.dropped = 0
+        #: messages whose callback has run
         self.received = 0
         self._callback = callback
         self._with_info = with_info
-        self._queue: deque[tuple[Any, MessageInfo]] = deque(maxlen=qos.queue_depth or None)
-        self._lock = threading.Lock()
-        self._takes = 0  # _take calls queued in the executor
-        self._executor = node.context.executor
+        self._submit = node.context.executor.submit
         self._deserialize = node.context.types.deserialize
-        self._inner = node.context.transport.subscribe(node.info, topic, type_name, qos,
-                                                       self._deliver, raw=raw)
+        self._inbox = node.context.transport.subscribe(node.info, topic, type_name, qos,
+                                                       self._wake, raw=raw)
 
     @property
     def topic_name(self) -> str:
         """rclpy's name for :attr:`topic`."""
         return self.topic
 
-    def _deliver(self, data: Any, info: MessageInfo) -> None:
-        with self._lock:
-            if self._queue.maxlen is not None and len(self._queue) == self._queue.maxlen:
-                self.dropped += 1
-            self._queue.append((data, info))
-            self.received += 1
-            if self._takes >= len(self._queue):
-                return  # a message was dropped: its queued _take will take this one
-            self._takes += 1
-        self._executor.submit(self._take)
-
     @property
     def pending(self) -> int:
-        """Messages waiting for the callback (at most ``depth`` unless KEEP_ALL)."""
-        return len(self._queue)
+        """Messages waiting for the callback (at most ``depth`` unless KEEP_ALL), where the
+        transport can count them: in-process it can; over Zenoh they wait in Zenoh's channel,
+        which does not say (0)."""
+        return self._inbox.pending
 
-    def drain(self) -> int:
-        """Run the callback for every message still queued (a recorder stopping keeps what
-        had already arrived); returns how many."""
-        n = 0
-        while self._queue:
-            self._take(from_executor=False)
-            n += 1
-        return n
+    @property
+    def dropped(self) -> int:
+        """Messages dropped to keep ``depth`` (KEEP_LAST), where the transport can count them
+        (in-process; Zenoh's ring channel drops without counting: 0)."""
+        return self._inbox.dropped
 
-    def _take(self, from_executor: bool = True) -> None:
-        with self._lock:
-            if from_executor:
-                self._takes -= 1
-            if not self._queue:
-                return  # drained while waiting
-            data, info = self._queue.popleft()
+    def _wake(self) -> None:
+        self._submit(self._take)
+
+    def _take(self) -> None:
+        taken = self._inbox.take(self._with_info)
+        if taken is None:
+            return  # the inbox wakes us when the next message comes
+        try:
+            self._run(*taken)
+        finally:  # more may wait (also after a callback that raised): look again after
+            self._submit(self._take)  # the others' turn
+
+    def _run(self, data: Any, info: MessageInfo) -> None:
+        self.received += 1
         if not self.raw and isinstance(data, bytes | memoryview):
             data = self._deserialize(data, self.type_name)
         if self._with_info:
@@ -97,8 +88,17 @@ class Subscription:
         else:
             self._callback(data)
 
+    def drain(self) -> int:
+        """Run the callback for every message still waiting (a recorder stopping keeps what
+        had already arrived); returns how many."""
+        n = 0
+        while (taken := self._inbox.take(self._with_info)) is not None:
+            self._run(*taken)
+            n += 1
+        return n
+
     def destroy(self) -> None:
-        self._inner.close()
+        self._inbox.close()
 
 
 def _check_signature(callback: Callable[..., Any], given: int, topic: str) -> None:

@@ -2,8 +2,10 @@
 
 Two transports implement this: :mod:`.local` (one process, messages passed as objects) and
 :mod:`.zenoh_transport` (processes and machines, CDR bytes over Zenoh in rmw_zenoh's layout).
-Everything a transport hands upward goes through a callback that may run on any thread; the
-:class:`~servolab.middleware.executor.Executor` moves the work onto the thread that spins.
+A transport hands messages upward through each subscription's :mod:`.inbox`, filled on the
+transport's thread and emptied on the executor's; services and other answers go through
+callbacks that may run on any thread, which the :class:`~servolab.middleware.executor.Executor`
+moves onto the thread that spins.
 """
 
 from __future__ import annotations
@@ -12,10 +14,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from .messages import MessageTypes, ServiceType
 from .qos import QoSProfile
+
+if TYPE_CHECKING:
+    from .inbox import Inbox, Wake
 
 
 @dataclass(frozen=True)
@@ -72,14 +77,16 @@ class TransportPublisher(ABC):
         """Publish a message given as its CDR bytes (bag playback): a transport that carries
         bytes sends them as they are, the in-process one decodes them once."""
 
+    @abstractmethod
+    def wait_for_subscription(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` s until a subscription exists that what this publisher
+        publishes reaches (of its type, in this process or, over Zenoh, routed to by this
+        session); whether one does. A message published after True is not lost to start-up."""
+
     def close(self) -> None:  # noqa: B027 - most publishers hold nothing to release
         pass
 
 
-#: ``deliver(data, info)``: ``data`` is the message object, or its CDR bytes for raw
-#: subscriptions (and always bytes from a transport that carries bytes; the subscription
-#: deserializes them on the executor's thread, not the transport's).
-Deliver = Callable[[Any, MessageInfo], None]
 #: ``handler(request, reply)``: the transport's request; ``reply(response)`` answers it.
 Handler = Callable[[Any, Callable[[Any], None]], None]
 
@@ -113,8 +120,11 @@ class Transport(ABC):
 
     @abstractmethod
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
-                  deliver: Deliver, *, raw: bool = False) -> Closeable:
-        """Call ``deliver`` for each message; with TRANSIENT_LOCAL first for what
+                  wake: Wake, *, raw: bool = False) -> Inbox:
+        """An inbox that receives the topic's messages (see :mod:`.inbox` for when ``wake``
+        is called): message objects, or CDR bytes for ``raw`` subscriptions and always from a
+        transport that carries bytes (the subscription deserializes them on the executor's
+        thread, not the transport's). With TRANSIENT_LOCAL it first holds what
         TRANSIENT_LOCAL publishers kept, oldest first."""
 
     @abstractmethod

@@ -28,9 +28,9 @@ import itertools
 import json
 import os
 import re
-import struct
 import threading
 import time
+import weakref
 from concurrent.futures import Future
 from typing import Any
 
@@ -38,11 +38,12 @@ import zenoh
 import zenoh.ext
 
 from .errors import MessageError, ServiceError, TransportError
+from .inbox import Wake
 from .messages import MessageTypes, ServiceType
 from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from .rmw_zenoh import (
     ADMIN_SPACE,
-    GID_SIZE,
+    ATTACHMENT_SEQUENCE_AND_TIME,
     EntityKind,
     Qos,
     decode_attachment,
@@ -55,15 +56,14 @@ from .rmw_zenoh import (
 )
 from .transport import (
     Closeable,
-    Deliver,
     Endpoint,
     Handler,
-    MessageInfo,
     NodeInfo,
     Transport,
     TransportOptions,
     TransportPublisher,
 )
+from .zenoh_inbox import ChannelInbox, channel_for
 
 #: Where rmw_zenoh's sessions look for the ROS router (``rmw_zenohd``) by default.
 DEFAULT_ROUTER = "tcp/localhost:7447"
@@ -148,31 +148,16 @@ def congestion_control(reliable: bool, depth: int) -> zenoh.CongestionControl:
     return zenoh.CongestionControl.DROP
 
 
-#: rmw_zenoh's attachment (:func:`.rmw_zenoh.encode_attachment`), packed and unpacked here
-#: without the checks, once per message: sequence number, timestamp, GID length, GID.
-_ATTACHMENT = struct.Struct("<qqB16s")
-_SEQUENCE_AND_TIME = struct.Struct("<qq")
-
-
-def message_info(attachment: zenoh.ZBytes | None, received_ns: int) -> MessageInfo:
-    """A received sample's :class:`MessageInfo` from rmw_zenoh's attachment (one struct
-    unpack); a sample without it (a plain Zenoh put) is still data, stamped on arrival."""
-    if attachment is not None:
-        data = attachment.to_bytes()
-        if len(data) == _ATTACHMENT.size and data[16] == GID_SIZE:
-            sequence_number, timestamp, _, gid = _ATTACHMENT.unpack(data)
-            return MessageInfo(timestamp, received_ns, sequence_number, gid)
-    return MessageInfo(received_ns, received_ns)
-
-
 class ZenohPublisher(TransportPublisher):
     def __init__(self, transport: ZenohTransport, key: str, type_name: str, gid: bytes,
                  qos: QoSProfile) -> None:
         self._types = transport.types
         self._type_name = type_name
+        self._session = transport.session
+        self._key = key
         self._gid = gid
         # the attachment's last 17 bytes (GID length, GID) never change: checked once here
-        self._gid_tail = encode_attachment(0, 0, gid)[_SEQUENCE_AND_TIME.size:]
+        self._gid_tail = encode_attachment(0, 0, gid)[ATTACHMENT_SEQUENCE_AND_TIME.size:]
         self._sequence = itertools.count(1)
         options: dict[str, Any] = {
             "congestion_control": congestion_control(qos.reliable, qos.queue_depth),
@@ -197,8 +182,27 @@ class ZenohPublisher(TransportPublisher):
         self.publish_serialized(self._types.serialize(msg, self._type_name))
 
     def publish_serialized(self, cdr: bytes) -> None:
-        attachment = _SEQUENCE_AND_TIME.pack(next(self._sequence), time.time_ns())
+        attachment = ATTACHMENT_SEQUENCE_AND_TIME.pack(next(self._sequence), time.time_ns())
         self._publisher.put(cdr, attachment=attachment + self._gid_tail)
+
+    def wait_for_subscription(self, timeout: float) -> bool:
+        """Zenoh's matching status of a publisher on the key: true once this session routes
+        the key to a subscriber, which for a subscriber in another process may come a moment
+        after its liveliness token. (An AdvancedPublisher has no matching status: a plain
+        publisher on its key stands in for it.)"""
+        probe = (self._publisher if isinstance(self._publisher, zenoh.Publisher)
+                 else self._session.declare_publisher(self._key))
+        matched = threading.Event()
+        listener = probe.declare_matching_listener(
+            lambda status: matched.set() if status.matching else None)
+        try:
+            # (the stubs say bool; it is a MatchingStatus, as the listener gets)
+            status: Any = probe.matching_status
+            return bool(status.matching) or matched.wait(timeout)
+        finally:
+            listener.undeclare()
+            if probe is not self._publisher:
+                probe.undeclare()
 
     def close(self) -> None:
         self._declared.close()
@@ -218,6 +222,7 @@ class ZenohTransport(Transport):
         self._entity_ids = itertools.count(1000)  # above node ids, which count from 0
         self._lock = threading.Lock()
         self._closed = False
+        self._inboxes: weakref.WeakSet[ChannelInbox] = weakref.WeakSet()
 
     # -- helpers -----------------------------------------------------------------------------
 
@@ -248,29 +253,23 @@ class ZenohTransport(Transport):
         return publisher
 
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
-                  deliver: Deliver, *, raw: bool = False) -> Closeable:
-        def on_sample(sample: zenoh.Sample) -> None:
-            # Zenoh's thread: as little as possible (one copy out of Zenoh, one struct unpack
-            # of the attachment); deserialization waits for the executor. A memoryview lets
-            # rosbags read an image's pixels without copying them again.
-            payload = sample.payload.to_bytes()
-            deliver(payload if raw else memoryview(payload),
-                    message_info(sample.attachment, time.time_ns()))
-
+                  wake: Wake, *, raw: bool = False) -> ChannelInbox:
         key = self._key(topic, type_name)
-        subscriber: zenoh.Subscriber[None] | zenoh.ext.AdvancedSubscriber[None]
+        subscriber: zenoh.Subscriber[Any] | zenoh.ext.AdvancedSubscriber[Any]
         if qos.transient_local:
             # rmw_zenoh's TRANSIENT_LOCAL: an AdvancedSubscriber that asks publishers' caches
             # for their history, now and whenever a new (late) publisher appears
             subscriber = zenoh.ext.declare_advanced_subscriber(
-                self.session, key, on_sample, history=zenoh.ext.HistoryConfig(
+                self.session, key, channel_for(qos), history=zenoh.ext.HistoryConfig(
                     detect_late_publishers=True,
                     max_samples=qos.history_depth))
         else:
-            subscriber = self.session.declare_subscriber(key, on_sample)
+            subscriber = self.session.declare_subscriber(key, channel_for(qos))
         token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, qos,
                             next(self._entity_ids))
-        return _Declared(subscriber, token)
+        inbox = ChannelInbox(subscriber, wake, raw=raw, name=topic, token=token)
+        self._inboxes.add(inbox)
+        return inbox
 
     # -- services ----------------------------------------------------------------------------
 
@@ -430,6 +429,8 @@ class ZenohTransport(Transport):
             if self._closed:
                 return
             self._closed = True
+        for inbox in list(self._inboxes):
+            inbox.close()  # their watcher threads leave
         self.session.close()
 
 

@@ -1,0 +1,133 @@
+"""A subscription's inbox over Zenoh: Zenoh's own channel, emptied by the executor.
+
+A Zenoh subscriber with a Python callback takes the GIL on Zenoh's network thread for every
+sample, and each message then crosses from that thread to the executor's: under a flood the
+two threads pass the GIL back and forth for every message, which cost more than the rest of
+receiving it (docs/middleware.md, "How fast"). Here Zenoh's thread only pushes the sample
+into a Rust channel, without the GIL, and the executor pulls samples from it with
+``try_recv()`` one after the other: a burst costs one wake-up.
+
+Something must wake a sleeping executor when the channel, found empty, gets a sample: a
+*watcher* thread that waits in the channel's ``recv()`` (which releases the GIL) only while
+the inbox is armed, that is after the executor found it empty. It hands over the one sample it
+received and waits again until the executor has emptied the channel, so it runs once per
+burst, not per message.
+
+KEEP_LAST(depth) is Zenoh's ``RingChannel(depth)``, which drops the oldest sample when full,
+as the QoS means. KEEP_ALL is a ``FifoChannel`` of :data:`KEEP_ALL_CAPACITY` samples: when an
+executor falls that far behind, Zenoh's thread waits, so a RELIABLE + KEEP_ALL publisher (which
+BLOCKs) waits too, as DDS's KEEP_ALL does, rather than memory growing without bound.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import zenoh
+
+from .inbox import NO_INFO, Taken, Wake
+from .qos import QoSProfile
+from .rmw_zenoh import ATTACHMENT, GID_SIZE
+from .transport import MessageInfo
+
+#: Samples a KEEP_ALL subscription's channel holds before Zenoh's thread waits for the executor.
+KEEP_ALL_CAPACITY = 100_000
+#: How long :meth:`ChannelInbox.close` waits for the watcher thread to leave (s).
+_JOIN_TIMEOUT = 2.0
+
+
+def channel_for(qos: QoSProfile) -> (zenoh.handlers.RingChannel[zenoh.Sample]
+                                    | zenoh.handlers.FifoChannel[zenoh.Sample]):
+    """The Zenoh channel that keeps what ``qos`` says a subscription keeps."""
+    if qos.keep_all:
+        return zenoh.handlers.FifoChannel(KEEP_ALL_CAPACITY)
+    return zenoh.handlers.RingChannel(max(1, qos.depth))
+
+
+def message_info(attachment: zenoh.ZBytes | None, received_ns: int) -> MessageInfo:
+    """A received sample's :class:`MessageInfo` from rmw_zenoh's attachment (one struct
+    unpack, without :func:`.rmw_zenoh.decode_attachment`'s checks); a sample without it (a
+    plain Zenoh put) is still data, stamped on arrival."""
+    if attachment is not None:
+        data = attachment.to_bytes()
+        if len(data) == ATTACHMENT.size and data[16] == GID_SIZE:
+            sequence_number, timestamp, _, gid = ATTACHMENT.unpack(data)
+            return MessageInfo(timestamp, received_ns, sequence_number, gid)
+    return MessageInfo(received_ns, received_ns)
+
+
+class ChannelInbox:
+    """The inbox of one Zenoh subscriber declared with :func:`channel_for`'s channel.
+
+    Messages are handed over as CDR bytes (``raw``) or as a memoryview of them, which lets
+    rosbags read an image's pixels without copying them again: one copy out of Zenoh per
+    message (Zenoh's buffers do not expose Python's buffer protocol). A message's
+    ``received_timestamp_ns`` is when the executor takes it; its attachment is decoded only
+    for a consumer that asks for the :class:`MessageInfo`.
+    """
+
+    dropped = 0  # Zenoh's ring channel drops without counting
+    pending = 0  # nor does it say how many wait
+
+    def __init__(self, subscriber: Any, wake: Wake, *, raw: bool, name: str,
+                 token: Any = None) -> None:
+        self._subscriber = subscriber
+        self._token = token  # the subscription's liveliness token, undeclared first
+        self._channel = subscriber.handler
+        self._wake = wake
+        self._raw = raw
+        self._lock = threading.Lock()
+        self._held: zenoh.Sample | None = None  # what the watcher received
+        self._armed = threading.Event()  # the executor found it empty: the watcher waits
+        self._armed.set()
+        self._closed = False
+        self._watcher = threading.Thread(target=self._watch, name=f"servolab-inbox {name}",
+                                         daemon=True)
+        self._watcher.start()
+
+    def _watch(self) -> None:
+        channel = self._channel
+        while True:
+            self._armed.wait()
+            if self._closed:
+                return
+            try:
+                sample = channel.recv()  # without the GIL, until a sample comes
+            except zenoh.ZError:
+                return  # undeclared or session closed: the channel is closed
+            with self._lock:
+                self._held = sample
+                self._armed.clear()
+            self._wake()
+
+    def take(self, info: bool = True) -> Taken | None:
+        with self._lock:
+            sample = self._held
+            if sample is not None:
+                self._held = None
+            elif self._armed.is_set():
+                return None  # the watcher has the channel until it wakes us
+            else:
+                try:
+                    sample = self._channel.try_recv()
+                except zenoh.ZError:
+                    sample = None  # closed and empty
+                if sample is None:
+                    self._armed.set()
+                    return None
+        payload = sample.payload.to_bytes()
+        return ((payload if self._raw else memoryview(payload)),
+                message_info(sample.attachment, time.time_ns()) if info else NO_INFO)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._armed.set()
+        if self._token is not None:
+            self._token.undeclare()  # leave the graph first, as rmw_zenoh does
+        self._subscriber.undeclare()
+        if self._watcher is not threading.current_thread():
+            self._watcher.join(_JOIN_TIMEOUT)
