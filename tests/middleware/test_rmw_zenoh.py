@@ -18,12 +18,12 @@ from hypothesis import strategies as st
 from servolab.middleware.errors import MessageError, NameValidationError
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.names import fully_qualified_name
+from servolab.middleware.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from servolab.middleware.rmw_zenoh import (
     RMW_ZENOH_DEFAULT_DEPTH,
     Attachment,
     Entity,
     EntityKind,
-    Qos,
     dds_type_name,
     decode_attachment,
     encode_attachment,
@@ -32,6 +32,8 @@ from servolab.middleware.rmw_zenoh import (
     mangle,
     node_token,
     parse_token,
+    qos_from_keyexpr,
+    qos_to_keyexpr,
     ros_type_name,
     topic_keyexpr,
     unmangle,
@@ -150,9 +152,9 @@ def test_entity_tokens_of_the_design_document(types: MessageTypes) -> None:
     chatter = fully_qualified_name("chatter", "/")
     service = fully_qualified_name("add_two_ints", "/")
     assert entity_token(2, LISTENER_SESSION, 0, 10, EntityKind.SUBSCRIPTION, "listener",
-                        chatter, STRING, string_hash, qos=Qos(depth=10)) == DOC_LISTENER_SUB
+                        chatter, STRING, string_hash, qos=QoSProfile(depth=10)) == DOC_LISTENER_SUB
     assert entity_token(2, TALKER_SESSION, 0, 10, "MP", "talker", chatter, STRING, string_hash,
-                        qos=Qos(depth=7)) == DOC_TALKER_PUB
+                        qos=QoSProfile(depth=7)) == DOC_TALKER_PUB
     assert entity_token(2, SERVER_SESSION, 0, 10, EntityKind.SERVICE, "add_two_ints_server",
                         service, ADD_TWO_INTS, add_hash) == DOC_SERVER
     assert entity_token(2, CLIENT_SESSION, 0, 10, EntityKind.CLIENT, "add_two_ints_client",
@@ -187,10 +189,10 @@ def test_parse_the_design_documents_tokens() -> None:
         2, LISTENER_SESSION, 0, 0, EntityKind.NODE, "/", "/", "listener")
     assert parse_token(DOC_TALKER_PUB) == Entity(
         2, TALKER_SESSION, 0, 10, EntityKind.PUBLISHER, "/", "/", "talker", "/chatter",
-        STRING, STRING_HASH, Qos(depth=7))
+        STRING, STRING_HASH, QoSProfile(depth=7))
     server = parse_token(DOC_SERVER)
     assert (server.kind, server.topic, server.type_name, server.type_hash, server.qos) == (
-        "SS", "/add_two_ints", ADD_TWO_INTS, ADD_TWO_INTS_HASH, Qos())
+        "SS", "/add_two_ints", ADD_TWO_INTS, ADD_TWO_INTS_HASH, QoSProfile())
     for token in (DOC_LISTENER_NODE, DOC_LISTENER_SUB, DOC_TALKER_PUB, DOC_SERVER, DOC_CLIENT):
         assert parse_token(token).to_token() == token
 
@@ -223,26 +225,30 @@ def test_malformed_tokens_are_refused_naming_the_token(bad: str) -> None:
 # -- QoS --------------------------------------------------------------------------------------
 
 def test_qos_chunks_of_the_design_document() -> None:
-    assert Qos().to_keyexpr() == "::,10:,:,:,,"
-    assert Qos(depth=7).to_keyexpr() == "::,7:,:,:,,"
-    assert Qos.from_keyexpr("::,10:,:,:,,") == Qos()
+    assert qos_to_keyexpr(QoSProfile()) == "::,10:,:,:,,"
+    assert qos_to_keyexpr(QoSProfile(depth=7)) == "::,7:,:,:,,"
+    assert qos_from_keyexpr("::,10:,:,:,,") == QoSProfile()
 
 
 def test_qos_writes_only_what_differs_from_rmw_zenohs_defaults() -> None:
     # rmw_zenoh leaves a component empty when it equals its own default; its default depth is
     # 42, which is why the examples' 10 and 7 are written out.
-    assert Qos(depth=RMW_ZENOH_DEFAULT_DEPTH).to_keyexpr() == "::,:,:,:,,"
-    assert Qos.from_keyexpr("::,:,:,:,,").depth == RMW_ZENOH_DEFAULT_DEPTH
-    assert (Qos(reliable=False, transient_local=True, keep_all=True, depth=5).to_keyexpr()
-            == "2:1:2,5:,:,:,,")
+    assert qos_to_keyexpr(QoSProfile(depth=RMW_ZENOH_DEFAULT_DEPTH)) == "::,:,:,:,,"
+    assert qos_from_keyexpr("::,:,:,:,,").depth == RMW_ZENOH_DEFAULT_DEPTH
+    assert qos_to_keyexpr(QoSProfile(
+        history=HistoryPolicy.KEEP_ALL, depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL)) == "2:1:2,5:,:,:,,"
 
 
 def test_qos_parses_explicit_components() -> None:
     # The example of rmw_zenoh's qos_to_keyexpr documentation: reliable, volatile, keep_last 10
     # with a deadline, lifespan and liveliness, which servolab does not keep.
-    assert Qos.from_keyexpr("1:2:1,10:0,0:60,3000:1,0,0") == Qos()
-    assert Qos.from_keyexpr("2:1:2,3:,:,:,,") == Qos(False, True, True, 3)
-    assert Qos.from_keyexpr("0:0:0,10:,:,:,,") == Qos()  # SYSTEM_DEFAULT everywhere
+    assert qos_from_keyexpr("1:2:1,10:0,0:60,3000:1,0,0") == QoSProfile()
+    assert qos_from_keyexpr("2:1:2,3:,:,:,,") == QoSProfile(
+        history=HistoryPolicy.KEEP_ALL, depth=3, reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    assert qos_from_keyexpr("0:0:0,10:,:,:,,") == QoSProfile()  # SYSTEM_DEFAULT everywhere
+    assert qos_from_keyexpr("::,0:,:,:,,") == QoSProfile(depth=1)  # KEEP_LAST holds >= 1
 
 
 @pytest.mark.parametrize("bad", ["", "::", "::,10:,:,:,", "::10:,:,:,,", "a::,10:,:,:,,",
@@ -250,12 +256,7 @@ def test_qos_parses_explicit_components() -> None:
                                  "::3,10:,:,:,,"])
 def test_bad_qos_is_refused(bad: str) -> None:
     with pytest.raises(MessageError, match="QoS"):
-        Qos.from_keyexpr(bad)
-
-
-def test_qos_depth_must_not_be_negative() -> None:
-    with pytest.raises(MessageError, match="depth"):
-        Qos(depth=-1)
+        qos_from_keyexpr(bad)
 
 
 # -- attachments and GIDs ---------------------------------------------------------------------
@@ -299,8 +300,13 @@ def test_gids_are_deterministic_and_distinct() -> None:
 _tokens = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,7}", fullmatch=True)
 _absolute = st.lists(_tokens, min_size=1, max_size=3).map(lambda ts: "/" + "/".join(ts))
 _namespaces = st.one_of(st.just("/"), _absolute)
-_qos = st.builds(Qos, st.booleans(), st.booleans(), st.booleans(),
-                 st.integers(0, 2**32 - 1) | st.just(RMW_ZENOH_DEFAULT_DEPTH))
+_qos = st.builds(QoSProfile, history=st.sampled_from([HistoryPolicy.KEEP_LAST,
+                                                      HistoryPolicy.KEEP_ALL]),
+                 depth=st.integers(1, 2**32 - 1) | st.just(RMW_ZENOH_DEFAULT_DEPTH),
+                 reliability=st.sampled_from([ReliabilityPolicy.RELIABLE,
+                                              ReliabilityPolicy.BEST_EFFORT]),
+                 durability=st.sampled_from([DurabilityPolicy.VOLATILE,
+                                             DurabilityPolicy.TRANSIENT_LOCAL]))
 _ids = st.integers(0, 2**31)
 _sessions = st.from_regex(r"[0-9a-f]{1,32}", fullmatch=True)
 _types = st.builds(lambda pkg, kind, name: f"{pkg}/{kind}/{name}", _tokens,
@@ -309,8 +315,8 @@ _hashes = st.from_regex(r"RIHS01_[0-9a-f]{64}", fullmatch=True)
 
 
 @given(_qos)
-def test_qos_round_trip(qos: Qos) -> None:
-    assert Qos.from_keyexpr(qos.to_keyexpr()) == qos
+def test_qos_round_trip(qos: QoSProfile) -> None:
+    assert qos_from_keyexpr(qos_to_keyexpr(qos)) == qos
 
 
 @given(domain=_ids, session=_sessions, node_id=_ids, node=_tokens, namespace=_namespaces,
@@ -330,7 +336,7 @@ def test_node_token_round_trip(domain: int, session: str, node_id: int, node: st
        namespace=_namespaces, topic=_absolute, type_name=_types, type_hash=_hashes, qos=_qos)
 def test_entity_token_round_trip(domain: int, session: str, node_id: int, entity_id: int,
                                  kind: EntityKind, node: str, namespace: str, topic: str,
-                                 type_name: str, type_hash: str, qos: Qos) -> None:
+                                 type_name: str, type_hash: str, qos: QoSProfile) -> None:
     token = entity_token(domain, session, node_id, entity_id, kind, node, topic, type_name,
                          type_hash, namespace=namespace, qos=qos)
     entity = parse_token(token)

@@ -24,6 +24,7 @@ from .names import (
     validate_namespace,
     validate_node_name,
 )
+from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 ADMIN_SPACE = "@ros2_lv"
 #: rmw_zenoh's default depth: a token leaves the depth empty only when it is this, so the
@@ -115,48 +116,49 @@ def topic_keyexpr(domain_id: int, fqn: str, ros_type_name: str, type_hash: str) 
 
 # -- QoS --------------------------------------------------------------------------------------
 
-_RELIABILITY = {"": True, "0": True, "1": True, "2": False}  # 0 is SYSTEM_DEFAULT
-_DURABILITY = {"": False, "0": False, "1": True, "2": False}
-_HISTORY = {"": False, "0": False, "1": False, "2": True}
+# rmw_zenoh writes rmw's policy numbers (rmw/types.h, the values of QoSProfile's policies);
+# 0 is SYSTEM_DEFAULT, which rmw_zenoh resolves to RELIABLE, VOLATILE and KEEP_LAST
+_RELIABILITY = {"": ReliabilityPolicy.RELIABLE, "0": ReliabilityPolicy.RELIABLE,
+                "1": ReliabilityPolicy.RELIABLE, "2": ReliabilityPolicy.BEST_EFFORT}
+_DURABILITY = {"": DurabilityPolicy.VOLATILE, "0": DurabilityPolicy.VOLATILE,
+               "1": DurabilityPolicy.TRANSIENT_LOCAL, "2": DurabilityPolicy.VOLATILE}
+_HISTORY = {"": HistoryPolicy.KEEP_LAST, "0": HistoryPolicy.KEEP_LAST,
+            "1": HistoryPolicy.KEEP_LAST, "2": HistoryPolicy.KEEP_ALL}
 
 
-@dataclass(frozen=True, slots=True)
-class Qos:
-    """The QoS servolab honours. Deadline, lifespan and liveliness are always rmw_zenoh's
-    defaults (infinite, AUTOMATIC) when written, and checked but dropped when parsed."""
+def qos_to_keyexpr(qos: QoSProfile) -> str:
+    """A token's QoS chunk, ``::,10:,:,:,,`` for the defaults: a component is empty when it
+    is rmw_zenoh's default (RELIABLE, VOLATILE, KEEP_LAST, depth 42, infinite durations,
+    AUTOMATIC liveliness). Deadline, lifespan and liveliness, which servolab does not keep,
+    are always written as those defaults."""
+    reliability = "" if qos.reliable else str(int(ReliabilityPolicy.BEST_EFFORT))
+    durability = str(int(DurabilityPolicy.TRANSIENT_LOCAL)) if qos.transient_local else ""
+    history = str(int(HistoryPolicy.KEEP_ALL)) if qos.keep_all else ""
+    depth = "" if qos.depth == RMW_ZENOH_DEFAULT_DEPTH else str(qos.depth)
+    return f"{reliability}:{durability}:{history},{depth}:,:,:,,"
 
-    reliable: bool = True
-    transient_local: bool = False
-    keep_all: bool = False
-    depth: int = 10
 
-    def __post_init__(self) -> None:
-        _check_id(self.depth, "QoS depth")
-
-    def to_keyexpr(self) -> str:
-        """``::,10:,:,:,,`` for the defaults: a component is empty when it is rmw_zenoh's
-        default (RELIABLE, VOLATILE, KEEP_LAST, depth 42, infinite durations, AUTOMATIC)."""
-        reliability = "" if self.reliable else "2"
-        durability = "1" if self.transient_local else ""
-        history = "2" if self.keep_all else ""
-        depth = "" if self.depth == RMW_ZENOH_DEFAULT_DEPTH else str(self.depth)
-        return f"{reliability}:{durability}:{history},{depth}:,:,:,,"
-
-    @classmethod
-    def from_keyexpr(cls, text: str) -> Qos:
-        """Parse a token's QoS chunk, whether its components are empty or written out."""
-        parts = text.split(":")
-        shape = [len(p.split(",")) for p in parts]
-        numbers = text.replace(":", "").replace(",", "")
-        if shape != [1, 1, 2, 2, 2, 3] or (numbers and not _NUMBER.fullmatch(numbers)):
-            raise MessageError(f"QoS {text!r} is not <rel>:<dur>:<hist>,<depth>:<s>,<ns>:<s>,"
-                               "<ns>:<liveliness>,<s>,<ns>")
-        history, depth = parts[2].split(",")
-        try:
-            return cls(_RELIABILITY[parts[0]], _DURABILITY[parts[1]], _HISTORY[history],
-                       int(depth) if depth else RMW_ZENOH_DEFAULT_DEPTH)
-        except KeyError as exc:
-            raise MessageError(f"QoS {text!r}: unsupported policy value {exc}") from None
+def qos_from_keyexpr(text: str) -> QoSProfile:
+    """Parse a token's QoS chunk, whether its components are empty or written out; deadline,
+    lifespan and liveliness are checked and dropped. A KEEP_LAST depth of 0 (which a C++ node
+    may announce) is read as 1, the least a KEEP_LAST history holds."""
+    parts = text.split(":")
+    shape = [len(p.split(",")) for p in parts]
+    numbers = text.replace(":", "").replace(",", "")
+    if shape != [1, 1, 2, 2, 2, 3] or (numbers and not _NUMBER.fullmatch(numbers)):
+        raise MessageError(f"QoS {text!r} is not <rel>:<dur>:<hist>,<depth>:<s>,<ns>:<s>,"
+                           "<ns>:<liveliness>,<s>,<ns>")
+    history_text, depth_text = parts[2].split(",")
+    try:
+        history = _HISTORY[history_text]
+        reliability, durability = _RELIABILITY[parts[0]], _DURABILITY[parts[1]]
+    except KeyError as exc:
+        raise MessageError(f"QoS {text!r}: unsupported policy value {exc}") from None
+    depth = int(depth_text) if depth_text else RMW_ZENOH_DEFAULT_DEPTH
+    if history == HistoryPolicy.KEEP_LAST:
+        depth = max(1, depth)
+    return QoSProfile(history=history, depth=depth, reliability=reliability,
+                      durability=durability)
 
 
 # -- liveliness tokens ------------------------------------------------------------------------
@@ -179,7 +181,7 @@ def node_token(domain_id: int, session_id: str, node_id: int, node_name: str,
 def entity_token(domain_id: int, session_id: str, node_id: int, entity_id: int,
                  kind: EntityKind | str, node_name: str, topic: str, ros_type_name: str,
                  type_hash: str, *, namespace: str = "/", enclave: str = "/",
-                 qos: Qos | None = None) -> str:
+                 qos: QoSProfile | None = None) -> str:
     """The token of a publisher, subscription, service server or client on ``topic`` (a fully
     qualified name, see :func:`fully_qualified_name`)."""
     if kind not in ("MP", "MS", "SS", "SC"):
@@ -190,7 +192,7 @@ def entity_token(domain_id: int, session_id: str, node_id: int, entity_id: int,
     topic = validate_full_topic_name(topic, is_service=kind in ("SS", "SC"))
     return (f"{head}/{mangle(topic)}/"
             f"{dds_type_name(ros_type_name)}/{_check('type hash', type_hash)}/"
-            f"{(qos or Qos()).to_keyexpr()}")
+            f"{qos_to_keyexpr(qos or QoSProfile())}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,7 +213,7 @@ class Entity:
     topic: str | None = None
     type_name: str | None = None
     type_hash: str | None = None
-    qos: Qos | None = None
+    qos: QoSProfile | None = None
 
     def to_token(self) -> str:
         """The token again; a node's is rebuilt from its ``node_id``."""
@@ -252,7 +254,7 @@ def parse_token(token: str) -> Entity:
         service = kind in (EntityKind.SERVICE, EntityKind.CLIENT)
         return Entity(*common, validate_full_topic_name(unmangle(chunks[9]), is_service=service),
                       ros_type_name(chunks[10]), _check("type hash", chunks[11]),
-                      Qos.from_keyexpr(chunks[12]))
+                      qos_from_keyexpr(chunks[12]))
     except NameValidationError as exc:  # one line here, with the token it is in
         raise MessageError(f"malformed liveliness token {token!r}: {exc.summary}") from None
     except ValueError as exc:  # MessageError is a ValueError too

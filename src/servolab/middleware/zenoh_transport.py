@@ -40,12 +40,11 @@ import zenoh.ext
 from .errors import MessageError, ServiceError, TransportError
 from .inbox import Wake
 from .messages import MessageTypes, ServiceType
-from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from .qos import QoSProfile
 from .rmw_zenoh import (
     ADMIN_SPACE,
     ATTACHMENT_SEQUENCE_AND_TIME,
     EntityKind,
-    Qos,
     decode_attachment,
     encode_attachment,
     entity_token,
@@ -237,8 +236,7 @@ class ZenohTransport(Transport):
         key = entity_token(self.domain_id, self.session_id, node.node_id, entity_id, kind,
                            node.name, name, type_name, self.types.rihs01(type_name),
                            namespace=node.namespace,
-                           qos=Qos(reliable=qos.reliable, transient_local=qos.transient_local,
-                                   keep_all=qos.keep_all, depth=qos.depth))
+                           qos=qos)
         return self.session.liveliness().declare_token(key)
 
     # -- topics ------------------------------------------------------------------------------
@@ -408,7 +406,7 @@ class ZenohTransport(Transport):
                 continue  # a token of another rmw version or tool: not ours to judge
             fqn = f"{entity.namespace.rstrip('/')}/{entity.node_name}"
             endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
-                                      entity.type_name or "", _profile(entity.qos)))
+                                      entity.type_name or "", entity.qos))
         return endpoints
 
     def check_reachable(self, timeout: float = 2.0) -> None:
@@ -432,15 +430,3 @@ class ZenohTransport(Transport):
         for inbox in list(self._inboxes):
             inbox.close()  # their watcher threads leave
         self.session.close()
-
-
-def _profile(qos: Qos | None) -> QoSProfile | None:
-    """A token's QoS as a profile (None for a node, whose token has none)."""
-    if qos is None:
-        return None
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_ALL if qos.keep_all else HistoryPolicy.KEEP_LAST,
-        depth=qos.depth if qos.depth or qos.keep_all else 1,
-        reliability=ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=(DurabilityPolicy.TRANSIENT_LOCAL if qos.transient_local
-                    else DurabilityPolicy.VOLATILE))
