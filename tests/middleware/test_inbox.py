@@ -7,6 +7,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+import pytest
 import zenoh
 
 from servolab.middleware.context import Context
@@ -15,6 +16,23 @@ from servolab.middleware.rmw_zenoh import topic_keyexpr
 from tests.waiting import wait_for, wait_for_subscriber
 
 FLOAT = "std_msgs/msg/Float64"
+
+
+class _Arrivals:
+    """A bare Zenoh subscriber on a topic's key in ``context``'s session: counts what
+    arrives there without the executor."""
+
+    def __init__(self, context: Context, topic: str, type_name: str = FLOAT) -> None:
+        self.count = 0
+        key = topic_keyexpr(0, topic, type_name, context.types.rihs01(type_name))
+        session: zenoh.Session = context.transport.session  # type: ignore[attr-defined]
+        self._subscriber = session.declare_subscriber(key, self._arrived)
+
+    def _arrived(self, sample: zenoh.Sample) -> None:
+        self.count += 1
+
+    def close(self) -> None:
+        self._subscriber.undeclare()
 
 
 def _watchers() -> list[threading.Thread]:
@@ -37,11 +55,7 @@ def test_keep_last_over_zenoh_keeps_the_newest_depth(zenoh_pair: tuple[Context, 
         got.append(m.data)
 
     listener.create_subscription(FLOAT, "/x", callback, qos_profile=5)
-    # a bare Zenoh subscriber on the same key counts arrivals without the executor
-    arrived = [0]
-    key = topic_keyexpr(0, "/x", FLOAT, b.types.rihs01(FLOAT))
-    counter = b.transport.session.declare_subscriber(  # type: ignore[attr-defined]
-        key, lambda s: arrived.__setitem__(0, arrived[0] + 1))
+    arrived = _Arrivals(b, "/x")
     try:
         pub = talker.create_publisher(FLOAT, "/x", 0)  # KEEP_ALL: BLOCKs, never drops
         wait_for_subscriber(a, "/x", FLOAT, "/listener")
@@ -50,13 +64,36 @@ def test_keep_last_over_zenoh_keeps_the_newest_depth(zenoh_pair: tuple[Context, 
         assert entered.wait(10.0)
         for k in range(100):
             pub.publish(talker.message(FLOAT, data=float(k)))
-        wait_for(lambda: arrived[0] == 101, lambda: f"101 arrivals, {arrived[0]}")
+        wait_for(lambda: arrived.count == 101, lambda: f"101 arrivals, {arrived.count}")
         release.set()
         wait_for(lambda: got and got[-1] == 99.0, lambda: f"the last message, got {got}")
         assert got == [-1.0, 95.0, 96.0, 97.0, 98.0, 99.0]
     finally:
         release.set()
-        counter.undeclare()
+        arrived.close()
+
+
+@pytest.mark.parametrize("depth", [1, 3])
+def test_keep_last_over_zenoh_after_an_idle_executor_gets_the_newest(
+        zenoh_pair: tuple[Context, Context, int], depth: int) -> None:
+    """The executor sleeps while 100 messages arrive: the watcher holds the first, the ring
+    the newest ``depth``; the callbacks then get the newest ``depth`` only, never the stale
+    first one (the newest ``depth`` of what waits, as rclpy's KEEP_LAST)."""
+    a, b, _ = zenoh_pair
+    talker, listener = Node(a, "talker"), Node(b, "listener")
+    got: list[float] = []
+    listener.create_subscription(FLOAT, "/idle", lambda m: got.append(m.data), qos_profile=depth)
+    arrived = _Arrivals(b, "/idle")
+    try:
+        pub = talker.create_publisher(FLOAT, "/idle", 0)
+        wait_for_subscriber(a, "/idle", FLOAT, "/listener")
+        for k in range(100):
+            pub.publish(talker.message(FLOAT, data=float(k)))
+        wait_for(lambda: arrived.count == 100, lambda: f"100 arrivals, {arrived.count}")
+        b.spin_until(lambda: bool(got) and got[-1] == 99.0, timeout=5.0)
+        assert got == [float(k) for k in range(100 - depth, 100)]
+    finally:
+        arrived.close()
 
 
 def test_a_flood_over_zenoh_arrives_whole_and_in_order(zenoh_pair: tuple[Context, Context, int]
@@ -98,11 +135,69 @@ def test_one_piece_of_executor_work_per_subscription_over_zenoh(
     listener.create_subscription(FLOAT, "/z", lambda m: got.append(m.data), qos_profile=0)
     pub = talker.create_publisher(FLOAT, "/z", 0)
     wait_for_subscriber(a, "/z", FLOAT, "/listener")
-    for k in range(200):
-        pub.publish(talker.message(FLOAT, data=float(k)))
-    wait_for(lambda: b.executor.pending == 1, "the watcher's wake-up")
-    assert b.executor.pending == 1  # not 200: the rest wait in Zenoh's channel
-    assert b.spin_until(lambda: len(got) == 200, timeout=10.0)
+    arrived = _Arrivals(b, "/z")
+    try:
+        for k in range(200):
+            pub.publish(talker.message(FLOAT, data=float(k)))
+        wait_for(lambda: arrived.count == 200, lambda: f"200 arrivals, {arrived.count}")
+        wait_for(lambda: b.executor.pending == 1, "the watcher's wake-up")
+        assert b.executor.pending == 1  # not 200: the rest wait in Zenoh's channel
+        assert b.spin_until(lambda: len(got) == 200, timeout=10.0)
+        assert got == [float(k) for k in range(200)]
+    finally:
+        arrived.close()
+
+
+def test_what_arrived_is_drained_after_destroy_and_no_callback_runs_after(
+        zenoh_pair: tuple[Context, Context, int]) -> None:
+    """As a recorder stops: the subscription is destroyed with 1000 messages waiting in
+    Zenoh's channel; ``drain()`` still runs their callbacks, in order, and the executor
+    runs none after ``destroy()``."""
+    a, b, _ = zenoh_pair
+    talker, listener = Node(a, "talker"), Node(b, "listener")
+    got: list[float] = []
+    sub = listener.create_subscription(FLOAT, "/drain", lambda m: got.append(m.data),
+                                       qos_profile=0)
+    pub = talker.create_publisher(FLOAT, "/drain", 0)
+    wait_for_subscriber(a, "/drain", FLOAT, "/listener")
+    arrived = _Arrivals(b, "/drain")
+    try:
+        for k in range(1000):
+            pub.publish(talker.message(FLOAT, data=float(k)))
+        wait_for(lambda: arrived.count == 1000, lambda: f"1000 arrivals, {arrived.count}")
+    finally:
+        arrived.close()
+    sub.destroy()
+    b.spin_until(lambda: b.executor.pending == 0, timeout=5.0)  # the queued take: no callback
+    assert got == []
+    assert sub.drain() == 1000
+    assert got == [float(k) for k in range(1000)]
+
+
+def test_a_message_during_subscription_start_up_is_not_lost(
+        types: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The transport may wake a subscription from inside ``subscribe()`` (here the replay of
+    a latched message) and the executor, spinning on another thread, may run before
+    ``subscribe()`` returns: made certain here by spinning inside it. The wake-up waits
+    until the subscription has its inbox, and the message arrives."""
+    from servolab.middleware.qos import qos_profile_latched
+
+    with Context.open(types=types) as ctx:
+        node = Node(ctx, "n")
+        pub = node.create_publisher(FLOAT, "/latched", qos_profile_latched)
+        pub.publish(node.message(FLOAT, data=7.0))
+        subscribe = ctx.transport.subscribe
+
+        def subscribe_then_spin(*args: Any, **kwargs: Any) -> Any:
+            inbox = subscribe(*args, **kwargs)
+            ctx.executor.spin_once(0)  # the executor's thread, before subscribe() returns
+            return inbox
+
+        monkeypatch.setattr(ctx.transport, "subscribe", subscribe_then_spin)
+        got: list[float] = []
+        node.create_subscription(FLOAT, "/latched", lambda m: got.append(m.data),
+                                 qos_profile_latched)
+        assert ctx.spin_until(lambda: got == [7.0], timeout=5.0), got
 
 
 def test_a_raising_callback_does_not_stop_its_subscription(types: Any) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 import threading
+import time
 
 from servolab.middleware.qos import QoSProfile
 from servolab.middleware.rmw_zenoh import parse_token
@@ -141,8 +142,11 @@ def test_wait_for_subscription_in_one_process(types) -> None:
         later = threading.Timer(0.1, lambda: listener.create_subscription(
             STRING, "/chatter", lambda m: None))
         later.start()
+        start = time.monotonic()
         try:
             assert pub.wait_for_subscription(30.0)
+            # woken by the subscription, not by the end of the 30 s (generous for a slow CI)
+            assert time.monotonic() - start < 20.0
         finally:
             later.join()
 

@@ -4,8 +4,8 @@ A transport fills the inbox from its own thread; the executor empties it on the 
 spins. The two meet edge-triggered, as ``epoll(EPOLLET)`` does: the transport calls ``wake()``
 when a message arrives in an inbox that its consumer had found empty, and not again until the
 consumer has called :meth:`Inbox.take` until it returned None. So a burst of a thousand
-messages costs one wake-up, not a thousand, and a subscription never has more than one piece
-of work queued in the executor, however fast messages come.
+messages costs one wake-up, not a thousand, and a subscription whose messages only the
+executor takes never has more than one piece of work queued there, however fast they come.
 
 The in-process transport pushes message objects into a :class:`QueueInbox`; the Zenoh
 transport's inbox is Zenoh's own channel (``zenoh_transport.ChannelInbox``), which Zenoh's

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import inspect
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -46,8 +47,20 @@ class Subscription:
         self._with_info = with_info
         self._submit = node.context.executor.submit
         self._deserialize = node.context.types.deserialize
+        self._destroyed = False
+        # The transport may wake us before subscribe() returns (a TRANSIENT_LOCAL replay, a
+        # publisher on another thread, Zenoh's watcher): such a wake-up is kept until the
+        # inbox is ours, or the executor would take from an inbox we do not have yet.
+        self._started = False
+        self._early_wake = False
+        self._start_lock = threading.Lock()
         self._inbox = node.context.transport.subscribe(node.info, topic, type_name, qos,
                                                        self._wake, raw=raw)
+        with self._start_lock:
+            self._started = True
+            early = self._early_wake
+        if early:
+            self._submit(self._take)
 
     @property
     def topic_name(self) -> str:
@@ -68,9 +81,16 @@ class Subscription:
         return self._inbox.dropped
 
     def _wake(self) -> None:
+        if not self._started:
+            with self._start_lock:
+                if not self._started:
+                    self._early_wake = True
+                    return
         self._submit(self._take)
 
     def _take(self) -> None:
+        if self._destroyed:
+            return  # no callback after destroy(); what waits is for drain()
         taken = self._inbox.take(self._with_info)
         if taken is None:
             return  # the inbox wakes us when the next message comes
@@ -90,7 +110,8 @@ class Subscription:
 
     def drain(self) -> int:
         """Run the callback for every message still waiting (a recorder stopping keeps what
-        had already arrived); returns how many."""
+        had already arrived); returns how many. Called after :meth:`destroy`, as the
+        recorder does, it is the only one taking: the executor no longer does."""
         n = 0
         while (taken := self._inbox.take(self._with_info)) is not None:
             self._run(*taken)
@@ -98,6 +119,9 @@ class Subscription:
         return n
 
     def destroy(self) -> None:
+        """Stop receiving (the transport forgets the subscription); no callback runs after
+        this except through :meth:`drain`."""
+        self._destroyed = True
         self._inbox.close()
 
 

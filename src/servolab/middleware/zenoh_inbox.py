@@ -15,14 +15,18 @@ burst, not per message.
 
 KEEP_LAST(depth) is Zenoh's ``RingChannel(depth)``, which drops the oldest sample when full,
 as the QoS means. KEEP_ALL is a ``FifoChannel`` of :data:`KEEP_ALL_CAPACITY` samples: when an
-executor falls that far behind, Zenoh's thread waits, so a RELIABLE + KEEP_ALL publisher (which
-BLOCKs) waits too, as DDS's KEEP_ALL does, rather than memory growing without bound.
+executor falls that far behind, Zenoh's receiving thread waits until it catches up, and with
+it *everything* that session receives from that peer (other topics, service replies, graph
+changes), and RELIABLE + KEEP_ALL publishers (which BLOCK) wait too. rmw_zenoh instead queues
+a KEEP_ALL subscription's messages in memory without bound; here memory stays bounded (10 000
+camera frames are 2.4 GB) and the stall lasts as long as the executor needs to catch up.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from typing import Any
 
 import zenoh
@@ -33,7 +37,7 @@ from .rmw_zenoh import ATTACHMENT, GID_SIZE
 from .transport import MessageInfo
 
 #: Samples a KEEP_ALL subscription's channel holds before Zenoh's thread waits for the executor.
-KEEP_ALL_CAPACITY = 100_000
+KEEP_ALL_CAPACITY = 10_000
 #: How long :meth:`ChannelInbox.close` waits for the watcher thread to leave (s).
 _JOIN_TIMEOUT = 2.0
 
@@ -66,20 +70,27 @@ class ChannelInbox:
     message (Zenoh's buffers do not expose Python's buffer protocol). A message's
     ``received_timestamp_ns`` is when the executor takes it; its attachment is decoded only
     for a consumer that asks for the :class:`MessageInfo`.
+
+    KEEP_LAST(depth): the sample the watcher received waits outside the ring, so when the
+    executor takes it, the newest ``depth`` of it and what the ring kept are kept and the
+    older dropped: what a callback gets after a stall is the newest ``depth``, as in rclpy.
+    After :meth:`close`, what had arrived can still be taken (a recorder stopping drains it).
     """
 
     dropped = 0  # Zenoh's ring channel drops without counting
     pending = 0  # nor does it say how many wait
 
-    def __init__(self, subscriber: Any, wake: Wake, *, raw: bool, name: str,
+    def __init__(self, subscriber: Any, wake: Wake, *, raw: bool, name: str, depth: int,
                  token: Any = None) -> None:
         self._subscriber = subscriber
         self._token = token  # the subscription's liveliness token, undeclared first
         self._channel = subscriber.handler
         self._wake = wake
         self._raw = raw
+        self._depth = depth  # 0: KEEP_ALL
         self._lock = threading.Lock()
         self._held: zenoh.Sample | None = None  # what the watcher received
+        self._backlog: deque[zenoh.Sample] = deque(maxlen=depth or None)
         self._armed = threading.Event()  # the executor found it empty: the watcher waits
         self._armed.set()
         self._closed = False
@@ -100,34 +111,54 @@ class ChannelInbox:
             with self._lock:
                 self._held = sample
                 self._armed.clear()
+                if self._closed:
+                    return  # kept for a drain; no callback after close
             self._wake()
 
     def take(self, info: bool = True) -> Taken | None:
         with self._lock:
-            sample = self._held
-            if sample is not None:
-                self._held = None
-            elif self._armed.is_set():
-                return None  # the watcher has the channel until it wakes us
-            else:
-                try:
-                    sample = self._channel.try_recv()
-                except zenoh.ZError:
-                    sample = None  # closed and empty
-                if sample is None:
-                    self._armed.set()
-                    return None
+            sample = self._next()
+        if sample is None:
+            return None
         payload = sample.payload.to_bytes()
         return ((payload if self._raw else memoryview(payload)),
                 message_info(sample.attachment, time.time_ns()) if info else NO_INFO)
 
+    def _next(self) -> zenoh.Sample | None:
+        """The oldest sample waiting (under the lock), or None and the watcher armed."""
+        held, self._held = self._held, None
+        if held is not None:
+            if not self._depth:
+                return held
+            # KEEP_LAST: the held sample and what the ring kept may be depth + 1
+            self._backlog.append(held)
+            for _ in range(self._depth):
+                if (sample := self._try_recv()) is None:
+                    break
+                self._backlog.append(sample)
+        if self._backlog:
+            return self._backlog.popleft()
+        if self._armed.is_set() and not self._closed:
+            return None  # the watcher has the channel until it wakes us
+        if (sample := self._try_recv()) is None and not self._closed:
+            self._armed.set()
+        return sample
+
+    def _try_recv(self) -> zenoh.Sample | None:
+        try:
+            sample: zenoh.Sample | None = self._channel.try_recv()
+            return sample
+        except zenoh.ZError:
+            return None  # closed and empty
+
     def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        self._armed.set()
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
         if self._token is not None:
             self._token.undeclare()  # leave the graph first, as rmw_zenoh does
-        self._subscriber.undeclare()
+        self._subscriber.undeclare()  # a watcher in recv() gets what is left, then an error
+        self._armed.set()  # a watcher waiting to be armed leaves
         if self._watcher is not threading.current_thread():
             self._watcher.join(_JOIN_TIMEOUT)

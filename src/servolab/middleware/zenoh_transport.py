@@ -265,7 +265,8 @@ class ZenohTransport(Transport):
             subscriber = self.session.declare_subscriber(key, channel_for(qos))
         token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, qos,
                             next(self._entity_ids))
-        inbox = ChannelInbox(subscriber, wake, raw=raw, name=topic, token=token)
+        inbox = ChannelInbox(subscriber, wake, raw=raw, name=topic, depth=qos.queue_depth,
+                             token=token)
         self._inboxes.add(inbox)
         return inbox
 
