@@ -13,6 +13,7 @@ import zenoh
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.middleware.rmw_zenoh import topic_keyexpr
+from servolab.middleware.subscription import Subscription
 from tests.waiting import wait_for, wait_for_subscriber
 
 FLOAT = "std_msgs/msg/Float64"
@@ -73,27 +74,38 @@ def test_keep_last_over_zenoh_keeps_the_newest_depth(zenoh_pair: tuple[Context, 
         arrived.close()
 
 
+def _flood_while_idle(zenoh_pair: tuple[Context, Context, int], topic: str, n: int,
+                      depth: int) -> tuple[Subscription, list[float]]:
+    """A subscription of ``depth`` in the second session, and ``n`` messages from the first
+    that have all arrived there (counted by a bare Zenoh subscriber) while its executor did
+    not spin; the subscription and the list its callback appends to."""
+    a, b, _ = zenoh_pair
+    talker, listener = Node(a, "talker"), Node(b, "listener")
+    got: list[float] = []
+    sub = listener.create_subscription(FLOAT, topic, lambda m: got.append(m.data),
+                                       qos_profile=depth)
+    pub = talker.create_publisher(FLOAT, topic, 0)  # KEEP_ALL: BLOCKs, never drops
+    wait_for_subscriber(a, topic, FLOAT, "/listener")
+    arrived = _Arrivals(b, topic)
+    try:
+        for k in range(n):
+            pub.publish(talker.message(FLOAT, data=float(k)))
+        wait_for(lambda: arrived.count == n, lambda: f"{n} arrivals, {arrived.count}")
+    finally:
+        arrived.close()
+    return sub, got
+
+
 @pytest.mark.parametrize("depth", [1, 3])
 def test_keep_last_over_zenoh_after_an_idle_executor_gets_the_newest(
         zenoh_pair: tuple[Context, Context, int], depth: int) -> None:
     """The executor sleeps while 100 messages arrive: the watcher holds the first, the ring
     the newest ``depth``; the callbacks then get the newest ``depth`` only, never the stale
     first one (the newest ``depth`` of what waits, as rclpy's KEEP_LAST)."""
-    a, b, _ = zenoh_pair
-    talker, listener = Node(a, "talker"), Node(b, "listener")
-    got: list[float] = []
-    listener.create_subscription(FLOAT, "/idle", lambda m: got.append(m.data), qos_profile=depth)
-    arrived = _Arrivals(b, "/idle")
-    try:
-        pub = talker.create_publisher(FLOAT, "/idle", 0)
-        wait_for_subscriber(a, "/idle", FLOAT, "/listener")
-        for k in range(100):
-            pub.publish(talker.message(FLOAT, data=float(k)))
-        wait_for(lambda: arrived.count == 100, lambda: f"100 arrivals, {arrived.count}")
-        b.spin_until(lambda: bool(got) and got[-1] == 99.0, timeout=5.0)
-        assert got == [float(k) for k in range(100 - depth, 100)]
-    finally:
-        arrived.close()
+    _, got = _flood_while_idle(zenoh_pair, "/idle", 100, depth)
+    b = zenoh_pair[1]
+    b.spin_until(lambda: bool(got) and got[-1] == 99.0, timeout=5.0)
+    assert got == [float(k) for k in range(100 - depth, 100)]
 
 
 def test_a_flood_over_zenoh_arrives_whole_and_in_order(zenoh_pair: tuple[Context, Context, int]
@@ -129,23 +141,12 @@ def test_without_info_the_attachment_is_not_decoded(zenoh_pair: tuple[Context, C
 
 def test_one_piece_of_executor_work_per_subscription_over_zenoh(
         zenoh_pair: tuple[Context, Context, int]) -> None:
-    a, b, _ = zenoh_pair
-    talker, listener = Node(a, "talker"), Node(b, "listener")
-    got: list[float] = []
-    listener.create_subscription(FLOAT, "/z", lambda m: got.append(m.data), qos_profile=0)
-    pub = talker.create_publisher(FLOAT, "/z", 0)
-    wait_for_subscriber(a, "/z", FLOAT, "/listener")
-    arrived = _Arrivals(b, "/z")
-    try:
-        for k in range(200):
-            pub.publish(talker.message(FLOAT, data=float(k)))
-        wait_for(lambda: arrived.count == 200, lambda: f"200 arrivals, {arrived.count}")
-        wait_for(lambda: b.executor.pending == 1, "the watcher's wake-up")
-        assert b.executor.pending == 1  # not 200: the rest wait in Zenoh's channel
-        assert b.spin_until(lambda: len(got) == 200, timeout=10.0)
-        assert got == [float(k) for k in range(200)]
-    finally:
-        arrived.close()
+    _, got = _flood_while_idle(zenoh_pair, "/z", 200, 0)
+    b = zenoh_pair[1]
+    wait_for(lambda: b.executor.pending == 1, "the watcher's wake-up")
+    assert b.executor.pending == 1  # not 200: the rest wait in Zenoh's channel
+    assert b.spin_until(lambda: len(got) == 200, timeout=10.0)
+    assert got == [float(k) for k in range(200)]
 
 
 def test_what_arrived_is_drained_after_destroy_and_no_callback_runs_after(
@@ -153,20 +154,8 @@ def test_what_arrived_is_drained_after_destroy_and_no_callback_runs_after(
     """As a recorder stops: the subscription is destroyed with 1000 messages waiting in
     Zenoh's channel; ``drain()`` still runs their callbacks, in order, and the executor
     runs none after ``destroy()``."""
-    a, b, _ = zenoh_pair
-    talker, listener = Node(a, "talker"), Node(b, "listener")
-    got: list[float] = []
-    sub = listener.create_subscription(FLOAT, "/drain", lambda m: got.append(m.data),
-                                       qos_profile=0)
-    pub = talker.create_publisher(FLOAT, "/drain", 0)
-    wait_for_subscriber(a, "/drain", FLOAT, "/listener")
-    arrived = _Arrivals(b, "/drain")
-    try:
-        for k in range(1000):
-            pub.publish(talker.message(FLOAT, data=float(k)))
-        wait_for(lambda: arrived.count == 1000, lambda: f"1000 arrivals, {arrived.count}")
-    finally:
-        arrived.close()
+    sub, got = _flood_while_idle(zenoh_pair, "/drain", 1000, 0)
+    b = zenoh_pair[1]
     sub.destroy()
     b.spin_until(lambda: b.executor.pending == 0, timeout=5.0)  # the queued take: no callback
     assert got == []
