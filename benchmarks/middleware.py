@@ -575,6 +575,11 @@ def main(argv: Sequence[str] | None = None,
               f"{c['deserialize_us']:.1f} us, rosbags) is x{cdr_us / bare_us:.1f} of bare "
               f"zenoh's whole time per message ({bare_us:.1f} us), before the executor and "
               "the callback; x0.5 needs a compiled CDR codec")
+        # a bound, not a measurement: each side needs at least bare zenoh's time per message
+        # plus its own CDR work, whatever else the middleware costs
+        best = bare_us / (bare_us + max(c["serialize_us"], c["deserialize_us"]))
+        print(f"best Twist rate rosbags' CDR allows: x{best:.2f} of bare zenoh (each side "
+              f"at least bare zenoh's {bare_us:.1f} us plus its CDR; everything else free)")
     if args.json:
         args.json.write_text(json.dumps({"rows": [asdict(r) for r in rows], "ratios": found,
                                          "python_costs_us": costs,
