@@ -229,3 +229,46 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
     # 20 Hz asked for; at 57142 bps the twenty READs do not fit in 50 ms, at 1 Mbps they do
     assert scenarios["a"]["state_rate_hz"] < 20.0
     assert scenarios["b"]["state_rate_hz"] == pytest.approx(20.0, abs=2.1)
+
+
+GAIT = BENCHMARK.parent / "gait.py"
+# The controller manager's buses benchmarks/gait.py promises: (baud rate, return delay raw).
+MANAGER_BUSES = [(57_142, 250), (57_142, 0), (1_000_000, 250), (1_000_000, 0)]
+
+
+@pytest.mark.timeout(60)
+def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/gait.py --quick: the walk generator's ratio, and the controller manager's
+    update rate on the four buses, every figure finite and positive, the achieved rate within
+    the wire limit computed from the packet sizes, one READ per register slower than one READ
+    per motor."""
+    bench = _load(GAIT, "gait_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    figures = json.loads(out_json.read_text())
+    assert figures["quick"] is True
+    assert _positive(figures["gait"]["ratio_loop_vectorised"])
+    assert figures["gait"]["max_difference_deg"] < 1e-9
+
+    manager = figures["manager"]
+    assert manager["seed_ros_hz"] == [3.0, 4.0]
+    buses = manager["buses"]
+    assert [(b["baudrate"], b["return_delay_raw"]) for b in buses] == MANAGER_BUSES
+    for bus in buses:
+        assert bus["motors"] == 20 and bus["updates"] == manager["updates"], bus
+        assert bus["transactions_per_update"] == 21, bus  # 20 READs + one SYNC_WRITE
+        for name in ("achieved_hz", "limit_hz", "ratio_achieved_limit", "per_register_hz",
+                     "per_register_limit_hz", "ratio_per_register_limit",
+                     "ratio_per_register_achieved", "manager_wire_ms"):
+            assert _positive(bus[name]), (name, bus)
+        assert bus["achieved_hz"] <= 1.01 * bus["limit_hz"], bus
+        assert bus["per_register_limit_hz"] < bus["limit_hz"], bus
+        assert bus["per_register_hz"] <= 1.01 * bus["per_register_limit_hz"], bus
+        # The manager's own wire time is the one computed from the packet sizes.
+        assert math.isclose(1e3 / bus["manager_wire_ms"], bus["limit_hz"], rel_tol=1e-6), bus
+        assert bus["label"] in out
+    # 57142 bps with the factory delay: one READ per motor gives 9.1 Hz (the seed's 3-4 Hz).
+    assert math.isclose(buses[0]["limit_hz"], 1 / (20 * (25e-3 / 5.7142 + 0.5e-3)
+                                                   + 0.68 / 57.142), rel_tol=1e-9)
+    assert "ratio achieved/limit" in out and "ratio per-register/one-READ" in out

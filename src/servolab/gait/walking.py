@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from servolab.gait.motionfile import MotionFile
 from servolab.kinematics.dh import FloatArray
 from servolab.kinematics.leg import (
     ARMSTRONG_LEG,
@@ -102,6 +103,11 @@ class WalkingSequence:
     @property
     def time_ms(self) -> FloatArray:
         return self.feet.time_ms
+
+    def motion(self) -> MotionFile:
+        """The sequence as a motion file's content (write it with
+        :func:`~servolab.gait.motionfile.write_motion_file`, play it on the robot)."""
+        return MotionFile(self.columns, self.motors)
 
 
 def _body_states(params: GaitParameters, leg: LegGeometry) -> FloatArray:

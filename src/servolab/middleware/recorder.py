@@ -72,10 +72,20 @@ class Recorder(Node):
             self.get_logger().info("recording %s [%s]", topic, kind)
 
     def _writer_for(self, topic: str) -> Any:
-        def write(data: bytes, info: MessageInfo) -> None:
+        clock = self.context.clock
+        if clock.virtual:
+            # a simulated robot's bag is stamped in its simulated time, as ROS records with
+            # use_sim_time: the wall clock runs at another pace than the robot's
+            def write(data: bytes, info: MessageInfo) -> None:
+                stamp = round(clock.now() * 1e9)
+                self.writer.write(topic, data, stamp, stamp)
+                self.counts[topic] += 1
+            return write
+
+        def write_wall(data: bytes, info: MessageInfo) -> None:
             self.writer.write(topic, data, info.received_timestamp_ns, info.source_timestamp_ns)
             self.counts[topic] += 1
-        return write
+        return write_wall
 
     @property
     def waiting_for(self) -> list[str]:

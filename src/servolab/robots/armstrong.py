@@ -9,6 +9,7 @@ virtual time the nodes' executor shares, so a walk runs as fast as the CPU allow
 
 from __future__ import annotations
 
+import math
 from collections.abc import Collection
 from pathlib import Path
 
@@ -35,6 +36,22 @@ def load_config(path: str | Path | None = None) -> RobotConfig:
         raise ValueError(f"{config.path}: no dynamixel_manager serial port configured; add "
                          "one as configs/armstrong.yaml has it")
     return config
+
+
+def joint_limits(config: RobotConfig) -> dict[str, tuple[float, float]]:
+    """Each controller's joint range in degrees, keyed by motor column (``m14``), as its
+    joint controller will clamp commands: what a motion file is checked against before any
+    motor moves. From the configuration and the RX-28's units alone (no bus needed)."""
+    rx28 = model(MODEL)
+    position = rx28.register("goal_position")
+    limits = {}
+    for c in config.controllers:
+        init, low, high = (units.to_si(rx28, position, raw)
+                           for raw in (c.motor.init, c.motor.min, c.motor.max))
+        sign = -1.0 if c.motor.flipped else 1.0
+        ends = sorted((math.degrees(sign * (low - init)), math.degrees(sign * (high - init))))
+        limits[f"m{c.motor.id}"] = (ends[0], ends[1])
+    return limits
 
 
 def emulated_spec(config: RobotConfig, *, absent: Collection[int] = ABSENT,

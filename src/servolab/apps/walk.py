@@ -1,0 +1,54 @@
+"""``servolab walk``: Armstrong stands up and walks (seed 001's control node), recorded.
+
+The command only parses; :mod:`servolab.robots.walk` runs the robot.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .arguments import add_out
+from .registry import Command
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--file", metavar="CSV", help="motion file to play (columns m11..m62, "
+                   "degrees, as 001 Table 4.3); default: the seed's gait, generated now")
+    p.add_argument("--steps", type=int, default=1, metavar="N",
+                   help="how many times the sequence is played (default 1)")
+    p.add_argument("--rate", type=float, default=4.5, metavar="HZ",
+                   help="rows a second (default 4.5: 17 rows, 3.78 s a step, as the seed)")
+    p.add_argument("--port", metavar="DEV", help="the robot's serial port; default: the "
+                   "emulated robot (20 RX-28, motor 62 absent, as in the seed)")
+    p.add_argument("--config", metavar="YAML", help="controller configuration "
+                   "(default configs/armstrong.yaml)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_out(p)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..robots.walk import load_motion, run_walk
+    from ..runs import RunFolder
+
+    if args.steps < 1:
+        raise SystemExit(f"servolab walk: --steps {args.steps} must be 1 or more")
+    if not args.rate > 0:
+        raise SystemExit(f"servolab walk: --rate {args.rate:g} must be > 0")
+    motion = load_motion(args.file, args.config)  # checked whole before anything moves
+    run = RunFolder.create("walk", args.out)
+    summary = run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
+                       config=args.config, show_progress=not args.no_progress)
+    run.write_summary(summary)
+    print(f"run folder: {run.path}")
+    return 1 if summary["stopped"] else 0
+
+
+COMMAND = Command(
+    name="walk", group="robots", help="Armstrong stands up and walks (seed 001), recorded",
+    description="Move Armstrong to the stand pose of 001 Table 4.2, then play a motion "
+    "sequence N times at 4.5 rows a second, as the seed's control node does; commands and "
+    "motor states go to the run folder's MCAP bag, with a plot of commanded against present "
+    "angles. Ctrl-C stops at once and the motors hold the last pose.",
+    examples=("servolab walk --steps 2", "servolab walk --file gait.csv --steps 4",
+              "servolab walk --port /dev/ttyUSB0 --steps 1"),
+    add_arguments=_add_arguments, run=_run)
