@@ -4,8 +4,9 @@ It shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (R
 Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Protocol 2.0 at
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
 listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
-floor, stepped by the simulation that owns time. It saves a plot, the bag and summary.json in
-the run folder. Every robot that servolab grows adds its own short run here.
+floor, stepped by the simulation that owns time; last, Armstrong (the biped of seed 001)
+stands up and walks a step. It saves plots, bags and summary.json in the run folder. Every
+robot that servolab grows adds its own short run here.
 
 The Dynamixel layer, the middleware and matplotlib are imported inside the functions, so that
 ``servolab --help`` does not load them.
@@ -93,6 +94,8 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     figures["nodes"] = _nodes(run_folder, say)
     say()
     figures["floor"] = _floor(say)
+    say()
+    figures["biped"] = _biped(run_folder, say)
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -128,6 +131,22 @@ def _floor(say: Callable[[str], None]) -> dict[str, object]:
         f"y = {truth['y']:+.3f} m, yaw = {truth['yaw']:+.3f} rad")
     return {"ground_truth": truth, "physics_steps": sim.steps,
             "real_time_factor": 5.0 / host}
+
+
+def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Armstrong (seed 001) stands up and walks one step, recorded (see docs/biped.md)."""
+    from ..robots.walk import load_motion, run_walk
+
+    say("5. Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")
+    say("   (servolab walk; see docs/biped.md)")
+    bag = run_folder.file("walk_bag")
+    if bag.exists():  # the demo's own, from an earlier run into the same folder
+        import shutil
+
+        shutil.rmtree(bag)
+    summary = run_walk(run_folder, load_motion(None), steps=1,
+                       say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("rows_played", "duration_s", "bag", "plot")}
 
 
 def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:

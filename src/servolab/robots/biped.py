@@ -21,7 +21,7 @@ leaves the motors holding the last pose they were sent: a biped that loses torqu
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -54,8 +54,11 @@ class BipedNode(Node):
     the run's plot)."""
 
     def __init__(self, context: Context, motors: Sequence[str] = MOTORS, *,
-                 name: str = "biped", history: bool = False) -> None:
-        super().__init__(context, name)
+                 name: str = "biped", namespace: str = "/", history: bool = False,
+                 parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
         self.motors = tuple(motors)
         self._publishers = {m: self.create_publisher(FLOAT64, f"/{controller_of(m)}/command",
                                                      10) for m in self.motors}
