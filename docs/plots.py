@@ -1,7 +1,8 @@
-"""Make the figures of docs/dynamixel.md from the code itself: ``python docs/plots.py [DIR]``.
+"""Make the figures of docs/dynamixel.md, sim.md and biped.md from the code itself:
+``python docs/plots.py [DIR]``.
 
-Both figures are measured on emulated motors with the virtual clock, so they are exact and take
-a second to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
+Every figure is measured on emulated motors with the virtual clock, so they are exact and take
+seconds to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
 from what the code does.
 """
 
@@ -108,12 +109,33 @@ def floor_world(path: Path) -> None:
     plt.close(fig)
 
 
+def biped(out: Path) -> None:
+    """docs/biped.md's figures: the seed's gait (feet, joint angles) and a walk of two steps
+    on the emulated Armstrong (commanded against present angles)."""
+    import shutil
+    import tempfile
+
+    from servolab.gait.plots import plot_foot_positions, plot_joint_angles
+    from servolab.gait.walking import generate_walk
+    from servolab.robots.walk import load_motion, run_walk
+    from servolab.runs import RunFolder
+
+    walk = generate_walk()
+    plot_foot_positions(walk, out / "gait_feet.png")
+    plot_joint_angles(walk, out / "gait_joint_angles.png")
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = run_walk(RunFolder.create("walk", tmp), load_motion(None), steps=2,
+                           say=lambda text: None, show_progress=False)
+        shutil.copy(str(summary["plot"]), out / "biped_walk.png")
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
     joint_moves(out / "rx28_joint_moves.png")
     cycle_time(out / "bus_cycle_time.png")
     floor_world(out / "floor_world.png")
+    biped(out)
     print(f"figures written to {out}")
 
 

@@ -50,3 +50,34 @@ def test_robot_and_walker_in_two_processes_over_zenoh(tmp_path: Path) -> None:
     assert "no joint states heard" not in out  # the walker heard the robot across processes
     pids = set(re.findall(r"started (?:armstrong|walker) \(pid (\d+)\)", out))
     assert len(pids) == 2, out[-2000:]
+
+
+@pytest.mark.slow
+def test_move_a_joint_from_the_command_line() -> None:
+    """docs/biped.md's walk-through: the robot side runs (configs/armstrong_robot.launch.yaml)
+    and, from another process, `servolab topic pub /controller_m14/command ...` moves the
+    knee; its /controller_m14/state, heard over Zenoh, comes to the commanded 0.5 rad."""
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Node
+    from servolab.middleware.transport import TransportOptions
+    from tests.processes import started
+    from tests.waiting import wait_for_line
+
+    launch = [sys.executable, "-m", "servolab", "launch",
+              str(ROOT / "configs" / "armstrong_robot.launch.yaml")]
+    with started(launch, stderr_to_stdout=True) as robot:
+        said = wait_for_line(robot, "other tools: --connect", timeout=60.0)
+        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
+        wait_for_line(robot, "started armstrong (in process", timeout=60.0)
+        with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
+            heard: list[float] = []
+            Node(ctx, "probe").create_subscription(
+                "dynamixel_msgs/msg/JointState", "/controller_m14/state",
+                lambda msg: heard.append(msg.current_pos))
+            pub = subprocess.run(
+                [sys.executable, "-m", "servolab", "topic", "pub", "/controller_m14/command",
+                 "std_msgs/msg/Float64", "{data: 0.5}", "--once", "--connect", endpoint],
+                capture_output=True, text=True, timeout=60)
+            assert pub.returncode == 0, pub.stderr
+            assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
+                                  timeout=30.0), heard[-3:]

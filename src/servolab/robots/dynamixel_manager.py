@@ -24,6 +24,7 @@ allows instead; at 1 Mbps with return delay 0 the same reads take about 5 ms.
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -146,7 +147,9 @@ class DynamixelManager(Node):
     def update(self) -> list[MotorReading]:
         """Write pending goals, read every motor's state, publish it all."""
         self.flush_goals()
-        now = self.context.clock.now()
+        clock = self.context.clock
+        # stamps as ROS has them: the simulation's time on a simulated robot, else the epoch
+        now = clock.now() if clock.virtual else time.time()
         readings = [MotorReading.read(self.bus, i, self.goals[i], now) for i in self.motors]
         self.motor_states.publish(self.message(
             MOTOR_STATE_LIST, motor_states=[r.as_message() for r in readings]))
