@@ -157,3 +157,27 @@ def test_gait_generate_refuses_an_unreachable_gait(tmp_path: Path) -> None:
                             capture_output=True, text=True, timeout=120)
     assert result.returncode != 0
     assert "gait sample" in result.stderr and "out of reach" in result.stderr
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_at_once_and_keeps_what_was_recorded(tmp_path: Path) -> None:
+    """A long walk interrupted with Ctrl-C (SIGINT) while it plays: it stops before the end,
+    says so (exit status 1), leaves its summary and a bag an independent reader opens, and
+    the motors were last sent a pose of the sequence (they hold it)."""
+    import signal
+
+    from tests.processes import started
+    from tests.waiting import wait_for_line
+
+    out = tmp_path / "run"
+    with started([sys.executable, "-m", "servolab", "walk", "--steps", "1000", "--out",
+                  str(out), "--no-progress"], stderr_to_stdout=True) as walk:
+        wait_for_line(walk, "step 2 of 1000 played", timeout=60.0)
+        walk.send_signal(signal.SIGINT)
+        assert walk.wait(60) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"] and 0 < summary["rows_played"] < summary["rows_asked"]
+    commands = _messages(out / "walk_bag", "/controller_m14/command")
+    assert commands, "nothing recorded"
+    rows = np.radians(generate_walk().motion().angles[:, MOTORS.index("m14")])
+    assert np.min(np.abs(rows - commands[-1][1].data)) < 1e-12  # type: ignore[attr-defined]

@@ -75,6 +75,8 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                       leave=False) as bar:
                 def progress(done: int, _total: int) -> None:
                     bar.update(done - bar.n)
+                    if not show_progress and done % motion.poses == 0:
+                        say(f"step {done // motion.poses} of {steps} played")
                 played = robot.play(motion, steps, rate, progress=progress)
             robot.context.spin_for(0.5)  # the last goals reached and recorded
         recorder.destroy()
