@@ -132,3 +132,43 @@ def test_malformed_manager_settings_are_refused(tmp_path: Path, old: str, new: s
     path.write_text(manager.replace(old, new) + GOOD)
     with pytest.raises(ControllerConfigError, match=says):
         load(path)
+
+
+def test_joint_speed_defaults_as_in_dynamixel_controllers_and_tuning_keys_load(
+        tmp_path: Path) -> None:
+    """dynamixel_controllers' JointController reads joint_speed (default 1.0 rad/s),
+    joint_compliance_slope/_margin/_punch and joint_torque_limit (joint_controller.py)."""
+    path = tmp_path / "robot.yaml"
+    path.write_text(GOOD.replace("  joint_speed: 1.0\n", "  joint_compliance_slope: 64\n"
+                                 "  joint_compliance_margin: 2\n  joint_compliance_punch: 40\n"
+                                 "  joint_torque_limit: 0.5\n"))
+    c = load(path).controller("controller_m14")
+    assert (c.joint_speed, c.compliance_slope, c.compliance_margin, c.compliance_punch,
+            c.torque_limit) == (1.0, 64, 2, 40, 0.5)
+
+
+@pytest.mark.parametrize(("line", "says"), [
+    ("  joint_torque_limit: 1.5\n", "joint_torque_limit must be within 0..1"),
+    ("  joint_compliance_slope: 300\n", "joint_compliance_slope 300 is outside 0..254"),
+])
+def test_bad_tuning_is_refused(tmp_path: Path, line: str, says: str) -> None:
+    path = tmp_path / "robot.yaml"
+    path.write_text(GOOD + line)
+    with pytest.raises(ControllerConfigError, match=says):
+        load(path)
+
+
+def test_a_position_beyond_the_rx28_is_refused_with_its_line(tmp_path: Path) -> None:
+    """The RX-28 has positions 0..1023 (e-Manual): a max of 4095 would clamp nothing."""
+    from servolab.robots import armstrong
+
+    path = tmp_path / "armstrong.yaml"
+    path.write_text(ARMSTRONG.read_text().replace(
+        "motor: {id: 14, init: 512, min: 0, max: 1023}",
+        "motor: {id: 14, init: 512, min: 0, max: 4095}"))
+    line = next(n for n, text in enumerate(path.read_text().splitlines(), 1)
+                if "motor: {id: 14," in text)
+    with pytest.raises(ControllerConfigError, match=r"motor max 4095 is outside the RX-28's"
+                                                    r" positions 0\.\.1023") as info:
+        armstrong.load_config(path)
+    assert str(info.value).startswith(f"{path}:{line}:")

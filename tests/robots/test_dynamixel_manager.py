@@ -214,3 +214,27 @@ def test_set_speed_and_torque_enable_services(robot: Robot) -> None:
     assert robot.bus.read(14, "torque_enable") == 1
     torque.call(torque.request(torque_enable=False))
     assert robot.bus.read(14, "torque_enable") == 0
+
+
+def test_tuning_from_the_configuration_is_written(tmp_path: Path) -> None:
+    text = armstrong.CONFIG.read_text().replace(
+        "controller_m14:\n", "controller_m14:\n  joint_compliance_slope: 64\n"
+        "  joint_torque_limit: 0.5\n")
+    path = tmp_path / "tuned.yaml"
+    path.write_text(text)
+    r = Robot(load(path))
+    try:
+        assert r.bus.read(14, ["cw_compliance_slope", "ccw_compliance_slope"], raw=True) == {
+            "cw_compliance_slope": 64, "ccw_compliance_slope": 64}
+        assert float(r.bus.read(14, "torque_limit")) == pytest.approx(0.5, abs=0.001)
+        assert r.bus.read(13, "cw_compliance_slope", raw=True) == 32  # untouched: default
+    finally:
+        r.close()
+
+
+def test_motor_state_goal_is_what_was_written(robot: Robot) -> None:
+    robot.manager.controllers["controller_m14"].command(0.5)
+    readings = {r.id: r for r in robot.manager.update()}
+    assert readings[14].goal == robot.bus.read(14, "goal_position", raw=True)
+    assert readings[14].goal != readings[13].goal or robot.bus.read(13, "goal_position",
+                                                                    raw=True) == readings[13].goal

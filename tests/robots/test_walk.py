@@ -181,3 +181,46 @@ def test_ctrl_c_stops_at_once_and_keeps_what_was_recorded(tmp_path: Path) -> Non
     assert commands, "nothing recorded"
     rows = np.radians(generate_walk().motion().angles[:, MOTORS.index("m14")])
     assert np.min(np.abs(rows - commands[-1][1].data)) < 1e-12  # type: ignore[attr-defined]
+
+
+def test_goals_reach_the_bus_in_small_steps_while_standing(
+        walked: dict[str, object]) -> None:
+    """The stand move is sent as 40 interpolated poses; the goals the motors get (MotorState
+    goal, as written) change by a few interpolation steps at most between two updates, not
+    in one jump (m14 moves 43 degrees: one step is about 1.1 degrees)."""
+    bag = Path(str(walked["bag"]))
+    goals = [next(s.goal for s in m.motor_states if s.id == 14)  # type: ignore[attr-defined]
+             for _, m in _messages(bag, "/motor_states/pan_tilt_port")]
+    stand_end = _messages(bag, "/controller_m14/command")[-35][0]
+    times = [t for t, _ in _messages(bag, "/motor_states/pan_tilt_port")]
+    steps = [abs(b - a) * 300 / 1023 for (a, b, t) in zip(goals, goals[1:], times[1:],
+                                                           strict=False) if t <= stand_end]
+    assert steps and max(steps) < 6.0, max(steps)
+
+
+def test_the_same_run_folder_twice_replaces_its_bag(tmp_path: Path) -> None:
+    for _ in range(2):
+        summary = run_walk(RunFolder.create("walk", tmp_path), load_motion(None), steps=1,
+                           say=lambda s: None, show_progress=False)
+        assert summary["rows_played"] == 17
+
+
+def test_a_generated_gait_beyond_the_configured_limits_is_refused(tmp_path: Path) -> None:
+    from servolab.robots import armstrong
+
+    path = tmp_path / "narrow.yaml"
+    path.write_text(armstrong.CONFIG.read_text().replace(
+        "motor: {id: 14, init: 512, min: 0, max: 1023}",
+        "motor: {id: 14, init: 512, min: 450, max: 1023}"))  # at most ~18 degrees down
+    with pytest.raises(ValueError, match=r"row 0 sends m14 to -42\.628 degrees, outside"):
+        load_motion(None, path)
+
+
+@pytest.mark.parametrize("rate", ["inf", "nan", "-1"])
+def test_a_rate_that_is_not_a_positive_number_is_refused(tmp_path: Path, rate: str) -> None:
+    out = tmp_path / "run"
+    result = subprocess.run([sys.executable, "-m", "servolab", "walk", f"--rate={rate}",
+                             "--out", str(out)], capture_output=True, text=True, timeout=120)
+    assert result.returncode != 0
+    assert "--rate" in result.stderr and result.stderr.strip().count("\n") == 0
+    assert not out.exists()

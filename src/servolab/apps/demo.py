@@ -139,11 +139,6 @@ def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, objec
 
     say("5. Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")
     say("   (servolab walk; see docs/biped.md)")
-    bag = run_folder.file("walk_bag")
-    if bag.exists():  # the demo's own, from an earlier run into the same folder
-        import shutil
-
-        shutil.rmtree(bag)
     summary = run_walk(run_folder, load_motion(None), steps=1,
                        say=lambda text: say("   " + text), show_progress=False)
     return {k: summary[k] for k in ("rows_played", "duration_s", "bag", "plot")}

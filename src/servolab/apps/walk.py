@@ -6,6 +6,7 @@ The command only parses; :mod:`servolab.robots.walk` runs the robot.
 from __future__ import annotations
 
 import argparse
+import math
 
 from .arguments import add_out
 from .registry import Command
@@ -32,8 +33,8 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.steps < 1:
         raise SystemExit(f"servolab walk: --steps {args.steps} must be 1 or more")
-    if not args.rate > 0:
-        raise SystemExit(f"servolab walk: --rate {args.rate:g} must be > 0")
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        raise SystemExit(f"servolab walk: --rate {args.rate:g} must be a number > 0")
     motion = load_motion(args.file, args.config)  # checked whole before anything moves
     run = RunFolder.create("walk", args.out)
     summary = run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -17,8 +18,8 @@ class Rate:
     """
 
     def __init__(self, node: Node, hz: float) -> None:
-        if not hz > 0:
-            raise ValueError(f"rate must be > 0 Hz, got {hz!r}")
+        if not (math.isfinite(hz) and hz > 0):
+            raise ValueError(f"rate must be a finite number > 0 Hz, got {hz!r}")
         self.period = 1.0 / hz
         self._executor = node.context.executor
         self._clock = node.context.clock

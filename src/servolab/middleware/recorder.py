@@ -96,6 +96,8 @@ class Recorder(Node):
         """Stop recording, write what had arrived but was not written yet, and finish the bag
         (summary, index, metadata.yaml)."""
         super().destroy()
+        if not hasattr(self, "writer"):
+            return  # its BagWriter could not be made: nothing to finish
         try:
             for subscription in self._subscriptions:
                 subscription.drain()

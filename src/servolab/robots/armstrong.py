@@ -19,7 +19,7 @@ from ..dynamixel.models import model
 from ..dynamixel.motorspec import MotorEntry, MotorSpec
 from ..sim.emulated import emulated_port
 from ..sim.simulation import Simulation
-from .controller_config import RobotConfig, SerialPortConfig, load
+from .controller_config import ControllerConfigError, RobotConfig, SerialPortConfig, load
 
 #: configs/armstrong.yaml, relative to a clone of the repository
 CONFIG = Path(__file__).resolve().parents[3] / "configs" / "armstrong.yaml"
@@ -33,8 +33,19 @@ def load_config(path: str | Path | None = None) -> RobotConfig:
     """The robot's configuration (``configs/armstrong.yaml`` unless another is named)."""
     config = load(path or CONFIG)
     if not config.manager.serial_ports:
-        raise ValueError(f"{config.path}: no dynamixel_manager serial port configured; add "
-                         "one as configs/armstrong.yaml has it")
+        raise ControllerConfigError(config.path, 0, "dynamixel_manager",
+                                    "no dynamixel_manager serial port configured; add one "
+                                    "as configs/armstrong.yaml has it")
+    position = model(MODEL).register("goal_position")
+    top = position.maximum if position.maximum is not None else 1023
+    for c in config.controllers:
+        for key in ("init", "min", "max"):
+            raw = getattr(c.motor, key)
+            if not position.minimum <= raw <= top:
+                raise ControllerConfigError(
+                    config.path, c.motor.line, f"{c.name}.motor.{key}",
+                    f"controller {c.name!r}: motor {key} {raw} is outside the {MODEL}'s "
+                    f"positions {position.minimum}..{top}")
     return config
 
 

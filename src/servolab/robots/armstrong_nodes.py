@@ -23,7 +23,7 @@ from ..middleware.context import Context
 from ..middleware.node import Node
 from . import armstrong
 from .biped import MOVE_RATE, PLAY_RATE, BipedNode
-from .biped_poses import STAND_POSE, interpolate
+from .biped_poses import MOTORS, STAND_POSE, interpolate
 from .dynamixel_manager import DynamixelManager
 
 
@@ -86,12 +86,14 @@ class Walker(BipedNode):
         steps = int(self._param("steps", 2))
         rate = float(self._param("rate", PLAY_RATE))
         path = str(self._param("file", ""))
+        config = str(self._param("config", ""))
         self.stand_duration = float(self._param("stand_duration", 2.0))
         self.wait_for_states = float(self._param("wait_for_states", 10.0))
         if steps < 1 or not rate > 0 or not self.stand_duration > 0:
             raise ValueError(f"walker: steps {steps} must be >= 1, rate {rate:g} and "
                              f"stand_duration {self.stand_duration:g} > 0")
-        self.motion = load_motion(path or None)  # checked whole before anything moves
+        # checked whole, against the robot's joint limits, before anything moves
+        self.motion = load_motion(path or None, config or None)
         self.steps, self.rate = steps, rate
         self.rows_played = 0
         self._started = self.now()
@@ -102,14 +104,19 @@ class Walker(BipedNode):
         return self.declare_parameter(name, default).value
 
     def _wait_for_states(self) -> None:
-        """Start once the joints' states have come (so the stand move starts where they are),
-        or, without them, after ``wait_for_states`` s from their commanded zero."""
-        if len(self.present) < 12 and self.now() - self._started < self.wait_for_states:
+        """Start once the legs' joint states have come, so that the stand move starts where
+        the joints are; without them after ``wait_for_states`` s, move nothing and stop (a
+        move from a guessed pose would jump)."""
+        legs = set(MOTORS[:12])
+        heard = legs <= self.present.keys()
+        if not heard and self.now() - self._started < self.wait_for_states:
             return
         self._timer.cancel()
-        if len(self.present) < 12:
-            self.get_logger().warning("no joint states heard: is the robot side running? "
-                                      "standing up from joint angle 0")
+        if not heard:
+            missing = sorted(legs - self.present.keys())
+            raise RuntimeError(f"walker: no joint state from {', '.join(missing)} within "
+                               f"{self.wait_for_states:g} s: is the robot side running? "
+                               "nothing was moved")
         samples = max(2, round(self.stand_duration * MOVE_RATE) + 1)
         rows = interpolate(self.where(), STAND_POSE, samples)[1:]
         self._queue = [dict(zip(STAND_POSE, r.tolist(), strict=True)) for r in rows]

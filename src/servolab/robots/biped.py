@@ -29,7 +29,7 @@ from ..gait.motionfile import MotionFile
 from ..middleware.context import Context
 from ..middleware.node import Node
 from . import armstrong
-from .biped_poses import MOTORS, POSES, Pose, interpolate, joint_pose
+from .biped_poses import MOTORS, POSES, Pose, interpolate, joint_pose, radians
 from .dynamixel_manager import DynamixelManager
 
 if TYPE_CHECKING:
@@ -87,7 +87,7 @@ class BipedNode(Node):
                                  f"{', '.join(self.motors)})")
             if not math.isfinite(degrees):
                 raise ValueError(f"motor {motor}: {degrees!r} is not a finite angle")
-            self._publishers[motor].publish(self.message(FLOAT64, data=math.radians(degrees)))
+            self._publishers[motor].publish(self.message(FLOAT64, data=radians(degrees)))
             self.commanded[motor] = float(degrees)
             if self.history:
                 self.sent.append((now, motor, float(degrees)))
@@ -121,8 +121,8 @@ class BipedNode(Node):
         node); returns the rows sent (fewer if stopped)."""
         if steps < 1:
             raise ValueError(f"steps must be >= 1, not {steps}")
-        if not rate > 0:
-            raise ValueError(f"rate must be > 0 rows a second, not {rate!r}")
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"rate must be a number > 0 rows a second, not {rate!r}")
         unknown = [n for n in motion.names if n not in self._publishers]
         if unknown:
             raise ValueError(f"the motion moves {', '.join(unknown)}, which this robot has not")
@@ -157,13 +157,22 @@ class Armstrong:
                                                  simulation=self.simulation, baudrate=baudrate)
         try:
             self.context = Context.open(clock=self.simulation or WallClock())
-            self.manager = DynamixelManager(self.context, self.bus, self.port,
-                                            self.config.controllers)
-            self.node = BipedNode(self.context, history=history)
         except BaseException:
             self.bus.close()
             raise
-        self.context.spin_until(self._heard_every_joint, timeout=5.0)
+        try:
+            self.manager = DynamixelManager(self.context, self.bus, self.port,
+                                            self.config.controllers)
+            self.node = BipedNode(self.context, history=history)
+            # where each joint is, before anything moves: a move from a guessed pose jumps
+            if not self.context.spin_until(self._heard_every_joint, timeout=5.0):
+                missing = [m for m in self.node.motors if m not in self.node.present
+                           and controller_of(m) in self.manager.controllers]
+                raise RuntimeError(f"no state from the joints of {', '.join(missing)} within "
+                                   "5 s: is the bus working? nothing was moved")
+        except BaseException:
+            self.close()
+            raise
 
     def _heard_every_joint(self) -> bool:
         wanted = {c.name for c in self.manager.controllers.values()}

@@ -16,6 +16,8 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
+from ..gait.walking import MOTOR_COLUMNS
+
 #: Table 4.1: joint function -> {axis: motor column}.
 JOINTS: dict[str, dict[str, str]] = {
     "neck": {"z": "m61"},
@@ -34,8 +36,7 @@ JOINTS: dict[str, dict[str, str]] = {
 }
 
 #: Every motor column, in the order of the seed's motion files (Table 4.3's header).
-MOTORS = ("m11", "m12", "m13", "m14", "m15", "m16", "m21", "m22", "m23", "m24", "m25", "m26",
-          "m31", "m32", "m33", "m41", "m42", "m43", "m51", "m61", "m62")
+MOTORS = MOTOR_COLUMNS
 
 Pose = Mapping[str, float]
 
@@ -70,9 +71,15 @@ def joint_pose(joint: str, **axes: float) -> dict[str, float]:
     return {motors[axis]: float(value) for axis, value in axes.items()}
 
 
-def radians(pose: Pose) -> dict[str, float]:
-    """The pose in radians (the seed's node used 3.14 for pi; this is pi)."""
-    return {motor: math.radians(angle) for motor, angle in pose.items()}
+def radians(degrees: float) -> float:
+    """A joint angle in radians, what the joint controllers take (the seed's node used 3.14
+    for pi; this is pi)."""
+    return math.radians(degrees)
+
+
+def pose_radians(pose: Pose) -> dict[str, float]:
+    """A pose in radians."""
+    return {motor: radians(angle) for motor, angle in pose.items()}
 
 
 def interpolate(start: Pose, end: Pose, samples: int) -> npt.NDArray[np.float64]:

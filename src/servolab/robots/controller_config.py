@@ -44,7 +44,7 @@ Errors are :class:`ControllerConfigError`, one line ``file:line: message``, rais
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..configfile import ConfigMapping, ConfigValue
@@ -55,8 +55,14 @@ from ..errors import ConfigFileError
 JOINT_POSITION_CONTROLLER = ("dynamixel_controllers", "joint_position_controller",
                              "JointPositionController")
 MANAGER_KEY = "dynamixel_manager"
-_CONTROLLER_KEYS = ("controller", "joint_name", "joint_speed", "joint_max_speed", "motor")
-_NESTABLE = ("joint_name", "joint_speed", "joint_max_speed", "motor")
+#: What dynamixel_controllers' JointController reads beside the motor (joint_controller.py).
+_TUNING = ("joint_compliance_slope", "joint_compliance_margin", "joint_compliance_punch",
+           "joint_torque_limit")
+_CONTROLLER_KEYS = ("controller", "joint_name", "joint_speed", "joint_max_speed", "motor",
+                    *_TUNING)
+_NESTABLE = ("joint_name", "joint_speed", "joint_max_speed", "motor", *_TUNING)
+#: dynamixel_controllers' default joint_speed (rad/s) when a controller gives none.
+DEFAULT_JOINT_SPEED = 1.0
 _TYPE_KEYS = ("package", "module", "type")
 _MOTOR_KEYS = ("id", "init", "min", "max")
 _PORT_KEYS = ("port_name", "baud_rate", "min_motor_id", "max_motor_id", "update_rate",
@@ -75,6 +81,7 @@ class MotorConfig:
     init: int
     min: int
     max: int
+    line: int = field(default=0, compare=False)  # where ``motor:`` is written
 
     @property
     def flipped(self) -> bool:
@@ -93,6 +100,12 @@ class ControllerConfig:
     motor: MotorConfig
     joint_max_speed: float | None = None  # rad/s; None: the motor's maximum
     line: int = 0               # where it is written, for messages about it
+    #: joint_compliance_slope/_margin/_punch (raw, as ROS writes them) and joint_torque_limit
+    #: (0..1 of the maximum torque), each None when not given: the motor keeps its own
+    compliance_slope: int | None = None
+    compliance_margin: int | None = None
+    compliance_punch: int | None = None
+    torque_limit: float | None = None
 
 
 @dataclass(frozen=True)
@@ -128,8 +141,6 @@ class RobotConfig:
                 return c
         raise KeyError(f"no controller {name!r} in {self.path or 'the configuration'}")
 
-    def by_motor(self) -> dict[int, ControllerConfig]:
-        return {c.motor.id: c for c in self.controllers}
 
 
 def load(path: str | Path) -> RobotConfig:
@@ -216,13 +227,15 @@ def _controller(name: str, value: ConfigValue) -> ControllerConfig:
         found = outer if outer is not None else inner
         if found is not None:
             fields[key] = found
-    for key in ("joint_name", "joint_speed", "motor"):
+    for key in ("joint_name", "motor"):
         if key not in fields:
             raise c.error(f"{what}: key {key!r} missing")
-    speed = fields["joint_speed"].as_float(f"{what}: joint_speed")
-    if speed <= 0:
-        raise fields["joint_speed"].error(f"{what}: joint_speed must be > 0 rad/s, "
-                                          f"not {speed:g}")
+    speed = DEFAULT_JOINT_SPEED
+    if "joint_speed" in fields:
+        speed = fields["joint_speed"].as_float(f"{what}: joint_speed")
+        if speed <= 0:
+            raise fields["joint_speed"].error(f"{what}: joint_speed must be > 0 rad/s, "
+                                              f"not {speed:g}")
     max_speed = None
     if "joint_max_speed" in fields:
         max_speed = fields["joint_max_speed"].as_float(f"{what}: joint_max_speed")
@@ -231,7 +244,33 @@ def _controller(name: str, value: ConfigValue) -> ControllerConfig:
                 f"{what}: joint_max_speed must be > 0 rad/s, not {max_speed:g}")
     return ControllerConfig(name, fields["joint_name"].as_str(f"{what}: joint_name",
                                                               nonempty=True),
-                            speed, _motor(fields["motor"], what), max_speed, c.line)
+                            speed, _motor(fields["motor"], what), max_speed, c.line,
+                            _optional_int(fields, "joint_compliance_slope", 254, what),
+                            _optional_int(fields, "joint_compliance_margin", 254, what),
+                            _optional_int(fields, "joint_compliance_punch", 1023, what),
+                            _optional_fraction(fields, "joint_torque_limit", what))
+
+
+def _optional_int(fields: dict[str, ConfigValue], key: str, high: int,
+                  what: str) -> int | None:
+    value = fields.get(key)
+    if value is None:
+        return None
+    number = value.as_int(f"{what}: {key}")
+    if not 0 <= number <= high:
+        raise value.error(f"{what}: {key} {number} is outside 0..{high}")
+    return number
+
+
+def _optional_fraction(fields: dict[str, ConfigValue], key: str, what: str) -> float | None:
+    value = fields.get(key)
+    if value is None:
+        return None
+    number = value.as_float(f"{what}: {key}")
+    if not 0.0 <= number <= 1.0:
+        raise value.error(f"{what}: {key} must be within 0..1 (a fraction of the maximum "
+                          f"torque), not {number:g}")
+    return number
 
 
 def _motor(value: ConfigValue, what: str) -> MotorConfig:
@@ -250,7 +289,7 @@ def _motor(value: ConfigValue, what: str) -> MotorConfig:
     if not min(low, high) <= init <= max(low, high):
         raise m.require("init").error(f"{what}: motor init {init} is outside min..max "
                                       f"({low}..{high})")
-    return MotorConfig(motor_id, init, low, high)
+    return MotorConfig(motor_id, init, low, high, m.line)
 
 
 def _check_unique(mapping: ConfigMapping, controllers: list[ControllerConfig]) -> None:

@@ -24,6 +24,7 @@ allows instead; at 1 Mbps with return delay 0 the same reads take about 5 ms.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import Counter
 from collections.abc import Sequence
@@ -41,6 +42,8 @@ if TYPE_CHECKING:
     from ..middleware.context import Context
 
 MOTOR_STATE_LIST = "dynamixel_msgs/msg/MotorStateList"
+#: Motors read per timer tick (see DynamixelManager.__init__).
+MOTORS_PER_TICK = 4
 
 
 class DynamixelManager(Node):
@@ -89,7 +92,13 @@ class DynamixelManager(Node):
         for config in controllers:
             self.start_controller(config)
         self.updates = 0
-        self.create_timer(1.0 / self.rate, self.update)
+        # One update is read in ticks of a few motors each, with the goals given meanwhile
+        # written before every tick: a command waits for a few READs, not for all twenty.
+        self._order = list(self.motors)
+        self._next = 0
+        self._round: list[MotorReading] = []
+        ticks = max(1, math.ceil(len(self._order) / MOTORS_PER_TICK))
+        self.create_timer(1.0 / (self.rate * ticks), self._tick)
 
     def wire_time(self) -> float:
         """Seconds one update takes on the wire: one READ of the state registers per motor
@@ -121,6 +130,16 @@ class DynamixelManager(Node):
                       f"motor {config.motor.id} did not answer on {self.port.name}")
             self.failed.append(config.name)
             return None
+        position = self.bus.model_of(config.motor.id).register("goal_position")
+        top = position.maximum if position.maximum is not None else position.minimum
+        outside = [f"{k} {getattr(config.motor, k)}" for k in ("init", "min", "max")
+                   if not position.minimum <= getattr(config.motor, k) <= top]
+        if outside:
+            log.error(f"Initialization failed. Unable to start controller {config.name}: "
+                      f"motor {', '.join(outside)} outside the "
+                      f"{self.motors[config.motor.id]}'s positions {position.minimum}..{top}")
+            self.failed.append(config.name)
+            return None
         controller = JointPositionController(self, config, self.bus, self._set_goal)
         self.controllers[config.name] = controller
         log.info(f"Controller {config.name} successfully started.")
@@ -134,28 +153,48 @@ class DynamixelManager(Node):
         is switched on before its first goal, so that it holds the pose it is sent to)."""
         if not self._pending:
             return
-        goals, self._pending = self._pending, {}
-        for motor_id in goals.keys() - self._torque_on:
-            self.bus.write(motor_id, "torque_enable", 1)
-            self._torque_on.add(motor_id)
+        goals = self._pending
+        first = goals.keys() - self._torque_on
+        if first:
+            self.bus.sync_write("torque_enable", dict.fromkeys(first, 1))
+            self._torque_on |= first
         self.bus.sync_write("goal_position", goals)
+        self._pending = {}  # only once written: a bus error leaves them to be sent again
         for motor_id, angle in goals.items():
             self.goals[motor_id] = self.bus.from_si(motor_id, "goal_position", angle)
 
     # -- the update ------------------------------------------------------------------------
 
-    def update(self) -> list[MotorReading]:
-        """Write pending goals, read every motor's state, publish it all."""
-        self.flush_goals()
+    def _now(self) -> float:
+        """Stamps as ROS has them: the simulation's time on a simulated robot, else the
+        epoch."""
         clock = self.context.clock
-        # stamps as ROS has them: the simulation's time on a simulated robot, else the epoch
-        now = clock.now() if clock.virtual else time.time()
-        readings = [MotorReading.read(self.bus, i, self.goals[i], now) for i in self.motors]
+        return clock.now() if clock.virtual else time.time()
+
+    def _tick(self) -> None:
+        """Write pending goals, read the next few motors; publish when all have been read."""
+        self.flush_goals()
+        chunk = self._order[self._next:self._next + MOTORS_PER_TICK]
+        self._round += [MotorReading.read(self.bus, i, self.goals[i], self._now()) for i in chunk]
+        self._next += len(chunk)
+        if self._next >= len(self._order):
+            readings, self._round, self._next = self._round, [], 0
+            self._publish(readings)
+
+    def update(self) -> list[MotorReading]:
+        """One whole update at once: write pending goals, read every motor's state, publish
+        it all (what the timer does in ticks)."""
+        self.flush_goals()
+        readings = [MotorReading.read(self.bus, i, self.goals[i], self._now())
+                    for i in self.motors]
+        self._publish(readings)
+        return readings
+
+    def _publish(self, readings: list[MotorReading]) -> None:
         self.motor_states.publish(self.message(
             MOTOR_STATE_LIST, motor_states=[r.as_message() for r in readings]))
-        stamp_ns = int(now * 1e9)
         by_id = {r.id: r for r in readings}
         for controller in self.controllers.values():
-            controller.publish_state(by_id[controller.motor_id], stamp_ns)
+            reading = by_id[controller.motor_id]
+            controller.publish_state(reading, int(reading.timestamp * 1e9))
         self.updates += 1
-        return readings

@@ -103,6 +103,22 @@ class JointPositionController:
         node.create_service(TORQUE_ENABLE, f"/{self.name}/torque_enable",
                             self._on_torque_enable)
         self.set_speed(config.joint_speed)
+        self._tune(config)
+
+    def _tune(self, config: ControllerConfig) -> None:
+        """The joint_compliance_* and joint_torque_limit the configuration gives, written as
+        dynamixel_controllers writes them (compliance in the motor's raw units, both
+        directions alike; the torque limit as a fraction of the maximum)."""
+        motor = self.motor_id
+        for value, names in ((config.compliance_slope, ("cw_compliance_slope",
+                                                        "ccw_compliance_slope")),
+                             (config.compliance_margin, ("cw_compliance_margin",
+                                                         "ccw_compliance_margin")),
+                             (config.compliance_punch, ("punch",))):
+            if value is not None:
+                self._bus.write(motor, dict.fromkeys(names, value), raw=True)
+        if config.torque_limit is not None:
+            self._bus.write(motor, "torque_limit", config.torque_limit)
 
     # -- commands --------------------------------------------------------------------------
 

@@ -10,9 +10,13 @@ Ctrl-C stops at once, and the motors hold the last pose they were sent.
 
 from __future__ import annotations
 
+import math
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from ..gait.motionfile import MotionFile, read_motion_file
 from ..gait.walking import GaitParameters, generate_walk
@@ -30,10 +34,19 @@ def load_motion(path: str | Path | None, config: str | Path | None = None,
                 parameters: GaitParameters | None = None) -> MotionFile:
     """The motion to play: the file at ``path`` (all 21 columns, within the configured
     joints' limits), or the seed's gait generated with ``parameters``."""
-    if path is None:
-        return generate_walk(parameters or GaitParameters()).motion()
     limits = armstrong.joint_limits(armstrong.load_config(config))
-    return read_motion_file(path, limits=limits, required=MOTORS)
+    if path is not None:
+        return read_motion_file(path, limits=limits, required=MOTORS)
+    motion = generate_walk(parameters or GaitParameters()).motion()
+    for k, name in enumerate(motion.names):
+        low, high = limits.get(name, (-math.inf, math.inf))
+        outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
+        if outside.size:
+            row = int(outside[0])
+            raise ValueError(f"the generated gait's row {row} sends {name} to "
+                             f"{motion.angles[row, k]:.3f} degrees, outside the joint's "
+                             f"limits [{low:.3f}, {high:.3f}]")
+    return motion
 
 
 def recorded_topics(robot: Armstrong) -> dict[str, str]:
@@ -56,6 +69,8 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     from ..middleware.recorder import Recorder
 
     bag = run_folder.file("walk_bag")
+    if bag.exists():  # a run folder's files are replaced (servolab.runs)
+        shutil.rmtree(bag)
     with Armstrong(port=port, config=config, history=True) as robot:
         where = port or "the emulated robot"
         say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
