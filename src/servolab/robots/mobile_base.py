@@ -1,0 +1,254 @@
+"""A differential-drive base on Dynamixel wheels, and seed 000's moves on it.
+
+The base drives its wheels with one SYNC_WRITE per command (moving speed on Protocol 1.0 wheel
+mode, goal velocity on Protocol 2.0 velocity mode), within the motors' no-load speed, scaling
+both wheels together so the path's curvature is kept. It reads its wheels' encoders and
+integrates odometry (:mod:`servolab.kinematics.diffdrive`), with each model's real encoder
+wrap-around.
+
+The moves of seed 000 (Appendix A) are closed loops on that odometry: a straight line stops at
+its distance, a circle after its turns (Figure A3's wheel speeds), a figure of eight after one
+circle each way (Figure A4), a rotation at its angle. Each ends with the wheels stopped, also
+on an error or Ctrl-C (``finally``).
+
+With no port named the base is emulated: its motors roll on a simulated floor
+(:class:`~servolab.sim.floor.DiffDriveFloor`) whose ground truth the tests and plots compare
+the odometry with.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..kinematics.diffdrive import (
+    DiffDrive,
+    Encoder,
+    circle,
+    integrate_odometry,
+    limit_wheel_speeds,
+    tick_delta,
+)
+from .base_config import BaseConfig
+
+if TYPE_CHECKING:
+    from ..clock import Clock
+    from ..dynamixel.bus import Bus
+    from ..dynamixel.models import Model
+    from ..sim.floor import DiffDriveFloor
+    from ..sim.simulation import Simulation
+
+#: How often the moves' closed loops read the encoders (s of the base's clock).
+LOOP_PERIOD = 0.01
+
+
+def encoder_of(model: Model) -> Encoder:
+    """A wheel motor's encoder as odometry needs it, from the model's data: a Protocol 1.0
+    wheel-mode motor counts 0..65535 (EX-106+, e-Manual), a Protocol 2.0 one keeps a signed
+    32-bit multi-turn count."""
+    ticks = 2 * math.pi / model.rad_per_tick
+    if model.protocol == 1:
+        return Encoder(ticks_per_rev=ticks, modulus=65536)
+    return Encoder(ticks_per_rev=ticks, modulus=2**32, signed=True)
+
+
+@dataclass
+class Pose:
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0   # not wrapped: a circle's turns are counted in it
+
+
+class MobileBase:
+    """A base (see the module docstring) on ``bus``, timed by ``clock``."""
+
+    def __init__(self, config: BaseConfig, bus: Bus, clock: Clock, *,
+                 floor: DiffDriveFloor | None = None) -> None:
+        self.config = config
+        self.bus = bus
+        self.clock = clock
+        self.floor = floor
+        self.drive = DiffDrive(config.wheel_radius, config.wheel_separation)
+        self.encoder = encoder_of(config.model)
+        self.pose = Pose()
+        self.commands: list[tuple[float, float, float]] = []  # (t, left, right) rad/s sent
+        #: (t, odometry x, y, theta, truth x, y, yaw) at every odometry update (truth NaN on
+        #: a real base): what a run's plot draws
+        self.track: list[tuple[float, ...]] = []
+        self._ids = [m.id for m in config.motors]
+        self._setup()
+        self._ticks = self._read_ticks()
+
+    # -- construction ------------------------------------------------------------------------
+
+    @classmethod
+    def emulated(cls, config: BaseConfig, simulation: Simulation | None = None
+                 ) -> MobileBase:
+        """The base's motors emulated, rolling on a simulated floor in ``simulation``."""
+        from ..dynamixel.bus import Bus
+        from ..dynamixel.emulator import build_emulator
+        from ..dynamixel.motorspec import MotorEntry, MotorSpec
+        from ..sim.emulated import port_to
+        from ..sim.floor import DiffDriveFloor, DiffDriveGeometry
+        from ..sim.simulation import Simulation
+
+        sim = simulation or Simulation()
+        spec = MotorSpec(config.protocol, config.baudrate,
+                         tuple(MotorEntry(config.model, m.id) for m in config.motors))
+        emulator = sim.add_emulator(build_emulator(spec))
+        left, right = config.side("left"), config.side("right")
+        if len(left) != 1 or len(right) != 1:
+            raise NotImplementedError("the simulated floor rolls one motor a side for now")
+        geometry = DiffDriveGeometry(config.wheel_radius, config.wheel_separation,
+                                     left[0].direction, right[0].direction)
+        floor = sim.add(DiffDriveFloor(emulator.motor(left[0].id), emulator.motor(right[0].id),
+                                       geometry))
+        bus = Bus(port_to(emulator, sim, config.baudrate))
+        return cls(config, bus, sim, floor=floor)
+
+    def _setup(self) -> None:
+        """Wheel mode (1.0: both angle limits 0) or velocity mode (2.0), wheels stopped,
+        torque on."""
+        bus = self.bus
+        if self.config.protocol == 1:
+            for i in self._ids:
+                if not bus.wheel_mode(i):
+                    bus.write(i, {"cw_angle_limit": 0, "ccw_angle_limit": 0}, raw=True)
+            bus.sync_write("moving_speed", dict.fromkeys(self._ids, 0.0))
+        else:
+            bus.sync_write("torque_enable", dict.fromkeys(self._ids, 0))
+            bus.sync_write("operating_mode", dict.fromkeys(self._ids, 1), raw=True)
+            bus.sync_write("goal_velocity", dict.fromkeys(self._ids, 0.0))
+        bus.sync_write("torque_enable", dict.fromkeys(self._ids, 1))
+
+    # -- driving -----------------------------------------------------------------------------
+
+    def set_wheel_speeds(self, left: float, right: float) -> tuple[float, float]:
+        """Turn the wheels at ``left`` and ``right`` rad/s (positive: forwards), scaled
+        together to the motors' no-load speed (the curvature is kept), in one SYNC_WRITE;
+        returns the speeds sent. NaN or infinity is refused and nothing is sent."""
+        l_speed, r_speed = limit_wheel_speeds(left, right, self.config.max_wheel_speed)
+        wheel = {"left": float(l_speed), "right": float(r_speed)}
+        values = {m.id: m.direction * wheel[m.side] for m in self.config.motors}
+        register = "moving_speed" if self.config.protocol == 1 else "goal_velocity"
+        self.bus.sync_write(register, values)
+        self.commands.append((self.clock.now(), wheel["left"], wheel["right"]))
+        return wheel["left"], wheel["right"]
+
+    def stop(self) -> None:
+        """Both wheels at 0 (one SYNC_WRITE)."""
+        self.set_wheel_speeds(0.0, 0.0)
+
+    @contextmanager
+    def stopping(self) -> Iterator[MobileBase]:
+        """``with base.stopping(): ...`` stops the wheels when the block ends, however."""
+        try:
+            yield self
+        finally:
+            self.stop()
+
+    # -- odometry ----------------------------------------------------------------------------
+
+    def _read_ticks(self) -> dict[str, int]:
+        """Each side's first motor's raw encoder count (the motors of a side turn together)."""
+        return {side: int(self.bus.read(self.config.side(side)[0].id, "present_position",
+                                        raw=True)) for side in ("left", "right")}
+
+    def update_odometry(self) -> Pose:
+        """Read the encoders and integrate the increments since the last read."""
+        ticks = self._read_ticks()
+        deltas = {}
+        for side in ("left", "right"):
+            direction = self.config.side(side)[0].direction
+            deltas[side] = direction * int(tick_delta(self._ticks[side], ticks[side],
+                                                      self.encoder))
+        self._ticks = ticks
+        x, y, theta = integrate_odometry((self.pose.x, self.pose.y, self.pose.theta),
+                                         deltas["left"], deltas["right"], self.drive,
+                                         self.encoder)
+        self.pose = Pose(float(x), float(y), float(theta))
+        truth = self.floor.ground_truth() if self.floor is not None else {}
+        self.track.append((self.clock.now(), self.pose.x, self.pose.y, self.pose.theta,
+                           truth.get("x", math.nan), truth.get("y", math.nan),
+                           truth.get("yaw", math.nan)))
+        return self.pose
+
+    def rpm(self) -> dict[int, float]:
+        """Each wheel motor's present speed in rpm (000 A.1's "read current speed")."""
+        register = "present_speed" if self.config.protocol == 1 else "present_velocity"
+        return {i: float(self.bus.read(i, register)) * 60 / (2 * math.pi) for i in self._ids}
+
+    # -- seed 000's moves ------------------------------------------------------------------------
+
+    def _loop(self, done: Callable[[Pose], bool], timeout: float) -> None:
+        end = self.clock.now() + timeout
+        while not done(self.update_odometry()):
+            if self.clock.now() > end:
+                raise TimeoutError(f"the move did not finish within {timeout:g} s")
+            self.clock.sleep(LOOP_PERIOD)
+
+    def line(self, distance: float, speed: float) -> float:
+        """Drive ``distance`` m (negative: backwards) at ``speed`` m/s, stopping when the
+        odometry has covered it; returns the distance odometry measured."""
+        _check("distance", distance, allow_zero=True)
+        _check("speed", speed)
+        start = (self.update_odometry().x, self.pose.y)
+        sign = 1.0 if distance >= 0 else -1.0
+        wheel = sign * speed / self.drive.wheel_radius
+
+        def covered(p: Pose) -> float:
+            return math.hypot(p.x - start[0], p.y - start[1])
+
+        with self.stopping():
+            self.set_wheel_speeds(wheel, wheel)
+            self._loop(lambda p: covered(p) >= abs(distance), 10 * abs(distance) / speed + 5)
+        return covered(self.update_odometry())
+
+    def circle(self, radius: float, speed: float, *, clockwise: bool = False,
+               turns: float = 1.0) -> None:
+        """Figure A3: a circle of ``radius`` m at ``speed`` m/s (the centre's), ``turns``
+        times, counter-clockwise unless ``clockwise``; ends when odometry has turned that far."""
+        _check("radius", radius)
+        _check("speed", speed)
+        _check("turns", turns)
+        move = circle(radius, speed, self.drive, clockwise=clockwise, turns=turns)
+        start = self.update_odometry().theta
+        target = 2 * math.pi * turns
+        with self.stopping():
+            self.set_wheel_speeds(move.left, move.right)
+            self._loop(lambda p: abs(p.theta - start) >= target, 10 * move.duration + 5)
+
+    def eight(self, radius: float, speed: float) -> None:
+        """Figure A4: a circle counter-clockwise, then one clockwise."""
+        with self.stopping():
+            self.circle(radius, speed)
+            self.circle(radius, speed, clockwise=True)
+
+    def rotate(self, angle: float, wheel_speed: float = 1.0) -> None:
+        """Turn in place by ``angle`` rad (positive: counter-clockwise) with the wheels at
+        ``wheel_speed`` rad/s."""
+        _check("angle", abs(angle), allow_zero=True)
+        _check("wheel_speed", wheel_speed)
+        start = self.update_odometry().theta
+        sign = 1.0 if angle >= 0 else -1.0
+        with self.stopping():
+            self.set_wheel_speeds(-sign * wheel_speed, sign * wheel_speed)
+            duration = abs(angle) * self.drive.wheel_separation / (2 * self.drive.wheel_radius
+                                                                   * wheel_speed)
+            self._loop(lambda p: abs(p.theta - start) >= abs(angle), 10 * duration + 5)
+
+    def truth(self) -> dict[str, float]:
+        """The floor's ground truth (emulated bases only)."""
+        if self.floor is None:
+            raise RuntimeError("a real base has no ground truth")
+        return self.floor.ground_truth()
+
+
+def _check(name: str, value: float, *, allow_zero: bool = False) -> None:
+    if not (math.isfinite(value) and (value > 0 or (allow_zero and value == 0))):
+        raise ValueError(f"{name} must be a number > 0, not {value!r}" if not allow_zero
+                         else f"{name} must be a finite number, not {value!r}")
+

@@ -1,0 +1,103 @@
+"""Seed 000's moves on the emulated bases, measured against the simulated floor's truth.
+
+Facts: seed 000 Appendix A (Figure A3's circle: wl = v (1 - l/2R) / r, wr = v (1 + l/2R) / r;
+Figure A4's eight: a circle each way; A.2's straight line by encoder counting), the issue's
+bounds (a circle's truth radius within 2 %, an eight closing within 2 % of its size, a 1 m line
+within 1 %)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from servolab.robots.base_config import load
+from servolab.robots.mobile_base import MobileBase
+
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+BASES = ["base_seed000.yaml", "base_turtlebot3_waffle.yaml"]
+
+
+def _base(name: str) -> MobileBase:
+    return MobileBase.emulated(load(CONFIGS / name))
+
+
+def _truth(base: MobileBase) -> np.ndarray:
+    return np.array([(t[4], t[5]) for t in base.track])
+
+
+@pytest.mark.parametrize("name", BASES)
+def test_a_1_m_line_stops_within_1_percent(name: str) -> None:
+    base = _base(name)
+    base.line(1.0, 0.1)
+    truth = base.truth()
+    assert math.hypot(truth["x"], truth["y"]) == pytest.approx(1.0, rel=0.01)
+    assert base.commands[-1][1:] == (0.0, 0.0)  # ends stopped
+
+
+@pytest.mark.parametrize("name", BASES)
+@pytest.mark.parametrize("clockwise", [False, True])
+def test_a_circle_has_its_radius_within_2_percent(name: str, clockwise: bool) -> None:
+    base = _base(name)
+    base.circle(0.5, 0.1, clockwise=clockwise)
+    points = _truth(base)
+    centre = points.mean(axis=0)
+    radii = np.hypot(*(points - centre).T)
+    assert np.mean(radii) == pytest.approx(0.5, rel=0.02)
+    assert np.sign(centre[1]) == (-1 if clockwise else 1)  # CCW turns left (REP 103)
+    assert base.commands[-1][1:] == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("name", BASES)
+def test_a_figure_of_eight_closes_within_2_percent_of_its_size(name: str) -> None:
+    base = _base(name)
+    base.eight(0.3, 0.1)
+    truth = base.truth()
+    size = 4 * 0.3  # two circles side by side
+    assert math.hypot(truth["x"], truth["y"]) < 0.02 * size
+    points = _truth(base)
+    assert points[:, 1].max() == pytest.approx(0.6, rel=0.03)   # the left lobe
+    assert points[:, 1].min() == pytest.approx(-0.6, rel=0.03)  # the right lobe
+
+
+def test_a_rotation_turns_in_place() -> None:
+    base = _base("base_seed000.yaml")
+    base.rotate(math.pi / 2)
+    truth = base.truth()
+    assert truth["yaw"] == pytest.approx(math.pi / 2, abs=0.02)
+    assert math.hypot(truth["x"], truth["y"]) < 1e-3
+
+
+@pytest.mark.parametrize(("move", "says"), [
+    (lambda b: b.circle(0.0, 0.1), "radius must be a number > 0"),
+    (lambda b: b.circle(-0.5, 0.1), "radius must be a number > 0"),
+    (lambda b: b.line(1.0, math.nan), "speed must be a number > 0"),
+    (lambda b: b.set_wheel_speeds(math.nan, 1.0), "must be finite"),
+])
+def test_bad_moves_are_refused_and_nothing_moves(move: object, says: str) -> None:
+    base = _base("base_seed000.yaml")
+    sent = len(base.commands)
+    with pytest.raises(ValueError, match=says):
+        move(base)  # type: ignore[operator]
+    assert len(base.commands) == sent
+    assert base.truth()["distance"] == 0.0
+
+
+def test_speeds_over_the_motors_limit_are_scaled_keeping_the_curvature() -> None:
+    base = _base("base_seed000.yaml")
+    top = base.config.max_wheel_speed
+    left, right = base.set_wheel_speeds(2 * top, 4 * top)
+    assert right == pytest.approx(top) and left / right == pytest.approx(0.5)
+    base.stop()
+
+
+def test_rpm_reads_each_wheel() -> None:
+    base = _base("base_turtlebot3_waffle.yaml")
+    base.set_wheel_speeds(2.0, 2.0)
+    base.clock.sleep(0.5)
+    rpm = base.rpm()
+    assert rpm[1] == pytest.approx(2.0 * 60 / (2 * math.pi), rel=0.02)
+    assert rpm[2] == pytest.approx(-rpm[1], rel=0.02)  # mirrored
+    base.stop()
