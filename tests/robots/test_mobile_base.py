@@ -87,7 +87,7 @@ def test_bad_moves_are_refused_and_nothing_moves(move: object, says: str) -> Non
 
 def test_speeds_over_the_motors_limit_are_scaled_keeping_the_curvature() -> None:
     base = _base("base_seed000.yaml")
-    top = base.config.max_wheel_speed
+    top = base.max_wheel_speed
     left, right = base.set_wheel_speeds(2 * top, 4 * top)
     assert right == pytest.approx(top) and left / right == pytest.approx(0.5)
     base.stop()
@@ -100,4 +100,17 @@ def test_rpm_reads_each_wheel() -> None:
     rpm = base.rpm()
     assert rpm[1] == pytest.approx(2.0 * 60 / (2 * math.pi), rel=0.02)
     assert rpm[2] == pytest.approx(-rpm[1], rel=0.02)  # mirrored
+    base.stop()
+
+
+def test_the_velocity_limit_register_bounds_a_2_0_wheel() -> None:
+    """An XM430's goal_velocity above its velocity_limit is refused by the motor (e-Manual):
+    the base never asks for more, so both wheels turn."""
+    base = _base("base_turtlebot3_waffle.yaml")
+    limit = float(base.bus.read(1, "velocity_limit"))
+    assert base.max_wheel_speed == pytest.approx(min(limit, base.config.max_wheel_speed))
+    base.set_wheel_speeds(3.8, 100.0)
+    base.clock.sleep(0.2)
+    assert abs(float(base.bus.read(2, "present_velocity"))) == pytest.approx(
+        base.max_wheel_speed, rel=0.01)
     base.stop()

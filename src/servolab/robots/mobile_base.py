@@ -74,11 +74,16 @@ class MobileBase:
         self.drive = DiffDrive(config.wheel_radius, config.wheel_separation)
         self.encoder = encoder_of(config.model)
         self.pose = Pose()
+        #: each wheel's rotation since start (rad, positive forwards), from its encoder
+        self.wheel_rotation = {"left": 0.0, "right": 0.0}
         self.commands: list[tuple[float, float, float]] = []  # (t, left, right) rad/s sent
         #: (t, odometry x, y, theta, truth x, y, yaw) at every odometry update (truth NaN on
         #: a real base): what a run's plot draws
         self.track: list[tuple[float, ...]] = []
         self._ids = [m.id for m in config.motors]
+        #: the fastest a wheel may be told to turn (rad/s): the model's no-load speed, and on
+        #: Protocol 2.0 the motors' velocity_limit (a goal above it is refused by the motor)
+        self.max_wheel_speed = config.max_wheel_speed
         self._setup()
         self._ticks = self._read_ticks()
 
@@ -122,6 +127,8 @@ class MobileBase:
             bus.sync_write("torque_enable", dict.fromkeys(self._ids, 0))
             bus.sync_write("operating_mode", dict.fromkeys(self._ids, 1), raw=True)
             bus.sync_write("goal_velocity", dict.fromkeys(self._ids, 0.0))
+            limits = [float(bus.read(i, "velocity_limit")) for i in self._ids]
+            self.max_wheel_speed = min(self.max_wheel_speed, *limits)
         bus.sync_write("torque_enable", dict.fromkeys(self._ids, 1))
 
     # -- driving -----------------------------------------------------------------------------
@@ -130,7 +137,7 @@ class MobileBase:
         """Turn the wheels at ``left`` and ``right`` rad/s (positive: forwards), scaled
         together to the motors' no-load speed (the curvature is kept), in one SYNC_WRITE;
         returns the speeds sent. NaN or infinity is refused and nothing is sent."""
-        l_speed, r_speed = limit_wheel_speeds(left, right, self.config.max_wheel_speed)
+        l_speed, r_speed = limit_wheel_speeds(left, right, self.max_wheel_speed)
         wheel = {"left": float(l_speed), "right": float(r_speed)}
         values = {m.id: m.direction * wheel[m.side] for m in self.config.motors}
         register = "moving_speed" if self.config.protocol == 1 else "goal_velocity"
@@ -165,6 +172,8 @@ class MobileBase:
             direction = self.config.side(side)[0].direction
             deltas[side] = direction * int(tick_delta(self._ticks[side], ticks[side],
                                                       self.encoder))
+            self.wheel_rotation[side] += (2 * math.pi * deltas[side]
+                                          / self.encoder.ticks_per_rev)
         self._ticks = ticks
         x, y, theta = integrate_odometry((self.pose.x, self.pose.y, self.pose.theta),
                                          deltas["left"], deltas["right"], self.drive,
@@ -175,6 +184,11 @@ class MobileBase:
                            truth.get("x", math.nan), truth.get("y", math.nan),
                            truth.get("yaw", math.nan)))
         return self.pose
+
+    def wheel_angles(self) -> tuple[float, float]:
+        """The left and right wheels' rotation since start (rad), as of the last
+        :meth:`update_odometry`."""
+        return self.wheel_rotation["left"], self.wheel_rotation["right"]
 
     def rpm(self) -> dict[int, float]:
         """Each wheel motor's present speed in rpm (000 A.1's "read current speed")."""
