@@ -114,3 +114,28 @@ def test_the_velocity_limit_register_bounds_a_2_0_wheel() -> None:
     assert abs(float(base.bus.read(2, "present_velocity"))) == pytest.approx(
         base.max_wheel_speed, rel=0.01)
     base.stop()
+
+
+def test_the_seeds_own_sync_write_moves_the_4_motor_base() -> None:
+    """Seed 000 A.2 (final.m, tx.m): for a forward move at 30 % (s = round(0.3 x 1023)),
+    motors 1 and 2 get a = 1023 + s and motors 3 and 4 get b = s, in one SYNC_WRITE to the
+    broadcast ID of address 32 (moving speed), 2 bytes each, with no torque-enable write:
+    sent as the seed builds it (with m34 where tx.m's slip wrote the literal 34), the emulated
+    4-motor base, torque off before, rolls forwards and nearly straight."""
+    from servolab.dynamixel.protocol1 import checksum
+
+    base = _base("base_seed000_4motor.yaml")
+    base.bus.sync_write("torque_enable", dict.fromkeys([1, 2, 3, 4], 0))
+    s = round(0.3 * 1023)
+    a, b = 1023 + s, s
+    params = [32, 2]
+    for motor_id, value in ((1, a), (2, a), (3, b), (4, b)):
+        params += [motor_id, value & 0xFF, value >> 8]
+    body = bytes([0xFE, 16, 0x83, *params])  # length 16 = (2 + 1) x 4 + 4, as tx.m says
+    base.bus.port.write(b"\xff\xff" + body + bytes([checksum(body)]))
+    base.clock.sleep(2.0)
+    truth = base.truth()
+    # forwards: 30 % of the EX-106+'s 91 rpm no-load speed on a 5.2 cm wheel, 2 s: 0.30 m
+    assert truth["x"] == pytest.approx(0.3 * 91 * 2 * math.pi / 60 * 0.052 * 2.0, rel=0.02)
+    assert abs(truth["yaw"]) < 0.05 and abs(truth["y"]) < 0.02
+    assert all(base.bus.read(i, "torque_enable") == 1 for i in (1, 2, 3, 4))

@@ -97,7 +97,7 @@ class MobileBase:
         from ..dynamixel.emulator import build_emulator
         from ..dynamixel.motorspec import MotorEntry, MotorSpec
         from ..sim.emulated import port_to
-        from ..sim.floor import DiffDriveFloor, DiffDriveGeometry
+        from ..sim.floor import DiffDriveFloor
         from ..sim.simulation import Simulation
 
         sim = simulation or Simulation()
@@ -105,12 +105,11 @@ class MobileBase:
                          tuple(MotorEntry(config.model, m.id) for m in config.motors))
         emulator = sim.add_emulator(build_emulator(spec))
         left, right = config.side("left"), config.side("right")
-        if len(left) != 1 or len(right) != 1:
-            raise NotImplementedError("the simulated floor rolls one motor a side for now")
-        geometry = DiffDriveGeometry(config.wheel_radius, config.wheel_separation,
-                                     left[0].direction, right[0].direction)
-        floor = sim.add(DiffDriveFloor(emulator.motor(left[0].id), emulator.motor(right[0].id),
-                                       geometry))
+        floor = DiffDriveFloor.for_base(
+            sim, emulator, [m.id for m in left], [m.id for m in right],
+            wheel_radius=config.wheel_radius, wheel_separation=config.wheel_separation,
+            left_forward=tuple(m.direction for m in left),
+            right_forward=tuple(m.direction for m in right))
         bus = Bus(port_to(emulator, sim, config.baudrate))
         return cls(config, bus, sim, floor=floor)
 
