@@ -80,6 +80,8 @@ class MobileBase:
         #: (t, odometry x, y, theta, truth x, y, yaw) at every odometry update (truth NaN on
         #: a real base): what a run's plot draws
         self.track: list[tuple[float, ...]] = []
+        #: called with each new odometry pose while a move runs (a progress display)
+        self.on_update: Callable[[Pose], None] | None = None
         self._ids = [m.id for m in config.motors]
         #: the fastest a wheel may be told to turn (rad/s): the model's no-load speed, and on
         #: Protocol 2.0 the motors' velocity_limit (a goal above it is refused by the motor)
@@ -198,7 +200,9 @@ class MobileBase:
 
     def _loop(self, done: Callable[[Pose], bool], timeout: float) -> None:
         end = self.clock.now() + timeout
-        while not done(self.update_odometry()):
+        while not done(pose := self.update_odometry()):
+            if self.on_update is not None:
+                self.on_update(pose)
             if self.clock.now() > end:
                 raise TimeoutError(f"the move did not finish within {timeout:g} s")
             self.clock.sleep(LOOP_PERIOD)

@@ -1,0 +1,98 @@
+"""``servolab drive MOVE``: seed 000's moves on a differential-drive base, recorded.
+
+The command only parses; :mod:`servolab.robots.drive` runs the base. SI units: metres,
+metres a second, degrees for a rotation's angle (the seed's centimetres are converted, never
+assumed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from .arguments import add_out
+from .registry import Command
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a number > 0")
+    return value
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number")
+    return value
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--base", metavar="YAML", help="base configuration (default "
+                   "configs/base_seed000.yaml, seed 000's two-wheel robot)")
+    p.add_argument("--port", metavar="DEV", help="the base's serial port; default: the "
+                   "base emulated on a simulated floor")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_out(p)
+
+
+def _add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="move", required=True, metavar="MOVE")
+    line = sub.add_parser("line", help="a straight line, stopping at the distance (encoders)")
+    line.add_argument("--distance", type=_finite, required=True, metavar="M",
+                      help="metres (negative: backwards)")
+    line.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    circle = sub.add_parser("circle", help="a circle (000 Figure A3)")
+    circle.add_argument("--radius", type=_positive, required=True, metavar="M")
+    circle.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    turn = circle.add_mutually_exclusive_group()
+    turn.add_argument("--cw", dest="clockwise", action="store_true", help="clockwise")
+    turn.add_argument("--ccw", dest="clockwise", action="store_false",
+                      help="counter-clockwise (default)")
+    circle.add_argument("--turns", type=_positive, default=1.0, metavar="N")
+    eight = sub.add_parser("eight", help="a figure of eight (000 Figure A4)")
+    eight.add_argument("--radius", type=_positive, required=True, metavar="M")
+    eight.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    rotate = sub.add_parser("rotate", help="turn in place")
+    rotate.add_argument("--angle", type=_finite, required=True, metavar="DEG",
+                        help="degrees, positive counter-clockwise")
+    rpm = sub.add_parser("rpm", help="read each wheel's speed in rpm")
+    stop = sub.add_parser("stop", help="stop every wheel")
+    for p in (line, circle, eight, rotate, rpm, stop):
+        _common(p)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..robots.drive import run_drive
+    from ..runs import RunFolder
+
+    run = RunFolder.create("drive", args.out)
+    summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
+                        speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
+                        clockwise=getattr(args, "clockwise", False),
+                        turns=getattr(args, "turns", 1.0), angle_deg=getattr(args, "angle", 90.0),
+                        base=args.base, port=args.port, show_progress=not args.no_progress)
+    run.write_summary(summary)
+    print(f"run folder: {run.path}")
+    return 0
+
+
+COMMAND = Command(
+    name="drive", group="robots", help="seed 000's moves on a wheeled base (line, circle, ...)",
+    description="Drive a differential-drive base: a straight line, a circle, a figure of "
+    "eight, a rotation, read the wheels' rpm or stop them. On the emulated seed-000 robot on a "
+    "simulated floor by default; the run folder gets an MCAP bag, a plot of the path (truth "
+    "and odometry) and summary.json.",
+    examples=("servolab drive line --distance 1.0 --speed 0.1",
+              "servolab drive circle --radius 0.5 --speed 0.2 --cw --turns 2",
+              "servolab drive eight --radius 0.3 --speed 0.1",
+              "servolab drive rotate --angle 90",
+              "servolab drive circle --radius 0.5 --base configs/base_turtlebot3_waffle.yaml"),
+    add_arguments=_add_arguments, run=_run)
