@@ -1,4 +1,4 @@
-"""Make the figures of docs/dynamixel.md, sim.md and biped.md from the code itself:
+"""Make the figures of docs/dynamixel.md, sim.md, biped.md and mobile.md from the code itself:
 ``python docs/plots.py [DIR]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
@@ -129,6 +129,20 @@ def biped(out: Path) -> None:
         shutil.copy(str(summary["plot"]), out / "biped_walk.png")
 
 
+def mobile(out: Path) -> None:
+    """docs/mobile.md's figure: seed 000's robot drives a figure of eight on the floor."""
+    import shutil
+    import tempfile
+
+    from servolab.robots.drive import run_drive
+    from servolab.runs import RunFolder
+
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = run_drive(RunFolder.create("drive", tmp), "eight", radius=0.3, speed=0.1,
+                            say=lambda text: None, show_progress=False)
+        shutil.copy(str(summary["plot"]), out / "mobile_eight.png")
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
@@ -136,6 +150,7 @@ def main(argv: list[str]) -> None:
     cycle_time(out / "bus_cycle_time.png")
     floor_world(out / "floor_world.png")
     biped(out)
+    mobile(out)
     print(f"figures written to {out}")
 
 

@@ -5,8 +5,9 @@ Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Proto
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
 listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
 floor, stepped by the simulation that owns time; last, Armstrong (the biped of seed 001)
-stands up and walks a step. It saves plots, bags and summary.json in the run folder. Every
-robot that servolab grows adds its own short run here.
+stands up and walks a step, and seed 000's wheeled robot drives a figure of eight. It saves
+plots, bags and summary.json in the run folder. Every robot that servolab grows adds its own
+short run here.
 
 The Dynamixel layer, the middleware and matplotlib are imported inside the functions, so that
 ``servolab --help`` does not load them.
@@ -96,6 +97,8 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     figures["floor"] = _floor(say)
     say()
     figures["biped"] = _biped(run_folder, say)
+    say()
+    figures["mobile_base"] = _mobile_base(run_folder, say)
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -131,6 +134,17 @@ def _floor(say: Callable[[str], None]) -> dict[str, object]:
         f"y = {truth['y']:+.3f} m, yaw = {truth['yaw']:+.3f} rad")
     return {"ground_truth": truth, "physics_steps": sim.steps,
             "real_time_factor": 5.0 / host}
+
+
+def _mobile_base(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 000's two-wheel robot drives a figure of eight on the simulated floor."""
+    from ..robots.drive import run_drive
+
+    say("6. Seed 000's two-wheel robot (EX-106+ wheels) drives a figure of eight on a floor")
+    say("   (servolab drive eight; see docs/mobile.md)")
+    summary = run_drive(run_folder, "eight", radius=0.3, speed=0.1,
+                        say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("measured", "bag", "plot")}
 
 
 def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
