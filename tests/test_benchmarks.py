@@ -272,3 +272,42 @@ def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert math.isclose(buses[0]["limit_hz"], 1 / (20 * (25e-3 / 5.7142 + 0.5e-3)
                                                    + 0.68 / 57.142), rel_tol=1e-9)
     assert "ratio achieved/limit" in out and "ratio per-register/one-READ" in out
+
+
+BASE = BENCHMARK.parent / "base.py"
+
+
+@pytest.mark.timeout(60)
+def test_base_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/base.py --quick: the base node's achieved control rate on the emulated buses
+    of both bases, every figure finite and positive, within the wire-time limit of one cycle
+    computed from the packet sizes, and 30 Hz at the node's default rate."""
+    bench = _load(BASE, "base_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    figures = json.loads(out_json.read_text())
+    assert figures["quick"] is True
+    bases = figures["bases"]
+    assert sorted(bases) == ["seed000", "turtlebot3_waffle"]
+    assert (bases["seed000"]["model"], bases["seed000"]["protocol"]) == ("EX-106+", 1)
+    assert (bases["turtlebot3_waffle"]["model"],
+            bases["turtlebot3_waffle"]["protocol"]) == ("XM430-W210", 2)
+    for name, base in bases.items():
+        assert base["cycles"] == figures["cycles"], name
+        for key in ("achieved_hz", "limit_hz", "ratio_achieved_limit", "wire_ms_per_cycle",
+                    "host_us_per_cycle", "ratio_host_wire", "default_rate_hz",
+                    "transactions_per_cycle", "bytes_per_cycle", "limit_bytes_out",
+                    "limit_bytes_in"):
+            assert _positive(base[key]), (name, key, base)
+        assert all(_positive(d) for d in base["return_delay_ms"]), base
+        assert base["achieved_hz"] <= 1.01 * base["limit_hz"], base
+        assert base["default_rate_hz"] == pytest.approx(30.0, rel=0.01), base
+        assert base["label"] in out
+    # One SYNC_WRITE and one SYNC_READ a cycle on Protocol 2.0 (faster than a READ a side,
+    # which the figures give for comparison); a READ a side on 1.0, which has no SYNC_READ.
+    assert bases["seed000"]["reads_limit_hz"] is None
+    waffle = bases["turtlebot3_waffle"]
+    assert _positive(waffle["reads_limit_hz"])
+    assert waffle["reads_limit_hz"] < waffle["limit_hz"]
+    assert "ratio achieved/limit" in out and "SYNC_READ" in out

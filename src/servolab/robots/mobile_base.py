@@ -161,9 +161,15 @@ class MobileBase:
     # -- odometry ----------------------------------------------------------------------------
 
     def _read_ticks(self) -> dict[str, int]:
-        """Each side's first motor's raw encoder count (the motors of a side turn together)."""
-        return {side: int(self.bus.read(self.config.side(side)[0].id, "present_position",
-                                        raw=True)) for side in ("left", "right")}
+        """Each side's first motor's raw encoder count (the motors of a side turn together):
+        one SYNC_READ of both on Protocol 2.0, a READ each on 1.0 (the EX-106+ has neither
+        SYNC_READ nor BULK_READ)."""
+        first = {side: self.config.side(side)[0].id for side in ("left", "right")}
+        if self.config.protocol == 2:
+            counts = self.bus.sync_read("present_position", list(first.values()), raw=True)
+            return {side: int(counts[i]) for side, i in first.items()}
+        return {side: int(self.bus.read(i, "present_position", raw=True))
+                for side, i in first.items()}
 
     def update_odometry(self) -> Pose:
         """Read the encoders and integrate the increments since the last read."""
