@@ -90,3 +90,21 @@ def test_commands_are_clamped_to_the_base_limits(rig: Rig) -> None:
     rig.send(5.0, 10.0)
     rig.context.spin_for(0.05)
     assert rig.node.command == (0.26, 1.82)  # base_turtlebot3_waffle.yaml's limits
+
+
+def test_sensor_state_carries_the_raw_encoder_counts(rig: Rig) -> None:
+    """Seed 002 Listing 4 logs (time, left_encoder, right_encoder) from sensor_state."""
+    got: list[Any] = []
+    rig.probe.create_subscription("turtlebot3_msgs/msg/SensorState", "/sensor_state",
+                                  got.append, 0)
+    rig.send(0.1, 0.0)
+    rig.context.spin_for(0.3)
+    last = got[-1]
+    left = rig.base.bus.read(1, "present_position", raw=True)
+    right = rig.base.bus.read(2, "present_position", raw=True)
+    # the counts of one of the node's last cycles: within a few cycles' travel of a read now
+    # (0.1 m/s on 0.033 m wheels, 4096 ticks a turn, 30 cycles a second: 66 ticks a cycle)
+    per_cycle = 0.1 / 0.033 / (2 * math.pi) * 4096 / 30
+    assert abs(last.left_encoder - left) < 3 * per_cycle
+    assert abs(last.right_encoder - right) < 3 * per_cycle
+    assert last.left_encoder > got[0].left_encoder  # the left wheel turned forwards

@@ -59,6 +59,35 @@ bool is_moving      # is joint currently in motion
 """,
 }
 
+#: ``turtlebot3_msgs`` (ROBOTIS-GIT/turtlebot3_msgs, msg/SensorState.msg): what a TurtleBot3
+#: publishes on ``sensor_state``, the raw wheel encoder counts among it (seed 002 Listing 4).
+TURTLEBOT3_MSGS = {
+    "turtlebot3_msgs/msg/SensorState": """\
+uint8 BUMPER_FORWARD = 1
+uint8 BUMPER_BACKWARD = 2
+uint8 CLIFF = 1
+uint8 SONAR = 1
+uint8 ILLUMINATION = 1
+uint8 BUTTON0 = 1
+uint8 BUTTON1 = 2
+uint8 ERROR_LEFT_MOTOR = 1
+uint8 ERROR_RIGHT_MOTOR = 2
+uint8 TORQUE_ON = 1
+uint8 TORQUE_OFF = 2
+std_msgs/Header header
+uint8 bumper
+float32 cliff
+float32 sonar
+float32 illumination
+uint8 led
+uint8 button
+bool torque
+int32 left_encoder
+int32 right_encoder
+float32 battery
+""",
+}
+
 #: Services: name -> (request text, response text).
 SERVICES = {
     # dynamixel_controllers (ROS 1 dynamixel_motor): what a joint controller offers.
@@ -134,6 +163,7 @@ class MessageTypes:
         self.store = get_typestore(Stores.ROS2_JAZZY)
         self._fix_service_event_info()
         self.register_msgs(DYNAMIXEL_MSGS)
+        self.register_msgs(TURTLEBOT3_MSGS)
         for name, (request, response) in SERVICES.items():
             self.register_service(name, request, response)
         if extra_msgs:

@@ -5,7 +5,9 @@
 - a watchdog: no command for ``watchdog`` s (0.5 by default) stops the wheels;
 - ``/odom`` (``nav_msgs/msg/Odometry``) and ``/tf`` (``odom`` -> ``base_footprint``, TurtleBot3's
   frame names), ``/joint_states`` (``wheel_left_joint``, ``wheel_right_joint``) at ``rate`` Hz
-  (30 by default), from the wheel encoders.
+  (30 by default), from the wheel encoders;
+- ``/sensor_state`` (``turtlebot3_msgs/msg/SensorState``): the time and the raw encoder counts
+  of the left and right wheels, what seed 002's Listing 4 logs, and the torque state.
 
 Each cycle is one SYNC_WRITE of the wheels' speeds and the encoders' reads. Stopping the node
 (or its context) stops the wheels.
@@ -25,6 +27,7 @@ TWIST = "geometry_msgs/msg/Twist"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TF = "tf2_msgs/msg/TFMessage"
 JOINT_STATE = "sensor_msgs/msg/JointState"
+SENSOR_STATE = "turtlebot3_msgs/msg/SensorState"
 #: TurtleBot3's frame and joint names (turtlebot3_node).
 ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
 WHEEL_JOINTS = ("wheel_left_joint", "wheel_right_joint")
@@ -55,6 +58,7 @@ class BaseNode(Node):
         self.odom = self.create_publisher(ODOMETRY, "odom", 10)
         self.tf = self.create_publisher(TF, "tf", 10)
         self.joint_states = self.create_publisher(JOINT_STATE, "joint_states", 10)
+        self.sensor_state = self.create_publisher(SENSOR_STATE, "sensor_state", 10)
         self.create_subscription(TWIST, "cmd_vel", self._on_cmd_vel, 10)
         self.create_timer(1.0 / rate, self._cycle)
 
@@ -108,6 +112,10 @@ class BaseNode(Node):
         self.joint_states.publish(self.message(
             JOINT_STATE, header={"stamp": stamp}, name=list(WHEEL_JOINTS),
             position=[left, right]))
+        ticks = self.base.encoder_counts()
+        self.sensor_state.publish(self.message(
+            SENSOR_STATE, header={"stamp": stamp}, torque=True,
+            left_encoder=ticks["left"], right_encoder=ticks["right"]))
 
     def destroy(self) -> None:
         try:

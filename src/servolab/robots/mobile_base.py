@@ -192,6 +192,11 @@ class MobileBase:
                            truth.get("yaw", math.nan)))
         return self.pose
 
+    def encoder_counts(self) -> dict[str, int]:
+        """Each side's raw encoder count as last read (TurtleBot3's ``sensor_state`` carries
+        these): 0..65535 on a 1.0 wheel-mode motor, the signed 32-bit count on 2.0."""
+        return dict(self._ticks)
+
     def wheel_angles(self) -> tuple[float, float]:
         """The left and right wheels' rotation since start (rad), as of the last
         :meth:`update_odometry`."""
