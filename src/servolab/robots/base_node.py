@@ -122,3 +122,46 @@ class BaseNode(Node):
             self.base.stop()
         finally:
             super().destroy()
+
+
+class BaseRobot(Node):
+    """A base for launch files: opens the base of parameter ``base`` (a configuration file;
+    default seed 000's robot), emulated on a simulated floor in real time unless ``port``
+    names a serial device, and runs a :class:`BaseNode` on it (and, emulated, a
+    :class:`~servolab.sim.truth_node.GroundTruthNode` publishing ``/ground_truth``)."""
+
+    def __init__(self, context: Context, name: str = "base_robot", namespace: str = "/", *,
+                 parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+        from ..sim.truth_node import GroundTruthNode
+        from .base_config import load
+        from .drive import SEED_000_BASE, open_base
+
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
+        path = str(self.declare_parameter("base", "", description="base YAML").value)
+        port = str(self.declare_parameter("port", "", description="serial device; empty: "
+                                          "emulated").value)
+        self.base = open_base(load(path or SEED_000_BASE), port or None)
+        self.simulation = None if port else self.base.clock
+        if self.simulation is not None:
+            self.simulation.start_real_time()  # type: ignore[attr-defined]
+        try:
+            overrides = dict(parameter_overrides or {})
+            node_overrides: dict[str, Any] = {k: overrides[k] for k in ("rate", "watchdog")
+                                              if k in overrides}
+            self.node = BaseNode(context, self.base, parameter_overrides=node_overrides)
+            self.truth = (GroundTruthNode(context, self.base.floor)
+                          if self.base.floor is not None else None)
+        except BaseException:
+            self._release()
+            raise
+
+    def _release(self) -> None:
+        if self.simulation is not None:
+            self.simulation.stop_real_time()  # type: ignore[attr-defined]
+        self.base.bus.close()
+
+    def destroy(self) -> None:
+        super().destroy()
+        self._release()
