@@ -86,3 +86,14 @@ def test_a_base_without_a_wheel_radius_is_refused_before_anything_moves(tmp_path
     assert result.returncode != 0
     assert f"{bad}:" in result.stderr and "wheel_radius" in result.stderr
     assert result.stderr.strip().count("\n") == 0
+
+
+def test_a_speed_over_the_motors_limit_is_refused_in_one_line(tmp_path: Path) -> None:
+    """The EX-106+'s no-load 91 rpm on a 5.2 cm wheel is 0.50 m/s: 2 m/s is refused before the
+    wheels move."""
+    result = subprocess.run([sys.executable, "-m", "servolab", "drive", "line", "--distance",
+                             "1", "--speed", "2", "--out", str(tmp_path / "run")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode != 0
+    assert result.stderr.strip().count("\n") == 0, result.stderr
+    assert "over the EX-106+'s" in result.stderr and "rad/s" in result.stderr

@@ -75,6 +75,8 @@ def test_a_rotation_turns_in_place() -> None:
     (lambda b: b.circle(-0.5, 0.1), "radius must be a number > 0"),
     (lambda b: b.line(1.0, math.nan), "speed must be a number > 0"),
     (lambda b: b.set_wheel_speeds(math.nan, 1.0), "must be finite"),
+    (lambda b: b.line(1.0, 2.0), "over the EX-106\\+'s 9.529 rad/s"),
+    (lambda b: b.circle(0.3, 0.45), "needs the right wheel at"),
 ])
 def test_bad_moves_are_refused_and_nothing_moves(move: object, says: str) -> None:
     base = _base("base_seed000.yaml")
@@ -139,3 +141,15 @@ def test_the_seeds_own_sync_write_moves_the_4_motor_base() -> None:
     assert truth["x"] == pytest.approx(0.3 * 91 * 2 * math.pi / 60 * 0.052 * 2.0, rel=0.02)
     assert abs(truth["yaw"]) < 0.05 and abs(truth["y"]) < 0.02
     assert all(base.bus.read(i, "torque_enable") == 1 for i in (1, 2, 3, 4))
+
+
+def test_encoder_wrap_around_on_a_long_line() -> None:
+    """The EX-106+ in wheel mode counts 0..65535 (e-Manual, servolab.dynamixel.models): a 5 m
+    line on 5.2 cm wheels turns them 15 times, past the wrap; odometry stays right."""
+    base = _base("base_seed000.yaml")
+    base.line(5.0, 0.4)
+    truth = base.truth()
+    assert math.hypot(truth["x"], truth["y"]) == pytest.approx(5.0, rel=0.01)
+    assert base.pose.x == pytest.approx(truth["x"], rel=0.01)
+    turned = base.wheel_angles()[0] / (2 * math.pi)
+    assert turned > 65536 / base.encoder.ticks_per_rev  # more than one wrap of the register

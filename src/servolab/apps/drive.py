@@ -74,11 +74,17 @@ def _run(args: argparse.Namespace) -> int:
     from ..runs import RunFolder
 
     run = RunFolder.create("drive", args.out)
-    summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
-                        speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
-                        clockwise=getattr(args, "clockwise", False),
-                        turns=getattr(args, "turns", 1.0), angle_deg=getattr(args, "angle", 90.0),
-                        base=args.base, port=args.port, show_progress=not args.no_progress)
+    try:
+        summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
+                            speed=getattr(args, "speed", 0.1),
+                            radius=getattr(args, "radius", 0.5),
+                            clockwise=getattr(args, "clockwise", False),
+                            turns=getattr(args, "turns", 1.0),
+                            angle_deg=getattr(args, "angle", 90.0),
+                            base=args.base, port=args.port,
+                            show_progress=not args.no_progress)
+    except ValueError as exc:  # a move the base cannot make: said before anything moved
+        raise SystemExit(f"servolab drive: {exc}") from None
     run.write_summary(summary)
     print(f"run folder: {run.path}")
     return 0

@@ -209,6 +209,22 @@ class MobileBase:
 
     # -- seed 000's moves ------------------------------------------------------------------------
 
+    def _within_limits(self, what: str, left: float, right: float) -> None:
+        """Refuse a move whose wheel speeds the motors cannot give (before anything moves):
+        a move is geometry, and scaling it down would change its timing, not its shape,
+        silently."""
+        top = self.max_wheel_speed
+        for side, speed in (("left", left), ("right", right)):
+            if abs(speed) > top * (1 + 1e-9):
+                raise ValueError(f"{what} needs the {side} wheel at {abs(speed):.3f} rad/s, "
+                                 f"over the {self.config.model.name}'s {top:.3f} rad/s: ask "
+                                 "for a lower speed")
+        linear = 0.5 * (abs(left) + abs(right)) * self.drive.wheel_radius
+        limit = self.config.max_linear_velocity
+        if limit is not None and linear > limit * (1 + 1e-9):
+            raise ValueError(f"{what} drives at {linear:.3f} m/s, over the base's "
+                             f"max_linear_velocity {limit:g} m/s")
+
     def _loop(self, done: Callable[[Pose], bool], timeout: float) -> None:
         end = self.clock.now() + timeout
         while not done(pose := self.update_odometry()):
@@ -223,9 +239,10 @@ class MobileBase:
         odometry has covered it; returns the distance odometry measured."""
         _check("distance", distance, allow_zero=True)
         _check("speed", speed)
-        start = (self.update_odometry().x, self.pose.y)
         sign = 1.0 if distance >= 0 else -1.0
         wheel = sign * speed / self.drive.wheel_radius
+        self._within_limits(f"a line at {speed:g} m/s", wheel, wheel)
+        start = (self.update_odometry().x, self.pose.y)
 
         def covered(p: Pose) -> float:
             return math.hypot(p.x - start[0], p.y - start[1])
@@ -243,6 +260,8 @@ class MobileBase:
         _check("speed", speed)
         _check("turns", turns)
         move = circle(radius, speed, self.drive, clockwise=clockwise, turns=turns)
+        self._within_limits(f"a circle of {radius:g} m at {speed:g} m/s", move.left,
+                            move.right)
         start = self.update_odometry().theta
         target = 2 * math.pi * turns
         with self.stopping():
@@ -251,6 +270,11 @@ class MobileBase:
 
     def eight(self, radius: float, speed: float) -> None:
         """Figure A4: a circle counter-clockwise, then one clockwise."""
+        _check("radius", radius)
+        _check("speed", speed)
+        move = circle(radius, speed, self.drive)
+        self._within_limits(f"an eight of {radius:g} m at {speed:g} m/s", move.left,
+                            move.right)
         with self.stopping():
             self.circle(radius, speed)
             self.circle(radius, speed, clockwise=True)
@@ -260,6 +284,7 @@ class MobileBase:
         ``wheel_speed`` rad/s."""
         _check("angle", abs(angle), allow_zero=True)
         _check("wheel_speed", wheel_speed)
+        self._within_limits(f"a rotation at {wheel_speed:g} rad/s", wheel_speed, wheel_speed)
         start = self.update_odometry().theta
         sign = 1.0 if angle >= 0 else -1.0
         with self.stopping():
