@@ -7,11 +7,14 @@ is emulated on a simulated floor (``MobileBase.emulated``) and driven by a
 :class:`~servolab.robots.base_node.BaseNode` whose ``rate`` parameter is lifted to
 10 000 Hz, so that its timer is always due and only the bus bounds the loop. A ``/cmd_vel``
 (0.1 m/s, 0.3 rad/s; the watchdog lifted) keeps the wheels turning. Each cycle is what the
-node does: one SYNC_WRITE of both wheels' speeds and one READ of ``present_position`` per
-side, then ``/odom``, ``/tf`` and ``/joint_states``. The context spins on the simulation's
+node does: one SYNC_WRITE of both wheels' speeds and the reads of ``present_position`` (one
+SYNC_READ of both on Protocol 2.0, a READ a side on 1.0), then ``/odom``, ``/tf``,
+``/joint_states`` and ``/sensor_state``. The context spins on the simulation's
 virtual clock, which on the emulated bus advances by each transaction's wire time (10 bits a
 byte, plus each motor's return delay before its status), so the rate achieved is the rate the
-wire allows this node; the host's CPU time and a USB adapter's latency are not in it.
+wire allows this node; the host's CPU time and a USB adapter's latency are not in it. (The
+ratio achieved / limit is therefore 1 by construction when the node sends exactly the packets
+counted: it checks the packets, not a real bus's speed.)
 
 Beside it, in the same run:
 
@@ -19,18 +22,16 @@ Beside it, in the same run:
   the driver or the emulator): the SYNC_WRITE (1.0: ``FF FF FE LEN 83 addr size`` + per motor
   ``ID data`` + ``CHK``; 2.0: ``FF FF FD 00 FE LEN_L LEN_H 83 addr_L addr_H size_L size_H`` +
   per motor ``ID data`` + ``CRC_L CRC_H``) of the speed register (1.0 ``moving_speed``,
-  2 bytes; 2.0 ``goal_velocity``, 4 bytes), and per side a READ of ``present_position``
-  (2 bytes on 1.0, 4 on 2.0) with its status packet and the motor's return delay, read from
-  the motor itself (``return_delay_time`` x 2 us); limit = 1 / that time, and the ratio
-  achieved / limit;
+  2 bytes; 2.0 ``goal_velocity``, 4 bytes), and the reads of ``present_position`` (1.0: a
+  READ a side, 2 bytes; 2.0: one SYNC_READ of both, 4 bytes each) with their status packets
+  and the motors' return delays, read from the motors themselves (``return_delay_time`` x
+  2 us); limit = 1 / that time, and the ratio achieved / limit;
 - the **host time per cycle**: the wall-clock time of the run over its cycles (driver,
   emulator, floor physics, executor, message building), and its ratio to the wire time of a
   cycle (below 1: the host keeps up with a real bus);
 - the node at its **default rate** (30 Hz), which should give 30 Hz;
-- what **one read transaction per cycle** would give: a SYNC_READ of both present positions
-  (Protocol 2.0 has it; the EX-106+ on Protocol 1.0 has neither SYNC_READ nor BULK_READ, so
-  seed 000's base must READ each side): its limit on the Waffle's bus, computed the same way
-  (one instruction, then each motor's status after the one before it and its return delay).
+- on the Waffle's bus, what a READ a side would give instead of the SYNC_READ (the EX-106+ on
+  Protocol 1.0 has neither SYNC_READ nor BULK_READ, so seed 000's base READs each side).
 
 Run: ``.venv/bin/python benchmarks/base.py [--quick] [--json PATH]``.
 """

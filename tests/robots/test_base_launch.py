@@ -46,7 +46,8 @@ def test_drive_the_base_across_processes() -> None:
             assert ctx.spin_until(
                 lambda: len(truth) > 2 and truth[-1].pose.pose.position.x > 0.05
                 and truth[-1].twist.twist.linear.x == 0.0, timeout=30.0), truth[-1:]
-            ctx.spin_until(lambda: bool(odom) and odom[-1].twist.twist.linear.x == 0.0,
-                           timeout=10.0)
+            assert ctx.spin_until(
+                lambda: bool(odom) and odom[-1].twist.twist.linear.x == 0.0, timeout=10.0)
+            assert len(odom) > 10 and len(truth) > 10
             assert odom[-1].pose.pose.position.x == pytest.approx(
                 truth[-1].pose.pose.position.x, abs=0.005)

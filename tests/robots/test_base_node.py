@@ -86,10 +86,32 @@ def test_a_nan_twist_is_refused_and_the_wheels_do_not_move(rig: Rig) -> None:
     assert rig.node.command == (0.0, 0.0)
 
 
+def test_a_nan_twist_while_driving_keeps_the_last_command(rig: Rig) -> None:
+    rig.send(0.1, 0.0)
+    rig.context.spin_for(0.1)
+    rig.send(0.2, math.inf)
+    rig.context.spin_for(0.1)
+    assert rig.node.command == (0.1, 0.0)
+    assert rig.base.truth()["linear_velocity"] == pytest.approx(0.1, rel=0.02)
+
+
 def test_commands_are_clamped_to_the_base_limits(rig: Rig) -> None:
+    """base_turtlebot3_waffle.yaml's 0.26 m/s, and the angular speed the wheels can give
+    (their velocity_limit: 2 x 7.914 rad/s x 0.033 m / 0.287 m = 1.8199 < 1.82 rad/s)."""
     rig.send(5.0, 10.0)
     rig.context.spin_for(0.05)
-    assert rig.node.command == (0.26, 1.82)  # base_turtlebot3_waffle.yaml's limits
+    top_w = 2 * rig.base.max_wheel_speed * 0.033 / 0.287
+    assert rig.node.command == (0.26, pytest.approx(top_w))
+    rig.context.spin_for(0.2)
+    left, right = rig.base.commands[-1][1:]
+    assert max(abs(left), abs(right)) <= rig.base.max_wheel_speed + 1e-9
+
+
+def test_a_huge_finite_twist_is_clamped_not_fatal(rig: Rig) -> None:
+    rig.send(1e308, -1e308)
+    rig.context.spin_for(0.2)  # no error: the cycle keeps running
+    assert rig.base.truth()["linear_velocity"] > 0.0
+    assert rig.node.command[0] == 0.26
 
 
 def test_sensor_state_carries_the_raw_encoder_counts(rig: Rig) -> None:

@@ -153,3 +153,30 @@ def test_encoder_wrap_around_on_a_long_line() -> None:
     assert base.pose.x == pytest.approx(truth["x"], rel=0.01)
     turned = base.wheel_angles()[0] / (2 * math.pi)
     assert turned > 65536 / base.encoder.ticks_per_rev  # more than one wrap of the register
+
+
+def test_a_line_backwards_and_zero_length_moves() -> None:
+    base = _base("base_seed000.yaml")
+    base.line(-0.5, 0.1)
+    assert base.truth()["x"] == pytest.approx(-0.5, rel=0.01)
+    sent = len(base.commands)
+    assert base.line(0.0, 0.1) == 0.0
+    base.rotate(0.0)
+    assert len(base.commands) == sent  # the wheels were not started
+
+
+def test_an_mx28_base_counts_its_turns_and_an_rx28_base_is_refused(tmp_path: Path) -> None:
+    """MX-28 wheel mode: present_position the ticks of each turn (0..4095); RX-28: a
+    potentiometer, which cannot count a wheel's turns (servolab.dynamixel.models)."""
+    from servolab.robots.base_config import BaseConfigError
+
+    text = (CONFIGS / "base_seed000.yaml").read_text()
+    mx = tmp_path / "mx.yaml"
+    mx.write_text(text.replace("model: EX-106+", "model: MX-28"))
+    base = MobileBase.emulated(load(mx))
+    base.line(1.0, 0.1)
+    assert math.hypot(base.truth()["x"], base.truth()["y"]) == pytest.approx(1.0, rel=0.01)
+    rx = tmp_path / "rx.yaml"
+    rx.write_text(text.replace("model: EX-106+", "model: RX-28"))
+    with pytest.raises(BaseConfigError, match="potentiometer"):
+        load(rx)

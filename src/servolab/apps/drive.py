@@ -72,18 +72,21 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 def _run(args: argparse.Namespace) -> int:
     from ..robots.drive import run_drive
     from ..runs import RunFolder
+    from ..signals import on_stop_signals, raise_keyboard_interrupt
 
     run = RunFolder.create("drive", args.out)
     try:
-        summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
-                            speed=getattr(args, "speed", 0.1),
-                            radius=getattr(args, "radius", 0.5),
-                            clockwise=getattr(args, "clockwise", False),
-                            turns=getattr(args, "turns", 1.0),
-                            angle_deg=getattr(args, "angle", 90.0),
-                            base=args.base, port=args.port,
-                            show_progress=not args.no_progress)
-    except ValueError as exc:  # a move the base cannot make: said before anything moved
+        # SIGTERM and SIGHUP stop a move as Ctrl-C does: through its finally, wheels stopped
+        with on_stop_signals(raise_keyboard_interrupt):
+            summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
+                                speed=getattr(args, "speed", 0.1),
+                                radius=getattr(args, "radius", 0.5),
+                                clockwise=getattr(args, "clockwise", False),
+                                turns=getattr(args, "turns", 1.0),
+                                angle_deg=getattr(args, "angle", 90.0),
+                                base=args.base, port=args.port,
+                                show_progress=not args.no_progress)
+    except ValueError as exc:  # a bad base file or a move the base cannot make: one line
         raise SystemExit(f"servolab drive: {exc}") from None
     run.write_summary(summary)
     print(f"run folder: {run.path}")

@@ -160,9 +160,9 @@ def tick_delta(previous: npt.ArrayLike, current: npt.ArrayLike, encoder: Encoder
     round the register's wrap: the result lies in ``[-modulus/2, modulus/2)``.
 
     With a 0..4095 encoder, 4090 -> 5 is +11 and 5 -> 4090 is -11. Seed 000's straight-line
-    loop adds 65535 on every negative difference, which is wrong twice for its EX-106+: the
-    register wraps at 4096, and a wrap adds the modulus (65536 for 16 bits), not its maximum;
-    it also counts every backward step as nearly a full wrap forward. The caller must sample
+    loop adds 65535 on every negative difference: a wrap adds the modulus (65536 for the
+    EX-106+'s 16-bit wheel-mode count), not its maximum, and the loop also counts every
+    backward step as nearly a full wrap forward. The caller must sample
     often enough that a wheel turns less than half the modulus between reads.
     """
     prev = _ticks("previous reading", previous, encoder)

@@ -95,6 +95,9 @@ def parse(top: ConfigValue, path: str = "") -> BaseConfig:
         wheel_model = model(model_value.as_str(nonempty=True))
     except ConfigError as exc:
         raise model_value.error(f"base.model: {exc}") from None
+    if wheel_model.protocol == 1 and wheel_model.wheel_position == "potentiometer":
+        raise model_value.error(f"base.model: the {wheel_model.name} reads a potentiometer in "
+                                "wheel mode, not an encoder: odometry cannot count its turns")
     protocol = base.require("protocol").as_int("base.protocol")
     if protocol != wheel_model.protocol:
         raise base.require("protocol").error(

@@ -19,6 +19,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from ..kinematics.diffdrive import wheel_speeds
 from ..middleware.context import Context
 from ..middleware.node import Node
 from .mobile_base import MobileBase
@@ -68,11 +69,16 @@ class BaseNode(Node):
             self.get_logger().error(f"cmd_vel refused: linear.x {v!r}, angular.z {omega!r} "
                                     "is not a finite number; the wheels keep what they had")
             return
-        config = self.base.config
-        if config.max_linear_velocity is not None:
-            v = max(-config.max_linear_velocity, min(config.max_linear_velocity, v))
-        if config.max_angular_velocity is not None:
-            omega = max(-config.max_angular_velocity, min(config.max_angular_velocity, omega))
+        # within the base's limits, and always within what its wheels can do (a huge but
+        # finite value would otherwise become an infinite wheel speed)
+        base = self.base
+        top_v = base.max_wheel_speed * base.drive.wheel_radius
+        top_w = 2 * top_v / base.drive.wheel_separation
+        config = base.config
+        limit_v = min(top_v, config.max_linear_velocity or top_v)
+        limit_w = min(top_w, config.max_angular_velocity or top_w)
+        v = max(-limit_v, min(limit_v, v))
+        omega = max(-limit_w, min(limit_w, omega))
         self.command = (v, omega)
         self.last_command = self.now()
 
@@ -83,11 +89,13 @@ class BaseNode(Node):
             self.stopped_by_watchdog += 1
             self.get_logger().warning(f"no cmd_vel for {self.watchdog:g} s: wheels stopped")
         v, omega = self.command
-        drive = self.base.drive
-        half = omega * drive.wheel_separation / 2
-        wheels = ((v - half) / drive.wheel_radius, (v + half) / drive.wheel_radius)
-        self.base.set_wheel_speeds(*wheels)
-        pose = self.base.update_odometry()
+        left, right = wheel_speeds(v, omega, self.base.drive)
+        try:
+            self.base.set_wheel_speeds(float(left), float(right))
+            pose = self.base.update_odometry()
+        except BaseException:
+            self.base.stop()  # whatever went wrong, the wheels do not keep turning
+            raise
         self._publish(pose.x, pose.y, pose.theta, now)
 
     def _publish(self, x: float, y: float, theta: float, now: float) -> None:

@@ -35,15 +35,16 @@ SEED_000_BASE = Path(__file__).resolve().parents[3] / "configs" / "base_seed000.
 MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
 
 
-def open_base(config: BaseConfig, port: str | None) -> MobileBase:
-    """The base: emulated on the simulated floor, or the real one on ``port``."""
+def open_base(config: BaseConfig, port: str | None, *, setup: bool = True) -> MobileBase:
+    """The base: emulated on the simulated floor, or the real one on ``port``; without
+    ``setup`` its motors are left as they are (to read their speed)."""
     if port is None:
         return MobileBase.emulated(config)
     from ..clock import WallClock
     from ..dynamixel.bus import Bus
 
     return MobileBase(config, Bus.open(port, protocol=config.protocol,
-                                       baudrate=config.baudrate), WallClock())
+                                       baudrate=config.baudrate), WallClock(), setup=setup)
 
 
 def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
@@ -55,14 +56,14 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
     if move not in MOVES:
         raise ValueError(f"no move {move!r}; there are {', '.join(MOVES)}")
     config = load_base(base or SEED_000_BASE)
-    robot = open_base(config, port)
+    robot = open_base(config, port, setup=move != "rpm")
     where = port or f"the emulated {config.name} base"
     summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated"}
     try:
         if move == "rpm":
-            summary["rpm"] = {str(k): v for k, v in robot.rpm().items()}
-            say(f"{where}: " + ", ".join(f"motor {k} {v:+.2f} rpm"
-                                         for k, v in robot.rpm().items()))
+            rpm = robot.rpm()
+            summary["rpm"] = {str(k): v for k, v in rpm.items()}
+            say(f"{where}: " + ", ".join(f"motor {k} {v:+.2f} rpm" for k, v in rpm.items()))
             return summary
         if move == "stop":
             robot.stop()
@@ -87,7 +88,8 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
         robot.update_odometry()
         bar.close()
     finally:
-        robot.stop()
+        if move != "rpm":  # reading the wheels' speed leaves them as they are
+            robot.stop()
         robot.bus.close()
     summary["wheel_commands"] = raw_commands(robot)
     summary["measured"] = measure(robot, move)

@@ -46,13 +46,20 @@ LOOP_PERIOD = 0.01
 
 
 def encoder_of(model: Model) -> Encoder:
-    """A wheel motor's encoder as odometry needs it, from the model's data: a Protocol 1.0
-    wheel-mode motor counts 0..65535 (EX-106+, e-Manual), a Protocol 2.0 one keeps a signed
-    32-bit multi-turn count."""
+    """A wheel motor's encoder as odometry needs it, from the model's data (what
+    ``present_position`` reads in wheel mode, :attr:`Model.wheel_position`): the EX-106+ counts
+    0..65535 and round, an MX-28 the ticks of each turn (0..4095), an X-series motor keeps a
+    signed 32-bit multi-turn count. A motor whose position in wheel mode is a potentiometer
+    (AX, RX) cannot count a wheel's turns: ValueError."""
     ticks = 2 * math.pi / model.rad_per_tick
-    if model.protocol == 1:
+    if model.protocol == 2:
+        return Encoder(ticks_per_rev=ticks, modulus=2**32, signed=True)
+    if model.wheel_position == "encoder16":
         return Encoder(ticks_per_rev=ticks, modulus=65536)
-    return Encoder(ticks_per_rev=ticks, modulus=2**32, signed=True)
+    if model.wheel_position == "turn":
+        return Encoder(ticks_per_rev=ticks, modulus=round(ticks))
+    raise ValueError(f"the {model.name} reads a potentiometer in wheel mode, not an encoder: "
+                     "it cannot count a wheel's turns for odometry")
 
 
 @dataclass
@@ -66,7 +73,7 @@ class MobileBase:
     """A base (see the module docstring) on ``bus``, timed by ``clock``."""
 
     def __init__(self, config: BaseConfig, bus: Bus, clock: Clock, *,
-                 floor: DiffDriveFloor | None = None) -> None:
+                 floor: DiffDriveFloor | None = None, setup: bool = True) -> None:
         self.config = config
         self.bus = bus
         self.clock = clock
@@ -86,7 +93,8 @@ class MobileBase:
         #: the fastest a wheel may be told to turn (rad/s): the model's no-load speed, and on
         #: Protocol 2.0 the motors' velocity_limit (a goal above it is refused by the motor)
         self.max_wheel_speed = config.max_wheel_speed
-        self._setup()
+        if setup:  # without: a look at the wheels (their rpm) that changes nothing
+            self._setup()
         self._ticks = self._read_ticks()
 
     # -- construction ------------------------------------------------------------------------
@@ -237,12 +245,15 @@ class MobileBase:
     def line(self, distance: float, speed: float) -> float:
         """Drive ``distance`` m (negative: backwards) at ``speed`` m/s, stopping when the
         odometry has covered it; returns the distance odometry measured."""
-        _check("distance", distance, allow_zero=True)
+        if not math.isfinite(distance):
+            raise ValueError(f"distance must be a finite number of metres, not {distance!r}")
         _check("speed", speed)
         sign = 1.0 if distance >= 0 else -1.0
         wheel = sign * speed / self.drive.wheel_radius
         self._within_limits(f"a line at {speed:g} m/s", wheel, wheel)
         start = (self.update_odometry().x, self.pose.y)
+        if distance == 0:
+            return 0.0  # nothing to drive: the wheels are not started
 
         def covered(p: Pose) -> float:
             return math.hypot(p.x - start[0], p.y - start[1])
@@ -282,8 +293,11 @@ class MobileBase:
     def rotate(self, angle: float, wheel_speed: float = 1.0) -> None:
         """Turn in place by ``angle`` rad (positive: counter-clockwise) with the wheels at
         ``wheel_speed`` rad/s."""
-        _check("angle", abs(angle), allow_zero=True)
+        if not math.isfinite(angle):
+            raise ValueError(f"angle must be a finite number of radians, not {angle!r}")
         _check("wheel_speed", wheel_speed)
+        if angle == 0:
+            return  # nothing to turn: the wheels are not started
         self._within_limits(f"a rotation at {wheel_speed:g} rad/s", wheel_speed, wheel_speed)
         start = self.update_odometry().theta
         sign = 1.0 if angle >= 0 else -1.0
@@ -300,8 +314,7 @@ class MobileBase:
         return self.floor.ground_truth()
 
 
-def _check(name: str, value: float, *, allow_zero: bool = False) -> None:
-    if not (math.isfinite(value) and (value > 0 or (allow_zero and value == 0))):
-        raise ValueError(f"{name} must be a number > 0, not {value!r}" if not allow_zero
-                         else f"{name} must be a finite number, not {value!r}")
+def _check(name: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a number > 0, not {value!r}")
 
