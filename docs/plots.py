@@ -141,6 +141,44 @@ def mobile(out: Path) -> None:
         summary = run_drive(RunFolder.create("drive", tmp), "eight", radius=0.3, speed=0.1,
                             say=lambda text: None, show_progress=False)
         shutil.copy(str(summary["plot"]), out / "mobile_eight.png")
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = run_drive(RunFolder.create("drive", tmp), "circle", radius=0.5, speed=0.2,
+                            slip=0.05, slip_jitter=0.1, say=lambda text: None,
+                            show_progress=False)
+        shutil.copy(str(summary["plot"]), out / "mobile_slip.png")
+    fusion(out / "mobile_fusion.png")
+
+
+def fusion(path: Path) -> None:
+    """Seed 000's D.4 fusion on a simulated circle: odometry drifting slowly (a random walk of
+    0.05 a sample plus noise of 1), the tracker noisy with D.4's variances; as in
+    tests/estimation/test_kalman.py."""
+    import numpy as np
+
+    from servolab.estimation.kalman import SEED_000_FUSION, fuse_seed_000
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 2 * np.pi, 1000)
+    truth = np.column_stack([50 * np.cos(t), 50 * np.sin(t)])
+    odometry = (truth + np.cumsum(rng.normal(0, 0.05, truth.shape), axis=0)
+                + rng.normal(0, 1.0, truth.shape))
+    tracker = truth + rng.normal(0, np.sqrt(SEED_000_FUSION.tracker_variance), truth.shape)
+    fused = fuse_seed_000(odometry, tracker)
+
+    def rmse(track: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(np.sum((track - truth) ** 2, axis=1))))
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    ax.plot(*truth.T, color="black", linewidth=1, label="truth")
+    ax.plot(*tracker.T, ".", markersize=2, alpha=0.4,
+            label=f"tracker (RMSE {rmse(tracker):.2f})")
+    ax.plot(*odometry.T, label=f"odometry (RMSE {rmse(odometry):.2f})")
+    ax.plot(*fused.T, label=f"fused, D.4 (RMSE {rmse(fused):.2f})")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title("Kalman fusion as seed 000's D.4 (simulated)")
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
 
 
 def main(argv: list[str]) -> None:

@@ -8,6 +8,7 @@ length, odometry's final error) and of bad input (one line, the wheels do not mo
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -97,3 +98,18 @@ def test_a_speed_over_the_motors_limit_is_refused_in_one_line(tmp_path: Path) ->
     assert result.returncode != 0
     assert result.stderr.strip().count("\n") == 0, result.stderr
     assert "over the EX-106+'s" in result.stderr and "rad/s" in result.stderr
+
+
+def test_with_slip_odometry_drifts_from_the_truth_as_much_as_the_slip(tmp_path: Path) -> None:
+    """10 % slip on both wheels: odometry believes the circle closed, the truth turned 90 %
+    of it, so it ends a chord of 36 degrees from the start: 2 R sin(18 deg)."""
+    summary = _drive(tmp_path, "circle", radius=0.5, speed=0.2, slip=0.1)
+    chord = 2 * 0.5 * math.sin(math.radians(18))
+    measured = summary["measured"]
+    assert measured["closure_m"] == pytest.approx(chord, rel=0.02)  # type: ignore[index]
+    assert measured["odometry_error_m"] == pytest.approx(chord, rel=0.02)  # type: ignore[index]
+
+
+def test_slip_out_of_range_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="slip must be a fraction"):
+        _drive(tmp_path, "line", slip=1.5)

@@ -40,6 +40,13 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="DEV", help="the base's serial port; default: the "
                    "base emulated on a simulated floor")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--slip", type=_finite, default=0.0, metavar="FRACTION",
+                   help="emulated floor: the part of each wheel's turn that does not move the "
+                   "base (default 0), so that odometry drifts from the truth")
+    p.add_argument("--slip-jitter", type=_finite, default=0.0, metavar="FRACTION",
+                   help="emulated floor: a random slip on top, seeded (default 0)")
+    p.add_argument("--real-time", action="store_true", help="emulated base: move at the "
+                   "wall clock's pace (default: as fast as the computer allows)")
     add_out(p)
 
 
@@ -85,7 +92,8 @@ def _run(args: argparse.Namespace) -> int:
                                 turns=getattr(args, "turns", 1.0),
                                 angle_deg=getattr(args, "angle", 90.0),
                                 base=args.base, port=args.port,
-                                show_progress=not args.no_progress)
+                                show_progress=not args.no_progress, slip=args.slip,
+                                slip_jitter=args.slip_jitter, real_time=args.real_time)
     except ValueError as exc:  # a bad base file or a move the base cannot make: one line
         raise SystemExit(f"servolab drive: {exc}") from None
     run.write_summary(summary)

@@ -35,11 +35,13 @@ SEED_000_BASE = Path(__file__).resolve().parents[3] / "configs" / "base_seed000.
 MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
 
 
-def open_base(config: BaseConfig, port: str | None, *, setup: bool = True) -> MobileBase:
-    """The base: emulated on the simulated floor, or the real one on ``port``; without
-    ``setup`` its motors are left as they are (to read their speed)."""
+def open_base(config: BaseConfig, port: str | None, *, setup: bool = True,
+              slip: float = 0.0, slip_jitter: float = 0.0) -> MobileBase:
+    """The base: emulated on the simulated floor (with ``slip``, see
+    :meth:`MobileBase.emulated`), or the real one on ``port``; without ``setup`` its motors are
+    left as they are (to read their speed)."""
     if port is None:
-        return MobileBase.emulated(config)
+        return MobileBase.emulated(config, slip=slip, slip_jitter=slip_jitter)
     from ..clock import WallClock
     from ..dynamixel.bus import Bus
 
@@ -50,15 +52,24 @@ def open_base(config: BaseConfig, port: str | None, *, setup: bool = True) -> Mo
 def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
               radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
               angle_deg: float = 90.0, base: str | Path | None = None,
-              port: str | None = None, say: Say = print,
-              show_progress: bool = True) -> dict[str, Any]:
-    """Run one move (see the module docstring); returns the summary."""
+              port: str | None = None, say: Say = print, show_progress: bool = True,
+              slip: float = 0.0, slip_jitter: float = 0.0,
+              real_time: bool = False) -> dict[str, Any]:
+    """Run one move (see the module docstring); returns the summary. An emulated base runs
+    in simulated time, as fast as the computer allows, unless ``real_time``."""
     if move not in MOVES:
         raise ValueError(f"no move {move!r}; there are {', '.join(MOVES)}")
+    for name, value in (("slip", slip), ("slip_jitter", slip_jitter)):
+        if not (math.isfinite(value) and 0.0 <= value < 1.0):
+            raise ValueError(f"{name} must be a fraction in [0, 1), not {value!r}")
     config = load_base(base or SEED_000_BASE)
-    robot = open_base(config, port, setup=move != "rpm")
+    robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter)
+    simulation = robot.clock if robot.floor is not None and real_time else None
+    if simulation is not None:
+        simulation.start_real_time()  # type: ignore[attr-defined]
     where = port or f"the emulated {config.name} base"
-    summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated"}
+    summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated",
+                               "slip": slip, "slip_jitter": slip_jitter}
     try:
         if move == "rpm":
             rpm = robot.rpm()
@@ -90,6 +101,8 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
     finally:
         if move != "rpm":  # reading the wheels' speed leaves them as they are
             robot.stop()
+        if simulation is not None:
+            simulation.stop_real_time()  # type: ignore[attr-defined]
         robot.bus.close()
     summary["wheel_commands"] = raw_commands(robot)
     summary["measured"] = measure(robot, move)

@@ -100,9 +100,13 @@ class MobileBase:
     # -- construction ------------------------------------------------------------------------
 
     @classmethod
-    def emulated(cls, config: BaseConfig, simulation: Simulation | None = None
-                 ) -> MobileBase:
-        """The base's motors emulated, rolling on a simulated floor in ``simulation``."""
+    def emulated(cls, config: BaseConfig, simulation: Simulation | None = None, *,
+                 slip: float = 0.0, slip_jitter: float = 0.0,
+                 max_acceleration: float | None = None, seed: int = 0) -> MobileBase:
+        """The base's motors emulated, rolling on a simulated floor in ``simulation``;
+        ``slip`` (a fraction of each wheel's turn that does not move the base, with a seeded
+        random ``slip_jitter`` on top) and ``max_acceleration`` (rad/s^2 of a wheel) make the
+        floor less kind than odometry assumes."""
         from ..dynamixel.bus import Bus
         from ..dynamixel.emulator import build_emulator
         from ..dynamixel.motorspec import MotorEntry, MotorSpec
@@ -119,7 +123,8 @@ class MobileBase:
             sim, emulator, [m.id for m in left], [m.id for m in right],
             wheel_radius=config.wheel_radius, wheel_separation=config.wheel_separation,
             left_forward=tuple(m.direction for m in left),
-            right_forward=tuple(m.direction for m in right))
+            right_forward=tuple(m.direction for m in right),
+            slip=slip, slip_jitter=slip_jitter, max_acceleration=max_acceleration, seed=seed)
         bus = Bus(port_to(emulator, sim, config.baudrate))
         return cls(config, bus, sim, floor=floor)
 
