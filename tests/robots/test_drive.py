@@ -113,3 +113,12 @@ def test_with_slip_odometry_drifts_from_the_truth_as_much_as_the_slip(tmp_path: 
 def test_slip_out_of_range_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="slip must be a fraction"):
         _drive(tmp_path, "line", slip=1.5)
+
+
+def test_encoder_noise_shakes_odometry_but_not_the_truth(tmp_path: Path) -> None:
+    """Noise on each position read (0.01 rad) leaves the truth's 1 m line as it is; odometry
+    differs from it by the noise of its last reads, about a wheel radius times 0.01 rad."""
+    summary = _drive(tmp_path, "line", distance=1.0, speed=0.1, encoder_noise=0.01)
+    measured = summary["measured"]
+    assert measured["truth_length_m"] == pytest.approx(1.0, rel=0.01)  # type: ignore[index]
+    assert 0.0 < measured["odometry_error_m"] < 0.01  # type: ignore[index]

@@ -45,6 +45,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "base (default 0), so that odometry drifts from the truth")
     p.add_argument("--slip-jitter", type=_finite, default=0.0, metavar="FRACTION",
                    help="emulated floor: a random slip on top, seeded (default 0)")
+    p.add_argument("--encoder-noise", type=_finite, default=0.0, metavar="RAD",
+                   help="emulated floor: noise on each wheel position read, standard "
+                   "deviation in rad (default 0)")
     p.add_argument("--real-time", action="store_true", help="emulated base: move at the "
                    "wall clock's pace (default: as fast as the computer allows)")
     add_out(p)
@@ -93,7 +96,8 @@ def _run(args: argparse.Namespace) -> int:
                                 angle_deg=getattr(args, "angle", 90.0),
                                 base=args.base, port=args.port,
                                 show_progress=not args.no_progress, slip=args.slip,
-                                slip_jitter=args.slip_jitter, real_time=args.real_time)
+                                slip_jitter=args.slip_jitter,
+                                encoder_noise=args.encoder_noise, real_time=args.real_time)
     except ValueError as exc:  # a bad base file or a move the base cannot make: one line
         raise SystemExit(f"servolab drive: {exc}") from None
     run.write_summary(summary)

@@ -36,12 +36,14 @@ MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
 
 
 def open_base(config: BaseConfig, port: str | None, *, setup: bool = True,
-              slip: float = 0.0, slip_jitter: float = 0.0) -> MobileBase:
+              slip: float = 0.0, slip_jitter: float = 0.0,
+              encoder_noise: float = 0.0) -> MobileBase:
     """The base: emulated on the simulated floor (with ``slip``, see
     :meth:`MobileBase.emulated`), or the real one on ``port``; without ``setup`` its motors are
     left as they are (to read their speed)."""
     if port is None:
-        return MobileBase.emulated(config, slip=slip, slip_jitter=slip_jitter)
+        return MobileBase.emulated(config, slip=slip, slip_jitter=slip_jitter,
+                                   encoder_noise=encoder_noise)
     from ..clock import WallClock
     from ..dynamixel.bus import Bus
 
@@ -53,7 +55,7 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
               radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
               angle_deg: float = 90.0, base: str | Path | None = None,
               port: str | None = None, say: Say = print, show_progress: bool = True,
-              slip: float = 0.0, slip_jitter: float = 0.0,
+              slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
               real_time: bool = False) -> dict[str, Any]:
     """Run one move (see the module docstring); returns the summary. An emulated base runs
     in simulated time, as fast as the computer allows, unless ``real_time``."""
@@ -62,14 +64,18 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
     for name, value in (("slip", slip), ("slip_jitter", slip_jitter)):
         if not (math.isfinite(value) and 0.0 <= value < 1.0):
             raise ValueError(f"{name} must be a fraction in [0, 1), not {value!r}")
+    if not (math.isfinite(encoder_noise) and encoder_noise >= 0):
+        raise ValueError(f"encoder_noise must be 0 or more rad, not {encoder_noise!r}")
     config = load_base(base or SEED_000_BASE)
-    robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter)
+    robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter,
+                      encoder_noise=encoder_noise)
     simulation = robot.clock if robot.floor is not None and real_time else None
     if simulation is not None:
         simulation.start_real_time()  # type: ignore[attr-defined]
     where = port or f"the emulated {config.name} base"
     summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated",
-                               "slip": slip, "slip_jitter": slip_jitter}
+                               "slip": slip, "slip_jitter": slip_jitter,
+                               "encoder_noise": encoder_noise}
     try:
         if move == "rpm":
             rpm = robot.rpm()

@@ -102,11 +102,13 @@ class MobileBase:
     @classmethod
     def emulated(cls, config: BaseConfig, simulation: Simulation | None = None, *,
                  slip: float = 0.0, slip_jitter: float = 0.0,
-                 max_acceleration: float | None = None, seed: int = 0) -> MobileBase:
+                 max_acceleration: float | None = None, encoder_noise: float = 0.0,
+                 seed: int = 0) -> MobileBase:
         """The base's motors emulated, rolling on a simulated floor in ``simulation``;
         ``slip`` (a fraction of each wheel's turn that does not move the base, with a seeded
-        random ``slip_jitter`` on top) and ``max_acceleration`` (rad/s^2 of a wheel) make the
-        floor less kind than odometry assumes."""
+        random ``slip_jitter`` on top), ``max_acceleration`` (rad/s^2 of a wheel) and
+        ``encoder_noise`` (rad, standard deviation of each position reading) make the floor
+        less kind than odometry assumes."""
         from ..dynamixel.bus import Bus
         from ..dynamixel.emulator import build_emulator
         from ..dynamixel.motorspec import MotorEntry, MotorSpec
@@ -124,7 +126,8 @@ class MobileBase:
             wheel_radius=config.wheel_radius, wheel_separation=config.wheel_separation,
             left_forward=tuple(m.direction for m in left),
             right_forward=tuple(m.direction for m in right),
-            slip=slip, slip_jitter=slip_jitter, max_acceleration=max_acceleration, seed=seed)
+            slip=slip, slip_jitter=slip_jitter, max_acceleration=max_acceleration,
+            encoder_noise=encoder_noise, seed=seed)
         bus = Bus(port_to(emulator, sim, config.baudrate))
         return cls(config, bus, sim, floor=floor)
 

@@ -11,8 +11,9 @@ present_velocity are the wheels' true rotation:
 - with ``max_acceleration`` a :class:`RampedWheel`, which reaches it at most that fast.
 
 Optional wheel ``slip`` is a fraction of each wheel's rotation that does not move the base
-(the encoders still count it), constant or with seeded, deterministic jitter. Encoder noise is
-not modelled here: it is the firmware's business (present_position), and a floor's ground truth
+(the encoders still count it), constant or with seeded, deterministic jitter. Optional
+``encoder_noise`` (:class:`NoisyEncoder`) is white noise on the position each motor reports
+(present_position), seeded; the floor itself rolls on the true rotation, so its ground truth
 is what the wheels really did.
 
 Conventions (REP 103): x forward, y left, yaw counter-clockwise from x, in metres and
@@ -74,6 +75,46 @@ class DiffDriveGeometry:
                                       f"for {motors} {side} motor(s)")
             return value
         return (value,) * motors
+
+
+class NoisyEncoder:
+    """A wheel plant whose reported position carries white noise of ``noise`` rad (standard
+    deviation; seeded ``rng``): what the firmware reads as present_position, so odometry sees
+    it, while the base rolls on the true rotation (the world reads :attr:`inner`'s speed)."""
+
+    def __init__(self, inner: ServoPlant, noise: float, rng: random.Random) -> None:
+        if not (math.isfinite(noise) and noise >= 0):
+            raise SimulationError(f"encoder_noise {noise!r} rad must be 0 or more")
+        self.inner = inner
+        self.noise = float(noise)
+        self._rng = rng
+
+    @property
+    def command(self) -> ServoCommand:
+        return self.inner.command
+
+    @command.setter
+    def command(self, command: ServoCommand) -> None:
+        self.inner.command = command
+
+    @property
+    def position(self) -> float:
+        return self.inner.position + self._rng.gauss(0.0, self.noise)
+
+    @property
+    def velocity(self) -> float:
+        return self.inner.velocity
+
+    @property
+    def effort(self) -> float:
+        return self.inner.effort
+
+    @property
+    def temperature(self) -> float:
+        return self.inner.temperature
+
+    def step(self, dt: float) -> None:
+        self.inner.step(dt)
 
 
 class RampedWheel:
@@ -169,7 +210,7 @@ class DiffDriveFloor(World):
                  right: VirtualMotor | Sequence[VirtualMotor],
                  geometry: DiffDriveGeometry | None = None, *, x: float = 0.0, y: float = 0.0,
                  yaw: float = 0.0, max_acceleration: float | None = None, slip: float = 0.0,
-                 slip_jitter: float = 0.0, seed: int = 0) -> None:
+                 slip_jitter: float = 0.0, seed: int = 0, encoder_noise: float = 0.0) -> None:
         self.geometry = g = geometry or DiffDriveGeometry()
         left_motors, right_motors = _motors(left, "left"), _motors(right, "right")
         everyone = left_motors + right_motors
@@ -187,6 +228,10 @@ class DiffDriveFloor(World):
         self.max_acceleration = max_acceleration
         self.slip, self.slip_jitter, self.seed = float(slip), float(slip_jitter), seed
         self._rng = random.Random(seed)
+        if not (math.isfinite(encoder_noise) and encoder_noise >= 0.0):
+            raise SimulationError(f"encoder_noise {encoder_noise!r} rad must be 0 or more")
+        self.encoder_noise = float(encoder_noise)
+        self._noise_rng = random.Random(seed + 1)
         self.left_motors, self.right_motors = left_motors, right_motors
         self.left_plants = tuple(self._wheel(m) for m in left_motors)
         self.right_plants = tuple(self._wheel(m) for m in right_motors)
@@ -204,6 +249,10 @@ class DiffDriveFloor(World):
         else:
             plant = RampedWheel(motor.model.no_load_speed, position,
                                 max_acceleration=self.max_acceleration)
+        if self.encoder_noise > 0:
+            attached = self.attach(motor, NoisyEncoder(plant, self.encoder_noise,
+                                                       self._noise_rng))
+            return attached.inner  # type: ignore[attr-defined, no-any-return]
         return self.attach(motor, plant)
 
     @staticmethod
@@ -265,7 +314,8 @@ class DiffDriveFloor(World):
                  wheel_radius: float, wheel_separation: float,
                  left_forward: int | Sequence[int] = 1, right_forward: int | Sequence[int] = -1,
                  max_acceleration: float | None = None, slip: float = 0.0,
-                 slip_jitter: float = 0.0, seed: int = 0, x: float = 0.0, y: float = 0.0,
+                 slip_jitter: float = 0.0, seed: int = 0, encoder_noise: float = 0.0,
+                 x: float = 0.0, y: float = 0.0,
                  yaw: float = 0.0) -> DiffDriveFloor:
         """Put the base whose wheel motors are ``left_ids`` / ``right_ids`` on ``emulator``
         (an emulated bus already in ``simulation``: ``bus.emulator``, ``port.emulator``) on a
@@ -292,7 +342,8 @@ class DiffDriveFloor(World):
         return simulation.add(cls(motors(left_ids, "left"), motors(right_ids, "right"),
                                   geometry, x=x, y=y, yaw=yaw,
                                   max_acceleration=max_acceleration, slip=slip,
-                                  slip_jitter=slip_jitter, seed=seed))
+                                  slip_jitter=slip_jitter, seed=seed,
+                                  encoder_noise=encoder_noise))
 
     @classmethod
     def example(cls, simulation: Simulation) -> DiffDriveFloor:
