@@ -1,0 +1,168 @@
+"""Occupancy grids and costmaps, inflated exactly as ROS costmap_2d's inflation layer does it.
+
+Costs are costmap_2d's unsigned chars: :data:`FREE_SPACE` 0, :data:`INSCRIBED_INFLATED_OBSTACLE`
+253, :data:`LETHAL_OBSTACLE` 254, :data:`NO_INFORMATION` 255. The cost of a cell at ``d`` cells
+from the nearest obstacle cell (centre to centre) is ``InflationLayer::computeCost``
+(costmap_2d/include/costmap_2d/inflation_layer.h, ros-planning/navigation)::
+
+    d == 0                          -> 254
+    d * resolution <= inscribed     -> 253
+    otherwise                       -> (unsigned char)(252 * exp(-cost_scaling_factor
+                                                                 * (d * resolution - inscribed)))
+
+the cast truncating towards zero. A cell gets that cost only if ``d`` is at most
+``cellDistance(inflation_radius) = ceil(inflation_radius / resolution)`` cells
+(``InflationLayer::enqueue``, costmap_2d/plugins/inflation_layer.cpp, and
+``Costmap2D::cellDistance``): the cut-off is a whole number of cells, rounded up, not the radius
+itself. The new cost is combined with the cell's old one as ``updateCosts`` does: the larger
+wins, except that an unknown cell (255) takes the inflated cost only when it is at least
+253 (or above 0 with ``inflate_unknown``). Only lethal cells are inflated; unknown ones are not.
+
+ROS finds each cell's obstacle by a wavefront from the obstacle cells (each cell inheriting the
+source of the neighbour that reached it first); here ``scipy.ndimage.distance_transform_edt``
+finds the truly nearest obstacle cell, and the distance is ``hypot(dx, dy)`` of the cell offsets,
+as ROS's ``cached_distances_``. The two agree except in rare shapes where ROS's wavefront
+inherits a source that is not the nearest one (it then gives a cell a lower cost, never higher).
+
+The robot's inscribed radius is ``calculateMinAndMaxDistances`` of costmap_2d/src/footprint.cpp:
+the least distance from the robot's centre to the footprint's vertices and edges (segments). A
+``robot_radius`` is a footprint too in costmap_2d: ``makeFootprintFromRadius`` makes a 16-gon of
+that radius, which :func:`footprint_from_radius` repeats; Costmap2DROS pads the footprint by
+``footprint_padding`` (:func:`pad_footprint`) before the layers see it.
+
+Arrays are indexed ``[row, column]`` = ``[y, x]``, as the image the grid comes from.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage  # type: ignore[import-untyped]
+
+FREE_SPACE = 0
+INSCRIBED_INFLATED_OBSTACLE = 253
+LETHAL_OBSTACLE = 254
+NO_INFORMATION = 255
+
+#: Points of the polygon costmap_2d's makeFootprintFromRadius makes of a robot_radius.
+RADIUS_FOOTPRINT_POINTS = 16
+
+
+def occupancy_from_image(gray: ArrayLike, threshold: float) -> NDArray[np.bool_]:
+    """Occupied cells of a grey image: pixels darker than ``threshold`` (``gray < threshold``).
+
+    One pixel is one cell; a colour image is refused (convert it to grey first)."""
+    image = np.asarray(gray)
+    if image.ndim != 2:
+        raise ValueError(f"occupancy_from_image: expected a 2-D grey image, not an array of "
+                         f"shape {image.shape}")
+    if not math.isfinite(threshold):
+        raise ValueError(f"occupancy_from_image: threshold must be finite, not {threshold}")
+    return np.asarray(image < threshold, dtype=bool)
+
+
+def cell_distance(world_distance: float, resolution: float) -> int:
+    """Costmap2D::cellDistance: a distance in metres as whole cells, rounded up."""
+    return int(max(0.0, math.ceil(world_distance / resolution)))
+
+
+def compute_cost(distance_cells: ArrayLike, resolution: float, inscribed_radius: float,
+                 cost_scaling_factor: float) -> NDArray[np.uint8]:
+    """InflationLayer::computeCost for each distance (in cells, as ROS passes it), vectorised.
+
+    Does not apply the inflation radius' cut-off: :func:`inflate` does."""
+    d = np.asarray(distance_cells, dtype=float)
+    metres = d * resolution
+    with np.errstate(over="ignore", under="ignore"):
+        factor = np.exp(-1.0 * cost_scaling_factor * (metres - inscribed_radius))
+    decayed = np.trunc((INSCRIBED_INFLATED_OBSTACLE - 1) * factor)  # (unsigned char) cast
+    cost = np.where(d == 0, LETHAL_OBSTACLE,
+                    np.where(metres <= inscribed_radius, INSCRIBED_INFLATED_OBSTACLE, decayed))
+    return np.asarray(cost, dtype=np.uint8)
+
+
+def inflate(occupied: ArrayLike, resolution: float, inflation_radius: float,
+            cost_scaling_factor: float, inscribed_radius: float, *,
+            unknown: ArrayLike | None = None, inflate_unknown: bool = False) -> NDArray[np.uint8]:
+    """The costmap of an occupancy grid after costmap_2d's inflation layer (see the module).
+
+    ``occupied`` (bool, ``[row, col]``) are lethal cells; ``unknown`` (bool, same shape, or
+    None) are NO_INFORMATION cells, which keep 255 unless inflation gives them 253 or more
+    (any positive cost with ``inflate_unknown``). ``resolution`` is metres per cell."""
+    occ = np.asarray(occupied, dtype=bool)
+    if occ.ndim != 2:
+        raise ValueError(f"inflate: expected a 2-D occupancy grid, not shape {occ.shape}")
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"inflate: resolution must be > 0 m, not {resolution}")
+    for name, value in (("inflation_radius", inflation_radius),
+                        ("cost_scaling_factor", cost_scaling_factor),
+                        ("inscribed_radius", inscribed_radius)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"inflate: {name} must be finite and >= 0, not {value}")
+    master = np.zeros(occ.shape, dtype=np.uint8)
+    if unknown is not None:
+        unk = np.asarray(unknown, dtype=bool)
+        if unk.shape != occ.shape:
+            raise ValueError(f"inflate: unknown has shape {unk.shape}, the grid {occ.shape}")
+        master[unk] = NO_INFORMATION
+    master[occ] = LETHAL_OBSTACLE
+    radius_cells = cell_distance(inflation_radius, resolution)
+    if radius_cells == 0 or not occ.any() or occ.all():
+        return master
+    # index of the nearest obstacle cell for every cell (obstacle cells are 0 in the input)
+    indices = ndimage.distance_transform_edt(~occ, return_distances=False, return_indices=True)
+    rows, cols = np.indices(occ.shape)
+    distance = np.hypot(np.abs(cols - indices[1]), np.abs(rows - indices[0]))
+    within = distance <= radius_cells
+    cost = compute_cost(distance, resolution, inscribed_radius, cost_scaling_factor)
+    was_unknown = master == NO_INFORMATION
+    takes = (cost > FREE_SPACE) if inflate_unknown else (cost >= INSCRIBED_INFLATED_OBSTACLE)
+    combined = np.where(was_unknown & takes, cost, np.maximum(master, cost))
+    return np.where(within, combined, master).astype(np.uint8)
+
+
+def footprint_from_radius(radius: float) -> NDArray[np.float64]:
+    """costmap_2d's makeFootprintFromRadius: 16 points on the circle, from angle 0, (16, 2)."""
+    angles = np.arange(RADIUS_FOOTPRINT_POINTS) * 2 * math.pi / RADIUS_FOOTPRINT_POINTS
+    return np.column_stack((np.cos(angles) * radius, np.sin(angles) * radius))
+
+
+def pad_footprint(footprint: ArrayLike, padding: float) -> NDArray[np.float64]:
+    """costmap_2d's padFootprint: each coordinate moved ``padding`` away from 0 (a zero
+    coordinate stays)."""
+    points = _polygon(footprint)
+    return np.asarray(points + np.sign(points) * padding, dtype=np.float64)
+
+
+def footprint_distances(footprint: ArrayLike) -> tuple[float, float]:
+    """costmap_2d's calculateMinAndMaxDistances: (inscribed, circumscribed) radius, the least
+    and greatest distance from the centre (0, 0) to the footprint's vertices and edges."""
+    points = _polygon(footprint)
+    start, end = points, np.roll(points, -1, axis=0)
+    vertex = np.hypot(start[:, 0], start[:, 1])
+    edge = end - start
+    length_sq = np.einsum("ij,ij->i", edge, edge)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        param = np.einsum("ij,ij->i", -start, edge) / length_sq
+    param = np.where(np.isfinite(param), param, 0.0)  # a zero-length edge: its vertex
+    nearest = start + np.clip(param, 0.0, 1.0)[:, None] * edge
+    edge_dist = np.hypot(nearest[:, 0], nearest[:, 1])
+    return (float(min(vertex.min(), edge_dist.min())),
+            float(max(vertex.max(), edge_dist.max())))
+
+
+def inscribed_radius(footprint: ArrayLike) -> float:
+    """The footprint's inscribed radius as costmap_2d computes it (:func:`footprint_distances`)."""
+    return footprint_distances(footprint)[0]
+
+
+def _polygon(footprint: ArrayLike) -> NDArray[np.float64]:
+    points = np.asarray(footprint, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3:
+        raise ValueError("a footprint must be at least three [x, y] points, not an array of "
+                         f"shape {points.shape}")
+    if not np.isfinite(points).all():
+        raise ValueError("a footprint's points must be finite")
+    return points

@@ -1,0 +1,127 @@
+"""Seed 000's ROS navigation parameter files (Appendix D.2 costmap, D.3 DWA) read as written:
+the seed's values, a wrong type refused at its line, unused keys listed as ignored."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from servolab.errors import ConfigFileError
+from servolab.robots.nav_params import (
+    CostmapParams,
+    DwaParams,
+    NavParamsError,
+    load_costmap,
+    load_dwa,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+COSTMAP = ROOT / "configs" / "costmap_params.yaml"
+DWA = ROOT / "configs" / "dwa_params.yaml"
+
+
+def _line_of(path: Path, text: str) -> int:
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        if line.strip().startswith(text):
+            return number
+    raise AssertionError(f"{text!r} not in {path}")
+
+
+def test_d2_costmap_loads_with_the_seeds_values() -> None:
+    params = load_costmap(COSTMAP)
+    assert (params.robot_radius, params.footprint, params.inflation_radius,
+            params.cost_scaling_factor, params.inflation_enabled) == (0.20, None, 0.40, 12.0,
+                                                                       True)
+    # costmap_2d's defaults for what D.2 does not write
+    assert (params.resolution, params.footprint_padding) == (0.05, 0.01)
+    assert params.ignored == ("max_obstacle_height", "map_type", "obstacle_layer",
+                              "static_layer")
+    assert [n.split("'")[1] for n in params.notes] == [
+        "obstacle_layer.origin_z", "obstacle_layer.z_resolution", "obstacle_layer.z_voxels"]
+    # the 16-gon of 0.20 m padded by 0.01 m: between r·cos(π/16) and that plus the padding·√2
+    assert 0.2 * math.cos(math.pi / 16) < params.inscribed_radius < (
+        0.2 * math.cos(math.pi / 16) + 0.01 * math.sqrt(2))
+
+
+def test_d3_dwa_loads_with_the_seeds_values() -> None:
+    p = load_dwa(DWA)
+    assert (p.max_vel_x, p.min_vel_x, p.max_vel_y, p.min_vel_y) == (0.15, 0.0, 0.0, 0.0)
+    assert (p.max_trans_vel, p.min_trans_vel, p.trans_stopped_vel) == (0.15, 0.1, 0.1)
+    assert (p.max_rot_vel, p.min_rot_vel, p.rot_stopped_vel) == (1.5, 0.4, 0.4)
+    assert (p.acc_lim_x, p.acc_lim_theta, p.acc_lim_y) == (1.0, 2.0, 0.0)
+    assert (p.yaw_goal_tolerance, p.xy_goal_tolerance) == (0.3, 0.15)
+    assert (p.sim_time, p.vx_samples, p.vy_samples, p.vtheta_samples) == (1.0, 6, 1, 20)
+    assert (p.path_distance_bias, p.goal_distance_bias, p.occdist_scale) == (64.0, 24.0, 0.8)
+    assert (p.forward_point_distance, p.stop_time_buffer) == (0.325, 0.2)
+    assert (p.scaling_speed, p.max_scaling_factor, p.oscillation_reset_dist) == (0.10, 0.2,
+                                                                                 0.05)
+    assert p.latch_xy_goal_tolerance is False  # commented out in D.3
+    assert p.ignored == ("publish_traj_pc", "publish_cost_grid_pc", "global_frame_id")
+
+
+def test_wrong_type_refused_with_its_line(tmp_path: Path) -> None:
+    bad = tmp_path / "costmap.yaml"
+    bad.write_text(COSTMAP.read_text().replace("cost_scaling_factor: 12.0",
+                                               "cost_scaling_factor: steep"))
+    with pytest.raises(NavParamsError) as info:
+        load_costmap(bad)
+    line = _line_of(bad, "cost_scaling_factor:")
+    assert str(info.value) == (f"{bad}:{line}: key 'inflation_layer.cost_scaling_factor': "
+                               "must be a finite number, not 'steep'")
+    assert isinstance(info.value, ConfigFileError) and info.value.line == line
+
+    bad = tmp_path / "dwa.yaml"
+    bad.write_text(DWA.read_text().replace("vx_samples: 6", "vx_samples: 6.5"))
+    with pytest.raises(NavParamsError) as info:
+        load_dwa(bad)
+    line = _line_of(bad, "vx_samples:")
+    assert str(info.value) == f"{bad}:{line}: key 'vx_samples': must be an integer, not 6.5"
+
+    bad.write_text(DWA.read_text().replace("sim_time: 1.0", "sim_time: true"))
+    with pytest.raises(NavParamsError, match=rf":{_line_of(bad, 'sim_time')}: key 'sim_time'"):
+        load_dwa(bad)
+
+
+def test_out_of_range_and_different_duplicates_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "costmap.yaml"
+    bad.write_text("robot_radius: -0.2\n")
+    with pytest.raises(NavParamsError, match=r":1: key 'robot_radius': must be > 0"):
+        load_costmap(bad)
+    bad.write_text("robot_radius: 0.2\nrobot_radius: 0.3\n")
+    with pytest.raises(NavParamsError, match=r":2: duplicate key 'robot_radius' \(first on "
+                       r"line 1"):
+        load_costmap(bad)
+    bad.write_text("min_vel_x: 0.5\nmax_vel_x: 0.2\n")
+    with pytest.raises(NavParamsError, match=r":1: min_vel_x 0.5 is above max_vel_x 0.2"):
+        load_dwa(bad)
+
+
+def test_ros_layouts_footprint_and_renamed_keys(tmp_path: Path) -> None:
+    f = tmp_path / "costmap.yaml"
+    f.write_text("footprint: [[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1], [-0.2, 0.1]]\n"
+                 "footprint_padding: 0.0\nresolution: 0.025\ninflation_radius: 0.3\n"
+                 "observation_sources: scan\n")
+    params = load_costmap(f)
+    assert params.robot_radius is None and params.resolution == 0.025
+    assert params.inscribed_radius == pytest.approx(0.1)
+    assert params.inflation_radius == 0.3 and params.ignored == ("observation_sources",)
+    f.write_text('footprint: "[[-0.2, -0.1], [0.2, -0.1], [0.2, 0.1]]"\n')
+    assert load_costmap(f).footprint == ((-0.2, -0.1), (0.2, -0.1), (0.2, 0.1))
+    f.write_text("footprint: [[0.2, 0.1], [0.2]]\n")
+    with pytest.raises(NavParamsError, match=r":1: key 'footprint\[1\]': a footprint point"):
+        load_costmap(f)
+
+    d = tmp_path / "dwa.yaml"
+    d.write_text("DWAPlannerROS:\n  max_rot_vel: 1.0\n  max_vel_theta: 2.0\n"
+                 "  vth_samples: 7\n  voxel_debug: true\nrecovery_behaviors: []\n")
+    dwa = load_dwa(d)
+    assert (dwa.max_rot_vel, dwa.vtheta_samples) == (2.0, 7)
+    assert dwa.ignored == ("recovery_behaviors", "DWAPlannerROS.voxel_debug")
+
+
+def test_defaults_are_costmap_2d_and_dwa_local_planner_defaults() -> None:
+    assert CostmapParams().inflation_radius == 0.55
+    assert CostmapParams().cost_scaling_factor == 10.0
+    assert DwaParams().sim_time == 1.7 and DwaParams().vx_samples == 3
