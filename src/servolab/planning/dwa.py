@@ -1,0 +1,507 @@
+"""The dynamic window approach (DWA) for a differential drive, scored as ROS's
+dwa_local_planner scores it, with every velocity sample simulated and scored at once in numpy.
+
+What is reproduced, and from where (ros-planning/navigation, Noetic):
+
+* **The window** (base_local_planner ``SimpleTrajectoryGenerator::initialise`` with
+  ``use_dwa``): the velocities reachable within one controller period
+  ``sim_period = 1 / controller_frequency`` from the current ``(v, omega)``, clipped to
+  ``[min_vel_x, max_vel_x]`` and ``[-max_rot_vel, max_rot_vel]``; each axis sampled as
+  ``VelocityIterator`` does (``n`` evenly spaced values from low to high, plus 0 where the range
+  crosses it), linear outer and angular inner, so ``argmin`` ties resolve as ROS's strict ``<``.
+* **Feasibility** (``generateTrajectory``): a sample slower than ``min_trans_vel`` *and* turning
+  slower than ``min_rot_vel`` is dropped (D.3's warning about ``min_trans_vel: 0``), as is one
+  faster than ``max_trans_vel``. Dropped samples stay in the arrays, marked infeasible, so that
+  every array has one row per sample.
+* **The arc** is held at the sample's velocity for ``sim_time`` (``continued_acceleration`` is
+  off in DWA). ROS integrates it with Euler steps of ``sim_granularity`` metres /
+  ``angular_sim_granularity`` radians, a step count per sample; here one step count serves all
+  samples (the finest any sample needs, so no sample is checked more coarsely than in ROS) and
+  the poses are the exact arc (closed form, ``sinc``), which Euler steps only approximate.
+* **Scoring** (``DWAPlanner::reconfigure`` / ``updatePlanAndLocalCosts``, critics in
+  ``map_grid_cost_function.cpp`` and ``obstacle_cost_function.cpp``)::
+
+      cost = resolution * path_distance_bias * (path_dist(end) + path_dist(fwd))
+           + resolution * goal_distance_bias * (goal_dist(end) + goal_front_dist(fwd))
+           + occdist_scale * max(costmap cost over the trajectory's cells)
+
+  ``path_dist`` / ``goal_dist`` are ``MapGrid`` distances in cells: a 4-connected wavefront,
+  one per cell, through cells that are not lethal, inscribed or unknown, from the plan's cells
+  (path) or the plan's last cell on the map (the local goal). ``fwd`` is the forward point,
+  ``forward_point_distance`` ahead of the end pose (``setXShift``); ``goal_front_dist`` is the
+  distance to the goal moved ``forward_point_distance`` further along the robot-to-goal line
+  (the "nose" target). The alignment term ``path_dist(fwd)`` is dropped once the robot is within
+  ``forward_point_distance`` of the goal, as ROS does (keeping the nose on the path there
+  destabilises). The resolution factor is ROS's: it makes the biases weights per metre.
+* **Invalid** (a negative critic score in ROS, here cost ``inf``): any trajectory point off the
+  map, on a lethal (254), inscribed (253) or unknown (255) cell, or on a cell the path or goal
+  wavefront does not reach. The forward point is scored with ``stop_on_failure`` off, as ROS's
+  alignment and goal-front critics are: an unreachable forward point costs the grid's cell
+  count (``MapGrid::unreachableCellCosts``), it does not invalidate the trajectory; off the map
+  it costs the same (ROS would reject it, but ROS's local map rolls with the robot and ours is
+  the whole floor, whose edge the nose may overhang near a wall).
+* **stop_time_buffer**: dwa_planner.cpp stores it but no critic of Noetic's DWA reads it.
+  servolab applies what the parameter says: the arc is continued ``stop_time_buffer`` seconds
+  past ``sim_time`` at the same velocity, and those extra points must be free too (they are
+  collision-checked, not scored), so a chosen trajectory leaves the robot that long to stop.
+* **Goal** (``LatchedStopRotateController``): within ``xy_goal_tolerance`` the robot first stops
+  (decelerating within the acceleration limits while moving faster than ``trans_stopped_vel`` /
+  ``rot_stopped_vel``), then turns in place to the goal yaw (``rotateToGoal``: at least
+  ``min_rot_vel``, at most ``max_rot_vel``, within ``acc_lim_theta`` of the current rate and no
+  faster than ``sqrt(2 acc_lim_theta |error|)`` so it can stop there), and is done within
+  ``yaw_goal_tolerance``. Latching is not implemented: the caller decides what "reached" means
+  once :attr:`DwaStatus.GOAL_REACHED` is returned.
+* **Not implemented**: the oscillation critic (``oscillation_reset_dist``/``_angle``, flags
+  that forbid reversing a turn direction until the robot has moved that far) and footprint
+  scaling with speed (``scaling_speed``, ``max_scaling_factor``; Noetic's obstacle critic does
+  apply it, but only to polygon footprints, and servolab's costmap is already inflated for a
+  circular robot, whose centre cell is what is checked). ``twirling_scale`` is 0 in D.3.
+
+Coordinates: world metres, ``costmap[row, col] = [y, x]``, cell ``(floor((x - ox) / res),
+floor((y - oy) / res))`` as ``Costmap2D::worldToMap``. Pure numpy/scipy; nothing of servolab's
+robots layer is imported: :meth:`DwaConfig.from_params` copies the fields of any object that has
+them (``servolab.robots.nav_params.DwaParams``).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import coo_matrix  # type: ignore[import-untyped]
+from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
+
+from servolab.planning.costmap import INSCRIBED_INFLATED_OBSTACLE
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: generateTrajectory's tolerance on the velocity limits
+_EPS = 1e-4
+
+
+@dataclass(frozen=True)
+class DwaConfig:
+    """The dwa_local_planner parameters the planner uses, named and defaulted as
+    ``servolab.robots.nav_params.DwaParams`` (itself D.3's names, DWAPlanner.cfg's defaults)."""
+
+    max_vel_x: float = 0.55
+    min_vel_x: float = 0.0
+    max_trans_vel: float = 0.55
+    min_trans_vel: float = 0.1
+    trans_stopped_vel: float = 0.1
+    max_rot_vel: float = 1.0
+    min_rot_vel: float = 0.4
+    rot_stopped_vel: float = 0.1
+    acc_lim_x: float = 2.5
+    acc_lim_theta: float = 3.2
+    yaw_goal_tolerance: float = 0.05
+    xy_goal_tolerance: float = 0.10
+    sim_time: float = 1.7
+    sim_granularity: float = 0.025
+    angular_sim_granularity: float = 0.1
+    vx_samples: int = 3
+    vtheta_samples: int = 20
+    path_distance_bias: float = 32.0
+    goal_distance_bias: float = 24.0
+    occdist_scale: float = 0.01
+    forward_point_distance: float = 0.325
+    stop_time_buffer: float = 0.2
+    oscillation_reset_dist: float = 0.05
+    controller_frequency: float = 20.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in ("vx_samples", "vtheta_samples"):
+                if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+                        or value < 1:
+                    raise ValueError(f"DwaConfig: {f.name} must be an integer >= 1, "
+                                     f"not {value!r}")
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                                 np.floating)) \
+                    or not math.isfinite(value):
+                raise ValueError(f"DwaConfig: {f.name} must be a finite number, not {value!r}")
+            if f.name not in ("min_vel_x", "max_vel_x", "forward_point_distance") and value < 0:
+                raise ValueError(f"DwaConfig: {f.name} must be >= 0, not {value!r}")
+        for name in ("sim_time", "sim_granularity", "angular_sim_granularity",
+                     "controller_frequency"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"DwaConfig: {name} must be > 0, not {getattr(self, name)!r}")
+        if self.min_vel_x > self.max_vel_x:
+            raise ValueError(f"DwaConfig: min_vel_x {self.min_vel_x} is above max_vel_x "
+                             f"{self.max_vel_x}")
+
+    @classmethod
+    def from_params(cls, params: object) -> DwaConfig:
+        """The fields of ``params`` (e.g. a ``DwaParams``) that this planner uses; a field the
+        object lacks keeps its default."""
+        values = {f.name: getattr(params, f.name) for f in fields(cls) if hasattr(params, f.name)}
+        return cls(**values)
+
+    @property
+    def sim_period(self) -> float:
+        """One controller period, the time the window's accelerations act over (DWAPlannerROS
+        sets ``sim_period`` from ``controller_frequency``)."""
+        return 1.0 / self.controller_frequency
+
+
+class DwaStatus(enum.Enum):
+    """What :func:`compute_velocity` decided."""
+
+    MOVING = "moving"              #: the best trajectory of the window
+    NO_VALID_TRAJECTORY = "no_valid_trajectory"  #: every sample invalid: stop (v = omega = 0)
+    STOPPING = "stopping"          #: within xy tolerance, braking before the final turn
+    ROTATING = "rotating"          #: within xy tolerance, turning in place to the goal yaw
+    GOAL_REACHED = "goal_reached"  #: within both tolerances: v = omega = 0
+
+
+@dataclass(frozen=True)
+class DwaSamples:
+    """Every sample of one window, row ``i`` of each array for sample ``i``."""
+
+    v: FloatArray             #: (N,) linear velocities, m/s
+    omega: FloatArray         #: (N,) angular velocities, rad/s
+    feasible: BoolArray       #: (N,) passes the min/max translational-rotational checks
+    trajectories: FloatArray  #: (N, T + 1, 3) poses (x, y, theta) at t = k sim_time / T
+    valid: BoolArray          #: (N,) feasible, on the map, no point on an impassable cell
+    path_cost: FloatArray     #: (N,) path distance of the end, cells
+    goal_cost: FloatArray     #: (N,) goal distance of the end, cells
+    alignment_cost: FloatArray   #: (N,) path distance of the forward point, cells
+    goal_front_cost: FloatArray  #: (N,) distance of the forward point to the goal's nose
+    occ_cost: FloatArray      #: (N,) largest costmap cost along the trajectory
+    cost: FloatArray          #: (N,) total cost, inf where invalid
+
+
+@dataclass(frozen=True)
+class DwaResult:
+    """The command to send and why: ``trajectory`` is the chosen sample's (T + 1, 3) poses, or
+    an empty (0, 3) array when no trajectory was chosen (goal handling, nothing valid)."""
+
+    v: float
+    omega: float
+    status: DwaStatus
+    trajectory: FloatArray
+    cost: float = math.inf
+    samples: DwaSamples | None = None
+
+
+# -- input checks ------------------------------------------------------------------------------
+
+
+def _finite(name: str, values: npt.ArrayLike, shape: tuple[int, ...] | None = None) -> FloatArray:
+    """``values`` as floats; ValueError if not finite or not of ``shape`` (a NaN pose would
+    otherwise fall into every comparison as False and pick an arbitrary sample)."""
+    array = np.asarray(values, dtype=np.float64)
+    if shape is not None and array.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, not {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite, got {array.tolist()!r}")
+    return array
+
+
+def _check_costmap(costmap: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    grid = np.asarray(costmap)
+    if grid.ndim != 2 or grid.size == 0:
+        raise ValueError(f"costmap must be a non-empty 2-D array, not shape {grid.shape}")
+    if not np.issubdtype(grid.dtype, np.integer) or grid.min() < 0 or grid.max() > 255:
+        raise ValueError("costmap must hold integer costs 0..255 (costmap_2d's)")
+    return grid.astype(np.int64)
+
+
+def _check_frame(resolution: float, origin: Sequence[float]) -> tuple[float, float, float]:
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"resolution must be > 0 m, not {resolution!r}")
+    ox, oy = (float(c) for c in _finite("origin", origin, (2,)))
+    return float(resolution), ox, oy
+
+
+# -- window and samples ------------------------------------------------------------------------
+
+
+def dynamic_window(v: float, omega: float,
+                   config: DwaConfig) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``((v_low, v_high), (omega_low, omega_high))`` reachable within one ``sim_period`` from
+    ``(v, omega)`` under ``acc_lim_x``/``acc_lim_theta``, clipped to the velocity limits.
+
+    When the current speed already lies outside a limit (a slower limit was just loaded) the
+    window collapses onto the nearest reachable limit rather than going empty."""
+    v, omega = (float(c) for c in _finite("velocity", (v, omega), (2,)))
+    dt = config.sim_period
+    v_lo = max(config.min_vel_x, v - config.acc_lim_x * dt)
+    v_hi = min(config.max_vel_x, v + config.acc_lim_x * dt)
+    w_lo = max(-config.max_rot_vel, omega - config.acc_lim_theta * dt)
+    w_hi = min(config.max_rot_vel, omega + config.acc_lim_theta * dt)
+    if v_lo > v_hi:
+        v_lo = v_hi = v_hi if v > config.max_vel_x else v_lo
+    if w_lo > w_hi:
+        w_lo = w_hi = w_hi if omega > config.max_rot_vel else w_lo
+    return (v_lo, v_hi), (w_lo, w_hi)
+
+
+def velocity_iterator(low: float, high: float, samples: int) -> FloatArray:
+    """base_local_planner's ``VelocityIterator``: ``samples`` evenly spaced values from ``low``
+    to ``high`` (at least 2 unless ``low == high``), with 0 inserted where the range crosses it
+    so that stopping or driving straight is always a candidate."""
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise ValueError(f"samples must be an integer >= 1, not {samples!r}")
+    if not (math.isfinite(low) and math.isfinite(high)) or low > high:
+        raise ValueError(f"bad velocity range [{low}, {high}]")
+    if low == high:
+        return np.array([low])
+    values = np.linspace(low, high, max(2, int(samples)))
+    if low < 0 < high and not np.any(values == 0.0):
+        values = np.sort(np.append(values, 0.0))
+    return values
+
+
+def sample_window(v: float, omega: float,
+                  config: DwaConfig) -> tuple[FloatArray, FloatArray, BoolArray]:
+    """All (v, omega) samples of the window, linear outer and angular inner as ROS loops, and
+    which of them pass generateTrajectory's minimum/maximum speed checks."""
+    (v_lo, v_hi), (w_lo, w_hi) = dynamic_window(v, omega, config)
+    vs = velocity_iterator(v_lo, v_hi, config.vx_samples)
+    ws = velocity_iterator(w_lo, w_hi, config.vtheta_samples)
+    v_grid, w_grid = (a.ravel() for a in np.meshgrid(vs, ws, indexing="ij"))
+    speed = np.abs(v_grid)
+    too_slow = (speed + _EPS < config.min_trans_vel) & (np.abs(w_grid) + _EPS
+                                                       < config.min_rot_vel)
+    too_fast = speed - _EPS > config.max_trans_vel
+    return v_grid, w_grid, ~(too_slow | too_fast)
+
+
+def simulate(pose: npt.ArrayLike, v: npt.ArrayLike, omega: npt.ArrayLike, duration: float,
+             steps: int) -> FloatArray:
+    """Poses (N, steps + 1, 3) of every sample held at ``(v[i], omega[i])`` for ``duration``
+    seconds from ``pose``, at ``t = k duration / steps`` (k = 0 .. steps), all at once.
+
+    The unicycle's arc in closed form: ``x(t) = x0 + v t cos(th0 + w t / 2) sinc(w t / 2)``
+    (and ``sin`` for y), exact for a constant twist and without a special case for w = 0."""
+    p = _finite("pose", pose, (3,))
+    vs = _finite("v", v).reshape(-1)
+    ws = _finite("omega", omega).reshape(-1)
+    if vs.shape != ws.shape:
+        raise ValueError(f"v and omega differ in length: {vs.size} and {ws.size}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1, not {steps!r}")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be > 0 s, not {duration!r}")
+    t = np.linspace(0.0, duration, int(steps) + 1)[None, :]          # (1, T + 1)
+    half = ws[:, None] * t / 2.0                                      # (N, T + 1)
+    dist = vs[:, None] * t * np.sinc(half / np.pi)                    # chord length
+    heading = p[2] + half
+    out = np.empty((vs.size, t.shape[1], 3))
+    out[..., 0] = p[0] + dist * np.cos(heading)
+    out[..., 1] = p[1] + dist * np.sin(heading)
+    out[..., 2] = p[2] + 2.0 * half
+    return out
+
+
+def step_count(v: FloatArray, omega: FloatArray, duration: float, config: DwaConfig) -> int:
+    """generateTrajectory's step count, the largest any sample needs, so that no sample moves
+    more than ``sim_granularity`` m or turns more than ``angular_sim_granularity`` rad a step."""
+    if v.size == 0:
+        return 1
+    need = max(float(np.max(np.abs(v))) * duration / config.sim_granularity,
+               float(np.max(np.abs(omega))) * duration / config.angular_sim_granularity)
+    return max(1, math.ceil(need - 1e-9))
+
+
+# -- distance maps (MapGrid) -------------------------------------------------------------------
+
+
+def passable(costmap: npt.ArrayLike) -> BoolArray:
+    """Cells a trajectory may cross: below INSCRIBED (253); lethal, inscribed and unknown (255)
+    are not (CostmapModel::footprintCost for a circular robot, MapGrid's obstacle cells)."""
+    return np.asarray(_check_costmap(costmap) < INSCRIBED_INFLATED_OBSTACLE, dtype=bool)
+
+
+def distance_map(costmap: npt.ArrayLike, targets: npt.ArrayLike) -> FloatArray:
+    """MapGrid's ``target_dist``: cells (4-connected steps, each 1) from the nearest target cell
+    ``(col, row)`` through passable cells; ``inf`` on impassable or unreached cells. Targets on
+    impassable cells or off the grid are skipped; none left gives all ``inf``."""
+    ok = passable(costmap)
+    rows, cols = ok.shape
+    cells = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] >= 0) & (cells[:, 1] < rows)
+    cells = cells[inside]
+    cells = cells[ok[cells[:, 1], cells[:, 0]]]
+    result = np.full(ok.shape, np.inf)
+    if cells.size == 0:
+        return result
+    ids = np.arange(ok.size).reshape(ok.shape)
+    right = ok[:, :-1] & ok[:, 1:]
+    down = ok[:-1, :] & ok[1:, :]
+    src = np.concatenate((ids[:, :-1][right], ids[:-1, :][down]))
+    dst = np.concatenate((ids[:, 1:][right], ids[1:, :][down]))
+    graph = coo_matrix((np.ones(src.size), (src, dst)), shape=(ok.size, ok.size)).tocsr()
+    sources = np.unique(cells[:, 1] * cols + cells[:, 0])
+    dist = dijkstra(graph, directed=False, indices=sources, unweighted=True, min_only=True)
+    result = np.asarray(dist, dtype=np.float64).reshape(ok.shape)
+    result[~ok] = np.inf
+    return result
+
+
+def world_to_cells(xy: FloatArray, resolution: float,
+                   origin: Sequence[float] = (0.0, 0.0)) -> npt.NDArray[np.int64]:
+    """``Costmap2D::worldToMap`` without the bounds check: ``(col, row)`` of each point
+    ``(..., 2)``."""
+    res, ox, oy = _check_frame(resolution, origin)
+    cells = np.floor((np.asarray(xy, dtype=np.float64) - np.array([ox, oy])) / res)
+    return np.asarray(cells, dtype=np.int64)
+
+
+# -- scoring -----------------------------------------------------------------------------------
+
+
+def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
+                  plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
+                  origin: Sequence[float] = (0.0, 0.0)) -> DwaSamples:
+    """Simulate and score every sample of the window (see the module docstring for the cost).
+
+    ``pose`` is (x, y, theta), ``velocity`` (v, omega), ``plan`` the global path as world
+    points (M, 2), its last point on the map being the local goal."""
+    p = _finite("pose", pose, (3,))
+    vel = _finite("velocity", velocity, (2,))
+    grid = _check_costmap(costmap)
+    res, ox, oy = _check_frame(resolution, origin)
+    path = _finite("plan", plan)
+    if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
+        raise ValueError(f"plan must be (M, 2) world points, M >= 1, not shape {path.shape}")
+    rows, cols = grid.shape
+
+    vs, ws, feasible = sample_window(float(vel[0]), float(vel[1]), config)
+    # scored part (sim_time) plus the stop_time_buffer part, simulated together
+    steps = step_count(vs, ws, config.sim_time, config)
+    dt = config.sim_time / steps
+    extra = math.ceil(config.stop_time_buffer / dt - 1e-9)
+    poses = simulate(p, vs, ws, dt * (steps + extra), steps + extra) if extra else \
+        simulate(p, vs, ws, config.sim_time, steps)
+    trajectories = poses[:, :steps + 1]
+
+    path_cells = world_to_cells(path, res, (ox, oy))
+    on_map = ((path_cells[:, 0] >= 0) & (path_cells[:, 0] < cols)
+              & (path_cells[:, 1] >= 0) & (path_cells[:, 1] < rows))
+    path_dist = distance_map(grid, path_cells)
+    goal_xy = path[on_map][-1] if on_map.any() else path[-1]
+    goal_dist = distance_map(grid, world_to_cells(goal_xy, res, (ox, oy)))
+    # the nose target: the goal pushed forward_point_distance along robot -> goal
+    heading = math.atan2(goal_xy[1] - p[1], goal_xy[0] - p[0])
+    nose = goal_xy + config.forward_point_distance * np.array([math.cos(heading),
+                                                               math.sin(heading)])
+    front_dist = distance_map(grid, world_to_cells(nose, res, (ox, oy)))
+
+    def lookup(table: FloatArray | npt.NDArray[np.int64], xy: FloatArray,
+               outside: float) -> FloatArray:
+        c = world_to_cells(xy, res, (ox, oy))
+        inside = (c[..., 0] >= 0) & (c[..., 0] < cols) & (c[..., 1] >= 0) & (c[..., 1] < rows)
+        cc = np.where(inside[..., None], c, 0)
+        return np.where(inside, table[cc[..., 1], cc[..., 0]].astype(np.float64), outside)
+
+    cell_cost = lookup(grid, poses[..., :2], math.inf)               # (N, T + extra + 1)
+    occ = np.max(cell_cost[:, :steps + 1], axis=1)
+    collision_free = np.all(cell_cost < INSCRIBED_INFLATED_OBSTACLE, axis=1)
+    path_along = lookup(path_dist, trajectories[..., :2], math.inf)
+    goal_along = lookup(goal_dist, trajectories[..., :2], math.inf)
+    reachable = np.all(np.isfinite(path_along), axis=1) & np.all(np.isfinite(goal_along), axis=1)
+    valid = feasible & collision_free & reachable
+
+    end = trajectories[:, -1]
+    fwd = end[:, :2] + config.forward_point_distance * np.column_stack((np.cos(end[:, 2]),
+                                                                       np.sin(end[:, 2])))
+    unreachable = float(grid.size)  # MapGrid::unreachableCellCosts, stop_on_failure off
+    align = lookup(path_dist, fwd, unreachable)
+    align = np.where(np.isfinite(align), align, unreachable)
+    front = lookup(front_dist, fwd, unreachable)
+    front = np.where(np.isfinite(front), front, unreachable)
+    near_goal = math.hypot(p[0] - goal_xy[0], p[1] - goal_xy[1]) \
+        <= config.forward_point_distance
+    align_scale = 0.0 if near_goal else res * config.path_distance_bias
+
+    path_cost = path_along[:, -1]
+    goal_cost = goal_along[:, -1]
+    with np.errstate(invalid="ignore"):
+        cost = (res * config.path_distance_bias * path_cost + align_scale * align
+                + res * config.goal_distance_bias * (goal_cost + front)
+                + config.occdist_scale * occ)
+    cost = np.where(valid, cost, math.inf)
+    return DwaSamples(v=vs, omega=ws, feasible=feasible, trajectories=trajectories, valid=valid,
+                      path_cost=path_cost, goal_cost=goal_cost, alignment_cost=align,
+                      goal_front_cost=front, occ_cost=occ, cost=cost)
+
+
+def find_best_trajectory(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
+                         plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
+                         origin: Sequence[float] = (0.0, 0.0)) -> DwaResult:
+    """The lowest-cost sample of the window (the first of equals, as ROS's strict ``<``), or
+    zero velocity and :attr:`DwaStatus.NO_VALID_TRAJECTORY` when every sample is invalid."""
+    samples = score_samples(pose, velocity, costmap, plan, config, resolution=resolution,
+                            origin=origin)
+    if not np.any(samples.valid):
+        return DwaResult(0.0, 0.0, DwaStatus.NO_VALID_TRAJECTORY, np.empty((0, 3)),
+                         math.inf, samples)
+    best = int(np.argmin(samples.cost))
+    return DwaResult(float(samples.v[best]), float(samples.omega[best]), DwaStatus.MOVING,
+                     samples.trajectories[best].copy(), float(samples.cost[best]), samples)
+
+
+# -- goal handling (LatchedStopRotateController) -----------------------------------------------
+
+
+def angle_diff(target: float, current: float) -> float:
+    """``angles::shortest_angular_distance(current, target)``, in (-pi, pi]."""
+    d = math.remainder(target - current, 2.0 * math.pi)
+    return math.pi if d == -math.pi else d
+
+
+def goal_command(pose: npt.ArrayLike, velocity: npt.ArrayLike, goal: npt.ArrayLike,
+                 config: DwaConfig) -> DwaResult | None:
+    """What to do near the goal ``(x, y)`` or ``(x, y, yaw)``; None while the robot is farther
+    than ``xy_goal_tolerance`` (then DWA drives). Without a goal yaw, reaching the position
+    and stopping is the goal."""
+    p = _finite("pose", pose, (3,))
+    vel = _finite("velocity", velocity, (2,))
+    g = _finite("goal", goal)
+    if g.shape not in ((2,), (3,)):
+        raise ValueError(f"goal must be (x, y) or (x, y, yaw), not shape {g.shape}")
+    if math.hypot(p[0] - g[0], p[1] - g[1]) > config.xy_goal_tolerance:
+        return None
+    empty = np.empty((0, 3))
+    v, w = float(vel[0]), float(vel[1])
+    dt = config.sim_period
+    if abs(v) > config.trans_stopped_vel or abs(w) > config.rot_stopped_vel:
+        # stopWithAccLimits: brake as hard as the limits allow
+        v_new = math.copysign(max(0.0, abs(v) - config.acc_lim_x * dt), v)
+        w_new = math.copysign(max(0.0, abs(w) - config.acc_lim_theta * dt), w)
+        return DwaResult(v_new, w_new, DwaStatus.STOPPING, empty)
+    error = 0.0 if g.shape == (2,) else angle_diff(float(g[2]), float(p[2]))
+    if abs(error) <= config.yaw_goal_tolerance:
+        return DwaResult(0.0, 0.0, DwaStatus.GOAL_REACHED, empty, 0.0)
+    # rotateToGoal
+    rate = min(config.max_rot_vel, max(config.min_rot_vel, abs(error)))
+    rate = min(max(rate, abs(w) - config.acc_lim_theta * dt), abs(w) + config.acc_lim_theta * dt)
+    rate = min(rate, math.sqrt(2.0 * config.acc_lim_theta * abs(error)))
+    rate = min(config.max_rot_vel, max(config.min_rot_vel, rate))
+    return DwaResult(0.0, math.copysign(rate, error), DwaStatus.ROTATING, empty)
+
+
+def compute_velocity(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
+                     plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
+                     origin: Sequence[float] = (0.0, 0.0),
+                     goal_yaw: float | None = None) -> DwaResult:
+    """One controller cycle, as DWAPlannerROS::computeVelocityCommands: goal handling within
+    ``xy_goal_tolerance`` of the plan's last point, else the best DWA trajectory."""
+    path = _finite("plan", plan)
+    if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
+        raise ValueError(f"plan must be (M, 2) world points, M >= 1, not shape {path.shape}")
+    goal = path[-1] if goal_yaw is None else np.append(path[-1], goal_yaw)
+    near = goal_command(pose, velocity, goal, config)
+    if near is not None:
+        return near
+    return find_best_trajectory(pose, velocity, costmap, path, config, resolution=resolution,
+                                origin=origin)
