@@ -311,3 +311,41 @@ def test_base_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert _positive(waffle["reads_limit_hz"])
     assert waffle["reads_limit_hz"] < waffle["limit_hz"]
     assert "ratio achieved/limit" in out and "SYNC_READ" in out
+
+
+PLANNING = BENCHMARK.parent / "planning.py"
+
+
+@pytest.mark.timeout(60)
+def test_planning_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/planning.py --quick: per grid the first plan and the repairs after k = 1, 10,
+    50 changes, D* Lite against our A* and scipy's Dijkstra, every time and ratio finite and
+    positive, the three planners' costs equal (the benchmark checks them), a verdict per
+    grid and k."""
+    bench = _load(PLANNING, "planning_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    figures = json.loads(out_json.read_text())
+    assert figures["quick"] is True and figures["ks"] == [1, 10, 50]
+    grids = figures["grids"]
+    assert [g["size"] for g in grids] == list(bench.QUICK_SIZES)
+    for grid in grids:
+        assert 0.15 < grid["occupied_share"] < 0.25, grid["size"]
+        first = grid["first"]
+        for name in ("dstar_s", "astar_s", "dijkstra_s", "dijkstra_with_build_s",
+                     "ratio_dstar_astar", "ratio_dstar_dijkstra",
+                     "ratio_dstar_dijkstra_with_build", "cost"):
+            assert _positive(first[name]), (grid["size"], name, first)
+        assert [r["k"] for r in grid["repairs"]] == [1, 10, 50]
+        for r in grid["repairs"]:
+            for name in ("cost", "repair_s", "astar_s", "dijkstra_s", "dijkstra_with_build_s",
+                         "ratio_astar_repair", "ratio_dijkstra_repair",
+                         "ratio_dijkstra_with_build_repair", "ratio_fastest_repair"):
+                assert _positive(r[name]), (grid["size"], r["k"], name, r)
+            assert r["ratio_astar_repair"] == pytest.approx(r["astar_s"] / r["repair_s"])
+            assert isinstance(r["goal_met"], bool)
+            assert r["goal_met"] == (r["ratio_fastest_repair"] >= 10.0)
+    assert len(figures["goals"]) == 3 * len(grids)
+    assert all(line.startswith(("met:", "NOT met:")) for line in figures["goals"])
+    assert "Goals:" in out and all(line in out for line in figures["goals"])

@@ -8,30 +8,9 @@ assumed).
 from __future__ import annotations
 
 import argparse
-import math
 
-from .arguments import add_out
+from .arguments import add_out, finite_float, positive_float
 from .registry import Command
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text} must be a number > 0")
-    return value
-
-
-def _finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text} must be a finite number")
-    return value
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -40,12 +19,12 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="DEV", help="the base's serial port; default: the "
                    "base emulated on a simulated floor")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--slip", type=_finite, default=0.0, metavar="FRACTION",
+    p.add_argument("--slip", type=finite_float, default=0.0, metavar="FRACTION",
                    help="emulated floor: the part of each wheel's turn that does not move the "
                    "base (default 0), so that odometry drifts from the truth")
-    p.add_argument("--slip-jitter", type=_finite, default=0.0, metavar="FRACTION",
+    p.add_argument("--slip-jitter", type=finite_float, default=0.0, metavar="FRACTION",
                    help="emulated floor: a random slip on top, seeded (default 0)")
-    p.add_argument("--encoder-noise", type=_finite, default=0.0, metavar="RAD",
+    p.add_argument("--encoder-noise", type=finite_float, default=0.0, metavar="RAD",
                    help="emulated floor: noise on each wheel position read, standard "
                    "deviation in rad (default 0)")
     p.add_argument("--real-time", action="store_true", help="emulated base: move at the "
@@ -56,22 +35,22 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="move", required=True, metavar="MOVE")
     line = sub.add_parser("line", help="a straight line, stopping at the distance (encoders)")
-    line.add_argument("--distance", type=_finite, required=True, metavar="M",
+    line.add_argument("--distance", type=finite_float, required=True, metavar="M",
                       help="metres (negative: backwards)")
-    line.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    line.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S")
     circle = sub.add_parser("circle", help="a circle (000 Figure A3)")
-    circle.add_argument("--radius", type=_positive, required=True, metavar="M")
-    circle.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    circle.add_argument("--radius", type=positive_float, required=True, metavar="M")
+    circle.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S")
     turn = circle.add_mutually_exclusive_group()
     turn.add_argument("--cw", dest="clockwise", action="store_true", help="clockwise")
     turn.add_argument("--ccw", dest="clockwise", action="store_false",
                       help="counter-clockwise (default)")
-    circle.add_argument("--turns", type=_positive, default=1.0, metavar="N")
+    circle.add_argument("--turns", type=positive_float, default=1.0, metavar="N")
     eight = sub.add_parser("eight", help="a figure of eight (000 Figure A4)")
-    eight.add_argument("--radius", type=_positive, required=True, metavar="M")
-    eight.add_argument("--speed", type=_positive, default=0.1, metavar="M_S")
+    eight.add_argument("--radius", type=positive_float, required=True, metavar="M")
+    eight.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S")
     rotate = sub.add_parser("rotate", help="turn in place")
-    rotate.add_argument("--angle", type=_finite, required=True, metavar="DEG",
+    rotate.add_argument("--angle", type=finite_float, required=True, metavar="DEG",
                         help="degrees, positive counter-clockwise")
     rpm = sub.add_parser("rpm", help="read each wheel's speed in rpm")
     stop = sub.add_parser("stop", help="stop every wheel")

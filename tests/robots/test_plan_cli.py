@@ -1,0 +1,181 @@
+"""``servolab plan`` end to end on small generated images (written with cv2.imwrite): the cost
+without inflation is the length in cells, the path avoids obstacles, inflation keeps the path
+away from walls, and every bad input is refused in one line with a non-zero exit."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from servolab.cli import main
+from servolab.robots.plan_run import traversal_costs
+
+SQRT2 = math.sqrt(2.0)
+
+
+def _image(tmp_path: Path, image: np.ndarray, name: str = "map.png") -> Path:
+    path = tmp_path / name
+    assert cv2.imwrite(str(path), image)
+    return path
+
+
+def _plan(tmp_path: Path, image: Path, *args: str, out: str = "run") -> dict[str, object]:
+    folder = tmp_path / out
+    assert main(["plan", "--map", str(image), *args, "--out", str(folder)]) == 0
+    assert (folder / "plan.png").stat().st_size > 5_000
+    return json.loads((folder / "summary.json").read_text())  # type: ignore[no-any-return]
+
+
+def _refused(capsys: pytest.CaptureFixture[str], out: Path, *args: str) -> str:
+    """The one-line message of a refused ``servolab plan``; no run folder is left."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["plan", *args, "--out", str(out)])
+    assert not out.exists(), "a refused plan left a run folder"
+    code = exit_.value.code
+    message = code if isinstance(code, str) else capsys.readouterr().err.strip()
+    assert code != 0
+    assert "\n" not in str(message).strip(), message
+    return str(message)
+
+
+def test_without_inflation_the_cost_is_the_length_in_cells(tmp_path: Path) -> None:
+    image = _image(tmp_path, np.full((30, 40), 255, np.uint8))
+    straight = _plan(tmp_path, image, "--start", "2", "5", "--goal", "32", "5",
+                     "--no-inflation", out="straight")
+    assert straight["cost"] == pytest.approx(30.0)
+    assert straight["cells"] == 31 and straight["inflation"] is False
+    path = np.array(straight["path"])
+    assert path[0].tolist() == [2, 5] and path[-1].tolist() == [32, 5]  # [x, y]
+    assert np.all(path[:, 1] == 5)
+    diagonal = _plan(tmp_path, image, "--start", "0", "0", "--goal", "20", "20",
+                     "--no-inflation", out="diagonal")
+    assert diagonal["cost"] == pytest.approx(20 * SQRT2)
+    assert diagonal["length_cells"] == pytest.approx(20 * SQRT2)
+    mixed = _plan(tmp_path, image, "--start", "1", "2", "--goal", "31", "12",
+                  "--no-inflation", out="mixed")
+    assert mixed["cost"] == pytest.approx(10 * SQRT2 + 20)  # octile distance
+
+
+def _corridor_map() -> np.ndarray:
+    """A 60 x 100 room with a wall across it (x 48..51) open only near the top (y 1..8) and
+    in a wide gap at the bottom (y 30..58)."""
+    image = np.full((60, 100), 255, np.uint8)
+    image[0, :] = image[-1, :] = 0
+    image[:, 0] = image[:, -1] = 0
+    image[9:30, 48:52] = 0
+    return image
+
+
+def test_the_path_avoids_obstacles(tmp_path: Path) -> None:
+    image = _corridor_map()
+    summary = _plan(tmp_path, _image(tmp_path, image), "--start", "10", "15", "--goal",
+                    "90", "15", "--no-inflation")
+    path = np.array(summary["path"])
+    assert np.all(image[path[:, 1], path[:, 0]] == 255), "the path crosses a dark pixel"
+    steps = np.abs(np.diff(path, axis=0))
+    assert np.all(steps.max(axis=1) == 1)  # 8-connected, no jump
+    # the cost is the path's own length, and longer than the straight line through the wall
+    assert summary["cost"] == pytest.approx(summary["length_cells"])
+    assert summary["cost"] > 80.0
+
+
+def test_inflation_keeps_the_path_away_from_walls(tmp_path: Path) -> None:
+    image = _corridor_map()
+    mapfile = _image(tmp_path, image)
+    bare = _plan(tmp_path, mapfile, "--start", "10", "15", "--goal", "90", "15",
+                 "--no-inflation", out="bare")
+    inflated = _plan(tmp_path, mapfile, "--start", "10", "15", "--goal", "90", "15",
+                     out="inflated")
+    assert inflated["inflation"] is True
+    assert inflated["cost"] > bare["cost"]
+    assert inflated["path"] != bare["path"]
+    # seed 000's file: 0.05 m cells, robot_radius 0.20 (+0.01 padding): no path cell is within
+    # the inscribed radius (about 4 cells) of a dark pixel; the bare path grazes the wall.
+    from scipy import ndimage  # type: ignore[import-untyped]
+
+    clearance = ndimage.distance_transform_edt(image > 127)
+    bare_path, inflated_path = np.array(bare["path"]), np.array(inflated["path"])
+    assert clearance[bare_path[:, 1], bare_path[:, 0]].min() <= 1.5
+    assert clearance[inflated_path[:, 1], inflated_path[:, 0]].min() > 4.0
+    assert inflated["resolution_m"] == pytest.approx(0.05)
+    assert "obstacle_layer" in inflated["ignored"]  # ROS keys servolab does not use
+    # the 8-cell opening at the top is too narrow for the inflated robot: it goes below
+    assert inflated_path[:, 1].max() > 30
+
+
+def test_the_cost_mapping() -> None:
+    costs = traversal_costs(np.array([0, 50, 252, 253, 254], dtype=np.uint8))
+    assert costs[:3] == pytest.approx([1.0, 1.8, 1.0 + 0.8 * 252 / 50])
+    assert np.all(np.isinf(costs[3:]))
+
+
+def test_bad_input_is_refused_in_one_line(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    image = _corridor_map()
+    mapfile = str(_image(tmp_path, image))
+    ends = ["--start", "10", "15", "--goal", "90", "15"]
+    refused = tmp_path / "refused"
+
+    def refuse(*args: str) -> str:
+        return _refused(capsys, refused, "--map", mapfile, *args)
+
+    message = _refused(capsys, refused, "--map", str(tmp_path / "missing.png"), *ends)
+    assert "missing.png" in message and "does not exist" in message
+    garbage = tmp_path / "garbage.png"
+    garbage.write_bytes(b"not an image")
+    message = _refused(capsys, refused, "--map", str(garbage), *ends)
+    assert "garbage.png" in message and "cannot be read" in message
+    message = refuse("--start", "100", "15", "--goal", "90", "15")
+    assert message.startswith("servolab plan: start (100, 15) is outside the map")
+    message = refuse("--start", "10", "15", "--goal", "5", "-1")
+    assert message.startswith("servolab plan: goal (5, -1) is outside the map")
+    message = refuse("--start", "10", "15", "--goal", "49", "20")
+    assert message.startswith("servolab plan: goal (49, 20) is inside an obstacle")
+    message = refuse("--start", "0", "0", "--goal", "90", "15",
+                       "--no-inflation")
+    assert message.startswith("servolab plan: start (0, 0) is inside an obstacle")
+    message = refuse("--start", "10", "15", "--goal", "46", "20")
+    assert message.startswith("servolab plan: goal (46, 20) is within the robot's inscribed")
+    bad_params = tmp_path / "bad.yaml"
+    bad_params.write_text("robot_radius: big\n")
+    message = refuse(*ends, "--params", str(bad_params))
+    assert "bad.yaml:1" in message and "robot_radius" in message
+    # no path: a closed wall
+    closed = image.copy()
+    closed[:, 48:52] = 0
+    message = _refused(capsys, refused, "--map", str(_image(tmp_path, closed, "closed.png")), *ends,
+                       "--no-inflation")
+    assert message.startswith("servolab plan: no path from start (10, 15) to goal (90, 15)")
+    # with inflation, the 8-cell opening is closed too when the gap below is
+    narrow = image.copy()
+    narrow[30:59, 48:52] = 0
+    message = _refused(capsys, refused, "--map", str(_image(tmp_path, narrow, "narrow.png")), *ends)
+    assert "no path" in message and "--no-inflation" in message
+    # argparse: a coordinate that is not an integer, exit 2
+    with pytest.raises(SystemExit) as exit_:
+        main(["plan", "--map", mapfile, "--start", "1.5", "2", "--goal", "3", "4"])
+    assert exit_.value.code == 2
+
+
+def test_the_command_line_exit_codes(tmp_path: Path) -> None:
+    mapfile = str(_image(tmp_path, _corridor_map()))
+    ok = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", mapfile,
+                         "--start", "10", "15", "--goal", "90", "15", "--out",
+                         str(tmp_path / "ok")], capture_output=True, text=True, timeout=60)
+    assert ok.returncode == 0, ok.stderr
+    assert "ignored keys of" in ok.stdout and "obstacle_layer" in ok.stdout
+    assert (tmp_path / "ok" / "summary.json").exists()
+    bad = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", mapfile,
+                          "--start", "10", "15", "--goal", "49", "20"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 1
+    assert bad.stderr.strip().splitlines() == [
+        "servolab plan: goal (49, 20) is inside an obstacle (a pixel darker than 128 in "
+        f"'{mapfile}')"]
