@@ -1,5 +1,5 @@
-"""Make the figures of docs/dynamixel.md, sim.md, biped.md and mobile.md from the code itself:
-``python docs/plots.py [DIR]``.
+"""Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md and navigation.md from the
+code itself: ``python docs/plots.py [DIR]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
 seconds to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
@@ -181,6 +181,52 @@ def fusion(path: Path) -> None:
     plt.close(fig)
 
 
+def navigation(out: Path) -> None:
+    """docs/navigation.md's figures: per-image reprojection errors of a calibration on
+    synthetic boards (like the seed's Figure C4), and a plan with and without inflation."""
+    import tempfile
+
+    import cv2
+    import numpy as np
+
+    from servolab.robots.plan_run import load_problem, plan, plot_plan
+    from servolab.vision.calibration import calibrate
+    from servolab.vision.synthetic import PinholeCamera, random_board_poses, render_checkerboard
+
+    camera = PinholeCamera(fx=820.0, fy=805.0, cx=326.0, cy=236.0, width=640, height=480,
+                           distortion=(-0.28, 0.11, 0.0012, -0.0008, -0.02))
+    rng = np.random.default_rng(7)
+    poses = random_board_poses(camera, (10, 7), 25.0, 16, rng)
+    images = [render_checkerboard(camera, (10, 7), 25.0, r, t, noise_std=2.0, rng=rng)
+              for r, t in poses]
+    calib = calibrate(images, (10, 7), 25.0)
+    fig, ax = plt.subplots(figsize=(6.4, 3.2))
+    errors = np.asarray(calib.per_image_errors)
+    ax.bar(np.arange(1, len(errors) + 1), errors)
+    ax.axhline(float(np.mean(errors)), color="gray", linestyle="--",
+               label=f"mean of the images {np.mean(errors):.3f} px")
+    ax.set_xlabel("image")
+    ax.set_ylabel("RMS reprojection error (px)")
+    ax.set_title("Calibration on 16 synthetic views of a 10x7-square board")
+    ax.legend(fontsize=8)
+    fig.savefig(out / "navigation_calibration.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+    grid = np.full((60, 90), 255, dtype=np.uint8)  # a room with two walls and a pillar
+    grid[0, :] = grid[-1, :] = grid[:, 0] = grid[:, -1] = 0
+    grid[0:40, 30:33] = 0
+    grid[20:60, 58:61] = 0
+    grid[38:46, 12:20] = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        image = Path(tmp) / "room.png"
+        cv2.imwrite(str(image), grid)
+        for name, inflation in (("navigation_plan.png", True),
+                                ("navigation_plan_no_inflation.png", False)):
+            problem = load_problem(image, (8, 50), (82, 8), inflation=inflation)
+            _, path = plan(problem)
+            plot_plan(problem, path, out / name)
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
@@ -189,6 +235,7 @@ def main(argv: list[str]) -> None:
     floor_world(out / "floor_world.png")
     biped(out)
     mobile(out)
+    navigation(out)
     print(f"figures written to {out}")
 
 
