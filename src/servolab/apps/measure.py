@@ -1,0 +1,40 @@
+"""``servolab measure``: the distance on the floor between two image points (seed 000's
+Figure C6), from a calibration written by ``servolab calibrate --floor``."""
+
+from __future__ import annotations
+
+import argparse
+
+from .arguments import finite_float
+from .registry import Command
+
+
+def _add_measure(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--calib", required=True, metavar="FILE",
+                   help="a calibration written by servolab calibrate --floor")
+    for name in ("U1", "V1", "U2", "V2"):
+        p.add_argument(name.lower(), type=finite_float, metavar=name,
+                       help="image point, pixels" if name == "U1" else None)
+
+
+def _measure(args: argparse.Namespace) -> int:
+    from ..vision import calibration as cal
+
+    try:
+        calib, floor = cal.load(args.calib)
+        if floor is None:
+            raise SystemExit(f"servolab measure: {args.calib} has no floor plane; calibrate "
+                             "with --floor IMAGE")
+        distance = cal.measure(calib, floor, (args.u1, args.v1), (args.u2, args.v2))
+    except ValueError as exc:
+        raise SystemExit(f"servolab measure: {exc}") from None
+    print(f"{distance:.2f} mm")
+    return 0
+
+
+COMMAND = Command(
+    name="measure", group="tools", help="the floor distance between two image points (mm)",
+    description="Turn two image points into floor points through a calibration written by "
+    "servolab calibrate --floor, and print their distance in millimetres.",
+    examples=("servolab measure --calib camera.yaml 120 340 480 352",),
+    add_arguments=_add_measure, run=_measure)
