@@ -179,3 +179,19 @@ def test_the_command_line_exit_codes(tmp_path: Path) -> None:
     assert bad.stderr.strip().splitlines() == [
         "servolab plan: goal (49, 20) is inside an obstacle (a pixel darker than 128 in "
         f"'{mapfile}')"]
+
+
+@pytest.mark.parametrize(("extra", "says"), [
+    (["--no-inflation", "--resolution", "0.02"], "not used with --no-inflation"),
+    (["--threshold", "300"], "--threshold 300 must be a gray level"),
+])
+def test_options_that_cannot_apply_are_refused(tmp_path: Path, extra: list[str],
+                                               says: str) -> None:
+    image = tmp_path / "map.png"
+    cv2.imwrite(str(image), np.full((20, 20), 255, np.uint8))
+    result = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", str(image),
+                             "--start", "1", "1", "--goal", "18", "18", *extra, "--out",
+                             str(tmp_path / "run")], capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode != 0
+    assert says in result.stderr and result.stderr.strip().count("\n") == 0

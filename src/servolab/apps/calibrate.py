@@ -53,6 +53,11 @@ def _add_calibrate(p: argparse.ArgumentParser) -> None:
 def _calibrate(args: argparse.Namespace) -> int:
     from ..vision import calibration as cal
 
+    out = Path(args.out)
+    if out.is_dir() or not out.parent.is_dir():  # said before the work, not after it
+        raise SystemExit(f"servolab calibrate: cannot write --out {args.out!r}: "
+                         + ("it is a folder" if out.is_dir() else
+                            f"no folder {str(out.parent)!r}"))
     images = [_read(p) for p in args.images]
     try:
         calib = cal.calibrate(images, args.board, args.square,  # type: ignore[arg-type]
@@ -65,7 +70,11 @@ def _calibrate(args: argparse.Namespace) -> int:
                                          name=Path(args.floor).name)
     except ValueError as exc:
         raise SystemExit(f"servolab calibrate: {exc}") from None
-    cal.save(calib, floor, args.out)
+    try:
+        cal.save(calib, floor, args.out)
+    except OSError as exc:
+        raise SystemExit(f"servolab calibrate: cannot write {args.out!r}: "
+                         f"{exc.strerror or exc}") from None
     print(f"fx {calib.fx:.2f} fy {calib.fy:.2f} cx {calib.cx:.2f} cy {calib.cy:.2f} px; "
           f"RMS reprojection error {calib.rms:.3f} px over {len(calib.per_image_errors)} images")
     for name, error in zip(calib.image_names, calib.per_image_errors, strict=True):

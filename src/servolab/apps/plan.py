@@ -36,6 +36,12 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.plan_run import load_problem, plan, run_plan
     from ..runs import RunFolder
 
+    if args.no_inflation and (args.params is not None or args.resolution is not None):
+        raise SystemExit("servolab plan: --params and --resolution set the inflation; they "
+                         "are not used with --no-inflation")
+    if not 0 < args.threshold <= 255:
+        raise SystemExit(f"servolab plan: --threshold {args.threshold:g} must be a gray level "
+                         "in (0, 255]: pixels darker than it are occupied")
     try:
         problem = load_problem(args.map, tuple(args.start), tuple(args.goal),
                                params=args.params, inflation=not args.no_inflation,

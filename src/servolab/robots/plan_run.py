@@ -16,16 +16,18 @@ layer does it (:func:`~servolab.planning.costmap.inflate`) with the parameter fi
 ``robot_radius`` or ``footprint``, padded by ``footprint_padding``); the default file is
 ``configs/costmap_params.yaml`` (seed 000's D.2). A cell is ``resolution`` metres square: the
 ``--resolution`` given, else the file's ``resolution``, else costmap_2d's default 0.05 m. The
-costmap's 0..254 becomes a traversal cost per cell as ROS's navfn global planner weighs it,
-divided by its neutral cost so that free space costs 1::
+costmap's 0..254 becomes a traversal cost per cell with the weights of ROS's navfn global
+planner (without its truncation to an unsigned char), divided by its neutral cost so that
+free space costs 1::
 
     cost(c) = (COST_NEUTRAL + COST_FACTOR * c) / COST_NEUTRAL = 1 + 0.8 * c / 50  for c <= 252
     cost(c) = inf                                                                for c >= 253
 
 (navfn's ``COST_NEUTRAL`` 50 and ``COST_FACTOR`` 0.8: a cell at the top of the decay, 252, costs
-5.03 times a free one). 253 (the robot's centre within its inscribed radius of an obstacle)
-and 254 (lethal) cannot be entered, as navfn treats them. A path's cost is then in "free
-cells": its length in cells where the costmap is 0, more near obstacles.
+5.032 times a free one; navfn, truncating, gives 5.02). 253 (the robot's centre within its
+inscribed radius of an obstacle) and 254 (lethal) cannot be entered, as navfn treats them.
+A path's cost is then in "free cells": its length in cells where the costmap is 0, more near
+obstacles.
 
 The start and goal must be inside the map and free (not dark; with inflation, not within the
 robot's inscribed radius of a dark pixel either); anything else is a :class:`PlanError` naming
