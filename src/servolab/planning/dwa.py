@@ -86,8 +86,9 @@ _EPS = 1e-4
 
 @dataclass(frozen=True)
 class DwaConfig:
-    """The dwa_local_planner parameters the planner uses, named and defaulted as
-    ``servolab.robots.nav_params.DwaParams`` (itself D.3's names, DWAPlanner.cfg's defaults)."""
+    """The dwa_local_planner parameters the planner uses, named as D.3 writes them, with
+    DWAPlanner.cfg's defaults (``servolab.robots.nav_params.DwaParams`` takes its defaults for
+    these from here)."""
 
     max_vel_x: float = 0.55
     min_vel_x: float = 0.0

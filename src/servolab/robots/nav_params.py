@@ -36,6 +36,7 @@ from ..configfile import ConfigMapping, ConfigValue, load_text
 from ..configfile import load as load_config
 from ..errors import ConfigFileError
 from ..planning.costmap import footprint_distances, footprint_from_radius, pad_footprint
+from ..planning.dwa import DwaConfig
 
 
 class NavParamsError(ConfigFileError):
@@ -183,45 +184,50 @@ def _footprint(value: ConfigValue) -> tuple[tuple[float, float], ...]:
 # -- DWA ---------------------------------------------------------------------------------------
 
 
+#: dwa_local_planner's defaults (DWAPlanner.cfg) for what the planner uses
+_PLANNER = DwaConfig()
+
+
 @dataclass(frozen=True)
 class DwaParams:
     """dwa_local_planner's parameters, named as seed 000's D.3 writes them; defaults are
     dwa_local_planner's (DWAPlanner.cfg). Velocities in m/s and rad/s, accelerations in m/s²
-    and rad/s², times in s, distances in m, angles in rad."""
+    and rad/s², times in s, distances in m, angles in rad. The defaults the planner shares are
+    :class:`~servolab.planning.dwa.DwaConfig`'s, written there once."""
 
-    max_vel_x: float = 0.55
-    min_vel_x: float = 0.0
+    max_vel_x: float = _PLANNER.max_vel_x
+    min_vel_x: float = _PLANNER.min_vel_x
     max_vel_y: float = 0.1
     min_vel_y: float = -0.1
-    max_trans_vel: float = 0.55
-    min_trans_vel: float = 0.1
-    trans_stopped_vel: float = 0.1
-    max_rot_vel: float = 1.0
-    min_rot_vel: float = 0.4
-    rot_stopped_vel: float = 0.1
-    acc_lim_x: float = 2.5
+    max_trans_vel: float = _PLANNER.max_trans_vel
+    min_trans_vel: float = _PLANNER.min_trans_vel
+    trans_stopped_vel: float = _PLANNER.trans_stopped_vel
+    max_rot_vel: float = _PLANNER.max_rot_vel
+    min_rot_vel: float = _PLANNER.min_rot_vel
+    rot_stopped_vel: float = _PLANNER.rot_stopped_vel
+    acc_lim_x: float = _PLANNER.acc_lim_x
     acc_lim_y: float = 2.5
-    acc_lim_theta: float = 3.2
-    yaw_goal_tolerance: float = 0.05
-    xy_goal_tolerance: float = 0.10
+    acc_lim_theta: float = _PLANNER.acc_lim_theta
+    yaw_goal_tolerance: float = _PLANNER.yaw_goal_tolerance
+    xy_goal_tolerance: float = _PLANNER.xy_goal_tolerance
     latch_xy_goal_tolerance: bool = False
-    sim_time: float = 1.7
-    sim_granularity: float = 0.025
-    angular_sim_granularity: float = 0.1
-    vx_samples: int = 3
+    sim_time: float = _PLANNER.sim_time
+    sim_granularity: float = _PLANNER.sim_granularity
+    angular_sim_granularity: float = _PLANNER.angular_sim_granularity
+    vx_samples: int = _PLANNER.vx_samples
     vy_samples: int = 10
-    vtheta_samples: int = 20
-    path_distance_bias: float = 32.0
-    goal_distance_bias: float = 24.0
-    occdist_scale: float = 0.01
+    vtheta_samples: int = _PLANNER.vtheta_samples
+    path_distance_bias: float = _PLANNER.path_distance_bias
+    goal_distance_bias: float = _PLANNER.goal_distance_bias
+    occdist_scale: float = _PLANNER.occdist_scale
     twirling_scale: float = 0.0
-    forward_point_distance: float = 0.325
-    stop_time_buffer: float = 0.2
+    forward_point_distance: float = _PLANNER.forward_point_distance
+    stop_time_buffer: float = _PLANNER.stop_time_buffer
     scaling_speed: float = 0.25
     max_scaling_factor: float = 0.2
-    oscillation_reset_dist: float = 0.05
+    oscillation_reset_dist: float = _PLANNER.oscillation_reset_dist
     oscillation_reset_angle: float = 0.2
-    controller_frequency: float = 20.0
+    controller_frequency: float = _PLANNER.controller_frequency
     holonomic_robot: bool = False
     path: str = field(default="", compare=False)
     ignored: tuple[str, ...] = field(default=(), compare=False)
