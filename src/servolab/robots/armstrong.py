@@ -19,10 +19,11 @@ from ..dynamixel.models import model
 from ..dynamixel.motorspec import MotorEntry, MotorSpec
 from ..sim.emulated import emulated_port
 from ..sim.simulation import Simulation
+from . import CONFIGS
 from .controller_config import ControllerConfigError, RobotConfig, SerialPortConfig, load
 
 #: configs/armstrong.yaml, relative to a clone of the repository
-CONFIG = Path(__file__).resolve().parents[3] / "configs" / "armstrong.yaml"
+CONFIG = CONFIGS / "armstrong.yaml"
 #: The model of every motor of Armstrong (001 section 2).
 MODEL = "RX-28"
 #: Configured but not on the robot's bus (001 Figure 3.4).

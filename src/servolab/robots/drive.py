@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from . import CONFIGS
 from .base_config import BaseConfig
 from .base_config import load as load_base
 from .mobile_base import MobileBase
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
 
 Say = Callable[[str], None]
 #: configs/base_seed000.yaml in a clone: the base ``servolab drive`` uses by default
-SEED_000_BASE = Path(__file__).resolve().parents[3] / "configs" / "base_seed000.yaml"
+SEED_000_BASE = CONFIGS / "base_seed000.yaml"
 MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
 
 

@@ -46,6 +46,7 @@ import numpy.typing as npt
 
 from ..planning.costmap import INSCRIBED_INFLATED_OBSTACLE, inflate, occupancy_from_image
 from ..planning.dstar_lite import DStarLite, NoPath
+from . import CONFIGS
 from .nav_params import DEFAULT_RESOLUTION, CostmapParams, load_costmap
 
 if TYPE_CHECKING:
@@ -54,7 +55,7 @@ if TYPE_CHECKING:
     from ..runs import RunFolder
 
 #: configs/costmap_params.yaml in a clone: seed 000's D.2, ``servolab plan``'s default
-DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "configs" / "costmap_params.yaml"
+DEFAULT_PARAMS = CONFIGS / "costmap_params.yaml"
 #: pixels darker than this are occupied
 DEFAULT_THRESHOLD = 128.0
 #: navfn's cost of a free cell and weight of the costmap's value (navfn/navfn.h)
