@@ -62,12 +62,16 @@ def baud(text: str) -> int:
 
 # -- options ------------------------------------------------------------------------------------
 
-def finite_float(text: str) -> float:
-    """An argparse type: a finite number (``nan`` and ``inf`` are refused, naming them)."""
+def _number(text: str) -> float:
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a finite number (``nan`` and ``inf`` are refused, naming them)."""
+    value = _number(text)
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text} must be a finite number")
     return value
@@ -75,10 +79,7 @@ def finite_float(text: str) -> float:
 
 def positive_float(text: str) -> float:
     """An argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    value = _number(text)
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"{text} must be a number > 0")
     return value
