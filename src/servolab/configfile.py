@@ -416,3 +416,19 @@ class _Builder:
         if not isinstance(value, _SCALAR_TYPES):
             raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
         return ConfigScalar(self.source, node.start_mark.line + 1, key, self.error, value, text)
+
+
+def positive_float(value: ConfigValue) -> float:
+    """The value as a finite number > 0, or the file's error at its line."""
+    number = value.as_float()
+    if number <= 0:
+        raise value.error(f"key {value.key!r}: must be > 0, not {number:g}")
+    return number
+
+
+def nonnegative_float(value: ConfigValue) -> float:
+    """The value as a finite number >= 0, or the file's error at its line."""
+    number = value.as_float()
+    if number < 0:
+        raise value.error(f"key {value.key!r}: must be >= 0, not {number:g}")
+    return number

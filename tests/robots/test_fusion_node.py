@@ -59,3 +59,40 @@ def test_a_nan_tracker_pose_is_refused_and_changes_nothing() -> None:
     expected = fuse_seed_000(odometry[[0, 2]], tracker[[0, 2]])
     assert (fused[-1].pose.position.x, fused[-1].pose.position.y) == pytest.approx(
         tuple(expected[-1]))
+
+
+def test_aligned_odometry_is_fused_in_the_map_frame() -> None:
+    """A base switched on at map pose (1, 2, 90°): its odometry counts from (0, 0, 0). With
+    align_odometry the first tracker pose gives map -> odom, and later odometry lands on the
+    truth in the map frame, heading included (the seed's fusion would average two frames)."""
+    ctx = Context.open(clock=VirtualClock())
+    node = FusionNode(ctx, parameter_overrides={"align_odometry": True})
+    probe = Node(ctx, "probe")
+    fused: list[Any] = []
+    probe.create_subscription("geometry_msgs/msg/PoseStamped", "/fused_pose", fused.append, 0)
+    odom = probe.create_publisher("nav_msgs/msg/Odometry", "/odom", 0)
+    pose = probe.create_publisher("geometry_msgs/msg/PoseStamped", "/tracker/pose", 0)
+    start = (1.0, 2.0, math.pi / 2)
+
+    def quaternion(yaw: float) -> dict[str, float]:
+        return {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
+
+    for k in range(20):  # forward along the odometry's x, which is the map's +y
+        s = 0.05 * k
+        odom.publish(probe.message("nav_msgs/msg/Odometry", pose={"pose": {
+            "position": {"x": s, "y": 0.0}, "orientation": quaternion(0.0)}}))
+        ctx.spin_until(lambda s=s: node._odometry_pose is not None
+                       and node._odometry_pose[0] == s, timeout=1.0)
+        before = len(fused)
+        pose.publish(probe.message("geometry_msgs/msg/PoseStamped", header={"frame_id": "map"},
+                                   pose={"position": {"x": start[0], "y": start[1] + s},
+                                         "orientation": quaternion(start[2])}))
+        ctx.spin_until(lambda before=before: len(fused) > before, timeout=1.0)
+    ctx.close()
+    assert node.map_from_odom == pytest.approx(start)
+    # odometry in the map frame is the truth here, as is the tracker: D.4's loop on the two
+    truth = np.array([(1.0, 2.0 + 0.05 * k) for k in range(20)])
+    got = np.array([(m.pose.position.x, m.pose.position.y) for m in fused])
+    np.testing.assert_allclose(got, fuse_seed_000(truth, truth), atol=1e-9)
+    last = fused[-1].pose
+    assert 2 * math.atan2(last.orientation.z, last.orientation.w) == pytest.approx(math.pi / 2)

@@ -12,14 +12,17 @@ from servolab.errors import ConfigFileError
 from servolab.robots.nav_params import (
     CostmapParams,
     DwaParams,
+    MoveBaseParams,
     NavParamsError,
     load_costmap,
     load_dwa,
+    load_move_base,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
 COSTMAP = ROOT / "configs" / "costmap_params.yaml"
 DWA = ROOT / "configs" / "dwa_params.yaml"
+MOVE_BASE = ROOT / "configs" / "move_base_params.yaml"
 
 
 def _line_of(path: Path, text: str) -> int:
@@ -125,3 +128,60 @@ def test_defaults_are_costmap_2d_and_dwa_local_planner_defaults() -> None:
     assert CostmapParams().inflation_radius == 0.55
     assert CostmapParams().cost_scaling_factor == 10.0
     assert DwaParams().sim_time == 1.7 and DwaParams().vx_samples == 3
+
+
+def test_turtlebot_move_base_loads_with_its_values() -> None:
+    p = load_move_base(MOVE_BASE)
+    assert (p.controller_frequency, p.controller_patience) == (5.0, 3.0)
+    assert (p.planner_frequency, p.planner_patience) == (1.0, 5.0)
+    assert (p.oscillation_timeout, p.oscillation_distance) == (10.0, 0.2)
+    assert p.sim_period == pytest.approx(0.2)
+    assert p.ignored == ("shutdown_costmaps", "base_global_planner", "base_local_planner")
+    assert len(p.notes) == 1 and "'base_global_planner' is written twice" in p.notes[0]
+
+
+def test_move_base_defaults_are_move_bases() -> None:
+    # move_base.cpp's param() defaults (controller_patience 15, not MoveBase.cfg's 5)
+    assert MoveBaseParams() == MoveBaseParams(controller_frequency=20.0, planner_frequency=0.0,
+                                              oscillation_timeout=0.0,
+                                              oscillation_distance=0.5,
+                                              controller_patience=15.0, planner_patience=5.0)
+
+
+def test_d3_dwa_can_start_the_robot_only_at_turtlebots_controller_frequency() -> None:
+    """Why the move_base file ships: at the 20 Hz default D.3's window from rest lies below its
+    minimum speeds, at turtlebot's 5 Hz it reaches them."""
+    from dataclasses import replace
+
+    from servolab.planning.dwa import DwaConfig, dynamic_window
+
+    dwa = load_dwa(DWA)
+    config = DwaConfig.from_params(dwa)
+    for frequency, starts in ((MoveBaseParams().controller_frequency, False),
+                              (load_move_base(MOVE_BASE).controller_frequency, True)):
+        (_, v_hi), (_, w_hi) = dynamic_window(0.0, 0.0,
+                                              replace(config, controller_frequency=frequency))
+        assert (v_hi >= dwa.min_trans_vel or w_hi >= dwa.min_rot_vel) is starts, frequency
+
+
+def test_move_base_bad_values_refused_at_their_line(tmp_path: Path) -> None:
+    bad = tmp_path / "move_base.yaml"
+    for old, new, message in (
+            ("controller_frequency: 5.0", "controller_frequency: 0",
+             "key 'controller_frequency': must be > 0, not 0"),
+            ("controller_frequency: 5.0", "controller_frequency: fast",
+             "key 'controller_frequency': must be a finite number, not 'fast'"),
+            ("planner_frequency: 1.0", "planner_frequency: -1.0",
+             "key 'planner_frequency': must be >= 0, not -1"),
+            ("oscillation_distance: 0.2", "oscillation_distance: [0.2]",
+             "key 'oscillation_distance': must be a finite number, not a list"),
+            ("planner_patience: 5.0", "planner_patience: true",
+             "key 'planner_patience': must be a finite number, not true")):
+        bad.write_text(MOVE_BASE.read_text().replace(old, new))
+        with pytest.raises(NavParamsError) as info:
+            load_move_base(bad)
+        line = _line_of(bad, new.split(":")[0] + ":")
+        assert str(info.value) == f"{bad}:{line}: {message}"
+    bad.write_text("")
+    with pytest.raises(NavParamsError, match="empty file: expected a move_base parameter file"):
+        load_move_base(bad)

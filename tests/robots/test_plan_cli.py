@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from servolab.cli import main
-from servolab.robots.plan_run import traversal_costs
+from servolab.planning.costmap import traversal_costs
 
 SQRT2 = math.sqrt(2.0)
 

@@ -17,9 +17,11 @@ from servolab.vision.calibration import (
     FloorExtrinsics,
     calibrate,
     check_board,
+    find_board,
     floor_extrinsics,
     floor_to_image,
     image_to_floor,
+    in_map,
     load,
     measure,
     save,
@@ -29,6 +31,7 @@ from servolab.vision.synthetic import (
     FloorScene,
     PinholeCamera,
     RobotMarker,
+    board_corners,
     pose_from,
     random_board_poses,
     render_checkerboard,
@@ -216,3 +219,93 @@ def test_floor_scene_renders_obstacles_dark() -> None:
     assert grey(50.0, 40.0) < 60 and grey(300.0, 200.0) < 60
     assert grey(200.0, 100.0) > 180
     assert 80 < grey(150.0 - 40.0, 300.0) < 160
+
+
+def _turned_pose(z_deg: float, board: tuple[int, int], square: float,
+                 distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """The board facing the camera with a slight tilt, turned ``z_deg`` about the optical axis."""
+    tilt = _rotation(np.deg2rad([10.0, -6.0, 0.0]))
+    turn = _rotation(np.array([0.0, 0.0, np.deg2rad(z_deg)]))
+    rvec = np.asarray(cv2.Rodrigues(tilt @ turn)[0], dtype=np.float64).ravel()
+    return pose_from(np.rad2deg(rvec), (10.0, -5.0, distance), board, square)
+
+
+@pytest.mark.parametrize("z_deg", [0.0, 90.0, 170.0, 180.0, 270.0])
+def test_find_board_keeps_the_boards_own_origin_when_turned(z_deg: float) -> None:
+    rvec, tvec = _turned_pose(z_deg, BOARD, SQUARE, 700.0)
+    image = render_checkerboard(TRUTH, BOARD, SQUARE, rvec, tvec, noise_std=2.0,
+                                rng=np.random.default_rng(int(z_deg)))
+    truth = TRUTH.project(board_corners(BOARD, SQUARE), rvec, tvec)
+    got = find_board(image, BOARD)
+    assert got.shape == truth.shape
+    assert np.max(np.linalg.norm(got - truth, axis=1)) < 0.5
+
+
+def test_find_board_corrects_a_detector_that_reads_the_board_upside_down(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # OpenCV 5.0 happens to return the corners of these boards in order; the orientation must
+    # come from the image, not from the detector's habits.
+    rvec, tvec = _turned_pose(180.0, BOARD, SQUARE, 700.0)
+    image = render_checkerboard(TRUTH, BOARD, SQUARE, rvec, tvec, noise_std=2.0,
+                                rng=np.random.default_rng(1))
+    truth = TRUTH.project(board_corners(BOARD, SQUARE), rvec, tvec)
+    detect = cv2.findChessboardCorners
+
+    def upside_down(gray: np.ndarray, pattern: tuple[int, int], corners: None,
+                    flags: int) -> tuple[bool, np.ndarray]:
+        found, got = detect(gray, pattern, corners, flags)
+        return found, np.asarray(got)[::-1].copy()
+
+    monkeypatch.setattr(cv2, "findChessboardCorners", upside_down)
+    got = find_board(image, BOARD)
+    assert np.max(np.linalg.norm(got - truth, axis=1)) < 0.5
+
+
+@pytest.mark.parametrize("z_deg", [0.0, 180.0])
+def test_floor_extrinsics_of_a_board_turned_round_keep_its_frame(z_deg: float) -> None:
+    floor_board, floor_square = (12, 9), 40.0
+    rvec, tvec = _turned_pose(z_deg, floor_board, floor_square, 1000.0)
+    image = render_checkerboard(TRUTH, floor_board, floor_square, rvec, tvec, noise_std=2.0,
+                                rng=np.random.default_rng(5))
+    calib = _truth_calib()
+    ext = floor_extrinsics(calib, image, floor_board, floor_square)
+    true_ext = FloorExtrinsics(_rotation(rvec), tvec)
+    xy = np.array([[0.0, 0.0], [400.0, 0.0], [0.0, 280.0], [-100.0, 350.0], [250.0, 120.0]])
+    seen = floor_to_image(calib, true_ext, xy)  # where the camera sees the floor points
+    assert np.max(np.linalg.norm(image_to_floor(calib, ext, seen) - xy, axis=1)) < 2.0
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 30.0, -120.0])
+def test_in_map_gives_a_z_up_map_frame_where_the_board_lay(yaw_deg: float) -> None:
+    """A camera looking straight down on a map frame (z up: its rotation is 180° about x);
+    the floor board lies face up with its first inner corner at (250, 150) mm and its first
+    row at yaw_deg. in_map of the board's extrinsics is the map's own pose in the camera, so
+    map points seen in the image come back as map points, and the camera is above the floor."""
+    map_rotation = np.diag([1.0, -1.0, -1.0]) @ _rotation(np.deg2rad([3.0, -2.0, 0.0]))
+    map_translation = -map_rotation @ np.array([250.0, 150.0, 1300.0])
+    yaw = np.deg2rad(yaw_deg)
+    corner = np.array([250.0, 150.0, 0.0])
+    # the board's axes in the map: x at yaw, y at yaw - 90° (face up: its z into the floor)
+    axes = np.array([[np.cos(yaw), np.sin(yaw), 0.0], [np.sin(yaw), -np.cos(yaw), 0.0],
+                     [0.0, 0.0, -1.0]])
+    board_rotation = map_rotation @ axes
+    board_rvec = cv2.Rodrigues(board_rotation)[0].reshape(3)
+    board_tvec = map_rotation @ corner + map_translation
+    floor_board, floor_square = (12, 9), 30.0
+    image = render_checkerboard(TRUTH, floor_board, floor_square, board_rvec, board_tvec,
+                                noise_std=2.0, rng=np.random.default_rng(3))
+    calib = _truth_calib()
+    board = floor_extrinsics(calib, image, floor_board, floor_square)
+    assert board.camera_position[2] < 0  # the board's z points into the floor
+    found = in_map(board, (250.0, 150.0, yaw))
+    assert found.camera_position == pytest.approx([250.0, 150.0, 1300.0], abs=13.0)  # 1 %
+    assert np.allclose(found.rotation, map_rotation, atol=0.01)  # within about 0.6°
+    xy = np.array([[0.0, 0.0], [500.0, 100.0], [100.0, 400.0], [350.0, 250.0]])
+    seen = floor_to_image(calib, FloorExtrinsics(map_rotation, map_translation), xy)
+    assert np.max(np.linalg.norm(image_to_floor(calib, found, seen) - xy, axis=1)) < 2.0
+
+
+def test_in_map_refuses_a_placement_that_is_not_a_number() -> None:
+    ext = FloorExtrinsics(np.eye(3), np.array([0.0, 0.0, 1000.0]))
+    with pytest.raises(ValueError, match="board_at must be finite"):
+        in_map(ext, (0.0, float("nan"), 0.0))

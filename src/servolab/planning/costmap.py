@@ -166,3 +166,18 @@ def _polygon(footprint: ArrayLike) -> NDArray[np.float64]:
     if not np.isfinite(points).all():
         raise ValueError("a footprint's points must be finite")
     return points
+
+
+#: navfn's cost of a free cell and weight of the costmap's value (navfn/navfn.h)
+COST_NEUTRAL = 50.0
+COST_FACTOR = 0.8
+
+
+def traversal_costs(costmap: ArrayLike) -> NDArray[np.float64]:
+    """Cell costs for the planner from a costmap's 0..254: ``1 + 0.8 c / 50``, ``inf`` for
+    253 and above (navfn's weights without its truncation to a byte; see
+    :mod:`servolab.robots.plan_run`)."""
+    c = np.asarray(costmap, dtype=np.float64)
+    costs = (COST_NEUTRAL + COST_FACTOR * c) / COST_NEUTRAL
+    costs[c >= INSCRIBED_INFLATED_OBSTACLE] = np.inf
+    return costs

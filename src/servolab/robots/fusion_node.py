@@ -7,6 +7,15 @@ publishes the fused position on ``fused_pose`` (``geometry_msgs/msg/PoseStamped`
 tracker's frame and stamp). The filter is :func:`servolab.estimation.kalman.seed_000_filter`,
 with D.4's Q and R unless others are given; it starts at the tracker's first position.
 A message holding NaN is refused (logged) and leaves the filter as it was.
+
+Odometry counts from where the base was switched on (the ``odom`` frame), the tracker from the
+floor's origin (the ``map`` frame). The seed fuses the two as they are, which is right only
+when both start at the same point. With ``align_odometry`` the node first finds ``map -> odom``
+from the first tracker pose that arrives after odometry, as a localiser does: the tracker's
+position and heading (its orientation) against the odometry pose at that moment. From then on
+each odometry pose is moved into the map frame before it is fused, and the fused pose carries
+the heading of the aligned odometry (the tracker's heading is coarser than the encoders'; it
+is used once, to align).
 """
 
 from __future__ import annotations
@@ -42,9 +51,15 @@ class FusionNode(Node):
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
         tracker_topic = str(self.declare_parameter("tracker_topic", "/tracker/pose").value)
+        self.align = bool(self.declare_parameter(
+            "align_odometry", False, description="find map -> odom from the first tracker "
+            "pose and fuse odometry in the map frame").value)
         self.config = config
         self.filter: KalmanFilter | None = None
         self.odometry: tuple[float, float] | None = None
+        self._odometry_pose: tuple[float, float, float] | None = None
+        #: map -> odom as (x, y, yaw), once aligned (``align_odometry``)
+        self.map_from_odom: tuple[float, float, float] | None = None
         self.fused = self.create_publisher(POSE, "fused_pose", 10)
         self.create_subscription(ODOMETRY, "odom", self._on_odom, 10)
         self.create_subscription(POSE, tracker_topic, self._on_tracker, 10)
@@ -54,7 +69,35 @@ class FusionNode(Node):
         if not (math.isfinite(p.x) and math.isfinite(p.y)):
             self.get_logger().error(f"odom refused: position ({p.x!r}, {p.y!r}) is not finite")
             return
-        self.odometry = (float(p.x), float(p.y))
+        q = msg.pose.pose.orientation
+        yaw = 2.0 * math.atan2(float(q.z), float(q.w))
+        self._odometry_pose = (float(p.x), float(p.y), yaw)
+        self.odometry = self._in_map(self._odometry_pose)[:2] if self.align else (
+            float(p.x), float(p.y))
+
+    def _in_map(self, pose: tuple[float, float, float]) -> tuple[float, float, float]:
+        """An odometry pose in the map frame (as it is until aligned)."""
+        if self.map_from_odom is None:
+            return pose
+        tx, ty, a = self.map_from_odom
+        x, y, yaw = pose
+        c, s = math.cos(a), math.sin(a)
+        return (tx + c * x - s * y, ty + s * x + c * y, yaw + a)
+
+    def _align(self, msg: Any) -> None:
+        """``map -> odom`` from this tracker pose and the odometry pose at hand."""
+        if self._odometry_pose is None:
+            return
+        q = msg.pose.orientation
+        if not (math.isfinite(q.z) and math.isfinite(q.w)) or (q.z == 0 and q.w == 0):
+            return  # no heading in this sighting: wait for one that has it
+        yaw_map = 2.0 * math.atan2(float(q.z), float(q.w))
+        x, y, yaw = self._odometry_pose
+        a = yaw_map - yaw
+        c, s = math.cos(a), math.sin(a)
+        self.map_from_odom = (float(msg.pose.position.x) - (c * x - s * y),
+                              float(msg.pose.position.y) - (s * x + c * y), a)
+        self.odometry = self._in_map(self._odometry_pose)[:2]
 
     def _on_tracker(self, msg: Any) -> None:
         p = msg.pose.position
@@ -62,6 +105,10 @@ class FusionNode(Node):
             self.get_logger().error(f"tracker pose refused: ({p.x!r}, {p.y!r}) is not finite")
             return
         tracker = (float(p.x), float(p.y))
+        if self.align and self.map_from_odom is None:
+            self._align(msg)
+            if self.map_from_odom is None:
+                self.odometry = None  # odometry in another frame is not fused
         if self.filter is None:
             self.filter = seed_000_filter(np.array(tracker), self.config)
         elif self.odometry is not None:
@@ -71,7 +118,11 @@ class FusionNode(Node):
             self.filter.predict(self.config.sample_period)
             self.filter.update(TRACKER, np.array(tracker))
         x, y = (float(v) for v in self.filter.state[:2])
+        orientation = {"w": 1.0}
+        if self.align and self.map_from_odom is not None and self._odometry_pose is not None:
+            yaw = self._in_map(self._odometry_pose)[2]
+            orientation = {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
         self.fused.publish(self.message(POSE, header={"stamp": msg.header.stamp,
                                                       "frame_id": msg.header.frame_id},
                                         pose={"position": {"x": x, "y": y},
-                                              "orientation": {"w": 1.0}}))
+                                              "orientation": orientation}))

@@ -103,8 +103,11 @@ class MobileBase:
     def emulated(cls, config: BaseConfig, simulation: Simulation | None = None, *,
                  slip: float = 0.0, slip_jitter: float = 0.0,
                  max_acceleration: float | None = None, encoder_noise: float = 0.0,
-                 seed: int = 0) -> MobileBase:
-        """The base's motors emulated, rolling on a simulated floor in ``simulation``;
+                 seed: int = 0, start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+                 ) -> MobileBase:
+        """The base's motors emulated, rolling on a simulated floor in ``simulation``, placed
+        at ``start`` ``(x, y, yaw)`` on the floor (m, rad; odometry starts at zero wherever the
+        base stands, as a real base's does);
         ``slip`` (a fraction of each wheel's turn that does not move the base, with a seeded
         random ``slip_jitter`` on top), ``max_acceleration`` (rad/s^2 of a wheel) and
         ``encoder_noise`` (rad, standard deviation of each position reading) make the floor
@@ -127,7 +130,7 @@ class MobileBase:
             left_forward=tuple(m.direction for m in left),
             right_forward=tuple(m.direction for m in right),
             slip=slip, slip_jitter=slip_jitter, max_acceleration=max_acceleration,
-            encoder_noise=encoder_noise, seed=seed)
+            encoder_noise=encoder_noise, seed=seed, x=start[0], y=start[1], yaw=start[2])
         bus = Bus(port_to(emulator, sim, config.baudrate))
         return cls(config, bus, sim, floor=floor)
 

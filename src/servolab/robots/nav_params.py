@@ -6,6 +6,9 @@
   the inflation layer's ``inflation_radius``, ``cost_scaling_factor``, ``inflate_unknown`` and
   ``enabled`` under ``inflation_layer:`` (or at the top level, where costmap_2d read them before
   Hydro; the layer's namespace wins when both are written).
+- :func:`load_move_base` reads move_base's own parameters (turtlebot's
+  ``move_base_params.yaml``, ``configs/move_base_params.yaml``): the controller and planner
+  frequencies and patiences and the oscillation check.
 - :func:`load_dwa` reads dwa_local_planner's parameters such as Appendix D.3
   (``configs/dwa_params.yaml``), at the top level as the seed prints them or under
   ``DWAPlannerROS:`` as ROS's files write them. Fields keep the names the file writes
@@ -32,7 +35,13 @@ from pathlib import Path
 
 import yaml
 
-from ..configfile import ConfigMapping, ConfigValue, load_text
+from ..configfile import (
+    ConfigMapping,
+    ConfigValue,
+    load_text,
+    nonnegative_float,
+    positive_float,
+)
 from ..configfile import load as load_config
 from ..errors import ConfigFileError
 from ..planning.costmap import footprint_distances, footprint_from_radius, pad_footprint
@@ -117,16 +126,16 @@ def parse_costmap(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ())
             ignored.append(value.key)
     radius = m.get("robot_radius")
     if radius is not None:
-        values["robot_radius"] = _positive(radius)
+        values["robot_radius"] = positive_float(radius)
     footprint = m.get("footprint")
     if footprint is not None:
         values["footprint"] = _footprint(footprint)
         values["robot_radius"] = None
     for key in ("footprint_padding",):
         if (v := m.get(key)) is not None:
-            values[key] = _nonnegative(v)
+            values[key] = nonnegative_float(v)
     if (v := m.get("resolution")) is not None:
-        values["resolution"] = _positive(v)
+        values["resolution"] = positive_float(v)
     if (v := m.get("track_unknown_space")) is not None:
         values["track_unknown_space"] = v.as_bool()
     # pre-Hydro place first, then the layer's namespace over it
@@ -144,9 +153,9 @@ def parse_costmap(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ())
             values["inflate_unknown"] = v.as_bool()
     for source in sources:
         if (v := source.get("inflation_radius")) is not None:
-            values["inflation_radius"] = _nonnegative(v)
+            values["inflation_radius"] = nonnegative_float(v)
         if (v := source.get("cost_scaling_factor")) is not None:
-            values["cost_scaling_factor"] = _nonnegative(v)
+            values["cost_scaling_factor"] = nonnegative_float(v)
     return CostmapParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
                          notes=notes)
 
@@ -245,29 +254,29 @@ def _any_float(value: ConfigValue) -> float:
 _DWA_FIELDS: dict[str, _Reader] = {
     "max_vel_x": _any_float, "min_vel_x": _any_float,
     "max_vel_y": _any_float, "min_vel_y": _any_float,
-    "max_trans_vel": lambda v: _nonnegative(v), "min_trans_vel": lambda v: _nonnegative(v),
-    "trans_stopped_vel": lambda v: _nonnegative(v),
-    "max_rot_vel": lambda v: _nonnegative(v), "min_rot_vel": lambda v: _nonnegative(v),
-    "rot_stopped_vel": lambda v: _nonnegative(v),
-    "acc_lim_x": lambda v: _nonnegative(v), "acc_lim_y": lambda v: _nonnegative(v),
-    "acc_lim_theta": lambda v: _nonnegative(v),
-    "yaw_goal_tolerance": lambda v: _nonnegative(v),
-    "xy_goal_tolerance": lambda v: _nonnegative(v),
+    "max_trans_vel": nonnegative_float, "min_trans_vel": nonnegative_float,
+    "trans_stopped_vel": nonnegative_float,
+    "max_rot_vel": nonnegative_float, "min_rot_vel": nonnegative_float,
+    "rot_stopped_vel": nonnegative_float,
+    "acc_lim_x": nonnegative_float, "acc_lim_y": nonnegative_float,
+    "acc_lim_theta": nonnegative_float,
+    "yaw_goal_tolerance": nonnegative_float,
+    "xy_goal_tolerance": nonnegative_float,
     "latch_xy_goal_tolerance": lambda v: v.as_bool(),
-    "sim_time": lambda v: _positive(v), "sim_granularity": lambda v: _positive(v),
-    "angular_sim_granularity": lambda v: _positive(v),
+    "sim_time": positive_float, "sim_granularity": positive_float,
+    "angular_sim_granularity": positive_float,
     "vx_samples": lambda v: _count(v), "vy_samples": lambda v: _count(v),
     "vtheta_samples": lambda v: _count(v),
-    "path_distance_bias": lambda v: _nonnegative(v),
-    "goal_distance_bias": lambda v: _nonnegative(v),
-    "occdist_scale": lambda v: _nonnegative(v), "twirling_scale": lambda v: _nonnegative(v),
+    "path_distance_bias": nonnegative_float,
+    "goal_distance_bias": nonnegative_float,
+    "occdist_scale": nonnegative_float, "twirling_scale": nonnegative_float,
     "forward_point_distance": _any_float,
-    "stop_time_buffer": lambda v: _nonnegative(v),
-    "scaling_speed": lambda v: _nonnegative(v),
-    "max_scaling_factor": lambda v: _nonnegative(v),
-    "oscillation_reset_dist": lambda v: _nonnegative(v),
-    "oscillation_reset_angle": lambda v: _nonnegative(v),
-    "controller_frequency": lambda v: _positive(v),
+    "stop_time_buffer": nonnegative_float,
+    "scaling_speed": nonnegative_float,
+    "max_scaling_factor": nonnegative_float,
+    "oscillation_reset_dist": nonnegative_float,
+    "oscillation_reset_angle": nonnegative_float,
+    "controller_frequency": positive_float,
     "holonomic_robot": lambda v: v.as_bool(),
 }
 #: dwa_local_planner's newer names -> the field (the seed's, older name)
@@ -313,6 +322,73 @@ def parse_dwa(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ()) -> 
     return params
 
 
+# -- move_base ---------------------------------------------------------------------------------
+
+#: move_base's defaults for what a file does not write: the values move_base.cpp's constructor
+#: reads with ``param()``. Not MoveBase.cfg's, which says 5.0 for controller_patience: move_base
+#: keeps its first reconfigure callback's values as defaults only (``if (!setup_) ... return``),
+#: so 15.0 is what runs.
+DEFAULT_CONTROLLER_FREQUENCY = 20.0
+
+
+@dataclass(frozen=True)
+class MoveBaseParams:
+    """What of move_base's own parameters shapes servolab's loop. Frequencies in Hz, times in s,
+    distances in m. The controller frequency matters beyond move_base: DWAPlannerROS takes its
+    ``sim_period`` (the time its acceleration limits may act over) as 1 / controller_frequency
+    through searchParam, so a DWA file means different motion under a different move_base."""
+
+    controller_frequency: float = DEFAULT_CONTROLLER_FREQUENCY
+    #: 0 plans only when a goal arrives (or the controller gives up)
+    planner_frequency: float = 0.0
+    #: 0 never checks for oscillation
+    oscillation_timeout: float = 0.0
+    oscillation_distance: float = 0.5
+    controller_patience: float = 15.0
+    planner_patience: float = 5.0
+    path: str = field(default="", compare=False)
+    ignored: tuple[str, ...] = field(default=(), compare=False)
+    notes: tuple[str, ...] = field(default=(), compare=False)
+
+    @property
+    def sim_period(self) -> float:
+        """The control period DWA plans one acceleration step over, s."""
+        return 1.0 / self.controller_frequency
+
+
+_MOVE_BASE_FIELDS: dict[str, _Reader] = {
+    "controller_frequency": positive_float,
+    "planner_frequency": nonnegative_float,
+    "oscillation_timeout": nonnegative_float,
+    "oscillation_distance": nonnegative_float,
+    "controller_patience": nonnegative_float,
+    "planner_patience": nonnegative_float,
+}
+
+
+def load_move_base(path: str | Path) -> MoveBaseParams:
+    """Read move_base's parameter file (turtlebot's ``move_base_params.yaml``); planner plugin
+    names, recovery behaviours and the like are listed in ``ignored``: servolab's loop has one
+    global and one local planner of its own."""
+    top, notes = _load(path, "move_base parameter file")
+    return parse_move_base(top, str(path), notes)
+
+
+def parse_move_base(top: ConfigValue, path: str = "",
+                    notes: tuple[str, ...] = ()) -> MoveBaseParams:
+    """The move_base parameters of an already composed file."""
+    m = _top_mapping(top, "a move_base parameter file")
+    values: dict[str, object] = {}
+    ignored: list[str] = []
+    for name, value in m.items():
+        if name in _MOVE_BASE_FIELDS:
+            values[name] = _MOVE_BASE_FIELDS[name](value)
+        else:
+            ignored.append(value.key)
+    return MoveBaseParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
+                          notes=notes)
+
+
 # -- shared ------------------------------------------------------------------------------------
 
 
@@ -320,20 +396,6 @@ def _top_mapping(top: ConfigValue, what: str) -> ConfigMapping:
     if top.plain() is None:
         raise top.error(f"empty file: expected {what}")
     return top.as_mapping(what)
-
-
-def _positive(value: ConfigValue) -> float:
-    number = value.as_float()
-    if number <= 0:
-        raise value.error(f"key {value.key!r}: must be > 0, not {number:g}")
-    return number
-
-
-def _nonnegative(value: ConfigValue) -> float:
-    number = value.as_float()
-    if number < 0:
-        raise value.error(f"key {value.key!r}: must be >= 0, not {number:g}")
-    return number
 
 
 def _count(value: ConfigValue) -> int:

@@ -44,7 +44,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from ..planning.costmap import INSCRIBED_INFLATED_OBSTACLE, inflate, occupancy_from_image
+from ..planning.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    inflate,
+    occupancy_from_image,
+    traversal_costs,
+)
 from ..planning.dstar_lite import DStarLite, NoPath
 from . import CONFIGS
 from .nav_params import DEFAULT_RESOLUTION, CostmapParams, load_costmap
@@ -58,22 +63,10 @@ if TYPE_CHECKING:
 DEFAULT_PARAMS = CONFIGS / "costmap_params.yaml"
 #: pixels darker than this are occupied
 DEFAULT_THRESHOLD = 128.0
-#: navfn's cost of a free cell and weight of the costmap's value (navfn/navfn.h)
-COST_NEUTRAL = 50.0
-COST_FACTOR = 0.8
 
 
 class PlanError(ValueError):
     """Input ``servolab plan`` cannot plan on, or no path: one line."""
-
-
-def traversal_costs(costmap: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """Cell costs for the planner from a costmap's 0..254: ``1 + 0.8 c / 50``, ``inf`` for
-    253 and above (see the module docstring)."""
-    c = np.asarray(costmap, dtype=np.float64)
-    costs = (COST_NEUTRAL + COST_FACTOR * c) / COST_NEUTRAL
-    costs[c >= INSCRIBED_INFLATED_OBSTACLE] = np.inf
-    return costs
 
 
 @dataclass

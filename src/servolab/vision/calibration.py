@@ -185,8 +185,10 @@ def _gray(image: npt.ArrayLike, name: str) -> npt.NDArray[np.uint8]:
 
 def find_board(image: npt.ArrayLike, board: tuple[int, int], name: str = "image") -> FloatArray:
     """The inner corners ``(N, 2)`` (pixels, sub-pixel refined) of a ``cols x rows``-square
-    board, in the order of :func:`servolab.vision.synthetic.board_corners`; a
-    :class:`CalibrationError` naming the image if the board is not found."""
+    board, in the order of :func:`servolab.vision.synthetic.board_corners` (the first corner
+    next to the board's black outer-corner square, so that a board turned by 180° still gives
+    the floor frame its own origin); a :class:`CalibrationError` naming the image if the board
+    is not found."""
     cols, rows = board
     gray = _gray(image, name)
     pattern = (cols - 1, rows - 1)
@@ -202,7 +204,24 @@ def find_board(image: npt.ArrayLike, board: tuple[int, int], name: str = "image"
                   float(np.min(np.linalg.norm(np.diff(grid, axis=1), axis=2))))
     half = int(np.clip(spacing / 3.0, 2, 11))
     refined = cv2.cornerSubPix(gray, pts, (half, half), (-1, -1), _SUBPIX_CRITERIA)
-    return np.asarray(refined, dtype=np.float64).reshape(-1, 2)
+    out = np.asarray(refined, dtype=np.float64).reshape(-1, 2)
+    # An even x odd board looks different turned by 180°: the square diagonally outside the
+    # first inner corner is black (render_checkerboard's and MATLAB's detectCheckerboardPoints'
+    # convention) and the one outside the last corner white. OpenCV 5.0 already orders them so,
+    # but its documentation promises no orientation; a board read upside down would put the
+    # floor's origin at the far corner, so the order is checked from the image itself.
+    g = out.reshape(rows - 1, cols - 1, 2)
+    first = g[0, 0] - (g[0, 1] - g[0, 0]) / 2 - (g[1, 0] - g[0, 0]) / 2
+    last = g[-1, -1] - (g[-1, -2] - g[-1, -1]) / 2 - (g[-2, -1] - g[-1, -1]) / 2
+    patch = max(3, int(spacing / 4))
+
+    def grey(centre: FloatArray) -> float:
+        sample = cv2.getRectSubPix(gray, (patch, patch), (float(centre[0]), float(centre[1])))
+        return float(np.mean(sample))
+
+    if grey(first) > grey(last):
+        out = out[::-1].copy()
+    return out
 
 
 def _board_points(board: tuple[int, int], square_mm: float) -> npt.NDArray[np.float32]:
@@ -301,6 +320,30 @@ def floor_extrinsics(calib: CameraCalibration, image: npt.ArrayLike, board: tupl
     rotation, _ = cv2.Rodrigues(rvec)
     return FloorExtrinsics(np.asarray(rotation, dtype=np.float64),
                            np.asarray(tvec, dtype=np.float64).reshape(3))
+
+
+def in_map(extrinsics: FloorExtrinsics,
+           board_at: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> FloorExtrinsics:
+    """The floor extrinsics re-expressed in a map frame as ROS wants one: z up.
+
+    A board's frame has its z into the board (OpenCV's and MATLAB's convention), so the floor
+    frame :func:`floor_extrinsics` gives has its z pointing into the floor, and seen from
+    above its y axis is the mirror of a map's. ``board_at`` ``(x, y, yaw)`` (mm, mm, rad) says
+    where the board lay in the map: its first inner corner at ``(x, y)``, its x axis (along
+    its first row) at ``yaw``, and its y axis therefore at ``yaw - 90°``. The default makes
+    the map's x the board's x and the map's y the board's -y, with the origin at the first
+    inner corner. The result maps map points (mm, z = 0) to the camera like the original
+    maps board points: it is the same plane, a proper rotation (180° about x) away.
+    """
+    x0, y0, yaw = (float(v) for v in board_at)
+    if not all(math.isfinite(v) for v in (x0, y0, yaw)):
+        raise ValueError(f"board_at must be finite (x mm, y mm, yaw rad), got {board_at!r}")
+    c, s = math.cos(yaw), math.sin(yaw)
+    # the board's axes as columns, in map coordinates: x at yaw, y at yaw - 90°, z down
+    axes = np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
+    rotation = extrinsics.rotation @ axes.T
+    translation = extrinsics.translation - rotation @ np.array([x0, y0, 0.0])
+    return FloorExtrinsics(rotation, translation)
 
 
 # -- image <-> floor -----------------------------------------------------------------------

@@ -1,0 +1,87 @@
+"""``servolab navigate --goal X Y [YAW]``: seed 000's navigation loop on the simulated floor.
+
+The command only parses; :mod:`servolab.robots.navigate` runs the loop (its docstring lists the
+nodes, the calibration and the parameter files). Coordinates are metres on the floor, in the
+frame of the calibration board that lay on it; the yaw is in degrees, as a user types it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from .arguments import add_out, finite_float, positive_float
+from .registry import Command
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--goal", required=True, type=finite_float, nargs="+", metavar="V",
+                   help="X Y [YAW]: the goal on the floor in metres, and the heading to end "
+                   "with in degrees (default: the direction from the start to the goal)")
+    p.add_argument("--scene", metavar="YAML", help="the simulated world: floor, overhead "
+                   "camera, obstacles (some appearing mid-run) and the robot's start "
+                   "(default configs/nav_scene.yaml)")
+    p.add_argument("--calib", metavar="YAML", help="the camera's calibration with its floor "
+                   "plane, from 'servolab calibrate ... --floor IMAGE' (default: calibrate the "
+                   "scene's camera first, on synthetic board images)")
+    p.add_argument("--board-at", type=finite_float, nargs="+", metavar="V",
+                   help="with --calib: X Y [YAW] where the floor board lay, its first inner "
+                   "corner in metres and its first row's heading in degrees (default 0 0 0: "
+                   "the board's corner is the map's origin)")
+    p.add_argument("--costmap", metavar="YAML", help="costmap_2d parameters (default "
+                   "configs/costmap_params.yaml, seed 000's D.2)")
+    p.add_argument("--dwa", metavar="YAML", help="dwa_local_planner parameters (default "
+                   "configs/dwa_params.yaml, seed 000's D.3)")
+    p.add_argument("--move-base", metavar="YAML", help="move_base parameters (default "
+                   "configs/move_base_params.yaml, turtlebot's: controller_frequency 5 Hz)")
+    p.add_argument("--timeout", type=positive_float, default=180.0, metavar="S",
+                   help="give up after this many simulated seconds (default 180)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the camera's image noise and "
+                   "the calibration views (default 0)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_out(p)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..errors import ServolabError
+    from ..robots.navigate import prepare, run_navigate
+    from ..runs import RunFolder
+
+    if len(args.goal) not in (2, 3):
+        raise SystemExit(f"servolab navigate: --goal takes X Y or X Y YAW, not "
+                         f"{len(args.goal)} number(s)")
+    x, y = args.goal[:2]
+    yaw = math.radians(args.goal[2]) if len(args.goal) == 3 else None
+    board_at = None
+    if args.board_at is not None:
+        if len(args.board_at) not in (2, 3):
+            raise SystemExit(f"servolab navigate: --board-at takes X Y or X Y YAW, not "
+                             f"{len(args.board_at)} number(s)")
+        bx, by, *turn = args.board_at
+        board_at = (bx, by, math.radians(turn[0]) if turn else 0.0)
+    try:  # everything read and checked before a run folder is made or anything moves
+        navigation = prepare((x, y), goal_yaw=yaw, scene=args.scene, calib=args.calib,
+                             board_at=board_at, costmap=args.costmap, dwa=args.dwa,
+                             move_base=args.move_base)
+        run = RunFolder.create("navigate", args.out)
+        summary = run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
+                               show_progress=not args.no_progress)
+    except (ServolabError, ValueError) as exc:
+        raise SystemExit(f"servolab navigate: {exc}") from None
+    run.write_summary(summary)
+    print(f"run folder: {run.path}")
+    return 0
+
+
+COMMAND = Command(
+    name="navigate", group="robots", help="drive to a goal with the overhead camera, D* Lite "
+    "and DWA (simulated)",
+    description="Seed 000's navigation on the simulated floor: the overhead camera (synthetic, "
+    "calibrated first unless --calib is given) gives the map and the robot's position, D* Lite "
+    "plans on the costmap and repairs the plan when an obstacle appears, DWA drives the "
+    "emulated base through /cmd_vel on the pose fused from odometry and the camera, and the "
+    "robot stops within the goal tolerances. The run folder gets navigate_bag/ (MCAP), "
+    "navigate.png, calibration.yaml and summary.json.",
+    examples=("servolab navigate --goal 2.6 1.6",
+              "servolab navigate --goal 2.6 1.6 90 --scene my_scene.yaml --out runs/nav-a"),
+    add_arguments=_add_arguments, run=_run)
