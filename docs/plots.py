@@ -227,6 +227,33 @@ def navigation(out: Path) -> None:
             plot_plan(problem, path, out / name)
 
 
+def navigation_loop(out: Path) -> None:
+    """docs/navigation.md's runs of `servolab navigate`: the shipped scene, where an obstacle
+    appears on the plan at 6 s, and a box's corner that D.3's DWA does not get round."""
+    import contextlib
+    import shutil
+    import tempfile
+
+    from servolab.robots import CONFIGS
+    from servolab.robots.navigate import NavigationError, prepare, run_navigate
+    from servolab.runs import RunFolder
+
+    with tempfile.TemporaryDirectory() as tmp:
+        run = RunFolder.create("navigate", Path(tmp) / "loop")
+        run_navigate(run, prepare((3.3, 2.3)), say=lambda _: None, show_progress=False)
+        shutil.copy(run.file("navigate.png"), out / "navigation_loop.png")
+        text = (CONFIGS / "nav_scene.yaml").read_text()
+        scene = Path(tmp) / "corner.yaml"
+        scene.write_text(text[:text.index("\nobstacles:") + 1] + "obstacles:\n"
+                         "  - {box: {x: 1.9, y: 0.0, width: 0.2, depth: 1.2}}\n")
+        shutil.copy(CONFIGS / "base_seed000.yaml", Path(tmp) / "base_seed000.yaml")
+        run = RunFolder.create("navigate", Path(tmp) / "corner")
+        with contextlib.suppress(NavigationError):  # the point: it gives up, oscillating
+            run_navigate(run, prepare((3.3, 0.6), goal_yaw=0.0, scene=scene),
+                         say=lambda _: None, show_progress=False)
+        shutil.copy(run.file("navigate.png"), out / "navigation_corner.png")
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
@@ -236,6 +263,7 @@ def main(argv: list[str]) -> None:
     biped(out)
     mobile(out)
     navigation(out)
+    navigation_loop(out)
     print(f"figures written to {out}")
 
 

@@ -20,7 +20,8 @@ def test_docs_plots_script_makes_its_figures(tmp_path: Path, monkeypatch: pytest
                  "gait_feet.png", "gait_joint_angles.png", "biped_walk.png",
                  "mobile_eight.png", "mobile_slip.png", "mobile_fusion.png",
                  "navigation_calibration.png", "navigation_plan.png",
-                 "navigation_plan_no_inflation.png"):
+                 "navigation_plan_no_inflation.png", "navigation_loop.png",
+                 "navigation_corner.png"):
         assert (tmp_path / name).stat().st_size > 10_000
         assert (ROOT / "docs" / "img" / name).exists(), f"docs/img/{name} is not committed"
 

@@ -5,7 +5,8 @@ Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Proto
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
 listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
 floor, stepped by the simulation that owns time; last, Armstrong (the biped of seed 001)
-stands up and walks a step, and seed 000's wheeled robot drives a figure of eight. It saves
+stands up and walks a step, seed 000's wheeled robot drives a figure of eight and then
+navigates to a goal with its overhead camera, D* Lite and DWA. It saves
 plots, bags and summary.json in the run folder. Every robot that servolab grows adds its own
 short run here.
 
@@ -99,6 +100,8 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     figures["biped"] = _biped(run_folder, say)
     say()
     figures["mobile_base"] = _mobile_base(run_folder, say)
+    say()
+    figures["navigation"] = _navigation(run_folder, say)
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -145,6 +148,19 @@ def _mobile_base(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str,
     summary = run_drive(run_folder, "eight", radius=0.3, speed=0.1,
                         say=lambda text: say("   " + text), show_progress=False)
     return {k: summary[k] for k in ("measured", "bag", "plot")}
+
+
+def _navigation(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 000's loop: overhead camera, D* Lite, DWA; an obstacle appears on the way."""
+    from ..robots.navigate import prepare, run_navigate
+
+    say("7. Seed 000's navigation: the overhead camera is calibrated, then the robot drives to")
+    say("   (3.3, 2.3) with D* Lite and DWA; at 6 s an obstacle appears on its path")
+    say("   (servolab navigate --goal 3.3 2.3; see docs/navigation.md)")
+    summary = run_navigate(run_folder, prepare((3.3, 2.3)),
+                           say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("status", "goal_distance_m", "min_clearance_m", "repairs",
+                                    "bag", "plot")}
 
 
 def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:

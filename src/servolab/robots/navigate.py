@@ -391,11 +391,12 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
                 label="plans repaired after a map change")
     cycles = np.array([c[1:3] for c in navigator.cycles], dtype=np.float64).reshape(-1, 2)
     if len(cycles):
-        ax.plot(cycles[:, 0], cycles[:, 1], color="tab:orange", linewidth=1.5,
+        ax.plot(cycles[:, 0], cycles[:, 1], color="tab:orange", linewidth=3, alpha=0.7,
                 label="pose driven on (fused)")
     track = np.array(base.track, dtype=np.float64).reshape(-1, 7)
     if len(track):
-        ax.plot(track[:, 4], track[:, 5], color="tab:green", linewidth=1, label="truth")
+        ax.plot(track[:, 4], track[:, 5], color="tab:green", linewidth=1, linestyle="--",
+                label="truth (simulated floor)")
     ax.plot(*world.start[:2], "o", color="black", label="start")
     ax.plot(*navigator.goal, "*", color="tab:red", markersize=12, label="goal")
     ax.set_xlim(x0, x0 + world.width + 2 * MAP_MARGIN)
