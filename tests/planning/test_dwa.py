@@ -224,3 +224,39 @@ def test_config_from_the_seed_parameter_file() -> None:
     path = Path(__file__).resolve().parents[2] / "configs" / "dwa_params.yaml"
     cfg = DwaConfig.from_params(load_dwa(path))
     assert cfg == D3
+
+
+def test_oscillation_flags_forbid_turning_back_until_the_robot_has_moved() -> None:
+    """base_local_planner's OscillationCostFunction (oscillation_cost_function.cpp): turning
+    on the spot one way after the other sets rot_*_only; a sample turning back is invalid
+    until the robot has moved more than oscillation_reset_dist (D.3: 0.05 m)."""
+    from servolab.planning.dwa import OscillationFlags
+
+    flags = OscillationFlags()
+    flags.update((1.0, 1.0), 0.0, 0.5, D3.min_trans_vel, D3.oscillation_reset_dist)
+    assert not flags.restricted  # one direction so far: nothing to forbid
+    flags.update((1.0, 1.0), 0.0, -0.5, D3.min_trans_vel, D3.oscillation_reset_dist)
+    assert flags.rot_neg_only and not flags.rot_pos_only
+    v = np.array([0.0, 0.0, 0.12, 0.12])
+    omega = np.array([0.5, -0.5, 0.3, 0.0])
+    assert flags.forbidden(v, omega).tolist() == [True, False, True, False]
+    # driving forward faster than min_trans_vel does not count as turning; 4 cm is not enough
+    flags.update((1.04, 1.0), 0.12, 0.3, D3.min_trans_vel, D3.oscillation_reset_dist)
+    assert flags.rot_neg_only
+    flags.update((1.06, 1.0), 0.12, 0.0, D3.min_trans_vel, D3.oscillation_reset_dist)
+    assert not flags.restricted  # 6 cm from where the flag was set: cleared
+
+
+def test_a_forbidden_turn_is_not_chosen() -> None:
+    """With rot_neg_only set, the planner's pick never turns positive, where without flags it
+    would: a goal up and to the left, the robot at rest facing +x."""
+    from servolab.planning.dwa import OscillationFlags
+
+    plan = np.array([[0.5 + 0.025 * k, 1.5 + 0.025 * k] for k in range(40)])
+    free = compute_velocity((0.5, 1.5, -0.6), (0.0, 0.0), free_map(), plan, SLOW,
+                            resolution=RES)
+    assert free.omega > 0
+    flags = OscillationFlags(rotating_neg=True, rot_neg_only=True, stationary=(0.5, 1.5))
+    held = compute_velocity((0.5, 1.5, -0.6), (0.0, 0.0), free_map(), plan, SLOW,
+                            resolution=RES, oscillation=flags)
+    assert held.status is DwaStatus.MOVING and held.omega <= 0

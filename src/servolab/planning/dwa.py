@@ -51,11 +51,18 @@ What is reproduced, and from where (ros-planning/navigation, Noetic):
   faster than ``sqrt(2 acc_lim_theta |error|)`` so it can stop there), and is done within
   ``yaw_goal_tolerance``. Latching is not implemented: the caller decides what "reached" means
   once :attr:`DwaStatus.GOAL_REACHED` is returned.
-* **Not implemented**: the oscillation critic (``oscillation_reset_dist``/``_angle``, flags
-  that forbid reversing a turn direction until the robot has moved that far) and footprint
-  scaling with speed (``scaling_speed``, ``max_scaling_factor``; Noetic's obstacle critic does
-  apply it, but only to polygon footprints, and servolab's costmap is already inflated for a
-  circular robot, whose centre cell is what is checked). ``twirling_scale`` is 0 in D.3.
+* **Oscillation** (``OscillationCostFunction``, base_local_planner/src/
+  oscillation_cost_function.cpp): :class:`OscillationFlags`, the critic's state, which the
+  caller keeps between cycles and passes in. After each chosen trajectory the flags note its
+  direction; once the robot has reversed (forward after backward, or, while slower than
+  ``min_trans_vel``, turning one way after the other) it may only keep the new direction until
+  it has moved ``oscillation_reset_dist`` from where that happened. Noetic's reset nests its
+  angle test inside the distance test, so only the distance counts; so here.
+  ``DWAPlanner::setPlan`` clears the flags whenever move_base hands over a plan.
+* **Not implemented**: footprint scaling with speed (``scaling_speed``,
+  ``max_scaling_factor``; Noetic's obstacle critic applies it only to polygon footprints, and
+  servolab's costmap is already inflated for a circular robot, whose centre cell is what is
+  checked). ``twirling_scale`` is 0 in D.3.
 
 Coordinates: world metres, ``costmap[row, col] = [y, x]``, cell ``(floor((x - ox) / res),
 floor((y - oy) / res))`` as ``Costmap2D::worldToMap``. Pure numpy/scipy; nothing of servolab's
@@ -177,6 +184,68 @@ class DwaSamples:
     goal_front_cost: FloatArray  #: (N,) distance of the forward point to the goal's nose
     occ_cost: FloatArray      #: (N,) largest costmap cost along the trajectory
     cost: FloatArray          #: (N,) total cost, inf where invalid
+
+
+@dataclass
+class OscillationFlags:
+    """The oscillation critic's state (see the module docstring), one per robot; strafing is
+    left out (a differential drive has no ``vy``)."""
+
+    forward_pos: bool = False
+    forward_neg: bool = False
+    rotating_pos: bool = False
+    rotating_neg: bool = False
+    forward_pos_only: bool = False
+    forward_neg_only: bool = False
+    rot_pos_only: bool = False
+    rot_neg_only: bool = False
+    #: where the last restriction was set (x, y)
+    stationary: tuple[float, float] = (0.0, 0.0)
+
+    def reset(self) -> None:
+        """``resetOscillationFlags``: every flag cleared (a new plan, or moved far enough)."""
+        for name in ("forward_pos", "forward_neg", "rotating_pos", "rotating_neg",
+                     "forward_pos_only", "forward_neg_only", "rot_pos_only", "rot_neg_only"):
+            setattr(self, name, False)
+
+    @property
+    def restricted(self) -> bool:
+        return (self.forward_pos_only or self.forward_neg_only or self.rot_pos_only
+                or self.rot_neg_only)
+
+    def forbidden(self, v: FloatArray, omega: FloatArray) -> BoolArray:
+        """``scoreTrajectory``'s -5: the samples that would reverse a restricted direction."""
+        return np.asarray((self.forward_pos_only & (v < 0)) | (self.forward_neg_only & (v > 0))
+                          | (self.rot_pos_only & (omega < 0))
+                          | (self.rot_neg_only & (omega > 0)), dtype=bool)
+
+    def update(self, pose: Sequence[float], v: float, omega: float, min_trans_vel: float,
+               reset_dist: float) -> None:
+        """``updateOscillationFlags`` after a valid trajectory ``(v, omega)`` was chosen at
+        ``pose`` ``(x, y, ...)``."""
+        flag_set = False
+        if v < 0.0:
+            if self.forward_pos:
+                self.forward_neg_only = flag_set = True
+            self.forward_pos, self.forward_neg = False, True
+        if v > 0.0:
+            if self.forward_neg:
+                self.forward_pos_only = flag_set = True
+            self.forward_neg, self.forward_pos = False, True
+        if abs(v) <= min_trans_vel:  # turning counts only when not driving on
+            if omega < 0:
+                if self.rotating_pos:
+                    self.rot_neg_only = flag_set = True
+                self.rotating_pos, self.rotating_neg = False, True
+            if omega > 0:
+                if self.rotating_neg:
+                    self.rot_pos_only = flag_set = True
+                self.rotating_neg, self.rotating_pos = False, True
+        if flag_set:
+            self.stationary = (float(pose[0]), float(pose[1]))
+        if self.restricted and math.hypot(pose[0] - self.stationary[0],
+                                          pose[1] - self.stationary[1]) > reset_dist:
+            self.reset()
 
 
 @dataclass(frozen=True)
@@ -362,7 +431,8 @@ def world_to_cells(xy: FloatArray, resolution: float,
 
 def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
                   plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
-                  origin: Sequence[float] = (0.0, 0.0)) -> DwaSamples:
+                  origin: Sequence[float] = (0.0, 0.0),
+                  oscillation: OscillationFlags | None = None) -> DwaSamples:
     """Simulate and score every sample of the window (see the module docstring for the cost).
 
     ``pose`` is (x, y, theta), ``velocity`` (v, omega), ``plan`` the global path as world
@@ -411,6 +481,8 @@ def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.Arr
     goal_along = lookup(goal_dist, trajectories[..., :2], math.inf)
     reachable = np.all(np.isfinite(path_along), axis=1) & np.all(np.isfinite(goal_along), axis=1)
     valid = feasible & collision_free & reachable
+    if oscillation is not None:
+        valid &= ~oscillation.forbidden(vs, ws)
 
     end = trajectories[:, -1]
     fwd = end[:, :2] + config.forward_point_distance * np.column_stack((np.cos(end[:, 2]),
@@ -438,17 +510,24 @@ def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.Arr
 
 def find_best_trajectory(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
                          plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
-                         origin: Sequence[float] = (0.0, 0.0)) -> DwaResult:
+                         origin: Sequence[float] = (0.0, 0.0),
+                         oscillation: OscillationFlags | None = None) -> DwaResult:
     """The lowest-cost sample of the window (the first of equals, as ROS's strict ``<``), or
-    zero velocity and :attr:`DwaStatus.NO_VALID_TRAJECTORY` when every sample is invalid."""
+    zero velocity and :attr:`DwaStatus.NO_VALID_TRAJECTORY` when every sample is invalid.
+    ``oscillation``, if given, is consulted and then updated with the choice."""
     samples = score_samples(pose, velocity, costmap, plan, config, resolution=resolution,
-                            origin=origin)
+                            origin=origin, oscillation=oscillation)
     if not np.any(samples.valid):
         return DwaResult(0.0, 0.0, DwaStatus.NO_VALID_TRAJECTORY, np.empty((0, 3)),
                          math.inf, samples)
     best = int(np.argmin(samples.cost))
-    return DwaResult(float(samples.v[best]), float(samples.omega[best]), DwaStatus.MOVING,
-                     samples.trajectories[best].copy(), float(samples.cost[best]), samples)
+    v, omega = float(samples.v[best]), float(samples.omega[best])
+    if oscillation is not None:
+        x, y = (float(c) for c in np.asarray(pose, dtype=np.float64)[:2])
+        oscillation.update((x, y), v, omega, config.min_trans_vel,
+                           config.oscillation_reset_dist)
+    return DwaResult(v, omega, DwaStatus.MOVING, samples.trajectories[best].copy(),
+                     float(samples.cost[best]), samples)
 
 
 # -- goal handling (LatchedStopRotateController) -----------------------------------------------
@@ -494,7 +573,8 @@ def goal_command(pose: npt.ArrayLike, velocity: npt.ArrayLike, goal: npt.ArrayLi
 def compute_velocity(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
                      plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
                      origin: Sequence[float] = (0.0, 0.0),
-                     goal_yaw: float | None = None) -> DwaResult:
+                     goal_yaw: float | None = None,
+                     oscillation: OscillationFlags | None = None) -> DwaResult:
     """One controller cycle, as DWAPlannerROS::computeVelocityCommands: goal handling within
     ``xy_goal_tolerance`` of the plan's last point, else the best DWA trajectory."""
     path = _finite("plan", plan)
@@ -505,4 +585,4 @@ def compute_velocity(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.
     if near is not None:
         return near
     return find_best_trajectory(pose, velocity, costmap, path, config, resolution=resolution,
-                                origin=origin)
+                                origin=origin, oscillation=oscillation)

@@ -256,7 +256,8 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
             patience=Patience(move_base_params.planner_patience,
                               move_base_params.controller_patience,
                               move_base_params.oscillation_timeout,
-                              move_base_params.oscillation_distance))
+                              move_base_params.oscillation_distance),
+            planner_frequency=move_base_params.planner_frequency)
         Recorder(context, str(bag), list(RECORDED))
         start = base.clock.now()
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "

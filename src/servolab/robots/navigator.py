@@ -13,7 +13,9 @@ maps change only the cells that differ (``update_cells``), and the robot's new c
 planner's start (``move_to``), so each plan is a repair, not a new search. Each controller
 cycle (``controller_frequency``, move_base's) hands the plan to DWA
 (:func:`~servolab.planning.dwa.compute_velocity`, the D.3 parameters), which also stops the
-robot and turns it to the goal's heading within the goal tolerances.
+robot and turns it to the goal's heading within the goal tolerances. DWA's oscillation flags
+are kept here and cleared every ``1 / planner_frequency`` s, when move_base would hand DWA a
+new global plan (``DWAPlanner::setPlan`` clears them; 0: only at the start).
 
 It gives up (``ABORTED``, the wheels stopped, the reason in :attr:`NavigatorNode.reason`) as
 move_base does: the goal outside the map or inside an obstacle as soon as the first map shows
@@ -39,7 +41,7 @@ from ..middleware.context import Context
 from ..middleware.node import Node
 from ..planning.costmap import inflate, traversal_costs
 from ..planning.dstar_lite import DStarLite, NoPath
-from ..planning.dwa import DwaConfig, DwaStatus, compute_velocity
+from ..planning.dwa import DwaConfig, DwaStatus, OscillationFlags, compute_velocity
 from .nav_params import CostmapParams
 from .overhead_tracker import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
 
@@ -88,7 +90,8 @@ class NavigatorNode(Node):
 
     def __init__(self, context: Context, goal: tuple[float, float], *,
                  costmap: CostmapParams, dwa: DwaConfig, goal_yaw: float | None = None,
-                 patience: Patience = Patience(), pose_topic: str = "/fused_pose",
+                 patience: Patience = Patience(), planner_frequency: float = 0.0,
+                 pose_topic: str = "/fused_pose",
                  name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -101,6 +104,12 @@ class NavigatorNode(Node):
         self.goal = (gx, gy)
         self.goal_yaw = goal_yaw
         self.params, self.dwa, self.patience = costmap, dwa, patience
+        if not (math.isfinite(planner_frequency) and planner_frequency >= 0):
+            raise ValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
+        self.planner_frequency = planner_frequency
+        #: DWA's oscillation critic; cleared whenever move_base would hand over a new plan
+        self.oscillation = OscillationFlags()
+        self._handed_over: float | None = None
         self.status = NavigationStatus.WAITING
         self.reason = ""
         self.pose: tuple[float, float, float] | None = None
@@ -280,9 +289,14 @@ class NavigatorNode(Node):
         if plan is None:
             self._stop()
             return
+        if self._handed_over is None or (
+                self.planner_frequency > 0
+                and now - self._handed_over >= 1.0 / self.planner_frequency - 1e-9):
+            self.oscillation.reset()  # DWAPlanner::setPlan, at move_base's planner_frequency
+            self._handed_over = now
         result = compute_velocity((x, y, yaw), self.velocity, self.costmap, plan, self.dwa,
                                   resolution=self.resolution, origin=self.origin,
-                                  goal_yaw=self.goal_yaw)
+                                  goal_yaw=self.goal_yaw, oscillation=self.oscillation)
         self.cycles.append((now, x, y, yaw, result.v, result.omega, result.status.name))
         if result.status is DwaStatus.GOAL_REACHED:
             self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
