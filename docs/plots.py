@@ -245,7 +245,7 @@ def navigation_loop(out: Path) -> None:
         text = (CONFIGS / "nav_scene.yaml").read_text()
         scene = Path(tmp) / "corner.yaml"
         scene.write_text(text[:text.index("\nobstacles:") + 1] + "obstacles:\n"
-                         "  - {box: {x: 1.9, y: 0.0, width: 0.2, depth: 1.2}}\n")
+                         "  - {box: {x: 1.9, y: 0.0, width: 0.2, depth: 1.6}}\n")
         shutil.copy(CONFIGS / "base_seed000.yaml", Path(tmp) / "base_seed000.yaml")
         run = RunFolder.create("navigate", Path(tmp) / "corner")
         with contextlib.suppress(NavigationError):  # the point: it gives up, oscillating

@@ -96,3 +96,36 @@ def test_aligned_odometry_is_fused_in_the_map_frame() -> None:
     np.testing.assert_allclose(got, fuse_seed_000(truth, truth), atol=1e-9)
     last = fused[-1].pose
     assert 2 * math.atan2(last.orientation.z, last.orientation.w) == pytest.approx(math.pi / 2)
+
+
+@pytest.mark.parametrize("gain", [0.0, 0.05])
+def test_the_trackers_heading_corrects_a_wrong_alignment(gain: float) -> None:
+    """The first sighting's heading is 10° off (the tracker's error); later sightings are
+    right. With heading_gain the fused heading converges to the tracker's (0.95^k of the
+    error is left after k sightings); with 0 it keeps the first alignment's error."""
+    ctx = Context.open(clock=VirtualClock())
+    node = FusionNode(ctx, parameter_overrides={"align_odometry": True, "heading_gain": gain})
+    probe = Node(ctx, "probe")
+    fused: list[Any] = []
+    probe.create_subscription("geometry_msgs/msg/PoseStamped", "/fused_pose", fused.append, 0)
+    odom = probe.create_publisher("nav_msgs/msg/Odometry", "/odom", 0)
+    pose = probe.create_publisher("geometry_msgs/msg/PoseStamped", "/tracker/pose", 0)
+    odom.publish(probe.message("nav_msgs/msg/Odometry", pose={"pose": {
+        "orientation": {"w": 1.0}}}))
+    ctx.spin_until(lambda: node._odometry_pose is not None, timeout=1.0)
+    for k in range(60):
+        yaw = math.radians(10.0) if k == 0 else 0.0
+        pose.publish(probe.message("geometry_msgs/msg/PoseStamped", header={"frame_id": "map"},
+                                   pose={"position": {"x": 1.0, "y": 1.0},
+                                         "orientation": {"z": math.sin(yaw / 2),
+                                                         "w": math.cos(yaw / 2)}}))
+        ctx.spin_until(lambda k=k: len(fused) > k, timeout=1.0)
+    ctx.close()
+    q = fused[-1].pose.orientation
+    heading = math.degrees(2 * math.atan2(q.z, q.w))
+    if gain:
+        assert heading == pytest.approx(10.0 * 0.95**59, abs=0.01)
+        assert (fused[-1].pose.position.x, fused[-1].pose.position.y) == pytest.approx(
+            (1.0, 1.0))  # turned about the robot: its position stayed
+    else:
+        assert heading == pytest.approx(10.0)

@@ -185,3 +185,17 @@ def test_move_base_bad_values_refused_at_their_line(tmp_path: Path) -> None:
     bad.write_text("")
     with pytest.raises(NavParamsError, match="empty file: expected a move_base parameter file"):
         load_move_base(bad)
+
+
+@pytest.mark.parametrize(("loader", "path", "what"), [
+    (load_dwa, "nav_scene.yaml", "dwa_local_planner's"),
+    (load_costmap, "dwa_params.yaml", "costmap_2d's"),
+    ("move_base", "costmap_params.yaml", "move_base's"),
+])
+def test_a_file_of_the_wrong_kind_is_refused(loader: object, path: str, what: str) -> None:
+    """Every key of a wrong file would be 'ignored' and the run would use the defaults."""
+    from servolab.robots.nav_params import load_move_base
+
+    load = load_move_base if loader == "move_base" else loader
+    with pytest.raises(NavParamsError, match=f"none of {what} parameters is in this file"):
+        load(ROOT / "configs" / path)  # type: ignore[operator]

@@ -7,7 +7,6 @@ anything moves. The recording is read back with an independent reader (mcap-ros2
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -136,13 +135,18 @@ def test_a_static_scene_and_a_goal_heading(tmp_path: Path, calibration: Any) -> 
     assert turning, "the robot never turned on the spot to the goal's heading"
 
 
-def test_a_goal_inside_an_obstacle_is_refused_before_the_robot_moves(
-        tmp_path: Path, calibration: Any) -> None:
-    with pytest.raises(NavigationError, match=r"goal \(2, 1\.4\) is inside an obstacle"):
-        _run(tmp_path, calibration, (2.0, 1.4))
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["path_length_m"] < 0.005  # no wheel turned on purpose
-    assert summary["status"] == "ABORTED"
+def test_a_goal_that_an_obstacle_covers_later_is_given_up(tmp_path: Path,
+                                                         calibration: Any) -> None:
+    """The goal is the centre of the obstacle that appears at 6 s: free when the run starts,
+    then no path to it, and after move_base's planner_patience (5 s) the goal is given up
+    with the wheels stopped; the summary is still there for the caller to write."""
+    with pytest.raises(NavigationError, match="no path to the goal for 5 s") as error:
+        _run(tmp_path, calibration, (2.75, 1.8))
+    summary = error.value.summary
+    assert summary is not None and summary["status"] == "ABORTED"
+    assert summary["seconds"] == pytest.approx(6.0 + 5.0, abs=0.5)
+    commands = _messages(summary, "/cmd_vel")
+    assert (commands[-1].ros_msg.linear.x, commands[-1].ros_msg.angular.z) == (0.0, 0.0)
 
 
 @pytest.mark.parametrize(("args", "message"), [
@@ -150,13 +154,20 @@ def test_a_goal_inside_an_obstacle_is_refused_before_the_robot_moves(
     (["--goal", "1"], "--goal takes X Y or X Y YAW, not 1 number(s)"),
     (["--goal", "1", "1", "--board-at", "0", "0"], "it needs a calibration file (--calib)"),
     (["--goal", "1", "1", "--dwa", "MISSING"], "MISSING"),
+    (["--goal", "2", "1.4"], "goal (2, 1.4) is inside an obstacle of"),
+    (["--goal", "3.9", "1"], "within the robot's inscribed radius 0.206 m"),  # the wall
+    (["--goal", "1", "1", "--dwa", str(SCENE)], "none of dwa_local_planner's parameters"),
+    (["--goal", "1", "1", "--seed", "-1"], "argument --seed: -1 must be 0 or more"),
 ])
 def test_bad_input_is_refused_in_one_line_before_a_run_folder(
-        tmp_path: Path, args: list[str], message: str) -> None:
+        tmp_path: Path, args: list[str], message: str,
+        capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "run"
     with pytest.raises(SystemExit) as exit_:
         main(["navigate", *args, "--out", str(out)])
     text = str(exit_.value.code)
+    if exit_.value.code == 2:  # argparse's own refusal, printed on stderr
+        text = "servolab navigate: " + capsys.readouterr().err.strip().splitlines()[-1]
     assert text.startswith("servolab navigate: ") and message in text
     assert "\n" not in text
     assert not out.exists()
@@ -170,3 +181,28 @@ def test_a_calibration_without_its_floor_is_refused(tmp_path: Path, calibration:
     save(calib, None, path)
     with pytest.raises(NavigationError, match="has no floor extrinsics"):
         prepare((1.0, 1.0), calib=path)
+
+
+def test_an_unwritable_run_folder_is_one_line(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(SystemExit) as exit_:
+        main(["navigate", "--goal", "3.3", "2.3", "--out", str(blocker / "run")])
+    assert str(exit_.value.code).startswith("servolab navigate: cannot make the run folder")
+
+
+def test_a_runs_calibration_file_gives_the_same_map_frame(appearing: dict[str, Any]) -> None:
+    """--calib with the calibration.yaml a run wrote: the board's place is in the file, so the
+    map frame it gives is the scene's: the camera is found where the scene puts it (1 %)."""
+    from servolab.vision.calibration import in_map
+
+    navigation = prepare((3.3, 2.3), calib=appearing["calibration_file"])
+    assert navigation.board_at == pytest.approx(BOARD_AT)
+    assert navigation.calibration is not None
+    _, board = navigation.calibration
+    found = in_map(board, (BOARD_AT[0] * 1000, BOARD_AT[1] * 1000, BOARD_AT[2]))
+    truth = np.array(load_scene(SCENE).camera.position) * 1000
+    assert found.camera_position == pytest.approx(truth, abs=0.01 * truth[2])
+    # a board placed elsewhere on the command line wins over the file's
+    moved = prepare((3.3, 2.3), calib=appearing["calibration_file"], board_at=(0.0, 0.0, 0.0))
+    assert moved.board_at == (0.0, 0.0, 0.0)

@@ -85,6 +85,17 @@ def positive_float(text: str) -> float:
     return value
 
 
+def nonnegative_int(text: str) -> int:
+    """An argparse type: a whole number >= 0 (a seed, a count)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text} must be 0 or more")
+    return value
+
+
 def add_out(p: argparse.ArgumentParser) -> None:
     """``--out DIR``, the run folder of a command that leaves one (see :mod:`servolab.runs`)."""
     p.add_argument("--out", metavar="DIR", help="run folder for summary.json and plots "

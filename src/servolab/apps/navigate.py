@@ -1,8 +1,9 @@
 """``servolab navigate --goal X Y [YAW]``: seed 000's navigation loop on the simulated floor.
 
 The command only parses; :mod:`servolab.robots.navigate` runs the loop (its docstring lists the
-nodes, the calibration and the parameter files). Coordinates are metres on the floor, in the
-frame of the calibration board that lay on it; the yaw is in degrees, as a user types it.
+nodes, the calibration and the parameter files). Coordinates are metres on the floor's map: the
+scene's frame without --calib, else the frame of the calibration board that lay on the floor
+(placed with --board-at); the yaw is in degrees, as a user types it.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from .arguments import add_out, finite_float, positive_float
+from .arguments import add_out, finite_float, nonnegative_int, positive_float
 from .registry import Command
 
 
@@ -36,15 +37,15 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "configs/move_base_params.yaml, turtlebot's: controller_frequency 5 Hz)")
     p.add_argument("--timeout", type=positive_float, default=180.0, metavar="S",
                    help="give up after this many simulated seconds (default 180)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the camera's image noise and "
-                   "the calibration views (default 0)")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the camera's "
+                   "image noise and the calibration views (default 0)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_out(p)
 
 
 def _run(args: argparse.Namespace) -> int:
     from ..errors import ServolabError
-    from ..robots.navigate import prepare, run_navigate
+    from ..robots.navigate import NavigationError, prepare, run_navigate
     from ..runs import RunFolder
 
     if len(args.goal) not in (2, 3):
@@ -64,8 +65,18 @@ def _run(args: argparse.Namespace) -> int:
                              board_at=board_at, costmap=args.costmap, dwa=args.dwa,
                              move_base=args.move_base)
         run = RunFolder.create("navigate", args.out)
+    except (ServolabError, ValueError) as exc:
+        raise SystemExit(f"servolab navigate: {exc}") from None
+    except OSError as exc:
+        raise SystemExit(f"servolab navigate: cannot make the run folder {args.out}: "
+                         f"{exc.strerror or exc}") from None
+    try:
         summary = run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
                                show_progress=not args.no_progress)
+    except NavigationError as exc:
+        if exc.summary is not None:
+            run.write_summary(exc.summary)
+        raise SystemExit(f"servolab navigate: {exc} (run folder: {run.path})") from None
     except (ServolabError, ValueError) as exc:
         raise SystemExit(f"servolab navigate: {exc}") from None
     run.write_summary(summary)

@@ -144,6 +144,13 @@ class ServiceType:
         return f"{self.name}_Response"
 
 
+def time_of(seconds: float) -> dict[str, int]:
+    """A ``builtin_interfaces/msg/Time`` value of a time in seconds (a clock's ``now()``): whole
+    seconds and the rest in nanoseconds, rounded once so that ``nanosec`` never reaches 1e9."""
+    ns = round(seconds * 1e9)
+    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+
+
 def canonical_name(name: str) -> str:
     """``pkg/msg/Name`` for ``pkg/Name`` (ROS 1 spelling) or ``pkg/msg/Name``."""
     parts = name.strip().split("/")
@@ -351,8 +358,7 @@ class MessageTypes:
         if desc[0] == Nodetype.NAME:
             name = desc[1]
             if name == "builtin_interfaces/msg/Time" and value == "now":
-                ns = time.time_ns()
-                value = {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+                value = time_of(time.time_ns() * 1e-9)
             return self.from_value(name, value, where)
         kind = desc[0]
         sub, count = desc[1]

@@ -21,6 +21,7 @@ from typing import Any
 
 from ..kinematics.diffdrive import wheel_speeds
 from ..middleware.context import Context
+from ..middleware.messages import time_of
 from ..middleware.node import Node
 from .mobile_base import MobileBase
 
@@ -106,7 +107,7 @@ class BaseNode(Node):
             v = -v
         omega = (theta - ptheta) / dt if dt > 0 else 0.0
         self._previous = (x, y, theta, now)
-        stamp = {"sec": int(now // 1), "nanosec": round((now % 1) * 1e9) % 1_000_000_000}
+        stamp = time_of(now)
         quaternion = {"z": math.sin(theta / 2), "w": math.cos(theta / 2)}
         self.odom.publish(self.message(
             ODOMETRY, header={"stamp": stamp, "frame_id": ODOM_FRAME},

@@ -192,7 +192,7 @@ def measure(robot: MobileBase, move: str) -> dict[str, float]:
 def record(robot: MobileBase, path: Path) -> Path:
     """The run's track and commands as an MCAP bag (rosbag2 layout), in the base's time."""
     from ..middleware.bag import BagWriter
-    from ..middleware.messages import MessageTypes
+    from ..middleware.messages import MessageTypes, time_of
 
     if path.exists():  # a run folder's files are replaced (servolab.runs)
         shutil.rmtree(path)
@@ -205,7 +205,7 @@ def record(robot: MobileBase, path: Path) -> Path:
         writer.add_topic("/ground_truth", odometry)
 
     def pose(topic: str, frame: str, t: float, x: float, y: float, yaw: float) -> None:
-        stamp = {"sec": int(t), "nanosec": int((t % 1) * 1e9)}
+        stamp = time_of(t)
         msg = types.from_value(odometry, {
             "header": {"stamp": stamp, "frame_id": frame}, "child_frame_id": "base_footprint",
             "pose": {"pose": {"position": {"x": x, "y": y},
@@ -219,7 +219,7 @@ def record(robot: MobileBase, path: Path) -> Path:
                 pose("/ground_truth", "world", t, tx, ty, tyaw)
         for t, left, right in robot.commands:
             writer.write("/wheel_commands", types.from_value(joints, {
-                "header": {"stamp": {"sec": int(t), "nanosec": int((t % 1) * 1e9)}},
+                "header": {"stamp": time_of(t)},
                 "name": ["wheel_left_joint", "wheel_right_joint"],
                 "velocity": [left, right]}), round(t * 1e9))
     finally:

@@ -14,8 +14,9 @@ when both start at the same point. With ``align_odometry`` the node first finds 
 from the first tracker pose that arrives after odometry, as a localiser does: the tracker's
 position and heading (its orientation) against the odometry pose at that moment. From then on
 each odometry pose is moved into the map frame before it is fused, and the fused pose carries
-the heading of the aligned odometry (the tracker's heading is coarser than the encoders'; it
-is used once, to align).
+the heading of the aligned odometry. The tracker's heading is coarser than the encoders' but
+does not drift: each later sighting turns ``map -> odom`` by ``heading_gain`` (0.05) of the
+difference, about the robot, so a wrong first alignment or the encoders' drift fades out.
 """
 
 from __future__ import annotations
@@ -54,6 +55,11 @@ class FusionNode(Node):
         self.align = bool(self.declare_parameter(
             "align_odometry", False, description="find map -> odom from the first tracker "
             "pose and fuse odometry in the map frame").value)
+        self.heading_gain = float(self.declare_parameter(
+            "heading_gain", 0.05, description="with align_odometry: the part of the tracker's "
+            "heading error corrected at each later sighting (0: align once)").value)
+        if not (math.isfinite(self.heading_gain) and 0.0 <= self.heading_gain <= 1.0):
+            raise ValueError(f"fusion: heading_gain {self.heading_gain!r} must be in [0, 1]")
         self.config = config
         self.filter: KalmanFilter | None = None
         self.odometry: tuple[float, float] | None = None
@@ -84,14 +90,36 @@ class FusionNode(Node):
         c, s = math.cos(a), math.sin(a)
         return (tx + c * x - s * y, ty + s * x + c * y, yaw + a)
 
+    @staticmethod
+    def _heading(msg: Any) -> float | None:
+        """The tracker pose's heading, None if its orientation holds none."""
+        q = msg.pose.orientation
+        if not (math.isfinite(q.z) and math.isfinite(q.w)) or (q.z == 0 and q.w == 0):
+            return None
+        return 2.0 * math.atan2(float(q.z), float(q.w))
+
+    def _correct_heading(self, msg: Any) -> None:
+        """Turn ``map -> odom`` by ``heading_gain`` of the tracker's heading error, about the
+        robot (its position in the map stays), as a slow complementary filter: the encoders'
+        heading is smooth but drifts, the tracker's is coarse but does not drift."""
+        heading = self._heading(msg)
+        if heading is None or self.map_from_odom is None or self._odometry_pose is None \
+                or self.heading_gain == 0.0:
+            return
+        here = self._in_map(self._odometry_pose)
+        error = math.remainder(heading - here[2], 2 * math.pi)
+        a = self.map_from_odom[2] + self.heading_gain * error
+        x, y, _ = self._odometry_pose
+        c, s = math.cos(a), math.sin(a)
+        self.map_from_odom = (here[0] - (c * x - s * y), here[1] - (s * x + c * y), a)
+
     def _align(self, msg: Any) -> None:
         """``map -> odom`` from this tracker pose and the odometry pose at hand."""
         if self._odometry_pose is None:
             return
-        q = msg.pose.orientation
-        if not (math.isfinite(q.z) and math.isfinite(q.w)) or (q.z == 0 and q.w == 0):
+        yaw_map = self._heading(msg)
+        if yaw_map is None:
             return  # no heading in this sighting: wait for one that has it
-        yaw_map = 2.0 * math.atan2(float(q.z), float(q.w))
         x, y, yaw = self._odometry_pose
         a = yaw_map - yaw
         c, s = math.cos(a), math.sin(a)
@@ -109,6 +137,8 @@ class FusionNode(Node):
             self._align(msg)
             if self.map_from_odom is None:
                 self.odometry = None  # odometry in another frame is not fused
+        elif self.align:
+            self._correct_heading(msg)
         if self.filter is None:
             self.filter = seed_000_filter(np.array(tracker), self.config)
         elif self.odometry is not None:
@@ -120,7 +150,7 @@ class FusionNode(Node):
         x, y = (float(v) for v in self.filter.state[:2])
         orientation = {"w": 1.0}
         if self.align and self.map_from_odom is not None and self._odometry_pose is not None:
-            yaw = self._in_map(self._odometry_pose)[2]
+            yaw = math.remainder(self._in_map(self._odometry_pose)[2], 2 * math.pi)
             orientation = {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
         self.fused.publish(self.message(POSE, header={"stamp": msg.header.stamp,
                                                       "frame_id": msg.header.frame_id},

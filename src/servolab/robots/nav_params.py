@@ -156,6 +156,8 @@ def parse_costmap(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ())
             values["inflation_radius"] = nonnegative_float(v)
         if (v := source.get("cost_scaling_factor")) is not None:
             values["cost_scaling_factor"] = nonnegative_float(v)
+    _check_some_known(m, sum(name in _COSTMAP_TOP for name in m),
+                      "costmap_2d's parameters")
     return CostmapParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
                          notes=notes)
 
@@ -311,6 +313,7 @@ def parse_dwa(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ()) -> 
         else:
             ignored.append(value.key)
     values.update(renamed)  # the newer name wins, as warnRenamedParameter lets it
+    _check_some_known(m, len(values), "dwa_local_planner's parameters")
     params = DwaParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
                        notes=notes)
     for low, high in (("min_vel_x", "max_vel_x"), ("min_vel_y", "max_vel_y"),
@@ -385,11 +388,22 @@ def parse_move_base(top: ConfigValue, path: str = "",
             values[name] = _MOVE_BASE_FIELDS[name](value)
         else:
             ignored.append(value.key)
+    _check_some_known(m, len(values) + sum(name.startswith("base_") for name in m),
+                      "move_base's parameters")
     return MoveBaseParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
                           notes=notes)
 
 
 # -- shared ------------------------------------------------------------------------------------
+
+
+def _check_some_known(m: ConfigMapping, known: int, what: str) -> None:
+    """A file of the wrong kind (a scene where DWA's parameters were meant) would otherwise
+    run on defaults with every key "ignored": refuse a file that sets none of ours."""
+    if known == 0 and len(m):
+        first = ", ".join(list(m)[:4])
+        raise m.error(f"none of {what} is in this file (its keys: {first}); is it the "
+                      "right file?")
 
 
 def _top_mapping(top: ConfigValue, what: str) -> ConfigMapping:

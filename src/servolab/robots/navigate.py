@@ -93,12 +93,19 @@ FLOOR_BOARD, FLOOR_SQUARE_MM = (10, 7), 150.0
 BOARD_AT = (0.3, 1.4, 0.0)
 #: how far the map reaches beyond the floor on each side (m): the arena's walls are in it
 MAP_MARGIN = 0.2
+#: the navigator stops the wheels when the pose is older than this many camera frames
+POSE_TIMEOUT_FRAMES = 2.5
 RECORDED = ("/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose", "/plan",
             "/map")
 
 
 class NavigationError(ServolabError, ValueError):
-    """A navigation that cannot start or did not reach its goal; the message says why."""
+    """A navigation that cannot start or did not reach its goal; the message says why.
+    ``summary`` holds the run's figures when it ran (the caller writes them)."""
+
+    def __init__(self, message: str, summary: dict[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.summary = summary
 
 
 def fusion_for(scene: Scene) -> Seed000Fusion:
@@ -168,7 +175,8 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
     """Read and check everything a run needs, before anything is made or moves: the scene,
     the three parameter files, the goal (on the floor) and the calibration file if any.
     ``goal_yaw`` None: arrive facing the way from the start to the goal. ``board_at`` (m, m,
-    rad) goes with ``calib`` only."""
+    rad) goes with ``calib`` only; without it, the file's own ``board_at`` (a run's
+    ``calibration.yaml`` has one), else the map's origin."""
     world = load_scene(scene or DEFAULT_SCENE)
     costmap_params = load_costmap(costmap or DEFAULT_COSTMAP)
     dwa_params = load_dwa(dwa or DEFAULT_DWA)
@@ -203,9 +211,23 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
                                   f"{calibration.image_size[1]} images, the scene's camera "
                                   f"gives {world.camera.width}x{world.camera.height}")
         loaded = (calibration, board)
+        board_at = board_at or board.board_at or (0.0, 0.0, 0.0)
+    if world.camera.rate < dwa_config.controller_frequency:
+        raise NavigationError(
+            f"{world.path}: the camera's rate {world.camera.rate:g} frames/s is below "
+            f"move_base's controller_frequency {dwa_config.controller_frequency:g} Hz: the "
+            "controller would drive on poses older than its period")
+    # the goal against what the scene has at the start (the first map shows it again)
+    body = costmap_params.inscribed_radius
+    clearance = world.clearance(gx, gy, 0.0)
+    if clearance <= 0:
+        raise NavigationError(f"goal ({gx:g}, {gy:g}) is inside an obstacle of {world.path}")
+    if clearance <= body:
+        raise NavigationError(
+            f"goal ({gx:g}, {gy:g}) is {clearance:.3g} m from an obstacle of {world.path}, "
+            f"within the robot's inscribed radius {body:.3g} m: the robot cannot stand there")
     return Navigation(world, costmap_params, dwa_config, move_base_params, (gx, gy, goal_yaw),
-                      loaded, board_at or (BOARD_AT if calib is None else (0.0, 0.0, 0.0)),
-                      ignored)
+                      loaded, board_at or BOARD_AT, ignored)
 
 
 def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: float = 180.0,
@@ -233,7 +255,8 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     else:
         say(f"calibrating the overhead camera: {VIEWS} views of a {BOARD[0]}x{BOARD[1]} board")
         calibration, board = calibrate_synthetic(world, np.random.default_rng(seed))
-    save_calibration(calibration, board, run_folder.file("calibration.yaml"))
+    save_calibration(calibration, dataclasses.replace(board, board_at=board_at),
+                     run_folder.file("calibration.yaml"))
     extrinsics = in_map(board, (board_at[0] * 1000.0, board_at[1] * 1000.0, board_at[2]))
     grid = map_grid(world, costmap_params.resolution)
 
@@ -244,6 +267,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
         shutil.rmtree(bag)
     context = Context.open(clock=base.clock)
     wall = time.perf_counter()
+    interrupted: BaseException | None = None
     try:
         BaseNode(context, base)
         GroundTruthNode(context, base.floor)
@@ -257,21 +281,30 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
                               move_base_params.controller_patience,
                               move_base_params.oscillation_timeout,
                               move_base_params.oscillation_distance),
-            planner_frequency=move_base_params.planner_frequency)
+            planner_frequency=move_base_params.planner_frequency,
+            pose_timeout=POSE_TIMEOUT_FRAMES / world.camera.rate)
         Recorder(context, str(bag), list(RECORDED))
         start = base.clock.now()
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
             f"on {world.path}")
-        _drive(context, navigator, base, start, timeout, show_progress)
-        base.stop()
+        try:
+            _drive(context, navigator, base, start, timeout, show_progress)
+        except BaseException as error:  # Ctrl-C or a node's error: stop, keep what happened
+            interrupted = error
     finally:
-        context.close()
-        base.stop()
-        base.bus.close()
+        try:
+            base.stop()  # the wheels first, whatever else fails
+        finally:
+            try:
+                context.close()  # the recorder finishes the bag
+            finally:
+                base.bus.close()
     elapsed = base.clock.now() - start
     summary = summarise(world, base, navigator, goal=(gx, gy, goal_yaw), elapsed=elapsed,
                         calibration=calibration, frames=camera.frames,
-                        sightings=tracker.sightings, dwa=dwa_config)
+                        sightings=tracker.sightings, dwa=dwa_config, start=camera.start,
+                        body_radius=max(world.robot_radius,
+                                        costmap_params.circumscribed_radius))
     summary["wall_seconds"] = round(time.perf_counter() - wall, 2)
     #: the simulated time the run started at (the camera's first frame; obstacles appear at
     #: their ``appear_at`` after it): the bag's and the repairs' times count from the clock's 0
@@ -281,11 +314,15 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     summary["board_at"] = list(board_at)
     summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy, grid,
                                           run_folder.file("navigate.png")))
+    if interrupted is not None:
+        summary["status"] = "INTERRUPTED"
+        summary["reason"] = f"interrupted: {type(interrupted).__name__} {interrupted}".strip()
+        run_folder.write_summary(summary)  # the caller will not get to it
+        raise interrupted
     if navigator.status is not NavigationStatus.SUCCEEDED:
         reason = navigator.reason or f"not at the goal after {timeout:g} s"
         summary["reason"] = reason
-        run_folder.write_summary(summary)
-        raise NavigationError(f"navigation failed: {reason}")
+        raise NavigationError(f"navigation failed: {reason}", summary)
     say(f"goal reached in {elapsed:.1f} s: {summary['goal_distance_m'] * 1000:.0f} mm and "
         f"{math.degrees(summary['goal_yaw_error_rad']):.1f}° from the goal (truth), nearest "
         f"obstacle {summary['min_clearance_m'] * 1000:.0f} mm from the robot's edge, "
@@ -317,12 +354,14 @@ def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: floa
 def summarise(world: Scene, base: MobileBase, navigator: NavigatorNode, *,
               goal: tuple[float, float, float], elapsed: float,
               calibration: CameraCalibration, frames: int, sightings: int,
-              dwa: DwaConfig) -> dict[str, Any]:
-    """The run's figures, measured against the floor's truth."""
+              dwa: DwaConfig, start: float, body_radius: float) -> dict[str, Any]:
+    """The run's figures, measured against the floor's truth. ``start`` is the simulated time
+    the scene's clock counts from (obstacles appear after it); the clearance is that of a
+    robot of ``body_radius`` (the larger of the camera's marker and the costmap's padded
+    footprint's circumscribed radius)."""
     truth = base.truth()
     track = np.array(base.track, dtype=np.float64).reshape(-1, 7)
-    t0 = track[0, 0] if len(track) else 0.0
-    clearances = [world.clearance(x, y, t - t0) - world.robot_radius
+    clearances = [world.clearance(x, y, t - start) - body_radius
                   for t, x, y in track[:, [0, 4, 5]]]
     yaw_error = math.remainder(truth["yaw"] - goal[2], 2 * math.pi)
     return {
@@ -338,6 +377,8 @@ def summarise(world: Scene, base: MobileBase, navigator: NavigatorNode, *,
         "yaw_goal_tolerance_rad": dwa.yaw_goal_tolerance,
         "controller_frequency_hz": dwa.controller_frequency,
         "min_clearance_m": float(min(clearances)) if clearances else math.inf,
+        "body_radius_m": body_radius,
+        "stale_pose_cycles": navigator.stale_cycles,
         "seconds": elapsed,
         "path_length_m": float(np.sum(np.hypot(*np.diff(track[:, 4:6], axis=0).T)))
         if len(track) > 1 else 0.0,

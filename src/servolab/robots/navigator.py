@@ -22,7 +22,8 @@ move_base does: the goal outside the map or inside an obstacle as soon as the fi
 it, no plan for ``planner_patience`` s, no valid trajectory for ``controller_patience`` s. While
 the robot's own cell is within the inscribed radius of an obstacle (the controller cut a
 corner), the plan keeps starting from the last cell it could stand in, as navfn clears the
-robot's cell.
+robot's cell. A pose older than ``pose_timeout`` (the camera lost the robot) stops the wheels
+until a new one comes, and after ``controller_patience`` s gives the goal up.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..middleware.context import Context
+from ..middleware.messages import time_of
 from ..middleware.node import Node
 from ..planning.costmap import inflate, traversal_costs
 from ..planning.dstar_lite import DStarLite, NoPath
@@ -64,7 +66,7 @@ class NavigationStatus(enum.Enum):
 @dataclass(frozen=True)
 class Repair:
     """One map change the planner repaired: when (s), how many cells changed, and the host
-    seconds the repair took (the next plan after the change)."""
+    seconds the repair took (``update_cells`` and the next plan after the change)."""
 
     t: float
     cells: int
@@ -91,7 +93,7 @@ class NavigatorNode(Node):
     def __init__(self, context: Context, goal: tuple[float, float], *,
                  costmap: CostmapParams, dwa: DwaConfig, goal_yaw: float | None = None,
                  patience: Patience = Patience(), planner_frequency: float = 0.0,
-                 pose_topic: str = "/fused_pose",
+                 pose_timeout: float = 0.5, pose_topic: str = "/fused_pose",
                  name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -107,6 +109,13 @@ class NavigatorNode(Node):
         if not (math.isfinite(planner_frequency) and planner_frequency >= 0):
             raise ValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
         self.planner_frequency = planner_frequency
+        if not (math.isfinite(pose_timeout) and pose_timeout > 0):
+            raise ValueError(f"pose_timeout {pose_timeout!r} must be > 0 s")
+        self.pose_timeout = pose_timeout
+        self._pose_at = -math.inf
+        self._stale_since: float | None = None
+        #: controller cycles skipped, the wheels stopped, because the pose was too old
+        self.stale_cycles = 0
         #: DWA's oscillation critic; cleared whenever move_base would hand over a new plan
         self.oscillation = OscillationFlags()
         self._handed_over: float | None = None
@@ -125,6 +134,7 @@ class NavigatorNode(Node):
         #: (t, x, y, yaw, v, omega, DWA status) of every controller cycle that drove
         self.cycles: list[tuple[float, float, float, float, float, float, str]] = []
         self._pending_change = 0
+        self._pending_seconds = 0.0
         self._stuck_since: float | None = None
         self._no_plan_since: float | None = None
         #: (t, x, y) where the robot last had moved oscillation_distance
@@ -159,7 +169,9 @@ class NavigatorNode(Node):
                 return
             changed = np.argwhere(costs != self.costs)
             if len(changed):
+                started = time.perf_counter()
                 self.planner.update_cells(changed, costs[changed[:, 0], changed[:, 1]])
+                self._pending_seconds += time.perf_counter() - started
                 self._pending_change += len(changed)
         self.costmap, self.costs = costmap, costs
         self.resolution, self.origin = resolution, origin
@@ -171,6 +183,7 @@ class NavigatorNode(Node):
             self.get_logger().error(f"pose refused: {pose} is not finite")
             return
         self.pose = pose
+        self._pose_at = self.now()
 
     def _on_odom(self, msg: Any) -> None:
         v, omega = float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z)
@@ -238,23 +251,19 @@ class NavigatorNode(Node):
             return None
         self._no_plan_since = None
         if self._pending_change:
-            self.repairs.append(Repair(now, self._pending_change,
-                                       time.perf_counter() - started))
-            self._pending_change = 0
+            self.repairs.append(Repair(now, self._pending_change, self._pending_seconds
+                                       + time.perf_counter() - started))
+            self._pending_change, self._pending_seconds = 0, 0.0
         plan = self.points_of(cells)
         if not self.plans or not np.array_equal(self.plans[-1][1], plan):
             self.plans.append((now, plan))
-            stamp = self._stamp(now)
+            stamp = time_of(now)
             self.plan_publisher.publish(self.message(
                 PATH, header={"stamp": stamp, "frame_id": MAP_FRAME},
                 poses=[{"header": {"stamp": stamp, "frame_id": MAP_FRAME},
                         "pose": {"position": {"x": float(x), "y": float(y)},
                                  "orientation": {"w": 1.0}}} for x, y in plan]))
         return plan
-
-    @staticmethod
-    def _stamp(now: float) -> dict[str, int]:
-        return {"sec": int(now // 1), "nanosec": round((now % 1) * 1e9) % 1_000_000_000}
 
     def _oscillating(self, now: float, x: float, y: float) -> bool:
         """move_base's oscillation check; True (and aborted) when it fires."""
@@ -269,10 +278,27 @@ class NavigatorNode(Node):
             return True
         return False
 
+    def _stale(self, now: float) -> bool:
+        """True (the wheels stopped) while the pose is older than ``pose_timeout``, as a ROS
+        controller refuses a transform that old; aborted after ``controller_patience``."""
+        if now - self._pose_at <= self.pose_timeout:
+            self._stale_since = None
+            return False
+        self.stale_cycles += 1
+        self._stale_since = self._stale_since if self._stale_since is not None else now
+        if now - self._stale_since >= self.patience.controller:
+            self._abort(f"no pose newer than {self.pose_timeout:g} s for "
+                        f"{self.patience.controller:g} s")
+        else:
+            self._stop()
+        return True
+
     def _cycle(self) -> None:
         if self.done or self.pose is None or self.costs is None:
             return
         now = self.now()
+        if self._stale(now):
+            return
         x, y, yaw = self.pose
         cell = self.cell_of(x, y)
         if cell is None:

@@ -33,9 +33,9 @@ IMAGE = "sensor_msgs/msg/Image"
 POSE = "geometry_msgs/msg/PoseStamped"
 OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
 MAP_FRAME = "map"
-#: map_server's QoS for /map: a late subscriber still gets the map
 #: map_server's default ``occupied_thresh`` 0.65, as the grid's 0..100 scale
 OCCUPIED_THRESHOLD = 65
+#: map_server's QoS for /map: a late subscriber still gets the map
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..middleware.context import Context
+from ..middleware.messages import time_of
 from ..middleware.node import Node
 from ..vision.synthetic import Image, render_floor
 from .world import World
@@ -58,9 +59,7 @@ class OverheadCameraNode(Node):
         now = self.now()
         height, width = image.shape
         self.publisher.publish(self.message(
-            IMAGE, header={"stamp": {"sec": int(now // 1),
-                                     "nanosec": round((now % 1) * 1e9) % 1_000_000_000},
-                           "frame_id": FRAME},
+            IMAGE, header={"stamp": time_of(now), "frame_id": FRAME},
             height=height, width=width, encoding="mono8", step=width,
             data=np.ascontiguousarray(image).reshape(-1)))
         self.frames += 1

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..middleware.context import Context
+from ..middleware.messages import time_of
 from ..middleware.node import Node
 from .world import World
 
@@ -41,8 +42,7 @@ class GroundTruthNode(Node):
         yaw = truth.get("yaw", 0.0)
         self.publisher.publish(self.message(
             ODOMETRY,
-            header={"stamp": {"sec": int(now), "nanosec": int((now % 1) * 1e9)},
-                    "frame_id": "world"},
+            header={"stamp": time_of(now), "frame_id": "world"},
             child_frame_id="base_footprint",
             pose={"pose": {"position": {"x": truth.get("x", 0.0), "y": truth.get("y", 0.0)},
                            "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},

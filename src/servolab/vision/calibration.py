@@ -121,8 +121,15 @@ class FloorExtrinsics:
 
     rotation: FloatArray
     translation: FloatArray
+    #: where the board lay in the robot's map, ``(x m, y m, yaw rad)`` (see :func:`in_map`),
+    #: if the file says; the extrinsics themselves are in the board's frame
+    board_at: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.board_at is not None and (len(self.board_at) != 3 or not all(
+                math.isfinite(v) for v in self.board_at)):
+            raise ValueError(f"board_at must be 3 finite numbers (x m, y m, yaw rad), got "
+                             f"{self.board_at!r}")
         r = np.asarray(self.rotation, dtype=np.float64)
         t = np.asarray(self.translation, dtype=np.float64).reshape(-1)
         if r.shape != (3, 3) or not np.all(np.isfinite(r)):
@@ -429,7 +436,8 @@ def save(calib: CameraCalibration, extrinsics: FloorExtrinsics | None,
     The layout is the one ROS's ``camera_calibration`` writes and ``camera_info_manager``
     reads; ``rectification_matrix`` is the identity and ``projection_matrix`` is ``[K | 0]``
     (a monocular camera). ``floor_extrinsics`` adds ``rotation_matrix`` and
-    ``translation_vector`` (mm, floor frame to camera frame), which ROS's readers ignore.
+    ``translation_vector`` (mm, floor frame to camera frame), which ROS's readers ignore, and
+    ``board_at`` (m, m, rad) when the extrinsics know where the board lay in the map.
     """
     k = calib.camera_matrix
     projection = np.hstack([k, np.zeros((3, 1))])
@@ -445,11 +453,14 @@ def save(calib: CameraCalibration, extrinsics: FloorExtrinsics | None,
         "projection_matrix": _matrix(projection, 3, 4),
     }
     if extrinsics is not None:
-        doc["floor_extrinsics"] = {
+        floor: dict[str, object] = {
             "rotation_matrix": _matrix(extrinsics.rotation, 3, 3),
             "translation_vector": _matrix(extrinsics.translation, 3, 1),
             "units": "mm",
         }
+        if extrinsics.board_at is not None:
+            floor["board_at"] = [float(v) for v in extrinsics.board_at]
+        doc["floor_extrinsics"] = floor
     Path(path).write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None),
                           encoding="utf-8")
 
@@ -501,15 +512,24 @@ def load(path: str | Path) -> tuple[CameraCalibration, FloorExtrinsics | None]:
     if extrinsics_node is None:
         return calib, None
     ext = extrinsics_node.as_mapping()
-    ext.check_keys(("rotation_matrix", "translation_vector", "units"),
+    ext.check_keys(("rotation_matrix", "translation_vector", "units", "board_at"),
                    required=("rotation_matrix", "translation_vector"))
     units = ext.get("units")
     if units is not None and units.as_str() != "mm":
         raise units.error(f"key 'floor_extrinsics.units': must be mm, not {units.as_str()!r}")
     rotation = _read_matrix(ext, "rotation_matrix", (3, 3))
     translation = _read_matrix(ext, "translation_vector", (3, 1))
+    board_at = None
+    placed = ext.get("board_at")
+    if placed is not None:
+        items = placed.as_list()
+        if len(items) != 3:
+            raise placed.error("key 'floor_extrinsics.board_at': must be [x m, y m, yaw rad], "
+                               f"not {len(items)} numbers")
+        x, y, yaw = (item.as_float() for item in items)
+        board_at = (x, y, yaw)
     try:
-        extrinsics = FloorExtrinsics(rotation, translation.ravel())
+        extrinsics = FloorExtrinsics(rotation, translation.ravel(), board_at)
     except ValueError as exc:
         raise ext.error(f"key 'floor_extrinsics': {exc}") from None
     return calib, extrinsics
