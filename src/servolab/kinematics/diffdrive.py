@@ -39,7 +39,7 @@ def _check_positive(name: str, value: float) -> float:
     return float(value)
 
 
-def _finite(name: str, values: npt.ArrayLike) -> FloatArray:
+def finite_array(name: str, values: npt.ArrayLike) -> FloatArray:
     """``values`` as a float array; ValueError naming the first NaN or infinity.
 
     A NaN speed that slipped through would be clamped or scaled into a NaN servo command,
@@ -103,8 +103,8 @@ def wheel_speeds(v: npt.ArrayLike, omega: npt.ArrayLike,
     """Left and right wheel angular speeds (rad/s) for body speed ``v`` (m/s) and turn rate
     ``omega`` (rad/s), the inverse of seed 002's eq. 5b/5c (Listing 4's ``wheel_speed_cmd``
     divided by the wheel radius). Broadcasts over arrays."""
-    v_arr = _finite("v", v)
-    omega_arr = _finite("omega", omega)
+    v_arr = finite_array("v", v)
+    omega_arr = finite_array("omega", omega)
     half = omega_arr * (drive.wheel_separation / 2.0)
     return (v_arr - half) / drive.wheel_radius, (v_arr + half) / drive.wheel_radius
 
@@ -113,8 +113,8 @@ def body_velocity(left: npt.ArrayLike, right: npt.ArrayLike,
                   drive: DiffDrive) -> tuple[FloatArray, FloatArray]:
     """Body speed ``v`` (m/s) and turn rate ``omega`` (rad/s) from the wheels' angular speeds
     (rad/s): seed 002 eq. 5b ``v = (w_l + w_r) r / 2`` and 5c ``omega = (w_r - w_l) r / L``."""
-    left_arr = _finite("left wheel speed", left)
-    right_arr = _finite("right wheel speed", right)
+    left_arr = finite_array("left wheel speed", left)
+    right_arr = finite_array("right wheel speed", right)
     r = drive.wheel_radius
     return (left_arr + right_arr) * (r / 2.0), (right_arr - left_arr) * (r / drive.wheel_separation)
 
@@ -129,8 +129,8 @@ def limit_wheel_speeds(left: npt.ArrayLike, right: npt.ArrayLike,
     both together keeps the path and only slows the robot along it.
     """
     limit = _check_positive("max_wheel_speed", max_wheel_speed)
-    left_arr = _finite("left wheel speed", left)
-    right_arr = _finite("right wheel speed", right)
+    left_arr = finite_array("left wheel speed", left)
+    right_arr = finite_array("right wheel speed", right)
     largest = np.maximum(np.abs(left_arr), np.abs(right_arr))
     scale = np.where(largest > limit, limit / np.where(largest > 0, largest, 1.0), 1.0)
     return left_arr * scale, right_arr * scale
@@ -141,7 +141,7 @@ def limit_wheel_speeds(left: npt.ArrayLike, right: npt.ArrayLike,
 def _ticks(name: str, values: npt.ArrayLike, encoder: Encoder) -> IntArray:
     array = np.asarray(values)
     if array.dtype.kind not in "iu":
-        floats = _finite(name, array)
+        floats = finite_array(name, array)
         fractional = floats != np.round(floats)
         if np.any(fractional):
             raise ValueError(f"{name} must be whole ticks, got {floats[fractional].flat[0]!r}")
@@ -174,13 +174,13 @@ def tick_delta(previous: npt.ArrayLike, current: npt.ArrayLike, encoder: Encoder
 
 def ticks_to_angle(ticks: npt.ArrayLike, encoder: Encoder) -> FloatArray:
     """Wheel rotation (rad) of a tick increment."""
-    return _finite("ticks", ticks) * (2.0 * math.pi / encoder.ticks_per_rev)
+    return finite_array("ticks", ticks) * (2.0 * math.pi / encoder.ticks_per_rev)
 
 
 def distance_to_ticks(distance: npt.ArrayLike, drive: DiffDrive, encoder: Encoder) -> FloatArray:
     """Ticks a wheel counts while rolling ``distance`` metres: what seed 000's straight-line
     program counts up to (its ``h``) before it stops the motors."""
-    return _finite("distance", distance) * (
+    return finite_array("distance", distance) * (
         encoder.ticks_per_rev / (2.0 * math.pi * drive.wheel_radius))
 
 
@@ -198,7 +198,7 @@ def integrate_odometry(pose: npt.ArrayLike, d_left_ticks: npt.ArrayLike,
     Scalar increments give the new pose, shape (3,). 1-D increments (one per read) give the
     pose after each of them, shape (N, 3). ``theta`` is not wrapped, so it counts whole turns.
     """
-    start = _finite("pose", pose)
+    start = finite_array("pose", pose)
     if start.shape != (3,):
         raise ValueError(f"pose must be (x, y, theta), got shape {start.shape}")
     d_left = np.asarray(ticks_to_angle(d_left_ticks, encoder) * drive.wheel_radius)

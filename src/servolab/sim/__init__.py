@@ -3,11 +3,13 @@
 - :mod:`.simulation` — :class:`Simulation`: virtual time, fixed physics steps, real time
 - :mod:`.world` — :class:`World`: the interface a world implements
 - :mod:`.floor` — :class:`DiffDriveFloor`: two wheels on a flat floor
+- :mod:`.ball` — :class:`BallWorld`: seed 002's treadmill, a fly walking on a ball
 - :mod:`.emulated` — emulated buses in a simulation (what ``emu://`` opens)
 
 ``docs/sim.md`` explains time, plants and worlds for someone who will write a world.
 """
 
+from .ball import BallWorld
 from .emulated import emulated_port, port_to
 from .floor import DiffDriveFloor, DiffDriveGeometry
 from .simulation import DEFAULT_PHYSICS_STEP, Simulation, SimulationError
@@ -17,7 +19,8 @@ from .world import World
 #: tests/sim/test_world_contract.py; add a new world here to have it checked.
 WORLDS: dict[str, type[World]] = {
     DiffDriveFloor.name: DiffDriveFloor,
+    BallWorld.name: BallWorld,
 }
 
-__all__ = ["DEFAULT_PHYSICS_STEP", "WORLDS", "DiffDriveFloor", "DiffDriveGeometry",
+__all__ = ["DEFAULT_PHYSICS_STEP", "WORLDS", "BallWorld", "DiffDriveFloor", "DiffDriveGeometry",
            "Simulation", "SimulationError", "World", "emulated_port", "port_to"]

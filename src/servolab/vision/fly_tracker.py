@@ -1,0 +1,134 @@
+"""Where the fly is in a dark-field frame: the seed's blob tracker (seed 002, Appendix A,
+Listing 1, ``imageCb``), kept number for number so that the servo loop built on it sees what the
+thesis's loop saw.
+
+Listing 1 thresholds the frame at 50 (``THRESH_BINARY``; the ``threshold_value = 125`` it
+declares is never used), finds the external contours, keeps the largest by ``contourArea``, and
+only if that area is above 100 px² takes the contour's moments: the centroid ``m10/m00,
+m01/m00`` and the axis angle ``atan2(2 mu11', mu20' - mu02') / 2`` from the normalised central
+moments. The angle is that of an axis, not a heading (a fly facing -x gives 0 like one facing
++x), in image axes (x right, y down), so a positive angle turns clockwise on the screen.
+
+When nothing passes, Listing 1 leaves the sighting at the target (the image centre, section 3.2:
+``(320, 188, 0)`` for its 640 x 376 frames), so the error it servoes on is zero and the stage
+stops rather than jumping after a lost fly; :func:`track_fly` does the same and says so with
+``present=False``.
+
+Two additions, both off by default so the default is Listing 1: a region of interest (the seed's
+camera did this in hardware with ``format7_roi``, section 5.2) and subtraction of a background
+frame, so that a static reflection brighter than 50 does not become "the largest contour".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+Image = npt.NDArray[np.uint8]
+
+#: Listing 1's ``target_location``: the centre of its 640 x 376 frame, heading 0 (section 3.2).
+DEFAULT_TARGET = (320.0, 188.0)
+
+
+@dataclass(frozen=True)
+class FlyTrackerConfig:
+    """The tracker's knobs; the defaults are Listing 1's."""
+
+    #: Grey level the fly must exceed (``THRESH_BINARY``: strictly greater), Listing 1.
+    threshold: float = 50.0
+    #: px²; the largest contour is a fly only if its area is strictly greater, Listing 1.
+    min_area: float = 100.0
+    #: ``(x, y, width, height)`` in the image to search; ``None``: the whole image.
+    roi: tuple[int, int, int, int] | None = None
+    #: Subtract a background frame (saturating, ``cv2.subtract``) before the threshold.
+    background_subtraction: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.threshold) and 0.0 <= self.threshold < 255.0):
+            raise ValueError(f"threshold must be a grey level in [0, 255), got {self.threshold}")
+        if not (math.isfinite(self.min_area) and self.min_area >= 0.0):
+            raise ValueError(f"min_area must be a finite area >= 0 px², got {self.min_area}")
+        if self.roi is not None:
+            if len(self.roi) != 4 or not all(isinstance(v, int) for v in self.roi):
+                raise ValueError(f"roi must be four integers (x, y, width, height), got {self.roi}")
+            if self.roi[2] <= 0 or self.roi[3] <= 0:
+                raise ValueError(f"roi width and height must be > 0, got {self.roi}")
+
+
+@dataclass(frozen=True)
+class FlySighting:
+    """What Listing 1 publishes for one frame, plus whether a fly was actually seen.
+
+    ``cx, cy`` are full-image pixels and ``theta`` radians in ``(-pi/2, pi/2]``; when
+    ``present`` is false they are the target's, as in Listing 1. ``area`` is the largest
+    contour's area (0 if there is none), the ``maxArea`` Listing 1 compares with 100.
+    """
+
+    present: bool
+    cx: float
+    cy: float
+    theta: float
+    area: float
+
+
+def _check_image(image: npt.NDArray[np.generic], name: str) -> None:
+    if image.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D (mono8) image, got shape {image.shape}")
+    if image.dtype != np.uint8:
+        raise ValueError(f"{name} must be uint8 (mono8), got {image.dtype}")
+
+
+def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
+              target: tuple[float, float] = DEFAULT_TARGET,
+              background: Image | None = None) -> FlySighting:
+    """Find the fly in ``image`` as Listing 1's ``imageCb`` does.
+
+    ``target`` is what an absent fly reports (Listing 1's ``target_location``), so that the
+    error the caller servoes on is zero rather than a jump. ``background`` is used only with
+    ``config.background_subtraction`` and must match ``image`` in shape and dtype.
+    """
+    image = np.asarray(image)
+    _check_image(image, "image")
+    height, width = image.shape
+    work = image
+    if config.background_subtraction:
+        if background is None:
+            raise ValueError("background_subtraction needs a background image, got None")
+        background = np.asarray(background)
+        if background.shape != image.shape or background.dtype != image.dtype:
+            raise ValueError(f"background must be {image.dtype} of shape {image.shape}, got "
+                             f"{background.dtype} of shape {background.shape}")
+        work = np.asarray(cv2.subtract(image, background), dtype=np.uint8)
+    x0, y0 = 0, 0
+    if config.roi is not None:
+        x0, y0, w, h = config.roi
+        if x0 < 0 or y0 < 0 or x0 + w > width or y0 + h > height:
+            raise ValueError(f"roi {config.roi} is outside the {width} x {height} image")
+        work = work[y0:y0 + h, x0:x0 + w]
+    _, binary = cv2.threshold(work, config.threshold, 255.0, cv2.THRESH_BINARY)
+    contours, _ = cv2.findContours(binary, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    # Listing 1: strictly larger wins, so the first of equal areas is kept.
+    best = -1
+    max_area = 0.0
+    for i, contour in enumerate(contours):
+        area = float(cv2.contourArea(contour))
+        if area > max_area:
+            max_area = area
+            best = i
+    if best < 0 or not max_area > config.min_area:
+        return FlySighting(False, float(target[0]), float(target[1]), 0.0, max_area)
+    mu = cv2.moments(contours[best], False)
+    cx = mu["m10"] / mu["m00"]
+    cy = mu["m01"] / mu["m00"]
+    mu20 = mu["m20"] / mu["m00"] - cx * cx
+    mu02 = mu["m02"] / mu["m00"] - cy * cy
+    mu11 = mu["m11"] / mu["m00"] - cx * cy
+    theta = math.atan2(2.0 * mu11, mu20 - mu02) / 2.0
+    if theta <= -math.pi / 2:  # atan2(-0.0, negative) = -pi; the same axis as +pi/2
+        theta += math.pi
+    # The moments are of the ROI's crop; shifting the centroid is exact (the angle is unchanged).
+    return FlySighting(True, cx + x0, cy + y0, theta, max_area)
