@@ -50,7 +50,11 @@ class RunFolder:
             while path.exists():
                 n += 1
                 path = Path(root) / f"{command}-{stamp}-{n}"
-        path.mkdir(parents=True, exist_ok=True)
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:  # a file in the way, no permission, a read-only disk
+            raise RunFolderError(f"cannot make the run folder {path}: "
+                                 f"{exc.strerror or exc}") from None
         return cls(path, command)
 
     def file(self, name: str) -> Path:

@@ -67,9 +67,6 @@ def _run(args: argparse.Namespace) -> int:
         run = RunFolder.create("navigate", args.out)
     except (ServolabError, ValueError) as exc:
         raise SystemExit(f"servolab navigate: {exc}") from None
-    except OSError as exc:
-        raise SystemExit(f"servolab navigate: cannot make the run folder {args.out}: "
-                         f"{exc.strerror or exc}") from None
     try:
         summary = run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
                                show_progress=not args.no_progress)

@@ -25,14 +25,19 @@ import numpy as np
 
 @dataclass(frozen=True)
 class FlyWalkConfig:
-    """The walking statistics (SI units). Defaults: a calm fly on a ball, walking about half
-    the time at about 8 mm/s in bouts of about 2 s."""
+    """The walking statistics (SI units). Defaults: a calm fly, walking a little over half the
+    time at about 3 mm/s in bouts of about 2 s.
 
-    speed: float = 0.008          #: m/s, the median forward speed of a bout
+    The speed is set from seed 002, not from free-walking flies (about 10 mm/s): with Listing
+    1's gains the treadmill turns the ball at about 1.2 mm/s per mm of error, so a fly much
+    faster than 3-4 mm/s would walk out of the 16.7 x 9.9 mm view, and the thesis's fly was
+    held (1.8 mm mean error)."""
+
+    speed: float = 0.003          #: m/s, the median forward speed of a bout
     speed_spread: float = 0.35    #: the log-normal sigma of a bout's speed
     bout: float = 2.0             #: s, mean length of a walking bout
     pause: float = 1.5            #: s, mean length of a pause
-    turn_std: float = 1.2         #: rad/s, spread of the turning rate while walking
+    turn_std: float = 0.8         #: rad/s, spread of the turning rate while walking
     turn_time: float = 0.3        #: s, how long a turning rate persists (OU time constant)
 
     def __post_init__(self) -> None:

@@ -1,0 +1,98 @@
+"""``servolab flyball``: seed 002's machine-insect interface, and ``servolab flyball analyze
+RUN``, chapter 3's analysis of a run's logs.
+
+The command only parses; :mod:`servolab.robots.flyball` runs the closed loop on the simulated
+fly, ball and robot, and :mod:`servolab.robots.fly_analysis` computes and draws what the thesis
+reports.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .arguments import add_out, nonnegative_int, positive_float
+from .registry import Command
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--duration", type=positive_float, default=100.0, metavar="S",
+                   help="simulated seconds to run (default 100, the thesis's experiment)")
+    p.add_argument("--seed", type=nonnegative_int, default=0,
+                   help="seed of the fly's walk and the camera's noise (default 0)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_out(p)
+    sub = p.add_subparsers(dest="action", metavar="analyze")
+    analyze = sub.add_parser("analyze", help="chapter 3's analysis of a run folder's logs",
+                             description="Read RUN/fly_data.bin and RUN/robot_encoders.bin "
+                             "(the thesis's binary layouts) and write the mean distance and "
+                             "angle errors, the sphere's and the robot's paths and the "
+                             "response delay to RUN/analysis.json, with RUN/flyball.png.")
+    analyze.add_argument("run", metavar="RUN", help="a run folder of servolab flyball, or "
+                         "any folder holding the two logs")
+    analyze.add_argument("--partial", action="store_true", help="read the whole records of "
+                         "a log cut off by a crash (says how many)")
+
+
+def _analyze(args: argparse.Namespace) -> int:
+    import json
+    import warnings
+    from pathlib import Path
+
+    from ..robots.fly_analysis import analyze, plot_analysis
+    from ..robots.fly_logs import FlyLogError, read_encoder_log, read_fly_log
+
+    run = Path(args.run)
+    if not run.is_dir():
+        raise SystemExit(f"servolab flyball analyze: {run} is not a folder")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            fly = read_fly_log(run / "fly_data.bin", partial=args.partial)
+            encoders = read_encoder_log(run / "robot_encoders.bin", partial=args.partial)
+        except FlyLogError as exc:
+            raise SystemExit(f"servolab flyball analyze: {exc}") from None
+    for warning in caught:
+        print(f"servolab flyball analyze: {warning.message}")
+    if len(fly) < 2:
+        raise SystemExit(f"servolab flyball analyze: {run / 'fly_data.bin'} holds "
+                         f"{len(fly)} record(s); the analysis needs at least two frames")
+    result, series = analyze(fly, encoders)
+    (run / "analysis.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+    plot = plot_analysis(result, series, fly, run / "flyball.png")
+    print(f"{result.frames} frames ({result.frames_with_fly} with the fly): mean distance "
+          f"error {result.mean_distance_error_mm:.3f} mm (thesis 1.821), mean angle error "
+          f"{result.mean_angle_error_deg:.2f}° (thesis 7.039); {run / 'analysis.json'}, {plot}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.action == "analyze":
+        return _analyze(args)
+    from ..errors import ServolabError
+    from ..robots.flyball import run_flyball
+    from ..runs import RunFolder
+
+    try:
+        run = RunFolder.create("flyball", args.out)
+        summary = run_flyball(run, duration=args.duration, seed=args.seed,
+                              show_progress=not args.no_progress)
+    except (ServolabError, ValueError) as exc:
+        raise SystemExit(f"servolab flyball: {exc}") from None
+    run.write_summary(summary)
+    print(f"run folder: {run.path}")
+    return 0
+
+
+COMMAND = Command(
+    name="flyball", group="robots", help="seed 002's fly on the ball treadmill steering a "
+    "robot (simulated), and its analysis",
+    description="A fruit fly walks on a ball; a camera below finds it, three omni-wheels turn "
+    "the ball to bring it back to the image centre (Listing 1's tracker and controller, one "
+    "SYNC_WRITE and one SYNC_READ per frame at 66 frames/s), and a TurtleBot3 Waffle is driven "
+    "by the same error. Simulated fly, ball and robot. The run folder gets fly_data.bin and "
+    "robot_encoders.bin in the thesis's binary layouts, flyball_bag/ (MCAP), flyball.png and "
+    "summary.json with chapter 3's figures.",
+    examples=("servolab flyball --duration 100",
+              "servolab flyball --duration 20 --seed 3 --out runs/fly-a",
+              "servolab flyball analyze runs/fly-a"),
+    add_arguments=_add_arguments, run=_run)

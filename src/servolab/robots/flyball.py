@@ -1,0 +1,136 @@
+"""``servolab flyball``'s run: seed 002's closed loop on a simulated fly, ball and robot.
+
+One simulation owns the time of everything (:class:`~servolab.sim.Simulation`): the treadmill
+(:class:`~servolab.sim.ball.BallWorld`, three emulated XM430-W210 wheels, IDs 100-102, at
+1 Mbps) with a walking fly on it, its camera (:class:`~servolab.sim.fly_camera.
+SimulatedFlyCamera`, 640 x 376 at 66 frames/s), and a TurtleBot3 Waffle
+(``configs/base_turtlebot3_waffle.yaml``, its own emulated bus) on a floor. The nodes are the
+thesis's (Figure 2):
+
+- the camera PC's ``image_converter`` (:class:`~.flyball_node.FlyballNode`): track, control,
+  one SYNC_WRITE and one SYNC_READ on the treadmill's bus, ``/cmd_vel`` to the robot, the
+  17-value record to ``fly_data.bin``;
+- the robot's base node (:class:`~.base_node.BaseNode`): ``/cmd_vel`` to its wheels,
+  ``/sensor_state`` with the encoders;
+- Listing 2's ``mobrob_data_tracker`` (:class:`MobrobDataTracker`): each ``/sensor_state`` to
+  ``robot_encoders.bin``.
+
+The run folder then holds ``fly_data.bin``, ``robot_encoders.bin``, ``flyball_bag/`` (MCAP:
+``/cmd_vel``, ``/fly/pose``, ``/aot/joint_states``, ``/sensor_state``, ``/odom``), the
+analysis of :mod:`.fly_analysis` in ``summary.json`` and its figures in ``flyball.png``.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+from ..middleware.context import Context
+from ..middleware.node import Node
+from . import CONFIGS
+from .fly_logs import EncoderLogWriter
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
+    from ..sim.fly_walk import FlyWalkConfig
+
+Say = Callable[[str], None]
+WAFFLE = CONFIGS / "base_turtlebot3_waffle.yaml"
+SENSOR_STATE = "turtlebot3_msgs/msg/SensorState"
+RECORDED = ("/cmd_vel", "/fly/pose", "/aot/joint_states", "/sensor_state", "/odom")
+
+
+class MobrobDataTracker(Node):
+    """Listing 2: every ``sensor_state`` message's time (µs) and the left and right encoder
+    counts, as three int64, to ``log``."""
+
+    def __init__(self, context: Context, log: EncoderLogWriter, name: str = "mobrob_data_tracker",
+                 namespace: str = "/", *, parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
+        self.log = log
+        self.records = 0
+        self.create_subscription(SENSOR_STATE, "sensor_state", self._on_state, 1000)
+
+    def _on_state(self, msg: Any) -> None:
+        self.log.write(round(self.now() * 1e6), int(msg.left_encoder), int(msg.right_encoder))
+        self.records += 1
+
+
+def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0,
+                fly: FlyWalkConfig | None = None, say: Say = print,
+                show_progress: bool = True) -> dict[str, Any]:
+    """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
+    returns the summary (the analysis and where the files are)."""
+    import math
+
+    from ..dynamixel.bus import Bus
+    from ..middleware.recorder import Recorder
+    from ..sim import BallWorld, Simulation
+    from ..sim.fly_camera import SimulatedFlyCamera
+    from ..sim.fly_walk import FlyWalkConfig, FlyWalker
+    from .base_config import load as load_base
+    from .base_node import BaseNode
+    from .fly_analysis import analyze, plot_analysis
+    from .fly_logs import FlyLogWriter, read_encoder_log, read_fly_log
+    from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
+    from .mobile_base import MobileBase
+
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration {duration!r} must be a number of seconds > 0")
+    sim = Simulation()
+    aot = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}", baudrate=AOT_BAUDRATE,
+                   simulation=sim)
+    world = sim.add(BallWorld([aot.emulator.motor(i) for i in AOT_IDS],
+                              walker=FlyWalker(fly or FlyWalkConfig(), seed=seed)))
+    camera = SimulatedFlyCamera(world, seed=seed)
+    base = MobileBase.emulated(load_base(WAFFLE), sim)
+    bag = run_folder.file("flyball_bag")
+    if bag.exists():
+        shutil.rmtree(bag)
+    fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
+    say(f"the fly walks on the simulated treadmill for {duration:g} s (seed {seed}); "
+        "the robot follows the ball")
+    with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path) as encoder_log, \
+            Context.open(clock=sim) as context:
+        try:
+            node = FlyballNode(context, aot, camera, log=fly_log)
+            BaseNode(context, base)
+            tracker = MobrobDataTracker(context, encoder_log)
+            Recorder(context, str(bag), list(RECORDED))
+            _spin(context, sim, duration, show_progress)
+        finally:
+            try:
+                base.stop()
+            finally:
+                aot.sync_write("goal_velocity", dict.fromkeys(AOT_IDS, 0), raw=True)
+                aot.sync_write("torque_enable", dict.fromkeys(AOT_IDS, 0))
+    fly_records, encoders = read_fly_log(fly_path), read_encoder_log(encoder_path)
+    result, series = analyze(fly_records, encoders)
+    plot = plot_analysis(result, series, fly_records, run_folder.file("flyball.png"))
+    truth = world.ground_truth()
+    summary: dict[str, Any] = {
+        "duration_s": duration, "seed": seed, "frames": node.frames,
+        "encoder_records": tracker.records, "analysis": result.summary(),
+        "fly_walked_m": truth["fly_walked"], "fly_data": str(fly_path),
+        "robot_encoders": str(encoder_path), "bag": str(bag), "plot": str(plot)}
+    say(f"{node.frames} frames: mean distance error {result.mean_distance_error_mm:.3f} mm "
+        f"(thesis 1.821), mean angle error {result.mean_angle_error_deg:.2f}° (thesis 7.039), "
+        f"response delay {result.response_delay_s * 1000:.0f} ms (thesis about 110); "
+        f"sphere path {result.sphere_path_length_m * 1000:.0f} mm, robot path "
+        f"{result.robot_path_length_m:.2f} m, shape disparity {result.path_disparity:.2f}; "
+        f"plot {plot}")
+    return summary
+
+
+def _spin(context: Context, sim: Any, duration: float, show_progress: bool) -> None:
+    from tqdm import tqdm
+
+    start = sim.now()
+    with tqdm(total=round(duration, 1), unit="s", disable=not show_progress, leave=False,
+              bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s") as bar:
+        while (elapsed := sim.now() - start) < duration:
+            context.spin_for(min(1.0, duration - elapsed))
+            bar.update(min(duration, sim.now() - start) - bar.n)

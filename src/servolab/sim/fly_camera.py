@@ -1,0 +1,45 @@
+"""The treadmill's camera in simulation: each call draws the fly where the world has it.
+
+It belongs to the world (it reads :class:`~.ball.BallWorld`'s truth, which nothing on the
+rig's side may) and gives what the rig's NIR camera gives: a 640 x 376 mono8 dark-field frame
+with sensor noise (:func:`servolab.vision.fly_render.render_fly`). Its frames are the only way
+the fly's position reaches the controller.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from ..vision.fly_render import FlyPose, render_fly
+from .ball import BallWorld
+
+#: frames of sensor noise drawn once and cycled: drawing 640 x 376 normal samples per frame
+#: took half of a simulated frame's time, and no analysis here depends on noise that does not
+#: repeat after half a second
+NOISE_FRAMES = 32
+
+
+class SimulatedFlyCamera:
+    """``camera()`` -> the current frame of ``world``, with seeded Gaussian sensor noise of
+    ``noise_std`` grey levels (:data:`NOISE_FRAMES` noise frames, cycled)."""
+
+    def __init__(self, world: BallWorld, *, noise_std: float = 4.0, seed: int = 0) -> None:
+        if not (np.isfinite(noise_std) and noise_std >= 0):
+            raise ValueError(f"noise_std {noise_std!r} must be >= 0 grey levels")
+        self.world = world
+        self.noise_std = noise_std
+        width, height = world.image_size
+        rng = np.random.default_rng(seed)
+        self.noise = np.rint(rng.normal(0.0, noise_std, (NOISE_FRAMES, height, width))
+                             ).astype(np.int16)
+        self.frames = 0
+
+    def __call__(self) -> npt.NDArray[np.uint8]:
+        w = self.world
+        clean, _ = render_fly(FlyPose(w.fly_x, w.fly_y, w.fly_theta), size=w.image_size,
+                              px_per_mm=w.px_per_m / 1000.0)
+        noisy = clean.astype(np.int16) + self.noise[self.frames % NOISE_FRAMES]
+        self.frames += 1
+        out: npt.NDArray[np.uint8] = np.clip(noisy, 0, 255).astype(np.uint8)
+        return out

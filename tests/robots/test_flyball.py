@@ -1,0 +1,109 @@
+"""Seed 002's closed loop on the simulated fly, ball and robot (servolab flyball): the fly is
+held near the centre while it walks, every frame is logged in the thesis's layout, the robot
+drives, the motors end stopped with torque off, and the logs are analysed as chapter 3 does.
+Read back with independent readers (struct for the binary logs, mcap-ros2-support for the bag).
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap_ros2.reader import read_ros2_messages
+
+from servolab.cli import main
+from servolab.clock import VirtualClock
+from servolab.dynamixel.bus import Bus
+from servolab.middleware.context import Context
+from servolab.robots.flyball import run_flyball
+from servolab.robots.flyball_node import AOT_IDS, FlyballNode
+from servolab.runs import RunFolder
+from servolab.sim import Simulation
+from servolab.vision.fly_render import FlyPose, render_fly
+
+pytestmark = pytest.mark.slow
+DURATION = 20.0
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    folder = RunFolder.create("flyball", tmp_path_factory.mktemp("fly") / "run")
+    summary = run_flyball(folder, duration=DURATION, seed=0, say=lambda _: None,
+                          show_progress=False)
+    summary["folder"] = folder.path
+    return summary
+
+
+def test_every_frame_is_logged_in_the_thesis_layout(run: dict[str, Any]) -> None:
+    """Listing 1: 17 float64 per frame, no header, at 66 frames/s (Listing 3)."""
+    data = Path(run["fly_data"]).read_bytes()
+    assert len(data) == 136 * run["frames"]
+    assert run["frames"] == pytest.approx(66 * DURATION, abs=2)
+    first = struct.unpack_from("<17d", data, 0)
+    last = struct.unpack_from("<17d", data, len(data) - 136)
+    assert (first[0], last[0]) == (0.0, run["frames"] - 1.0)  # frame numbers
+    assert last[16] - first[16] == pytest.approx(DURATION, abs=0.05)  # time
+    assert last[2] == pytest.approx(1e6 / 66, rel=0.01)  # sampling time, µs
+    encoders = Path(run["robot_encoders"]).read_bytes()
+    assert len(encoders) % 24 == 0 and len(encoders) // 24 == run["encoder_records"] > 0
+
+
+def test_the_fly_is_held_while_it_walks(run: dict[str, Any]) -> None:
+    analysis = run["analysis"]
+    assert analysis["frames_with_fly"] == analysis["frames"]  # never lost from view
+    # it walked far further than it strayed: the ball carried it back
+    assert run["fly_walked_m"] * 1000 > 5 * analysis["mean_distance_error_mm"]
+    assert analysis["mean_distance_error_mm"] < 4.0
+    assert analysis["sphere_path_length_m"] > 0.5 * run["fly_walked_m"]
+    # the wheels answer about 110 ms after the frame that starts them (seed 002, ch. 3)
+    assert analysis["response_delay_s"] == pytest.approx(0.11, abs=0.03)
+
+
+def test_the_robot_is_driven_and_it_is_all_recorded(run: dict[str, Any]) -> None:
+    (mcap,) = Path(run["bag"]).glob("*.mcap")
+    topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
+    assert topics == {"/cmd_vel", "/fly/pose", "/aot/joint_states", "/sensor_state", "/odom"}
+    twists = [m.ros_msg for m in read_ros2_messages(str(mcap), topics=["/cmd_vel"])]
+    assert any(t.linear.x > 0 for t in twists)
+    assert run["analysis"]["robot_path_length_m"] > 0.05
+    assert Path(run["plot"]).stat().st_size > 20_000
+
+
+def test_analyze_reads_the_logs_again(run: dict[str, Any], capsys: pytest.CaptureFixture[str]
+                                      ) -> None:
+    assert main(["flyball", "analyze", str(run["folder"])]) == 0
+    out = capsys.readouterr().out
+    assert f"{run['analysis']['mean_distance_error_mm']:.3f} mm" in out
+    assert (Path(run["folder"]) / "analysis.json").exists()
+
+
+def test_a_truncated_log_is_named_with_its_count(run: dict[str, Any], tmp_path: Path) -> None:
+    data = Path(run["fly_data"]).read_bytes()
+    (tmp_path / "fly_data.bin").write_bytes(data[:136 * 10 + 7])
+    (tmp_path / "robot_encoders.bin").write_bytes(Path(run["robot_encoders"]).read_bytes())
+    with pytest.raises(SystemExit) as exit_:
+        main(["flyball", "analyze", str(tmp_path)])
+    assert "10 whole records of 136 bytes and 7 bytes more" in str(exit_.value.code)
+    assert "\n" not in str(exit_.value.code)
+
+
+def test_the_node_stops_the_wheels_and_switches_torque_off_when_frames_end() -> None:
+    """Listing 1's motor_deinit: goal velocity 0 and torque off, once the frames end."""
+    sim = Simulation()
+    bus = Bus.open("emu://xm430-w210:100-102", baudrate=1_000_000, simulation=sim)
+    frames = [render_fly(FlyPose(420.0, 250.0, 0.4))[0] for _ in range(5)]
+
+    def camera() -> np.ndarray | None:
+        return frames.pop() if frames else None
+
+    with Context.open(clock=VirtualClock()) as context:
+        node = FlyballNode(context, bus, camera)
+        context.spin_until(lambda: node.finished, timeout=1.0)
+        assert node.frames == 5 and node.last is not None
+        assert node.last[1].compensating  # the fly was off centre: the wheels were told
+        torque = bus.sync_read("torque_enable", AOT_IDS)
+        goal = bus.sync_read("goal_velocity", AOT_IDS, raw=True)
+    assert set(torque.values()) == {0} and set(goal.values()) == {0}
