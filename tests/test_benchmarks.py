@@ -349,3 +349,44 @@ def test_planning_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     assert len(figures["goals"]) == 3 * len(grids)
     assert all(line.startswith(("met:", "NOT met:")) for line in figures["goals"])
     assert "Goals:" in out and all(line in out for line in figures["goals"])
+
+
+FLYTRACKER = BENCHMARK.parent / "flytracker.py"
+
+
+@pytest.mark.timeout(60)
+def test_flytracker_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/flytracker.py --quick: the tracker's and the bare OpenCV anchor's frames per
+    second and their ratio, and the whole per-frame loop (track, control, the emulated bus, the
+    log) with its latency p50/p99 against the 66 fps camera's frame period, every figure finite
+    and positive, one logged record per frame looped."""
+    bench = _load(FLYTRACKER, "flytracker_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    figures = json.loads(out_json.read_text())
+    assert figures["quick"] is True
+    assert figures["camera_fps"] == 66.0
+    assert figures["frame_period_ms"] == pytest.approx(1e3 / 66)
+    assert (figures["frames"], figures["repeats"]) == (bench.QUICK_FRAMES, bench.QUICK_REPEATS)
+    for name in ("tracker", "bare", "loop"):
+        fig = figures[name]
+        assert _positive(fig["fps"]) and len(fig["fps_repeats"]) == figures["repeats"], name
+        assert fig["ratio_camera"] == pytest.approx(fig["fps"] / 66.0), name
+        assert f"{fig['fps']:.0f} fps = {fig['ratio_camera']:.1f}x the camera's 66" in out
+    assert figures["ratio_tracker_bare"] == pytest.approx(figures["tracker"]["fps"]
+                                                         / figures["bare"]["fps"])
+    loop = figures["loop"]
+    for name in ("latency_p50_ms", "latency_p99_ms", "latency_max_ms", "p50_share_of_period",
+                 "p99_share_of_period", "simulated_wire_ms_per_frame"):
+        assert _positive(loop[name]), (name, loop)
+    assert loop["latency_p99_ms"] >= loop["latency_p50_ms"]
+    assert loop["p99_share_of_period"] == pytest.approx(loop["latency_p99_ms"]
+                                                        / figures["frame_period_ms"])
+    assert sorted(loop["stage_us"]) == ["bus", "control", "log", "track"]
+    # One 17-float64 record per frame looped (the warm-up's four, then every repeat's).
+    looped = 4 + figures["repeats"] * figures["frames_per_repeat"]
+    assert loop["records_logged"] == looped and loop["record_bytes"] == 17 * 8
+    assert loop["log_bytes"] == looped * 17 * 8
+    assert "ratio tracker/bare = " in out and "frame period" in out
+    assert "host time only" in out and "virtual clock" in out

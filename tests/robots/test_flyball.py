@@ -107,3 +107,51 @@ def test_the_node_stops_the_wheels_and_switches_torque_off_when_frames_end() -> 
         torque = bus.sync_read("torque_enable", AOT_IDS)
         goal = bus.sync_read("goal_velocity", AOT_IDS, raw=True)
     assert set(torque.values()) == {0} and set(goal.values()) == {0}
+
+
+def test_recorded_frames_are_tracked_one_record_each(tmp_path: Path) -> None:
+    """--frames DIR: a folder of images in name order, one record per frame; the tracker's
+    centroid is the drawn fly's (within 0.5 px, the tracker's accuracy)."""
+    import cv2
+
+    from servolab.robots.fly_logs import read_fly_log
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    truths = []
+    for k in range(12):
+        image, truth = render_fly(FlyPose(300.0 + 8 * k, 200.0 - 3 * k, 0.1 * k),
+                                  noise_std=3.0, rng=np.random.default_rng(k))
+        assert truth is not None
+        truths.append((truth.cx, truth.cy))
+        cv2.imwrite(str(frames / f"frame{k}.png"), image)
+    out = tmp_path / "run"
+    assert main(["flyball", "--frames", str(frames), "--out", str(out), "--no-progress"]) == 0
+    records = read_fly_log(out / "fly_data.bin")
+    assert len(records) == 12
+    got = np.column_stack([records["cx"], records["cy"]])
+    assert np.max(np.hypot(*(got - np.array(truths)).T)) < 0.5
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--frames", "MISSING"], "MISSING: no such file or folder"),
+    (["--port", "/dev/null"], "give --frames DIR|VIDEO too"),
+    (["--duration", "-1"], "argument --duration"),
+])
+def test_bad_input_is_one_line(tmp_path: Path, args: list[str], message: str,
+                               capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["flyball", *args, "--out", str(tmp_path / "run")])
+    text = str(exit_.value.code)
+    if exit_.value.code == 2:
+        text = capsys.readouterr().err.strip().splitlines()[-1]
+    assert message in text and "\n" not in text
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_video_that_cannot_be_opened_is_named(tmp_path: Path) -> None:
+    video = tmp_path / "broken.avi"
+    video.write_bytes(b"not a video at all" * 100)
+    with pytest.raises(SystemExit) as exit_:
+        main(["flyball", "--frames", str(video), "--out", str(tmp_path / "run")])
+    assert f"{video}: OpenCV cannot open this video" in str(exit_.value.code)

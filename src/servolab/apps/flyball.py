@@ -19,6 +19,11 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="simulated seconds to run (default 100, the thesis's experiment)")
     p.add_argument("--seed", type=nonnegative_int, default=0,
                    help="seed of the fly's walk and the camera's noise (default 0)")
+    p.add_argument("--frames", metavar="DIR|VIDEO", help="track a recording instead of the "
+                   "simulated fly: a folder of 640x376 images in name order, or a video "
+                   "OpenCV can open (one record per frame)")
+    p.add_argument("--port", metavar="DEV", help="with --frames: the treadmill's real motors "
+                   "(IDs 100-102, Protocol 2.0, 1 Mbps) on this serial port; default emulated")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_out(p)
     sub = p.add_subparsers(dest="action", metavar="analyze")
@@ -69,13 +74,25 @@ def _run(args: argparse.Namespace) -> int:
     if args.action == "analyze":
         return _analyze(args)
     from ..errors import ServolabError
-    from ..robots.flyball import run_flyball
+    from ..robots.flyball import run_flyball, run_recorded
     from ..runs import RunFolder
 
+    if args.port is not None and args.frames is None:
+        raise SystemExit("servolab flyball: --port drives the real treadmill, which needs real "
+                         "frames: give --frames DIR|VIDEO too (the simulated fly is on a "
+                         "simulated ball)")
     try:
-        run = RunFolder.create("flyball", args.out)
-        summary = run_flyball(run, duration=args.duration, seed=args.seed,
-                              show_progress=not args.no_progress)
+        if args.frames is not None:
+            from ..vision.frame_source import FrameSource
+
+            FrameSource.open(args.frames).close()  # a bad recording: before a run folder
+            run = RunFolder.create("flyball", args.out)
+            summary = run_recorded(run, args.frames, port=args.port,
+                                   show_progress=not args.no_progress)
+        else:
+            run = RunFolder.create("flyball", args.out)
+            summary = run_flyball(run, duration=args.duration, seed=args.seed,
+                                  show_progress=not args.no_progress)
     except (ServolabError, ValueError) as exc:
         raise SystemExit(f"servolab flyball: {exc}") from None
     run.write_summary(summary)

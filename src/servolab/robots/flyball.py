@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..middleware.context import Context
@@ -123,6 +124,67 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
         f"{result.robot_path_length_m:.2f} m, shape disparity {result.path_disparity:.2f}; "
         f"plot {plot}")
     return summary
+
+
+def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None = None,
+                 say: Say = print, show_progress: bool = True) -> dict[str, Any]:
+    """Track a recording (a folder of images or a video, :class:`~servolab.vision.
+    frame_source.FrameSource`) frame by frame, with the treadmill's motors emulated or, on
+    ``port``, real (then at the camera's 66 frames/s by the wall clock). One record per frame
+    in ``fly_data.bin``; no robot, so ``robot_encoders.bin`` stays empty. The recording is
+    opened and checked before a motor is touched."""
+    from ..clock import Clock, WallClock
+    from ..dynamixel.bus import Bus
+    from ..middleware.recorder import Recorder
+    from ..sim import Simulation
+    from ..vision.frame_source import FrameSource
+    from .fly_analysis import analyze, plot_analysis
+    from .fly_logs import FlyLogWriter, read_encoder_log, read_fly_log
+    from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
+
+    source = FrameSource.open(frames)
+    clock: Clock
+    if port is None:
+        sim = Simulation()
+        bus = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}", baudrate=AOT_BAUDRATE,
+                       simulation=sim)
+        clock = sim
+    else:
+        bus = Bus.open(port, protocol=2, baudrate=AOT_BAUDRATE)
+        clock = WallClock()
+    bag = run_folder.file("flyball_bag")
+    if bag.exists():
+        shutil.rmtree(bag)
+    fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
+    say(f"tracking {len(source) or 'the'} frames of {frames} with the treadmill's motors "
+        f"{'on ' + port if port else 'emulated'}")
+    from tqdm import tqdm
+
+    try:
+        with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path), \
+                Context.open(clock=clock) as context, \
+                tqdm(total=len(source) or None, unit="frame", disable=not show_progress,
+                     leave=False) as bar:
+            node = FlyballNode(context, bus, source, log=fly_log)
+            Recorder(context, str(bag), ["/cmd_vel", "/fly/pose", "/aot/joint_states"])
+            while not node.finished:
+                context.spin_until(lambda: node.finished, timeout=1.0)
+                bar.update(node.frames - bar.n)
+    finally:
+        source.close()
+        bus.close()
+    fly_records = read_fly_log(fly_path)
+    if len(fly_records) < 2:
+        raise ValueError(f"{frames}: {len(fly_records)} frame(s) tracked; the analysis needs "
+                         "at least two")
+    result, series = analyze(fly_records, read_encoder_log(encoder_path))
+    plot = plot_analysis(result, series, fly_records, run_folder.file("flyball.png"))
+    say(f"{node.frames} frames ({result.frames_with_fly} with the fly): mean distance error "
+        f"{result.mean_distance_error_mm:.3f} mm, mean angle error "
+        f"{result.mean_angle_error_deg:.2f}°; plot {plot}")
+    return {"frames_source": str(frames), "port": port or "emulated", "frames": node.frames,
+            "analysis": result.summary(), "fly_data": str(fly_path),
+            "robot_encoders": str(encoder_path), "bag": str(bag), "plot": str(plot)}
 
 
 def _spin(context: Context, sim: Any, duration: float, show_progress: bool) -> None:

@@ -8,6 +8,7 @@ the fly's position reaches the controller.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
@@ -31,15 +32,18 @@ class SimulatedFlyCamera:
         self.noise_std = noise_std
         width, height = world.image_size
         rng = np.random.default_rng(seed)
-        self.noise = np.rint(rng.normal(0.0, noise_std, (NOISE_FRAMES, height, width))
-                             ).astype(np.int16)
+        noise = np.rint(rng.normal(0.0, noise_std, (NOISE_FRAMES, height, width)))
+        # kept as the positive and the negative part, each added with OpenCV's saturating
+        # arithmetic: the same as clip(frame + noise, 0, 255), without int16 round trips
+        self.brighter = np.clip(noise, 0, 255).astype(np.uint8)
+        self.darker = np.clip(-noise, 0, 255).astype(np.uint8)
         self.frames = 0
 
     def __call__(self) -> npt.NDArray[np.uint8]:
         w = self.world
         clean, _ = render_fly(FlyPose(w.fly_x, w.fly_y, w.fly_theta), size=w.image_size,
                               px_per_mm=w.px_per_m / 1000.0)
-        noisy = clean.astype(np.int16) + self.noise[self.frames % NOISE_FRAMES]
+        k = self.frames % NOISE_FRAMES
         self.frames += 1
-        out: npt.NDArray[np.uint8] = np.clip(noisy, 0, 255).astype(np.uint8)
-        return out
+        out = cv2.subtract(cv2.add(clean, self.brighter[k]), self.darker[k])
+        return np.asarray(out, dtype=np.uint8)
