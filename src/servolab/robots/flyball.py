@@ -196,3 +196,96 @@ def _spin(context: Context, sim: Any, duration: float, show_progress: bool) -> N
         while (elapsed := sim.now() - start) < duration:
             context.spin_for(min(1.0, duration - elapsed))
             bar.update(min(duration, sim.now() - start) - bar.n)
+
+
+class FlyballRig(Node):
+    """The camera PC of seed 002 for launch files (Figure 2): the simulated fly, ball and
+    camera in real time (or the real treadmill on ``port`` -- then frames must come from
+    elsewhere, which this node does not do yet, so ``port`` is refused), Listing 1's
+    ``image_converter`` and Listing 2's ``mobrob_data_tracker``, writing the run folder
+    ``out``. After ``duration`` seconds it stops the wheels (torque off), analyses the logs
+    into ``out``/summary.json and ``out``/flyball.png, and shuts its process down, so that as
+    a ``required`` node it ends the launch. The robot is another node, anywhere on the
+    network: it hears ``/cmd_vel`` and answers on ``sensor_state``."""
+
+    def __init__(self, context: Context, name: str = "treadmill", namespace: str = "/", *,
+                 parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+        import math
+
+        from ..dynamixel.bus import Bus
+        from ..runs import RunFolder
+        from ..sim import BallWorld, Simulation
+        from ..sim.fly_camera import SimulatedFlyCamera
+        from ..sim.fly_walk import FlyWalker
+        from .fly_logs import FlyLogWriter
+        from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
+
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
+        self.duration = float(self.declare_parameter(
+            "duration", 100.0, description="s to run before stopping").value)
+        seed = int(self.declare_parameter("seed", 0, description="the fly's walk").value)
+        out = str(self.declare_parameter("out", "", description="run folder; empty: "
+                                         "runs/flyball-<time>").value)
+        port = str(self.declare_parameter("port", "", description="must stay empty: the "
+                                          "simulated fly needs the simulated ball").value)
+        if port:
+            raise ValueError("treadmill: a real treadmill needs a real camera; run "
+                             "'servolab flyball --frames ... --port ...' instead")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise ValueError(f"treadmill: duration {self.duration!r} must be > 0 s")
+        self.run = RunFolder.create("flyball", out or None)
+        self.simulation = Simulation()
+        self.bus = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}",
+                            baudrate=AOT_BAUDRATE, simulation=self.simulation)
+        self.world = self.simulation.add(BallWorld(
+            [self.bus.emulator.motor(i) for i in AOT_IDS], walker=FlyWalker(seed=seed)))
+        self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
+        self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
+        self.simulation.start_real_time()
+        self.node = FlyballNode(context, self.bus, SimulatedFlyCamera(self.world, seed=seed),
+                                log=self.fly_log)
+        self.tracker = MobrobDataTracker(context, self.encoder_log)
+        self.start = self.now()
+        self.summary: dict[str, Any] | None = None
+        self.create_timer(0.1, self._check_done)
+
+    def _check_done(self) -> None:
+        if self.summary is None and self.now() - self.start >= self.duration:
+            self.finish()
+            self.context.shutdown()  # a required node ends the launch
+
+    def finish(self) -> dict[str, Any]:
+        """Stop the wheels, close the logs, analyse them (once)."""
+        from .fly_analysis import analyze, plot_analysis
+        from .fly_logs import read_encoder_log, read_fly_log
+
+        if self.summary is not None:
+            return self.summary
+        try:
+            self.node.motor_deinit()
+        finally:
+            self.simulation.stop_real_time()
+            self.fly_log.close()
+            self.encoder_log.close()
+        fly = read_fly_log(self.run.file("fly_data.bin"))
+        encoders = read_encoder_log(self.run.file("robot_encoders.bin"))
+        result, series = analyze(fly, encoders)
+        plot = plot_analysis(result, series, fly, self.run.file("flyball.png"))
+        self.summary = {"duration_s": self.duration, "frames": self.node.frames,
+                        "encoder_records": self.tracker.records,
+                        "analysis": result.summary(), "plot": str(plot)}
+        self.run.write_summary(self.summary)
+        self.get_logger().info(
+            f"{self.node.frames} frames, {self.tracker.records} robot encoder records: mean "
+            f"distance error {result.mean_distance_error_mm:.3f} mm, run folder {self.run.path}")
+        return self.summary
+
+    def destroy(self) -> None:
+        try:
+            if self.summary is None:
+                self.finish()
+        finally:
+            super().destroy()
+            self.bus.close()

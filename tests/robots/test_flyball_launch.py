@@ -1,0 +1,46 @@
+"""configs/flyball.launch.yaml: the camera PC and the robot as two processes over Zenoh
+(seed 002, Figure 2). The treadmill is required: it stops after its duration, analyses the
+logs, and the launch ends; the robot's encoder log was heard across the processes."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from servolab.robots.fly_logs import read_encoder_log, read_fly_log
+
+ROOT = Path(__file__).resolve().parents[2]
+LAUNCH = ROOT / "configs" / "flyball.launch.yaml"
+
+
+@pytest.mark.slow
+def test_camera_pc_and_robot_in_two_processes(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    text = LAUNCH.read_text()
+    shipped = 'parameters: {duration: 30.0, seed: 0, out: "runs/flyball-launch"}'
+    base = 'base: "configs/base_turtlebot3_waffle.yaml"'
+    assert shipped in text and base in text
+    path = tmp_path / "flyball.launch.yaml"
+    path.write_text(text.replace(shipped, f'parameters: {{duration: 4.0, seed: 0, '
+                                          f'out: "{out}"}}')
+                    .replace(base, f'base: "{ROOT / "configs" / "base_turtlebot3_waffle.yaml"}"'))
+    result = subprocess.run([sys.executable, "-m", "servolab", "launch", str(path)],
+                            capture_output=True, text=True, timeout=180)
+    said = result.stdout + result.stderr
+    assert result.returncode == 0, said[-3000:]
+    pids = set(re.findall(r"started (?:treadmill|robot) \(pid (\d+)\)", said))
+    assert len(pids) == 2, said[-2000:]
+    # the same outputs as the one-process run: both logs, the analysis, the figure
+    summary = json.loads((out / "summary.json").read_text())
+    fly = read_fly_log(out / "fly_data.bin")
+    encoders = read_encoder_log(out / "robot_encoders.bin")
+    assert len(fly) == summary["frames"] > 100  # real time at 66 frames/s, about 264
+    assert len(encoders) == summary["encoder_records"] > 20  # the robot, over Zenoh
+    assert set(summary["analysis"]) >= {"mean_distance_error_mm", "mean_angle_error_deg",
+                                        "path_disparity", "response_delay_s"}
+    assert (out / "flyball.png").stat().st_size > 20_000
