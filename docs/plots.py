@@ -1,5 +1,6 @@
-"""Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md and navigation.md from the
-code itself: ``python docs/plots.py [DIR]``.
+"""Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md, navigation.md and
+treadmill.md from the code itself: ``python docs/plots.py [DIR] [--quick]`` (``--quick``
+shortens the 100 s treadmill run to 10 s, for the test).
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
 seconds to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
@@ -254,7 +255,56 @@ def navigation_loop(out: Path) -> None:
         shutil.copy(run.file("navigate.png"), out / "navigation_corner.png")
 
 
+def treadmill(out: Path, duration: float = 100.0) -> None:
+    """docs/treadmill.md's figures: one synthetic frame as Listing 1 sees it (Figures 3 and
+    13 of the thesis), and the analysis of a closed-loop run of ``duration`` s (Figures 14-21).
+    """
+    import shutil
+    import tempfile
+
+    import cv2
+    import numpy as np
+
+    from servolab.robots.fly_control import FlyControllerConfig
+    from servolab.robots.flyball import run_flyball
+    from servolab.runs import RunFolder
+    from servolab.vision.fly_render import FlyPose, render_fly
+    from servolab.vision.fly_tracker import track_fly
+
+    image, _ = render_fly(FlyPose(402.0, 151.0, 0.6), noise_std=4.0,
+                          rng=np.random.default_rng(2))
+    sighting = track_fly(image)
+    config = FlyControllerConfig()
+    _, mask = cv2.threshold(image, 50, 255, cv2.THRESH_BINARY)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    fig, ax = plt.subplots(figsize=(7.0, 4.4))
+    ax.imshow(image, cmap="gray", vmin=0, vmax=255)
+    biggest = max(contours, key=cv2.contourArea)[:, 0, :]
+    ax.plot(*np.vstack([biggest, biggest[:1]]).T, color="tab:green", lw=1, label="contour")
+    ax.plot(sighting.cx, sighting.cy, "o", mfc="none", color="magenta", label="centroid")
+    length = 40
+    ax.plot([sighting.cx - length * np.cos(sighting.theta),
+             sighting.cx + length * np.cos(sighting.theta)],
+            [sighting.cy - length * np.sin(sighting.theta),
+             sighting.cy + length * np.sin(sighting.theta)], color="magenta", lw=1,
+            label=f"axis, theta {np.degrees(sighting.theta):.1f}°")
+    tx, ty, _ = config.target
+    ax.add_patch(plt.Circle((tx, ty), config.dead_band_px, fill=False, color="red", lw=1,
+                            label="dead band, 50 px"))
+    ax.set_title(f"one 640 x 376 frame: the fly at ({sighting.cx:.1f}, {sighting.cy:.1f}), "
+                 f"area {sighting.area:.0f} px²", fontsize=9)
+    ax.legend(fontsize=7, loc="lower left")
+    fig.savefig(out / "treadmill_frame.png", dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    with tempfile.TemporaryDirectory() as tmp:
+        run = RunFolder.create("flyball", Path(tmp) / "run")
+        summary = run_flyball(run, duration=duration, seed=0, show_progress=False)
+        shutil.copy(summary["plot"], out / "treadmill_run.png")
+
+
 def main(argv: list[str]) -> None:
+    quick = "--quick" in argv  # the docs test: every figure made, the long runs shortened
+    argv = [a for a in argv if a != "--quick"]
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
     joint_moves(out / "rx28_joint_moves.png")
@@ -264,6 +314,7 @@ def main(argv: list[str]) -> None:
     mobile(out)
     navigation(out)
     navigation_loop(out)
+    treadmill(out, duration=10.0 if quick else 100.0)
     print(f"figures written to {out}")
 
 

@@ -14,14 +14,14 @@ ROOT = Path(__file__).resolve().parent.parent
 @pytest.mark.slow
 def test_docs_plots_script_makes_its_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
                                              ) -> None:
-    monkeypatch.setattr(sys, "argv", ["plots.py", str(tmp_path)])
+    monkeypatch.setattr(sys, "argv", ["plots.py", str(tmp_path), "--quick"])
     runpy.run_path(str(ROOT / "docs" / "plots.py"), run_name="__main__")
     for name in ("rx28_joint_moves.png", "bus_cycle_time.png", "floor_world.png",
                  "gait_feet.png", "gait_joint_angles.png", "biped_walk.png",
                  "mobile_eight.png", "mobile_slip.png", "mobile_fusion.png",
                  "navigation_calibration.png", "navigation_plan.png",
                  "navigation_plan_no_inflation.png", "navigation_loop.png",
-                 "navigation_corner.png"):
+                 "navigation_corner.png", "treadmill_frame.png", "treadmill_run.png"):
         assert (tmp_path / name).stat().st_size > 10_000
         assert (ROOT / "docs" / "img" / name).exists(), f"docs/img/{name} is not committed"
 

@@ -6,7 +6,8 @@ Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Proto
 listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
 floor, stepped by the simulation that owns time; last, Armstrong (the biped of seed 001)
 stands up and walks a step, seed 000's wheeled robot drives a figure of eight and then
-navigates to a goal with its overhead camera, D* Lite and DWA. It saves
+navigates to a goal with its overhead camera, D* Lite and DWA, and a simulated fly on the
+ball treadmill of seed 002 steers a robot. It saves
 plots, bags and summary.json in the run folder. Every robot that servolab grows adds its own
 short run here.
 
@@ -102,6 +103,8 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     figures["mobile_base"] = _mobile_base(run_folder, say)
     say()
     figures["navigation"] = _navigation(run_folder, say)
+    say()
+    figures["flyball"] = _flyball(run_folder, say)
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -161,6 +164,18 @@ def _navigation(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, 
                            say=lambda text: say("   " + text), show_progress=False)
     return {k: summary[k] for k in ("status", "goal_distance_m", "min_clearance_m", "repairs",
                                     "bag", "plot")}
+
+
+def _flyball(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 002: a simulated fly on the ball treadmill steers the robot, for 10 s."""
+    from ..robots.flyball import run_flyball
+
+    say("8. Seed 002's machine-insect interface: a simulated fruit fly walks on a ball, the")
+    say("   camera finds it 66 times a second, three wheels turn the ball back, a robot follows")
+    say("   (servolab flyball; see docs/treadmill.md)")
+    summary = run_flyball(run_folder, duration=10.0, say=lambda text: say("   " + text),
+                          show_progress=False)
+    return {k: summary[k] for k in ("frames", "analysis", "bag", "plot")}
 
 
 def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
