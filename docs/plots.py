@@ -257,7 +257,8 @@ def navigation_loop(out: Path) -> None:
 
 def treadmill(out: Path, duration: float = 100.0) -> None:
     """docs/treadmill.md's figures: one synthetic frame as Listing 1 sees it (Figures 3 and
-    13 of the thesis), and the analysis of a closed-loop run of ``duration`` s (Figures 14-21).
+    13 of the thesis), and the analysis of a closed-loop run of ``duration`` s (Figures 14,
+    16, 18, 20 and 21).
     """
     import shutil
     import tempfile

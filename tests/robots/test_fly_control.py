@@ -51,10 +51,14 @@ def test_an_absent_fly_is_no_error() -> None:
     assert command.wheel_speeds == (0.0, 0.0, 0.0) and (command.dx, command.dy) == (0.0, 0.0)
 
 
-def test_wheel_speeds_are_clamped_to_the_motors_limit() -> None:
+def test_wheel_speeds_are_scaled_within_the_motors_limit() -> None:
+    """All three alike, so that the ball turns the way the error asks, only slower."""
+    free = fly_command(_sighting(640.0, 376.0, 1.2), 15_000)
     config = FlyControllerConfig(max_wheel_speed=10.0)
     command = fly_command(_sighting(640.0, 376.0, 1.2), 15_000, config)
     assert max(abs(v) for v in command.wheel_speeds) == pytest.approx(10.0)
+    scale = command.wheel_speeds[0] / free.wheel_speeds[0]
+    assert command.wheel_speeds == pytest.approx(tuple(v * scale for v in free.wheel_speeds))
 
 
 def test_a_first_frame_has_no_robot_speed_and_bad_config_is_refused() -> None:

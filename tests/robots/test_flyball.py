@@ -137,6 +137,7 @@ def test_recorded_frames_are_tracked_one_record_each(tmp_path: Path) -> None:
     (["--frames", "MISSING"], "MISSING: no such file or folder"),
     (["--port", "/dev/null"], "give --frames DIR|VIDEO too"),
     (["--duration", "-1"], "argument --duration"),
+    (["--frames", "/tmp", "--duration", "5"], "a recording (--frames) runs as long as it is"),
 ])
 def test_bad_input_is_one_line(tmp_path: Path, args: list[str], message: str,
                                capsys: pytest.CaptureFixture[str]) -> None:
@@ -155,3 +156,32 @@ def test_a_video_that_cannot_be_opened_is_named(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_:
         main(["flyball", "--frames", str(video), "--out", str(tmp_path / "run")])
     assert f"{video}: OpenCV cannot open this video" in str(exit_.value.code)
+
+
+def test_ctrl_c_stops_the_wheels_and_keeps_the_analysis(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C 40 frames in: the exception goes on up (the CLI exits 130), but the wheels are
+    stopped first, and the logs are analysed into summary.json, marked interrupted."""
+    import json
+
+    from servolab.sim.fly_camera import SimulatedFlyCamera
+
+    real = SimulatedFlyCamera.__call__
+
+    def interrupting(self: SimulatedFlyCamera) -> np.ndarray:
+        if self.frames == 40:
+            raise KeyboardInterrupt
+        return real(self)
+
+    monkeypatch.setattr(SimulatedFlyCamera, "__call__", interrupting)
+    folder = RunFolder.create("flyball", tmp_path / "run")
+    with pytest.raises(KeyboardInterrupt):
+        run_flyball(folder, duration=5.0, say=lambda _: None, show_progress=False)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["interrupted"] == "KeyboardInterrupt"
+    assert summary["frames"] == 40 and summary["analysis"]["frames"] == 40
+
+
+def test_analyze_a_treadmill_without_a_robot(run: dict[str, Any], tmp_path: Path) -> None:
+    (tmp_path / "fly_data.bin").write_bytes(Path(run["fly_data"]).read_bytes())
+    assert main(["flyball", "analyze", str(tmp_path)]) == 0

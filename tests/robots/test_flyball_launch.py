@@ -39,8 +39,11 @@ def test_camera_pc_and_robot_in_two_processes(tmp_path: Path) -> None:
     summary = json.loads((out / "summary.json").read_text())
     fly = read_fly_log(out / "fly_data.bin")
     encoders = read_encoder_log(out / "robot_encoders.bin")
-    assert len(fly) == summary["frames"] > 100  # real time at 66 frames/s, about 264
+    # 4 s counted from the robot's first message: real time at 66 frames/s, about 264 frames
+    assert len(fly) == summary["frames"] > 100
     assert len(encoders) == summary["encoder_records"] > 20  # the robot, over Zenoh
-    assert set(summary["analysis"]) >= {"mean_distance_error_mm", "mean_angle_error_deg",
-                                        "path_disparity", "response_delay_s"}
+    analysis = summary["analysis"]
+    for key in ("mean_distance_error_mm", "mean_angle_error_deg", "sphere_path_length_m"):
+        assert analysis[key] >= 0.0, key  # a number, not NaN
+    assert analysis["robot_path_length_m"] > 0.0  # the robot drove, on /cmd_vel over Zenoh
     assert (out / "flyball.png").stat().st_size > 20_000

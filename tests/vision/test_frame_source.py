@@ -103,13 +103,13 @@ def test_a_wrong_size_first_frame_is_refused_at_open(tmp_path: Path) -> None:
     assert "320x240" in text and "640x376" in text
 
 
-def test_a_wrong_size_later_frame_is_refused_when_reached(tmp_path: Path) -> None:
+def test_a_wrong_size_later_frame_is_refused_at_open(tmp_path: Path) -> None:
+    """A folder is checked whole when opened: a bad frame halfway through must not be found
+    after the motors have driven the first half."""
     assert cv2.imwrite(str(tmp_path / "f1.png"), marked(1))
     assert cv2.imwrite(str(tmp_path / "f2.png"), marked(2, (W + 1, H)))
-    with FrameSource.open(tmp_path) as source:
-        assert source() is not None
-        with pytest.raises(FrameSourceError) as error:
-            source()
+    with pytest.raises(FrameSourceError) as error:
+        FrameSource.open(tmp_path)
     text = one_line(error)
     assert str(tmp_path / "f2.png") in text and "641x376" in text and "640x376" in text
 

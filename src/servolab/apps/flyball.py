@@ -15,9 +15,9 @@ from .registry import Command
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--duration", type=positive_float, default=100.0, metavar="S",
+    p.add_argument("--duration", type=positive_float, metavar="S",
                    help="simulated seconds to run (default 100, the thesis's experiment)")
-    p.add_argument("--seed", type=nonnegative_int, default=0,
+    p.add_argument("--seed", type=nonnegative_int,
                    help="seed of the fly's walk and the camera's noise (default 0)")
     p.add_argument("--frames", metavar="DIR|VIDEO", help="track a recording instead of the "
                    "simulated fly: a folder of 640x376 images in name order, or a video "
@@ -43,8 +43,10 @@ def _analyze(args: argparse.Namespace) -> int:
     import warnings
     from pathlib import Path
 
+    import numpy as np
+
     from ..robots.fly_analysis import analyze, plot_analysis
-    from ..robots.fly_logs import FlyLogError, read_encoder_log, read_fly_log
+    from ..robots.fly_logs import ENCODER_RECORD, FlyLogError, read_encoder_log, read_fly_log
 
     run = Path(args.run)
     if not run.is_dir():
@@ -53,7 +55,9 @@ def _analyze(args: argparse.Namespace) -> int:
         warnings.simplefilter("always")
         try:
             fly = read_fly_log(run / "fly_data.bin", partial=args.partial)
-            encoders = read_encoder_log(run / "robot_encoders.bin", partial=args.partial)
+            robot = run / "robot_encoders.bin"  # a treadmill without a robot has none
+            encoders = (read_encoder_log(robot, partial=args.partial) if robot.exists()
+                        else np.zeros(0, dtype=ENCODER_RECORD))
         except FlyLogError as exc:
             raise SystemExit(f"servolab flyball analyze: {exc}") from None
     for warning in caught:
@@ -77,6 +81,9 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.flyball import run_flyball, run_recorded
     from ..runs import RunFolder
 
+    if args.frames is not None and (args.duration is not None or args.seed is not None):
+        raise SystemExit("servolab flyball: --duration and --seed are the simulated fly's; a "
+                         "recording (--frames) runs as long as it is")
     if args.port is not None and args.frames is None:
         raise SystemExit("servolab flyball: --port drives the real treadmill, which needs real "
                          "frames: give --frames DIR|VIDEO too (the simulated fly is on a "
@@ -91,7 +98,8 @@ def _run(args: argparse.Namespace) -> int:
                                    show_progress=not args.no_progress)
         else:
             run = RunFolder.create("flyball", args.out)
-            summary = run_flyball(run, duration=args.duration, seed=args.seed,
+            summary = run_flyball(run, duration=100.0 if args.duration is None
+                                  else args.duration, seed=args.seed or 0,
                                   show_progress=not args.no_progress)
     except (ServolabError, ValueError) as exc:
         raise SystemExit(f"servolab flyball: {exc}") from None

@@ -252,3 +252,24 @@ def camera_to_motor(dx: npt.ArrayLike, dy: npt.ArrayLike,
     c, s = math.cos(angle), math.sin(angle)
     return c * x - s * y, s * x + c * y
 
+
+
+#: Which of the camera's image axes (x, y, and the sense of rotation) run against the ball's
+#: surface motion in the motors' frame. The thesis does not say; this is the one under which
+#: Listing 1's signs bring the fly back, as they did on the rig (tests/sim/test_ball.py shows
+#: another drives the fly away). The treadmill world and the analysis both take it from here.
+CAMERA_HANDEDNESS = (-1, -1, 1)
+
+
+def surface_in_camera(velocity: npt.ArrayLike, geometry: AotGeometry,
+                      handedness: tuple[int, int, int] = CAMERA_HANDEDNESS) -> FloatArray:
+    """The ball's surface motion under the fly, ``(x, y, theta)`` in the motors' frame (as
+    :meth:`AotKinematics.ball_velocity` gives it; shape ``(3,)`` or ``(3, ...)``), in the
+    camera's image frame: turned back by ``camera_to_motor`` and signed by ``handedness``."""
+    v = finite_array("velocity", velocity)
+    if v.ndim == 0 or v.shape[0] != 3:
+        raise ValueError(f"velocity must have 3 rows, got shape {v.shape}")
+    a = -geometry.camera_to_motor
+    c, s = math.cos(a), math.sin(a)
+    hx, hy, hz = handedness
+    return np.stack([hx * (c * v[0] - s * v[1]), hy * (s * v[0] + c * v[1]), hz * v[2]])

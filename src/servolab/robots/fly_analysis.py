@@ -6,19 +6,22 @@
   thesis reports 1.821 mm.
 - **Angle error**: ``|theta|`` in degrees, averaged the same way; the thesis reports 7.039°.
 - **The sphere's path** (Figure 20): the three wheel encoders (``present_position``, 4096 ticks
-  a turn on the X series) give the wheels' speeds frame by frame; eq. 3b turns them into the
-  ball's surface velocity ``(x', y', theta')`` (:class:`~servolab.kinematics.aot.AotKinematics`,
-  from the rig's geometry), which is integrated as a path that turns with ``theta'``: the path
-  a walker on the ball would have made, the fly's fictive path.
+  a turn on the X series) give each frame's wheel turns; eq. 3b turns them into the ball's
+  surface motion (:class:`~servolab.kinematics.aot.AotKinematics`, from the rig's geometry),
+  seen in the camera's frame; the fly walks against it, and the ball's turns about its axis
+  turn the fly's heading: the fly's fictive path (:func:`fictive_path`).
 - **The robot's path** (Figure 21): the wheel encoders of Listing 2's log through the
   differential drive's odometry.
 - **How alike the two paths are**: both resampled to 200 points evenly spaced along their
-  length, then ``scipy.spatial.procrustes`` (the best translation, rotation and scale of one
-  onto the other): its disparity is 0 for the same shape and 1 for unrelated ones. The thesis
-  compares them by eye and notes that the robot "does not switch directions as much".
+  length, then the best translation, rotation and scale of one onto the other, as
+  ``scipy.spatial.procrustes`` fits them but without its mirror image (:func:`path_disparity`):
+  0 for the same shape, near 1 for unrelated ones. The thesis compares them by eye and notes
+  that the robot "does not switch directions as much".
 - **The response delay** (Figure 15): for each frame where the wheels are told to move after
   standing, the time until their encoders first show motion; the thesis measured about
-  110 ms.
+  110 ms. Frames come every 15 ms and a slow wheel needs a while to turn one tick, so this
+  measure reads up to a frame and a tick late (the simulator's 110 ms stiction reads as
+  about 120 ms).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ..kinematics.aot import AotGeometry, AotKinematics
+from ..kinematics.aot import AotGeometry, AotKinematics, surface_in_camera
 from ..kinematics.diffdrive import DiffDrive
 
 FloatArray = npt.NDArray[np.float64]
@@ -81,29 +84,36 @@ def _unwrapped_turns(positions: FloatArray) -> FloatArray:
                       dtype=np.float64)
 
 
-def sphere_velocity(fly: npt.NDArray[np.void], kinematics: AotKinematics
-                    ) -> tuple[FloatArray, FloatArray]:
-    """``(t, (N-1, 3) surface velocities)`` from the wheels' encoders, frame to frame."""
+def sphere_motion(fly: npt.NDArray[np.void], geometry: AotGeometry
+                  ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(t, dt, (N-1, 3) surface motion per frame)`` from the wheels' encoders: each frame's
+    change of the three wheel angles through eq. 3b (linear, so no division by a frame time
+    can lose a tick), in the camera's image frame
+    (:func:`~servolab.kinematics.aot.surface_in_camera`): x, y in m, theta in rad."""
+    kinematics = AotKinematics.from_geometry(geometry)
     t = np.asarray(fly["time"], dtype=np.float64)
     wheels = np.column_stack([_unwrapped_turns(np.asarray(fly[f"position{i}"], dtype=float))
                               for i in (1, 2, 3)])
-    dt = np.diff(t)
-    dt[dt <= 0] = np.nan
-    speeds = np.diff(wheels, axis=0) / dt[:, None]
-    speeds = np.nan_to_num(speeds)
-    velocity = kinematics.ball_velocity(speeds.T).T
-    return t[1:], np.asarray(velocity, dtype=np.float64)
+    motion = kinematics.ball_velocity(np.diff(wheels, axis=0).T)
+    camera = surface_in_camera(motion, geometry).T
+    return t[1:], np.diff(t), np.asarray(camera, dtype=np.float64)
 
 
-def integrate_path(t: FloatArray, velocity: FloatArray) -> FloatArray:
-    """``(N + 1, 2)`` points of the path whose body-frame velocity is ``(x', y', theta')``."""
-    if len(t) < 2:
-        return np.zeros((len(t) + 1, 2))
-    dt = np.diff(np.concatenate([[t[0] - (t[1] - t[0])], t]))
-    heading = np.concatenate([[0.0], np.cumsum(velocity[:, 2] * dt)])[:-1]
-    dx = (velocity[:, 0] * np.cos(heading) - velocity[:, 1] * np.sin(heading)) * dt
-    dy = (velocity[:, 0] * np.sin(heading) + velocity[:, 1] * np.cos(heading)) * dt
-    return np.vstack([[0.0, 0.0], np.column_stack([np.cumsum(dx), np.cumsum(dy)])])
+def fictive_path(motion: FloatArray) -> FloatArray:
+    """``(N + 1, 2)`` points (m) of the path the fly walked, rebuilt from the ball's surface
+    motion per frame in the image frame, as the thesis's Figure 20 does: the fly walks
+    against the surface (``-motion``), and each turn of the ball about its axis turns the
+    fly's fictive heading the other way. Drawn seen from above with y up (image y
+    negated), so that it turns the way the robot's odometry does."""
+    if len(motion) == 0:
+        return np.zeros((1, 2))
+    turns = -motion[:, 2]
+    heading = np.concatenate([[0.0], np.cumsum(turns)])[:-1] + turns / 2  # mid-step
+    dx = -(motion[:, 0] * np.cos(heading) - motion[:, 1] * np.sin(heading))
+    dy = -(motion[:, 0] * np.sin(heading) + motion[:, 1] * np.cos(heading))
+    x = np.concatenate([[0.0], np.cumsum(dx)])
+    y = np.concatenate([[0.0], np.cumsum(dy)])
+    return np.column_stack([x, -y])
 
 
 def robot_path(encoders: npt.NDArray[np.void], drive: DiffDrive,
@@ -135,14 +145,21 @@ def _resample(path: FloatArray, count: int = 200) -> FloatArray:
 
 
 def path_disparity(a: FloatArray, b: FloatArray) -> float:
-    """Procrustes disparity of the two paths' shapes (see the module docstring); NaN when
-    either path has (almost) no length."""
-    from scipy.spatial import procrustes  # type: ignore[import-untyped]
-
+    """How unlike the two paths' shapes are (see the module docstring): both resampled to 200
+    points along their length, centred and scaled to unit size, then ``b`` turned onto ``a``
+    by the best rotation -- a proper one: ``scipy.spatial.procrustes`` would also mirror,
+    and a path turning left is not the shape of one turning right. The disparity is
+    ``1 - (sum of the singular values, the last one signed)^2`` (Kabsch), 0 for the same
+    shape; NaN when either path has (almost) no length."""
     if _length(a) < 1e-6 or _length(b) < 1e-6:
         return math.nan
-    _, _, disparity = procrustes(_resample(a), _resample(b))
-    return float(disparity)
+    x, y = _resample(a), _resample(b)
+    x, y = x - x.mean(axis=0), y - y.mean(axis=0)
+    x, y = x / np.linalg.norm(x), y / np.linalg.norm(y)
+    u, singular, vt = np.linalg.svd(y.T @ x)
+    sign = 1.0 if np.linalg.det(u @ vt) >= 0 else -1.0
+    fit = singular[0] + sign * singular[1]
+    return float(max(0.0, 1.0 - fit * fit))
 
 
 def response_delay(fly: npt.NDArray[np.void]) -> tuple[float, int]:
@@ -171,10 +188,11 @@ def analyze(fly: npt.NDArray[np.void], encoders: npt.NDArray[np.void], *,
             geometry: AotGeometry | None = None, drive: DiffDrive | None = None,
             min_area: float = 100.0) -> tuple[FlyAnalysis, dict[str, FloatArray]]:
     """The figures of chapter 3 (see the module docstring) and the series the plots draw."""
-    kinematics = AotKinematics.from_geometry(geometry or AotGeometry())
     distance, angle, found = errors(fly, min_area=min_area)
-    t_sphere, velocity = sphere_velocity(fly, kinematics)
-    sphere = integrate_path(t_sphere, velocity)
+    t_sphere, dt, motion = sphere_motion(fly, geometry or AotGeometry())
+    sphere = fictive_path(motion)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        velocity = np.where(dt[:, None] > 0, motion / dt[:, None], 0.0)
     robot = robot_path(encoders, drive or DiffDrive(0.033, 0.287))
     delay, events = response_delay(fly)
     t = np.asarray(fly["time"], dtype=np.float64)
@@ -193,7 +211,7 @@ def analyze(fly: npt.NDArray[np.void], encoders: npt.NDArray[np.void], *,
 
 def plot_analysis(result: FlyAnalysis, series: dict[str, FloatArray], fly: npt.NDArray[np.void],
                   path: Path) -> Path:
-    """Figures 14, 16, 18, 20 and 21 of the thesis, on one page."""
+    """Figures 14, 16, 18 (motors 1 and 2), 20 and 21 of the thesis, on one page."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -239,7 +257,7 @@ def plot_analysis(result: FlyAnalysis, series: dict[str, FloatArray], fly: npt.N
     e.set_ylabel("y (mm)")
     e.set_aspect("equal", adjustable="datalim")
     f.plot(robot[:, 0], robot[:, 1], color="tab:green")
-    f.set_title(f"robot's path (Fig. 21): {result.robot_path_length_m:.2f} m, Procrustes "
+    f.set_title(f"robot's path (Fig. 21): {result.robot_path_length_m:.2f} m, shape "
                 f"disparity to the sphere's {result.path_disparity:.2f}", fontsize=9)
     f.set_xlabel("x (m)")
     f.set_ylabel("y (m)")

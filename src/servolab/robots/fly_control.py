@@ -16,9 +16,12 @@ Pure: a sighting in, a :class:`FlyCommand` out; the node that owns the bus and t
   distance band, ``angular.z = dthm / (sampling time in ms) * 57`` outside the angle band.
 
 The robot's formula is the listing's as written, units and all: it is always forward (a
-distance), and a turtlebot base clamps it to its limits. servolab clamps the wheel speeds to
-the motors' ``velocity_limit`` (the motor would refuse a larger goal), which the listing left
-to chance.
+distance), and a turtlebot base clamps it to its limits. Its turn has the sign of ``dthm``,
+the heading error: a fly turning clockwise in the image (theta growing, y down) turns the
+robot clockwise (``angular.z`` < 0, ROS's counter-clockwise positive). servolab keeps the
+wheel speeds within the motors' ``velocity_limit`` (the motor would refuse a larger goal),
+which the listing left to chance, by scaling all three alike so that the ball still turns
+the way the error asks.
 """
 
 from __future__ import annotations
@@ -104,7 +107,9 @@ def fly_command(sighting: FlySighting, sampling_time_us: float,
     if outside_r or outside_th:
         u = np.array([dxm, dym, dthm * config.rotation_scale])
         w = config.matrix @ u * config.gain
-        w = np.clip(w, -config.max_wheel_speed, config.max_wheel_speed)
+        largest = float(np.max(np.abs(w)))
+        if largest > config.max_wheel_speed:  # all three scaled alike: the same direction
+            w = w * (config.max_wheel_speed / largest)
         speeds = (float(w[0]), float(w[1]), float(w[2]))
     else:
         speeds = (0.0, 0.0, 0.0)

@@ -22,6 +22,7 @@ analysis of :mod:`.fly_analysis` in ``summary.json`` and its figures in ``flybal
 
 from __future__ import annotations
 
+import math
 import shutil
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -31,6 +32,7 @@ from ..middleware.context import Context
 from ..middleware.node import Node
 from . import CONFIGS
 from .fly_logs import EncoderLogWriter
+from .flyball_node import FlyballNode
 
 if TYPE_CHECKING:
     from ..runs import RunFolder
@@ -65,7 +67,6 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 show_progress: bool = True) -> dict[str, Any]:
     """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
     returns the summary (the analysis and where the files are)."""
-    import math
 
     from ..dynamixel.bus import Bus
     from ..middleware.recorder import Recorder
@@ -74,8 +75,7 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     from ..sim.fly_walk import FlyWalkConfig, FlyWalker
     from .base_config import load as load_base
     from .base_node import BaseNode
-    from .fly_analysis import analyze, plot_analysis
-    from .fly_logs import FlyLogWriter, read_encoder_log, read_fly_log
+    from .fly_logs import FlyLogWriter
     from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
     from .mobile_base import MobileBase
 
@@ -94,6 +94,9 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
     say(f"the fly walks on the simulated treadmill for {duration:g} s (seed {seed}); "
         "the robot follows the ball")
+    interrupted: BaseException | None = None
+    node: FlyballNode | None = None
+    tracker: MobrobDataTracker | None = None
     with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path) as encoder_log, \
             Context.open(clock=sim) as context:
         try:
@@ -102,27 +105,34 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
             tracker = MobrobDataTracker(context, encoder_log)
             Recorder(context, str(bag), list(RECORDED))
             _spin(context, sim, duration, show_progress)
+        except BaseException as error:  # Ctrl-C, a node's error: keep and analyse the logs
+            interrupted = error
         finally:
             try:
                 base.stop()
             finally:
                 aot.sync_write("goal_velocity", dict.fromkeys(AOT_IDS, 0), raw=True)
                 aot.sync_write("torque_enable", dict.fromkeys(AOT_IDS, 0))
-    fly_records, encoders = read_fly_log(fly_path), read_encoder_log(encoder_path)
-    result, series = analyze(fly_records, encoders)
-    plot = plot_analysis(result, series, fly_records, run_folder.file("flyball.png"))
-    truth = world.ground_truth()
-    summary: dict[str, Any] = {
-        "duration_s": duration, "seed": seed, "frames": node.frames,
-        "encoder_records": tracker.records, "analysis": result.summary(),
-        "fly_walked_m": truth["fly_walked"], "fly_data": str(fly_path),
-        "robot_encoders": str(encoder_path), "bag": str(bag), "plot": str(plot)}
-    say(f"{node.frames} frames: mean distance error {result.mean_distance_error_mm:.3f} mm "
-        f"(thesis 1.821), mean angle error {result.mean_angle_error_deg:.2f}° (thesis 7.039), "
-        f"response delay {result.response_delay_s * 1000:.0f} ms (thesis about 110); "
-        f"sphere path {result.sphere_path_length_m * 1000:.0f} mm, robot path "
-        f"{result.robot_path_length_m:.2f} m, shape disparity {result.path_disparity:.2f}; "
-        f"plot {plot}")
+    if node is None or tracker is None:
+        assert interrupted is not None
+        raise interrupted
+    summary = _analysed(run_folder, fly_path, encoder_path, bag)
+    summary.update({"duration_s": duration, "seed": seed, "frames": node.frames,
+                    "encoder_records": tracker.records,
+                    "fly_walked_m": world.ground_truth()["fly_walked"]})
+    if interrupted is not None:
+        summary["interrupted"] = f"{type(interrupted).__name__}: {interrupted}".rstrip(": ")
+        run_folder.write_summary(summary)  # the caller will not get to it
+        raise interrupted
+    a = summary["analysis"]
+    if a is None:
+        raise ValueError(f"{node.frames} frame(s) in {duration:g} s; the analysis needs two")
+    say(f"{node.frames} frames: mean distance error {a['mean_distance_error_mm']:.3f} mm "
+        f"(thesis 1.821), mean angle error {a['mean_angle_error_deg']:.2f}° (thesis 7.039), "
+        f"response delay {a['response_delay_s'] * 1000:.0f} ms (thesis about 110); "
+        f"sphere path {a['sphere_path_length_m'] * 1000:.0f} mm, robot path "
+        f"{a['robot_path_length_m']:.2f} m, shape disparity {a['path_disparity']:.2f}; "
+        f"plot {summary['plot']}")
     return summary
 
 
@@ -138,8 +148,7 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
     from ..middleware.recorder import Recorder
     from ..sim import Simulation
     from ..vision.frame_source import FrameSource
-    from .fly_analysis import analyze, plot_analysis
-    from .fly_logs import FlyLogWriter, read_encoder_log, read_fly_log
+    from .fly_logs import FlyLogWriter
     from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
 
     source = FrameSource.open(frames)
@@ -160,31 +169,61 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
         f"{'on ' + port if port else 'emulated'}")
     from tqdm import tqdm
 
+    interrupted: BaseException | None = None
+    node: FlyballNode | None = None
     try:
         with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path), \
                 Context.open(clock=clock) as context, \
                 tqdm(total=len(source) or None, unit="frame", disable=not show_progress,
                      leave=False) as bar:
-            node = FlyballNode(context, bus, source, log=fly_log)
-            Recorder(context, str(bag), ["/cmd_vel", "/fly/pose", "/aot/joint_states"])
-            while not node.finished:
-                context.spin_until(lambda: node.finished, timeout=1.0)
-                bar.update(node.frames - bar.n)
+            try:
+                node = FlyballNode(context, bus, source, log=fly_log)
+                Recorder(context, str(bag), ["/cmd_vel", "/fly/pose", "/aot/joint_states"])
+                while not node.finished:
+                    context.spin_until(lambda: node is not None and node.finished,
+                                       timeout=1.0)
+                    bar.update(node.frames - bar.n)
+            except BaseException as error:  # a bad frame mid-video, Ctrl-C: keep the log
+                interrupted = error
+                if node is not None:
+                    node.motor_deinit()
     finally:
         source.close()
         bus.close()
-    fly_records = read_fly_log(fly_path)
+    if node is None:
+        assert interrupted is not None
+        raise interrupted
+    summary = _analysed(run_folder, fly_path, encoder_path, bag)
+    summary.update({"frames_source": str(frames), "port": port or "emulated",
+                    "frames": node.frames})
+    if interrupted is not None:
+        summary["interrupted"] = f"{type(interrupted).__name__}: {interrupted}".rstrip(": ")
+        run_folder.write_summary(summary)  # the caller will not get to it
+        raise interrupted
+    if summary["analysis"] is None:
+        raise ValueError(f"{frames}: {node.frames} frame(s) tracked; the analysis needs at "
+                         "least two")
+    analysis = summary["analysis"]
+    say(f"{node.frames} frames ({analysis['frames_with_fly']} with the fly): mean distance "
+        f"error {analysis['mean_distance_error_mm']:.3f} mm, mean angle error "
+        f"{analysis['mean_angle_error_deg']:.2f}°; plot {summary['plot']}")
+    return summary
+
+
+def _analysed(run_folder: RunFolder, fly_path: Path, encoder_path: Path, bag: Path | None
+              ) -> dict[str, Any]:
+    """The run's logs read back and analysed, the figure drawn: the summary's common part."""
+    from .fly_analysis import analyze, plot_analysis
+    from .fly_logs import read_encoder_log, read_fly_log
+
+    fly_records, encoders = read_fly_log(fly_path), read_encoder_log(encoder_path)
+    files = {"fly_data": str(fly_path), "robot_encoders": str(encoder_path),
+             "bag": None if bag is None else str(bag)}
     if len(fly_records) < 2:
-        raise ValueError(f"{frames}: {len(fly_records)} frame(s) tracked; the analysis needs "
-                         "at least two")
-    result, series = analyze(fly_records, read_encoder_log(encoder_path))
+        return {"analysis": None, **files, "plot": None}
+    result, series = analyze(fly_records, encoders)
     plot = plot_analysis(result, series, fly_records, run_folder.file("flyball.png"))
-    say(f"{node.frames} frames ({result.frames_with_fly} with the fly): mean distance error "
-        f"{result.mean_distance_error_mm:.3f} mm, mean angle error "
-        f"{result.mean_angle_error_deg:.2f}°; plot {plot}")
-    return {"frames_source": str(frames), "port": port or "emulated", "frames": node.frames,
-            "analysis": result.summary(), "fly_data": str(fly_path),
-            "robot_encoders": str(encoder_path), "bag": str(bag), "plot": str(plot)}
+    return {"analysis": result.summary(), **files, "plot": str(plot)}
 
 
 def _spin(context: Context, sim: Any, duration: float, show_progress: bool) -> None:
@@ -203,7 +242,8 @@ class FlyballRig(Node):
     camera in real time (or the real treadmill on ``port`` -- then frames must come from
     elsewhere, which this node does not do yet, so ``port`` is refused), Listing 1's
     ``image_converter`` and Listing 2's ``mobrob_data_tracker``, writing the run folder
-    ``out``. After ``duration`` seconds it stops the wheels (torque off), analyses the logs
+    ``out``. ``duration`` seconds after it first hears the robot (its ``sensor_state``: the
+    robot's process may take a while to start) it stops the wheels (torque off), analyses the logs
     into ``out``/summary.json and ``out``/flyball.png, and shuts its process down, so that as
     a ``required`` node it ends the launch. The robot is another node, anywhere on the
     network: it hears ``/cmd_vel`` and answers on ``sensor_state``."""
@@ -211,7 +251,6 @@ class FlyballRig(Node):
     def __init__(self, context: Context, name: str = "treadmill", namespace: str = "/", *,
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
-        import math
 
         from ..dynamixel.bus import Bus
         from ..runs import RunFolder
@@ -247,20 +286,21 @@ class FlyballRig(Node):
         self.node = FlyballNode(context, self.bus, SimulatedFlyCamera(self.world, seed=seed),
                                 log=self.fly_log)
         self.tracker = MobrobDataTracker(context, self.encoder_log)
-        self.start = self.now()
+        self.start: float | None = None  # the robot's first sensor_state: the run starts
         self.summary: dict[str, Any] | None = None
         self.create_timer(0.1, self._check_done)
 
     def _check_done(self) -> None:
+        if self.start is None:
+            if self.tracker.records:  # the robot is up and heard: count from here
+                self.start = self.now()
+            return
         if self.summary is None and self.now() - self.start >= self.duration:
             self.finish()
             self.context.shutdown()  # a required node ends the launch
 
     def finish(self) -> dict[str, Any]:
         """Stop the wheels, close the logs, analyse them (once)."""
-        from .fly_analysis import analyze, plot_analysis
-        from .fly_logs import read_encoder_log, read_fly_log
-
         if self.summary is not None:
             return self.summary
         try:
@@ -269,18 +309,18 @@ class FlyballRig(Node):
             self.simulation.stop_real_time()
             self.fly_log.close()
             self.encoder_log.close()
-        fly = read_fly_log(self.run.file("fly_data.bin"))
-        encoders = read_encoder_log(self.run.file("robot_encoders.bin"))
-        result, series = analyze(fly, encoders)
-        plot = plot_analysis(result, series, fly, self.run.file("flyball.png"))
-        self.summary = {"duration_s": self.duration, "frames": self.node.frames,
-                        "encoder_records": self.tracker.records,
-                        "analysis": result.summary(), "plot": str(plot)}
-        self.run.write_summary(self.summary)
+        summary = _analysed(self.run, self.run.file("fly_data.bin"),
+                            self.run.file("robot_encoders.bin"), None)
+        summary.update({"duration_s": self.duration, "frames": self.node.frames,
+                        "encoder_records": self.tracker.records})
+        self.summary = summary
+        self.run.write_summary(summary)
+        analysis = summary["analysis"] or {}
         self.get_logger().info(
             f"{self.node.frames} frames, {self.tracker.records} robot encoder records: mean "
-            f"distance error {result.mean_distance_error_mm:.3f} mm, run folder {self.run.path}")
-        return self.summary
+            f"distance error {analysis.get('mean_distance_error_mm', math.nan):.3f} mm, run "
+            f"folder {self.run.path}")
+        return summary
 
     def destroy(self) -> None:
         try:

@@ -94,12 +94,12 @@ class FlyballNode(Node):
     def _frame(self) -> None:
         if self.finished:
             return
-        started = time.perf_counter()
         image = self.camera()
         if image is None:
             self.finished = True
             self.motor_deinit()
             return
+        started = time.perf_counter()  # Listing 1's `begin`: once the frame is in hand
         now = self.now()
         sampling_us = 0.0 if self._previous is None else (now - self._previous) * 1e6
         self._previous = now
@@ -112,9 +112,10 @@ class FlyballNode(Node):
         positions = [float(present[i]) for i in self.ids]
         loop_us = (time.perf_counter() - started) * 1e6
         self.last = (sighting, command)
+        # the listing's `secs` is taken when the record is written, after the bus
         record = [float(self.frames), loop_us, sampling_us, sighting.cx, sighting.cy,
                   sighting.theta, command.dxm, command.dym, command.dthm,
-                  *command.wheel_speeds, sighting.area, *positions, now]
+                  *command.wheel_speeds, sighting.area, *positions, self.now()]
         if self.log is not None:
             self.log.write(record)
         stamp = time_of(now)

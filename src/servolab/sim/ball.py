@@ -30,7 +30,7 @@ from dataclasses import replace
 
 from ..dynamixel.emulator import VirtualMotor
 from ..dynamixel.plant import ServoPlant
-from ..kinematics.aot import AotGeometry, AotKinematics
+from ..kinematics.aot import CAMERA_HANDEDNESS, AotGeometry, AotKinematics, surface_in_camera
 from .floor import RampedWheel
 from .fly_walk import FlyWalker
 from .simulation import Simulation, SimulationError
@@ -79,7 +79,7 @@ class BallWorld(World):
     def __init__(self, motors: Sequence[VirtualMotor], geometry: AotGeometry | None = None,
                  *, walker: FlyWalker | None = None, px_per_mm: float = PX_PER_MM,
                  image_size: tuple[int, int] = IMAGE_SIZE,
-                 handedness: tuple[int, int, int] = (-1, -1, 1),
+                 handedness: tuple[int, int, int] = CAMERA_HANDEDNESS,
                  stiction_delay: float = 0.11, max_acceleration: float = 40.0,
                  start: tuple[float, float, float] | None = None) -> None:
         if len(motors) != 3:
@@ -111,21 +111,23 @@ class BallWorld(World):
     def step(self, dt: float) -> None:
         for plant in self.plants:
             plant.step(dt)
-        vx, vy, wz = (float(v) for v in self.kinematics.ball_velocity(self.wheel_speeds()))
+        motion = self.kinematics.ball_velocity(self.wheel_speeds())
+        vx, vy, wz = (float(v) for v in motion)
         self.ball_x += vx * dt
         self.ball_y += vy * dt
         self.ball_yaw += wz * dt
-        a = -self.geometry.camera_to_motor  # motor frame -> camera frame
-        cx = math.cos(a) * vx - math.sin(a) * vy
-        cy = math.sin(a) * vx + math.cos(a) * vy
-        hx, hy, hz = self.handedness
-        surface = (hx * cx, hy * cy, hz * wz)
-        self.surface = surface
+        sx, sy, sz = (float(v) for v in surface_in_camera(motion, self.geometry,
+                                                           self.handedness))
+        self.surface = (sx, sy, sz)
         speed, turn = self.walker.step(dt)
         self.walked += speed * dt
-        self.fly_x += (speed * math.cos(self.fly_theta) + surface[0]) * dt * self.px_per_m
-        self.fly_y += (speed * math.sin(self.fly_theta) + surface[1]) * dt * self.px_per_m
-        self.fly_theta = math.remainder(self.fly_theta + (turn + surface[2]) * dt, 2 * math.pi)
+        # the ball's spin about its vertical axis (under the image centre) also carries an
+        # off-centre fly round it: omega x r
+        w, h = self.image_size
+        rx, ry = self.fly_x - w / 2, self.fly_y - h / 2
+        self.fly_x += ((speed * math.cos(self.fly_theta) + sx) * self.px_per_m - sz * ry) * dt
+        self.fly_y += ((speed * math.sin(self.fly_theta) + sy) * self.px_per_m + sz * rx) * dt
+        self.fly_theta = math.remainder(self.fly_theta + (turn + sz) * dt, 2 * math.pi)
 
     def ground_truth(self) -> dict[str, float]:
         return {"fly_x": self.fly_x, "fly_y": self.fly_y, "fly_theta": self.fly_theta,

@@ -132,6 +132,8 @@ class FrameSource:
             source._pending = source._read()
             if source._pending is None:
                 raise FrameSourceError(source._empty_message())
+            if isinstance(source, _FolderSource):
+                source.check_all()
         except BaseException:
             source.close()
             raise
@@ -205,10 +207,20 @@ class _FolderSource(FrameSource):
             return None
         file = self.files[self._next]
         self._next += 1
+        return self._load(file), str(file)
+
+    def _load(self, file: Path) -> Image:
         frame = cv2.imread(str(file), cv2.IMREAD_UNCHANGED)
         if frame is None:
             raise FrameSourceError(f"{file}: OpenCV cannot read this image")
-        return _to_mono8(np.asarray(frame), str(file), self.size), str(file)
+        return _to_mono8(np.asarray(frame), str(file), self.size)
+
+    def check_all(self) -> None:
+        """Read every frame once and check it, so that a bad file is found before a motor
+        turns, not after half the recording was driven (a folder is read twice; a video
+        cannot be, and is checked frame by frame as it plays)."""
+        for file in self.files[self._next:]:
+            self._load(file)
 
 
 class _VideoSource(FrameSource):
