@@ -283,8 +283,8 @@ class FlyballRig(Node):
         self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
         self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
         self.simulation.start_real_time()
-        self.node = FlyballNode(context, self.bus, SimulatedFlyCamera(self.world, seed=seed),
-                                log=self.fly_log)
+        self.node = FlyballNode(context, self.bus, SimulatedFlyCamera(
+            self.world, seed=seed, simulation=self.simulation), log=self.fly_log)
         self.tracker = MobrobDataTracker(context, self.encoder_log)
         self.start: float | None = None  # the robot's first sensor_state: the run starts
         self.summary: dict[str, Any] | None = None
