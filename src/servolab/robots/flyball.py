@@ -32,7 +32,7 @@ from ..middleware.context import Context
 from ..middleware.node import Node
 from . import CONFIGS
 from .fly_logs import EncoderLogWriter
-from .flyball_node import FlyballNode
+from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode, emulated_aot_bus
 
 if TYPE_CHECKING:
     from ..runs import RunFolder
@@ -68,24 +68,19 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
     returns the summary (the analysis and where the files are)."""
 
-    from ..dynamixel.bus import Bus
     from ..middleware.recorder import Recorder
-    from ..sim import BallWorld, Simulation
+    from ..sim import Simulation
     from ..sim.fly_camera import SimulatedFlyCamera
     from ..sim.fly_walk import FlyWalkConfig, FlyWalker
     from .base_config import load as load_base
     from .base_node import BaseNode
     from .fly_logs import FlyLogWriter
-    from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
     from .mobile_base import MobileBase
 
     if not (math.isfinite(duration) and duration > 0):
         raise ValueError(f"duration {duration!r} must be a number of seconds > 0")
     sim = Simulation()
-    aot = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}", baudrate=AOT_BAUDRATE,
-                   simulation=sim)
-    world = sim.add(BallWorld([aot.emulator.motor(i) for i in AOT_IDS],
-                              walker=FlyWalker(fly or FlyWalkConfig(), seed=seed)))
+    aot, world = _treadmill(sim, FlyWalker(fly or FlyWalkConfig(), seed=seed))
     camera = SimulatedFlyCamera(world, seed=seed)
     base = MobileBase.emulated(load_base(WAFFLE), sim)
     bag = run_folder.file("flyball_bag")
@@ -149,14 +144,12 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
     from ..sim import Simulation
     from ..vision.frame_source import FrameSource
     from .fly_logs import FlyLogWriter
-    from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
 
     source = FrameSource.open(frames)
     clock: Clock
     if port is None:
         sim = Simulation()
-        bus = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}", baudrate=AOT_BAUDRATE,
-                       simulation=sim)
+        bus = emulated_aot_bus(sim)
         clock = sim
     else:
         bus = Bus.open(port, protocol=2, baudrate=AOT_BAUDRATE)
@@ -210,6 +203,16 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
     return summary
 
 
+def _treadmill(simulation: Any, walker: Any) -> tuple[Any, Any]:
+    """The emulated wheels (:func:`~.flyball_node.emulated_aot_bus`) under a
+    :class:`~servolab.sim.ball.BallWorld` with ``walker`` on the ball, in ``simulation``."""
+    from ..sim import BallWorld
+
+    bus = emulated_aot_bus(simulation)
+    world = simulation.add(BallWorld([bus.emulator.motor(i) for i in AOT_IDS], walker=walker))
+    return bus, world
+
+
 def _analysed(run_folder: RunFolder, fly_path: Path, encoder_path: Path, bag: Path | None
               ) -> dict[str, Any]:
     """The run's logs read back and analysed, the figure drawn: the summary's common part."""
@@ -252,13 +255,11 @@ class FlyballRig(Node):
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
 
-        from ..dynamixel.bus import Bus
         from ..runs import RunFolder
-        from ..sim import BallWorld, Simulation
+        from ..sim import Simulation
         from ..sim.fly_camera import SimulatedFlyCamera
         from ..sim.fly_walk import FlyWalker
         from .fly_logs import FlyLogWriter
-        from .flyball_node import AOT_BAUDRATE, AOT_IDS, FlyballNode
 
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
@@ -276,10 +277,7 @@ class FlyballRig(Node):
             raise ValueError(f"treadmill: duration {self.duration!r} must be > 0 s")
         self.run = RunFolder.create("flyball", out or None)
         self.simulation = Simulation()
-        self.bus = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}",
-                            baudrate=AOT_BAUDRATE, simulation=self.simulation)
-        self.world = self.simulation.add(BallWorld(
-            [self.bus.emulator.motor(i) for i in AOT_IDS], walker=FlyWalker(seed=seed)))
+        self.bus, self.world = _treadmill(self.simulation, FlyWalker(seed=seed))
         self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
         self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
         self.simulation.start_real_time()

@@ -47,6 +47,13 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 Camera = Callable[[], "npt.NDArray[np.uint8] | None"]
 
 
+def emulated_aot_bus(simulation: Any) -> Bus:
+    """The treadmill's three wheels emulated in ``simulation``: XM430-W210, IDs 100-102,
+    Protocol 2.0 at 1 Mbps, as Listing 1 addresses them."""
+    return Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}", baudrate=AOT_BAUDRATE,
+                    simulation=simulation)
+
+
 class FlyballNode(Node):
     """See the module docstring. ``camera()`` returns the next frame, or None when there is
     none (a recording that ended: the node then stops the wheels and sets :attr:`finished`)."""

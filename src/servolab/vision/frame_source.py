@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import re
+from abc import ABC, abstractmethod
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -89,7 +90,7 @@ def _to_mono8(frame: npt.NDArray[Any], where: str, size: tuple[int, int]) -> Ima
     return np.ascontiguousarray(frame, dtype=np.uint8)
 
 
-class FrameSource:
+class FrameSource(ABC):
     """Frames of a recording, one at a time, as mono8 arrays of the expected size.
 
     Make one with :meth:`open`; call it for the next frame (None at the end), as the flyball
@@ -150,10 +151,10 @@ class FrameSource:
         frame, self.name_of_last = item
         return frame
 
+    @abstractmethod
     def __len__(self) -> int:
         """The number of frames: exact for a folder; for a video, what its container claims
         (``CAP_PROP_FRAME_COUNT``), which can be off or 0 when unknown."""
-        raise NotImplementedError
 
     def __bool__(self) -> bool:
         """Always true: a video whose length is unknown (``len() == 0``) still has frames, and
@@ -172,12 +173,13 @@ class FrameSource:
                  tb: TracebackType | None) -> None:
         self.close()
 
+    @abstractmethod
     def _read(self) -> tuple[Image, str] | None:
-        """The next frame and where it came from, None at the end; subclasses implement it."""
-        raise NotImplementedError
+        """The next frame and where it came from, None at the end."""
 
+    @abstractmethod
     def _empty_message(self) -> str:
-        raise NotImplementedError
+        """Why a recording without a single frame is refused (one line)."""
 
 
 class _FolderSource(FrameSource):
