@@ -1,10 +1,10 @@
 """The base node's control rate on the emulated buses of both bases, against the wire-time
 limit of one cycle (issue 17).
 
-Two bases, as ``configs/`` has them: seed 000's two EX-106+ in wheel mode (Protocol 1.0,
-1 Mbps) and a TurtleBot3 Waffle's two XM430-W210 in velocity mode (Protocol 2.0, 1 Mbps). Each
-is emulated on a simulated floor (``MobileBase.emulated``) and driven by a
-:class:`~servolab.robots.base_node.BaseNode` whose ``rate`` parameter is lifted to
+Two bases, as servolab ships them (``servolab robots``): seed 000's two EX-106+ in wheel
+mode (Protocol 1.0, 1 Mbps) and a TurtleBot3 Waffle's two XM430-W210 in velocity mode
+(Protocol 2.0, 1 Mbps). Each is emulated on a simulated floor (``MobileBase.emulated``) and
+driven by a :class:`~servolab.robots.base.node.BaseNode` whose ``rate`` parameter is lifted to
 10 000 Hz, so that its timer is always due and only the bus bounds the loop. A ``/cmd_vel``
 (0.1 m/s, 0.3 rad/s; the watchdog lifted) keeps the wheels turning. Each cycle is what the
 node does: one SYNC_WRITE of both wheels' speeds and the reads of ``present_position`` (one
@@ -51,11 +51,11 @@ from pathlib import Path
 
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
-from servolab.robots.base_config import BaseConfig, load
-from servolab.robots.base_node import BaseNode
-from servolab.robots.mobile_base import MobileBase
+from servolab.robots.base.config import SHIPPED_DIR, BaseConfig, load
+from servolab.robots.base.mobile_base import MobileBase
+from servolab.robots.base.node import BaseNode
 
-CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+CONFIGS = SHIPPED_DIR  # the shipped bases
 BASES = ("base_seed000.yaml", "base_turtlebot3_waffle.yaml")
 FULL_CYCLES, QUICK_CYCLES = 2000, 60
 FULL_DEFAULT_S, QUICK_DEFAULT_S = 10.0, 1.0   # virtual seconds at the default rate

@@ -15,12 +15,12 @@ before any timing:
   (checks, dataclasses, the absent-fly rule) costs over OpenCV's work, which no tracker built
   on these calls can avoid. Both must find the same centroid and angle (the run fails
   otherwise), so the anchor does the same work;
-- the **whole per-frame loop** as :meth:`servolab.robots.flyball_node.FlyballNode._frame` does
+- the **whole per-frame loop** as :meth:`servolab.robots.treadmill.node.TreadmillNode._frame` does
   it, in a plain loop without the middleware (no executor, no timer, no publishing): the
   frame, ``track_fly``, ``fly_command``, one SYNC_WRITE of ``goal_velocity`` and one
   SYNC_READ of ``present_position`` to the three XM430-W210 (IDs 100-102, 1 Mbps, emulated,
   set up as the node's ``motor_init`` does) and the 17-value record written with
-  :class:`~servolab.robots.fly_logs.FlyLogWriter` (flushed each frame) to a temporary file.
+  :class:`~servolab.robots.treadmill.logs.FlyLogWriter` (flushed each frame) to a temporary file.
   Its frames per second, and the per-frame latency p50 and p99 against the frame period.
 
 The emulated bus runs on a virtual clock: its wire time (10 bits a byte at 1 Mbps, the motors'
@@ -55,9 +55,9 @@ import numpy as np
 import numpy.typing as npt
 
 from servolab.dynamixel.bus import Bus
-from servolab.robots.fly_control import FlyControllerConfig, fly_command
-from servolab.robots.fly_logs import FLY_RECORD, FlyLogWriter, read_fly_log
-from servolab.robots.flyball_node import AOT_BAUDRATE, AOT_IDS, FRAME_RATE
+from servolab.robots.treadmill.control import FlyControllerConfig, fly_command
+from servolab.robots.treadmill.logs import FLY_RECORD, FlyLogWriter, read_fly_log
+from servolab.robots.treadmill.node import FRAME_RATE, TREADMILL_BAUDRATE, TREADMILL_IDS
 from servolab.vision.fly_render import DEFAULT_SIZE, FlyPose, render_fly
 from servolab.vision.fly_tracker import FlyTrackerConfig, track_fly
 
@@ -139,12 +139,12 @@ class LoopRun:
 
 class Rig:
     """The treadmill's three emulated wheels and the node's state between frames, so that the
-    loop below does per frame exactly what ``FlyballNode._frame`` does minus the publishing."""
+    loop below does per frame exactly what ``TreadmillNode._frame`` does minus the publishing."""
 
     def __init__(self, log_path: Path) -> None:
-        self.bus = Bus.open(f"emu://xm430-w210:{AOT_IDS[0]}-{AOT_IDS[-1]}",
-                            baudrate=AOT_BAUDRATE)
-        self.ids = AOT_IDS
+        self.bus = Bus.open(f"emu://xm430-w210:{TREADMILL_IDS[0]}-{TREADMILL_IDS[-1]}",
+                            baudrate=TREADMILL_BAUDRATE)
+        self.ids = TREADMILL_IDS
         self.tracker = FlyTrackerConfig()
         # As the node does: the wheel speeds clamped to the motors' own velocity_limit.
         self.controller = FlyControllerConfig(max_wheel_speed=min(

@@ -52,9 +52,9 @@ from servolab.gait.walking import GaitParameters, generate_walk
 from servolab.kinematics.leg import ARMSTRONG_LEG, LegGeometry
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
-from servolab.robots import armstrong
-from servolab.robots.dynamixel_manager import MOTOR_STATE_LIST, DynamixelManager
-from servolab.robots.motor_state import STATE_REGISTERS
+from servolab.robots.armstrong import hardware as armstrong
+from servolab.robots.controllers.manager import MOTOR_STATE_LIST, DynamixelManager
+from servolab.robots.controllers.motor_state import STATE_REGISTERS
 from servolab.sim.simulation import Simulation
 
 FULL_STEPS, QUICK_STEPS = 1000, 20
@@ -263,7 +263,7 @@ def manager_report(rows: Sequence[ManagerRate]) -> str:
                      f"ratio per-register/one-READ = {r.ratio_per_register_achieved:.3f} "
                      f"(limits {r.ratio_per_register_limit:.3f}), "
                      f"{r.transactions_per_update:g} transactions/update")
-    lines.append("(the manager's configured update_rate, 20 Hz in configs/armstrong.yaml, was "
+    lines.append("(the manager's configured update_rate, 20 Hz in the shipped armstrong.yaml, was "
                  "lifted here; with it the 1 000 000 bps buses update at 20 Hz)")
     slow = [r for r in rows if r.baudrate == 57_142]
     lines.append(f"original (seed 001's ROS driver, 57142 bps): {SEED_ROS_HZ[0]:g}-"

@@ -118,7 +118,7 @@ def biped(out: Path) -> None:
 
     from servolab.gait.plots import plot_foot_positions, plot_joint_angles
     from servolab.gait.walking import generate_walk
-    from servolab.robots.walk import load_motion, run_walk
+    from servolab.robots.armstrong.run import load_motion, run_walk
     from servolab.runs import RunFolder
 
     walk = generate_walk()
@@ -135,7 +135,7 @@ def mobile(out: Path) -> None:
     import shutil
     import tempfile
 
-    from servolab.robots.drive import run_drive
+    from servolab.robots.base.run import run_drive
     from servolab.runs import RunFolder
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -190,7 +190,7 @@ def navigation(out: Path) -> None:
     import cv2
     import numpy as np
 
-    from servolab.robots.plan_run import load_problem, plan, plot_plan
+    from servolab.robots.navigation.plan import load_problem, plan, plot_plan
     from servolab.vision.calibration import calibrate
     from servolab.vision.synthetic import PinholeCamera, random_board_poses, render_checkerboard
 
@@ -235,21 +235,22 @@ def navigation_loop(out: Path) -> None:
     import shutil
     import tempfile
 
-    from servolab.robots import CONFIGS
-    from servolab.robots.navigate import NavigationError, prepare, run_navigate
+    from servolab.robots.base.config import SHIPPED_DIR
+    from servolab.robots.navigation.run import GoalNotReached, prepare, run_navigate
     from servolab.runs import RunFolder
+    from servolab.sim.scene import DEFAULT_SCENE
 
     with tempfile.TemporaryDirectory() as tmp:
         run = RunFolder.create("navigate", Path(tmp) / "loop")
         run_navigate(run, prepare((3.3, 2.3)), say=lambda _: None, show_progress=False)
         shutil.copy(run.file("navigate.png"), out / "navigation_loop.png")
-        text = (CONFIGS / "nav_scene.yaml").read_text()
+        text = DEFAULT_SCENE.read_text()
         scene = Path(tmp) / "corner.yaml"
         scene.write_text(text[:text.index("\nobstacles:") + 1] + "obstacles:\n"
                          "  - {box: {x: 1.9, y: 0.0, width: 0.2, depth: 1.6}}\n")
-        shutil.copy(CONFIGS / "base_seed000.yaml", Path(tmp) / "base_seed000.yaml")
+        shutil.copy(SHIPPED_DIR / "base_seed000.yaml", Path(tmp) / "base_seed000.yaml")
         run = RunFolder.create("navigate", Path(tmp) / "corner")
-        with contextlib.suppress(NavigationError):  # the point: it gives up, oscillating
+        with contextlib.suppress(GoalNotReached):  # the point: it gives up, oscillating
             run_navigate(run, prepare((3.3, 0.6), goal_yaw=0.0, scene=scene),
                          say=lambda _: None, show_progress=False)
         shutil.copy(run.file("navigate.png"), out / "navigation_corner.png")
@@ -266,8 +267,8 @@ def treadmill(out: Path, duration: float = 100.0) -> None:
     import cv2
     import numpy as np
 
-    from servolab.robots.fly_control import FlyControllerConfig
-    from servolab.robots.flyball import run_flyball
+    from servolab.robots.treadmill.control import FlyControllerConfig
+    from servolab.robots.treadmill.run import run_flyball
     from servolab.runs import RunFolder
     from servolab.vision.fly_render import FlyPose, render_fly
     from servolab.vision.fly_tracker import track_fly

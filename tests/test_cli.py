@@ -7,6 +7,7 @@ import argparse
 import importlib
 import json
 import pkgutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +19,7 @@ from servolab.apps.registry import GROUPS, Command, commands
 from servolab.cli import build_parser, main
 from servolab.dynamixel.errors import ConfigError, MotorError, NoResponse
 from servolab.errors import ConfigFileError
+from servolab.harness import StopSignal
 from servolab.middleware.errors import MessageError, ServiceError
 from tests.simproc import sim_process
 
@@ -267,7 +269,9 @@ def _failing(exc: BaseException) -> Command:
      "servolab fail go: NoResponse: motor 3 did not answer PING"),
     (MotorError(3, "WRITE", ("overload",), 0x20), 1,
      "servolab fail go: MotorError: motor 3: WRITE answered with error overload"),
-    (KeyboardInterrupt(), 130, "servolab fail: interrupted"),
+    (KeyboardInterrupt(), 130, "servolab fail go: stopped by SIGINT"),
+    (StopSignal(signal.SIGTERM), 143, "servolab fail go: stopped by SIGTERM"),
+    (StopSignal(signal.SIGHUP), 129, "servolab fail go: stopped by SIGHUP"),
 ])
 def test_errors_are_one_line_with_their_exit_status(
         exc: BaseException, status: int, line: str, monkeypatch: pytest.MonkeyPatch,

@@ -5,7 +5,8 @@ Each command is a module of :mod:`servolab.apps` that registers itself
 (:mod:`servolab.apps.registry`); nothing here names a command, so adding one does not touch
 this file. Errors in what the user typed come back as one line naming the bad value, exit
 status 2; errors on the bus (no answer, a motor's error bits) or of a service as one line,
-exit status 1; Ctrl-C as exit status 130. Anything else is a bug and keeps its traceback.
+exit status 1; a stop signal as 128 + its number (130 for Ctrl-C, 143 for SIGTERM, 129 for
+SIGHUP). Anything else is a bug and keeps its traceback (:mod:`servolab.harness`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from collections.abc import Sequence
 from . import __version__
 from .apps.registry import GROUPS, Command, commands
 from .errors import ServolabError
+from .harness import exit_status, interruption, is_bad_input, stop_signals_raise
 
 
 def build_parser(registered: Sequence[Command] | None = None) -> argparse.ArgumentParser:
@@ -71,40 +73,37 @@ def _examples(examples: Sequence[str]) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` (default: ``sys.argv[1:]``), run the command, return the exit status."""
+    """Parse ``argv`` (default: ``sys.argv[1:]``), run the command, return the exit status.
+
+    The one place where a command's end becomes an exit status and a line on stderr
+    (:mod:`servolab.harness`): every command runs with SIGINT, SIGTERM and SIGHUP raising
+    :class:`~servolab.harness.StopSignal`; an error servolab raised on purpose is one line;
+    anything else is a bug and keeps its traceback."""
     registered = commands()
     args = build_parser(registered).parse_args(argv)
     command = next(c for c in registered if c.name == args.command)
+    name = f"{args.command} {getattr(args, 'action', None) or ''}".strip()
     try:
-        return command.run(args)
-    except KeyboardInterrupt:
-        print(f"servolab {args.command}: interrupted", file=sys.stderr)
-        return 130
+        with stop_signals_raise():
+            return command.run(args)
+    except KeyboardInterrupt as stop:
+        print(f"servolab {name}: stopped by {interruption(stop)}", file=sys.stderr)
+        return exit_status(stop)
     except ServolabError as exc:
-        status, label = _report(exc)
-        name = f"{args.command} {getattr(args, 'action', '')}".strip()
-        print(f"servolab {name}: {label}: {exc}", file=sys.stderr)
-        return status
+        print(f"servolab {name}: {_label(exc)}: {exc}", file=sys.stderr)
+        return exit_status(exc)
     # Anything else was not raised on purpose: a bug, whose traceback is the useful report.
 
 
-def _report(exc: ServolabError) -> tuple[int, str]:
-    """The exit status and label of an error servolab raised on purpose: ``(2, "error")`` for
-    bad input — a value, an argument or a file of the user's, all value errors —,
-    ``(1, "error")`` for a service that failed, ``(1, class name)`` for a failure at run time
-    such as the bus's (``NoResponse``, ``MotorError``: the name says what went wrong).
+def _label(exc: ServolabError) -> str:
+    """``error`` for bad input and for a service that failed; a failure at run time such as
+    the bus's is labelled with its class (``NoResponse``, ``MotorError``: the name says what
+    went wrong)."""
+    from .middleware.errors import ServiceError
 
-    The layers' classes are imported here rather than at the top: the Dynamixel package
-    takes some 70 ms to import, which ``servolab --help`` need not pay, and when one of its
-    errors is in flight it is loaded already.
-    """
-    from .middleware.errors import MiddlewareError, ServiceError
-
-    if isinstance(exc, ServiceError):
-        return 1, "error"
-    if isinstance(exc, ValueError | MiddlewareError):
-        return 2, "error"
-    return 1, type(exc).__name__
+    if is_bad_input(exc) or isinstance(exc, ServiceError):
+        return "error"
+    return type(exc).__name__
 
 
 if __name__ == "__main__":

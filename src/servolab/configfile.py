@@ -291,6 +291,20 @@ class ConfigMapping(ConfigValue):
 # -- loading ---------------------------------------------------------------------------------
 
 
+def shipped(package: str, name: str) -> Path:
+    """The configuration file ``name`` that servolab installs as package data of ``package``
+    (``shipped("servolab.robots.armstrong", "armstrong.yaml")``).
+
+    Defaults live beside the code that reads them, as dm_control's ``cartpole.xml`` does, so a
+    ``pip install`` gives every command its defaults from any directory; a clone's
+    ``configs/`` holds only launch files and examples to copy. A path rather than a
+    ``Traversable``: errors name the file and line, and a wheel installs to the file system.
+    """
+    from importlib.resources import files
+
+    return Path(str(files(package).joinpath(name)))
+
+
 def load(path: str | Path, *, what: str = "configuration file",
          error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
     """Read and compose a YAML file; ``what`` names the kind of file in the error when it

@@ -17,6 +17,11 @@ class ServolabError(Exception):
     """Base of every error servolab raises on purpose."""
 
 
+class UsageError(ServolabError, ValueError):
+    """A command-line argument that cannot be used (``--steps 0``), refused before anything
+    moves; the message names the option and the value."""
+
+
 class ConfigFileError(ServolabError, ValueError):
     """A configuration file that cannot be used: unreadable, not YAML, a duplicate or unknown
     key, or a value of the wrong kind.

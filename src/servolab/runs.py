@@ -60,8 +60,13 @@ class RunFolder:
     def file(self, name: str) -> Path:
         return self.path / name
 
-    def write_summary(self, figures: dict[str, Any]) -> Path:
-        """Write ``summary.json``: what ran, when, for how long, and ``figures``."""
+    def write_summary(self, figures: dict[str, Any], *,
+                      interrupted: BaseException | None = None) -> Path:
+        """Write ``summary.json``: what ran, when, for how long, ``figures``, and what ended
+        the run early (``"interrupted"``: a signal's name such as ``"SIGTERM"``, an error, or
+        null when it finished: :func:`servolab.harness.interruption`)."""
+        from .harness import interruption
+
         summary = {
             "command": self.command,
             "argv": sys.argv[1:],
@@ -69,6 +74,7 @@ class RunFolder:
             "started": datetime.fromtimestamp(self.started).isoformat(timespec="seconds"),
             "duration_s": round(time.time() - self.started, 3),
             **_jsonable(figures),
+            "interrupted": interruption(interrupted),
         }
         target = self.file("summary.json")
         target.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")

@@ -238,9 +238,11 @@ def test_serial_port_write_error_is_one_line_naming_it(pty_port,
 def test_cli_reports_a_port_error_as_a_failure_at_run_time() -> None:
     """``servolab read`` and the others print it as "servolab read: PortError: ..." and exit
     with status 1 (not 2, which says the user typed something wrong)."""
-    from servolab.cli import _report
+    from servolab.cli import _label
+    from servolab.harness import exit_status
 
-    assert _report(PortError("serial port /dev/ttyUSB0: reading failed")) == (1, "PortError")
+    error = PortError("serial port /dev/ttyUSB0: reading failed")
+    assert (exit_status(error), _label(error)) == (1, "PortError")
 
 
 def test_serial_port_waits_on_a_descriptor_above_1023() -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,9 +218,10 @@ def test_bad_inputs_are_refused() -> None:
 
 
 def test_config_from_the_seed_parameter_file() -> None:
-    from servolab.robots.nav_params import load_dwa
+    from servolab.robots.navigation.params import load_dwa
+    from servolab.robots.navigation.run import DEFAULT_DWA
 
-    path = Path(__file__).resolve().parents[2] / "configs" / "dwa_params.yaml"
+    path = DEFAULT_DWA  # seed 000 D.3, shipped with servolab.robots.navigation
     cfg = DwaConfig.from_params(load_dwa(path))
     assert cfg == D3
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from servolab.dynamixel.bus import Bus
-from servolab.robots.fly_control import FlyControllerConfig, fly_command
+from servolab.robots.treadmill.control import FlyControllerConfig, fly_command
 from servolab.sim import BallWorld, Simulation
 from servolab.sim.ball import StictionWheel
 from servolab.sim.fly_walk import FlyWalkConfig, FlyWalker

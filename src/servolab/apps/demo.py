@@ -144,7 +144,7 @@ def _floor(say: Callable[[str], None]) -> dict[str, object]:
 
 def _mobile_base(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
     """Seed 000's two-wheel robot drives a figure of eight on the simulated floor."""
-    from ..robots.drive import run_drive
+    from ..robots.base.run import run_drive
 
     say("6. Seed 000's two-wheel robot (EX-106+ wheels) drives a figure of eight on a floor")
     say("   (servolab drive eight; see docs/mobile.md)")
@@ -155,7 +155,7 @@ def _mobile_base(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str,
 
 def _navigation(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
     """Seed 000's loop: overhead camera, D* Lite, DWA; an obstacle appears on the way."""
-    from ..robots.navigate import prepare, run_navigate
+    from ..robots.navigation.run import prepare, run_navigate
 
     say("7. Seed 000's navigation: the overhead camera is calibrated, then the robot drives to")
     say("   (3.3, 2.3) with D* Lite and DWA; at 6 s an obstacle appears on its path")
@@ -168,7 +168,7 @@ def _navigation(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, 
 
 def _flyball(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
     """Seed 002: a simulated fly on the ball treadmill steers the robot, for 10 s."""
-    from ..robots.flyball import run_flyball
+    from ..robots.treadmill.run import run_flyball
 
     say("8. Seed 002's machine-insect interface: a simulated fruit fly walks on a ball, the")
     say("   camera finds it 66 times a second, three wheels turn the ball back, a robot follows")
@@ -180,7 +180,7 @@ def _flyball(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, obj
 
 def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
     """Armstrong (seed 001) stands up and walks one step, recorded (see docs/biped.md)."""
-    from ..robots.walk import load_motion, run_walk
+    from ..robots.armstrong.run import load_motion, run_walk
 
     say("5. Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")
     say("   (servolab walk; see docs/biped.md)")

@@ -1,6 +1,6 @@
 """``servolab drive MOVE``: seed 000's moves on a differential-drive base, recorded.
 
-The command only parses; :mod:`servolab.robots.drive` runs the base. SI units: metres,
+The command only parses; :mod:`servolab.robots.base.run` runs the base. SI units: metres,
 metres a second, degrees for a rotation's angle (the seed's centimetres are converted, never
 assumed).
 """
@@ -14,8 +14,9 @@ from .registry import Command
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--base", metavar="YAML", help="base configuration (default "
-                   "configs/base_seed000.yaml, seed 000's two-wheel robot)")
+    p.add_argument("--base", metavar="NAME|YAML", help="a shipped base by name (seed000, "
+                   "seed000_4motor, turtlebot3_waffle: 'servolab robots') or a base file "
+                   "(default seed000, seed 000's two-wheel robot)")
     p.add_argument("--port", metavar="DEV", help="the base's serial port; default: the "
                    "base emulated on a simulated floor")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -59,27 +60,17 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..robots.drive import run_drive
+    from ..robots.base.run import run_drive
     from ..runs import RunFolder
-    from ..signals import on_stop_signals, raise_keyboard_interrupt
 
     run = RunFolder.create("drive", args.out)
-    try:
-        # SIGTERM and SIGHUP stop a move as Ctrl-C does: through its finally, wheels stopped
-        with on_stop_signals(raise_keyboard_interrupt):
-            summary = run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
-                                speed=getattr(args, "speed", 0.1),
-                                radius=getattr(args, "radius", 0.5),
-                                clockwise=getattr(args, "clockwise", False),
-                                turns=getattr(args, "turns", 1.0),
-                                angle_deg=getattr(args, "angle", 90.0),
-                                base=args.base, port=args.port,
-                                show_progress=not args.no_progress, slip=args.slip,
-                                slip_jitter=args.slip_jitter,
-                                encoder_noise=args.encoder_noise, real_time=args.real_time)
-    except ValueError as exc:  # a bad base file or a move the base cannot make: one line
-        raise SystemExit(f"servolab drive: {exc}") from None
-    run.write_summary(summary)
+    run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
+              speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
+              clockwise=getattr(args, "clockwise", False), turns=getattr(args, "turns", 1.0),
+              angle_deg=getattr(args, "angle", 90.0), base=args.base, port=args.port,
+              show_progress=not args.no_progress, slip=args.slip,
+              slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
+              real_time=args.real_time)
     print(f"run folder: {run.path}")
     return 0
 
@@ -94,5 +85,5 @@ COMMAND = Command(
               "servolab drive circle --radius 0.5 --speed 0.2 --cw --turns 2",
               "servolab drive eight --radius 0.3 --speed 0.1",
               "servolab drive rotate --angle 90",
-              "servolab drive circle --radius 0.5 --base configs/base_turtlebot3_waffle.yaml"),
+              "servolab drive circle --radius 0.5 --base turtlebot3_waffle"),
     add_arguments=_add_arguments, run=_run)

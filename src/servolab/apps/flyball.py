@@ -1,9 +1,9 @@
 """``servolab flyball``: seed 002's machine-insect interface, and ``servolab flyball analyze
 RUN``, chapter 3's analysis of a run's logs.
 
-The command only parses; :mod:`servolab.robots.flyball` runs the closed loop on the simulated
-fly, ball and robot, and :mod:`servolab.robots.fly_analysis` computes and draws what the thesis
-reports.
+The command only parses; :mod:`servolab.robots.treadmill.run` runs the closed loop on the
+simulated fly, ball and robot, and :mod:`servolab.robots.treadmill.analysis` computes and draws
+what the thesis reports.
 """
 
 from __future__ import annotations
@@ -45,26 +45,24 @@ def _analyze(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..robots.fly_analysis import analyze, plot_analysis
-    from ..robots.fly_logs import ENCODER_RECORD, FlyLogError, read_encoder_log, read_fly_log
+    from ..errors import UsageError
+    from ..robots.treadmill.analysis import analyze, plot_analysis
+    from ..robots.treadmill.logs import ENCODER_RECORD, FlyLogError, read_encoder_log, read_fly_log
 
     run = Path(args.run)
     if not run.is_dir():
-        raise SystemExit(f"servolab flyball analyze: {run} is not a folder")
+        raise UsageError(f"{run} is not a folder")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        try:
-            fly = read_fly_log(run / "fly_data.bin", partial=args.partial)
-            robot = run / "robot_encoders.bin"  # a treadmill without a robot has none
-            encoders = (read_encoder_log(robot, partial=args.partial) if robot.exists()
-                        else np.zeros(0, dtype=ENCODER_RECORD))
-        except FlyLogError as exc:
-            raise SystemExit(f"servolab flyball analyze: {exc}") from None
+        fly = read_fly_log(run / "fly_data.bin", partial=args.partial)
+        robot = run / "robot_encoders.bin"  # a treadmill without a robot has none
+        encoders = (read_encoder_log(robot, partial=args.partial) if robot.exists()
+                    else np.zeros(0, dtype=ENCODER_RECORD))
     for warning in caught:
         print(f"servolab flyball analyze: {warning.message}")
     if len(fly) < 2:
-        raise SystemExit(f"servolab flyball analyze: {run / 'fly_data.bin'} holds "
-                         f"{len(fly)} record(s); the analysis needs at least two frames")
+        raise FlyLogError(run / "fly_data.bin", f"holds {len(fly)} record(s); the analysis "
+                          "needs at least two frames")
     result, series = analyze(fly, encoders)
     (run / "analysis.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
     plot = plot_analysis(result, series, fly, run / "flyball.png")
@@ -77,33 +75,26 @@ def _analyze(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     if args.action == "analyze":
         return _analyze(args)
-    from ..errors import ServolabError
-    from ..robots.flyball import run_flyball, run_recorded
+    from ..errors import UsageError
+    from ..robots.treadmill.run import run_flyball, run_recorded
     from ..runs import RunFolder
 
     if args.frames is not None and (args.duration is not None or args.seed is not None):
-        raise SystemExit("servolab flyball: --duration and --seed are the simulated fly's; a "
-                         "recording (--frames) runs as long as it is")
+        raise UsageError("--duration and --seed are the simulated fly's; a recording "
+                         "(--frames) runs as long as it is")
     if args.port is not None and args.frames is None:
-        raise SystemExit("servolab flyball: --port drives the real treadmill, which needs real "
-                         "frames: give --frames DIR|VIDEO too (the simulated fly is on a "
-                         "simulated ball)")
-    try:
-        if args.frames is not None:
-            from ..vision.frame_source import FrameSource
+        raise UsageError("--port drives the real treadmill, which needs real frames: give "
+                         "--frames DIR|VIDEO too (the simulated fly is on a simulated ball)")
+    if args.frames is not None:
+        from ..vision.frame_source import FrameSource
 
-            FrameSource.open(args.frames).close()  # a bad recording: before a run folder
-            run = RunFolder.create("flyball", args.out)
-            summary = run_recorded(run, args.frames, port=args.port,
-                                   show_progress=not args.no_progress)
-        else:
-            run = RunFolder.create("flyball", args.out)
-            summary = run_flyball(run, duration=100.0 if args.duration is None
-                                  else args.duration, seed=args.seed or 0,
-                                  show_progress=not args.no_progress)
-    except (ServolabError, ValueError) as exc:
-        raise SystemExit(f"servolab flyball: {exc}") from None
-    run.write_summary(summary)
+        FrameSource.open(args.frames).close()  # a bad recording: before a run folder
+        run = RunFolder.create("flyball", args.out)
+        run_recorded(run, args.frames, port=args.port, show_progress=not args.no_progress)
+    else:
+        run = RunFolder.create("flyball", args.out)
+        run_flyball(run, duration=100.0 if args.duration is None else args.duration,
+                    seed=args.seed or 0, show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 

@@ -1,9 +1,9 @@
 """``servolab navigate --goal X Y [YAW]``: seed 000's navigation loop on the simulated floor.
 
-The command only parses; :mod:`servolab.robots.navigate` runs the loop (its docstring lists the
-nodes, the calibration and the parameter files). Coordinates are metres on the floor's map: the
-scene's frame without --calib, else the frame of the calibration board that lay on the floor
-(placed with --board-at); the yaw is in degrees, as a user types it.
+The command only parses; :mod:`servolab.robots.navigation.run` runs the loop (its docstring
+lists the nodes, the calibration and the parameter files). Coordinates are metres on the
+floor's map: the scene's frame without --calib, else the frame of the calibration board that
+lay on the floor (placed with --board-at); the yaw is in degrees, as a user types it.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "with in degrees (default: the direction from the start to the goal)")
     p.add_argument("--scene", metavar="YAML", help="the simulated world: floor, overhead "
                    "camera, obstacles (some appearing mid-run) and the robot's start "
-                   "(default configs/nav_scene.yaml)")
+                   "(default: the shipped nav_scene; 'servolab robots show nav_scene' prints it)")
     p.add_argument("--calib", metavar="YAML", help="the camera's calibration with its floor "
                    "plane, from 'servolab calibrate ... --floor IMAGE' (default: calibrate the "
                    "scene's camera first, on synthetic board images)")
@@ -29,12 +29,13 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --calib: X Y [YAW] where the floor board lay, its first inner "
                    "corner in metres and its first row's heading in degrees (default 0 0 0: "
                    "the board's corner is the map's origin)")
-    p.add_argument("--costmap", metavar="YAML", help="costmap_2d parameters (default "
-                   "configs/costmap_params.yaml, seed 000's D.2)")
-    p.add_argument("--dwa", metavar="YAML", help="dwa_local_planner parameters (default "
-                   "configs/dwa_params.yaml, seed 000's D.3)")
-    p.add_argument("--move-base", metavar="YAML", help="move_base parameters (default "
-                   "configs/move_base_params.yaml, turtlebot's: controller_frequency 5 Hz)")
+    p.add_argument("--costmap", metavar="YAML", help="costmap_2d parameters (default: seed "
+                   "000's D.2, 'servolab robots show costmap_params')")
+    p.add_argument("--dwa", metavar="YAML", help="dwa_local_planner parameters (default: "
+                   "seed 000's D.3, 'servolab robots show dwa_params')")
+    p.add_argument("--move-base", metavar="YAML", help="move_base parameters (default: "
+                   "turtlebot's, controller_frequency 5 Hz: 'servolab robots show "
+                   "move_base_params')")
     p.add_argument("--timeout", type=positive_float, default=180.0, metavar="S",
                    help="give up after this many simulated seconds (default 180)")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the camera's "
@@ -44,39 +45,28 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..errors import ServolabError
-    from ..robots.navigate import NavigationError, prepare, run_navigate
+    from ..errors import UsageError
+    from ..robots.navigation.run import prepare, run_navigate
     from ..runs import RunFolder
 
     if len(args.goal) not in (2, 3):
-        raise SystemExit(f"servolab navigate: --goal takes X Y or X Y YAW, not "
-                         f"{len(args.goal)} number(s)")
+        raise UsageError(f"--goal takes X Y or X Y YAW, not {len(args.goal)} number(s)")
     x, y = args.goal[:2]
     yaw = math.radians(args.goal[2]) if len(args.goal) == 3 else None
     board_at = None
     if args.board_at is not None:
         if len(args.board_at) not in (2, 3):
-            raise SystemExit(f"servolab navigate: --board-at takes X Y or X Y YAW, not "
-                             f"{len(args.board_at)} number(s)")
+            raise UsageError(f"--board-at takes X Y or X Y YAW, not {len(args.board_at)} "
+                             "number(s)")
         bx, by, *turn = args.board_at
         board_at = (bx, by, math.radians(turn[0]) if turn else 0.0)
-    try:  # everything read and checked before a run folder is made or anything moves
-        navigation = prepare((x, y), goal_yaw=yaw, scene=args.scene, calib=args.calib,
-                             board_at=board_at, costmap=args.costmap, dwa=args.dwa,
-                             move_base=args.move_base)
-        run = RunFolder.create("navigate", args.out)
-    except (ServolabError, ValueError) as exc:
-        raise SystemExit(f"servolab navigate: {exc}") from None
-    try:
-        summary = run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
-                               show_progress=not args.no_progress)
-    except NavigationError as exc:
-        if exc.summary is not None:
-            run.write_summary(exc.summary)
-        raise SystemExit(f"servolab navigate: {exc} (run folder: {run.path})") from None
-    except (ServolabError, ValueError) as exc:
-        raise SystemExit(f"servolab navigate: {exc}") from None
-    run.write_summary(summary)
+    # everything read and checked before a run folder is made or anything moves
+    navigation = prepare((x, y), goal_yaw=yaw, scene=args.scene, calib=args.calib,
+                         board_at=board_at, costmap=args.costmap, dwa=args.dwa,
+                         move_base=args.move_base)
+    run = RunFolder.create("navigate", args.out)
+    run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
+                 show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 

@@ -1,6 +1,6 @@
 """``servolab plan --map IMAGE --start X Y --goal X Y``: a path on a map image (D* Lite).
 
-The command only parses; :mod:`servolab.robots.plan_run` reads the map, inflates it and plans
+The command only parses; :mod:`servolab.robots.navigation.plan` reads the map, inflates it and plans
 (its docstring gives the threshold, the cell size and the cost mapping). Coordinates are in
 cells: x = column, y = row, from the image's top-left pixel.
 """
@@ -22,7 +22,8 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--goal", required=True, type=int, nargs=2, metavar=("X", "Y"),
                    help="goal cell: x = column, y = row")
     p.add_argument("--params", metavar="FILE", help="costmap_2d parameter file for the "
-                   "inflation (default configs/costmap_params.yaml, seed 000's D.2)")
+                   "inflation (default: seed 000's D.2; 'servolab robots show costmap_params' "
+                   "prints it)")
     p.add_argument("--resolution", type=positive_float, metavar="M", help="metres a cell (pixel) "
                    "measures (default: the file's resolution, else costmap_2d's 0.05)")
     p.add_argument("--no-inflation", action="store_true", help="no costmap inflation: free "
@@ -33,7 +34,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..robots.plan_run import load_problem, plan, run_plan
+    from ..robots.navigation.plan import load_problem, plan, run_plan
     from ..runs import RunFolder
 
     if args.no_inflation and (args.params is not None or args.resolution is not None):
@@ -66,5 +67,5 @@ COMMAND = Command(
     examples=("servolab plan --map floor.png --start 10 10 --goal 180 120",
               "servolab plan --map floor.png --start 10 10 --goal 180 120 --no-inflation",
               "servolab plan --map floor.png --start 10 10 --goal 180 120 "
-              "--params configs/costmap_params.yaml --resolution 0.02 --out runs/plan-a"),
+              "--params my_costmap.yaml --resolution 0.02 --out runs/plan-a"),
     add_arguments=_add_arguments, run=_run)

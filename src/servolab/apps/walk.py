@@ -1,6 +1,6 @@
 """``servolab walk``: Armstrong stands up and walks (seed 001's control node), recorded.
 
-The command only parses; :mod:`servolab.robots.walk` runs the robot.
+The command only parses; :mod:`servolab.robots.armstrong.run` runs the robot.
 """
 
 from __future__ import annotations
@@ -22,26 +22,27 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="DEV", help="the robot's serial port; default: the "
                    "emulated robot (20 RX-28, motor 62 absent, as in the seed)")
     p.add_argument("--config", metavar="YAML", help="controller configuration "
-                   "(default configs/armstrong.yaml)")
+                   "(default: the seed's, armstrong.yaml; 'servolab robots show armstrong' "
+                   "prints it)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_out(p)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..robots.walk import load_motion, run_walk
+    from ..errors import UsageError
+    from ..robots.armstrong.run import load_motion, run_walk
     from ..runs import RunFolder
 
     if args.steps < 1:
-        raise SystemExit(f"servolab walk: --steps {args.steps} must be 1 or more")
+        raise UsageError(f"--steps {args.steps}: must be 1 or more")
     if not (math.isfinite(args.rate) and args.rate > 0):
-        raise SystemExit(f"servolab walk: --rate {args.rate:g} must be a number > 0")
+        raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
     motion = load_motion(args.file, args.config)  # checked whole before anything moves
     run = RunFolder.create("walk", args.out)
-    summary = run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
-                       config=args.config, show_progress=not args.no_progress)
-    run.write_summary(summary)
+    run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
+             config=args.config, show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
-    return 1 if summary["stopped"] else 0
+    return 0
 
 
 COMMAND = Command(
@@ -49,7 +50,8 @@ COMMAND = Command(
     description="Move Armstrong to the stand pose of 001 Table 4.2, then play a motion "
     "sequence N times at 4.5 rows a second, as the seed's control node does; commands and "
     "motor states go to the run folder's MCAP bag, with a plot of commanded against present "
-    "angles. Ctrl-C stops at once and the motors hold the last pose.",
+    "angles. Ctrl-C, SIGTERM or SIGHUP stop at once: the motors hold the last pose (torque on, "
+    "so the robot does not fall), the bag is closed and summary.json says what ended the run.",
     examples=("servolab walk --steps 2", "servolab walk --file gait.csv --steps 4",
               "servolab walk --port /dev/ttyUSB0 --steps 1"),
     add_arguments=_add_arguments, run=_run)

@@ -176,7 +176,7 @@ COST_FACTOR = 0.8
 def traversal_costs(costmap: ArrayLike) -> NDArray[np.float64]:
     """Cell costs for the planner from a costmap's 0..254: ``1 + 0.8 c / 50``, ``inf`` for
     253 and above (navfn's weights without its truncation to a byte; see
-    :mod:`servolab.robots.plan_run`)."""
+    :mod:`servolab.robots.navigation.plan`)."""
     c = np.asarray(costmap, dtype=np.float64)
     costs = (COST_NEUTRAL + COST_FACTOR * c) / COST_NEUTRAL
     costs[c >= INSCRIBED_INFLATED_OBSTACLE] = np.inf

@@ -67,7 +67,7 @@ What is reproduced, and from where (ros-planning/navigation, Noetic):
 Coordinates: world metres, ``costmap[row, col] = [y, x]``, cell ``(floor((x - ox) / res),
 floor((y - oy) / res))`` as ``Costmap2D::worldToMap``. Pure numpy/scipy; nothing of servolab's
 robots layer is imported: :meth:`DwaConfig.from_params` copies the fields of any object that has
-them (``servolab.robots.nav_params.DwaParams``).
+them (``servolab.robots.navigation.params.DwaParams``).
 """
 
 from __future__ import annotations
@@ -94,8 +94,8 @@ _EPS = 1e-4
 @dataclass(frozen=True)
 class DwaConfig:
     """The dwa_local_planner parameters the planner uses, named as D.3 writes them, with
-    DWAPlanner.cfg's defaults (``servolab.robots.nav_params.DwaParams`` takes its defaults for
-    these from here)."""
+    DWAPlanner.cfg's defaults (``servolab.robots.navigation.params.DwaParams`` takes its
+    defaults for these from here)."""
 
     max_vel_x: float = 0.55
     min_vel_x: float = 0.0

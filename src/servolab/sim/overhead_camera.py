@@ -21,7 +21,7 @@ from ..vision.synthetic import Image, render_floor
 from .world import World
 
 if TYPE_CHECKING:
-    from ..robots.nav_scene import Scene
+    from .scene import Scene
 
 IMAGE = "sensor_msgs/msg/Image"
 FRAME = "overhead_camera"

@@ -1,0 +1,120 @@
+"""The run harness: how every command ends, whichever way it is ended.
+
+A robot command is stopped by Ctrl-C (SIGINT), by ``kill`` or a supervisor (SIGTERM), or by
+its terminal closing (SIGHUP); a shell starts a background job with SIGINT ignored, and Python
+then never raises ``KeyboardInterrupt`` for it. :func:`stop_signals_raise`, which the
+``servolab`` command wraps around every command, makes all three mean the same: the first one
+raises :class:`StopSignal` (a ``KeyboardInterrupt``, so every ``finally`` and every
+``except KeyboardInterrupt`` that already stops motors sees it) wherever the main thread is.
+Later signals are counted, not raised, so that the stop they interrupt (the motors' last
+SYNC_WRITE, the bag's last chunk, ``summary.json``) is not itself cut short; SIGKILL remains
+for a stop that hangs.
+
+Each robot's run module then does the same three things on its way out, ended or not: it
+stops its motors (or holds them, where that is safer: :mod:`servolab.robots.registry` says
+which per robot), closes its bag, and writes ``summary.json`` with what it measured so far
+and ``"interrupted"``: the signal's name, the error, or ``null`` for a run that finished
+(:meth:`servolab.runs.RunFolder.write_summary`). The exit status is decided in one place,
+:func:`exit_status`:
+
+====  ==========================================================================
+0     done
+1     failed while running (a motor that stopped answering, a goal not reached)
+2     bad input, refused before anything moved (a value, an argument, a file)
+128+N stopped by signal N: 130 SIGINT, 143 SIGTERM, 129 SIGHUP
+====  ==========================================================================
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from types import FrameType
+
+from .errors import ServolabError
+from .signals import on_stop_signals
+
+
+class StopSignal(KeyboardInterrupt):
+    """A stop signal arrived while a command ran; ``signum`` says which."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        super().__init__(self.name)
+
+    @property
+    def name(self) -> str:
+        """``"SIGTERM"``, as ``kill -l`` names it."""
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+
+@dataclass
+class StopRequests:
+    """The stop signals seen while :func:`stop_signals_raise` was in force, in order."""
+
+    seen: list[int] = field(default_factory=list)
+
+    def handler(self, signum: int, frame: FrameType | None) -> None:
+        self.seen.append(signum)
+        if len(self.seen) == 1:
+            raise StopSignal(signum)
+        # a second signal while the first one's stop runs: let that stop finish
+
+
+@contextmanager
+def stop_signals_raise() -> Iterator[StopRequests]:
+    """While inside, SIGINT, SIGTERM and SIGHUP raise :class:`StopSignal` once (also when
+    SIGINT was ignored at start, as in a background job). Outside the main thread, where
+    Python delivers no signals, this changes nothing."""
+    requests = StopRequests()
+    if threading.current_thread() is not threading.main_thread():
+        yield requests
+        return
+    with on_stop_signals(requests.handler):
+        yield requests
+
+
+def interruption(error: BaseException | None) -> str | None:
+    """What ``summary.json`` says ended a run: ``None`` for a run that finished, the signal's
+    name (``"SIGTERM"``; a bare ``KeyboardInterrupt`` is Ctrl-C, ``"SIGINT"``), else the
+    error's class and message."""
+    if error is None:
+        return None
+    if isinstance(error, StopSignal):
+        return error.name
+    if isinstance(error, KeyboardInterrupt):
+        return "SIGINT"
+    text = str(error)
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__
+
+
+def is_bad_input(error: ServolabError) -> bool:
+    """Errors in what the user gave (a value, an argument, a file) are value errors, and so
+    are the middleware's (a bad name, a launch file, a parameter file); a service that
+    failed is not."""
+    from .middleware.errors import MiddlewareError, ServiceError
+
+    if isinstance(error, ServiceError):
+        return False
+    return isinstance(error, ValueError | MiddlewareError)
+
+
+def exit_status(error: BaseException | None) -> int:
+    """The exit status of a command that ended with ``error`` (``None``: done). Errors not
+    raised on purpose (not :class:`~servolab.errors.ServolabError`) are bugs: 1, and the
+    caller keeps their traceback."""
+    if error is None:
+        return 0
+    if isinstance(error, StopSignal):
+        return 128 + error.signum
+    if isinstance(error, KeyboardInterrupt):
+        return 128 + signal.SIGINT
+    if isinstance(error, ServolabError):
+        return 2 if is_bad_input(error) else 1
+    return 1

@@ -1,0 +1,174 @@
+"""``servolab walk``'s run: what the seed's control node does, recorded and plotted.
+
+As 001's control node: move to the stand pose (Table 4.2), then play a motion sequence N times
+at 4.5 rows a second. The motion is the seed's gait generated now, or a motion file checked
+whole against the joints' limits *before* anything moves (a bad cell is an error naming its
+line and column, never 0 degrees). Every command, every joint state and the motors' states go
+to the run folder's MCAP bag; a plot compares commanded and present angles of both legs.
+Ctrl-C stops at once, and the motors hold the last pose they were sent.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ...gait.motionfile import MotionFile, read_motion_file
+from ...gait.walking import GaitParameters, generate_walk
+from . import hardware as armstrong
+from .control_node import PLAY_RATE, Armstrong, controller_of
+from .poses import MOTORS
+
+if TYPE_CHECKING:
+    from ...runs import RunFolder
+
+Say = Callable[[str], None]
+
+
+def load_motion(path: str | Path | None, config: str | Path | None = None,
+                parameters: GaitParameters | None = None) -> MotionFile:
+    """The motion to play: the file at ``path`` (all 21 columns, within the configured
+    joints' limits), or the seed's gait generated with ``parameters``."""
+    limits = armstrong.joint_limits(armstrong.load_config(config))
+    if path is not None:
+        return read_motion_file(path, limits=limits, required=MOTORS)
+    motion = generate_walk(parameters or GaitParameters()).motion()
+    for k, name in enumerate(motion.names):
+        low, high = limits.get(name, (-math.inf, math.inf))
+        outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
+        if outside.size:
+            row = int(outside[0])
+            raise ValueError(f"the generated gait's row {row} sends {name} to "
+                             f"{motion.angles[row, k]:.3f} degrees, outside the joint's "
+                             f"limits [{low:.3f}, {high:.3f}]")
+    return motion
+
+
+def recorded_topics(robot: Armstrong) -> dict[str, str]:
+    """Topic -> type of what a walk records: every command, every running joint's state,
+    and the motors' states."""
+    topics = {f"/{controller_of(m)}/command": "std_msgs/msg/Float64" for m in MOTORS}
+    for name in robot.manager.controllers:
+        topics[f"/{name}/state"] = "dynamixel_msgs/msg/JointState"
+    topics[f"/motor_states/{robot.port.name}"] = "dynamixel_msgs/msg/MotorStateList"
+    return topics
+
+
+def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
+             rate: float = PLAY_RATE, port: str | None = None,
+             config: str | Path | None = None, say: Say = print,
+             show_progress: bool = True) -> dict[str, Any]:
+    """Stand, play ``motion`` ``steps`` times at ``rate``, record; write the summary and
+    return it. Stopped by a signal or an error, the motors hold the last pose they were sent
+    (a biped whose torque went off would fall), the bag is closed and the summary written
+    with ``interrupted`` and the rows played so far, and the stop goes on to the caller."""
+    from tqdm import tqdm
+
+    from ...harness import interruption
+    from ...middleware.recorder import Recorder
+
+    bag = run_folder.file("walk_bag")
+    if bag.exists():  # a run folder's files are replaced (servolab.runs)
+        shutil.rmtree(bag)
+    total = steps * motion.poses
+    played = 0
+    interrupted: BaseException | None = None
+    with Armstrong(port=port, config=config, history=True) as robot:
+        where = port or "the emulated robot"
+        say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
+            f"{len(robot.manager.controllers)} controllers running"
+            + (f" ({', '.join(robot.manager.failed)} could not start)"
+               if robot.manager.failed else ""))
+        topics = recorded_topics(robot)
+        recorder = Recorder(robot.context, str(bag), list(topics), types=topics)
+        started = robot.context.clock.now()
+        try:
+            say("standing up (Table 4.2, over 2 s)")
+            robot.stand()
+            say(f"playing {motion.poses} rows x {steps} step(s) at {rate:g} Hz "
+                f"({motion.poses / rate:.2f} s a step)")
+            with tqdm(total=total, unit="row", disable=not show_progress,
+                      leave=False) as bar:
+                def progress(done: int, _total: int) -> None:
+                    nonlocal played
+                    played = done
+                    bar.update(done - bar.n)
+                    if not show_progress and done % motion.poses == 0:
+                        say(f"step {done // motion.poses} of {steps} played")
+                played = robot.play(motion, steps, rate, progress=progress)
+            robot.context.spin_for(0.5)  # the last goals reached and recorded
+        except BaseException as error:  # a stop signal or an error: hold, record, report
+            interrupted = error
+        finally:
+            recorder.destroy()  # the bag is closed whatever happened
+        duration = robot.context.clock.now() - started
+        plot = plot_tracking(robot, run_folder.file("walk.png"))
+        errors = tracking_errors(robot)
+    say(("stopped after " if played < total else "played ") + f"{played} of {total} rows; "
+        f"recorded to {bag}; plot {plot}")
+    summary = {"rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
+               "stopped": played < total, "duration_s": duration, "bag": str(bag),
+               "plot": str(plot), "max_tracking_error_deg": errors,
+               "port": port or "emulated", "controllers_failed": robot.manager.failed,
+               "motors_on_stop": "hold the last pose sent"}
+    run_folder.write_summary(summary, interrupted=interrupted)
+    if interrupted is not None:
+        say(f"interrupted ({interruption(interrupted)}): the motors hold the last pose")
+        raise interrupted
+    return summary
+
+
+def tracking_errors(robot: Armstrong) -> dict[str, float]:
+    """Per leg motor: the largest difference (degrees) between the last command sent before a
+    state and that state's present angle, over the run's second half (after the stand)."""
+    import numpy as np
+
+    out: dict[str, float] = {}
+    node = robot.node
+    for motor in MOTORS[:12]:
+        sent = [(t, a) for t, m, a in node.sent if m == motor]
+        heard = [(t, a) for t, m, a in node.heard if m == motor]
+        if not sent or not heard:
+            continue
+        ts = np.array([t for t, _ in sent])
+        half = heard[len(heard) // 2:]
+        gaps = [abs(a - sent[int(np.searchsorted(ts, t, side="right")) - 1][1])
+                for t, a in half if t >= ts[0]]
+        out[motor] = float(max(gaps)) if gaps else 0.0
+    return out
+
+
+def plot_tracking(robot: Armstrong, path: Path) -> Path:
+    """Commanded (steps) and present (lines) angles of the twelve leg motors over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    node = robot.node
+    figure, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    for ax, motors, title in ((axes[0], MOTORS[:6], "Left leg"),
+                              (axes[1], MOTORS[6:12], "Right leg")):
+        for k, motor in enumerate(motors):
+            colour = f"C{k}"
+            sent = [(t, a) for t, m, a in node.sent if m == motor]
+            heard = [(t, a) for t, m, a in node.heard if m == motor]
+            if sent:
+                ax.step(*zip(*sent, strict=True), where="post", color=colour, alpha=0.5,
+                        linestyle="--")
+            if heard:
+                ax.plot(*zip(*heard, strict=True), color=colour, label=motor)
+        ax.set_title(f"{title}: commanded (dashed) and present (solid)")
+        ax.set_ylabel("angle [deg]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", ncol=6, fontsize="small")
+    axes[1].set_xlabel("time [s]" + (" (simulated)" if robot.simulation else ""))
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+    return path

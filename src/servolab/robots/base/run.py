@@ -1,0 +1,253 @@
+"""``servolab drive``'s run: one of seed 000's moves on a base, recorded and plotted.
+
+The move runs on the emulated seed-000 robot rolling on the simulated floor by default (or
+another base's configuration, or a real base on ``port``). Afterwards the run folder holds:
+
+- ``drive_bag/``: ``/odom`` (the encoders' odometry) and ``/ground_truth`` (the floor's pose,
+  emulated bases only), both ``nav_msgs/msg/Odometry``, and ``/wheel_commands``
+  (``sensor_msgs/msg/JointState``: the wheel speeds sent, rad/s), stamped in the base's time;
+- ``drive.png``: the path, truth against odometry;
+- ``summary.json``: the raw wheel commands sent (what each motor's register was given) and the
+  path's measured figures (a line's truth length, a circle's truth radius, how far the path
+  ended from where it started, odometry's final error against truth).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import RobotValueError
+from .config import load as load_base
+from .config import resolve as resolve_base
+from .mobile_base import MobileBase, open_base
+
+if TYPE_CHECKING:
+    from ...runs import RunFolder
+
+Say = Callable[[str], None]
+MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
+
+
+def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
+              radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
+              angle_deg: float = 90.0, base: str | Path | None = None,
+              port: str | None = None, say: Say = print, show_progress: bool = True,
+              slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
+              real_time: bool = False) -> dict[str, Any]:
+    """Run one move (see the module docstring); returns the summary. An emulated base runs
+    in simulated time, as fast as the computer allows, unless ``real_time``."""
+    if move not in MOVES:
+        raise RobotValueError(f"no move {move!r}; there are {', '.join(MOVES)}")
+    for name, value in (("slip", slip), ("slip_jitter", slip_jitter)):
+        if not (math.isfinite(value) and 0.0 <= value < 1.0):
+            raise RobotValueError(f"{name} must be a fraction in [0, 1), not {value!r}")
+    if not (math.isfinite(encoder_noise) and encoder_noise >= 0):
+        raise RobotValueError(f"encoder_noise must be 0 or more rad, not {encoder_noise!r}")
+    config = load_base(resolve_base(base))
+    robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter,
+                      encoder_noise=encoder_noise)
+    simulation = robot.clock if robot.floor is not None and real_time else None
+    if simulation is not None:
+        simulation.start_real_time()  # type: ignore[attr-defined]
+    where = port or f"the emulated {config.name} base"
+    summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated",
+                               "slip": slip, "slip_jitter": slip_jitter,
+                               "encoder_noise": encoder_noise,
+                               "motors_on_stop": "wheels stopped (goal speed 0)"}
+    interrupted: BaseException | None = None
+    try:
+        if move == "rpm":
+            rpm = robot.rpm()
+            summary["rpm"] = {str(k): v for k, v in rpm.items()}
+            say(f"{where}: " + ", ".join(f"motor {k} {v:+.2f} rpm" for k, v in rpm.items()))
+        elif move == "stop":
+            robot.stop()
+            say(f"{where}: all wheels stopped")
+        else:
+            _move(robot, move, summary, where, say, show_progress, distance=distance,
+                  speed=speed, radius=radius, clockwise=clockwise, turns=turns,
+                  angle_deg=angle_deg)
+    except BaseException as error:  # a stop signal or an error: the wheels stop below
+        interrupted = error
+    finally:
+        try:
+            if move != "rpm":  # reading the wheels' speed leaves them as they are
+                robot.stop()
+        finally:
+            if simulation is not None:
+                simulation.stop_real_time()  # type: ignore[attr-defined]
+            robot.close()
+    if move not in ("rpm", "stop") and robot.track:  # a refused move drove nothing
+        summary["wheel_commands"] = raw_commands(robot)
+        summary["measured"] = measure(robot, move)
+        summary["bag"] = str(record(robot, run_folder.file("drive_bag")))
+        summary["plot"] = str(plot_path(robot, run_folder.file("drive.png")))
+        say(" ".join(f"{k} {v:.4g};" for k, v in summary["measured"].items())
+            + f" bag {summary['bag']}, plot {summary['plot']}")
+    run_folder.write_summary(summary, interrupted=interrupted)
+    if interrupted is not None:
+        raise interrupted
+    return summary
+
+
+def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say: Say,
+          show_progress: bool, *, distance: float, speed: float, radius: float,
+          clockwise: bool, turns: float, angle_deg: float) -> None:
+    """One of the moves that drive the wheels, with a progress bar."""
+    say(f"{move} on {where}")
+    expected = _expected_duration(move, distance, speed, radius, turns, angle_deg, robot)
+    bar = _progress(expected, robot, show_progress)
+    try:
+        if move == "line":
+            summary["asked"] = {"distance_m": distance, "speed_m_s": speed}
+            robot.line(distance, speed)
+        elif move == "circle":
+            summary["asked"] = {"radius_m": radius, "speed_m_s": speed, "turns": turns,
+                                "clockwise": clockwise}
+            robot.circle(radius, speed, clockwise=clockwise, turns=turns)
+        elif move == "eight":
+            summary["asked"] = {"radius_m": radius, "speed_m_s": speed}
+            robot.eight(radius, speed)
+        else:
+            summary["asked"] = {"angle_deg": angle_deg}
+            robot.rotate(math.radians(angle_deg))
+        robot.update_odometry()
+    finally:
+        bar.close()
+
+
+def _expected_duration(move: str, distance: float, speed: float, radius: float, turns: float,
+                       angle_deg: float, robot: MobileBase) -> float:
+    """How long the move should take (s), for the progress bar."""
+    if move == "line":
+        return abs(distance) / speed if speed > 0 else 0.0
+    if move in ("circle", "eight"):
+        laps = turns if move == "circle" else 2.0
+        return 2 * math.pi * radius * laps / speed if speed > 0 else 0.0
+    drive = robot.drive
+    return abs(math.radians(angle_deg)) * drive.wheel_separation / (2 * drive.wheel_radius)
+
+
+def _progress(expected: float, robot: MobileBase, show: bool) -> Any:
+    """A tqdm bar over the move's expected seconds, fed by the base's odometry updates."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=round(expected, 2), unit="s", disable=not show, leave=False,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
+    start = robot.clock.now()
+
+    def update(_pose: object) -> None:
+        elapsed = min(expected, robot.clock.now() - start)
+        if elapsed > bar.n:
+            bar.update(elapsed - bar.n)  # tqdm redraws at most every 0.1 s of wall time
+    robot.on_update = update
+    return bar
+
+
+def raw_commands(robot: MobileBase) -> list[dict[str, Any]]:
+    """Each distinct wheel command as sent: the time, and each motor's register value (raw,
+    as the Dynamixel layer encoded it)."""
+    register = "moving_speed" if robot.config.protocol == 1 else "goal_velocity"
+    out: list[dict[str, Any]] = []
+    previous = None
+    for t, left, right in robot.commands:
+        if (left, right) == previous:
+            continue
+        previous = (left, right)
+        wheel = {"left": left, "right": right}
+        out.append({"t": round(t, 4), "register": register, "raw": {
+            str(m.id): robot.bus.from_si(m.id, register, m.direction * wheel[m.side])
+            for m in robot.config.motors}})
+    return out
+
+
+def _track(robot: MobileBase) -> np.ndarray:
+    return np.array(robot.track, dtype=np.float64).reshape(-1, 7)
+
+
+def measure(robot: MobileBase, move: str) -> dict[str, float]:
+    """The path's figures, from the floor's truth where there is one."""
+    track = _track(robot)
+    odom, truth = track[:, 1:3], track[:, 4:6]
+    figures: dict[str, float] = {}
+    if robot.floor is None or not len(track):
+        return {"odometry_x_m": robot.pose.x, "odometry_y_m": robot.pose.y}
+    end, start = truth[-1], truth[0]
+    figures["closure_m"] = float(np.hypot(*(end - start)))
+    figures["odometry_error_m"] = float(np.hypot(*(odom[-1] - truth[-1])))
+    if move == "line":
+        figures["truth_length_m"] = figures["closure_m"]
+    if move == "circle":
+        centre = truth.mean(axis=0)
+        figures["truth_radius_m"] = float(np.mean(np.hypot(*(truth - centre).T)))
+    if move == "rotate":
+        figures["truth_yaw_deg"] = math.degrees(float(track[-1, 6] - track[0, 6]))
+    return figures
+
+
+def record(robot: MobileBase, path: Path) -> Path:
+    """The run's track and commands as an MCAP bag (rosbag2 layout), in the base's time."""
+    from ...middleware.bag import BagWriter
+    from ...middleware.messages import MessageTypes, time_of
+
+    if path.exists():  # a run folder's files are replaced (servolab.runs)
+        shutil.rmtree(path)
+    types = MessageTypes()
+    writer = BagWriter(path, types)
+    odometry, joints = "nav_msgs/msg/Odometry", "sensor_msgs/msg/JointState"
+    writer.add_topic("/odom", odometry)
+    writer.add_topic("/wheel_commands", joints)
+    if robot.floor is not None:
+        writer.add_topic("/ground_truth", odometry)
+
+    def pose(topic: str, frame: str, t: float, x: float, y: float, yaw: float) -> None:
+        stamp = time_of(t)
+        msg = types.from_value(odometry, {
+            "header": {"stamp": stamp, "frame_id": frame}, "child_frame_id": "base_footprint",
+            "pose": {"pose": {"position": {"x": x, "y": y},
+                              "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}}})
+        writer.write(topic, msg, round(t * 1e9))
+
+    try:
+        for t, ox, oy, otheta, tx, ty, tyaw in robot.track:
+            pose("/odom", "odom", t, ox, oy, otheta)
+            if robot.floor is not None:
+                pose("/ground_truth", "world", t, tx, ty, tyaw)
+        for t, left, right in robot.commands:
+            writer.write("/wheel_commands", types.from_value(joints, {
+                "header": {"stamp": time_of(t)},
+                "name": ["wheel_left_joint", "wheel_right_joint"],
+                "velocity": [left, right]}), round(t * 1e9))
+    finally:
+        writer.close()
+    return path
+
+
+def plot_path(robot: MobileBase, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    track = _track(robot)
+    figure, ax = plt.subplots(figsize=(6, 6))
+    if robot.floor is not None and len(track):
+        ax.plot(track[:, 4], track[:, 5], label="truth (simulated floor)")
+    if len(track):
+        ax.plot(track[:, 1], track[:, 2], linestyle="--", label="odometry (encoders)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    ax.set_title(f"{robot.config.name}: the path")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+    return path

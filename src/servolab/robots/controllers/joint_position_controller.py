@@ -1,0 +1,182 @@
+"""A joint position controller, as ``dynamixel_controllers``' ``JointPositionController``.
+
+Topics and services under the controller's name (``controller_m14``), named as ROS
+``dynamixel_motor`` names them (seed 001 section 3.2.2):
+
+- ``/controller_m14/command`` (``std_msgs/msg/Float64``): the joint angle in radians, 0 being
+  the motor's ``init``; clamped to the joint's range with a warning; NaN or infinity refused;
+- ``/controller_m14/state`` (``dynamixel_msgs/msg/JointState``, 001 Figure 3.2), published at
+  every update of the manager;
+- ``/controller_m14/set_speed`` (``dynamixel_controllers/srv/SetSpeed``, rad/s) and
+  ``/controller_m14/torque_enable`` (``dynamixel_controllers/srv/TorqueEnable``).
+
+The arithmetic is ``dynamixel_controllers``' (joint_position_controller.py): ``min > max``
+flips the joint; the joint's range is ``min``..``max`` seen from ``init``. It is done here in
+radians: the configuration's raw positions are turned into the motor's angles once, by the
+Dynamixel layer's units (:meth:`Bus.to_si`), and goals leave as angles, so ticks never leave
+the Dynamixel layer. One difference: ``error`` in the state is ``current_pos - goal_pos`` in
+the joint's own sense, where the original scaled the motor's raw error and so showed the
+wrong sign for a flipped joint.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from .config import ControllerConfig
+from .motor_state import MotorReading
+
+if TYPE_CHECKING:
+    from ...dynamixel.bus import Bus
+    from ...middleware.node import Node
+
+FLOAT64 = "std_msgs/msg/Float64"
+JOINT_STATE = "dynamixel_msgs/msg/JointState"
+SET_SPEED = "dynamixel_controllers/srv/SetSpeed"
+TORQUE_ENABLE = "dynamixel_controllers/srv/TorqueEnable"
+
+
+@dataclass(frozen=True)
+class JointGeometry:
+    """A controller's joint in the motor's angles (rad): where 0 is, which way is positive,
+    how far it may go, and the speeds it may be given."""
+
+    init: float         # motor angle of joint angle 0
+    flipped: bool
+    min_angle: float    # joint angles, rad
+    max_angle: float
+    min_speed: float    # rad/s: the slowest the motor can be told (0 would mean full speed)
+    max_speed: float
+
+    @classmethod
+    def of(cls, config: ControllerConfig, bus: Bus) -> JointGeometry:
+        motor = config.motor
+
+        def angle(raw: int) -> float:
+            return float(bus.to_si(motor.id, "goal_position", raw))
+
+        init = angle(motor.init)
+        sign = -1.0 if motor.flipped else 1.0
+        min_speed = float(bus.to_si(motor.id, "moving_speed", 1))
+        full = bus.model_of(motor.id).register("moving_speed")
+        # the register's largest raw value is its largest speed (on a 1.0 model with the
+        # direction in bit 10, the largest magnitude: hence abs)
+        top = abs(float(bus.to_si(motor.id, "moving_speed", full.maximum if full.maximum
+                                  is not None else 1023)))
+        max_speed = min(top, config.joint_max_speed or top)
+        return cls(init, motor.flipped, sign * (angle(motor.min) - init),
+                   sign * (angle(motor.max) - init), min_speed, max_speed)
+
+    def goal(self, joint_angle: float) -> float:
+        """The motor angle for a joint angle (already within range)."""
+        return self.init - joint_angle if self.flipped else self.init + joint_angle
+
+    def joint(self, motor_angle: float) -> float:
+        """The joint angle of a motor angle."""
+        return self.init - motor_angle if self.flipped else motor_angle - self.init
+
+    def clamp_speed(self, speed: float) -> float:
+        return min(max(speed, self.min_speed), self.max_speed)
+
+
+class JointPositionController:
+    """One controller: see the module docstring. ``set_goal(motor_id, angle)`` hands a goal
+    to the manager, which writes the goals of all its controllers in one SYNC_WRITE."""
+
+    def __init__(self, node: Node, config: ControllerConfig, bus: Bus,
+                 set_goal: Any) -> None:
+        self.config = config
+        self.name = config.name
+        self.motor_id = config.motor.id
+        self.geometry = JointGeometry.of(config, bus)
+        self._node = node
+        self._bus = bus
+        self._set_goal = set_goal
+        self._log = node.get_logger()
+        #: the joint angle last commanded (rad); at start, the motor's own goal
+        self.goal_angle = self.geometry.joint(float(bus.read(self.motor_id, "goal_position")))
+        self.state_pub = node.create_publisher(JOINT_STATE, f"/{self.name}/state", 10)
+        node.create_subscription(FLOAT64, f"/{self.name}/command", self._on_command, 10)
+        node.create_service(SET_SPEED, f"/{self.name}/set_speed", self._on_set_speed)
+        node.create_service(TORQUE_ENABLE, f"/{self.name}/torque_enable",
+                            self._on_torque_enable)
+        self.set_speed(config.joint_speed)
+        self._tune(config)
+
+    def _tune(self, config: ControllerConfig) -> None:
+        """The joint_compliance_* and joint_torque_limit the configuration gives, written as
+        dynamixel_controllers writes them (compliance in the motor's raw units, both
+        directions alike; the torque limit as a fraction of the maximum)."""
+        motor = self.motor_id
+        for value, names in ((config.compliance_slope, ("cw_compliance_slope",
+                                                        "ccw_compliance_slope")),
+                             (config.compliance_margin, ("cw_compliance_margin",
+                                                         "ccw_compliance_margin")),
+                             (config.compliance_punch, ("punch",))):
+            if value is not None:
+                self._bus.write(motor, dict.fromkeys(names, value), raw=True)
+        if config.torque_limit is not None:
+            self._bus.write(motor, "torque_limit", config.torque_limit)
+
+    # -- commands --------------------------------------------------------------------------
+
+    def command(self, joint_angle: float) -> float:
+        """Drive the joint to ``joint_angle`` (rad), clamped to its range with a warning;
+        returns the angle commanded. NaN or infinity raises ValueError and moves nothing."""
+        if not math.isfinite(joint_angle):
+            raise ValueError(f"{self.name}: command {joint_angle!r} is not a finite angle; "
+                             "ignored")
+        g = self.geometry
+        clamped = min(max(joint_angle, g.min_angle), g.max_angle)
+        if clamped != joint_angle:
+            self._log.warning(f"{self.name}: command {joint_angle:.4f} rad is outside "
+                              f"{g.min_angle:.4f}..{g.max_angle:.4f} rad; "
+                              f"clamped to {clamped:.4f}", throttle_duration_sec=1.0)
+        self.goal_angle = clamped
+        self._set_goal(self.motor_id, g.goal(clamped))
+        return clamped
+
+    def _on_command(self, msg: Any) -> None:
+        try:
+            self.command(float(msg.data))
+        except ValueError as exc:
+            self._log.error(str(exc))
+
+    def set_speed(self, speed: float) -> float:
+        """The motor's moving speed for the joint (rad/s), kept within what the motor can be
+        told (never 0, which an RX-28 reads as full speed); returns the speed set."""
+        if not math.isfinite(speed):
+            raise ValueError(f"{self.name}: speed {speed!r} is not a finite number")
+        chosen = self.geometry.clamp_speed(abs(speed))
+        self._bus.write(self.motor_id, "moving_speed", chosen)
+        return chosen
+
+    def _on_set_speed(self, request: Any, response: Any) -> Any:
+        self.set_speed(float(request.speed))
+        return response
+
+    def torque_enable(self, on: bool) -> None:
+        self._bus.write(self.motor_id, "torque_enable", 1 if on else 0)
+
+    def _on_torque_enable(self, request: Any, response: Any) -> Any:
+        self.torque_enable(bool(request.torque_enable))
+        return response
+
+    # -- state -----------------------------------------------------------------------------
+
+    def publish_state(self, motor: MotorReading, stamp_ns: int) -> None:
+        """Publish the joint's state from its motor's reading of this update."""
+        g = self.geometry
+        current = g.joint(motor.position_si)
+        goal = self.goal_angle
+        velocity = -motor.speed_si if g.flipped else motor.speed_si
+        self.state_pub.publish(self._node.message(
+            JOINT_STATE,
+            header={"stamp": {"sec": stamp_ns // 1_000_000_000,
+                              "nanosec": stamp_ns % 1_000_000_000}},
+            name=self.config.joint_name, motor_ids=[self.motor_id],
+            motor_temps=[int(motor.temperature)], goal_pos=goal, current_pos=current,
+            error=current - goal, velocity=velocity, load=float(motor.load),
+            is_moving=bool(motor.moving)))

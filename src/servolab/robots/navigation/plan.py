@@ -1,0 +1,233 @@
+"""``servolab plan``'s run: a path on a map image with D* Lite, written to a run folder.
+
+**The map.** The image is read in grey (``cv2.imread(..., IMREAD_GRAYSCALE)``, any format
+OpenCV reads); one pixel is one cell, and a pixel darker than ``threshold`` (default 128, the
+middle of 0..255: ``gray < 128``) is occupied (:func:`~servolab.planning.costmap.
+occupancy_from_image`). Coordinates are in cells, ``x`` = column and ``y`` = row, counted from
+the image's top-left pixel (0, 0), as an image viewer shows them.
+
+**Without inflation** every free cell costs 1 and an occupied one ``inf``: with the grid's move
+costs (:mod:`servolab.planning.grid`: a step of 1 or sqrt(2) times the mean of the two cells'
+costs, no diagonal cutting an occupied corner) a path's cost is its length in cells.
+
+**With inflation** (the default) the occupied cells are inflated as costmap_2d's inflation
+layer does it (:func:`~servolab.planning.costmap.inflate`) with the parameter file's
+``inflation_radius``, ``cost_scaling_factor`` and the robot's inscribed radius (from
+``robot_radius`` or ``footprint``, padded by ``footprint_padding``); the default file is
+``configs/costmap_params.yaml`` (seed 000's D.2). A cell is ``resolution`` metres square: the
+``--resolution`` given, else the file's ``resolution``, else costmap_2d's default 0.05 m. The
+costmap's 0..254 becomes a traversal cost per cell with the weights of ROS's navfn global
+planner (without its truncation to an unsigned char), divided by its neutral cost so that
+free space costs 1::
+
+    cost(c) = (COST_NEUTRAL + COST_FACTOR * c) / COST_NEUTRAL = 1 + 0.8 * c / 50  for c <= 252
+    cost(c) = inf                                                                for c >= 253
+
+(navfn's ``COST_NEUTRAL`` 50 and ``COST_FACTOR`` 0.8: a cell at the top of the decay, 252, costs
+5.032 times a free one; navfn, truncating, gives 5.02). 253 (the robot's centre within its
+inscribed radius of an obstacle) and 254 (lethal) cannot be entered, as navfn treats them.
+A path's cost is then in "free cells": its length in cells where the costmap is 0, more near
+obstacles.
+
+The start and goal must be inside the map and free (not dark; with inflation, not within the
+robot's inscribed radius of a dark pixel either); anything else is a :class:`PlanError` naming
+which end and where.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ...configfile import shipped
+from ...planning.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    inflate,
+    occupancy_from_image,
+    traversal_costs,
+)
+from ...planning.dstar_lite import DStarLite, NoPath
+from .params import DEFAULT_RESOLUTION, CostmapParams, load_costmap
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ...runs import RunFolder
+
+#: costmap_params.yaml of this package: seed 000's D.2, ``servolab plan``'s default
+DEFAULT_PARAMS = shipped(__package__ or "servolab.robots.navigation", "costmap_params.yaml")
+#: pixels darker than this are occupied
+DEFAULT_THRESHOLD = 128.0
+
+
+class PlanError(ValueError):
+    """Input ``servolab plan`` cannot plan on, or no path: one line."""
+
+
+@dataclass
+class PlanProblem:
+    """A map read and checked, ready to plan on."""
+
+    map_path: str
+    occupied: npt.NDArray[np.bool_]
+    costs: npt.NDArray[np.float64]
+    start: tuple[int, int]  # (x, y) = (column, row)
+    goal: tuple[int, int]
+    inflation: bool
+    threshold: float
+    costmap: npt.NDArray[np.uint8] | None = None
+    params: CostmapParams | None = None
+    resolution: float | None = None
+    ignored: tuple[str, ...] = field(default=())
+
+
+def read_map(path: str | Path) -> npt.NDArray[np.uint8]:
+    """The image at ``path`` in grey; PlanError naming it if missing or unreadable."""
+    import cv2
+
+    p = Path(path)
+    if not p.exists():
+        raise PlanError(f"map image {str(p)!r} does not exist")
+    if p.is_dir():
+        raise PlanError(f"map image {str(p)!r} is a folder, not an image")
+    image = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+    if image is None or image.size == 0:
+        raise PlanError(f"map image {str(p)!r} cannot be read as an image by OpenCV")
+    return np.asarray(image, dtype=np.uint8)
+
+
+def load_problem(map_path: str | Path, start: tuple[int, int], goal: tuple[int, int], *,
+                 params: str | Path | None = None, inflation: bool = True,
+                 resolution: float | None = None,
+                 threshold: float = DEFAULT_THRESHOLD) -> PlanProblem:
+    """Read the map (and the costmap parameters with inflation), build the cell costs and
+    check both ends; PlanError (or the parameter file's NavParamsError) on bad input."""
+    gray = read_map(map_path)
+    occupied = occupancy_from_image(gray, threshold)
+    height, width = occupied.shape
+    costmap = None
+    costmap_params = None
+    cell_m = None
+    ignored: tuple[str, ...] = ()
+    if inflation:
+        if resolution is not None and not (math.isfinite(resolution) and resolution > 0):
+            raise PlanError(f"--resolution must be > 0 m, not {resolution}")
+        costmap_params = load_costmap(params if params is not None else DEFAULT_PARAMS)
+        ignored = costmap_params.ignored
+        cell_m = resolution if resolution is not None else costmap_params.resolution
+        if costmap_params.inflation_enabled:
+            costmap = inflate(occupied, cell_m, costmap_params.inflation_radius,
+                              costmap_params.cost_scaling_factor,
+                              costmap_params.inscribed_radius)
+        else:  # the file switches the inflation layer off: obstacles alone
+            costmap = np.where(occupied, np.uint8(254), np.uint8(0)).astype(np.uint8)
+        costs = traversal_costs(costmap)
+    else:
+        costs = np.where(occupied, np.inf, 1.0)
+    for name, (x, y) in (("start", start), ("goal", goal)):
+        if not (0 <= x < width and 0 <= y < height):
+            raise PlanError(f"{name} ({x}, {y}) is outside the map {str(map_path)!r}, which "
+                            f"is {width} x {height} cells (x 0..{width - 1}, y 0..{height - 1})")
+        if occupied[y, x]:
+            raise PlanError(f"{name} ({x}, {y}) is inside an obstacle (a pixel darker than "
+                            f"{threshold:g} in {str(map_path)!r})")
+        if not math.isfinite(costs[y, x]) and costmap_params is not None and cell_m:
+            inscribed = costmap_params.inscribed_radius
+            value = int(costmap[y, x]) if costmap is not None else INSCRIBED_INFLATED_OBSTACLE
+            raise PlanError(f"{name} ({x}, {y}) is within the robot's inscribed radius "
+                            f"({inscribed:.3f} m = {inscribed / cell_m:.1f} cells) of an "
+                            f"obstacle (inflated cost {value}); move it or plan with "
+                            "--no-inflation")
+    return PlanProblem(str(map_path), occupied, costs, start, goal, inflation, threshold,
+                       costmap, costmap_params, cell_m, ignored)
+
+
+def plan(problem: PlanProblem) -> tuple[float, npt.NDArray[np.int64]]:
+    """D* Lite on the problem: (cost, path as (N, 2) ``(x, y)`` cells); PlanError if no path."""
+    (sx, sy), (gx, gy) = problem.start, problem.goal
+    planner = DStarLite(problem.costs, (sy, sx), (gy, gx))
+    try:
+        cells = planner.path()
+    except NoPath:
+        how = " (with inflation; try --no-inflation)" if problem.inflation else ""
+        raise PlanError(f"no path from start ({sx}, {sy}) to goal ({gx}, {gy}) on "
+                        f"{problem.map_path!r}{how}") from None
+    return float(planner.cost()), cells[:, ::-1].copy()
+
+
+def run_plan(run_folder: RunFolder, problem: PlanProblem,
+             say: Callable[[str], None] = print, *,
+             result: tuple[float, npt.NDArray[np.int64]] | None = None) -> dict[str, Any]:
+    """Plan (unless ``result``, a :func:`plan` already made, is given), write ``plan.png``
+    into the run folder and return the summary's figures (the caller writes
+    ``summary.json``)."""
+    if problem.ignored:
+        say(f"ignored keys of {problem.params.path if problem.params else 'the parameters'}: "
+            + ", ".join(problem.ignored))
+    cost, path = result if result is not None else plan(problem)
+    steps = np.abs(np.diff(path, axis=0))
+    diagonal = int(np.count_nonzero(steps.min(axis=1))) if len(path) > 1 else 0
+    length_cells = float(diagonal * math.sqrt(2.0) + (len(path) - 1 - diagonal))
+    height, width = problem.occupied.shape
+    summary: dict[str, Any] = {
+        "map": problem.map_path, "map_size": [width, height], "threshold": problem.threshold,
+        "start": list(problem.start), "goal": list(problem.goal),
+        "cost": cost, "length_cells": length_cells, "cells": len(path),
+        "path": path.tolist(), "inflation": problem.inflation,
+    }
+    if problem.inflation and problem.params is not None:
+        p = problem.params
+        summary.update({
+            "params": p.path, "resolution_m": problem.resolution,
+            "length_m": length_cells * (problem.resolution or DEFAULT_RESOLUTION),
+            "inflation_enabled": p.inflation_enabled,
+            "inflation_radius_m": p.inflation_radius,
+            "cost_scaling_factor": p.cost_scaling_factor,
+            "inscribed_radius_m": p.inscribed_radius,
+            "cost_mapping": "1 + 0.8 * c / 50 for costmap c <= 252 (navfn), inf for c >= 253",
+            "ignored": list(p.ignored), "notes": list(p.notes),
+        })
+    else:
+        summary["cost_mapping"] = "free 1, occupied inf (cost = length in cells)"
+    summary["plot"] = str(plot_plan(problem, path, run_folder.file("plan.png")))
+    say(f"path of {len(path)} cells, length {length_cells:.2f} cells, cost {cost:.2f} "
+        f"({'with' if problem.inflation else 'without'} inflation); plot {summary['plot']}")
+    return summary
+
+
+def plot_plan(problem: PlanProblem, path: npt.NDArray[np.int64], target: Path) -> Path:
+    """The map (obstacles black), the inflation's shading, the path, start and goal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    height, width = problem.occupied.shape
+    figure, ax = plt.subplots(figsize=(7, 7 * height / max(width, 1) + 0.5))
+    extent = (-0.5, width - 0.5, height - 0.5, -0.5)
+    if problem.costmap is not None:
+        shade = np.ma.masked_where((problem.costmap == 0) | problem.occupied,
+                                   problem.costmap.astype(float))
+        image = ax.imshow(shade, cmap="YlOrRd", vmin=0, vmax=254, extent=extent,
+                          interpolation="nearest")
+        figure.colorbar(image, ax=ax, shrink=0.7, label="inflated cost (0..254)")
+    walls = np.ma.masked_where(~problem.occupied, np.ones(problem.occupied.shape))
+    ax.imshow(walls, cmap="gray_r", vmin=0, vmax=1, extent=extent, interpolation="nearest")
+    ax.plot(path[:, 0], path[:, 1], "-", color="tab:blue", lw=2, label="path (D* Lite)")
+    ax.plot(*problem.start, "o", color="tab:green", ms=8, label="start")
+    ax.plot(*problem.goal, "*", color="tab:purple", ms=12, label="goal")
+    ax.set_xlim(-0.5, width - 0.5)
+    ax.set_ylim(height - 0.5, -0.5)
+    ax.set_xlabel("x (column, cells)")
+    ax.set_ylabel("y (row, cells)")
+    ax.set_title(f"{Path(problem.map_path).name}: "
+                 f"{'inflated' if problem.inflation else 'no inflation'}")
+    ax.legend(loc="best", fontsize=8)
+    figure.savefig(target, dpi=110, bbox_inches="tight")
+    plt.close(figure)
+    return target

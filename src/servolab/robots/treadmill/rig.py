@@ -1,0 +1,126 @@
+"""The treadmill's camera PC as launch files run it (seed 002 Figure 2), and Listing 2's
+encoder logger, which runs on that PC in the thesis and is a node of its own here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from ...middleware.context import Context
+from ...middleware.node import Node
+from .analysis import analysed_run
+from .logs import EncoderLogWriter
+from .node import TreadmillNode, simulated_treadmill
+
+SENSOR_STATE = "turtlebot3_msgs/msg/SensorState"
+#: what a run of the closed loop records in its bag
+RECORDED = ("/cmd_vel", "/fly/pose", "/treadmill/joint_states", "/sensor_state", "/odom")
+
+
+class MobrobDataTracker(Node):
+    """Listing 2: every ``sensor_state`` message's time (µs) and the left and right encoder
+    counts, as three int64, to ``log``."""
+
+    def __init__(self, context: Context, log: EncoderLogWriter, name: str = "mobrob_data_tracker",
+                 namespace: str = "/", *, parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
+        self.log = log
+        self.records = 0
+        self.create_subscription(SENSOR_STATE, "sensor_state", self._on_state, 1000)
+
+    def _on_state(self, msg: Any) -> None:
+        self.log.write(round(self.now() * 1e6), int(msg.left_encoder), int(msg.right_encoder))
+        self.records += 1
+
+
+class TreadmillRig(Node):
+    """The camera PC of seed 002 for launch files (Figure 2): the simulated fly, ball and
+    camera in real time (or the real treadmill on ``port`` -- then frames must come from
+    elsewhere, which this node does not do yet, so ``port`` is refused), Listing 1's
+    ``image_converter`` and Listing 2's ``mobrob_data_tracker``, writing the run folder
+    ``out``. ``duration`` seconds after it first hears the robot (its ``sensor_state``: the
+    robot's process may take a while to start) it stops the wheels (torque off), analyses the logs
+    into ``out``/summary.json and ``out``/flyball.png, and shuts its process down, so that as
+    a ``required`` node it ends the launch. The robot is another node, anywhere on the
+    network: it hears ``/cmd_vel`` and answers on ``sensor_state``."""
+
+    def __init__(self, context: Context, name: str = "treadmill", namespace: str = "/", *,
+                 parameter_overrides: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None) -> None:
+
+        from ...runs import RunFolder
+        from ...sim import Simulation
+        from ...sim.fly_camera import SimulatedFlyCamera
+        from ...sim.fly_walk import FlyWalker
+        from .logs import FlyLogWriter
+
+        super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
+                         remappings=remappings)
+        self.duration = float(self.declare_parameter(
+            "duration", 100.0, description="s to run before stopping").value)
+        seed = int(self.declare_parameter("seed", 0, description="the fly's walk").value)
+        out = str(self.declare_parameter("out", "", description="run folder; empty: "
+                                         "runs/flyball-<time>").value)
+        port = str(self.declare_parameter("port", "", description="must stay empty: the "
+                                          "simulated fly needs the simulated ball").value)
+        if port:
+            raise ValueError("treadmill: a real treadmill needs a real camera; run "
+                             "'servolab flyball --frames ... --port ...' instead")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise ValueError(f"treadmill: duration {self.duration!r} must be > 0 s")
+        self.run = RunFolder.create("flyball", out or None)
+        self.simulation = Simulation()
+        self.bus, self.world = simulated_treadmill(self.simulation, FlyWalker(seed=seed))
+        self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
+        self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
+        self.simulation.start_real_time()
+        self.node = TreadmillNode(context, self.bus, SimulatedFlyCamera(
+            self.world, seed=seed, simulation=self.simulation), log=self.fly_log)
+        self.tracker = MobrobDataTracker(context, self.encoder_log)
+        self.start: float | None = None  # the robot's first sensor_state: the run starts
+        self.summary: dict[str, Any] | None = None
+        self.create_timer(0.1, self._check_done)
+
+    def _check_done(self) -> None:
+        if self.start is None:
+            if self.tracker.records:  # the robot is up and heard: count from here
+                self.start = self.now()
+            return
+        if self.summary is None and self.now() - self.start >= self.duration:
+            self.finish()
+            self.context.shutdown()  # a required node ends the launch
+
+    def finish(self) -> dict[str, Any]:
+        """Stop the wheels, close the logs, analyse them (once)."""
+        if self.summary is not None:
+            return self.summary
+        try:
+            self.node.motor_deinit()
+        finally:
+            self.simulation.stop_real_time()
+            self.fly_log.close()
+            self.encoder_log.close()
+        summary = analysed_run(self.run, self.run.file("fly_data.bin"),
+                            self.run.file("robot_encoders.bin"), None)
+        summary.update({"duration_s": self.duration, "frames": self.node.frames,
+                        "encoder_records": self.tracker.records})
+        self.summary = summary
+        self.run.write_summary(summary)
+        analysis = summary["analysis"] or {}
+        self.get_logger().info(
+            f"{self.node.frames} frames, {self.tracker.records} robot encoder records: mean "
+            f"distance error {analysis.get('mean_distance_error_mm', math.nan):.3f} mm, run "
+            f"folder {self.run.path}")
+        return summary
+
+    def destroy(self) -> None:
+        try:
+            if self.summary is None:
+                self.finish()
+        finally:
+            super().destroy()
+            self.bus.close()

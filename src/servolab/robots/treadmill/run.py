@@ -1,0 +1,200 @@
+"""``servolab flyball``'s run: seed 002's closed loop on a simulated fly, ball and robot.
+
+One simulation owns the time of everything (:class:`~servolab.sim.Simulation`): the treadmill
+(:class:`~servolab.sim.ball.BallWorld`, three emulated XM430-W210 wheels, IDs 100-102, at
+1 Mbps) with a walking fly on it, its camera (:class:`~servolab.sim.fly_camera.
+SimulatedFlyCamera`, 640 x 376 at 66 frames/s), and a TurtleBot3 Waffle
+(``configs/base_turtlebot3_waffle.yaml``, its own emulated bus) on a floor. The nodes are the
+thesis's (Figure 2):
+
+- the camera PC's ``image_converter`` (:class:`~.flyball_node.TreadmillNode`): track, control,
+  one SYNC_WRITE and one SYNC_READ on the treadmill's bus, ``/cmd_vel`` to the robot, the
+  17-value record to ``fly_data.bin``;
+- the robot's base node (:class:`~.base_node.BaseNode`): ``/cmd_vel`` to its wheels,
+  ``/sensor_state`` with the encoders;
+- Listing 2's ``mobrob_data_tracker`` (:class:`MobrobDataTracker`): each ``/sensor_state`` to
+  ``robot_encoders.bin``.
+
+The run folder then holds ``fly_data.bin``, ``robot_encoders.bin``, ``flyball_bag/`` (MCAP:
+``/cmd_vel``, ``/fly/pose``, ``/treadmill/joint_states``, ``/sensor_state``, ``/odom``), the
+analysis of :mod:`.fly_analysis` in ``summary.json`` and its figures in ``flyball.png``.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ...middleware.context import Context
+from ..errors import RobotError, RobotValueError
+from .analysis import analysed_run
+from .logs import EncoderLogWriter
+from .node import (
+    TREADMILL_BAUDRATE,
+    TreadmillNode,
+    emulated_treadmill_bus,
+    simulated_treadmill,
+    stop_wheels,
+)
+from .rig import RECORDED, MobrobDataTracker
+
+if TYPE_CHECKING:
+    from ...runs import RunFolder
+    from ...sim.fly_walk import FlyWalkConfig
+
+Say = Callable[[str], None]
+#: what stopping does to the treadmill: a ball left turning would carry the fly away
+MOTORS_ON_STOP = "wheels stopped (goal velocity 0) and torque off"
+
+
+def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0,
+                fly: FlyWalkConfig | None = None, say: Say = print,
+                show_progress: bool = True) -> dict[str, Any]:
+    """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
+    returns the summary (the analysis and where the files are)."""
+
+    from ...middleware.recorder import Recorder
+    from ...sim import Simulation
+    from ...sim.fly_camera import SimulatedFlyCamera
+    from ...sim.fly_walk import FlyWalkConfig, FlyWalker
+    from ..base.config import load as load_base
+    from ..base.config import shipped_base
+    from ..base.mobile_base import MobileBase
+    from ..base.node import BaseNode
+    from .logs import FlyLogWriter
+
+    if not (math.isfinite(duration) and duration > 0):
+        raise RobotValueError(f"duration {duration!r} must be a number of seconds > 0")
+    sim = Simulation()
+    aot, world = simulated_treadmill(sim, FlyWalker(fly or FlyWalkConfig(), seed=seed))
+    camera = SimulatedFlyCamera(world, seed=seed)
+    base = MobileBase.emulated(load_base(shipped_base("turtlebot3_waffle")), sim)
+    bag = run_folder.file("flyball_bag")
+    if bag.exists():
+        shutil.rmtree(bag)
+    fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
+    say(f"the fly walks on the simulated treadmill for {duration:g} s (seed {seed}); "
+        "the robot follows the ball")
+    interrupted: BaseException | None = None
+    node: TreadmillNode | None = None
+    tracker: MobrobDataTracker | None = None
+    with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path) as encoder_log, \
+            Context.open(clock=sim) as context:
+        try:
+            node = TreadmillNode(context, aot, camera, log=fly_log)
+            BaseNode(context, base)
+            tracker = MobrobDataTracker(context, encoder_log)
+            Recorder(context, str(bag), list(RECORDED))
+            _spin(context, sim, duration, show_progress)
+        except BaseException as error:  # a stop signal, a node's error: keep and analyse
+            interrupted = error
+        finally:
+            try:
+                base.stop()
+            finally:
+                stop_wheels(aot)
+    summary = analysed_run(run_folder, fly_path, encoder_path, bag)
+    summary.update({"duration_s": duration, "seed": seed,
+                    "frames": node.frames if node is not None else 0,
+                    "encoder_records": tracker.records if tracker is not None else 0,
+                    "fly_walked_m": world.ground_truth()["fly_walked"],
+                    "motors_on_stop": MOTORS_ON_STOP})
+    run_folder.write_summary(summary, interrupted=interrupted)
+    if interrupted is not None:
+        raise interrupted
+    a = summary["analysis"]
+    if a is None:
+        raise RobotError(f"{summary['frames']} frame(s) in {duration:g} s; the analysis "
+                         "needs two")
+    say(f"{summary['frames']} frames: mean distance error {a['mean_distance_error_mm']:.3f} mm "
+        f"(thesis 1.821), mean angle error {a['mean_angle_error_deg']:.2f}° (thesis 7.039), "
+        f"response delay {a['response_delay_s'] * 1000:.0f} ms (thesis about 110); "
+        f"sphere path {a['sphere_path_length_m'] * 1000:.0f} mm, robot path "
+        f"{a['robot_path_length_m']:.2f} m, shape disparity {a['path_disparity']:.2f}; "
+        f"plot {summary['plot']}")
+    return summary
+
+
+def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None = None,
+                 say: Say = print, show_progress: bool = True) -> dict[str, Any]:
+    """Track a recording (a folder of images or a video, :class:`~servolab.vision.
+    frame_source.FrameSource`) frame by frame, with the treadmill's motors emulated or, on
+    ``port``, real (then at the camera's 66 frames/s by the wall clock). One record per frame
+    in ``fly_data.bin``; no robot, so ``robot_encoders.bin`` stays empty. The recording is
+    opened and checked before a motor is touched."""
+    from ...clock import Clock, WallClock
+    from ...dynamixel.bus import Bus
+    from ...middleware.recorder import Recorder
+    from ...sim import Simulation
+    from ...vision.frame_source import FrameSource
+    from .logs import FlyLogWriter
+
+    source = FrameSource.open(frames)
+    clock: Clock
+    if port is None:
+        sim = Simulation()
+        bus = emulated_treadmill_bus(sim)
+        clock = sim
+    else:
+        bus = Bus.open(port, protocol=2, baudrate=TREADMILL_BAUDRATE)
+        clock = WallClock()
+    bag = run_folder.file("flyball_bag")
+    if bag.exists():
+        shutil.rmtree(bag)
+    fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
+    say(f"tracking {len(source) or 'the'} frames of {frames} with the treadmill's motors "
+        f"{'on ' + port if port else 'emulated'}")
+    from tqdm import tqdm
+
+    interrupted: BaseException | None = None
+    node: TreadmillNode | None = None
+    try:
+        with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path), \
+                Context.open(clock=clock) as context, \
+                tqdm(total=len(source) or None, unit="frame", disable=not show_progress,
+                     leave=False) as bar:
+            try:
+                node = TreadmillNode(context, bus, source, log=fly_log)
+                Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
+                                             "/treadmill/joint_states"])
+                while not node.finished:
+                    context.spin_until(lambda: node is not None and node.finished,
+                                       timeout=1.0)
+                    bar.update(node.frames - bar.n)
+            except BaseException as error:  # a bad frame mid-video, a stop: keep the log
+                interrupted = error
+            finally:
+                stop_wheels(bus)  # whether or not the node got to start them
+    finally:
+        source.close()
+        bus.close()
+    summary = analysed_run(run_folder, fly_path, encoder_path, bag)
+    summary.update({"frames_source": str(frames), "port": port or "emulated",
+                    "frames": node.frames if node is not None else 0,
+                    "motors_on_stop": MOTORS_ON_STOP})
+    run_folder.write_summary(summary, interrupted=interrupted)
+    if interrupted is not None:
+        raise interrupted
+    if summary["analysis"] is None:
+        raise RobotError(f"{frames}: {summary['frames']} frame(s) tracked; the analysis "
+                         "needs at least two")
+    analysis = summary["analysis"]
+    say(f"{summary['frames']} frames ({analysis['frames_with_fly']} with the fly): mean "
+        f"distance "
+        f"error {analysis['mean_distance_error_mm']:.3f} mm, mean angle error "
+        f"{analysis['mean_angle_error_deg']:.2f}°; plot {summary['plot']}")
+    return summary
+
+
+def _spin(context: Context, sim: Any, duration: float, show_progress: bool) -> None:
+    from tqdm import tqdm
+
+    start = sim.now()
+    with tqdm(total=round(duration, 1), unit="s", disable=not show_progress, leave=False,
+              bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s") as bar:
+        while (elapsed := sim.now() - start) < duration:
+            context.spin_for(min(1.0, duration - elapsed))
+            bar.update(min(duration, sim.now() - start) - bar.n)

@@ -1,0 +1,83 @@
+"""configs/armstrong.launch.yaml: the robot side and the walking side as launch-file nodes, in
+one process (the file as shipped) and in two processes over Zenoh (as on a robot and a PC;
+seed 001's two launch files). The walker is required: the launch ends when it has walked."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[3]
+LAUNCH = ROOT / "configs" / "armstrong.launch.yaml"
+# a short walk: one step, a fast stand, 9 rows a second
+SHORT = ("{steps: 2, rate: 4.5, stand_duration: 2.0}",
+         "{steps: 1, rate: 9.0, stand_duration: 0.5}")
+
+
+def _launch(path: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "servolab", "launch", str(path)],
+                          capture_output=True, text=True, timeout=180)
+
+
+@pytest.mark.slow
+def test_the_shipped_launch_file_walks_in_one_process(tmp_path: Path) -> None:
+    path = tmp_path / "armstrong.launch.yaml"
+    text = LAUNCH.read_text()
+    assert SHORT[0] in text
+    path.write_text(text.replace(*SHORT))
+    result = _launch(path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "walked: 17 rows" in result.stdout + result.stderr
+    assert "Unable to start controller controller_m62" in result.stderr
+
+
+@pytest.mark.slow
+def test_robot_and_walker_in_two_processes_over_zenoh(tmp_path: Path) -> None:
+    path = tmp_path / "armstrong.launch.yaml"
+    text = (LAUNCH.read_text().replace(*SHORT).replace("transport: local", "transport: zenoh")
+            .replace("    parameters: {port: \"\", config: \"\"}",
+                     "    parameters: {port: \"\", config: \"\"}\n    process: robot")
+            .replace("    required: true", "    required: true\n    process: pc"))
+    path.write_text(text)
+    result = _launch(path)
+    out = result.stdout + result.stderr
+    assert result.returncode == 0, out[-2000:]
+    assert "walked: 17 rows" in out
+    assert "no joint states heard" not in out  # the walker heard the robot across processes
+    pids = set(re.findall(r"started (?:armstrong|walker) \(pid (\d+)\)", out))
+    assert len(pids) == 2, out[-2000:]
+
+
+@pytest.mark.slow
+def test_move_a_joint_from_the_command_line() -> None:
+    """docs/biped.md's walk-through: the robot side runs (configs/armstrong_robot.launch.yaml)
+    and, from another process, `servolab topic pub /controller_m14/command ...` moves the
+    knee; its /controller_m14/state, heard over Zenoh, comes to the commanded 0.5 rad."""
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Node
+    from servolab.middleware.transport import TransportOptions
+    from tests.processes import started
+    from tests.waiting import wait_for_line
+
+    launch = [sys.executable, "-m", "servolab", "launch",
+              str(ROOT / "configs" / "armstrong_robot.launch.yaml")]
+    with started(launch, stderr_to_stdout=True) as robot:
+        said = wait_for_line(robot, "other tools: --connect", timeout=60.0)
+        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
+        wait_for_line(robot, "started armstrong (in process", timeout=60.0)
+        with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
+            heard: list[float] = []
+            Node(ctx, "probe").create_subscription(
+                "dynamixel_msgs/msg/JointState", "/controller_m14/state",
+                lambda msg: heard.append(msg.current_pos))
+            pub = subprocess.run(
+                [sys.executable, "-m", "servolab", "topic", "pub", "/controller_m14/command",
+                 "std_msgs/msg/Float64", "{data: 0.5}", "--once", "--connect", endpoint],
+                capture_output=True, text=True, timeout=60)
+            assert pub.returncode == 0, pub.stderr
+            assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
+                                  timeout=30.0), heard[-3:]

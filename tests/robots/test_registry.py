@@ -1,0 +1,71 @@
+"""servolab.robots.load and `servolab robots`: every shipped robot opens on emulated motors,
+and the files `servolab robots show` prints are the ones the commands load by default."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from servolab.cli import main
+from servolab.robots import ROBOTS, load
+from servolab.robots.registry import UnknownRobotError, shipped_files
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_every_robot_loads_on_emulated_motors_and_its_motors_answer(name: str) -> None:
+    entry = ROBOTS[name]
+    bus_summary = entry.bus()
+    robot = load(name)
+    try:
+        bus = robot.bus
+        for motor_id in bus_summary.ids:  # every motor the listing names is on the bus
+            found = bus.ping(motor_id)
+            assert found.model is not None and found.model.name == bus_summary.model
+        assert bus.protocol.version == bus_summary.protocol
+    finally:
+        robot.close()
+
+
+def test_an_unknown_robot_names_the_known_ones() -> None:
+    with pytest.raises(UnknownRobotError, match="no robot 'armstong'; there are armstrong"):
+        load("armstong")
+
+
+def test_the_listing_names_every_robot_its_bus_and_file(capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    assert main(["robots"]) == 0
+    out = capsys.readouterr().out
+    for name, entry in ROBOTS.items():
+        assert f"{name}: {entry.summary}" in out
+        assert str(entry.bus()) in out
+    assert "20 x RX-28 (IDs 11-16,21-26,31-33,41-43,51,61), Protocol 1.0, 57142 bps" in out
+
+
+@pytest.mark.parametrize("name", sorted(shipped_files()))
+def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[str],
+                                      tmp_path: Path) -> None:
+    assert main(["robots", "show", name]) == 0
+    printed = capsys.readouterr().out
+    assert printed == shipped_files()[name].read_text()
+
+
+def test_show_of_something_not_shipped_is_one_line_and_exit_2(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["robots", "show", "treadmill"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "treadmill has no configuration file" in err
+
+
+def test_a_copied_file_drives_the_command(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """What a student does: print the Waffle's file, edit it, drive with it."""
+    assert main(["robots", "show", "turtlebot3_waffle"]) == 0
+    mine = tmp_path / "my_waffle.yaml"
+    mine.write_text(capsys.readouterr().out.replace("name: turtlebot3_waffle", "name: mine"))
+    assert main(["drive", "rotate", "--angle", "90", "--base", str(mine), "--no-progress",
+                 "--out", str(tmp_path / "run")]) == 0
+    import json
+
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["base"] == "mine" and summary["interrupted"] is None

@@ -1,0 +1,185 @@
+"""Seed 002's closed loop on the simulated fly, ball and robot (servolab flyball): the fly is
+held near the centre while it walks, every frame is logged in the thesis's layout, the robot
+drives, the motors end stopped with torque off, and the logs are analysed as chapter 3 does.
+Read back with independent readers (struct for the binary logs, mcap-ros2-support for the bag).
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap_ros2.reader import read_ros2_messages
+
+from servolab.cli import main
+from tests.clirun import refusal
+from servolab.clock import VirtualClock
+from servolab.dynamixel.bus import Bus
+from servolab.middleware.context import Context
+from servolab.robots.treadmill.node import TREADMILL_IDS, TreadmillNode
+from servolab.robots.treadmill.run import run_flyball
+from servolab.runs import RunFolder
+from servolab.sim import Simulation
+from servolab.vision.fly_render import FlyPose, render_fly
+
+pytestmark = pytest.mark.slow
+DURATION = 20.0
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    folder = RunFolder.create("flyball", tmp_path_factory.mktemp("fly") / "run")
+    summary = run_flyball(folder, duration=DURATION, seed=0, say=lambda _: None,
+                          show_progress=False)
+    summary["folder"] = folder.path
+    return summary
+
+
+def test_every_frame_is_logged_in_the_thesis_layout(run: dict[str, Any]) -> None:
+    """Listing 1: 17 float64 per frame, no header, at 66 frames/s (Listing 3)."""
+    data = Path(run["fly_data"]).read_bytes()
+    assert len(data) == 136 * run["frames"]
+    assert run["frames"] == pytest.approx(66 * DURATION, abs=2)
+    first = struct.unpack_from("<17d", data, 0)
+    last = struct.unpack_from("<17d", data, len(data) - 136)
+    assert (first[0], last[0]) == (0.0, run["frames"] - 1.0)  # frame numbers
+    assert last[16] - first[16] == pytest.approx(DURATION, abs=0.05)  # time
+    assert last[2] == pytest.approx(1e6 / 66, rel=0.01)  # sampling time, µs
+    encoders = Path(run["robot_encoders"]).read_bytes()
+    assert len(encoders) % 24 == 0 and len(encoders) // 24 == run["encoder_records"] > 0
+
+
+def test_the_fly_is_held_while_it_walks(run: dict[str, Any]) -> None:
+    analysis = run["analysis"]
+    assert analysis["frames_with_fly"] == analysis["frames"]  # never lost from view
+    # it walked far further than it strayed: the ball carried it back
+    assert run["fly_walked_m"] * 1000 > 5 * analysis["mean_distance_error_mm"]
+    assert analysis["mean_distance_error_mm"] < 4.0
+    assert analysis["sphere_path_length_m"] > 0.5 * run["fly_walked_m"]
+    # the wheels answer about 110 ms after the frame that starts them (seed 002, ch. 3)
+    assert analysis["response_delay_s"] == pytest.approx(0.11, abs=0.03)
+
+
+def test_the_robot_is_driven_and_it_is_all_recorded(run: dict[str, Any]) -> None:
+    (mcap,) = Path(run["bag"]).glob("*.mcap")
+    topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
+    assert topics == {"/cmd_vel", "/fly/pose", "/treadmill/joint_states", "/sensor_state", "/odom"}
+    twists = [m.ros_msg for m in read_ros2_messages(str(mcap), topics=["/cmd_vel"])]
+    assert any(t.linear.x > 0 for t in twists)
+    assert run["analysis"]["robot_path_length_m"] > 0.05
+    assert Path(run["plot"]).stat().st_size > 20_000
+
+
+def test_analyze_reads_the_logs_again(run: dict[str, Any], capsys: pytest.CaptureFixture[str]
+                                      ) -> None:
+    assert main(["flyball", "analyze", str(run["folder"])]) == 0
+    out = capsys.readouterr().out
+    assert f"{run['analysis']['mean_distance_error_mm']:.3f} mm" in out
+    assert (Path(run["folder"]) / "analysis.json").exists()
+
+
+def test_a_truncated_log_is_named_with_its_count(run: dict[str, Any], tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    data = Path(run["fly_data"]).read_bytes()
+    (tmp_path / "fly_data.bin").write_bytes(data[:136 * 10 + 7])
+    (tmp_path / "robot_encoders.bin").write_bytes(Path(run["robot_encoders"]).read_bytes())
+    status, line = refusal(["flyball", "analyze", str(tmp_path)], capsys)
+    assert status == 2 and line.startswith("servolab flyball analyze: error: ")
+    assert "10 whole records of 136 bytes and 7 bytes more" in line
+
+
+def test_the_node_stops_the_wheels_and_switches_torque_off_when_frames_end() -> None:
+    """Listing 1's motor_deinit: goal velocity 0 and torque off, once the frames end."""
+    sim = Simulation()
+    bus = Bus.open("emu://xm430-w210:100-102", baudrate=1_000_000, simulation=sim)
+    frames = [render_fly(FlyPose(420.0, 250.0, 0.4))[0] for _ in range(5)]
+
+    def camera() -> np.ndarray | None:
+        return frames.pop() if frames else None
+
+    with Context.open(clock=VirtualClock()) as context:
+        node = TreadmillNode(context, bus, camera)
+        context.spin_until(lambda: node.finished, timeout=1.0)
+        assert node.frames == 5 and node.last is not None
+        assert node.last[1].compensating  # the fly was off centre: the wheels were told
+        torque = bus.sync_read("torque_enable", TREADMILL_IDS)
+        goal = bus.sync_read("goal_velocity", TREADMILL_IDS, raw=True)
+    assert set(torque.values()) == {0} and set(goal.values()) == {0}
+
+
+def test_recorded_frames_are_tracked_one_record_each(tmp_path: Path) -> None:
+    """--frames DIR: a folder of images in name order, one record per frame; the tracker's
+    centroid is the drawn fly's (within 0.5 px, the tracker's accuracy)."""
+    import cv2
+
+    from servolab.robots.treadmill.logs import read_fly_log
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    truths = []
+    for k in range(12):
+        image, truth = render_fly(FlyPose(300.0 + 8 * k, 200.0 - 3 * k, 0.1 * k),
+                                  noise_std=3.0, rng=np.random.default_rng(k))
+        assert truth is not None
+        truths.append((truth.cx, truth.cy))
+        cv2.imwrite(str(frames / f"frame{k}.png"), image)
+    out = tmp_path / "run"
+    assert main(["flyball", "--frames", str(frames), "--out", str(out), "--no-progress"]) == 0
+    records = read_fly_log(out / "fly_data.bin")
+    assert len(records) == 12
+    got = np.column_stack([records["cx"], records["cy"]])
+    assert np.max(np.hypot(*(got - np.array(truths)).T)) < 0.5
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--frames", "MISSING"], "MISSING: no such file or folder"),
+    (["--port", "/dev/null"], "give --frames DIR|VIDEO too"),
+    (["--duration", "-1"], "argument --duration"),
+    (["--frames", "/tmp", "--duration", "5"], "a recording (--frames) runs as long as it is"),
+])
+def test_bad_input_is_one_line(tmp_path: Path, args: list[str], message: str,
+                               capsys: pytest.CaptureFixture[str]) -> None:
+    status, line = refusal(["flyball", *args, "--out", str(tmp_path / "run")], capsys)
+    assert status == 2 and message in line
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_video_that_cannot_be_opened_is_named(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    video = tmp_path / "broken.avi"
+    video.write_bytes(b"not a video at all" * 100)
+    status, line = refusal(["flyball", "--frames", str(video), "--out", str(tmp_path / "run")],
+                           capsys)
+    assert status == 2 and f"{video}: OpenCV cannot open this video" in line
+
+
+def test_ctrl_c_stops_the_wheels_and_keeps_the_analysis(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C 40 frames in: the exception goes on up (the CLI exits 130), but the wheels are
+    stopped first, and the logs are analysed into summary.json, marked interrupted."""
+    import json
+
+    from servolab.sim.fly_camera import SimulatedFlyCamera
+
+    real = SimulatedFlyCamera.__call__
+
+    def interrupting(self: SimulatedFlyCamera) -> np.ndarray:
+        if self.frames == 40:
+            raise KeyboardInterrupt
+        return real(self)
+
+    monkeypatch.setattr(SimulatedFlyCamera, "__call__", interrupting)
+    folder = RunFolder.create("flyball", tmp_path / "run")
+    with pytest.raises(KeyboardInterrupt):
+        run_flyball(folder, duration=5.0, say=lambda _: None, show_progress=False)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["interrupted"] == "SIGINT"  # a KeyboardInterrupt is Ctrl-C's
+    assert summary["frames"] == 40 and summary["analysis"]["frames"] == 40
+
+
+def test_analyze_a_treadmill_without_a_robot(run: dict[str, Any], tmp_path: Path) -> None:
+    (tmp_path / "fly_data.bin").write_bytes(Path(run["fly_data"]).read_bytes())
+    assert main(["flyball", "analyze", str(tmp_path)]) == 0
