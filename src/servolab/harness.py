@@ -95,14 +95,10 @@ def interruption(error: BaseException | None) -> str | None:
 
 
 def is_bad_input(error: ServolabError) -> bool:
-    """Errors in what the user gave (a value, an argument, a file) are value errors, and so
-    are the middleware's (a bad name, a launch file, a parameter file); a service that
-    failed is not."""
-    from .middleware.errors import MiddlewareError, ServiceError
-
-    if isinstance(error, ServiceError):
-        return False
-    return isinstance(error, ValueError | MiddlewareError)
+    """Errors in what the user gave (a value, an argument, a file, a name, an endpoint) are
+    the value errors: each layer's bad-input classes derive from ``ValueError`` too, so this
+    core module needs to know none of them."""
+    return isinstance(error, ValueError)
 
 
 def exit_status(error: BaseException | None) -> int:

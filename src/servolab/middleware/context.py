@@ -52,6 +52,8 @@ class Context:
         self.nodes: list[Node] = []
         self._node_ids = itertools.count()
         self._closed = False
+        #: the stop signal that shut this context down, if one did (:meth:`stop_on_signals`)
+        self.stopped_by: int | None = None
 
     @classmethod
     def open(cls, options: TransportOptions | None = None, *, types: MessageTypes | None = None,
@@ -100,8 +102,14 @@ class Context:
     @contextmanager
     def stop_on_signals(self) -> Iterator[None]:
         """Turn SIGINT, SIGTERM and SIGHUP into a clean :meth:`shutdown` while inside (main
-        thread only; elsewhere it changes nothing)."""
-        with on_stop_signals(lambda signum, frame: self.shutdown()):
+        thread only; elsewhere it changes nothing); :attr:`stopped_by` keeps the first
+        signal's number, so a command can exit with 128 + it."""
+        def stop(signum: int, frame: object) -> None:
+            if self.stopped_by is None:
+                self.stopped_by = signum
+            self.shutdown()
+
+        with on_stop_signals(stop):
             yield
 
     def close(self) -> None:

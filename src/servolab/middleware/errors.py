@@ -80,5 +80,6 @@ class BagError(MiddlewareError, ValueError):
     """A bag that cannot be opened, read or written."""
 
 
-class TransportError(MiddlewareError):
-    """A transport that cannot be opened (bad endpoint, Zenoh failure)."""
+class TransportError(MiddlewareError, ValueError):
+    """A transport that cannot be opened (bad endpoint, Zenoh failure): bad input, refused
+    before anything moves (``servolab`` exits 2)."""

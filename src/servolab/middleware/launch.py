@@ -217,7 +217,8 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
             context.close()
             for entry in started:
                 out(f"[launch] stopped {entry.name}")
-    return 0
+    # stopped by a signal: 128 + its number, as every servolab command (servolab.harness)
+    return 0 if context.stopped_by is None else 128 + context.stopped_by
 
 
 # -- child processes -------------------------------------------------------------------------
@@ -384,7 +385,9 @@ class _Supervisor:
             if self.stop.is_set():
                 name = signal.Signals(self.signals[0]).name if self.signals else "stop"
                 self.emit(f"[launch] {name}: stopping everything")
-                return 1 if self._stop_all() else 0
+                killed = self._stop_all()
+                # stopped by a signal: 128 + its number, as every servolab command
+                return 128 + self.signals[0] if self.signals else (1 if killed else 0)
             running = False
             for child in self.children:
                 if child.proc is None or child.reported:

@@ -15,8 +15,6 @@ import numpy as np
 import pytest
 from mcap_ros2.reader import read_ros2_messages
 
-from servolab.cli import main
-from tests.clirun import refusal
 from servolab.robots.base.config import SHIPPED_DIR as BASES
 from servolab.robots.navigation.params import load_nav_scene
 from servolab.robots.navigation.run import (
@@ -29,6 +27,7 @@ from servolab.robots.navigation.run import (
 )
 from servolab.runs import RunFolder
 from servolab.sim.scene import DEFAULT_SCENE, CircleObstacle
+from tests.clirun import refusal
 
 pytestmark = pytest.mark.slow
 SCENE = DEFAULT_SCENE

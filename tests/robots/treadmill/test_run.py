@@ -15,7 +15,6 @@ import pytest
 from mcap_ros2.reader import read_ros2_messages
 
 from servolab.cli import main
-from tests.clirun import refusal
 from servolab.clock import VirtualClock
 from servolab.dynamixel.bus import Bus
 from servolab.middleware.context import Context
@@ -24,6 +23,7 @@ from servolab.robots.treadmill.run import run_flyball
 from servolab.runs import RunFolder
 from servolab.sim import Simulation
 from servolab.vision.fly_render import FlyPose, render_fly
+from tests.clirun import refusal
 
 pytestmark = pytest.mark.slow
 DURATION = 20.0

@@ -165,6 +165,12 @@ class MobileBase:
         self.commands.append((self.clock.now(), wheel["left"], wheel["right"]))
         return wheel["left"], wheel["right"]
 
+    def wheel_commands(self) -> dict[int, int]:
+        """Each wheel motor's speed command as its register holds it now (raw), read back
+        from the motors: what a summary reports to show that a stop reached them."""
+        register = "moving_speed" if self.config.protocol == 1 else "goal_velocity"
+        return {i: int(self.bus.read(i, register, raw=True)) for i in self._ids}
+
     def stop(self) -> None:
         """Both wheels at 0 (one SYNC_WRITE)."""
         self.set_wheel_speeds(0.0, 0.0)

@@ -79,6 +79,7 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
         try:
             if move != "rpm":  # reading the wheels' speed leaves them as they are
                 robot.stop()
+                summary["wheels_after_stop"] = robot.wheel_commands()
         finally:
             if simulation is not None:
                 simulation.stop_real_time()  # type: ignore[attr-defined]
@@ -102,7 +103,7 @@ def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say
     """One of the moves that drive the wheels, with a progress bar."""
     say(f"{move} on {where}")
     expected = _expected_duration(move, distance, speed, radius, turns, angle_deg, robot)
-    bar = _progress(expected, robot, show_progress)
+    bar = _progress(expected, robot, show_progress, say)
     try:
         if move == "line":
             summary["asked"] = {"distance_m": distance, "speed_m_s": speed}
@@ -134,18 +135,23 @@ def _expected_duration(move: str, distance: float, speed: float, radius: float, 
     return abs(math.radians(angle_deg)) * drive.wheel_separation / (2 * drive.wheel_radius)
 
 
-def _progress(expected: float, robot: MobileBase, show: bool) -> Any:
+def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:
     """A tqdm bar over the move's expected seconds, fed by the base's odometry updates."""
     from tqdm import tqdm
 
     bar = tqdm(total=round(expected, 2), unit="s", disable=not show, leave=False,
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
     start = robot.clock.now()
+    said = 0
 
     def update(_pose: object) -> None:
+        nonlocal said
         elapsed = min(expected, robot.clock.now() - start)
         if elapsed > bar.n:
             bar.update(elapsed - bar.n)  # tqdm redraws at most every 0.1 s of wall time
+        if not show and int(elapsed) > said:  # a log (no terminal): a line a second
+            said = int(elapsed)
+            say(f"moving: {said} of {expected:.0f} s")
     robot.on_update = update
     return bar
 

@@ -297,12 +297,13 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
             f"on {world.path}")
         try:
-            _drive(context, navigator, base, start, timeout, show_progress)
+            _drive(context, navigator, base, start, timeout, show_progress, say)
         except BaseException as error:  # Ctrl-C or a node's error: stop, keep what happened
             interrupted = error
     finally:
         try:
             base.stop()  # the wheels first, whatever else fails
+            wheels_after_stop = base.wheel_commands()
         finally:
             try:
                 context.close()  # the recorder finishes the bag
@@ -324,6 +325,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy, grid,
                                           run_folder.file("navigate.png")))
     summary["motors_on_stop"] = "wheels stopped (goal speed 0)"
+    summary["wheels_after_stop"] = wheels_after_stop
     if interrupted is not None:
         summary["status"] = "INTERRUPTED"
         summary["reason"] = f"interrupted: {interruption(interrupted)}"
@@ -344,7 +346,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
 
 
 def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: float,
-           timeout: float, show_progress: bool) -> None:
+           timeout: float, show_progress: bool, say: Say) -> None:
     """Spin until the navigator is done or ``timeout`` simulated seconds passed, with a
     progress bar over the straight-line distance still to go."""
     from tqdm import tqdm
@@ -362,6 +364,8 @@ def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: floa
             covered = max(0.0, min(total, total - remaining()))
             if covered > bar.n:
                 bar.update(covered - bar.n)
+            if not show_progress:  # a log (no terminal): a line a simulated second or so
+                say(f"{base.clock.now() - start:.1f} s: {remaining():.2f} m to go")
 
 
 def summarise(world: Scene, base: MobileBase, navigator: NavigatorNode, *,

@@ -164,6 +164,8 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
                     context.spin_until(lambda: node is not None and node.finished,
                                        timeout=1.0)
                     bar.update(node.frames - bar.n)
+                    if not show_progress:  # a log (no terminal): a line a second
+                        say(f"tracked {node.frames} of {len(source) or '?'} frames")
             except BaseException as error:  # a bad frame mid-video, a stop: keep the log
                 interrupted = error
             finally:

@@ -1,0 +1,190 @@
+"""Every robot command stops the same way, whichever signal ends it (issue 26).
+
+Each command runs as a user runs it: a real process, on motors served by ``servolab sim --pty``
+at the robot's own baud rate in real time (navigate, which is simulated only, on its emulated
+floor), stopped mid-run by SIGTERM, SIGHUP, or SIGINT sent to a job that was started with SIGINT
+ignored (as a shell starts a background job: Python then installs no Ctrl-C handler of its own).
+Afterwards:
+
+- the exit status is 128 + the signal (143, 129, 130), as a shell reports a process a signal
+  ended;
+- the motors are as the robot's stop leaves them, read back over the pty by a new client after
+  the command exited: a base's wheels at speed 0, the treadmill's at goal velocity 0 with
+  torque off (Listing 1's motor_deinit, seed 002), Armstrong's joints holding a pose with torque
+  on (a biped that went limp would fall);
+- the bag is readable by ``mcap``'s own reader (not ours), and ``summary.json`` says which
+  signal ended the run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from servolab.dynamixel.bus import Bus
+from tests.simproc import sim_process
+from tests.waiting import wait_for_line, wait_until
+
+pytestmark = pytest.mark.slow
+
+#: how each signal reaches the command: (signal, start the job with SIGINT ignored)
+SIGNALS = [pytest.param(signal.SIGTERM, id="SIGTERM"),
+           pytest.param(signal.SIGHUP, id="SIGHUP"),
+           pytest.param(signal.SIGINT, id="SIGINT-to-a-background-job")]
+
+#: run ``python -m servolab ARGS`` with SIGINT ignored, as ``cmd &`` in a shell does; SIG_IGN
+#: survives exec, so the command starts with it
+IGNORING_SIGINT = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                   "os.execv(sys.executable, [sys.executable, '-m', 'servolab', *sys.argv[1:]])")
+
+
+@contextmanager
+def servolab(args: list[str], sig: signal.Signals) -> Iterator[subprocess.Popen[str]]:
+    """``servolab ARGS`` as a process (SIGINT ignored at its start when ``sig`` is SIGINT),
+    always ended when the block ends."""
+    argv = ([sys.executable, "-c", IGNORING_SIGINT, *args] if sig == signal.SIGINT
+            else [sys.executable, "-m", "servolab", *args])
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            stdin=subprocess.DEVNULL,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if proc.stdout is not None:
+            proc.stdout.close()
+
+
+def stop(proc: subprocess.Popen[str], sig: signal.Signals, marker: str,
+         timeout: float = 60.0, *, last_line: bool = True) -> list[str]:
+    """Wait for ``marker`` in the command's output (it is mid-run), send ``sig``, and return
+    everything it said to the end; its exit status must be 128 + the signal, and its last line
+    says so (the launch's supervisor says it in its own words)."""
+    lines = wait_for_line(proc, marker, timeout=timeout)
+    proc.send_signal(sig)
+    rest, _ = proc.communicate(timeout=60)
+    said = [*lines, *rest.splitlines()]
+    assert proc.returncode == 128 + sig, "\n".join(said)
+    if last_line:
+        assert f"stopped by {sig.name}" in said[-1], said[-1]
+    return said
+
+
+def summary_of(run: Path, sig: signal.Signals) -> dict[str, object]:
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["interrupted"] == sig.name
+    return summary  # type: ignore[no-any-return]
+
+
+def mcap_messages(bag: Path) -> dict[str, int]:
+    """Messages per topic, as mcap's own reader counts them (the bag's one file)."""
+    (file,) = bag.glob("*.mcap")
+    counts: dict[str, int] = {}
+    with file.open("rb") as stream:
+        for _schema, channel, _message in make_reader(stream).iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    return counts
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals) -> None:
+    """Seed 000's base on two EX-106+ at 1 Mbps (Protocol 1.0): a 5 m line, stopped after it
+    has driven a second; moving_speed 0 is the EX-106+'s wheel-mode stop (e-Manual)."""
+    run = tmp_path / "run"
+    with sim_process("--motors", "ex106+:0-1", "--baud", "1000000",
+                     out_dir=tmp_path / "sim") as (pty, _), \
+            servolab(["drive", "line", "--distance", "5", "--speed", "0.1", "--port", pty,
+                      "--no-progress", "--out", str(run)], sig) as drive:
+        stop(drive, sig, "moving: 1 of 50 s")
+        with Bus.open(pty, protocol=1, baudrate=1_000_000) as bus:
+            assert {i: bus.read(i, "moving_speed", raw=True) for i in (0, 1)} == {0: 0, 1: 0}
+            wait_until(lambda: all(bus.read(i, "present_speed", raw=True) == 0
+                                   for i in (0, 1)), timeout=5.0)
+    summary = summary_of(run, sig)
+    assert summary["wheels_after_stop"] == {"0": 0, "1": 0}
+    assert 0.05 < summary["measured"]["odometry_x_m"] < 4.9  # type: ignore[index]
+    assert mcap_messages(run / "drive_bag")["/odom"] > 10
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_walk_holds_the_last_pose(tmp_path: Path, sig: signal.Signals) -> None:
+    """Armstrong's 20 RX-28 at 57142 bps (seed 001): stopped while it plays, every motor keeps
+    its torque on and comes to rest at the last goal it was sent."""
+    run = tmp_path / "run"
+    motors = [*range(11, 17), *range(21, 27), 31, 32, 33, 41, 42, 43, 51, 61]
+    with sim_process("--motors", "rx28:11-16,21-26,31-33,41-43,51,61", "--baud", "57142",
+                     out_dir=tmp_path / "sim") as (pty, _), \
+            servolab(["walk", "--steps", "100", "--port", pty, "--no-progress", "--out",
+                      str(run)], sig) as walk:
+        stop(walk, sig, "playing 17 rows")
+        with Bus.open(pty, protocol=1, baudrate=57142) as bus:
+            assert all(bus.read(i, "torque_enable", raw=True) == 1 for i in motors)
+            wait_until(lambda: not any(bus.read(i, "moving", raw=True) for i in motors),
+                       timeout=10.0)
+    summary = summary_of(run, sig)
+    assert summary["rows_played"] < summary["rows_asked"]  # type: ignore[operator]
+    assert mcap_messages(run / "walk_bag")["/controller_m14/command"] > 0
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals) -> None:
+    """The treadmill's three XM430-W210 at 1 Mbps (Protocol 2.0), tracking a recording at
+    the camera's 66 frames/s: stopped mid-recording, goal velocity 0 and torque off."""
+    import cv2
+
+    from servolab.vision.fly_render import FlyPose, render_fly
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(600):  # 9 s at 66 frames/s: the fly off-centre, so the wheels turn
+        image, _ = render_fly(FlyPose(420.0 - 0.1 * k, 250.0, 0.4))
+        cv2.imwrite(str(frames / f"{k:04d}.png"), image)
+    run = tmp_path / "run"
+    with sim_process("--motors", "xm430-w210:100-102", "--baud", "1000000",
+                     out_dir=tmp_path / "sim") as (pty, _), \
+            servolab(["flyball", "--frames", str(frames), "--port", pty, "--no-progress",
+                      "--out", str(run)], sig) as flyball:
+        stop(flyball, sig, "tracked ")
+        with Bus.open(pty, protocol=2, baudrate=1_000_000) as bus:
+            for i in (100, 101, 102):
+                assert bus.read(i, ["goal_velocity", "torque_enable"], raw=True) == {
+                    "goal_velocity": 0, "torque_enable": 0}
+    summary = summary_of(run, sig)
+    assert 0 < summary["frames"] < 600  # type: ignore[operator]
+    assert mcap_messages(run / "flyball_bag")["/fly/pose"] > 0
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_navigate_stops_the_wheels(tmp_path: Path, sig: signal.Signals) -> None:
+    """The navigation runs on its simulated floor only (no --port): the wheels' commands are
+    read back from the emulated motors into the summary."""
+    run = tmp_path / "run"
+    with servolab(["navigate", "--goal", "3.3", "2.3", "--no-progress", "--out", str(run)],
+                  sig) as navigate:
+        stop(navigate, sig, "m to go")
+    summary = summary_of(run, sig)
+    assert summary["status"] == "INTERRUPTED"
+    assert summary["wheels_after_stop"] == {"0": 0, "1": 0}
+    assert (run / "navigate.png").stat().st_size > 0
+    assert mcap_messages(run / "navigate_bag")["/odom"] > 0
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_launch_stops_its_nodes(tmp_path: Path, sig: signal.Signals) -> None:
+    """Armstrong's launch file (the robot and the walker in one process) ends on the signal
+    with every node stopped."""
+    launch = Path(__file__).resolve().parents[2] / "configs" / "armstrong.launch.yaml"
+    with servolab(["launch", str(launch)], sig) as proc:
+        said = stop(proc, sig, "[launch] started walker", last_line=False)
+    assert "[launch] stopped walker" in said and "[launch] stopped armstrong" in said
