@@ -20,7 +20,13 @@ from collections.abc import Sequence
 from . import __version__
 from .apps.registry import GROUPS, Command, commands
 from .errors import ServolabError
-from .harness import exit_status, interruption, is_bad_input, stop_signals_raise
+from .harness import (
+    exit_status,
+    hangup_safe_output,
+    interruption,
+    is_bad_input,
+    stop_signals_raise,
+)
 
 
 def build_parser(registered: Sequence[Command] | None = None) -> argparse.ArgumentParser:
@@ -83,15 +89,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser(registered).parse_args(argv)
     command = next(c for c in registered if c.name == args.command)
     name = f"{args.command} {getattr(args, 'action', None) or ''}".strip()
-    try:
-        with stop_signals_raise():
-            return command.run(args)
-    except KeyboardInterrupt as stop:
-        print(f"servolab {name}: stopped by {interruption(stop)}", file=sys.stderr)
-        return exit_status(stop)
-    except ServolabError as exc:
-        print(f"servolab {name}: {_label(exc)}: {exc}", file=sys.stderr)
-        return exit_status(exc)
+    with hangup_safe_output():  # a closed terminal must not fail the stop's last lines
+        try:
+            with stop_signals_raise():
+                return command.run(args)
+        except KeyboardInterrupt as stop:
+            print(f"servolab {name}: stopped by {interruption(stop)}", file=sys.stderr)
+            return exit_status(stop)
+        except ServolabError as exc:
+            print(f"servolab {name}: {_label(exc)}: {exc}", file=sys.stderr)
+            return exit_status(exc)
     # Anything else was not raised on purpose: a bug, whose traceback is the useful report.
 
 

@@ -8,7 +8,9 @@ raises :class:`StopSignal` (a ``KeyboardInterrupt``, so every ``finally`` and ev
 ``except KeyboardInterrupt`` that already stops motors sees it) wherever the main thread is.
 Later signals are counted, not raised, so that the stop they interrupt (the motors' last
 SYNC_WRITE, the bag's last chunk, ``summary.json``) is not itself cut short; SIGKILL remains
-for a stop that hangs.
+for a stop that hangs. Standard output and error survive their reader going away (a
+terminal that closed, the usual source of SIGHUP, fails every write with EIO): a write that
+fails so is dropped, or it would fail the stop in the middle (:class:`HangupSafeStream`).
 
 Each robot's run module then does the same three things on its way out, ended or not: it
 stops its motors (or holds them, where that is safer: :mod:`servolab.robots.registry` says
@@ -27,12 +29,16 @@ and ``"interrupted"``: the signal's name, the error, or ``null`` for a run that 
 
 from __future__ import annotations
 
+import errno
+import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import FrameType
+from typing import Any, TextIO
 
 from .errors import ServolabError
 from .signals import on_stop_signals
@@ -65,6 +71,63 @@ class StopRequests:
         if len(self.seen) == 1:
             raise StopSignal(signum)
         # a second signal while the first one's stop runs: let that stop finish
+
+
+class HangupSafeStream:
+    """A standard stream whose reader may go away: a terminal that closed (EIO, with a SIGHUP
+    that may come just after) or a pipe whose reader ended (EPIPE). Its first failed write
+    points the stream's descriptor at /dev/null and drops the text, so a stop under way (the
+    motors, the bag, ``summary.json``) does not fail on a line nobody can read any more."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def _gone(self) -> None:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, self.stream.fileno())
+        finally:
+            os.close(null)
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except OSError as exc:
+            if exc.errno not in (errno.EIO, errno.EPIPE):
+                raise
+            self._gone()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except OSError as exc:
+            if exc.errno not in (errno.EIO, errno.EPIPE):
+                raise
+            self._gone()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
+@contextmanager
+def hangup_safe_output() -> Iterator[None]:
+    """:class:`HangupSafeStream` around ``sys.stdout`` and ``sys.stderr`` while inside (those
+    with a descriptor of their own; a test's captured streams are left as they are)."""
+    saved = sys.stdout, sys.stderr
+    try:
+        sys.stdout, sys.stderr = (_safe(s) for s in saved)
+        yield
+    finally:
+        sys.stdout, sys.stderr = saved
+
+
+def _safe(stream: TextIO) -> TextIO | HangupSafeStream:
+    try:
+        stream.fileno()
+    except (OSError, ValueError, AttributeError):
+        return stream
+    return HangupSafeStream(stream)
 
 
 @contextmanager

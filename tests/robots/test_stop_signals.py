@@ -1,9 +1,10 @@
 """Every robot command stops the same way, whichever signal ends it (issue 26).
 
 Each command runs as a user runs it: a real process, on motors served by ``servolab sim --pty``
-at the robot's own baud rate in real time (navigate, which is simulated only, on its emulated
-floor), stopped mid-run by SIGTERM, SIGHUP, or SIGINT sent to a job that was started with SIGINT
-ignored (as a shell starts a background job: Python then installs no Ctrl-C handler of its own).
+at the robot's own baud rate in real time, every core kept busy by other processes (but for
+the biped: see its test), or (navigate, which is simulated only) on its emulated floor; stopped
+mid-run by SIGTERM, SIGHUP, or SIGINT sent to a job that was started with SIGINT ignored (as a
+shell starts a background job: Python then installs no Ctrl-C handler of its own).
 Afterwards:
 
 - the exit status is 128 + the signal (143, 129, 130), as a shell reports a process a signal
@@ -81,6 +82,21 @@ def stop(proc: subprocess.Popen[str], sig: signal.Signals, marker: str,
     return said
 
 
+@pytest.fixture
+def busy_cpu() -> Iterator[None]:
+    """Every core kept busy by another process while the robot runs on its real-time bus, as
+    on a lab PC that also runs a camera and a viewer: the stop must not depend on spare CPU."""
+    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"],
+                                stdin=subprocess.DEVNULL)
+               for _ in range(os.cpu_count() or 1)]
+    try:
+        yield
+    finally:
+        for burner in burners:
+            burner.kill()
+            burner.wait()
+
+
 def summary_of(run: Path, sig: signal.Signals) -> dict[str, object]:
     summary = json.loads((run / "summary.json").read_text())
     assert summary["interrupted"] == sig.name
@@ -98,7 +114,7 @@ def mcap_messages(bag: Path) -> dict[str, int]:
 
 
 @pytest.mark.parametrize("sig", SIGNALS)
-def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals) -> None:
+def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals, busy_cpu: None) -> None:
     """Seed 000's base on two EX-106+ at 1 Mbps (Protocol 1.0): a 5 m line, stopped after it
     has driven a second; moving_speed 0 is the EX-106+'s wheel-mode stop (e-Manual)."""
     run = tmp_path / "run"
@@ -120,7 +136,12 @@ def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals) -> None:
 @pytest.mark.parametrize("sig", SIGNALS)
 def test_walk_holds_the_last_pose(tmp_path: Path, sig: signal.Signals) -> None:
     """Armstrong's 20 RX-28 at 57142 bps (seed 001): stopped while it plays, every motor keeps
-    its torque on and comes to rest at the last goal it was sent."""
+    its torque on and comes to rest at the last goal it was sent.
+
+    Not on a busy CPU yet: there one READ in a few hundred misses its 38.9 ms deadline through
+    the pty, and the walk ends on that NoResponse (summary written, exit 1) before the signal
+    comes. Surviving such transient errors as dynamixel_motor does is the next issue's (robots
+    on a real-time bus)."""
     run = tmp_path / "run"
     motors = [*range(11, 17), *range(21, 27), 31, 32, 33, 41, 42, 43, 51, 61]
     with sim_process("--motors", "rx28:11-16,21-26,31-33,41-43,51,61", "--baud", "57142",
@@ -138,7 +159,7 @@ def test_walk_holds_the_last_pose(tmp_path: Path, sig: signal.Signals) -> None:
 
 
 @pytest.mark.parametrize("sig", SIGNALS)
-def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals) -> None:
+def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals, busy_cpu: None) -> None:
     """The treadmill's three XM430-W210 at 1 Mbps (Protocol 2.0), tracking a recording at
     the camera's 66 frames/s: stopped mid-recording, goal velocity 0 and torque off."""
     import cv2
@@ -188,3 +209,44 @@ def test_launch_stops_its_nodes(tmp_path: Path, sig: signal.Signals) -> None:
     with servolab(["launch", str(launch)], sig) as proc:
         said = stop(proc, sig, "[launch] started walker", last_line=False)
     assert "[launch] stopped walker" in said and "[launch] stopped armstrong" in said
+
+
+def test_a_terminal_that_closes_stops_the_drive_and_keeps_its_summary(tmp_path: Path,
+                                                                      busy_cpu: None) -> None:
+    """What a closing terminal does: the command's terminal goes away (every write to it then
+    fails with EIO) and it gets SIGHUP. The stop must not trip over its own last lines: the
+    wheels stop, the summary is written, exit 129."""
+    import pty
+    import select
+
+    run = tmp_path / "run"
+    master, slave = pty.openpty()
+    with sim_process("--motors", "ex106+:0-1", "--baud", "1000000",
+                     out_dir=tmp_path / "sim") as (port, _):
+        drive = subprocess.Popen(
+            [sys.executable, "-m", "servolab", "drive", "line", "--distance", "5", "--speed",
+             "0.1", "--port", port, "--no-progress", "--out", str(run)],
+            stdin=slave, stdout=slave, stderr=slave, start_new_session=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        os.close(slave)
+        try:
+            seen = b""
+            while b"moving: 1 of 50 s" not in seen:
+                ready, _, _ = select.select([master], [], [], 60.0)
+                assert ready, f"no progress line: {seen!r}"
+                seen += os.read(master, 4096)
+            os.close(master)  # the terminal window closes
+            master = -1
+            drive.send_signal(signal.SIGHUP)
+            assert drive.wait(60) == 129
+        finally:
+            if master >= 0:
+                os.close(master)
+            if drive.poll() is None:
+                drive.kill()
+                drive.wait()
+        with Bus.open(port, protocol=1, baudrate=1_000_000) as bus:
+            assert {i: bus.read(i, "moving_speed", raw=True) for i in (0, 1)} == {0: 0, 1: 0}
+    summary = summary_of(run, signal.SIGHUP)
+    assert summary["wheels_after_stop"] == {"0": 0, "1": 0}
+    assert mcap_messages(run / "drive_bag")["/odom"] > 10
