@@ -69,3 +69,14 @@ def test_a_copied_file_drives_the_command(tmp_path: Path,
 
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["base"] == "mine" and summary["interrupted"] is None
+
+
+def test_a_base_is_named_or_a_file_and_a_typo_gets_a_suggestion(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.clirun import refusal
+
+    status, line = refusal(["drive", "rotate", "--angle", "10", "--base", "turtlebot",
+                            "--out", str(tmp_path / "run")], capsys)
+    assert status == 2
+    assert line == ("servolab drive: error: turtlebot: no such file, nor a shipped base; "
+                    "did you mean turtlebot3_waffle?")

@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...configfile import ConfigMapping, ConfigValue, shipped
+from ...configfile import ConfigMapping, ConfigValue, shipped, suggest
 from ...configfile import load as load_config
 from ...dynamixel.errors import ConfigError
 from ...dynamixel.models import Model, model
@@ -98,7 +98,13 @@ def resolve(base: str | Path | None) -> Path:
         return shipped_base("seed000")
     if isinstance(base, str) and base in SHIPPED:
         return shipped_base(base)
-    return Path(base)
+    path = Path(base)
+    if not path.exists() and not path.suffix and len(path.parts) == 1:  # meant a name
+        hint = suggest(str(base), SHIPPED)
+        raise BaseConfigError(base, 0, "", "no such file, nor a shipped base" +
+                              (f"; did you mean {hint}?" if hint else
+                               f" ({', '.join(SHIPPED)})"))
+    return path
 
 
 #: the folder of the shipped bases: a scene's ``base:`` is looked for here too
