@@ -19,8 +19,10 @@ from servolab.middleware.errors import TransportError
 if TYPE_CHECKING:
     from servolab.middleware.transport import TransportOptions
 
-PORT_HELP = ("serial device (/dev/ttyUSB0, COM3), the pty 'servolab sim' printed, or "
-             "emu://MODEL:IDS for emulated motors, e.g. emu://rx28:11-16")
+PORT_HELP = ("serial device (/dev/ttyUSB0, COM3), the pty 'servolab sim' printed, "
+             "emu://MODEL:IDS for emulated motors (e.g. emu://rx28:11-16), or a pyserial URL: "
+             "spy://DEVICE?file=LOG logs every byte, socket://HOST:PORT and "
+             "rfc2217://HOST:PORT reach a serial server")
 
 
 # -- value parsers ------------------------------------------------------------------------------
@@ -103,7 +105,8 @@ def add_out(p: argparse.ArgumentParser) -> None:
 
 
 def add_port(p: argparse.ArgumentParser) -> None:
-    """``--port``: a device path or a URL; which one is for :meth:`Bus.open` to tell."""
+    """``--port``: a device path or a URL (servolab's ``emu://`` or any of pyserial's); which
+    one is for :meth:`Bus.open` to tell."""
     p.add_argument("--port", required=True, metavar="PORT", help=PORT_HELP)
 
 

@@ -1,14 +1,17 @@
 """Ports: where the bus bytes go.
 
-Three kinds, one interface (:class:`Port`): a USB serial adapter through pyserial
-(:class:`SerialPort`), an in-memory wire straight to a :class:`Device` such as an emulated bus
-(:class:`MemoryPort`), and a pseudo-terminal that serves a device to any other program
-(:class:`PtyServer`), so the official SDK or the Dynamixel Wizard can talk to emulated motors.
+Four kinds, one interface (:class:`Port`): a USB serial adapter through pyserial
+(:class:`SerialPort`), whatever else pyserial opens from a URL (:class:`PyserialPort`:
+``spy://``, ``socket://``, ``rfc2217://``, ``loop://``, ...), an in-memory wire straight to a
+:class:`Device` such as an emulated bus (:class:`MemoryPort`), and a pseudo-terminal that
+serves a device to any other program (:class:`PtyServer`), so the official SDK or the
+Dynamixel Wizard can talk to emulated motors.
 
 :func:`open_port` opens a port by name, as pyserial's ``serial_for_url`` does: a device path
 (``/dev/ttyUSB0``, ``COM3``) is a serial port; ``scheme://...`` goes to the handler that
-:data:`URL_SCHEMES` names for the scheme, imported only when such a URL is opened. That is how
-``emu://rx28:11-16`` reaches the emulator without the driver importing it.
+:data:`URL_SCHEMES` names for the scheme, imported only when such a URL is opened (that is how
+``emu://rx28:11-16`` reaches the emulator without the driver importing it), and any other
+scheme pyserial has a handler for (:func:`pyserial_schemes`) to :class:`PyserialPort`.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import importlib
 import logging
 import math
 import os
+import pkgutil
 import sys
 import threading
 import time
@@ -233,6 +237,13 @@ def _io_errors() -> tuple[type[Exception], ...]:
     return (OSError, termios.error)
 
 
+def port_failed(port: str, what: str, exc: BaseException, advice: str) -> PortError:
+    """One line for an I/O error of ``port``: what failed, the system's reason, what to do."""
+    reason = (exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+              or type(exc).__name__)
+    return PortError(f"{port}: {what} failed ({reason}); {advice}")
+
+
 class SerialPort(Port):
     """A real serial port (USB2Dynamixel, U2D2, OpenCM, ...) through pyserial.
 
@@ -281,11 +292,9 @@ class SerialPort(Port):
     def _failed(self, what: str, exc: BaseException) -> PortError:
         """The error for an I/O error of the port (EIO once a USB adapter is unplugged): one
         line naming the port and what to do."""
-        reason = (exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-                  or type(exc).__name__)
-        return PortError(f"serial port {self.name}: {what} failed ({reason}); was the adapter "
-                         "unplugged or the device closed? Check the cable and the port, then "
-                         "open it again")
+        return port_failed(f"serial port {self.name}", what, exc,
+                           "was the adapter unplugged or the device closed? Check the cable "
+                           "and the port, then open it again")
 
     def write(self, data: bytes) -> None:
         try:
@@ -370,6 +379,145 @@ class SerialPort(Port):
                 self._poll.unregister(self._fd)
         self._serial.close()
         self._fd = None
+
+
+class PyserialPort(Port):
+    """A port pyserial opens from one of its URLs, read and written through pyserial itself:
+    ``spy://DEVICE?file=LOG`` (a serial device, every byte each way logged as a hex dump),
+    ``socket://HOST:PORT`` (a raw TCP serial server such as ser2net), ``rfc2217://HOST:PORT``
+    (a Telnet COM-port server), ``loop://``, ``hwgrep://``, ``alt://`` and any handler added to
+    ``serial.protocol_handler_packages``. These have no descriptor to poll, or one that must
+    not be bypassed (a spy would log nothing), so unlike :class:`SerialPort` they use
+    pyserial's ``read`` and ``write``.
+
+    pyserial's read timeout is set once, at open, to :attr:`SLICE`, and never per read:
+    pyserial applies a port's whole configuration whenever its timeout changes, which is a
+    tcsetattr on a spy's device and a round of RFC 2217 negotiation over the network (50 ms or
+    more) on ``rfc2217://``. A read that may wait longer is several pyserial reads; it
+    returns as soon as its bytes are there, and at most one slice after its deadline.
+    ``latency`` (s) defaults to the device's FTDI latency timer behind ``spy://`` or
+    ``hwgrep://`` (as :class:`SerialPort`), 0 on ``loop://``, and 16 ms (an FTDI adapter's
+    default) behind a network server, whose adapter this end cannot see.
+    """
+
+    #: pyserial's read timeout (s): the longest one pyserial read waits
+    SLICE = 0.001
+    #: a port's latency where it cannot be known (s)
+    UNKNOWN_LATENCY = 0.016
+
+    def __init__(self, url: str, baudrate: int = 57600, *, latency: float | None = None
+                 ) -> None:
+        import serial  # pyserial
+
+        self.name = url
+        self.baudrate = int(baudrate)
+        self.clock = WallClock()
+        ser: Any = None
+        try:
+            ser = serial.serial_for_url(url, do_not_open=True)
+            ser.baudrate = self.baudrate
+            ser.timeout = self.SLICE
+            # rfc2217:// refuses a write timeout (NotImplementedError) after connecting
+            ser.write_timeout = None if url.lower().startswith("rfc2217://") else 1.0
+            try:
+                ser.open()
+            except NotImplementedError:  # another handler without a write timeout
+                ser.write_timeout = None
+                ser.open()
+        except (serial.SerialException, ValueError, OSError) as exc:
+            if ser is not None:
+                _close_spy_log(ser)
+            raise ConfigError(f"cannot open port {url!r} at {baudrate} bps: {exc}") from None
+        self._serial: Any = ser
+        device = ser.port if getattr(ser, "fd", None) is not None else None
+        if latency is None:
+            if device is not None:  # a serial device after all (spy://, hwgrep://)
+                timer = usb_latency_timer(device)
+                warning = latency_warning(device, timer)
+                if warning:
+                    log.warning(warning)
+                latency = timer / 1000.0 if timer is not None else self.UNKNOWN_LATENCY
+            else:
+                loop = url.lower().startswith("loop://")
+                latency = 0.0 if loop else self.UNKNOWN_LATENCY
+        self.latency = latency
+
+    def _failed(self, what: str, exc: BaseException) -> PortError:
+        return port_failed(f"port {self.name}", what, exc,
+                           "was the connection closed, the server stopped or the adapter "
+                           "unplugged? Check it, then open the port again")
+
+    def write(self, data: bytes) -> None:
+        try:
+            self._serial.write(bytes(data))
+        except _io_errors() as exc:
+            raise self._failed("writing", exc) from exc
+
+    def read(self, size: int, timeout: float) -> bytes:
+        try:
+            return self._read(size, timeout)
+        except _io_errors() as exc:
+            raise self._failed("reading", exc) from exc
+
+    def _read(self, size: int, timeout: float) -> bytes:
+        ser = self._serial
+        if timeout <= 0:
+            return self._drain(size)
+        deadline = time.monotonic() + timeout
+        buf = bytearray()
+        while True:
+            # returns when the bytes asked for are there, or after one slice
+            buf += ser.read(size - len(buf))
+            if len(buf) >= size or time.monotonic() >= deadline:
+                return bytes(buf)
+
+    def _drain(self, size: int) -> bytes:
+        """What has been received, up to ``size`` bytes, without waiting."""
+        ser = self._serial
+        buf = bytearray()
+        while len(buf) < size:
+            waiting = ser.in_waiting  # (a socket:// port says 1 while there is any)
+            if not waiting:
+                break
+            chunk = ser.read(min(waiting, size - len(buf)))
+            if not chunk:
+                break
+            buf += chunk
+        return bytes(buf)
+
+    def reset_input(self) -> None:
+        # What has come so far is read and dropped here, not by pyserial's
+        # reset_input_buffer: on rfc2217:// that asks the server to purge, a network round
+        # trip before every transaction, and a spy would log each call.
+        try:
+            self._drain(1 << 16)
+        except _io_errors() as exc:
+            raise self._failed("discarding its input", exc) from exc
+
+    def set_baudrate(self, baudrate: int) -> None:
+        try:
+            self._serial.baudrate = int(baudrate)
+        except _io_errors() as exc:
+            raise self._failed(f"setting {int(baudrate)} bps", exc) from exc
+        except ValueError as exc:
+            raise ConfigError(f"port {self.name}: {exc}") from None
+        self.baudrate = int(baudrate)
+
+    def close(self) -> None:
+        try:
+            self._serial.close()
+        finally:
+            _close_spy_log(self._serial)
+
+
+def _close_spy_log(ser: Any) -> None:
+    """Close the log file pyserial's ``spy://...?file=LOG`` opened: its port's close leaves it
+    open."""
+    output = getattr(getattr(ser, "formatter", None), "output", None)
+    if output is not None and output not in (sys.stdout, sys.stderr, sys.__stdout__,
+                                             sys.__stderr__):
+        with contextlib.suppress(OSError, ValueError):
+            output.close()
 
 
 USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
@@ -633,17 +781,41 @@ URL_SCHEMES: dict[str, str] = {
 DEFAULT_BAUDRATE = 57600
 
 
+def pyserial_schemes() -> list[str]:
+    """The URL schemes pyserial's ``serial_for_url`` has a handler for (``spy``, ``socket``,
+    ``rfc2217``, ``loop``, ...), found as pyserial finds them: a ``protocol_<scheme>`` module
+    in a package of ``serial.protocol_handler_packages``. Empty without pyserial."""
+    try:
+        import serial
+    except ImportError:
+        return []
+    found: set[str] = set()
+    for package in serial.protocol_handler_packages:
+        try:
+            paths = importlib.import_module(package).__path__
+        except (ImportError, AttributeError):
+            continue
+        found.update(info.name.removeprefix("protocol_") for info in pkgutil.iter_modules(paths)
+                     if info.name.startswith("protocol_"))
+    return sorted(found)
+
+
 def open_port(url: str, baudrate: int | None = None, **options: Any) -> Port:
-    """Open a port by name: a serial device (``/dev/ttyUSB0``, ``COM3``, a pty path) or a URL
-    (``emu://rx28:11-16`` for emulated motors). ``baudrate`` None: 57600 on a serial port, the
-    motors' own rate on an emulated bus. ``options`` go to the URL's handler (for ``emu://``:
-    ``simulation``, ``faults``) or, for a serial device, to :class:`SerialPort`."""
+    """Open a port by name: a serial device (``/dev/ttyUSB0``, ``COM3``, a pty path) or a URL:
+    ``emu://rx28:11-16`` for emulated motors, or any URL pyserial opens (``spy://DEVICE``,
+    ``socket://HOST:PORT``, ``rfc2217://HOST:PORT``, ``loop://``; :class:`PyserialPort`).
+    ``baudrate`` None: 57600 on a serial port or a pyserial URL, the motors' own rate on an
+    emulated bus. ``options`` go to the URL's handler (for ``emu://``: ``simulation``,
+    ``faults``) or to the port class (``latency``)."""
     scheme, sep, rest = url.partition("://")
     if not sep:
         return SerialPort(url, baudrate or DEFAULT_BAUDRATE, **options)
     target = URL_SCHEMES.get(scheme)
     if target is None:
-        known = ", ".join(f"{s}://" for s in URL_SCHEMES)
+        theirs = pyserial_schemes()
+        if scheme.lower() in theirs:
+            return PyserialPort(url, baudrate or DEFAULT_BAUDRATE, **options)
+        known = ", ".join(f"{s}://" for s in [*URL_SCHEMES, *theirs])
         raise ConfigError(f"port {url!r}: unknown scheme {scheme!r}; use a serial device "
                           f"such as /dev/ttyUSB0 or {known}")
     module_name, _, function = target.partition(":")
