@@ -65,3 +65,65 @@ def test_a_first_frame_has_no_robot_speed_and_bad_config_is_refused() -> None:
     assert fly_command(_sighting(500.0, 300.0, 0.5), 0.0).linear == 0.0
     with pytest.raises(ValueError, match="gain"):
         FlyControllerConfig(gain=math.nan)
+
+
+# -- the dead band's edges ---------------------------------------------------------------------
+# Seed 002, Listing 1: "double limit_r = 50; double limit_th = 3*3.141592/180;" and
+# "if ((sqrt(dx*dx + dy*dy) > limit_r) || (fabs(dth) > limit_th))" for the wheels, the same
+# "> limit_r" for lin_vel and "(fabs(dth) > limit_th)" for ang_vel: strictly greater, so a fly
+# exactly on a limit is inside the band; the listing's truncated pi sets the angle's limit.
+# (30, 40) is 50 px exactly: hypot(30, 40) == 50.0 in floating point.
+LIMIT_TH = 3 * 3.141592 / 180
+
+
+def _at(dx: float, dy: float, dth: float = 0.0) -> tuple[float, float, float]:
+    """A sighting's (cx, cy, theta) with the error (dx, dy, dth) to Listing 1's target
+    (320, 188, 0); dth = -(theta - 0)."""
+    return 320.0 + dx, 188.0 + dy, -dth
+
+
+def test_exactly_50_px_is_inside_the_band_and_just_beyond_is_outside() -> None:
+    assert math.hypot(30.0, 40.0) == 50.0
+    for dx, dy in ((30.0, 40.0), (-40.0, 30.0), (0.0, -50.0), (50.0, 0.0)):
+        on = fly_command(_sighting(*_at(dx, dy)), 15_000)
+        assert math.hypot(on.dx, on.dy) == 50.0
+        assert not on.compensating and on.wheel_speeds == (0.0, 0.0, 0.0)
+        assert on.linear == 0.0 and on.angular == 0.0
+    # the next float beyond 228 px: dy = 40.00000000000003, the distance just above 50
+    # (with a heading error of half the angle's band: the robot must not turn for it)
+    cy = math.nextafter(188.0 + 40.0, math.inf)
+    beyond = fly_command(_sighting(320.0 + 30.0, cy, -LIMIT_TH / 2), 15_000)
+    assert math.hypot(beyond.dx, beyond.dy) > 50.0
+    assert beyond.compensating and all(v != 0.0 for v in beyond.wheel_speeds)
+    assert beyond.linear == pytest.approx(50.0 * 38.40983291722681 * 0.01 / 15)
+    assert beyond.angular == 0.0  # the angle is within its band: no turn
+    # and just inside: the float below 50 px
+    inside = fly_command(_sighting(320.0 + 30.0, math.nextafter(228.0, -math.inf)), 15_000)
+    assert math.hypot(inside.dx, inside.dy) < 50.0 and not inside.compensating
+
+
+@pytest.mark.parametrize("turn", [1.0, -1.0], ids=["dth+", "dth-"])
+def test_exactly_3_degrees_is_inside_the_band_and_just_beyond_is_outside(turn: float) -> None:
+    # the fly 30 px from the target, within the distance's band, throughout
+    on = fly_command(_sighting(*_at(30.0, 0.0, turn * LIMIT_TH)), 15_000)
+    assert abs(on.dth) == LIMIT_TH
+    assert not on.compensating and on.wheel_speeds == (0.0, 0.0, 0.0)
+    assert on.angular == 0.0 and on.linear == 0.0
+    past = math.nextafter(LIMIT_TH, math.inf)
+    beyond = fly_command(_sighting(*_at(30.0, 0.0, turn * past)), 15_000)
+    assert abs(beyond.dth) > LIMIT_TH
+    assert beyond.compensating and all(v != 0.0 for v in beyond.wheel_speeds)
+    assert beyond.angular == pytest.approx(turn * past / 15 * 57)  # dthm / ms * 57
+    assert beyond.linear == 0.0  # the distance is within its band: no drive
+    inside = fly_command(_sighting(*_at(30.0, 0.0, turn * math.nextafter(LIMIT_TH, 0.0))),
+                         15_000)
+    assert not inside.compensating and inside.angular == 0.0
+
+
+def test_the_angle_band_is_the_listings_3_degrees_with_its_pi() -> None:
+    """3 * 3.141592 / 180 is 1.1e-8 rad short of 3 degrees: a heading error between the two
+    is outside Listing 1's band (math.radians(3) would leave it inside)."""
+    between = (LIMIT_TH + math.radians(3.0)) / 2
+    assert LIMIT_TH < between < math.radians(3.0)
+    command = fly_command(_sighting(*_at(0.0, 0.0, between)), 15_000)
+    assert command.compensating and command.angular != 0.0

@@ -14,9 +14,12 @@ The arithmetic is ``dynamixel_controllers``' (joint_position_controller.py): ``m
 flips the joint; the joint's range is ``min``..``max`` seen from ``init``. It is done here in
 radians: the configuration's raw positions are turned into the motor's angles once, by the
 Dynamixel layer's units (:meth:`Bus.to_si`), and goals leave as angles, so ticks never leave
-the Dynamixel layer. One difference: ``error`` in the state is ``current_pos - goal_pos`` in
-the joint's own sense, where the original scaled the motor's raw error and so showed the
-wrong sign for a flipped joint.
+the Dynamixel layer. One difference: the state is the joint's in the joint's own sense.
+``error`` is ``current_pos - goal_pos``, and on a flipped joint ``velocity`` and ``load`` have
+the motor's signs inverted; the original (``process_motor_states``) scaled the motor's raw
+error and copied its speed and load, so a flipped joint showed all three with the wrong sign
+(a velocity that was not the way ``current_pos`` moved). ``/motor_states`` stays the motor's,
+raw, as ``dynamixel_driver`` publishes it.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from ..errors import RobotValueError
 from .config import ControllerConfig
 from .motor_state import MotorReading
 
@@ -126,8 +130,8 @@ class JointPositionController:
         """Drive the joint to ``joint_angle`` (rad), clamped to its range with a warning;
         returns the angle commanded. NaN or infinity raises ValueError and moves nothing."""
         if not math.isfinite(joint_angle):
-            raise ValueError(f"{self.name}: command {joint_angle!r} is not a finite angle; "
-                             "ignored")
+            raise RobotValueError(f"{self.name}: command {joint_angle!r} is not a finite angle; "
+                                  "ignored")
         g = self.geometry
         clamped = min(max(joint_angle, g.min_angle), g.max_angle)
         if clamped != joint_angle:
@@ -148,7 +152,7 @@ class JointPositionController:
         """The motor's moving speed for the joint (rad/s), kept within what the motor can be
         told (never 0, which an RX-28 reads as full speed); returns the speed set."""
         if not math.isfinite(speed):
-            raise ValueError(f"{self.name}: speed {speed!r} is not a finite number")
+            raise RobotValueError(f"{self.name}: speed {speed!r} is not a finite number")
         chosen = self.geometry.clamp_speed(abs(speed))
         self._bus.write(self.motor_id, "moving_speed", chosen)
         return chosen
@@ -171,12 +175,14 @@ class JointPositionController:
         g = self.geometry
         current = g.joint(motor.position_si)
         goal = self.goal_angle
-        velocity = -motor.speed_si if g.flipped else motor.speed_si
+        sign = -1.0 if g.flipped else 1.0  # a flipped joint turns against its motor
+        velocity = sign * motor.speed_si
+        load = sign * float(motor.load)
         self.state_pub.publish(self._node.message(
             JOINT_STATE,
             header={"stamp": {"sec": stamp_ns // 1_000_000_000,
                               "nanosec": stamp_ns % 1_000_000_000}},
             name=self.config.joint_name, motor_ids=[self.motor_id],
             motor_temps=[int(motor.temperature)], goal_pos=goal, current_pos=current,
-            error=current - goal, velocity=velocity, load=float(motor.load),
+            error=current - goal, velocity=velocity, load=load,
             is_moving=bool(motor.moving)))
