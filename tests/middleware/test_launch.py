@@ -37,6 +37,7 @@ from servolab.middleware.launch import (
     run_process_group,
 )
 from servolab.middleware.transport import TransportOptions
+from tests.processes import stop_process_tree
 from tests.waiting import alive, wait_for_queued_lines, wait_gone
 
 DEMO = "servolab.middleware.demo_nodes"
@@ -510,6 +511,65 @@ def test_a_signal_to_the_supervisor_stops_everything(tmp_path: Path,
     pids = started_pids(seen)
     assert set(pids) == {"sleeper", "napper"}
     assert not any(alive(pid) for pid in pids.values())
+
+
+def test_a_launcher_killed_mid_stop_leaves_no_child_behind(tmp_path: Path) -> None:
+    """What a test does with a launch that will not end (tests/processes.py,
+    stop_process_tree): SIGTERM to the launcher, which starts stopping its children; here
+    they ignore SIGINT and SIGTERM and the launcher is killed before its own grace periods
+    end, as a timed-out subprocess.run would kill it. Its children, each the leader of a
+    process group of its own, and theirs are killed all the same."""
+    stubborn = '''
+        import signal, subprocess, sys, time
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+        child = subprocess.Popen([sys.executable, "-c", "import signal, time; "
+                                  "signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                                  "signal.signal(signal.SIGTERM, signal.SIG_IGN); "
+                                  "print('ready', flush=True); time.sleep(600)"],
+                                 stdout=subprocess.PIPE, text=True)
+        child.stdout.readline()  # the grandchild ignores the signals too by now
+        print("grandchild", child.pid, flush=True)
+        time.sleep(600)'''
+    path = write(tmp_path, f"""\
+        transport: zenoh
+        nodes:
+          - name: one
+            exec: {script(stubborn)}
+          - name: two
+            exec: {script(stubborn)}
+        """)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([SRC, os.environ.get("PYTHONPATH", "")]))
+    launcher = subprocess.Popen([sys.executable, "-m", "servolab", "launch", str(path)],
+                                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                text=True)
+    lines: queue.Queue[str] = queue.Queue()
+    seen: list[str] = []
+    reader = threading.Thread(target=lambda: [lines.put(line.rstrip("\n"))
+                                              for line in launcher.stdout or ()], daemon=True)
+    reader.start()
+    try:
+        deadline = time.monotonic() + 60  # until both children say their own child is up
+        while sum("] grandchild " in line for line in seen) < 2:
+            assert time.monotonic() < deadline, f"the children never started: {seen}"
+            try:
+                seen.append(lines.get(timeout=max(0.0, deadline - time.monotonic())))
+            except queue.Empty:
+                continue
+        children = started_pids(seen)
+        grandchildren = [int(line.split()[-1]) for line in seen if "] grandchild " in line]
+        assert set(children) == {"one", "two"} and len(grandchildren) == 2
+        # the launcher's own grace period for SIGINT is STOP_TIMEOUT (5 s): 0.5 s is less
+        how, killed = stop_process_tree(launcher, stop_timeout=0.5)
+    finally:
+        stop_process_tree(launcher, stop_timeout=0.5)
+        if launcher.stdout is not None:
+            launcher.stdout.close()
+        reader.join(timeout=5)
+    assert "killed" in how, how
+    assert set(children.values()) | set(grandchildren) <= set(killed)
+    for pid in [*children.values(), *grandchildren]:
+        assert not alive(pid), f"{pid} survived"
 
 
 def test_node_groups_run_as_child_processes_over_zenoh(tmp_path: Path) -> None:

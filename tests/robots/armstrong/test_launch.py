@@ -19,8 +19,11 @@ SHORT = ("{steps: 2, rate: 4.5, stand_duration: 2.0}",
 
 
 def _launch(path: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "servolab", "launch", str(path)],
-                          capture_output=True, text=True, timeout=180)
+    """The launch, to its end; on a timeout it is stopped with every process it started
+    (tests/processes.py), and the test fails."""
+    from tests.processes import run_to_end
+
+    return run_to_end([sys.executable, "-m", "servolab", "launch", str(path)], timeout=180)
 
 
 @pytest.mark.slow

@@ -5,11 +5,13 @@ encoder logger, which runs on that PC in the thesis and is a node of its own her
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from typing import Any
 
 from ...middleware.context import Context
 from ...middleware.node import Node
+from ..errors import RobotError, RobotValueError
 from .analysis import analysed_run
 from .logs import EncoderLogWriter
 from .node import TreadmillNode, simulated_treadmill
@@ -46,7 +48,12 @@ class TreadmillRig(Node):
     robot's process may take a while to start) it stops the wheels (torque off), analyses the logs
     into ``out``/summary.json and ``out``/flyball.png, and shuts its process down, so that as
     a ``required`` node it ends the launch. The robot is another node, anywhere on the
-    network: it hears ``/cmd_vel`` and answers on ``sensor_state``."""
+    network: it hears ``/cmd_vel`` and answers on ``sensor_state``.
+
+    A robot never heard within ``robot_timeout`` seconds of wall time (default 30) ends the
+    run as a failure: the wheels are stopped, the summary is written with an ``error`` that
+    says so, and the node raises :class:`~servolab.robots.errors.RobotError` from its timer,
+    which ends its process with status 1 and, the node being required, the launch with it."""
 
     def __init__(self, context: Context, name: str = "treadmill", namespace: str = "/", *,
                  parameter_overrides: Mapping[str, Any] | None = None,
@@ -67,35 +74,65 @@ class TreadmillRig(Node):
                                          "runs/flyball-<time>").value)
         port = str(self.declare_parameter("port", "", description="must stay empty: the "
                                           "simulated fly needs the simulated ball").value)
+        self.robot_timeout = float(self.declare_parameter(
+            "robot_timeout", 30.0, description="s of wall time to wait for the robot's first "
+            "sensor_state before giving up").value)
         if port:
-            raise ValueError("treadmill: a real treadmill needs a real camera; run "
+            raise RobotValueError("treadmill: a real treadmill needs a real camera; run "
                              "'servolab flyball --frames ... --port ...' instead")
         if not (math.isfinite(self.duration) and self.duration > 0):
-            raise ValueError(f"treadmill: duration {self.duration!r} must be > 0 s")
+            raise RobotValueError(f"treadmill: duration {self.duration!r} must be > 0 s")
+        if not (math.isfinite(self.robot_timeout) and self.robot_timeout > 0):
+            raise RobotValueError(f"treadmill: robot_timeout {self.robot_timeout!r} must be > 0 s")
         self.run = RunFolder.create("flyball", out or None)
         self.simulation = Simulation()
         self.bus, self.world = simulated_treadmill(self.simulation, FlyWalker(seed=seed))
-        self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
-        self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
-        self.simulation.start_real_time()
-        self.node = TreadmillNode(context, self.bus, SimulatedFlyCamera(
-            self.world, seed=seed, simulation=self.simulation), log=self.fly_log)
-        self.tracker = MobrobDataTracker(context, self.encoder_log)
+        try:
+            self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
+            self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
+            self.simulation.start_real_time()
+            self.node = TreadmillNode(context, self.bus, SimulatedFlyCamera(
+                self.world, seed=seed, simulation=self.simulation), log=self.fly_log)
+            self.tracker = MobrobDataTracker(context, self.encoder_log)
+        except BaseException:
+            self.simulation.stop_real_time()
+            for name in ("fly_log", "encoder_log"):
+                if hasattr(self, name):
+                    getattr(self, name).close()
+            self.bus.close()
+            raise
         self.start: float | None = None  # the robot's first sensor_state: the run starts
         self.summary: dict[str, Any] | None = None
+        self._waiting_since = time.monotonic()  # wall time: whatever clock the nodes keep
         self.create_timer(0.1, self._check_done)
+        self._built = True
 
     def _check_done(self) -> None:
         if self.start is None:
             if self.tracker.records:  # the robot is up and heard: count from here
                 self.start = self.now()
+            elif time.monotonic() - self._waiting_since >= self.robot_timeout:
+                self._robot_never_heard()
             return
         if self.summary is None and self.now() - self.start >= self.duration:
             self.finish()
             self.context.shutdown()  # a required node ends the launch
 
-    def finish(self) -> dict[str, Any]:
-        """Stop the wheels, close the logs, analyse them (once)."""
+    def _robot_never_heard(self) -> None:
+        """The robot did not come up: stop, say so in the summary, and fail."""
+        message = (f"treadmill: the robot was never heard: no sensor_state within "
+                   f"{self.robot_timeout:g} s; is the robot's node running and on this "
+                   "node's network? (its process's output says why it stopped)")
+        self.get_logger().error(message)
+        try:
+            self.finish(error=message)
+        finally:
+            self.context.shutdown()
+        raise RobotError(message)
+
+    def finish(self, error: str | None = None) -> dict[str, Any]:
+        """Stop the wheels, close the logs, analyse them (once); ``error`` says why the run
+        failed, in the summary."""
         if self.summary is not None:
             return self.summary
         try:
@@ -108,6 +145,8 @@ class TreadmillRig(Node):
                             self.run.file("robot_encoders.bin"), None)
         summary.update({"duration_s": self.duration, "frames": self.node.frames,
                         "encoder_records": self.tracker.records})
+        if error is not None:
+            summary["error"] = error
         self.summary = summary
         self.run.write_summary(summary)
         analysis = summary["analysis"] or {}
@@ -118,6 +157,11 @@ class TreadmillRig(Node):
         return summary
 
     def destroy(self) -> None:
+        if not getattr(self, "_built", False):
+            # its constructor failed (a parameter refused): it has nothing to finish, and
+            # what it had opened is closed already
+            super().destroy()
+            return
         try:
             if self.summary is None:
                 self.finish()
