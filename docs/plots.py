@@ -1,16 +1,27 @@
 """Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md, navigation.md and
-treadmill.md from the code itself: ``python docs/plots.py [DIR] [--quick]`` (``--quick``
-shortens the 100 s treadmill run to 10 s, for the test).
+treadmill.md from the code itself, and the numbers those docs quote from a run:
+``python docs/plots.py [DIR] [--quick] [--spread]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
-seconds to make. ``tests/test_docs.py`` runs this script, so a figure in the docs cannot drift
-from what the code does.
+seconds to make, but for the 100 s treadmill run (about a minute). ``--quick`` shortens that
+run to 10 s, for the test. The numbers go to ``DIR/figures.json`` (see :data:`FIGURES`);
+``--spread`` also runs seeds 1 to 3 of every seeded run and prints how far each number moves
+from seed 0's, the noise a doc states beside it.
+
+``tests/test_docs.py`` runs this script with ``--quick``, so a figure in the docs cannot drift
+from what the code does, and checks the numbers: each doc must write each number as
+``figures.json`` has it, and the new run must give it again within the noise the doc states.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -18,6 +29,118 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from servolab.dynamixel import Bus
+
+#: the seeds --spread runs besides seed 0
+SPREAD_SEEDS = (1, 2, 3)
+#: how long the treadmill runs, in simulated seconds: the docs' run, and --quick's
+TREADMILL_S, TREADMILL_QUICK_S = 100.0, 10.0
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A number a doc quotes from a run: the doc, the noise it states beside the number (the
+    largest difference from seed 0's value over seeds 1 to 3, as ``--spread`` prints it,
+    rounded up; 0 where no seed changes it), and how the doc writes the two."""
+
+    doc: str
+    tolerance: float
+    text: Callable[[float, float], str]
+    #: the run that gives the number, as a user would type it
+    run: str
+    #: the number comes from the 100 s treadmill run, which --quick shortens
+    shortened: bool = False
+
+
+def _grouped(value: float) -> str:
+    """``6599`` as the docs write it: ``6 599``."""
+    return f"{value:,.0f}".replace(",", " ")
+
+
+_FLYBALL = f"servolab flyball --duration {TREADMILL_S:g} --seed 0"
+_NAVIGATE = "servolab navigate --goal 3.3 2.3 --seed 0"
+_SLIP = "servolab drive circle --radius 0.5 --speed 0.2 --slip 0.05 --slip-jitter 0.1"
+_FUSION = "docs/plots.py's fusion(): the circle of tests/estimation/test_kalman.py, rng seed 0"
+
+#: Every number the docs quote from a run, by key. The text is searched in the doc with its
+#: line breaks and repeated spaces made one space.
+FIGURES: dict[str, Figure] = {
+    "dynamixel.rx28_cycle_ms": Figure(
+        "docs/dynamixel.md", 0.0, lambda v, t: f"about {v:.0f} ms per write-and-read cycle",
+        "20 emulated RX-28 at 57142 bps, return delay 0: one SYNC_WRITE and 20 READs"),
+    "dynamixel.rx28_cycle_1mbps_ms": Figure(
+        "docs/dynamixel.md", 0.0, lambda v, t: f"At 1 Mbps the same cycle takes {v:.1f} ms",
+        "20 emulated RX-28 at 1 Mbps, return delay 0: one SYNC_WRITE and 20 READs"),
+    "biped.update_ms": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"an update takes {v:.0f} ms",
+        "Armstrong(): its controller manager's wire time of one update"),
+    "biped.update_rate_hz": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"updates at {v:.1f} Hz",
+        "Armstrong(): the rate its controller manager updates at"),
+    "mobile.circle_raw_slow": Figure(
+        "docs/mobile.md", 0.0, lambda v, t: f"the same circle goes out as {v:.0f} and", _SLIP),
+    "mobile.circle_raw_fast": Figure(
+        "docs/mobile.md", 0.0, lambda v, t: f"and {v:.0f}, which is", _SLIP),
+    "mobile.slip_closure_m": Figure(
+        "docs/mobile.md", 0.01, lambda v, t: f"the truth ends {v:.2f} ± {t:g} m short", _SLIP),
+    "mobile.fused_rmse": Figure(
+        "docs/mobile.md", 0.6, lambda v, t: f"the fused estimate's RMSE is {v:.2f} ± {t:g}",
+        _FUSION),
+    "mobile.odometry_rmse": Figure(
+        "docs/mobile.md", 0.8, lambda v, t: f"{v:.2f} ± {t:g} for odometry alone", _FUSION),
+    "mobile.tracker_rmse": Figure(
+        "docs/mobile.md", 0.15, lambda v, t: f"{v:.2f} ± {t:g} for the tracker alone",
+        _FUSION),
+    "navigation.path_length_m": Figure(
+        "docs/navigation.md", 0.04, lambda v, t: f"drove {v:.2f} ± {t:g} m", _NAVIGATE),
+    "navigation.seconds": Figure(
+        "docs/navigation.md", 2.5, lambda v, t: f"in {v:.1f} ± {t:g} s of simulated time",
+        _NAVIGATE),
+    "navigation.goal_distance_mm": Figure(
+        "docs/navigation.md", 30.0, lambda v, t: f"stopped {v:.0f} ± {t:g} mm from the goal",
+        _NAVIGATE),
+    "navigation.goal_yaw_error_deg": Figure(
+        "docs/navigation.md", 4.0, lambda v, t: f"ended {v:.1f} ± {t:g}° from the goal's",
+        _NAVIGATE),
+    "navigation.min_clearance_mm": Figure(
+        "docs/navigation.md", 40.0, lambda v, t: f"at least {v:.0f} ± {t:g} mm clear",
+        _NAVIGATE),
+    "navigation.estimate_error_mm": Figure(
+        "docs/navigation.md", 1.0, lambda v, t: f"ended {v:.0f} ± {t:g} mm and", _NAVIGATE),
+    "navigation.estimate_yaw_error_deg": Figure(
+        "docs/navigation.md", 2.5, lambda v, t: f"and {v:.1f} ± {t:g}° from the truth",
+        _NAVIGATE),
+    "navigation.camera_frames": Figure(
+        "docs/navigation.md", 25.0, lambda v, t: f"in all {v:.0f} ± {t:g} frames", _NAVIGATE),
+    "navigation.repair_cells": Figure(
+        "docs/navigation.md", 0.0, lambda v, t: f"The map changed in {v:.0f} cells", _NAVIGATE),
+    "navigation.calibration_fx_px": Figure(
+        "docs/navigation.md", 0.15, lambda v, t: f"fx {v:.2f} ± {t:g} px", _NAVIGATE),
+    "navigation.calibration_rms_px": Figure(
+        "docs/navigation.md", 0.01, lambda v, t: f"RMS error of {v:.2f} ± {t:g} px", _NAVIGATE),
+    "treadmill.mean_distance_error_mm": Figure(
+        "docs/treadmill.md", 0.35, lambda v, t: f"| {v:.3f} ± {t:g} mm |", _FLYBALL, True),
+    "treadmill.mean_angle_error_deg": Figure(
+        "docs/treadmill.md", 2.1, lambda v, t: f"| {v:.2f} ± {t:g}° |", _FLYBALL, True),
+    "treadmill.response_delay_ms": Figure(
+        "docs/treadmill.md", 4.0, lambda v, t: f"| {v:.0f} ± {t:g} ms |", _FLYBALL, True),
+    "treadmill.frames": Figure(
+        "docs/treadmill.md", 0.0, lambda v, t: f"| {_grouped(v)}, all", _FLYBALL, True),
+    "treadmill.frames_with_fly": Figure(
+        "docs/treadmill.md", 0.0, lambda v, t: f"all {_grouped(v)} |", _FLYBALL, True),
+    "treadmill.sphere_path_mm": Figure(
+        "docs/treadmill.md", 40.0, lambda v, t: f"fictive walk, {v:.0f} ± {t:g} mm long",
+        _FLYBALL, True),
+    "treadmill.robot_path_m": Figure(
+        "docs/treadmill.md", 1.4, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
+        _FLYBALL, True),
+    "treadmill.path_disparity": Figure(
+        "docs/treadmill.md", 0.35, lambda v, t: f"Here it is {v:.2f} ± {t:g}", _FLYBALL, True),
+}
+
+
+def _summary(run: Any) -> dict[str, Any]:
+    """A run folder's ``summary.json``, as the run wrote it."""
+    return dict(json.loads(run.file("summary.json").read_text()))
 
 
 def joint_moves(path: Path) -> None:
@@ -44,12 +167,14 @@ def joint_moves(path: Path) -> None:
     plt.close(fig)
 
 
-def cycle_time(path: Path) -> None:
-    """Bus time of one cycle (write every goal, read every present position) vs motor count."""
+def cycle_time(path: Path) -> dict[str, float]:
+    """Bus time of one cycle (write every goal, read every present position) vs motor count;
+    returns docs/dynamixel.md's numbers, 20 RX-28's cycle at either baud rate."""
     configs = [("rx28", 1, 57142, "RX-28, 1.0, 57142 bps: SYNC_WRITE + READ each"),
                ("rx28", 1, 1_000_000, "RX-28, 1.0, 1 Mbps: SYNC_WRITE + READ each"),
                ("xm430-w210", 2, 1_000_000, "XM430, 2.0, 1 Mbps: SYNC_WRITE + SYNC_READ")]
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    twenty: dict[tuple[str, int], float] = {}
     for name, _, baud, label in configs:
         counts, millis = [], []
         for n in (1, 2, 5, 10, 15, 20):
@@ -62,6 +187,7 @@ def cycle_time(path: Path) -> None:
             bus.sync_read("present_position", ids)
             counts.append(n)
             millis.append((clock.now() - t0) * 1000)
+        twenty[name, baud] = millis[-1]
         ax.plot(counts, millis, marker="o", label=label)
     ax.axhline(50, color="gray", linestyle=":", linewidth=0.8)
     ax.text(1, 51, "20 Hz", fontsize=8, color="gray")
@@ -72,6 +198,8 @@ def cycle_time(path: Path) -> None:
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
+    return {"dynamixel.rx28_cycle_ms": twenty["rx28", 57142],
+            "dynamixel.rx28_cycle_1mbps_ms": twenty["rx28", 1_000_000]}
 
 
 def floor_world(path: Path) -> None:
@@ -110,14 +238,16 @@ def floor_world(path: Path) -> None:
     plt.close(fig)
 
 
-def biped(out: Path) -> None:
+def biped(out: Path) -> dict[str, float]:
     """docs/biped.md's figures: the seed's gait (feet, joint angles) and a walk of two steps
-    on the emulated Armstrong (commanded against present angles)."""
+    on the emulated Armstrong (commanded against present angles); returns the wire time of
+    the controller manager's update and the rate it updates at, as it prints them."""
     import shutil
     import tempfile
 
     from servolab.gait.plots import plot_foot_positions, plot_joint_angles
     from servolab.gait.walking import generate_walk
+    from servolab.robots.armstrong.control_node import Armstrong
     from servolab.robots.armstrong.run import load_motion, run_walk
     from servolab.runs import RunFolder
 
@@ -128,10 +258,15 @@ def biped(out: Path) -> None:
         summary = run_walk(RunFolder.create("walk", tmp), load_motion(None), steps=2,
                            say=lambda text: None, show_progress=False)
         shutil.copy(str(summary["plot"]), out / "biped_walk.png")
+    with Armstrong() as robot:
+        return {"biped.update_ms": robot.manager.update_time * 1000,
+                "biped.update_rate_hz": robot.manager.rate}
 
 
-def mobile(out: Path) -> None:
-    """docs/mobile.md's figure: seed 000's robot drives a figure of eight on the floor."""
+def mobile(out: Path) -> dict[str, float]:
+    """docs/mobile.md's figures: seed 000's robot drives a figure of eight on the floor, and
+    a circle on a floor that slips; returns the circle's raw wheel commands and how far short
+    of its start it ended, from the run's summary.json, and the fusion's RMSEs."""
     import shutil
     import tempfile
 
@@ -143,43 +278,74 @@ def mobile(out: Path) -> None:
                             say=lambda text: None, show_progress=False)
         shutil.copy(str(summary["plot"]), out / "mobile_eight.png")
     with tempfile.TemporaryDirectory() as tmp:
-        summary = run_drive(RunFolder.create("drive", tmp), "circle", radius=0.5, speed=0.2,
-                            slip=0.05, slip_jitter=0.1, say=lambda text: None,
-                            show_progress=False)
+        run = RunFolder.create("drive", tmp)
+        summary = run_drive(run, "circle", radius=0.5, speed=0.2, slip=0.05, slip_jitter=0.1,
+                            say=lambda text: None, show_progress=False)
         shutil.copy(str(summary["plot"]), out / "mobile_slip.png")
-    fusion(out / "mobile_fusion.png")
+        written = _summary(run)
+    raw = sorted(written["wheel_commands"][0]["raw"].values())  # the circle's first command
+    return {"mobile.circle_raw_slow": raw[0], "mobile.circle_raw_fast": raw[1],
+            "mobile.slip_closure_m": written["measured"]["closure_m"],
+            **fusion(out / "mobile_fusion.png")}
 
 
-def fusion(path: Path) -> None:
-    """Seed 000's D.4 fusion on a simulated circle: odometry drifting slowly (a random walk of
-    0.05 a sample plus noise of 1), the tracker noisy with D.4's variances; as in
-    tests/estimation/test_kalman.py."""
+def slip_closure(seed: int) -> float:
+    """How far from its start the slipping circle of :func:`mobile` ends, with the floor's
+    jitter drawn from ``seed`` (``servolab drive`` always draws it from seed 0)."""
+    from servolab.robots.base.config import load, shipped_base
+    from servolab.robots.base.mobile_base import MobileBase
+
+    base = MobileBase.emulated(load(shipped_base("seed000")), slip=0.05, slip_jitter=0.1,
+                               seed=seed)
+    start = base.truth()
+    base.circle(0.5, 0.2)
+    end = base.truth()
+    base.close()
+    return math.hypot(end["x"] - start["x"], end["y"] - start["y"])
+
+
+def fusion_run(seed: int = 0) -> dict[str, Any]:
+    """Seed 000's D.4 fusion on a simulated circle, the run of tests/estimation/test_kalman.py:
+    one circle of radius 50 in the seed's 1471 samples, odometry drifting slowly (a random
+    walk of 0.05 a sample plus noise of 1), the tracker noisy with D.4's variances."""
     import numpy as np
 
     from servolab.estimation.kalman import SEED_000_FUSION, fuse_seed_000
 
-    rng = np.random.default_rng(0)
-    t = np.linspace(0, 2 * np.pi, 1000)
-    truth = np.column_stack([50 * np.cos(t), 50 * np.sin(t)])
-    odometry = (truth + np.cumsum(rng.normal(0, 0.05, truth.shape), axis=0)
-                + rng.normal(0, 1.0, truth.shape))
-    tracker = truth + rng.normal(0, np.sqrt(SEED_000_FUSION.tracker_variance), truth.shape)
+    samples = 1471
+    rng = np.random.default_rng(seed)
+    angle = 2 * np.pi * np.arange(samples) / (samples - 1)
+    truth = np.column_stack([50 * np.cos(angle), 50 * np.sin(angle)])
+    drift = np.cumsum(rng.normal(0.0, 0.05, (samples, 2)), axis=0)
+    odometry = truth + drift + rng.normal(0.0, 1.0, (samples, 2))
+    tracker = truth + rng.normal(0.0, 1.0, (samples, 2)) * np.sqrt(
+        SEED_000_FUSION.tracker_variance)
     fused = fuse_seed_000(odometry, tracker)
 
     def rmse(track: np.ndarray) -> float:
         return float(np.sqrt(np.mean(np.sum((track - truth) ** 2, axis=1))))
 
+    return {"tracks": (truth, odometry, tracker, fused),
+            "mobile.fused_rmse": rmse(fused), "mobile.odometry_rmse": rmse(odometry),
+            "mobile.tracker_rmse": rmse(tracker)}
+
+
+def fusion(path: Path) -> dict[str, float]:
+    """The figure of :func:`fusion_run`; returns its RMSEs."""
+    run = fusion_run()
+    truth, odometry, tracker, fused = run.pop("tracks")
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.plot(*truth.T, color="black", linewidth=1, label="truth")
     ax.plot(*tracker.T, ".", markersize=2, alpha=0.4,
-            label=f"tracker (RMSE {rmse(tracker):.2f})")
-    ax.plot(*odometry.T, label=f"odometry (RMSE {rmse(odometry):.2f})")
-    ax.plot(*fused.T, label=f"fused, D.4 (RMSE {rmse(fused):.2f})")
+            label=f"tracker (RMSE {run['mobile.tracker_rmse']:.2f})")
+    ax.plot(*odometry.T, label=f"odometry (RMSE {run['mobile.odometry_rmse']:.2f})")
+    ax.plot(*fused.T, label=f"fused, D.4 (RMSE {run['mobile.fused_rmse']:.2f})")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_title("Kalman fusion as seed 000's D.4 (simulated)")
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(fig)
+    return run
 
 
 def navigation(out: Path) -> None:
@@ -228,9 +394,40 @@ def navigation(out: Path) -> None:
             plot_plan(problem, path, out / name)
 
 
-def navigation_loop(out: Path) -> None:
+def navigate_run(out: Path, seed: int = 0) -> dict[str, Any]:
+    """``servolab navigate --goal 3.3 2.3 --seed SEED`` in ``out``: its summary.json."""
+    from servolab.robots.navigation.run import prepare, run_navigate
+    from servolab.runs import RunFolder
+
+    run = RunFolder.create("navigate", out)
+    run_navigate(run, prepare((3.3, 2.3)), seed=seed, say=lambda _: None, show_progress=False)
+    return _summary(run)
+
+
+def navigation_figures(summary: dict[str, Any]) -> dict[str, float]:
+    """docs/navigation.md's numbers, from a navigate run's summary.json."""
+    truth, estimate = summary["final_truth"], summary["final_estimate"]
+    yaw_error = math.remainder(truth["yaw"] - estimate["yaw"], 2 * math.pi)
+    return {
+        "navigation.path_length_m": summary["path_length_m"],
+        "navigation.seconds": summary["seconds"],
+        "navigation.goal_distance_mm": summary["goal_distance_m"] * 1000,
+        "navigation.goal_yaw_error_deg": math.degrees(abs(summary["goal_yaw_error_rad"])),
+        "navigation.min_clearance_mm": summary["min_clearance_m"] * 1000,
+        "navigation.estimate_error_mm": 1000 * math.hypot(truth["x"] - estimate["x"],
+                                                          truth["y"] - estimate["y"]),
+        "navigation.estimate_yaw_error_deg": math.degrees(abs(yaw_error)),
+        "navigation.camera_frames": summary["camera_frames"],
+        "navigation.repair_cells": sum(r["cells"] for r in summary["repairs"]),
+        "navigation.calibration_fx_px": summary["calibration"]["fx"],
+        "navigation.calibration_rms_px": summary["calibration"]["rms_px"],
+    }
+
+
+def navigation_loop(out: Path) -> dict[str, float]:
     """docs/navigation.md's runs of `servolab navigate`: the shipped scene, where an obstacle
-    appears on the plan at 6 s, and a box's corner that D.3's DWA does not get round."""
+    appears on the plan at 6 s, and a box's corner that D.3's DWA does not get round; returns
+    the first run's numbers."""
     import contextlib
     import shutil
     import tempfile
@@ -241,9 +438,8 @@ def navigation_loop(out: Path) -> None:
     from servolab.sim.scene import DEFAULT_SCENE
 
     with tempfile.TemporaryDirectory() as tmp:
-        run = RunFolder.create("navigate", Path(tmp) / "loop")
-        run_navigate(run, prepare((3.3, 2.3)), say=lambda _: None, show_progress=False)
-        shutil.copy(run.file("navigate.png"), out / "navigation_loop.png")
+        figures = navigation_figures(navigate_run(Path(tmp) / "loop"))
+        shutil.copy(Path(tmp) / "loop" / "navigate.png", out / "navigation_loop.png")
         text = DEFAULT_SCENE.read_text()
         scene = Path(tmp) / "corner.yaml"
         scene.write_text(text[:text.index("\nobstacles:") + 1] + "obstacles:\n"
@@ -254,22 +450,46 @@ def navigation_loop(out: Path) -> None:
             run_navigate(run, prepare((3.3, 0.6), goal_yaw=0.0, scene=scene),
                          say=lambda _: None, show_progress=False)
         shutil.copy(run.file("navigate.png"), out / "navigation_corner.png")
+    return figures
 
 
-def treadmill(out: Path, duration: float = 100.0) -> None:
+def flyball_run(out: Path, duration: float, seed: int = 0) -> dict[str, Any]:
+    """``servolab flyball --duration DURATION --seed SEED`` in ``out``: its summary.json."""
+    from servolab.robots.treadmill.run import run_flyball
+    from servolab.runs import RunFolder
+
+    run = RunFolder.create("flyball", out)
+    run_flyball(run, duration=duration, seed=seed, say=lambda _: None, show_progress=False)
+    return _summary(run)
+
+
+def treadmill_figures(summary: dict[str, Any]) -> dict[str, float]:
+    """docs/treadmill.md's numbers, from a flyball run's summary.json (chapter 3's analysis)."""
+    a = summary["analysis"]
+    return {"treadmill.mean_distance_error_mm": a["mean_distance_error_mm"],
+            "treadmill.mean_angle_error_deg": a["mean_angle_error_deg"],
+            "treadmill.response_delay_ms": a["response_delay_s"] * 1000,
+            "treadmill.frames": a["frames"],
+            "treadmill.frames_with_fly": a["frames_with_fly"],
+            "treadmill.sphere_path_mm": a["sphere_path_length_m"] * 1000,
+            "treadmill.robot_path_m": a["robot_path_length_m"],
+            "treadmill.path_disparity": a["path_disparity"]}
+
+
+def treadmill(out: Path, *, quick: bool = False
+              ) -> tuple[dict[str, float] | None, dict[str, float]]:
     """docs/treadmill.md's figures: one synthetic frame as Listing 1 sees it (Figures 3 and
-    13 of the thesis), and the analysis of a closed-loop run of ``duration`` s (Figures 14,
-    16, 18, 20 and 21).
-    """
+    13 of the thesis), and the analysis of a closed-loop run of 100 s, or 10 s when ``quick``
+    (Figures 14, 16, 18, 20 and 21). Returns the numbers of the 100 s run (None when
+    ``quick``) and of the 10 s run, which the test makes again."""
     import shutil
     import tempfile
 
     import cv2
     import numpy as np
+    from matplotlib.patches import Circle
 
     from servolab.robots.treadmill.control import FlyControllerConfig
-    from servolab.robots.treadmill.run import run_flyball
-    from servolab.runs import RunFolder
     from servolab.vision.fly_render import FlyPose, render_fly
     from servolab.vision.fly_tracker import track_fly
 
@@ -291,7 +511,7 @@ def treadmill(out: Path, duration: float = 100.0) -> None:
              sighting.cy + length * np.sin(sighting.theta)], color="magenta", lw=1,
             label=f"axis, theta {np.degrees(sighting.theta):.1f}°")
     tx, ty, _ = config.target
-    ax.add_patch(plt.Circle((tx, ty), config.dead_band_px, fill=False, color="red", lw=1,
+    ax.add_patch(Circle((tx, ty), config.dead_band_px, fill=False, color="red", lw=1,
                             label="dead band, 50 px"))
     ax.set_title(f"one 640 x 376 frame: the fly at ({sighting.cx:.1f}, {sighting.cy:.1f}), "
                  f"area {sighting.area:.0f} px²", fontsize=9)
@@ -299,25 +519,87 @@ def treadmill(out: Path, duration: float = 100.0) -> None:
     fig.savefig(out / "treadmill_frame.png", dpi=100, bbox_inches="tight")
     plt.close(fig)
     with tempfile.TemporaryDirectory() as tmp:
-        run = RunFolder.create("flyball", Path(tmp) / "run")
-        summary = run_flyball(run, duration=duration, seed=0, show_progress=False)
-        shutil.copy(summary["plot"], out / "treadmill_run.png")
+        short_run = flyball_run(Path(tmp) / "short", TREADMILL_QUICK_S)
+        if quick:
+            shutil.copy(short_run["plot"], out / "treadmill_run.png")
+            return None, treadmill_figures(short_run)
+        full_run = flyball_run(Path(tmp) / "full", TREADMILL_S)
+        shutil.copy(full_run["plot"], out / "treadmill_run.png")
+        return treadmill_figures(full_run), treadmill_figures(short_run)
+
+
+def write_figures(path: Path, values: dict[str, float], full: dict[str, float] | None,
+                  short: dict[str, float]) -> None:
+    """``figures.json``: each number of :data:`FIGURES` with its doc, the run it comes from,
+    its value, the noise the doc states and the text the doc writes; a number of the 100 s
+    treadmill run also has the 10 s run's value, which ``--quick`` makes again (``value`` and
+    ``text`` are null in --quick's file)."""
+    entries: dict[str, dict[str, Any]] = {}
+    for key, figure in FIGURES.items():
+        value = (None if full is None else full[key]) if figure.shortened else values[key]
+        value = None if value is None else round(float(value), 6)
+        entry: dict[str, Any] = {
+            "doc": figure.doc, "run": figure.run, "value": value,
+            "tolerance": figure.tolerance,
+            "text": None if value is None else figure.text(value, figure.tolerance)}
+        if figure.shortened:
+            entry["quick"] = {"run": figure.run.replace(f"--duration {TREADMILL_S:g}",
+                                                        f"--duration {TREADMILL_QUICK_S:g}"),
+                              "value": round(float(short[key]), 6)}
+        entries[key] = entry
+    about = ("The numbers docs/*.md quote from a run, written by docs/plots.py; "
+             "tests/test_docs.py checks that each doc holds each text and that a new run "
+             "gives each value within its tolerance.")
+    path.write_text(json.dumps({"about": about, "figures": entries}, indent=2,
+                               ensure_ascii=False) + "\n")
+
+
+def spread(seed_0: dict[str, float], *, quick: bool) -> None:
+    """Print how far each number moves from seed 0's over seeds 1 to 3 of its run, beside the
+    noise its doc states (:attr:`Figure.tolerance`)."""
+    import tempfile
+
+    moved: dict[str, float] = {}
+    for seed in SPREAD_SEEDS:
+        with tempfile.TemporaryDirectory() as tmp:
+            other = {**navigation_figures(navigate_run(Path(tmp) / "nav", seed)),
+                     **treadmill_figures(flyball_run(
+                         Path(tmp) / "fly", TREADMILL_QUICK_S if quick else TREADMILL_S,
+                         seed)),
+                     "mobile.slip_closure_m": slip_closure(seed)}
+        run = fusion_run(seed)
+        run.pop("tracks")
+        other.update(run)
+        for key, value in other.items():
+            moved[key] = max(moved.get(key, 0.0), abs(value - seed_0[key]))
+    print(f"{'number':36} {'seed 0':>10} {'moved by':>10} {'doc states':>10}")
+    for key, figure in FIGURES.items():
+        if key not in moved:
+            print(f"{key:36} {seed_0[key]:10.4g} {'no seed':>10} {figure.tolerance:10g}")
+            continue
+        flag = "" if moved[key] <= figure.tolerance else "  <- more than the doc states"
+        print(f"{key:36} {seed_0[key]:10.4g} {moved[key]:10.4g} {figure.tolerance:10g}{flag}")
 
 
 def main(argv: list[str]) -> None:
     quick = "--quick" in argv  # the docs test: every figure made, the long runs shortened
-    argv = [a for a in argv if a != "--quick"]
+    with_spread = "--spread" in argv
+    argv = [a for a in argv if a not in ("--quick", "--spread")]
     out = Path(argv[0]) if argv else Path(__file__).parent / "img"
     out.mkdir(parents=True, exist_ok=True)
+    values: dict[str, float] = {}
     joint_moves(out / "rx28_joint_moves.png")
-    cycle_time(out / "bus_cycle_time.png")
+    values.update(cycle_time(out / "bus_cycle_time.png"))
     floor_world(out / "floor_world.png")
-    biped(out)
-    mobile(out)
+    values.update(biped(out))
+    values.update(mobile(out))
     navigation(out)
-    navigation_loop(out)
-    treadmill(out, duration=10.0 if quick else 100.0)
+    values.update(navigation_loop(out))
+    full, short = treadmill(out, quick=quick)
+    write_figures(out / "figures.json", values, full, short)
     print(f"figures written to {out}")
+    if with_spread:
+        spread({**values, **(short if full is None else full)}, quick=quick)
 
 
 if __name__ == "__main__":
