@@ -27,11 +27,13 @@ def _board(text: str) -> tuple[int, int]:
 def _read(path: str) -> object:
     import cv2
 
+    from ..errors import UsageError
+
     if not Path(path).is_file():
-        raise SystemExit(f"servolab calibrate: no image file {path!r}")
+        raise UsageError(f"no image file {path!r}")
     image = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
     if image is None:
-        raise SystemExit(f"servolab calibrate: {path!r} cannot be read as an image")
+        raise UsageError(f"{path!r} cannot be read as an image")
     return image
 
 
@@ -51,30 +53,28 @@ def _add_calibrate(p: argparse.ArgumentParser) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
+    from ..errors import UsageError
     from ..vision import calibration as cal
 
     out = Path(args.out)
     if out.is_dir() or not out.parent.is_dir():  # said before the work, not after it
-        raise SystemExit(f"servolab calibrate: cannot write --out {args.out!r}: "
+        raise UsageError(f"cannot write --out {args.out!r}: "
                          + ("it is a folder" if out.is_dir() else
                             f"no folder {str(out.parent)!r}"))
     images = [_read(p) for p in args.images]
-    try:
-        calib = cal.calibrate(images, args.board, args.square,  # type: ignore[arg-type]
-                              names=[Path(p).name for p in args.images])
-        floor = None
-        if args.floor:
-            floor = cal.floor_extrinsics(calib, _read(args.floor),  # type: ignore[arg-type]
-                                         args.floor_board or args.board,
-                                         args.floor_square or args.square,
-                                         name=Path(args.floor).name)
-    except ValueError as exc:
-        raise SystemExit(f"servolab calibrate: {exc}") from None
+    # a board that is not found, too few usable images: CalibrationError, one line (exit 2)
+    calib = cal.calibrate(images, args.board, args.square,  # type: ignore[arg-type]
+                          names=[Path(p).name for p in args.images])
+    floor = None
+    if args.floor:
+        floor = cal.floor_extrinsics(calib, _read(args.floor),  # type: ignore[arg-type]
+                                     args.floor_board or args.board,
+                                     args.floor_square or args.square,
+                                     name=Path(args.floor).name)
     try:
         cal.save(calib, floor, args.out)
-    except OSError as exc:
-        raise SystemExit(f"servolab calibrate: cannot write {args.out!r}: "
-                         f"{exc.strerror or exc}") from None
+    except OSError as exc:  # no permission, a full disk: where the user asked to write
+        raise UsageError(f"cannot write --out {args.out!r}: {exc.strerror or exc}") from None
     print(f"fx {calib.fx:.2f} fy {calib.fy:.2f} cx {calib.cx:.2f} cy {calib.cy:.2f} px; "
           f"RMS reprojection error {calib.rms:.3f} px over {len(calib.per_image_errors)} images")
     for name, error in zip(calib.image_names, calib.per_image_errors, strict=True):

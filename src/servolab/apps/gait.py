@@ -46,11 +46,9 @@ def _run(args: argparse.Namespace) -> int:
     from ..gait.walking import GaitParameters, generate_walk
     from ..runs import RunFolder
 
-    try:
-        params = GaitParameters(**{name: getattr(args, name) for name in PARAMETERS})
-        walk = generate_walk(params)
-    except ValueError as exc:
-        raise SystemExit(f"servolab gait generate: {exc}") from None
+    # a parameter out of range, a foot out of reach: GaitValueError, one line (exit 2)
+    params = GaitParameters(**{name: getattr(args, name) for name in PARAMETERS})
+    walk = generate_walk(params)
     run = RunFolder.create("gait", args.out)
     csv = run.file("gait.csv")
     write_motion_file(csv, walk.motion())

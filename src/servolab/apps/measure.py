@@ -18,16 +18,15 @@ def _add_measure(p: argparse.ArgumentParser) -> None:
 
 
 def _measure(args: argparse.Namespace) -> int:
+    from ..errors import UsageError
     from ..vision import calibration as cal
 
-    try:
-        calib, floor = cal.load(args.calib)
-        if floor is None:
-            raise SystemExit(f"servolab measure: {args.calib} has no floor plane; calibrate "
-                             "with --floor IMAGE")
-        distance = cal.measure(calib, floor, (args.u1, args.v1), (args.u2, args.v2))
-    except ValueError as exc:
-        raise SystemExit(f"servolab measure: {exc}") from None
+    calib, floor = cal.load(args.calib)  # a bad file: CalibrationFileError, one line (exit 2)
+    if floor is None:
+        raise UsageError(f"--calib {args.calib} has no floor plane; calibrate with --floor "
+                         "IMAGE")
+    # a point above the horizon: VisionValueError, one line (exit 2)
+    distance = cal.measure(calib, floor, (args.u1, args.v1), (args.u2, args.v2))
     print(f"{distance:.2f} mm")
     return 0
 

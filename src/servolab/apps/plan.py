@@ -34,25 +34,24 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..errors import UsageError
     from ..robots.navigation.plan import load_problem, plan, run_plan
     from ..runs import RunFolder
 
     if args.no_inflation and (args.params is not None or args.resolution is not None):
-        raise SystemExit("servolab plan: --params and --resolution set the inflation; they "
-                         "are not used with --no-inflation")
+        raise UsageError("--params and --resolution set the inflation; they are not used with "
+                         "--no-inflation")
     if not 0 < args.threshold <= 255:
-        raise SystemExit(f"servolab plan: --threshold {args.threshold:g} must be a gray level "
-                         "in (0, 255]: pixels darker than it are occupied")
-    try:
-        problem = load_problem(args.map, tuple(args.start), tuple(args.goal),
-                               params=args.params, inflation=not args.no_inflation,
-                               resolution=args.resolution, threshold=args.threshold)
-        result = plan(problem)  # before the run folder: a refused plan leaves none
-        run = RunFolder.create("plan", args.out)
-        summary = run_plan(run, problem, result=result)
-    except ValueError as exc:  # bad input, a bad parameter file or no path: one line
-        raise SystemExit(f"servolab plan: {exc}") from None
-    run.write_summary(summary)
+        raise UsageError(f"--threshold {args.threshold:g} must be a gray level in (0, 255]: "
+                         "pixels darker than it are occupied")
+    # Bad input (PlanError, a bad parameter file) is refused, and no path (NoPath) fails,
+    # before the run folder is made: a refused plan leaves none.
+    problem = load_problem(args.map, tuple(args.start), tuple(args.goal),
+                           params=args.params, inflation=not args.no_inflation,
+                           resolution=args.resolution, threshold=args.threshold)
+    result = plan(problem)
+    run = RunFolder.create("plan", args.out)
+    run_plan(run, problem, result=result)  # writes summary.json, also when interrupted
     print(f"run folder: {run.path}")
     return 0
 

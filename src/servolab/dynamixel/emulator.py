@@ -1004,11 +1004,11 @@ class Emulator:
         return motor
 
     def motor(self, motor_id: int) -> VirtualMotor:
-        """The (first) motor with this ID; KeyError if there is none."""
+        """The (first) motor with this ID; a :class:`ConfigError` if there is none."""
         for m in self.motors:
             if m.id == motor_id:
                 return m
-        raise KeyError(f"no emulated motor with ID {motor_id}")
+        raise ConfigError(f"no emulated motor with ID {motor_id}")
 
     def step(self, dt: float) -> None:
         """One physics step of ``dt`` seconds has passed. The motors' own plants catch up when

@@ -41,6 +41,8 @@ from types import MappingProxyType
 import numpy as np
 import numpy.typing as npt
 
+from .errors import EstimationValueError
+
 FloatArray = npt.NDArray[np.float64]
 
 ProcessModel = Callable[[float], tuple[npt.ArrayLike, npt.ArrayLike]]
@@ -56,19 +58,20 @@ def _frozen(array: npt.ArrayLike) -> FloatArray:
 def _check_covariance(name: str, matrix: FloatArray, size: int, *, definite: bool) -> None:
     """Square, finite, symmetric, and positive (semi-)definite, or a ValueError saying which."""
     if matrix.shape != (size, size):
-        raise ValueError(f"{name} must have shape ({size}, {size}), got {matrix.shape}")
+        raise EstimationValueError(f"{name} must have shape ({size}, {size}), got {matrix.shape}")
     if not np.all(np.isfinite(matrix)):
-        raise ValueError(f"{name} must be finite, got {matrix.tolist()}")
+        raise EstimationValueError(f"{name} must be finite, got {matrix.tolist()}")
     scale = max(1.0, float(np.max(np.abs(matrix)))) if size else 1.0
     if not np.allclose(matrix, matrix.T, rtol=1e-9, atol=1e-12 * scale):
-        raise ValueError(f"{name} must be symmetric, got {matrix.tolist()}")
+        raise EstimationValueError(f"{name} must be symmetric, got {matrix.tolist()}")
     if size == 0:
         return
     smallest = float(np.min(np.linalg.eigvalsh(matrix)))
     if definite and smallest <= 0:
-        raise ValueError(f"{name} must be positive definite, smallest eigenvalue {smallest:.6g}")
+        raise EstimationValueError(f"{name} must be positive definite, smallest eigenvalue "
+                                   f"{smallest:.6g}")
     if smallest < -1e-12 * scale:
-        raise ValueError(
+        raise EstimationValueError(
             f"{name} must be positive semi-definite, smallest eigenvalue {smallest:.6g}"
         )
 
@@ -79,9 +82,10 @@ def _per_axis(name: str, values: float | Sequence[float], axes: int) -> FloatArr
     if array.ndim == 0:
         array = np.full(axes, float(array))
     if array.shape != (axes,):
-        raise ValueError(f"{name} needs one value or one per axis ({axes}), got {values!r}")
+        raise EstimationValueError(f"{name} needs one value or one per axis ({axes}), got "
+                                   f"{values!r}")
     if not (np.all(np.isfinite(array)) and np.all(array >= 0)):
-        raise ValueError(f"{name} must be finite and non-negative, got {values!r}")
+        raise EstimationValueError(f"{name} must be finite and non-negative, got {values!r}")
     return array
 
 
@@ -102,9 +106,9 @@ class MeasurementModel:
         if h.ndim == 1:
             h = _frozen(h[np.newaxis, :])
         if h.ndim != 2:
-            raise ValueError(f"H must be a matrix (m, n), got shape {h.shape}")
+            raise EstimationValueError(f"H must be a matrix (m, n), got shape {h.shape}")
         if not np.all(np.isfinite(h)):
-            raise ValueError(f"H must be finite, got {h.tolist()}")
+            raise EstimationValueError(f"H must be finite, got {h.tolist()}")
         if r.ndim == 0:
             r = _frozen(r.reshape(1, 1))
         _check_covariance("R", r, h.shape[0], definite=True)
@@ -124,10 +128,10 @@ def position_sensor(variances: float | Sequence[float], state_size: int,
     variance per axis. ``axes`` defaults to the number of variances given."""
     k = axes if axes is not None else int(np.size(variances))
     if not 0 < k <= state_size:
-        raise ValueError(f"a position sensor needs 1..{state_size} axes, got {k}")
+        raise EstimationValueError(f"a position sensor needs 1..{state_size} axes, got {k}")
     r = _per_axis("sensor variance", variances, k)
     if np.any(r <= 0):
-        raise ValueError(f"sensor variances must be positive, got {variances!r}")
+        raise EstimationValueError(f"sensor variances must be positive, got {variances!r}")
     return MeasurementModel(np.eye(k, state_size), np.diag(r))
 
 
@@ -145,7 +149,7 @@ class RandomWalk:
 
     def __post_init__(self) -> None:
         if self.axes < 1:
-            raise ValueError(f"a random walk needs at least one axis, got {self.axes}")
+            raise EstimationValueError(f"a random walk needs at least one axis, got {self.axes}")
         _per_axis("random-walk rate", self.rate, self.axes)
 
     @property
@@ -175,7 +179,8 @@ class ConstantVelocity:
 
     def __post_init__(self) -> None:
         if self.axes < 1:
-            raise ValueError(f"a constant-velocity model needs at least one axis, got {self.axes}")
+            raise EstimationValueError("a constant-velocity model needs at least one axis, got "
+                                       f"{self.axes}")
         _per_axis("acceleration PSD", self.acceleration_psd, self.axes)
 
     @property
@@ -219,16 +224,17 @@ class KalmanFilter:
                  sensors: Mapping[str, MeasurementModel]) -> None:
         x = np.array(x0, dtype=np.float64).reshape(-1)
         if not np.all(np.isfinite(x)):
-            raise ValueError(f"initial state must be finite, got {x.tolist()}")
+            raise EstimationValueError(f"initial state must be finite, got {x.tolist()}")
         p = np.array(P0, dtype=np.float64)
         if p.ndim == 0:
             p = p * np.eye(x.size)
         _check_covariance("P0", p, x.size, definite=False)
         for name, model in sensors.items():
             if not isinstance(model, MeasurementModel):
-                raise ValueError(f"sensor {name!r} must be a MeasurementModel, got {model!r}")
+                raise EstimationValueError(f"sensor {name!r} must be a MeasurementModel, got "
+                                           f"{model!r}")
             if model.H.shape[1] != x.size:
-                raise ValueError(
+                raise EstimationValueError(
                     f"sensor {name!r} has H of shape {model.H.shape}, "
                     f"the state has {x.size} entries"
                 )
@@ -259,13 +265,14 @@ class KalmanFilter:
     def predict(self, dt: float) -> None:
         """Advance ``dt`` (finite, not negative): ``x = F x``, ``P = F P F^T + Q``."""
         if not (np.isfinite(dt) and dt >= 0):
-            raise ValueError(f"dt must be a finite, non-negative time step, got {dt}")
+            raise EstimationValueError(f"dt must be a finite, non-negative time step, got {dt}")
         f_raw, q_raw = self._process(float(dt))
         f = np.asarray(f_raw, dtype=np.float64)
         q = np.asarray(q_raw, dtype=np.float64)
         n = self.size
         if f.shape != (n, n) or not np.all(np.isfinite(f)):
-            raise ValueError(f"process model gave F of shape {f.shape} (finite ({n}, {n}) needed)")
+            raise EstimationValueError(f"process model gave F of shape {f.shape} "
+                                       f"(finite ({n}, {n}) needed)")
         _check_covariance("Q", q, n, definite=False)
         self._x = f @ self._x
         self._P = _symmetric(f @ self._P @ f.T + q)
@@ -275,11 +282,11 @@ class KalmanFilter:
         model = self._sensor(name)
         measurement = np.asarray(z, dtype=np.float64).reshape(-1) if np.ndim(z) <= 1 else None
         if measurement is None or measurement.shape != (model.size,):
-            raise ValueError(
+            raise EstimationValueError(
                 f"sensor {name!r} measures {model.size} values, got shape {np.shape(z)}"
             )
         if not np.all(np.isfinite(measurement)):
-            raise ValueError(
+            raise EstimationValueError(
                 f"sensor {name!r} gave a non-finite measurement {measurement.tolist()}"
             )
         h = model.H
@@ -290,7 +297,7 @@ class KalmanFilter:
             gain = np.linalg.solve(s, h @ self._P).T
             nis = float(residual @ np.linalg.solve(s, residual))
         except np.linalg.LinAlgError as error:
-            raise ValueError(
+            raise EstimationValueError(
                 f"innovation covariance of {name!r} is singular: {s.tolist()}"
             ) from error
         return Innovation(name, _frozen(residual), _frozen(s), _frozen(gain), nis)
@@ -316,7 +323,7 @@ class KalmanFilter:
             return self._sensors[name]
         except KeyError:
             known = ", ".join(repr(key) for key in self._sensors) or "none"
-            raise ValueError(f"unknown sensor {name!r} (known: {known})") from None
+            raise EstimationValueError(f"unknown sensor {name!r} (known: {known})") from None
 
 
 def _symmetric(matrix: FloatArray) -> FloatArray:
@@ -353,11 +360,12 @@ class Seed000Fusion:
         for name in ("odometry_variance", "tracker_variance"):
             values = _per_axis(name, getattr(self, name), 2)
             if np.any(values <= 0):
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+                raise EstimationValueError(f"{name} must be positive, got {getattr(self, name)!r}")
         if not (np.isfinite(self.initial_variance) and self.initial_variance >= 0):
-            raise ValueError(f"initial_variance must be >= 0, got {self.initial_variance}")
+            raise EstimationValueError("initial_variance must be >= 0, got "
+                                       f"{self.initial_variance}")
         if not (np.isfinite(self.sample_period) and self.sample_period > 0):
-            raise ValueError(f"sample_period must be positive, got {self.sample_period}")
+            raise EstimationValueError(f"sample_period must be positive, got {self.sample_period}")
 
 
 SEED_000_FUSION = Seed000Fusion()
@@ -395,7 +403,7 @@ def fuse_seed_000(odometry: npt.ArrayLike, tracker: npt.ArrayLike,
     odo = np.asarray(odometry, dtype=np.float64)
     tld = np.asarray(tracker, dtype=np.float64)
     if odo.ndim != 2 or odo.shape[1] != 2 or tld.shape != odo.shape:
-        raise ValueError(
+        raise EstimationValueError(
             f"odometry and tracker must both have shape (N, 2), got {odo.shape} and {tld.shape}"
         )
     out = np.empty_like(odo)

@@ -52,6 +52,7 @@ import numpy.typing as npt
 
 from ..configfile import suggest
 from ..errors import ConfigFileError
+from .errors import GaitValueError, UnknownMotorError
 
 __all__ = ["MotionFile", "MotionFileError", "read_motion_file", "write_motion_file"]
 
@@ -63,7 +64,7 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 Angles = npt.NDArray[np.float64]
 
 
-class MotionFileError(ConfigFileError):
+class MotionFileError(ConfigFileError, GaitValueError):
     """A motion file that cannot be used.
 
     ``str(error)`` is one line, ``"<path>:<line>: column <name>: <problem>"`` (or
@@ -96,20 +97,20 @@ class MotionFile:
         for name in names:
             if not isinstance(name, str) or not name or name != name.strip() or any(
                     c in name for c in _NOT_IN_NAMES):
-                raise ValueError(f"motor name {name!r}: must be non-empty text without "
-                                 "surrounding whitespace, line breaks, quotes or separators "
-                                 "(, ; tab)")
+                raise GaitValueError(f"motor name {name!r}: must be non-empty text without "
+                                     "surrounding whitespace, line breaks, quotes or separators "
+                                     "(, ; tab)")
         if not names:
-            raise ValueError("a motion needs at least one motor")
+            raise GaitValueError("a motion needs at least one motor")
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
-            raise ValueError(f"motor names appear twice: {', '.join(twice)}")
+            raise GaitValueError(f"motor names appear twice: {', '.join(twice)}")
         angles = np.array(self.angles, dtype=np.float64, order="C", copy=True)
         if angles.ndim != 2 or angles.shape[1] != len(names) or angles.shape[0] == 0:
-            raise ValueError(f"angles must have shape (poses >= 1, {len(names)}), "
-                             f"not {angles.shape}")
+            raise GaitValueError(f"angles must have shape (poses >= 1, {len(names)}), "
+                                 f"not {angles.shape}")
         if not np.isfinite(angles).all():
-            raise ValueError("angles must be finite")
+            raise GaitValueError("angles must be finite")
         angles.flags.writeable = False
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "angles", angles)
@@ -129,12 +130,13 @@ class MotionFile:
         return int(self.angles.shape[0])
 
     def column(self, name: str) -> Angles:
-        """The angles of motor ``name`` over the motion (a KeyError names the motors)."""
+        """The angles of motor ``name`` over the motion (an :class:`UnknownMotorError`, a KeyError
+        too, names the motors)."""
         try:
             return self.angles[:, self.names.index(name)]
         except ValueError:
-            raise KeyError(f"no motor {name!r} in this motion ({', '.join(self.names)})"
-                           ) from None
+            raise UnknownMotorError(f"no motor {name!r} in this motion ({', '.join(self.names)})"
+                                    ) from None
 
 
 def read_motion_file(path: str | Path,
@@ -292,7 +294,7 @@ def _check_limits(limits: Mapping[str, tuple[float, float]] | None
     for name, pair in limits.items():
         low, high = (float(value) for value in pair)
         if math.isnan(low) or math.isnan(high) or low > high:
-            raise ValueError(f"limits of {name!r}: need lowest <= highest, not {pair!r}")
+            raise GaitValueError(f"limits of {name!r}: need lowest <= highest, not {pair!r}")
         checked[name] = (low, high)
     return checked
 
@@ -301,8 +303,8 @@ def _check_required(required: Sequence[str] | None) -> list[str] | None:
     if required is None:
         return None
     if isinstance(required, str):
-        raise ValueError("required: a sequence of motor names, not one string")
+        raise GaitValueError("required: a sequence of motor names, not one string")
     wanted = list(required)
     if len(set(wanted)) != len(wanted):
-        raise ValueError(f"required names a motor twice: {wanted!r}")
+        raise GaitValueError(f"required names a motor twice: {wanted!r}")
     return wanted

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from servolab.gait.errors import GaitValueError
 from servolab.gait.motionfile import MotionFile
 from servolab.kinematics.dh import FloatArray
 from servolab.kinematics.leg import (
@@ -43,7 +44,7 @@ PHASES_PER_HALF_CYCLE = 4
 
 def _check_distance(name: str, value: float) -> None:
     if not (np.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a finite distance >= 0 mm, got {value}")
+        raise GaitValueError(f"{name} must be a finite distance >= 0 mm, got {value}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -66,15 +67,15 @@ class GaitParameters:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_step) and self.t_step > 0):
-            raise ValueError(f"t_step must be a positive number of ms, got {self.t_step}")
+            raise GaitValueError(f"t_step must be a positive number of ms, got {self.t_step}")
         if isinstance(self.c_step, bool) or not isinstance(self.c_step, int | np.integer) \
                 or self.c_step < 1:
-            raise ValueError(f"c_step counts half cycles: an integer >= 1, got {self.c_step!r}")
+            raise GaitValueError(f"c_step counts half cycles: an integer >= 1, got {self.c_step!r}")
         for name in ("d_step", "l_step", "h_step", "s_step"):
             _check_distance(name, getattr(self, name))
         for name in ("y_start", "arm_swing"):
             if not np.isfinite(getattr(self, name)):
-                raise ValueError(f"{name} must be finite, got {getattr(self, name)}")
+                raise GaitValueError(f"{name} must be finite, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)
@@ -121,8 +122,8 @@ def _body_states(params: GaitParameters, leg: LegGeometry) -> FloatArray:
     """
     lowered = leg.length - params.d_step
     if lowered <= 0:
-        raise ValueError(f"d_step ({params.d_step} mm) must be shorter than the leg "
-                         f"({leg.length} mm)")
+        raise GaitValueError(f"d_step ({params.d_step} mm) must be shorter than the leg "
+                             f"({leg.length} mm)")
     k = np.arange(1, PHASES_PER_HALF_CYCLE + 1)   # k of the first half cycle, p = 1
     sign = (-1.0) ** k
     sway = params.s_step * params.h_step / lowered
@@ -181,8 +182,8 @@ def motor_angles(left_joints: npt.ArrayLike, right_joints: npt.ArrayLike,
     left = leg_motor_angles(np.atleast_2d(np.asarray(left_joints, dtype=np.float64)), "left")
     right = leg_motor_angles(np.atleast_2d(np.asarray(right_joints, dtype=np.float64)), "right")
     if left.shape != right.shape:
-        raise ValueError(f"left and right joint arrays differ in shape: {left.shape}, "
-                         f"{right.shape}")
+        raise GaitValueError(f"left and right joint arrays differ in shape: {left.shape}, "
+                             f"{right.shape}")
     return np.concatenate([left, right, arm_swing(left.shape[0], arm_amplitude)], axis=1)
 
 
@@ -195,7 +196,7 @@ def check_reach(feet: FootTrajectory, leg: LegGeometry = ARMSTRONG_LEG) -> None:
     index = int(np.argmax(bad))
     for name, positions in (("left", feet.left), ("right", feet.right)):
         if not reachable(positions[index], leg)[0]:
-            raise ValueError(
+            raise GaitValueError(
                 f"gait sample {index} (t = {feet.time_ms[index]:g} ms): the {name} foot at "
                 f"{format_position(positions[index])} mm is out of reach: "
                 f"{unreachable_reason(positions[index], leg)}")

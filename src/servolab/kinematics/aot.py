@@ -53,6 +53,7 @@ import numpy.typing as npt
 
 from servolab.kinematics.dh import FloatArray
 from servolab.kinematics.diffdrive import finite_array
+from servolab.kinematics.errors import KinematicsValueError
 
 #: Largest condition number of ``J`` (dimensionless, so unit-independent) accepted: beyond it
 #: the solve keeps fewer than half of float64's digits and some command needs wheel speeds
@@ -78,7 +79,7 @@ THESIS_J1M: FloatArray = _readonly(np.array([
 ]))
 
 
-class AotGeometryError(ValueError):
+class AotGeometryError(KinematicsValueError):
     """The wheels cannot produce every ball motion: ``J`` (or a given ``J^-1 M``) is singular
     or so ill-conditioned that the wheel speeds would be rounding noise."""
 
@@ -86,7 +87,7 @@ class AotGeometryError(ValueError):
 def _check_positive(name: str, value: float) -> float:
     if not (isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
             and value > 0):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        raise KinematicsValueError(f"{name} must be a positive finite number, got {value!r}")
     return float(value)
 
 
@@ -115,19 +116,21 @@ class AotGeometry:
         _check_positive("wheel_radius", self.wheel_radius)
         _check_positive("tilt", self.tilt)
         if not self.tilt < math.pi / 2.0:
-            raise ValueError(f"tilt must be below pi/2 rad, got {self.tilt!r}")
+            raise KinematicsValueError(f"tilt must be below pi/2 rad, got {self.tilt!r}")
         if not math.isfinite(self.camera_to_motor):
-            raise ValueError(f"camera_to_motor must be finite, got {self.camera_to_motor!r}")
+            raise KinematicsValueError("camera_to_motor must be finite, got "
+                                       f"{self.camera_to_motor!r}")
         angles = tuple(self.wheel_angles)
         if len(angles) != 3 or not all(
                 isinstance(a, (int, float, np.integer, np.floating)) and math.isfinite(a)
                 for a in angles):
-            raise ValueError(f"wheel_angles must be three finite numbers, got {angles!r}")
+            raise KinematicsValueError(f"wheel_angles must be three finite numbers, got {angles!r}")
         wrapped = [math.remainder(float(a), 2.0 * math.pi) for a in angles]
         for i in range(3):
             for j in range(i + 1, 3):
                 if math.remainder(wrapped[i] - wrapped[j], 2.0 * math.pi) == 0.0:
-                    raise ValueError(f"wheel_angles must be three distinct angles, got {angles!r}")
+                    raise KinematicsValueError("wheel_angles must be three distinct angles, got "
+                                               f"{angles!r}")
 
 
 def contact_points(geometry: AotGeometry) -> FloatArray:
@@ -197,7 +200,7 @@ class AotKinematics:
     def __post_init__(self) -> None:
         matrix = finite_array("matrix", self.matrix)
         if matrix.shape != (3, 3):
-            raise ValueError(f"matrix must be 3x3, got shape {matrix.shape}")
+            raise KinematicsValueError(f"matrix must be 3x3, got shape {matrix.shape}")
         _checked_condition("J^-1 M matrix", matrix)
         object.__setattr__(self, "matrix", _readonly(matrix.copy()))
         object.__setattr__(self, "inverse",
@@ -231,7 +234,7 @@ class AotKinematics:
         the ball's path, and so the fly's walk, from the servos' encoders."""
         w = finite_array("wheel_speeds", wheel_speeds)
         if w.ndim == 0 or w.shape[0] != 3:
-            raise ValueError(f"wheel_speeds must have 3 rows, got shape {w.shape}")
+            raise KinematicsValueError(f"wheel_speeds must have 3 rows, got shape {w.shape}")
         return np.asarray(np.tensordot(self.inverse, w, axes=1), dtype=np.float64)
 
 
@@ -247,7 +250,7 @@ def camera_to_motor(dx: npt.ArrayLike, dy: npt.ArrayLike,
     ball's axis is the same in both frames.
     """
     if not math.isfinite(angle):
-        raise ValueError(f"angle must be finite, got {angle!r}")
+        raise KinematicsValueError(f"angle must be finite, got {angle!r}")
     x, y = finite_array("dx", dx), finite_array("dy", dy)
     c, s = math.cos(angle), math.sin(angle)
     return c * x - s * y, s * x + c * y
@@ -268,7 +271,7 @@ def surface_in_camera(velocity: npt.ArrayLike, geometry: AotGeometry,
     camera's image frame: turned back by ``camera_to_motor`` and signed by ``handedness``."""
     v = finite_array("velocity", velocity)
     if v.ndim == 0 or v.shape[0] != 3:
-        raise ValueError(f"velocity must have 3 rows, got shape {v.shape}")
+        raise KinematicsValueError(f"velocity must have 3 rows, got shape {v.shape}")
     a = -geometry.camera_to_motor
     c, s = math.cos(a), math.sin(a)
     hx, hy, hz = handedness

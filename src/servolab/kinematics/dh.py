@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from servolab.kinematics.errors import KinematicsValueError
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -59,7 +61,8 @@ def chain_transform(links: Sequence[DHLink], q: npt.ArrayLike) -> FloatArray:
     single = angles.ndim == 1
     angles = np.atleast_2d(angles)
     if angles.ndim != 2 or angles.shape[1] != len(links):
-        raise ValueError(f"joint angles must have shape (N, {len(links)}), got {angles.shape}")
+        raise KinematicsValueError(f"joint angles must have shape (N, {len(links)}), got "
+                                   f"{angles.shape}")
     total = np.broadcast_to(np.eye(4), (angles.shape[0], 4, 4)).copy()
     for column, link in enumerate(links):
         step = dh_transform(angles[:, column] + link.theta_offset, link.d, link.a, link.alpha)

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from servolab.kinematics.dh import FloatArray
+from servolab.kinematics.errors import KinematicsValueError
 
 IntArray = npt.NDArray[np.int64]
 
@@ -35,7 +36,7 @@ IntArray = npt.NDArray[np.int64]
 def _check_positive(name: str, value: float) -> float:
     if not (isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
             and value > 0):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        raise KinematicsValueError(f"{name} must be a positive finite number, got {value!r}")
     return float(value)
 
 
@@ -48,7 +49,7 @@ def finite_array(name: str, values: npt.ArrayLike) -> FloatArray:
     array = np.asarray(values, dtype=np.float64)
     bad = ~np.isfinite(array)
     if np.any(bad):
-        raise ValueError(f"{name} must be finite, got {array[bad].flat[0]!r}")
+        raise KinematicsValueError(f"{name} must be finite, got {array[bad].flat[0]!r}")
     return array
 
 
@@ -87,7 +88,8 @@ class Encoder:
         _check_positive("ticks_per_rev", self.ticks_per_rev)
         if isinstance(self.modulus, bool) or not isinstance(self.modulus, (int, np.integer)) \
                 or not 2 <= self.modulus <= 2**62:
-            raise ValueError(f"modulus must be an integer in 2..2**62, got {self.modulus!r}")
+            raise KinematicsValueError("modulus must be an integer in 2..2**62, got "
+                                       f"{self.modulus!r}")
 
     @property
     def reading_range(self) -> tuple[int, int]:
@@ -144,14 +146,15 @@ def _ticks(name: str, values: npt.ArrayLike, encoder: Encoder) -> IntArray:
         floats = finite_array(name, array)
         fractional = floats != np.round(floats)
         if np.any(fractional):
-            raise ValueError(f"{name} must be whole ticks, got {floats[fractional].flat[0]!r}")
+            raise KinematicsValueError(f"{name} must be whole ticks, got "
+                                       f"{floats[fractional].flat[0]!r}")
         array = floats
     ints = array.astype(np.int64)
     low, high = encoder.reading_range
     outside = (ints < low) | (ints > high)
     if np.any(outside):
-        raise ValueError(f"{name} {ints[outside].flat[0]} is outside the encoder's "
-                         f"range {low}..{high}")
+        raise KinematicsValueError(f"{name} {ints[outside].flat[0]} is outside the encoder's "
+                                   f"range {low}..{high}")
     return ints
 
 
@@ -200,12 +203,12 @@ def integrate_odometry(pose: npt.ArrayLike, d_left_ticks: npt.ArrayLike,
     """
     start = finite_array("pose", pose)
     if start.shape != (3,):
-        raise ValueError(f"pose must be (x, y, theta), got shape {start.shape}")
+        raise KinematicsValueError(f"pose must be (x, y, theta), got shape {start.shape}")
     d_left = np.asarray(ticks_to_angle(d_left_ticks, encoder) * drive.wheel_radius)
     d_right = np.asarray(ticks_to_angle(d_right_ticks, encoder) * drive.wheel_radius)
     if d_left.shape != d_right.shape or d_left.ndim > 1:
-        raise ValueError("left and right increments must be scalars or 1-D of equal length, "
-                         f"got shapes {d_left.shape} and {d_right.shape}")
+        raise KinematicsValueError("left and right increments must be scalars or 1-D of equal "
+                                   f"length, got shapes {d_left.shape} and {d_right.shape}")
     ds = np.atleast_1d((d_left + d_right) / 2.0)
     dtheta = np.atleast_1d((d_right - d_left) / drive.wheel_separation)
     theta_after = start[2] + np.cumsum(dtheta)
@@ -287,7 +290,7 @@ def rotation(angle: float, wheel_speed: float, drive: DiffDrive) -> WheelMove:
     By eq. 5c the body turns at ``omega = 2 r w / L``, so the turn takes ``|angle| L / (2 r w)``.
     """
     if not math.isfinite(angle):
-        raise ValueError(f"angle must be finite, got {angle!r}")
+        raise KinematicsValueError(f"angle must be finite, got {angle!r}")
     w = _check_positive("wheel_speed", wheel_speed)
     if angle == 0:
         return WheelMove(0.0, 0.0, 0.0)

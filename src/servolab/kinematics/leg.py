@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from servolab.kinematics.dh import DHLink, FloatArray, chain_transform
+from servolab.kinematics.errors import KinematicsValueError
 
 JOINT_NAMES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 HIP_YAW, HIP_ROLL, HIP_PITCH, KNEE, ANKLE_PITCH, ANKLE_ROLL = range(6)
@@ -59,7 +60,8 @@ class LegGeometry:
         for name in ("l1", "l2", "l3", "l4"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"leg length {name} must be a positive number of mm, got {value}")
+                raise KinematicsValueError(f"leg length {name} must be a positive number of mm, "
+                                           f"got {value}")
 
     @property
     def length(self) -> float:
@@ -103,7 +105,7 @@ def _leg_frame(
     (positive when the ankle is below the hip) and the hip-to-ankle distance."""
     p = np.atleast_2d(np.asarray(positions, dtype=np.float64))
     if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"foot positions must have shape (N, 3), got {p.shape}")
+        raise KinematicsValueError(f"foot positions must have shape (N, 3), got {p.shape}")
     psi = np.broadcast_to(np.asarray(yaw, dtype=np.float64), p.shape[:1])
     c, s = np.cos(psi), np.sin(psi)
     forward = c * p[:, 0] + s * p[:, 1]
@@ -175,8 +177,8 @@ def leg_inverse(
         index = int(np.argmin(ok))
         target = np.atleast_2d(np.asarray(positions, dtype=np.float64))[index]
         psi = float(np.broadcast_to(np.asarray(yaw, dtype=np.float64), ok.shape)[index])
-        raise ValueError(f"foot position {index} {format_position(target)} mm is out of reach: "
-                         f"{unreachable_reason(target, geometry, psi)}")
+        raise KinematicsValueError(f"foot position {index} {format_position(target)} mm is out of "
+                                   f"reach: {unreachable_reason(target, geometry, psi)}")
     l2, l3 = geometry.l2, geometry.l3
     roll = np.arctan2(lateral, height)
     in_plane_height = np.hypot(lateral, height)
@@ -199,6 +201,6 @@ def leg_motor_angles(joints: npt.ArrayLike, side: Side) -> FloatArray:
     unchanged (the gait keeps it 0).
     """
     if side not in _MOTOR_SIGNS:
-        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+        raise KinematicsValueError(f"side must be 'left' or 'right', got {side!r}")
     q = np.asarray(joints, dtype=np.float64)
     return np.asarray(np.degrees(q[..., list(_MOTOR_JOINTS)]) * _MOTOR_SIGNS[side])

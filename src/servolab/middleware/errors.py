@@ -15,6 +15,11 @@ class MiddlewareError(ServolabError):
     """Base of every error raised by :mod:`servolab.middleware`."""
 
 
+class MiddlewareValueError(MiddlewareError, ValueError):
+    """A value a middleware call cannot use (a timer's period, a rate, a QoS depth); the
+    message names it. Refused before anything is sent."""
+
+
 class MessageError(MiddlewareError, ValueError):
     """An unknown message type, or a value that does not fit a message field."""
 

@@ -31,6 +31,8 @@ from typing import Any, Literal
 
 from servolab.clock import Clock
 
+from .errors import MiddlewareValueError
+
 #: What :meth:`Executor.spin_in_thread` does with a callback that raises.
 OnError = Literal["raise", "log"]
 
@@ -42,7 +44,7 @@ class Timer:
 
     def __init__(self, executor: Executor, period: float, callback: Callable[[], Any]) -> None:
         if not period > 0:
-            raise ValueError(f"timer period must be > 0 s, got {period!r}")
+            raise MiddlewareValueError(f"timer period must be > 0 s, got {period!r}")
         self.period = float(period)
         self.callback = callback
         self.next_due = executor.clock.now() + self.period
@@ -247,7 +249,7 @@ class Executor:
         error from its next ``spin_*`` or ``Rate.sleep`` call, from :meth:`shutdown` or from
         the thread's ``join()``. ``on_error="log"`` logs it and keeps spinning."""
         if on_error not in ("raise", "log"):
-            raise ValueError(f"on_error must be 'raise' or 'log', got {on_error!r}")
+            raise MiddlewareValueError(f"on_error must be 'raise' or 'log', got {on_error!r}")
         self.raise_if_failed()
         if self._thread is None or not self._thread.is_alive():
             self._thread = SpinThread(self, on_error)

@@ -18,6 +18,8 @@ import threading
 import time
 from typing import Any
 
+from .errors import MiddlewareValueError
+
 
 class NodeLogger:
     """See the module docstring."""
@@ -72,7 +74,8 @@ class NodeLogger:
                 return False
             if throttle is not None:
                 if throttle < 0:
-                    raise ValueError(f"throttle_duration_sec must be >= 0, got {throttle}")
+                    raise MiddlewareValueError("throttle_duration_sec must be >= 0, got "
+                                               f"{throttle}")
                 now = time.monotonic()
                 last = self._last.get(site)
                 if last is not None and now - last < throttle:

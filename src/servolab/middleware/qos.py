@@ -18,6 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from enum import IntEnum
 
+from .errors import MiddlewareValueError
+
 
 class ReliabilityPolicy(IntEnum):
     """RELIABLE retransmits what is lost; BEST_EFFORT drops it (sensor streams)."""
@@ -58,7 +60,7 @@ class QoSProfile:
 
     def __post_init__(self) -> None:
         if isinstance(self.depth, bool) or not isinstance(self.depth, int) or self.depth < 0:
-            raise ValueError(f"QoS depth must be an int >= 0, got {self.depth!r}")
+            raise MiddlewareValueError(f"QoS depth must be an int >= 0, got {self.depth!r}")
         # Accept plain ints and SYSTEM_DEFAULT, store rmw_zenoh's choice for the latter.
         object.__setattr__(self, "history", HistoryPolicy(self.history)
                            or HistoryPolicy.KEEP_LAST)
@@ -68,8 +70,8 @@ class QoSProfile:
                            or DurabilityPolicy.VOLATILE)
         if self.history == HistoryPolicy.KEEP_LAST and self.depth == 0:
             # KEEP_LAST of nothing would hold no message at all; say what was meant
-            raise ValueError("QoS KEEP_LAST needs depth >= 1 (use KEEP_ALL to keep every "
-                             "message)")
+            raise MiddlewareValueError("QoS KEEP_LAST needs depth >= 1 (use KEEP_ALL to keep every "
+                                       "message)")
 
     @property
     def reliable(self) -> bool:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from .errors import MiddlewareValueError
+
 if TYPE_CHECKING:
     from .node import Node
 
@@ -19,7 +21,7 @@ class Rate:
 
     def __init__(self, node: Node, hz: float) -> None:
         if not (math.isfinite(hz) and hz > 0):
-            raise ValueError(f"rate must be a finite number > 0 Hz, got {hz!r}")
+            raise MiddlewareValueError(f"rate must be a finite number > 0 Hz, got {hz!r}")
         self.period = 1.0 / hz
         self._executor = node.context.executor
         self._clock = node.context.clock

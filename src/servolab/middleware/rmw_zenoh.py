@@ -234,18 +234,18 @@ def parse_token(token: str) -> Entity:
     chunks = token.split("/")
     try:
         if len(chunks) < 9 or chunks[0] != ADMIN_SPACE:
-            raise ValueError(f"it is not {ADMIN_SPACE}/<domain>/<session>/<node>/<id>/<kind>/"
-                             "<enclave>/<namespace>/<node name>[/<topic>/<type>/<hash>/<qos>]")
+            raise MessageError(f"it is not {ADMIN_SPACE}/<domain>/<session>/<node>/<id>/<kind>/"
+                               "<enclave>/<namespace>/<node name>[/<topic>/<type>/<hash>/<qos>]")
         if not all(_NUMBER.fullmatch(chunks[i]) for i in (1, 3, 4)):
-            raise ValueError("domain, node and entity ids must be numbers")
+            raise MessageError("domain, node and entity ids must be numbers")
         if not (chunks[6].startswith("%") and chunks[7].startswith("%")):
-            raise ValueError("enclave and namespace must be mangled absolute names")
+            raise MessageError("enclave and namespace must be mangled absolute names")
         if chunks[5] not in tuple(EntityKind):
-            raise ValueError(f"entity kind {chunks[5]!r} is not one of NN, MP, MS, SS, SC")
+            raise MessageError(f"entity kind {chunks[5]!r} is not one of NN, MP, MS, SS, SC")
         kind = EntityKind(chunks[5])
         expected = 9 if kind == EntityKind.NODE else 13
         if len(chunks) != expected:
-            raise ValueError(f"a {kind} token has {expected} chunks, not {len(chunks)}")
+            raise MessageError(f"a {kind} token has {expected} chunks, not {len(chunks)}")
         common = (int(chunks[1]), _check("session id", chunks[2]), int(chunks[3]), int(chunks[4]),
                   kind, validate_enclave_name(unmangle(chunks[6])),
                   validate_namespace(unmangle(chunks[7])), validate_node_name(chunks[8]))

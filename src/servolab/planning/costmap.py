@@ -41,6 +41,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage  # type: ignore[import-untyped]
 
+from servolab.planning.errors import PlanningValueError
+
 FREE_SPACE = 0
 INSCRIBED_INFLATED_OBSTACLE = 253
 LETHAL_OBSTACLE = 254
@@ -56,10 +58,10 @@ def occupancy_from_image(gray: ArrayLike, threshold: float) -> NDArray[np.bool_]
     One pixel is one cell; a colour image is refused (convert it to grey first)."""
     image = np.asarray(gray)
     if image.ndim != 2:
-        raise ValueError(f"occupancy_from_image: expected a 2-D grey image, not an array of "
-                         f"shape {image.shape}")
+        raise PlanningValueError("occupancy_from_image: expected a 2-D grey image, not an array of "
+                                 f"shape {image.shape}")
     if not math.isfinite(threshold):
-        raise ValueError(f"occupancy_from_image: threshold must be finite, not {threshold}")
+        raise PlanningValueError(f"occupancy_from_image: threshold must be finite, not {threshold}")
     return np.asarray(image < threshold, dtype=bool)
 
 
@@ -93,19 +95,20 @@ def inflate(occupied: ArrayLike, resolution: float, inflation_radius: float,
     (any positive cost with ``inflate_unknown``). ``resolution`` is metres per cell."""
     occ = np.asarray(occupied, dtype=bool)
     if occ.ndim != 2:
-        raise ValueError(f"inflate: expected a 2-D occupancy grid, not shape {occ.shape}")
+        raise PlanningValueError(f"inflate: expected a 2-D occupancy grid, not shape {occ.shape}")
     if not (math.isfinite(resolution) and resolution > 0):
-        raise ValueError(f"inflate: resolution must be > 0 m, not {resolution}")
+        raise PlanningValueError(f"inflate: resolution must be > 0 m, not {resolution}")
     for name, value in (("inflation_radius", inflation_radius),
                         ("cost_scaling_factor", cost_scaling_factor),
                         ("inscribed_radius", inscribed_radius)):
         if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"inflate: {name} must be finite and >= 0, not {value}")
+            raise PlanningValueError(f"inflate: {name} must be finite and >= 0, not {value}")
     master = np.zeros(occ.shape, dtype=np.uint8)
     if unknown is not None:
         unk = np.asarray(unknown, dtype=bool)
         if unk.shape != occ.shape:
-            raise ValueError(f"inflate: unknown has shape {unk.shape}, the grid {occ.shape}")
+            raise PlanningValueError(f"inflate: unknown has shape {unk.shape}, the grid "
+                                     f"{occ.shape}")
         master[unk] = NO_INFORMATION
     master[occ] = LETHAL_OBSTACLE
     radius_cells = cell_distance(inflation_radius, resolution)
@@ -161,10 +164,10 @@ def inscribed_radius(footprint: ArrayLike) -> float:
 def _polygon(footprint: ArrayLike) -> NDArray[np.float64]:
     points = np.asarray(footprint, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3:
-        raise ValueError("a footprint must be at least three [x, y] points, not an array of "
-                         f"shape {points.shape}")
+        raise PlanningValueError("a footprint must be at least three [x, y] points, not an array "
+                                 f"of shape {points.shape}")
     if not np.isfinite(points).all():
-        raise ValueError("a footprint's points must be finite")
+        raise PlanningValueError("a footprint's points must be finite")
     return points
 
 

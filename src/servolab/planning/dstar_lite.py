@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from servolab.planning.errors import NoPath, PlanningValueError
 from servolab.planning.grid import SQRT2, FloatArray, IntArray, check_cell, check_costs
 
 _INF = math.inf
@@ -45,10 +46,6 @@ _HALF_DIAG = SQRT2 / 2.0
 _KEY_DECIMALS = 9
 
 Key = tuple[float, float, int]
-
-
-class NoPath(ValueError):
-    """No path joins the start to the goal (the start's distance to the goal is infinite)."""
 
 
 class DStarLite:
@@ -107,7 +104,7 @@ class DStarLite:
     def _free_id(self, name: str, cell: Sequence[int] | npt.ArrayLike) -> int:
         u = self._id(name, cell)
         if self._cost[u] == _INF:
-            raise ValueError(f"{name} {self._cell(u)} is an occupied cell")
+            raise PlanningValueError(f"{name} {self._cell(u)} is an occupied cell")
         return u
 
     def _cell(self, u: int) -> tuple[int, int]:
@@ -393,7 +390,7 @@ class DStarLite:
             array = array[None, :]
         if array.ndim != 2 or array.shape[1] != 2 or not (
                 np.issubdtype(array.dtype, np.integer) or array.size == 0):
-            raise ValueError(f"cells must be an (N, 2) integer array, got {cells!r}")
+            raise PlanningValueError(f"cells must be an (N, 2) integer array, got {cells!r}")
         idx = array.astype(np.int64)
         values = np.broadcast_to(np.asarray(new_costs, dtype=np.float64), (len(idx),))
         height, width = self._shape
@@ -401,11 +398,13 @@ class DStarLite:
                     & (idx[:, 1] < width))
         if np.any(outside):
             r, c = idx[outside][0]
-            raise ValueError(f"cell {(int(r), int(c))} is outside the {height} x {width} grid")
+            raise PlanningValueError(f"cell {(int(r), int(c))} is outside the {height} x {width} "
+                                     "grid")
         bad = ~((values >= 1.0) & (np.isfinite(values) | (values == np.inf)))
         if np.any(bad):
-            raise ValueError(f"cell costs must be >= 1 or +inf (occupied), got "
-                             f"{float(values[bad][0])!r} for cell {tuple(idx[bad][0].tolist())}")
+            raise PlanningValueError("cell costs must be >= 1 or +inf (occupied), got "
+                                     f"{float(values[bad][0])!r} for cell "
+                                     f"{tuple(idx[bad][0].tolist())}")
         ids = (idx[:, 0] + 1) * self._width2 + (idx[:, 1] + 1)
         cost = self._cost
         changed = [int(u) for u, v in zip(ids.tolist(), values.tolist(), strict=True)

@@ -83,6 +83,7 @@ from scipy.sparse import coo_matrix  # type: ignore[import-untyped]
 from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
 from servolab.planning.costmap import INSCRIBED_INFLATED_OBSTACLE
+from servolab.planning.errors import PlanningValueError
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -128,22 +129,24 @@ class DwaConfig:
             if f.name in ("vx_samples", "vtheta_samples"):
                 if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
                         or value < 1:
-                    raise ValueError(f"DwaConfig: {f.name} must be an integer >= 1, "
-                                     f"not {value!r}")
+                    raise PlanningValueError(f"DwaConfig: {f.name} must be an integer >= 1, "
+                                             f"not {value!r}")
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
                                                                  np.floating)) \
                     or not math.isfinite(value):
-                raise ValueError(f"DwaConfig: {f.name} must be a finite number, not {value!r}")
+                raise PlanningValueError(f"DwaConfig: {f.name} must be a finite number, not "
+                                         f"{value!r}")
             if f.name not in ("min_vel_x", "max_vel_x", "forward_point_distance") and value < 0:
-                raise ValueError(f"DwaConfig: {f.name} must be >= 0, not {value!r}")
+                raise PlanningValueError(f"DwaConfig: {f.name} must be >= 0, not {value!r}")
         for name in ("sim_time", "sim_granularity", "angular_sim_granularity",
                      "controller_frequency"):
             if getattr(self, name) <= 0:
-                raise ValueError(f"DwaConfig: {name} must be > 0, not {getattr(self, name)!r}")
+                raise PlanningValueError(f"DwaConfig: {name} must be > 0, not "
+                                         f"{getattr(self, name)!r}")
         if self.min_vel_x > self.max_vel_x:
-            raise ValueError(f"DwaConfig: min_vel_x {self.min_vel_x} is above max_vel_x "
-                             f"{self.max_vel_x}")
+            raise PlanningValueError(f"DwaConfig: min_vel_x {self.min_vel_x} is above max_vel_x "
+                                     f"{self.max_vel_x}")
 
     @classmethod
     def from_params(cls, params: object) -> DwaConfig:
@@ -269,24 +272,24 @@ def _finite(name: str, values: npt.ArrayLike, shape: tuple[int, ...] | None = No
     otherwise fall into every comparison as False and pick an arbitrary sample)."""
     array = np.asarray(values, dtype=np.float64)
     if shape is not None and array.shape != shape:
-        raise ValueError(f"{name} must have shape {shape}, not {array.shape}")
+        raise PlanningValueError(f"{name} must have shape {shape}, not {array.shape}")
     if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name} must be finite, got {array.tolist()!r}")
+        raise PlanningValueError(f"{name} must be finite, got {array.tolist()!r}")
     return array
 
 
 def _check_costmap(costmap: npt.ArrayLike) -> npt.NDArray[np.int64]:
     grid = np.asarray(costmap)
     if grid.ndim != 2 or grid.size == 0:
-        raise ValueError(f"costmap must be a non-empty 2-D array, not shape {grid.shape}")
+        raise PlanningValueError(f"costmap must be a non-empty 2-D array, not shape {grid.shape}")
     if not np.issubdtype(grid.dtype, np.integer) or grid.min() < 0 or grid.max() > 255:
-        raise ValueError("costmap must hold integer costs 0..255 (costmap_2d's)")
+        raise PlanningValueError("costmap must hold integer costs 0..255 (costmap_2d's)")
     return grid.astype(np.int64)
 
 
 def _check_frame(resolution: float, origin: Sequence[float]) -> tuple[float, float, float]:
     if not (math.isfinite(resolution) and resolution > 0):
-        raise ValueError(f"resolution must be > 0 m, not {resolution!r}")
+        raise PlanningValueError(f"resolution must be > 0 m, not {resolution!r}")
     ox, oy = (float(c) for c in _finite("origin", origin, (2,)))
     return float(resolution), ox, oy
 
@@ -319,9 +322,9 @@ def velocity_iterator(low: float, high: float, samples: int) -> FloatArray:
     to ``high`` (at least 2 unless ``low == high``), with 0 inserted where the range crosses it
     so that stopping or driving straight is always a candidate."""
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise ValueError(f"samples must be an integer >= 1, not {samples!r}")
+        raise PlanningValueError(f"samples must be an integer >= 1, not {samples!r}")
     if not (math.isfinite(low) and math.isfinite(high)) or low > high:
-        raise ValueError(f"bad velocity range [{low}, {high}]")
+        raise PlanningValueError(f"bad velocity range [{low}, {high}]")
     if low == high:
         return np.array([low])
     values = np.linspace(low, high, max(2, int(samples)))
@@ -356,11 +359,11 @@ def simulate(pose: npt.ArrayLike, v: npt.ArrayLike, omega: npt.ArrayLike, durati
     vs = _finite("v", v).reshape(-1)
     ws = _finite("omega", omega).reshape(-1)
     if vs.shape != ws.shape:
-        raise ValueError(f"v and omega differ in length: {vs.size} and {ws.size}")
+        raise PlanningValueError(f"v and omega differ in length: {vs.size} and {ws.size}")
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be an integer >= 1, not {steps!r}")
+        raise PlanningValueError(f"steps must be an integer >= 1, not {steps!r}")
     if not (math.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration must be > 0 s, not {duration!r}")
+        raise PlanningValueError(f"duration must be > 0 s, not {duration!r}")
     t = np.linspace(0.0, duration, int(steps) + 1)[None, :]          # (1, T + 1)
     half = ws[:, None] * t / 2.0                                      # (N, T + 1)
     dist = vs[:, None] * t * np.sinc(half / np.pi)                    # chord length
@@ -443,7 +446,8 @@ def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.Arr
     res, ox, oy = _check_frame(resolution, origin)
     path = _finite("plan", plan)
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
-        raise ValueError(f"plan must be (M, 2) world points, M >= 1, not shape {path.shape}")
+        raise PlanningValueError("plan must be (M, 2) world points, M >= 1, not shape "
+                                 f"{path.shape}")
     rows, cols = grid.shape
 
     vs, ws, feasible = sample_window(float(vel[0]), float(vel[1]), config)
@@ -548,7 +552,7 @@ def goal_command(pose: npt.ArrayLike, velocity: npt.ArrayLike, goal: npt.ArrayLi
     vel = _finite("velocity", velocity, (2,))
     g = _finite("goal", goal)
     if g.shape not in ((2,), (3,)):
-        raise ValueError(f"goal must be (x, y) or (x, y, yaw), not shape {g.shape}")
+        raise PlanningValueError(f"goal must be (x, y) or (x, y, yaw), not shape {g.shape}")
     if math.hypot(p[0] - g[0], p[1] - g[1]) > config.xy_goal_tolerance:
         return None
     empty = np.empty((0, 3))
@@ -579,7 +583,8 @@ def compute_velocity(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.
     ``xy_goal_tolerance`` of the plan's last point, else the best DWA trajectory."""
     path = _finite("plan", plan)
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
-        raise ValueError(f"plan must be (M, 2) world points, M >= 1, not shape {path.shape}")
+        raise PlanningValueError("plan must be (M, 2) world points, M >= 1, not shape "
+                                 f"{path.shape}")
     goal = path[-1] if goal_yaw is None else np.append(path[-1], goal_yaw)
     near = goal_command(pose, velocity, goal, config)
     if near is not None:

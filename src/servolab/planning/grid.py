@@ -37,6 +37,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy import sparse  # type: ignore[import-untyped]
 
+from servolab.planning.errors import PlanningValueError
+
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
@@ -58,11 +60,11 @@ def check_costs(costs: npt.ArrayLike) -> FloatArray:
     """
     array = np.array(costs, dtype=np.float64)  # a copy: the planner owns its grid
     if array.ndim != 2 or array.shape[0] < 1 or array.shape[1] < 1:
-        raise ValueError(f"costs must be a non-empty 2-D array, got shape {array.shape}")
+        raise PlanningValueError(f"costs must be a non-empty 2-D array, got shape {array.shape}")
     bad = ~((array >= 1.0) & (np.isfinite(array) | (array == np.inf)))
     if np.any(bad):
         r, c = np.argwhere(bad)[0]
-        raise ValueError(
+        raise PlanningValueError(
             f"cell costs must be >= 1 or +inf (occupied), got {float(array[r, c])!r} at cell "
             f"({r}, {c})"
         )
@@ -74,10 +76,10 @@ def check_cell(name: str, cell: Sequence[int] | npt.ArrayLike, shape: tuple[int,
     """``cell`` as a ``(row, col)`` pair of ints inside a grid of ``shape``; ValueError else."""
     array = np.asarray(cell)
     if array.shape != (2,) or not np.issubdtype(array.dtype, np.integer):
-        raise ValueError(f"{name} must be a (row, col) pair of integers, got {cell!r}")
+        raise PlanningValueError(f"{name} must be a (row, col) pair of integers, got {cell!r}")
     r, c = int(array[0]), int(array[1])
     if not (0 <= r < shape[0] and 0 <= c < shape[1]):
-        raise ValueError(
+        raise PlanningValueError(
             f"{name} {(r, c)} is outside the {shape[0]} x {shape[1]} grid"
         )
     return r, c
@@ -93,7 +95,7 @@ def move_cost(costs: FloatArray, a: Sequence[int], b: Sequence[int]) -> float:
     rb, cb = int(b[0]), int(b[1])
     dr, dc = rb - ra, cb - ca
     if max(abs(dr), abs(dc)) != 1:
-        raise ValueError(f"cells {(ra, ca)} and {(rb, cb)} are not 8-neighbours")
+        raise PlanningValueError(f"cells {(ra, ca)} and {(rb, cb)} are not 8-neighbours")
     cost_a, cost_b = float(costs[ra, ca]), float(costs[rb, cb])
     if dr != 0 and dc != 0:
         if costs[ra + dr, ca] == np.inf or costs[ra, ca + dc] == np.inf:
@@ -108,7 +110,8 @@ def path_cost(costs: FloatArray, path: npt.ArrayLike) -> float:
     planner, so that tests can check the planner's own cost against it."""
     cells = np.asarray(path, dtype=np.int64)
     if cells.ndim != 2 or cells.shape[1] != 2 or len(cells) == 0:
-        raise ValueError(f"path must be a non-empty (N, 2) array of cells, got {cells.shape}")
+        raise PlanningValueError("path must be a non-empty (N, 2) array of cells, got "
+                                 f"{cells.shape}")
     total = 0.0
     for a, b in itertools.pairwise(cells):
         total += move_cost(costs, a, b)

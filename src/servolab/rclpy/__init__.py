@@ -30,6 +30,7 @@ from servolab.middleware.default_context import (
 )
 from servolab.middleware.default_context import init as _init
 from servolab.middleware.default_context import shutdown as _shutdown
+from servolab.middleware.errors import MiddlewareValueError
 from servolab.middleware.node import LOGGER_PREFIX, Node
 from servolab.middleware.transport import TransportOptions
 
@@ -56,8 +57,9 @@ def init(*, args: list[str] | None = None, context: Any = None, domain_id: int |
     ``options``, else the environment's (``SERVOLAB_TRANSPORT`` etc., see
     :mod:`servolab.middleware.default_context`)."""
     if context is not None:
-        raise ValueError("servolab.rclpy.init uses the default context; for another one, "
-                         "open a servolab.middleware.Context and pass it to Node(context, name)")
+        raise MiddlewareValueError("servolab.rclpy.init uses the default context; for another one, "
+                                   "open a servolab.middleware.Context and pass it to "
+                                   "Node(context, name)")
     if domain_id is not None:
         options = replace(options or options_from_environment(), domain_id=domain_id)
     _init(options)

@@ -11,8 +11,9 @@
 
 from .ball import BallWorld
 from .emulated import emulated_port, port_to
+from .errors import SimError, SimulationError
 from .floor import DiffDriveFloor, DiffDriveGeometry
-from .simulation import DEFAULT_PHYSICS_STEP, Simulation, SimulationError
+from .simulation import DEFAULT_PHYSICS_STEP, Simulation
 from .world import World
 
 #: Every world servolab ships, by name. Each passes the contract test of
@@ -23,4 +24,4 @@ WORLDS: dict[str, type[World]] = {
 }
 
 __all__ = ["DEFAULT_PHYSICS_STEP", "WORLDS", "BallWorld", "DiffDriveFloor", "DiffDriveGeometry",
-           "Simulation", "SimulationError", "World", "emulated_port", "port_to"]
+           "SimError", "Simulation", "SimulationError", "World", "emulated_port", "port_to"]

@@ -31,9 +31,10 @@ from dataclasses import replace
 from ..dynamixel.emulator import VirtualMotor
 from ..dynamixel.plant import ServoPlant
 from ..kinematics.aot import CAMERA_HANDEDNESS, AotGeometry, AotKinematics, surface_in_camera
+from .errors import SimulationError
 from .floor import RampedWheel
 from .fly_walk import FlyWalker
-from .simulation import Simulation, SimulationError
+from .simulation import Simulation
 from .world import World
 
 #: seed 002 section 3.2: 38.4 px per mm (Listing 1: 38.40983291722681)

@@ -29,8 +29,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from ..dynamixel.emulator import Emulator, VirtualMotor
+from ..dynamixel.errors import ConfigError
 from ..dynamixel.plant import KinematicServo, ServoCommand, ServoPlant
-from .simulation import Simulation, SimulationError
+from .errors import SimulationError
+from .simulation import Simulation
 from .world import World
 
 #: a side's forward sign: one for all its motors, or one per motor
@@ -331,7 +333,7 @@ class DiffDriveFloor(World):
                 raise SimulationError(f"for_base: no {side} motor IDs")
             try:
                 return [emulator.motor(i) for i in ids]
-            except KeyError as e:
+            except ConfigError as e:  # no such motor
                 raise SimulationError(f"for_base: {side} motor: {e.args[0]}") from None
 
         def forward(value: int | Sequence[int]) -> Forward:

@@ -16,6 +16,7 @@ import numpy.typing as npt
 
 from ..vision.fly_render import FlyPose, render_fly
 from .ball import BallWorld
+from .errors import SimulationError
 from .simulation import Simulation
 
 #: frames of sensor noise drawn once and cycled: drawing 640 x 376 normal samples per frame
@@ -31,7 +32,7 @@ class SimulatedFlyCamera:
     def __init__(self, world: BallWorld, *, noise_std: float = 4.0, seed: int = 0,
                  simulation: Simulation | None = None) -> None:
         if not (np.isfinite(noise_std) and noise_std >= 0):
-            raise ValueError(f"noise_std {noise_std!r} must be >= 0 grey levels")
+            raise SimulationError(f"noise_std {noise_std!r} must be >= 0 grey levels")
         self.world = world
         #: held while the fly's pose is read, when the simulation steps on its own thread (real
         #: time): x, y and theta then come from one step, not two

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import SimulationError
+
 
 @dataclass(frozen=True)
 class FlyWalkConfig:
@@ -44,7 +46,7 @@ class FlyWalkConfig:
         for name in ("speed", "speed_spread", "bout", "pause", "turn_std", "turn_time"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"FlyWalkConfig: {name} must be a number > 0, not {value!r}")
+                raise SimulationError(f"FlyWalkConfig: {name} must be a number > 0, not {value!r}")
 
 
 class FlyWalker:
@@ -71,7 +73,7 @@ class FlyWalker:
 
     def step(self, dt: float) -> tuple[float, float]:
         if not (math.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt {dt!r} must be a number of seconds > 0")
+            raise SimulationError(f"dt {dt!r} must be a number of seconds > 0")
         self.left -= dt
         while self.left <= 0:
             carry = self.left

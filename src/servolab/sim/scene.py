@@ -1,6 +1,6 @@
 """The synthetic world ``servolab navigate`` drives in: a floor seen by an overhead camera,
 obstacles (some appearing mid-run) and the robot's start, read from one YAML file
-(``configs/nav_scene.yaml``; metres, radians, seconds).
+(``nav_scene.yaml`` beside this module; metres, radians, seconds).
 
 Why a scene file: the navigation loop is tested against known truth, as the calibration is
 (:mod:`servolab.vision.synthetic`). The camera written here is the truth a calibration must
@@ -34,13 +34,15 @@ from ..configfile import (
 )
 from ..configfile import load as load_config
 from ..errors import ConfigFileError
+from ..vision.errors import VisionValueError
 from ..vision.synthetic import Circle, FloatArray, FloorScene, PinholeCamera, RobotMarker
+from .errors import SimulationError
 
 #: how thick the arena's walls are (m), drawn just outside the floor
 WALL_THICKNESS = 0.1
 
 
-class NavSceneError(ConfigFileError):
+class NavSceneError(ConfigFileError, SimulationError):
     """A navigation scene file that cannot be used."""
 
 
@@ -82,7 +84,7 @@ class SceneCamera:
         down = np.array([0.0, -1.0, 0.0]) - z * (-z[1])  # image down: floor -y, across z
         norm = float(np.linalg.norm(down))
         if norm < 1e-9:
-            raise ValueError("the camera looks along the floor's y axis: no image 'up'")
+            raise SimulationError("the camera looks along the floor's y axis: no image 'up'")
         y = down / norm
         x = np.cross(y, z)
         return np.stack([x, y, z])
@@ -304,7 +306,7 @@ def _check_view(camera: SceneCamera, m: ConfigMapping, width: float, depth: floa
     where = m.require("position")
     try:
         uv = pinhole.project(np.column_stack([xy * 1000.0, np.zeros(len(xy))]), rvec, tvec)
-    except ValueError:
+    except VisionValueError:
         raise where.error("the camera does not see the floor: part of it is behind the "
                           "camera") from None
     outside = ((uv[:, 0] < 0) | (uv[:, 0] > camera.width - 1)

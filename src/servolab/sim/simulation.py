@@ -26,7 +26,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, TypeVar
 
-from ..errors import ServolabError
+from .errors import SimulationError
 
 if TYPE_CHECKING:
     from ..dynamixel.emulator import Emulator
@@ -38,10 +38,6 @@ DEFAULT_PHYSICS_STEP = 0.001
 _BOUNDARY_SLACK = 1e-9
 
 W = TypeVar("W", bound="World")
-
-
-class SimulationError(ServolabError, ValueError):
-    """A simulation used the wrong way: a bad step length, a world added twice."""
 
 
 class Simulation:

@@ -16,6 +16,7 @@ from typing import Any
 from ..middleware.context import Context
 from ..middleware.messages import time_of
 from ..middleware.node import Node
+from .errors import SimulationError
 from .world import World
 
 ODOMETRY = "nav_msgs/msg/Odometry"
@@ -32,7 +33,7 @@ class GroundTruthNode(Node):
         self.world = world
         rate = float(self.declare_parameter("rate", 30.0, description="Hz").value)
         if not (math.isfinite(rate) and rate > 0):
-            raise ValueError(f"ground truth: rate {rate!r} must be a number > 0 Hz")
+            raise SimulationError(f"ground truth: rate {rate!r} must be a number > 0 Hz")
         self.publisher = self.create_publisher(ODOMETRY, "/ground_truth", 10)
         self.create_timer(1.0 / rate, self._publish)
 

@@ -32,7 +32,8 @@ import yaml
 
 from ..configfile import ConfigMapping, ConfigValue
 from ..configfile import load as load_config
-from ..errors import ConfigFileError, ServolabError
+from ..errors import ConfigFileError
+from .errors import VisionValueError
 from .synthetic import board_corners
 
 FloatArray = npt.NDArray[np.float64]
@@ -54,12 +55,13 @@ _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
 
 
-class CalibrationError(ServolabError, ValueError):
+class CalibrationError(VisionValueError):
     """Calibration input that cannot be used: a symmetric board, a board not found, too few
-    usable images, images of different sizes. ``str(error)`` is one line."""
+    usable images, images of different sizes, a camera matrix or floor pose that is not one.
+    ``str(error)`` is one line."""
 
 
-class CalibrationFileError(ConfigFileError):
+class CalibrationFileError(ConfigFileError, CalibrationError):
     """A calibration YAML file that cannot be read: ``path:line: message``."""
 
 
@@ -88,10 +90,10 @@ class CameraCalibration:
         k = np.asarray(self.camera_matrix, dtype=np.float64)
         d = np.asarray(self.distortion_coefficients, dtype=np.float64).ravel()
         if k.shape != (3, 3) or not np.all(np.isfinite(k)):
-            raise ValueError(f"camera_matrix must be 3x3 finite numbers, got shape {k.shape}")
+            raise CalibrationError(f"camera_matrix must be 3x3 finite numbers, got shape {k.shape}")
         if d.size not in (4, 5, 8, 12, 14) or not np.all(np.isfinite(d)):
-            raise ValueError("distortion_coefficients must be 4, 5, 8, 12 or 14 finite numbers "
-                             f"(OpenCV's models), got {d.size}")
+            raise CalibrationError("distortion_coefficients must be 4, 5, 8, 12 or 14 finite "
+                                   f"numbers (OpenCV's models), got {d.size}")
         k.setflags(write=False)
         d.setflags(write=False)
         object.__setattr__(self, "camera_matrix", k)
@@ -128,16 +130,19 @@ class FloorExtrinsics:
     def __post_init__(self) -> None:
         if self.board_at is not None and (len(self.board_at) != 3 or not all(
                 math.isfinite(v) for v in self.board_at)):
-            raise ValueError(f"board_at must be 3 finite numbers (x m, y m, yaw rad), got "
-                             f"{self.board_at!r}")
+            raise CalibrationError(f"board_at must be 3 finite numbers (x m, y m, yaw rad), got "
+                                   f"{self.board_at!r}")
         r = np.asarray(self.rotation, dtype=np.float64)
         t = np.asarray(self.translation, dtype=np.float64).reshape(-1)
         if r.shape != (3, 3) or not np.all(np.isfinite(r)):
-            raise ValueError(f"rotation must be a 3x3 matrix of finite numbers, got {r.shape}")
+            raise CalibrationError("rotation must be a 3x3 matrix of finite numbers, got "
+                                   f"{r.shape}")
         if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
-            raise ValueError("rotation must be a proper rotation matrix (R Rᵀ = I, det R = 1)")
+            raise CalibrationError("rotation must be a proper rotation matrix "
+                                   "(R Rᵀ = I, det R = 1)")
         if t.shape != (3,) or not np.all(np.isfinite(t)):
-            raise ValueError(f"translation must be 3 finite numbers (mm), got shape {t.shape}")
+            raise CalibrationError("translation must be 3 finite numbers (mm), got shape "
+                                   f"{t.shape}")
         r.setflags(write=False)
         t.setflags(write=False)
         object.__setattr__(self, "rotation", r)
@@ -344,7 +349,7 @@ def in_map(extrinsics: FloorExtrinsics,
     """
     x0, y0, yaw = (float(v) for v in board_at)
     if not all(math.isfinite(v) for v in (x0, y0, yaw)):
-        raise ValueError(f"board_at must be finite (x mm, y mm, yaw rad), got {board_at!r}")
+        raise CalibrationError(f"board_at must be finite (x mm, y mm, yaw rad), got {board_at!r}")
     c, s = math.cos(yaw), math.sin(yaw)
     # the board's axes as columns, in map coordinates: x at yaw, y at yaw - 90°, z down
     axes = np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
@@ -361,9 +366,9 @@ def _points2(points: npt.ArrayLike, what: str) -> tuple[FloatArray, bool]:
     single = arr.shape == (2,)
     arr = arr.reshape(1, 2) if single else arr
     if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"{what} must be (2,) or (N, 2), got shape {np.shape(points)}")
+        raise VisionValueError(f"{what} must be (2,) or (N, 2), got shape {np.shape(points)}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{what} must be finite numbers")
+        raise VisionValueError(f"{what} must be finite numbers")
     return arr, single
 
 
@@ -391,8 +396,8 @@ def image_to_floor(calib: CameraCalibration, extrinsics: FloorExtrinsics,
     bad = ~np.isfinite(lam) | (lam <= 0)
     if np.any(bad):
         first = pts[int(np.argmax(bad))]
-        raise ValueError(f"image point ({first[0]:g}, {first[1]:g}) does not look at the floor "
-                         f"({int(bad.sum())} point(s) at or above the horizon)")
+        raise VisionValueError(f"image point ({first[0]:g}, {first[1]:g}) does not look at the "
+                               f"floor ({int(bad.sum())} point(s) at or above the horizon)")
     floor: FloatArray = np.asarray(centre[:2] + lam[:, None] * rays[:, :2], dtype=np.float64)
     return floor[0] if single else floor
 
@@ -406,7 +411,7 @@ def floor_to_image(calib: CameraCalibration, extrinsics: FloorExtrinsics,
     depth = obj @ extrinsics.rotation[2] + extrinsics.translation[2]
     if np.any(depth <= 0):
         first = pts[int(np.argmax(depth <= 0))]
-        raise ValueError(f"floor point ({first[0]:g}, {first[1]:g}) is behind the camera")
+        raise VisionValueError(f"floor point ({first[0]:g}, {first[1]:g}) is behind the camera")
     uv, _ = cv2.projectPoints(obj, extrinsics.rvec, extrinsics.translation,
                               calib.camera_matrix, calib.distortion_coefficients)
     out = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
@@ -530,6 +535,6 @@ def load(path: str | Path) -> tuple[CameraCalibration, FloorExtrinsics | None]:
         board_at = (x, y, yaw)
     try:
         extrinsics = FloorExtrinsics(rotation, translation.ravel(), board_at)
-    except ValueError as exc:
+    except CalibrationError as exc:
         raise ext.error(f"key 'floor_extrinsics': {exc}") from None
     return calib, extrinsics

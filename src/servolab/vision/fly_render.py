@@ -28,6 +28,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from .errors import VisionValueError
+
 Image = npt.NDArray[np.uint8]
 FloatArray = npt.NDArray[np.float64]
 
@@ -79,16 +81,17 @@ class FlyShape:
                      "wing_length_mm", "wing_width_mm"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive length, got {value}")
+                raise VisionValueError(f"{name} must be a positive length, got {value}")
         if not self.head_length_mm < self.length_mm:
-            raise ValueError(f"head_length_mm must be shorter than length_mm, got "
-                             f"{self.head_length_mm}")
+            raise VisionValueError(f"head_length_mm must be shorter than length_mm, got "
+                                   f"{self.head_length_mm}")
         if not (math.isfinite(self.wing_root_mm) and 0 <= self.wing_root_mm <= self.length_mm):
-            raise ValueError(f"wing_root_mm must be within the body, got {self.wing_root_mm}")
+            raise VisionValueError(f"wing_root_mm must be within the body, got {self.wing_root_mm}")
         if not (math.isfinite(self.wing_spread_deg) and 0 <= self.wing_spread_deg < 90):
-            raise ValueError(f"wing_spread_deg must be in [0, 90), got {self.wing_spread_deg}")
+            raise VisionValueError("wing_spread_deg must be in [0, 90), got "
+                                   f"{self.wing_spread_deg}")
         if not (math.isfinite(self.wing_brightness) and 0 < self.wing_brightness <= 1):
-            raise ValueError(f"wing_brightness must be in (0, 1], got {self.wing_brightness}")
+            raise VisionValueError(f"wing_brightness must be in (0, 1], got {self.wing_brightness}")
 
 
 @dataclass(frozen=True)
@@ -152,16 +155,16 @@ def render_fly(pose: FlyPose | None, *, size: tuple[int, int] = DEFAULT_SIZE,
     """
     width, height = size
     if width <= 0 or height <= 0:
-        raise ValueError(f"size must be positive (width, height), got {size}")
+        raise VisionValueError(f"size must be positive (width, height), got {size}")
     if not (math.isfinite(px_per_mm) and px_per_mm > 0):
-        raise ValueError(f"px_per_mm must be positive, got {px_per_mm}")
+        raise VisionValueError(f"px_per_mm must be positive, got {px_per_mm}")
     if not (0 <= background <= 255 and 0 <= brightness <= 255):
-        raise ValueError(f"background and brightness must be grey levels, got "
-                         f"{background}, {brightness}")
+        raise VisionValueError(f"background and brightness must be grey levels, got "
+                               f"{background}, {brightness}")
     if not (math.isfinite(noise_std) and noise_std >= 0):
-        raise ValueError(f"noise_std must be >= 0, got {noise_std}")
+        raise VisionValueError(f"noise_std must be >= 0, got {noise_std}")
     if supersample < 1:
-        raise ValueError(f"supersample must be >= 1, got {supersample}")
+        raise VisionValueError(f"supersample must be >= 1, got {supersample}")
     level = np.full((height, width), float(background))
     truth: FlyTruth | None = None
     if pose is not None:

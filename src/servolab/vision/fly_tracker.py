@@ -28,6 +28,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from .errors import VisionValueError
+
 Image = npt.NDArray[np.uint8]
 
 #: Listing 1's ``target_location``: the centre of its 640 x 376 frame, heading 0 (section 3.2).
@@ -49,14 +51,16 @@ class FlyTrackerConfig:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.threshold) and 0.0 <= self.threshold < 255.0):
-            raise ValueError(f"threshold must be a grey level in [0, 255), got {self.threshold}")
+            raise VisionValueError("threshold must be a grey level in [0, 255), got "
+                                   f"{self.threshold}")
         if not (math.isfinite(self.min_area) and self.min_area >= 0.0):
-            raise ValueError(f"min_area must be a finite area >= 0 px², got {self.min_area}")
+            raise VisionValueError(f"min_area must be a finite area >= 0 px², got {self.min_area}")
         if self.roi is not None:
             if len(self.roi) != 4 or not all(isinstance(v, int) for v in self.roi):
-                raise ValueError(f"roi must be four integers (x, y, width, height), got {self.roi}")
+                raise VisionValueError("roi must be four integers (x, y, width, height), got "
+                                       f"{self.roi}")
             if self.roi[2] <= 0 or self.roi[3] <= 0:
-                raise ValueError(f"roi width and height must be > 0, got {self.roi}")
+                raise VisionValueError(f"roi width and height must be > 0, got {self.roi}")
 
 
 @dataclass(frozen=True)
@@ -77,9 +81,9 @@ class FlySighting:
 
 def _check_image(image: npt.NDArray[np.generic], name: str) -> None:
     if image.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D (mono8) image, got shape {image.shape}")
+        raise VisionValueError(f"{name} must be a 2-D (mono8) image, got shape {image.shape}")
     if image.dtype != np.uint8:
-        raise ValueError(f"{name} must be uint8 (mono8), got {image.dtype}")
+        raise VisionValueError(f"{name} must be uint8 (mono8), got {image.dtype}")
 
 
 def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
@@ -97,17 +101,17 @@ def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
     work = image
     if config.background_subtraction:
         if background is None:
-            raise ValueError("background_subtraction needs a background image, got None")
+            raise VisionValueError("background_subtraction needs a background image, got None")
         background = np.asarray(background)
         if background.shape != image.shape or background.dtype != image.dtype:
-            raise ValueError(f"background must be {image.dtype} of shape {image.shape}, got "
-                             f"{background.dtype} of shape {background.shape}")
+            raise VisionValueError(f"background must be {image.dtype} of shape {image.shape}, got "
+                                   f"{background.dtype} of shape {background.shape}")
         work = np.asarray(cv2.subtract(image, background), dtype=np.uint8)
     x0, y0 = 0, 0
     if config.roi is not None:
         x0, y0, w, h = config.roi
         if x0 < 0 or y0 < 0 or x0 + w > width or y0 + h > height:
-            raise ValueError(f"roi {config.roi} is outside the {width} x {height} image")
+            raise VisionValueError(f"roi {config.roi} is outside the {width} x {height} image")
         work = work[y0:y0 + h, x0:x0 + w]
     _, binary = cv2.threshold(work, config.threshold, 255.0, cv2.THRESH_BINARY)
     contours, _ = cv2.findContours(binary, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)

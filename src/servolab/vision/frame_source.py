@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import ServolabError
+from .errors import VisionValueError
 
 Image = npt.NDArray[np.uint8]
 
@@ -43,7 +43,7 @@ DEFAULT_SIZE = (640, 376)
 _DIGITS = re.compile(r"(\d+)")
 
 
-class FrameSourceError(ServolabError, ValueError):
+class FrameSourceError(VisionValueError):
     """A recording that cannot be tracked: missing, empty, unreadable, or a frame of the wrong
     kind or size. ``str(error)`` is one line starting with the file at fault."""
 
@@ -118,7 +118,7 @@ class FrameSource(ABC):
         if (not isinstance(size, tuple) or len(size) != 2
                 or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0
                            for v in size)):
-            raise ValueError(f"size must be (width, height), two integers > 0, got {size!r}")
+            raise VisionValueError(f"size must be (width, height), two integers > 0, got {size!r}")
         p = Path(path)
         source: FrameSource
         if p.is_dir():

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .calibration import CameraCalibration, FloorExtrinsics, floor_to_image, image_to_floor
+from .errors import VisionValueError
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -41,14 +42,15 @@ class FloorGrid:
         for name in ("width", "depth", "resolution"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"FloorGrid {name} must be a positive number of m, got {value!r}")
+                raise VisionValueError(f"FloorGrid {name} must be a positive number of m, got "
+                                       f"{value!r}")
         if len(self.origin) != 2 or not all(math.isfinite(v) for v in self.origin):
-            raise ValueError(f"FloorGrid origin must be two finite numbers (m), "
-                             f"got {self.origin!r}")
+            raise VisionValueError(f"FloorGrid origin must be two finite numbers (m), "
+                                   f"got {self.origin!r}")
         rows, cols = self.shape
         if rows < 1 or cols < 1:
-            raise ValueError(f"FloorGrid resolution {self.resolution} m is coarser than the "
-                             f"floor ({self.width} x {self.depth} m): no whole cell")
+            raise VisionValueError(f"FloorGrid resolution {self.resolution} m is coarser than the "
+                                   f"floor ({self.width} x {self.depth} m): no whole cell")
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -61,11 +63,11 @@ def _check_image(image: object, calib: CameraCalibration) -> npt.NDArray[np.uint
     if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype != np.uint8:
         shape = getattr(image, "shape", None)
         dtype = getattr(image, "dtype", type(image).__name__)
-        raise ValueError(f"image must be a 2-D uint8 grayscale array, got shape {shape} "
-                         f"of {dtype}")
+        raise VisionValueError(f"image must be a 2-D uint8 grayscale array, got shape {shape} "
+                               f"of {dtype}")
     if image.shape != (height, width):
-        raise ValueError(f"image is {image.shape[1]}x{image.shape[0]} pixels, but the "
-                         f"calibration is for {width}x{height}")
+        raise VisionValueError(f"image is {image.shape[1]}x{image.shape[0]} pixels, but the "
+                               f"calibration is for {width}x{height}")
     return image
 
 
@@ -105,7 +107,7 @@ class FloorSampler:
     def __init__(self, calib: CameraCalibration, extrinsics: FloorExtrinsics, grid: FloorGrid,
                  samples: int = 3) -> None:
         if not (isinstance(samples, int) and samples >= 1):
-            raise ValueError(f"samples must be a positive whole number, got {samples!r}")
+            raise VisionValueError(f"samples must be a positive whole number, got {samples!r}")
         self.calib, self.extrinsics, self.grid, self.samples = calib, extrinsics, grid, samples
         rows, cols = grid.shape
         step = grid.resolution / samples
@@ -132,7 +134,7 @@ class FloorSampler:
         a planner must not drive where nobody looked)."""
         img = _check_image(image, self.calib)
         if not (math.isfinite(threshold) and 0 < threshold <= 255):
-            raise ValueError(f"threshold must be a grey level in (0, 255], got {threshold}")
+            raise VisionValueError(f"threshold must be a grey level in (0, 255], got {threshold}")
         grey = cv2.remap(img, self._map1, self._map2, cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         dark = (np.asarray(grey) < threshold) | self._unseen
@@ -192,7 +194,7 @@ def find_robot(image: npt.NDArray[np.uint8], calib: CameraCalibration,
     """
     img = _check_image(image, calib)
     if not (low <= high):
-        raise ValueError(f"low ({low}) must not exceed high ({high})")
+        raise VisionValueError(f"low ({low}) must not exceed high ({high})")
     band = ((img >= low) & (img <= high)).astype(np.uint8)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
     opened = np.asarray(cv2.morphologyEx(band, cv2.MORPH_OPEN, kernel), dtype=np.uint8)

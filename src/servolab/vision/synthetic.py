@@ -26,6 +26,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from .errors import VisionValueError
+
 FloatArray = npt.NDArray[np.float64]
 Image = npt.NDArray[np.uint8]
 
@@ -53,14 +55,16 @@ class PinholeCamera:
         for name in ("fx", "fy"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"camera {name} must be a positive number of pixels, got {value}")
+                raise VisionValueError(f"camera {name} must be a positive number of pixels, got "
+                                       f"{value}")
         for name in ("width", "height"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value > 0):
-                raise ValueError(f"camera {name} must be a positive number of pixels, got {value}")
+                raise VisionValueError(f"camera {name} must be a positive number of pixels, got "
+                                       f"{value}")
         if len(self.distortion) != 5 or not np.all(np.isfinite(self.distortion)):
-            raise ValueError("camera distortion must be 5 finite numbers (k1, k2, p1, p2, k3), "
-                             f"got {self.distortion}")
+            raise VisionValueError("camera distortion must be 5 finite numbers (k1, k2, p1, p2, "
+                                   f"k3), got {self.distortion}")
 
     @property
     def camera_matrix(self) -> FloatArray:
@@ -89,8 +93,8 @@ class PinholeCamera:
         rotation, _ = cv2.Rodrigues(r)
         depth = pts @ np.asarray(rotation)[2] + t[2]
         if np.any(depth <= 1e-6):
-            raise ValueError(f"{int(np.sum(depth <= 1e-6))} point(s) are behind the camera at "
-                             f"pose rvec={r.tolist()}, tvec={t.tolist()}")
+            raise VisionValueError(f"{int(np.sum(depth <= 1e-6))} point(s) are behind the camera "
+                                   f"at pose rvec={r.tolist()}, tvec={t.tolist()}")
         uv, _ = cv2.projectPoints(pts, r, t, self.camera_matrix, self.distortion_coefficients)
         return np.asarray(uv, dtype=np.float64).reshape(-1, 2)
 
@@ -99,9 +103,10 @@ def _validate_board(board: tuple[int, int], square_mm: float) -> tuple[int, int]
     cols, rows = board
     if not (isinstance(cols, int | np.integer) and isinstance(rows, int | np.integer)
             and cols >= 2 and rows >= 2):
-        raise ValueError(f"board must be (cols, rows) in squares, each at least 2, got {board}")
+        raise VisionValueError("board must be (cols, rows) in squares, each at least 2, got "
+                               f"{board}")
     if not (np.isfinite(square_mm) and square_mm > 0):
-        raise ValueError(f"square size must be a positive number of mm, got {square_mm}")
+        raise VisionValueError(f"square size must be a positive number of mm, got {square_mm}")
     return int(cols), int(rows)
 
 
@@ -137,7 +142,7 @@ class _Canvas:
 
     def __post_init__(self) -> None:
         if self.supersample < 1:
-            raise ValueError(f"supersample must be at least 1, got {self.supersample}")
+            raise VisionValueError(f"supersample must be at least 1, got {self.supersample}")
         s = self.supersample
         self.data = np.full((self.height * s, self.width * s), self.background, dtype=np.uint8)
 
@@ -172,7 +177,7 @@ def render_checkerboard(camera: PinholeCamera, board: tuple[int, int], square_mm
     """
     cols, rows = _validate_board(board, square_mm)
     if subdivisions < 1:
-        raise ValueError(f"subdivisions must be at least 1, got {subdivisions}")
+        raise VisionValueError(f"subdivisions must be at least 1, got {subdivisions}")
     n = subdivisions
     canvas = _Canvas(camera.width, camera.height, background, supersample)
     # The paper, its edges subdivided too.
@@ -248,15 +253,15 @@ def random_board_poses(camera: PinholeCamera, board: tuple[int, int], square_mm:
                                square_mm)
         try:
             uv = camera.project(outline, rvec, tvec)
-        except ValueError:
+        except VisionValueError:  # behind the camera
             continue
         inside = ((uv[:, 0] >= border_px) & (uv[:, 0] <= camera.width - 1 - border_px)
                   & (uv[:, 1] >= border_px) & (uv[:, 1] <= camera.height - 1 - border_px))
         if inside.all():
             poses.append((rvec, tvec))
     if len(poses) < count:
-        raise ValueError(f"found only {len(poses)} of {count} board poses inside the image; "
-                         "make the board smaller or the distances larger")
+        raise VisionValueError(f"found only {len(poses)} of {count} board poses inside the image; "
+                               "make the board smaller or the distances larger")
     return poses
 
 

@@ -33,16 +33,15 @@ def _plan(tmp_path: Path, image: Path, *args: str, out: str = "run") -> dict[str
     return json.loads((folder / "summary.json").read_text())  # type: ignore[no-any-return]
 
 
-def _refused(capsys: pytest.CaptureFixture[str], out: Path, *args: str) -> str:
-    """The one-line message of a refused ``servolab plan``; no run folder is left."""
-    with pytest.raises(SystemExit) as exit_:
-        main(["plan", *args, "--out", str(out)])
+def _refused(capsys: pytest.CaptureFixture[str], out: Path, *args: str,
+             status: int = 2) -> str:
+    """The one-line message of a refused ``servolab plan`` (bad input: exit status 2; no
+    path: 1); no run folder is left."""
+    assert main(["plan", *args, "--out", str(out)]) == status
     assert not out.exists(), "a refused plan left a run folder"
-    code = exit_.value.code
-    message = code if isinstance(code, str) else capsys.readouterr().err.strip()
-    assert code != 0
-    assert "\n" not in str(message).strip(), message
-    return str(message)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err.strip()
 
 
 def test_without_inflation_the_cost_is_the_length_in_cells(tmp_path: Path) -> None:
@@ -133,30 +132,33 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path,
     message = _refused(capsys, refused, "--map", str(garbage), *ends)
     assert "garbage.png" in message and "cannot be read" in message
     message = refuse("--start", "100", "15", "--goal", "90", "15")
-    assert message.startswith("servolab plan: start (100, 15) is outside the map")
+    assert message.startswith("servolab plan: error: start (100, 15) is outside the map")
     message = refuse("--start", "10", "15", "--goal", "5", "-1")
-    assert message.startswith("servolab plan: goal (5, -1) is outside the map")
+    assert message.startswith("servolab plan: error: goal (5, -1) is outside the map")
     message = refuse("--start", "10", "15", "--goal", "49", "20")
-    assert message.startswith("servolab plan: goal (49, 20) is inside an obstacle")
+    assert message.startswith("servolab plan: error: goal (49, 20) is inside an obstacle")
     message = refuse("--start", "0", "0", "--goal", "90", "15",
                        "--no-inflation")
-    assert message.startswith("servolab plan: start (0, 0) is inside an obstacle")
+    assert message.startswith("servolab plan: error: start (0, 0) is inside an obstacle")
     message = refuse("--start", "10", "15", "--goal", "46", "20")
-    assert message.startswith("servolab plan: goal (46, 20) is within the robot's inscribed")
+    assert message.startswith("servolab plan: error: goal (46, 20) is within the robot's "
+                              "inscribed")
     bad_params = tmp_path / "bad.yaml"
     bad_params.write_text("robot_radius: big\n")
     message = refuse(*ends, "--params", str(bad_params))
     assert "bad.yaml:1" in message and "robot_radius" in message
-    # no path: a closed wall
+    # no path, a closed wall: not bad input but a plan that failed, exit status 1
     closed = image.copy()
     closed[:, 48:52] = 0
     message = _refused(capsys, refused, "--map", str(_image(tmp_path, closed, "closed.png")), *ends,
-                       "--no-inflation")
-    assert message.startswith("servolab plan: no path from start (10, 15) to goal (90, 15)")
+                       "--no-inflation", status=1)
+    assert message.startswith("servolab plan: NoPath: no path from start (10, 15) to goal "
+                              "(90, 15)")
     # with inflation, the 8-cell opening is closed too when the gap below is
     narrow = image.copy()
     narrow[30:59, 48:52] = 0
-    message = _refused(capsys, refused, "--map", str(_image(tmp_path, narrow, "narrow.png")), *ends)
+    message = _refused(capsys, refused, "--map", str(_image(tmp_path, narrow, "narrow.png")), *ends,
+                       status=1)
     assert "no path" in message and "--no-inflation" in message
     # argparse: a coordinate that is not an integer, exit 2
     with pytest.raises(SystemExit) as exit_:
@@ -175,9 +177,9 @@ def test_the_command_line_exit_codes(tmp_path: Path) -> None:
     bad = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", mapfile,
                           "--start", "10", "15", "--goal", "49", "20"],
                          capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 1
+    assert bad.returncode == 2  # bad input
     assert bad.stderr.strip().splitlines() == [
-        "servolab plan: goal (49, 20) is inside an obstacle (a pixel darker than 128 in "
+        "servolab plan: error: goal (49, 20) is inside an obstacle (a pixel darker than 128 in "
         f"'{mapfile}')"]
 
 
@@ -193,5 +195,26 @@ def test_options_that_cannot_apply_are_refused(tmp_path: Path, extra: list[str],
                              "--start", "1", "1", "--goal", "18", "18", *extra, "--out",
                              str(tmp_path / "run")], capture_output=True, text=True,
                             timeout=120)
-    assert result.returncode != 0
+    assert result.returncode == 2
     assert says in result.stderr and result.stderr.strip().count("\n") == 0
+
+
+def test_a_plan_stopped_while_it_writes_leaves_its_summary(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C while the plot is drawn: exit status 130, and summary.json says what the run
+    had (the path) and what ended it."""
+    from servolab.robots.navigation import plan as plan_module
+
+    def stopped(*args: object, **kwargs: object) -> Path:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plan_module, "plot_plan", stopped)
+    image = _image(tmp_path, np.full((20, 20), 255, np.uint8))
+    out = tmp_path / "run"
+    assert main(["plan", "--map", str(image), "--start", "1", "1", "--goal", "18", "18",
+                 "--no-inflation", "--out", str(out)]) == 130
+    assert capsys.readouterr().err == "servolab plan: stopped by SIGINT\n"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"] == "SIGINT"
+    assert summary["cost"] == pytest.approx(17 * SQRT2) and "plot" not in summary

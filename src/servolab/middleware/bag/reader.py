@@ -231,8 +231,8 @@ class BagReader:
                 elif schema.encoding == "ros2idl":
                     parsed = get_types_from_idl(text)
                 else:
-                    raise ValueError(f"its schema is {schema.encoding or 'missing'}, "
-                                     f"not ros2msg")
+                    raise BagError(f"its schema is {schema.encoding or 'missing'}, "
+                                   f"not ros2msg")
                 store.register({k: v for k, v in parsed.items() if k not in store.fielddefs})
             except Exception as exc:  # rosbags raises its own parser errors
                 reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

@@ -13,8 +13,9 @@
 :class:`BipedNode` is the seed's control node (``node_motor``, 001 chapter 4): it sends joint
 angles to the joint controllers' ``/controller_mXX/command`` topics and listens to their
 ``/state``; it knows nothing of the bus, so it runs the same beside the manager or in another
-process. :class:`Armstrong` puts the bus, the :class:`~.dynamixel_manager.DynamixelManager`
-and a :class:`BipedNode` together in one context. Leaving it (or Ctrl-C) stops sending and
+process. :class:`Armstrong` puts the bus, the
+:class:`~servolab.robots.controllers.manager.DynamixelManager` and a :class:`BipedNode` together
+in one context. Leaving it (or Ctrl-C) stops sending and
 leaves the motors holding the last pose they were sent: a biped that loses torque falls.
 """
 
@@ -29,6 +30,7 @@ from ...gait.motionfile import MotionFile
 from ...middleware.context import Context
 from ...middleware.node import Node
 from ..controllers.manager import DynamixelManager
+from ..errors import RobotError, RobotValueError
 from . import hardware as armstrong
 from .poses import MOTORS, POSES, Pose, interpolate, joint_pose, radians
 
@@ -83,10 +85,10 @@ class BipedNode(Node):
         now = self.now()
         for motor, degrees in pose.items():
             if motor not in self._publishers:
-                raise ValueError(f"no motor {motor!r} on this robot (it has "
-                                 f"{', '.join(self.motors)})")
+                raise RobotValueError(f"no motor {motor!r} on this robot (it has "
+                                      f"{', '.join(self.motors)})")
             if not math.isfinite(degrees):
-                raise ValueError(f"motor {motor}: {degrees!r} is not a finite angle")
+                raise RobotValueError(f"motor {motor}: {degrees!r} is not a finite angle")
             self._publishers[motor].publish(self.message(FLOAT64, data=radians(degrees)))
             self.commanded[motor] = float(degrees)
             if self.history:
@@ -102,7 +104,7 @@ class BipedNode(Node):
         """Go from where the joints are to ``pose`` over ``duration`` seconds, sending
         interpolated poses at :data:`MOVE_RATE`; False if stopped on the way."""
         if not duration > 0:
-            raise ValueError(f"a move's duration must be > 0 s, not {duration!r}")
+            raise RobotValueError(f"a move's duration must be > 0 s, not {duration!r}")
         samples = max(2, round(duration * MOVE_RATE) + 1)
         rows = interpolate(self.where(), pose, samples)
         motors = list(pose)
@@ -120,12 +122,13 @@ class BipedNode(Node):
         """Play ``motion``'s rows ``steps`` times at ``rate`` rows a second (the seed's control
         node); returns the rows sent (fewer if stopped)."""
         if steps < 1:
-            raise ValueError(f"steps must be >= 1, not {steps}")
+            raise RobotValueError(f"steps must be >= 1, not {steps}")
         if not (math.isfinite(rate) and rate > 0):
-            raise ValueError(f"rate must be a number > 0 rows a second, not {rate!r}")
+            raise RobotValueError(f"rate must be a number > 0 rows a second, not {rate!r}")
         unknown = [n for n in motion.names if n not in self._publishers]
         if unknown:
-            raise ValueError(f"the motion moves {', '.join(unknown)}, which this robot has not")
+            raise RobotValueError(f"the motion moves {', '.join(unknown)}, which this robot has "
+                                  "not")
         total = steps * motion.poses
         ticker = self.create_rate(rate)
         sent = 0
@@ -168,8 +171,8 @@ class Armstrong:
             if not self.context.spin_until(self._heard_every_joint, timeout=5.0):
                 missing = [m for m in self.node.motors if m not in self.node.present
                            and controller_of(m) in self.manager.controllers]
-                raise RuntimeError(f"no state from the joints of {', '.join(missing)} within "
-                                   "5 s: is the bus working? nothing was moved")
+                raise RobotError(f"no state from the joints of {', '.join(missing)} within "
+                                 "5 s: is the bus working? nothing was moved")
         except BaseException:
             self.close()
             raise
@@ -188,7 +191,7 @@ class Armstrong:
 
     def pose(self, name: str, duration: float = 2.0) -> bool:
         if name not in POSES:
-            raise ValueError(f"no pose {name!r}; there are {', '.join(POSES)}")
+            raise RobotValueError(f"no pose {name!r}; there are {', '.join(POSES)}")
         return self.node.move_to(POSES[name], duration, should_stop=lambda: not self.ok())
 
     def move_joint(self, joint: str, duration: float = 1.0, **axes: float) -> bool:

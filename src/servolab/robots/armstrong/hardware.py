@@ -31,12 +31,13 @@ ABSENT = (62,)
 
 
 def load_config(path: str | Path | None = None) -> RobotConfig:
-    """The robot's configuration (``configs/armstrong.yaml`` unless another is named)."""
+    """The robot's configuration (the shipped ``armstrong.yaml`` unless another is named)."""
     config = load(path or CONFIG)
     if not config.manager.serial_ports:
         raise ControllerConfigError(config.path, 0, "dynamixel_manager",
                                     "no dynamixel_manager serial port configured; add one "
-                                    "as configs/armstrong.yaml has it")
+                                    "as the shipped armstrong.yaml has it ('servolab "
+                                    "robots show armstrong')")
     position = model(MODEL).register("goal_position")
     top = position.maximum if position.maximum is not None else 1023
     for c in config.controllers:

@@ -3,7 +3,7 @@ launch files split them (``controller_manager.launch`` + ``controller_spawner.la
 robot, the control node beside them or on another machine).
 
 - :class:`ArmstrongRobot` opens the robot's bus (the emulated robot running in real time, or
-  the serial port of parameter ``port``) and runs the :class:`~.dynamixel_manager.
+  the serial port of parameter ``port``) and runs the :class:`~servolab.robots.controllers.manager.
   DynamixelManager` with the controllers of parameter ``controllers`` (all configured ones by
   default, as the spawner's list in 001 Listing 3.4).
 - :class:`Walker` is the control node: when every joint's state has come, it moves to the
@@ -22,6 +22,7 @@ from typing import Any
 from ...middleware.context import Context
 from ...middleware.node import Node
 from ..controllers.manager import DynamixelManager
+from ..errors import RobotError, RobotValueError
 from . import hardware as armstrong
 from .control_node import MOVE_RATE, PLAY_RATE, BipedNode
 from .poses import MOTORS, STAND_POSE, interpolate
@@ -29,7 +30,7 @@ from .poses import MOTORS, STAND_POSE, interpolate
 
 class ArmstrongRobot(Node):
     """The robot side: see the module docstring. Parameters: ``config`` (controller YAML,
-    default configs/armstrong.yaml), ``port`` (a serial device; "" for the emulated robot),
+    default the shipped armstrong.yaml), ``port`` (a serial device; "" for the emulated robot),
     ``controllers`` (names to start; empty for all)."""
 
     def __init__(self, context: Context, name: str = "armstrong", namespace: str = "/", *,
@@ -40,7 +41,7 @@ class ArmstrongRobot(Node):
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
         config_path = self.declare_parameter("config", "", description="controller YAML "
-                                             "(empty: configs/armstrong.yaml)").value
+                                             "(empty: the shipped armstrong.yaml)").value
         port = self.declare_parameter("port", "", description="serial device; empty: the "
                                       "emulated robot").value
         wanted = self.declare_parameter("controllers", [""], description="controllers to "
@@ -49,7 +50,7 @@ class ArmstrongRobot(Node):
         chosen = [c for c in config.controllers if not any(wanted) or c.name in wanted]
         unknown = sorted(set(w for w in wanted if w) - {c.name for c in config.controllers})
         if unknown:
-            raise ValueError(f"controllers {', '.join(unknown)} are not in {config.path}")
+            raise RobotValueError(f"controllers {', '.join(unknown)} are not in {config.path}")
         self.simulation = None if port else Simulation()
         self.bus, used = armstrong.open_bus(config, port_name=port or None,
                                             simulation=self.simulation)
@@ -90,8 +91,8 @@ class Walker(BipedNode):
         self.stand_duration = float(self._param("stand_duration", 2.0))
         self.wait_for_states = float(self._param("wait_for_states", 10.0))
         if steps < 1 or not rate > 0 or not self.stand_duration > 0:
-            raise ValueError(f"walker: steps {steps} must be >= 1, rate {rate:g} and "
-                             f"stand_duration {self.stand_duration:g} > 0")
+            raise RobotValueError(f"walker: steps {steps} must be >= 1, rate {rate:g} and "
+                                  f"stand_duration {self.stand_duration:g} > 0")
         # checked whole, against the robot's joint limits, before anything moves
         self.motion = load_motion(path or None, config or None)
         self.steps, self.rate = steps, rate
@@ -114,9 +115,9 @@ class Walker(BipedNode):
         self._timer.cancel()
         if not heard:
             missing = sorted(legs - self.present.keys())
-            raise RuntimeError(f"walker: no joint state from {', '.join(missing)} within "
-                               f"{self.wait_for_states:g} s: is the robot side running? "
-                               "nothing was moved")
+            raise RobotError(f"walker: no joint state from {', '.join(missing)} within "
+                             f"{self.wait_for_states:g} s: is the robot side running? "
+                             "nothing was moved")
         samples = max(2, round(self.stand_duration * MOVE_RATE) + 1)
         rows = interpolate(self.where(), STAND_POSE, samples)[1:]
         self._queue = [dict(zip(STAND_POSE, r.tolist(), strict=True)) for r in rows]

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ...gait.walking import MOTOR_COLUMNS
+from ..errors import RobotValueError
 
 #: Table 4.1: joint function -> {axis: motor column}.
 JOINTS: dict[str, dict[str, str]] = {
@@ -60,14 +61,14 @@ def joint_pose(joint: str, **axes: float) -> dict[str, float]:
     ``joint_pose("left_hip", x=-27.666, y=0.619)`` -> ``{"m12": -27.666, "m13": 0.619}``."""
     if joint not in JOINTS:
         close = [j for j in JOINTS if joint.replace("-", "_") in j]
-        raise ValueError(f"no joint {joint!r} (Table 4.1 has {', '.join(JOINTS)})"
-                         + (f"; did you mean {close[0]!r}?" if close else ""))
+        raise RobotValueError(f"no joint {joint!r} (Table 4.1 has {', '.join(JOINTS)})"
+                              + (f"; did you mean {close[0]!r}?" if close else ""))
     motors = JOINTS[joint]
     for axis, value in axes.items():
         if axis not in motors:
-            raise ValueError(f"joint {joint!r} moves along {', '.join(motors)}, not {axis!r}")
+            raise RobotValueError(f"joint {joint!r} moves along {', '.join(motors)}, not {axis!r}")
         if not math.isfinite(value):
-            raise ValueError(f"joint {joint!r} {axis}: {value!r} is not a finite angle")
+            raise RobotValueError(f"joint {joint!r} {axis}: {value!r} is not a finite angle")
     return {motors[axis]: float(value) for axis, value in axes.items()}
 
 
@@ -87,7 +88,7 @@ def interpolate(start: Pose, end: Pose, samples: int) -> npt.NDArray[np.float64]
     ``end``, linearly in joint angle, shape ``(samples, len(end))``: a move is never a jump.
     A motor of ``end`` missing from ``start`` starts where it ends."""
     if samples < 2:
-        raise ValueError(f"an interpolated move needs at least 2 samples, not {samples}")
+        raise RobotValueError(f"an interpolated move needs at least 2 samples, not {samples}")
     motors = list(end)
     a = np.array([start.get(m, end[m]) for m in motors], dtype=np.float64)
     b = np.array([end[m] for m in motors], dtype=np.float64)

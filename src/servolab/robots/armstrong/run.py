@@ -20,6 +20,7 @@ import numpy as np
 
 from ...gait.motionfile import MotionFile, read_motion_file
 from ...gait.walking import GaitParameters, generate_walk
+from ..errors import RobotValueError
 from . import hardware as armstrong
 from .control_node import PLAY_RATE, Armstrong, controller_of
 from .poses import MOTORS
@@ -43,9 +44,9 @@ def load_motion(path: str | Path | None, config: str | Path | None = None,
         outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
         if outside.size:
             row = int(outside[0])
-            raise ValueError(f"the generated gait's row {row} sends {name} to "
-                             f"{motion.angles[row, k]:.3f} degrees, outside the joint's "
-                             f"limits [{low:.3f}, {high:.3f}]")
+            raise RobotValueError(f"the generated gait's row {row} sends {name} to "
+                                  f"{motion.angles[row, k]:.3f} degrees, outside the "
+                                  f"joint's limits [{low:.3f}, {high:.3f}]")
     return motion
 
 

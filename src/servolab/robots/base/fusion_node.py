@@ -37,6 +37,7 @@ from ...estimation.kalman import (
 )
 from ...middleware.context import Context
 from ...middleware.node import Node
+from ..errors import RobotValueError
 
 ODOMETRY = "nav_msgs/msg/Odometry"
 POSE = "geometry_msgs/msg/PoseStamped"
@@ -59,7 +60,7 @@ class FusionNode(Node):
             "heading_gain", 0.05, description="with align_odometry: the part of the tracker's "
             "heading error corrected at each later sighting (0: align once)").value)
         if not (math.isfinite(self.heading_gain) and 0.0 <= self.heading_gain <= 1.0):
-            raise ValueError(f"fusion: heading_gain {self.heading_gain!r} must be in [0, 1]")
+            raise RobotValueError(f"fusion: heading_gain {self.heading_gain!r} must be in [0, 1]")
         self.config = config
         self.filter: KalmanFilter | None = None
         self.odometry: tuple[float, float] | None = None

@@ -32,6 +32,7 @@ from ...kinematics.diffdrive import (
     limit_wheel_speeds,
     tick_delta,
 )
+from ..errors import RobotError, RobotValueError
 from .config import BaseConfig
 
 if TYPE_CHECKING:
@@ -58,8 +59,8 @@ def encoder_of(model: Model) -> Encoder:
         return Encoder(ticks_per_rev=ticks, modulus=65536)
     if model.wheel_position == "turn":
         return Encoder(ticks_per_rev=ticks, modulus=round(ticks))
-    raise ValueError(f"the {model.name} reads a potentiometer in wheel mode, not an encoder: "
-                     "it cannot count a wheel's turns for odometry")
+    raise RobotValueError(f"the {model.name} reads a potentiometer in wheel mode, not an encoder: "
+                          "it cannot count a wheel's turns for odometry")
 
 
 @dataclass
@@ -245,14 +246,14 @@ class MobileBase:
         top = self.max_wheel_speed
         for side, speed in (("left", left), ("right", right)):
             if abs(speed) > top * (1 + 1e-9):
-                raise ValueError(f"{what} needs the {side} wheel at {abs(speed):.3f} rad/s, "
-                                 f"over the {self.config.model.name}'s {top:.3f} rad/s: ask "
-                                 "for a lower speed")
+                raise RobotValueError(f"{what} needs the {side} wheel at {abs(speed):.3f} rad/s, "
+                                      f"over the {self.config.model.name}'s {top:.3f} rad/s: ask "
+                                      "for a lower speed")
         linear = 0.5 * (abs(left) + abs(right)) * self.drive.wheel_radius
         limit = self.config.max_linear_velocity
         if limit is not None and linear > limit * (1 + 1e-9):
-            raise ValueError(f"{what} drives at {linear:.3f} m/s, over the base's "
-                             f"max_linear_velocity {limit:g} m/s")
+            raise RobotValueError(f"{what} drives at {linear:.3f} m/s, over the base's "
+                                  f"max_linear_velocity {limit:g} m/s")
 
     def _loop(self, done: Callable[[Pose], bool], timeout: float) -> None:
         end = self.clock.now() + timeout
@@ -267,7 +268,7 @@ class MobileBase:
         """Drive ``distance`` m (negative: backwards) at ``speed`` m/s, stopping when the
         odometry has covered it; returns the distance odometry measured."""
         if not math.isfinite(distance):
-            raise ValueError(f"distance must be a finite number of metres, not {distance!r}")
+            raise RobotValueError(f"distance must be a finite number of metres, not {distance!r}")
         _check("speed", speed)
         sign = 1.0 if distance >= 0 else -1.0
         wheel = sign * speed / self.drive.wheel_radius
@@ -315,7 +316,7 @@ class MobileBase:
         """Turn in place by ``angle`` rad (positive: counter-clockwise) with the wheels at
         ``wheel_speed`` rad/s."""
         if not math.isfinite(angle):
-            raise ValueError(f"angle must be a finite number of radians, not {angle!r}")
+            raise RobotValueError(f"angle must be a finite number of radians, not {angle!r}")
         _check("wheel_speed", wheel_speed)
         if angle == 0:
             return  # nothing to turn: the wheels are not started
@@ -331,13 +332,13 @@ class MobileBase:
     def truth(self) -> dict[str, float]:
         """The floor's ground truth (emulated bases only)."""
         if self.floor is None:
-            raise RuntimeError("a real base has no ground truth")
+            raise RobotError("a real base has no ground truth")
         return self.floor.ground_truth()
 
 
 def _check(name: str, value: float) -> None:
     if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a number > 0, not {value!r}")
+        raise RobotValueError(f"{name} must be a number > 0, not {value!r}")
 
 
 def open_base(config: BaseConfig, port: str | None, *, setup: bool = True,

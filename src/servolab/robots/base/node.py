@@ -23,6 +23,7 @@ from ...kinematics.diffdrive import wheel_speeds
 from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
+from ..errors import RobotValueError
 from .mobile_base import MobileBase
 
 TWIST = "geometry_msgs/msg/Twist"
@@ -50,8 +51,8 @@ class BaseNode(Node):
             "watchdog", 0.5, description="s without /cmd_vel before the wheels stop").value)
         if not (math.isfinite(rate) and rate > 0 and math.isfinite(self.watchdog)
                 and self.watchdog > 0):
-            raise ValueError(f"base node: rate {rate:g} Hz and watchdog {self.watchdog:g} s "
-                             "must be numbers > 0")
+            raise RobotValueError(f"base node: rate {rate:g} Hz and watchdog {self.watchdog:g} s "
+                                  "must be numbers > 0")
         self.command = (0.0, 0.0)   # (v, omega) asked, within the limits
         self.last_command: float | None = None
         self.stopped_by_watchdog = 0

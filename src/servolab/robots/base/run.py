@@ -139,8 +139,8 @@ def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:
     """A tqdm bar over the move's expected seconds, fed by the base's odometry updates."""
     from tqdm import tqdm
 
-    bar = tqdm(total=round(expected, 2), unit="s", disable=not show, leave=False,
-               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
+    bar = tqdm(total=round(expected, 2), unit="s", disable=not show, leave=False, delay=0.5,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")  # a refused move draws none
     start = robot.clock.now()
     said = 0
 

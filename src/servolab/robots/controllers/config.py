@@ -50,6 +50,7 @@ from pathlib import Path
 from ...configfile import ConfigMapping, ConfigValue
 from ...configfile import load as load_config
 from ...errors import ConfigFileError
+from ..errors import RobotValueError
 
 #: What ``dynamixel_controllers`` offers and servolab implements.
 JOINT_POSITION_CONTROLLER = ("dynamixel_controllers", "joint_position_controller",
@@ -139,7 +140,7 @@ class RobotConfig:
         for c in self.controllers:
             if c.name == name:
                 return c
-        raise KeyError(f"no controller {name!r} in {self.path or 'the configuration'}")
+        raise RobotValueError(f"no controller {name!r} in {self.path or 'the configuration'}")
 
 
 

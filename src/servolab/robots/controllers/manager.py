@@ -4,7 +4,7 @@ What it does, as seed 001 shows it (section 3.2.2, Figures 3.1 to 3.4):
 
 - pings the configured ID range and says what it found: ``pan_tilt_port: Found 20 motors -
   20 RX-28 [11, 12, ...], initialization complete.``;
-- starts a :class:`~.joint_controller.JointPositionController` per configured controller
+- starts a :class:`~.joint_position_controller.JointPositionController` per configured controller
   whose motor answered, and says which could not start (``controller_m62``, whose motor is not
   on Armstrong's bus) while the others run;
 - publishes every motor's state on ``/motor_states/<port>`` (``dynamixel_msgs/MotorStateList``)

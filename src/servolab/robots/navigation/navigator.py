@@ -42,8 +42,10 @@ from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
 from ...planning.costmap import inflate, traversal_costs
-from ...planning.dstar_lite import DStarLite, NoPath
+from ...planning.dstar_lite import DStarLite
 from ...planning.dwa import DwaConfig, DwaStatus, OscillationFlags, compute_velocity
+from ...planning.errors import NoPath
+from ..errors import RobotValueError
 from .params import CostmapParams
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
 
@@ -102,15 +104,15 @@ class NavigatorNode(Node):
         gx, gy = (float(v) for v in goal)
         if not (math.isfinite(gx) and math.isfinite(gy)) or (
                 goal_yaw is not None and not math.isfinite(goal_yaw)):
-            raise ValueError(f"goal ({gx!r}, {gy!r}, yaw {goal_yaw!r}) must be finite numbers")
+            raise RobotValueError(f"goal ({gx!r}, {gy!r}, yaw {goal_yaw!r}) must be finite numbers")
         self.goal = (gx, gy)
         self.goal_yaw = goal_yaw
         self.params, self.dwa, self.patience = costmap, dwa, patience
         if not (math.isfinite(planner_frequency) and planner_frequency >= 0):
-            raise ValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
+            raise RobotValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
         self.planner_frequency = planner_frequency
         if not (math.isfinite(pose_timeout) and pose_timeout > 0):
-            raise ValueError(f"pose_timeout {pose_timeout!r} must be > 0 s")
+            raise RobotValueError(f"pose_timeout {pose_timeout!r} must be > 0 s")
         self.pose_timeout = pose_timeout
         self._pose_at = -math.inf
         self._stale_since: float | None = None
@@ -155,7 +157,7 @@ class NavigatorNode(Node):
     def _on_map(self, msg: Any) -> None:
         try:
             occupied, resolution, origin = occupancy_of(msg)
-        except ValueError as error:
+        except RobotValueError as error:
             self.get_logger().error(str(error))
             return
         p = self.params

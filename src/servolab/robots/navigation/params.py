@@ -1,16 +1,16 @@
 """The ROS navigation parameter files of seed 000, read as a user already has them.
 
 - :func:`load_costmap` reads a costmap_2d parameter file such as seed 000's Appendix D.2
-  (turtlebot's ``costmap_common_params.yaml``, ``configs/costmap_params.yaml``): the robot's
+  (turtlebot's ``costmap_common_params.yaml``, ``costmap_params.yaml`` shipped here): the robot's
   ``robot_radius`` or ``footprint`` (and ``footprint_padding``), the grid's ``resolution``, and
   the inflation layer's ``inflation_radius``, ``cost_scaling_factor``, ``inflate_unknown`` and
   ``enabled`` under ``inflation_layer:`` (or at the top level, where costmap_2d read them before
   Hydro; the layer's namespace wins when both are written).
 - :func:`load_move_base` reads move_base's own parameters (turtlebot's
-  ``move_base_params.yaml``, ``configs/move_base_params.yaml``): the controller and planner
+  ``move_base_params.yaml``, ``move_base_params.yaml`` shipped here): the controller and planner
   frequencies and patiences and the oscillation check.
 - :func:`load_dwa` reads dwa_local_planner's parameters such as Appendix D.3
-  (``configs/dwa_params.yaml``), at the top level as the seed prints them or under
+  (``dwa_params.yaml`` shipped here), at the top level as the seed prints them or under
   ``DWAPlannerROS:`` as ROS's files write them. Fields keep the names the file writes
   (``max_trans_vel``, ``max_rot_vel``, ``vtheta_samples``); the newer names dwa_local_planner
   also reads (``max_vel_trans``, ``max_vel_theta``, ``vth_samples``, ...) are read as the same

@@ -14,7 +14,7 @@ costs, no diagonal cutting an occupied corner) a path's cost is its length in ce
 layer does it (:func:`~servolab.planning.costmap.inflate`) with the parameter file's
 ``inflation_radius``, ``cost_scaling_factor`` and the robot's inscribed radius (from
 ``robot_radius`` or ``footprint``, padded by ``footprint_padding``); the default file is
-``configs/costmap_params.yaml`` (seed 000's D.2). A cell is ``resolution`` metres square: the
+``costmap_params.yaml`` shipped here (seed 000's D.2). A cell is ``resolution`` metres square: the
 ``--resolution`` given, else the file's ``resolution``, else costmap_2d's default 0.05 m. The
 costmap's 0..254 becomes a traversal cost per cell with the weights of ROS's navfn global
 planner (without its truncation to an unsigned char), divided by its neutral cost so that
@@ -31,7 +31,9 @@ obstacles.
 
 The start and goal must be inside the map and free (not dark; with inflation, not within the
 robot's inscribed radius of a dark pixel either); anything else is a :class:`PlanError` naming
-which end and where.
+which end and where: bad input, ``servolab plan`` exits 2. A map with no way from one end to the
+other is not bad input: :func:`plan` raises the planner's
+:class:`~servolab.planning.errors.NoPath`, a failure at run time (exit 1).
 """
 
 from __future__ import annotations
@@ -51,7 +53,9 @@ from ...planning.costmap import (
     occupancy_from_image,
     traversal_costs,
 )
-from ...planning.dstar_lite import DStarLite, NoPath
+from ...planning.dstar_lite import DStarLite
+from ...planning.errors import NoPath
+from ..errors import RobotValueError
 from .params import DEFAULT_RESOLUTION, CostmapParams, load_costmap
 
 if TYPE_CHECKING:
@@ -65,8 +69,8 @@ DEFAULT_PARAMS = shipped(__package__ or "servolab.robots.navigation", "costmap_p
 DEFAULT_THRESHOLD = 128.0
 
 
-class PlanError(ValueError):
-    """Input ``servolab plan`` cannot plan on, or no path: one line."""
+class PlanError(RobotValueError):
+    """Input ``servolab plan`` cannot plan on (a map, an end, a resolution): one line."""
 
 
 @dataclass
@@ -148,15 +152,16 @@ def load_problem(map_path: str | Path, start: tuple[int, int], goal: tuple[int, 
 
 
 def plan(problem: PlanProblem) -> tuple[float, npt.NDArray[np.int64]]:
-    """D* Lite on the problem: (cost, path as (N, 2) ``(x, y)`` cells); PlanError if no path."""
+    """D* Lite on the problem: (cost, path as (N, 2) ``(x, y)`` cells); :class:`NoPath`, in
+    the terms of the command line (``x``, ``y``, the map, ``--no-inflation``), if none."""
     (sx, sy), (gx, gy) = problem.start, problem.goal
     planner = DStarLite(problem.costs, (sy, sx), (gy, gx))
     try:
         cells = planner.path()
     except NoPath:
         how = " (with inflation; try --no-inflation)" if problem.inflation else ""
-        raise PlanError(f"no path from start ({sx}, {sy}) to goal ({gx}, {gy}) on "
-                        f"{problem.map_path!r}{how}") from None
+        raise NoPath(f"no path from start ({sx}, {sy}) to goal ({gx}, {gy}) on "
+                     f"{problem.map_path!r}{how}") from None
     return float(planner.cost()), cells[:, ::-1].copy()
 
 
@@ -164,8 +169,29 @@ def run_plan(run_folder: RunFolder, problem: PlanProblem,
              say: Callable[[str], None] = print, *,
              result: tuple[float, npt.NDArray[np.int64]] | None = None) -> dict[str, Any]:
     """Plan (unless ``result``, a :func:`plan` already made, is given), write ``plan.png``
-    into the run folder and return the summary's figures (the caller writes
-    ``summary.json``)."""
+    and ``summary.json`` into the run folder and return the summary. A run ended early (a
+    stop signal, an error) still writes ``summary.json``, with what it had and what ended it
+    (``"interrupted"``), and re-raises."""
+    height, width = problem.occupied.shape
+    summary: dict[str, Any] = {
+        "map": problem.map_path, "map_size": [width, height], "threshold": problem.threshold,
+        "start": list(problem.start), "goal": list(problem.goal), "inflation": problem.inflation,
+    }
+    interrupted: BaseException | None = None
+    try:
+        _plan_into(run_folder, problem, summary, say, result)
+    except BaseException as error:  # a stop signal or an error: the summary says which
+        interrupted = error
+    run_folder.write_summary(summary, interrupted=interrupted)
+    if interrupted is not None:
+        raise interrupted
+    return summary
+
+
+def _plan_into(run_folder: RunFolder, problem: PlanProblem, summary: dict[str, Any],
+               say: Callable[[str], None],
+               result: tuple[float, npt.NDArray[np.int64]] | None) -> None:
+    """:func:`run_plan`'s work: the path's figures and the plot, added to ``summary``."""
     if problem.ignored:
         say(f"ignored keys of {problem.params.path if problem.params else 'the parameters'}: "
             + ", ".join(problem.ignored))
@@ -173,13 +199,8 @@ def run_plan(run_folder: RunFolder, problem: PlanProblem,
     steps = np.abs(np.diff(path, axis=0))
     diagonal = int(np.count_nonzero(steps.min(axis=1))) if len(path) > 1 else 0
     length_cells = float(diagonal * math.sqrt(2.0) + (len(path) - 1 - diagonal))
-    height, width = problem.occupied.shape
-    summary: dict[str, Any] = {
-        "map": problem.map_path, "map_size": [width, height], "threshold": problem.threshold,
-        "start": list(problem.start), "goal": list(problem.goal),
-        "cost": cost, "length_cells": length_cells, "cells": len(path),
-        "path": path.tolist(), "inflation": problem.inflation,
-    }
+    summary.update({"cost": cost, "length_cells": length_cells, "cells": len(path),
+                    "path": path.tolist()})
     if problem.inflation and problem.params is not None:
         p = problem.params
         summary.update({
@@ -197,7 +218,6 @@ def run_plan(run_folder: RunFolder, problem: PlanProblem,
     summary["plot"] = str(plot_plan(problem, path, run_folder.file("plan.png")))
     say(f"path of {len(path)} cells, length {length_cells:.2f} cells, cost {cost:.2f} "
         f"({'with' if problem.inflation else 'without'} inflation); plot {summary['plot']}")
-    return summary
 
 
 def plot_plan(problem: PlanProblem, path: npt.NDArray[np.int64], target: Path) -> Path:

@@ -4,14 +4,14 @@ The nodes, in one process, in the floor's simulated time (as fast as the compute
 
 - the synthetic overhead camera (:class:`~servolab.sim.overhead_camera.OverheadCameraNode`)
   draws the scene at the robot's true pose, obstacles appearing at their time;
-- the overhead tracker (:class:`~.overhead_tracker.OverheadTrackerNode`) turns each frame,
+- the overhead tracker (:class:`~.tracker_node.OverheadTrackerNode`) turns each frame,
   through the camera's calibration, into ``/map`` and the robot's ``/tracker/pose``;
 - the fusion node (:class:`~.fusion_node.FusionNode`) fuses ``/odom`` and the tracker with
   D.4's Kalman filter (odometry aligned to the map first) into ``/fused_pose``;
 - the navigator (:class:`~.navigator.NavigatorNode`) plans with D* Lite on the inflated map,
   repairs the plan when the map changes, and drives with DWA through ``/cmd_vel``;
-- the base node (:class:`~.base_node.BaseNode`) turns ``/cmd_vel`` into wheel speeds on the
-  emulated Dynamixel bus, and the floor's ground truth is published beside it.
+- the base node (:class:`~servolab.robots.base.node.BaseNode`) turns ``/cmd_vel`` into wheel
+  speeds on the emulated Dynamixel bus, and the floor's ground truth is published beside it.
 
 **The calibration.** With ``calib`` (a file of ``servolab calibrate ... --floor``) the tracker
 uses it, the floor board having lain at ``board_at`` in the map (its first inner corner at
@@ -23,8 +23,8 @@ calibrates the scene's camera as a user would (:func:`calibrate_synthetic`): 15 
 The scene's camera is the truth the calibration must recover; the run writes what it found to
 ``calibration.yaml`` (the board's own frame, as ``servolab calibrate`` writes it).
 
-**The parameters** are seed 000's: D.2's costmap (``configs/costmap_params.yaml``), D.3's DWA
-(``configs/dwa_params.yaml``) and turtlebot's move_base (``configs/move_base_params.yaml``),
+**The parameters** are seed 000's: D.2's costmap (``costmap_params.yaml``), D.3's DWA
+(``dwa_params.yaml``) and turtlebot's move_base (``move_base_params.yaml``, all three shipped here),
 whose ``controller_frequency`` sets DWA's period (DWAPlanner finds it by ``searchParam``).
 
 Afterwards the run folder holds ``navigate_bag/`` (MCAP: ``/odom``, ``/ground_truth``,

@@ -28,6 +28,7 @@ from ...middleware.node import Node
 from ...middleware.qos import DurabilityPolicy, QoSProfile
 from ...vision.calibration import CameraCalibration, FloorExtrinsics
 from ...vision.overhead import FloorGrid, FloorSampler, find_robot
+from ..errors import RobotValueError
 
 IMAGE = "sensor_msgs/msg/Image"
 POSE = "geometry_msgs/msg/PoseStamped"
@@ -51,8 +52,8 @@ class OverheadTrackerNode(Node):
         self.threshold = float(self.declare_parameter(
             "threshold", 75.0, description="grey level below which a cell is occupied").value)
         if not (math.isfinite(self.threshold) and 0 < self.threshold <= 255):
-            raise ValueError(f"overhead tracker: threshold {self.threshold!r} must be a grey "
-                             "level in (0, 255]")
+            raise RobotValueError(f"overhead tracker: threshold {self.threshold!r} must be a grey "
+                                  "level in (0, 255]")
         self.calibration, self.extrinsics, self.grid = calibration, extrinsics, grid
         self.sampler = FloorSampler(calibration, extrinsics, grid)
         #: the occupancy last published, [row, col] = [y, x]
@@ -118,13 +119,13 @@ def occupancy_of(msg: Any) -> tuple[npt.NDArray[np.bool_], float, tuple[float, f
     width, height = int(info.width), int(info.height)
     data = np.asarray(msg.data, dtype=np.int8)
     if data.size != width * height:
-        raise ValueError(f"map refused: {data.size} cells for {width}x{height}")
+        raise RobotValueError(f"map refused: {data.size} cells for {width}x{height}")
     resolution = float(info.resolution)
     if not (math.isfinite(resolution) and resolution > 0):
-        raise ValueError(f"map refused: resolution {resolution!r} must be > 0 m")
+        raise RobotValueError(f"map refused: resolution {resolution!r} must be > 0 m")
     q = info.origin.orientation
     if abs(float(q.z)) > 1e-6 or abs(float(q.x)) > 1e-6 or abs(float(q.y)) > 1e-6:
-        raise ValueError("map refused: a rotated origin is not supported")
+        raise RobotValueError("map refused: a rotated origin is not supported")
     origin = (float(info.origin.position.x), float(info.origin.position.y))
     cells = data.reshape(height, width)
     occupied = (cells >= OCCUPIED_THRESHOLD) | (cells < 0)

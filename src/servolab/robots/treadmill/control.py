@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from ...kinematics.aot import THESIS_J1M, camera_to_motor
 from ...vision.fly_tracker import FlySighting
+from ..errors import RobotValueError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -61,17 +62,17 @@ class FlyControllerConfig:
     def __post_init__(self) -> None:
         m = np.asarray(self.matrix, dtype=np.float64)
         if m.shape != (3, 3) or not np.all(np.isfinite(m)):
-            raise ValueError(f"FlyControllerConfig: matrix must be 3x3 finite numbers, got "
-                             f"shape {m.shape}")
+            raise RobotValueError(f"FlyControllerConfig: matrix must be 3x3 finite numbers, got "
+                                  f"shape {m.shape}")
         object.__setattr__(self, "matrix", m)
         for name in ("dead_band_px", "dead_band_rad", "gain", "rotation_scale", "px_per_mm",
                      "max_wheel_speed"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"FlyControllerConfig: {name} must be a number >= 0, not "
-                                 f"{value!r}")
+                raise RobotValueError(f"FlyControllerConfig: {name} must be a number >= 0, not "
+                                      f"{value!r}")
         if not all(math.isfinite(v) for v in (*self.target, self.camera_to_motor)):
-            raise ValueError("FlyControllerConfig: target and camera_to_motor must be finite")
+            raise RobotValueError("FlyControllerConfig: target and camera_to_motor must be finite")
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from typing import BinaryIO, Self
 import numpy as np
 import numpy.typing as npt
 
-from ...errors import ServolabError
+from ..errors import RobotValueError
 
 #: The fly log's 17 fields in the order Listing 1 writes them (``output_data[]``); each is a
 #: float64 whatever the C++ variable's type was.
@@ -75,7 +75,7 @@ _FLY_STRUCT = struct.Struct("<17d")
 _ENCODER_STRUCT = struct.Struct("<3q")
 
 
-class FlyLogError(ServolabError, ValueError):
+class FlyLogError(RobotValueError):
     """A fly-tracker log that cannot be read or written as asked.
 
     ``str(error)`` is one line, ``"<path>: <what is wrong>"``. ``records`` is the number of
@@ -178,7 +178,7 @@ def read_encoder_log(path: str | Path, *, partial: bool = False) -> npt.NDArray[
 def _check_size(width: int, height: int) -> tuple[int, int]:
     width, height = operator.index(width), operator.index(height)
     if width <= 0 or height <= 0:
-        raise ValueError(f"a frame is at least 1x1 pixels, got {width}x{height}")
+        raise RobotValueError(f"a frame is at least 1x1 pixels, got {width}x{height}")
     return width, height
 
 

@@ -5,7 +5,7 @@ frame's record is logged.
 Per frame, in the listing's order:
 
 1. the tracker finds the fly (:func:`~servolab.vision.fly_tracker.track_fly`);
-2. the controller (:func:`~.fly_control.fly_command`) gives the wheel speeds and the robot's
+2. the controller (:func:`~.control.fly_command`) gives the wheel speeds and the robot's
    Twist;
 3. one SYNC_WRITE of ``goal_velocity`` to the three X-series motors (IDs 100-102), truncated to
    whole units as the listing's ``(int)`` does, and one SYNC_READ of ``present_position``;
@@ -34,6 +34,7 @@ from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
 from ...vision.fly_tracker import FlySighting, FlyTrackerConfig, track_fly
+from ..errors import RobotValueError
 from .control import FlyCommand, FlyControllerConfig, fly_command
 from .logs import FlyLogWriter
 
@@ -109,7 +110,7 @@ class TreadmillNode(Node):
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
         if not (math.isfinite(frame_rate) and frame_rate > 0):
-            raise ValueError(f"frame_rate {frame_rate!r} must be a number > 0 of frames/s")
+            raise RobotValueError(f"frame_rate {frame_rate!r} must be a number > 0 of frames/s")
         self.bus, self.camera, self.log, self.ids = bus, camera, log, ids
         self.tracker = tracker or FlyTrackerConfig()
         self.controller = controller or FlyControllerConfig(
@@ -183,7 +184,7 @@ class TreadmillNode(Node):
 
 
 def simulated_treadmill(simulation: Any, walker: Any) -> tuple[Any, Any]:
-    """The emulated wheels (:func:`~.flyball_node.emulated_treadmill_bus`) under a
+    """The emulated wheels (:func:`emulated_treadmill_bus`) under a
     :class:`~servolab.sim.ball.BallWorld` with ``walker`` on the ball, in ``simulation``."""
     from ...sim import BallWorld
 

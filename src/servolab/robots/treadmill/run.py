@@ -4,20 +4,20 @@ One simulation owns the time of everything (:class:`~servolab.sim.Simulation`): 
 (:class:`~servolab.sim.ball.BallWorld`, three emulated XM430-W210 wheels, IDs 100-102, at
 1 Mbps) with a walking fly on it, its camera (:class:`~servolab.sim.fly_camera.
 SimulatedFlyCamera`, 640 x 376 at 66 frames/s), and a TurtleBot3 Waffle
-(``configs/base_turtlebot3_waffle.yaml``, its own emulated bus) on a floor. The nodes are the
+(the shipped ``turtlebot3_waffle`` base, its own emulated bus) on a floor. The nodes are the
 thesis's (Figure 2):
 
-- the camera PC's ``image_converter`` (:class:`~.flyball_node.TreadmillNode`): track, control,
+- the camera PC's ``image_converter`` (:class:`~.node.TreadmillNode`): track, control,
   one SYNC_WRITE and one SYNC_READ on the treadmill's bus, ``/cmd_vel`` to the robot, the
   17-value record to ``fly_data.bin``;
-- the robot's base node (:class:`~.base_node.BaseNode`): ``/cmd_vel`` to its wheels,
+- the robot's base node (:class:`~servolab.robots.base.node.BaseNode`): ``/cmd_vel`` to its wheels,
   ``/sensor_state`` with the encoders;
 - Listing 2's ``mobrob_data_tracker`` (:class:`MobrobDataTracker`): each ``/sensor_state`` to
   ``robot_encoders.bin``.
 
 The run folder then holds ``fly_data.bin``, ``robot_encoders.bin``, ``flyball_bag/`` (MCAP:
 ``/cmd_vel``, ``/fly/pose``, ``/treadmill/joint_states``, ``/sensor_state``, ``/odom``), the
-analysis of :mod:`.fly_analysis` in ``summary.json`` and its figures in ``flyball.png``.
+analysis of :mod:`.analysis` in ``summary.json`` and its figures in ``flyball.png``.
 """
 
 from __future__ import annotations
