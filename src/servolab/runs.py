@@ -29,9 +29,24 @@ class RunFolderError(ServolabError, ValueError):
 
 @dataclass
 class RunFolder:
+    """A run's folder. Used as a context manager (``with RunFolder.create(...) as run:``) it
+    guarantees the folder its ``summary.json``: a run stopped or failed before its own code
+    wrote one (a signal while the robot is still being opened or calibrated) gets one saying
+    what ended it."""
+
     path: Path
     command: str
     started: float = field(default_factory=time.time)
+    summary_written: bool = field(default=False, init=False)
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: object) -> None:
+        if error is not None and not self.summary_written:
+            self.write_summary({"stage": "setting up, before the run started"},
+                               interrupted=error)
 
     @classmethod
     def create(cls, command: str, out: str | Path | None = None,
@@ -78,6 +93,7 @@ class RunFolder:
         }
         target = self.file("summary.json")
         target.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+        self.summary_written = True
         return target
 
     def save_figure(self, figure: Any, name: str) -> Path:

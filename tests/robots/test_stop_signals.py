@@ -250,3 +250,14 @@ def test_a_terminal_that_closes_stops_the_drive_and_keeps_its_summary(tmp_path: 
     summary = summary_of(run, signal.SIGHUP)
     assert summary["wheels_after_stop"] == {"0": 0, "1": 0}
     assert mcap_messages(run / "drive_bag")["/odom"] > 10
+
+
+def test_a_stop_before_the_run_starts_still_leaves_a_summary(tmp_path: Path) -> None:
+    """SIGTERM while navigate still calibrates its camera (before any node runs): the run
+    folder gets its summary.json all the same, saying what ended it and when."""
+    run = tmp_path / "run"
+    with servolab(["navigate", "--goal", "3.3", "2.3", "--no-progress", "--out", str(run)],
+                  signal.SIGTERM) as navigate:
+        stop(navigate, signal.SIGTERM, "calibrating the overhead camera")
+    summary = summary_of(run, signal.SIGTERM)
+    assert summary["stage"] == "setting up, before the run started"

@@ -63,14 +63,14 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.base.run import run_drive
     from ..runs import RunFolder
 
-    run = RunFolder.create("drive", args.out)
-    run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
-              speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
-              clockwise=getattr(args, "clockwise", False), turns=getattr(args, "turns", 1.0),
-              angle_deg=getattr(args, "angle", 90.0), base=args.base, port=args.port,
-              show_progress=not args.no_progress, slip=args.slip,
-              slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
-              real_time=args.real_time)
+    with RunFolder.create("drive", args.out) as run:
+        run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
+                  speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
+                  clockwise=getattr(args, "clockwise", False),
+                  turns=getattr(args, "turns", 1.0), angle_deg=getattr(args, "angle", 90.0),
+                  base=args.base, port=args.port, show_progress=not args.no_progress,
+                  slip=args.slip, slip_jitter=args.slip_jitter,
+                  encoder_noise=args.encoder_noise, real_time=args.real_time)
     print(f"run folder: {run.path}")
     return 0
 

@@ -89,12 +89,13 @@ def _run(args: argparse.Namespace) -> int:
         from ..vision.frame_source import FrameSource
 
         FrameSource.open(args.frames).close()  # a bad recording: before a run folder
-        run = RunFolder.create("flyball", args.out)
-        run_recorded(run, args.frames, port=args.port, show_progress=not args.no_progress)
+        with RunFolder.create("flyball", args.out) as run:
+            run_recorded(run, args.frames, port=args.port,
+                         show_progress=not args.no_progress)
     else:
-        run = RunFolder.create("flyball", args.out)
-        run_flyball(run, duration=100.0 if args.duration is None else args.duration,
-                    seed=args.seed or 0, show_progress=not args.no_progress)
+        with RunFolder.create("flyball", args.out) as run:
+            run_flyball(run, duration=100.0 if args.duration is None else args.duration,
+                        seed=args.seed or 0, show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 

@@ -64,9 +64,9 @@ def _run(args: argparse.Namespace) -> int:
     navigation = prepare((x, y), goal_yaw=yaw, scene=args.scene, calib=args.calib,
                          board_at=board_at, costmap=args.costmap, dwa=args.dwa,
                          move_base=args.move_base)
-    run = RunFolder.create("navigate", args.out)
-    run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
-                 show_progress=not args.no_progress)
+    with RunFolder.create("navigate", args.out) as run:
+        run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
+                     show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 

@@ -50,8 +50,8 @@ def _run(args: argparse.Namespace) -> int:
                            params=args.params, inflation=not args.no_inflation,
                            resolution=args.resolution, threshold=args.threshold)
     result = plan(problem)
-    run = RunFolder.create("plan", args.out)
-    run_plan(run, problem, result=result)  # writes summary.json, also when interrupted
+    with RunFolder.create("plan", args.out) as run:
+        run_plan(run, problem, result=result)  # writes summary.json, also when interrupted
     print(f"run folder: {run.path}")
     return 0
 

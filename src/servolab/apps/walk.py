@@ -38,9 +38,9 @@ def _run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
     motion = load_motion(args.file, args.config)  # checked whole before anything moves
-    run = RunFolder.create("walk", args.out)
-    run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
-             config=args.config, show_progress=not args.no_progress)
+    with RunFolder.create("walk", args.out) as run:
+        run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
+                 config=args.config, show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 
