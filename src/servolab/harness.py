@@ -73,6 +73,82 @@ class StopRequests:
         # a second signal while the first one's stop runs: let that stop finish
 
 
+@dataclass
+class DeferredStop:
+    """A stop signal that came while :func:`stops_deferred` held it back."""
+
+    signum: int | None = None
+
+    def handler(self, signum: int, frame: FrameType | None) -> None:
+        if self.signum is None:
+            self.signum = signum
+
+    def error(self) -> StopSignal | None:
+        """The :class:`StopSignal` to raise for it, if one came."""
+        return None if self.signum is None else StopSignal(self.signum)
+
+
+@contextmanager
+def stops_deferred() -> Iterator[DeferredStop]:
+    """Hold stop signals back while inside: what a run does on its way out (stop the motors,
+    close the bag, measure, plot, write ``summary.json``) must not itself be cut short by the
+    signal that ended the run, or by the first one when the run ended on its own. The caller
+    asks :meth:`DeferredStop.error` at the end and raises it."""
+    deferred = DeferredStop()
+    if threading.current_thread() is not threading.main_thread():
+        yield deferred
+        return
+    with on_stop_signals(deferred.handler):
+        yield deferred
+
+
+class RunEnding:
+    """How a run ends: what ended it (``error``: a stop signal, an error, or None), and what
+    went wrong on its way out. Each step of the way out (stop the motors, write the bag, plot)
+    runs in :meth:`step`, so one that fails is recorded in the summary and the next still
+    runs; the first cause wins, and is what the caller raises after the summary is written::
+
+        ending = RunEnding(interrupted)
+        with stops_deferred() as late:
+            with ending.step("stopping the wheels"):
+                robot.stop()
+            ...
+            run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
+        ending.raise_if_ended()
+    """
+
+    def __init__(self, error: BaseException | None) -> None:
+        self.error = error
+        self.failures: list[str] = []
+
+    @contextmanager
+    def step(self, name: str) -> Iterator[None]:
+        try:
+            yield
+        except Exception as exc:
+            self.failures.append(f"{name}: {interruption(exc)}")
+            if self.error is None:
+                self.error = exc
+
+    def settle(self, deferred: DeferredStop, summary: dict[str, Any]) -> BaseException | None:
+        """The run's end once the way out is done (a signal held back counts when nothing
+        else ended the run); the failures on the way out go into ``summary``."""
+        if self.error is None:
+            self.error = deferred.error()
+        if self.failures:
+            summary["failures_on_the_way_out"] = list(self.failures)
+        return self.error
+
+    def raise_if_ended(self) -> None:
+        if self.error is not None:
+            raise self.error
+
+
+def signal_status(signum: int) -> int:
+    """The exit status of a process a signal stopped, as a shell reports it: 128 + N."""
+    return 128 + int(signum)
+
+
 class HangupSafeStream:
     """A standard stream whose reader may go away: a terminal that closed (EIO, with a SIGHUP
     that may come just after) or a pipe whose reader ended (EPIPE). Its first failed write
@@ -171,9 +247,9 @@ def exit_status(error: BaseException | None) -> int:
     if error is None:
         return 0
     if isinstance(error, StopSignal):
-        return 128 + error.signum
+        return signal_status(error.signum)
     if isinstance(error, KeyboardInterrupt):
-        return 128 + signal.SIGINT
+        return signal_status(signal.SIGINT)
     if isinstance(error, ServolabError):
         return 2 if is_bad_input(error) else 1
     return 1

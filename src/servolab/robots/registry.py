@@ -18,6 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ServolabError
+from .armstrong import ON_STOP as ARMSTRONG_ON_STOP
+from .base import ON_STOP as BASE_ON_STOP
+from .treadmill import ON_STOP as TREADMILL_ON_STOP
 
 
 class UnknownRobotError(ServolabError, ValueError):
@@ -114,8 +117,7 @@ def _base_entry(name: str, summary: str) -> RobotEntry:
 
         return open_base(load(config()), port)
 
-    return RobotEntry(name, summary, config, bus, opener,
-                      "the wheels stop (goal speed 0)")
+    return RobotEntry(name, summary, config, bus, opener, BASE_ON_STOP)
 
 
 # -- the treadmill -----------------------------------------------------------------------------
@@ -136,14 +138,12 @@ def _treadmill(port: str | None) -> Any:
 ROBOTS: dict[str, RobotEntry] = {e.name: e for e in (
     RobotEntry("armstrong", "seed 001's 21-servo biped (20 on its bus), dynamixel_motor "
                "controllers", _armstrong_config, _armstrong_bus, _armstrong,
-               "the motors hold the last pose sent (torque stays on: a biped that went limp "
-               "would fall)"),
+               ARMSTRONG_ON_STOP),
     _base_entry("seed000", "seed 000's two-wheel robot, EX-106+ in wheel mode"),
     _base_entry("seed000_4motor", "seed 000 A.2's four-motor robot"),
     _base_entry("turtlebot3_waffle", "a TurtleBot3 Waffle (seed 002's robot), XM430 wheels"),
     RobotEntry("treadmill", "seed 002's ball treadmill on three omni-wheels",
-               lambda: None, _treadmill_bus, _treadmill,
-               "the wheels stop and their torque goes off (the ball must not spin the fly)"),
+               lambda: None, _treadmill_bus, _treadmill, TREADMILL_ON_STOP),
 )}
 
 

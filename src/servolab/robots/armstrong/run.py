@@ -21,6 +21,7 @@ import numpy as np
 from ...gait.motionfile import MotionFile, read_motion_file
 from ...gait.walking import GaitParameters, generate_walk
 from ..errors import RobotValueError
+from . import ON_STOP
 from . import hardware as armstrong
 from .control_node import PLAY_RATE, Armstrong, controller_of
 from .poses import MOTORS
@@ -70,7 +71,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     with ``interrupted`` and the rows played so far, and the stop goes on to the caller."""
     from tqdm import tqdm
 
-    from ...harness import interruption
+    from ...harness import RunEnding, interruption, stops_deferred
     from ...middleware.recorder import Recorder
 
     bag = run_folder.file("walk_bag")
@@ -105,22 +106,26 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             robot.context.spin_for(0.5)  # the last goals reached and recorded
         except BaseException as error:  # a stop signal or an error: hold, record, report
             interrupted = error
-        finally:
-            recorder.destroy()  # the bag is closed whatever happened
-        duration = robot.context.clock.now() - started
-        plot = plot_tracking(robot, run_folder.file("walk.png"))
-        errors = tracking_errors(robot)
-    say(("stopped after " if played < total else "played ") + f"{played} of {total} rows; "
-        f"recorded to {bag}; plot {plot}")
-    summary = {"rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
-               "stopped": played < total, "duration_s": duration, "bag": str(bag),
-               "plot": str(plot), "max_tracking_error_deg": errors,
-               "port": port or "emulated", "controllers_failed": robot.manager.failed,
-               "motors_on_stop": "hold the last pose sent"}
-    run_folder.write_summary(summary, interrupted=interrupted)
-    if interrupted is not None:
-        say(f"interrupted ({interruption(interrupted)}): the motors hold the last pose")
-        raise interrupted
+        ending = RunEnding(interrupted)
+        with stops_deferred() as late:  # the way out is not cut short by a signal
+            with ending.step("closing the bag"):
+                recorder.destroy()
+            summary: dict[str, Any] = {
+                "rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
+                "stopped": played < total,
+                "duration_s": robot.context.clock.now() - started, "bag": str(bag),
+                "port": port or "emulated", "controllers_failed": robot.manager.failed,
+                "motors_on_stop": ON_STOP}
+            with ending.step("plotting"):
+                summary["plot"] = str(plot_tracking(robot, run_folder.file("walk.png")))
+            with ending.step("measuring"):
+                summary["max_tracking_error_deg"] = tracking_errors(robot)
+            say(("stopped after " if played < total else "played ") + f"{played} of {total} "
+                f"rows; recorded to {bag}; plot {summary.get('plot')}")
+            run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
+    if ending.error is not None:
+        say(f"interrupted ({interruption(ending.error)}): the motors hold the last pose")
+    ending.raise_if_ended()
     return summary
 
 

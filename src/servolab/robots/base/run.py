@@ -22,7 +22,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...harness import RunEnding, stops_deferred
 from ..errors import RobotValueError
+from . import ON_STOP
 from .config import load as load_base
 from .config import resolve as resolve_base
 from .mobile_base import MobileBase, open_base
@@ -59,7 +61,7 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
     summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated",
                                "slip": slip, "slip_jitter": slip_jitter,
                                "encoder_noise": encoder_noise,
-                               "motors_on_stop": "wheels stopped (goal speed 0)"}
+                               "motors_on_stop": ON_STOP}
     interrupted: BaseException | None = None
     try:
         if move == "rpm":
@@ -75,25 +77,29 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
                   angle_deg=angle_deg)
     except BaseException as error:  # a stop signal or an error: the wheels stop below
         interrupted = error
-    finally:
-        try:
-            if move != "rpm":  # reading the wheels' speed leaves them as they are
-                robot.stop()
-                summary["wheels_after_stop"] = robot.wheel_commands()
-        finally:
-            if simulation is not None:
-                simulation.stop_real_time()  # type: ignore[attr-defined]
-            robot.close()
-    if move not in ("rpm", "stop") and robot.track:  # a refused move drove nothing
-        summary["wheel_commands"] = raw_commands(robot)
-        summary["measured"] = measure(robot, move)
-        summary["bag"] = str(record(robot, run_folder.file("drive_bag")))
-        summary["plot"] = str(plot_path(robot, run_folder.file("drive.png")))
-        say(" ".join(f"{k} {v:.4g};" for k, v in summary["measured"].items())
-            + f" bag {summary['bag']}, plot {summary['plot']}")
-    run_folder.write_summary(summary, interrupted=interrupted)
-    if interrupted is not None:
-        raise interrupted
+    ending = RunEnding(interrupted)
+    with stops_deferred() as late:  # the way out is not cut short by a signal
+        with ending.step("stopping the wheels"):
+            try:
+                if move != "rpm":  # reading the wheels' speed leaves them as they are
+                    robot.stop()
+                    summary["wheels_after_stop"] = robot.wheel_commands()
+            finally:
+                if simulation is not None:
+                    simulation.stop_real_time()  # type: ignore[attr-defined]
+                robot.close()
+        if move not in ("rpm", "stop") and robot.track:  # a refused move drove nothing
+            with ending.step("measuring"):
+                summary["wheel_commands"] = raw_commands(robot)
+                summary["measured"] = measure(robot, move)
+            with ending.step("recording the bag"):
+                summary["bag"] = str(record(robot, run_folder.file("drive_bag")))
+            with ending.step("plotting"):
+                summary["plot"] = str(plot_path(robot, run_folder.file("drive.png")))
+            say(" ".join(f"{k} {v:.4g};" for k, v in summary.get("measured", {}).items())
+                + f" bag {summary.get('bag')}, plot {summary.get('plot')}")
+        run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
+    ending.raise_if_ended()
     return summary
 
 

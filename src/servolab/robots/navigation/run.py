@@ -49,7 +49,7 @@ import numpy as np
 
 from ...configfile import shipped
 from ...estimation.kalman import Seed000Fusion
-from ...harness import interruption
+from ...harness import RunEnding, interruption, stops_deferred
 from ...planning.dwa import DwaConfig
 from ...sim.scene import Scene
 from ...vision.calibration import (
@@ -63,6 +63,7 @@ from ...vision.calibration import load as load_calibration
 from ...vision.calibration import save as save_calibration
 from ...vision.overhead import FloorGrid
 from ...vision.synthetic import random_board_poses, render_checkerboard
+from ..base import ON_STOP as BASE_ON_STOP
 from ..base.config import load as load_base
 from ..base.mobile_base import MobileBase
 from ..errors import RobotError, RobotValueError
@@ -296,48 +297,50 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
         start = base.clock.now()
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
             f"on {world.path}")
-        try:
-            _drive(context, navigator, base, start, timeout, show_progress, say)
-        except BaseException as error:  # Ctrl-C or a node's error: stop, keep what happened
-            interrupted = error
-    finally:
-        try:
-            base.stop()  # the wheels first, whatever else fails
-            wheels_after_stop = base.wheel_commands()
-        finally:
+        _drive(context, navigator, base, start, timeout, show_progress, say)
+    except BaseException as error:  # a stop signal or a node's error: stop, keep what happened
+        interrupted = error
+    ending = RunEnding(interrupted)
+    summary: dict[str, Any] = {"motors_on_stop": BASE_ON_STOP}
+    with stops_deferred() as late:  # the way out is not cut short by a signal
+        with ending.step("stopping the wheels"):
             try:
-                context.close()  # the recorder finishes the bag
+                base.stop()  # the wheels first, whatever else fails
+                summary["wheels_after_stop"] = base.wheel_commands()
             finally:
-                base.bus.close()
-    elapsed = base.clock.now() - start
-    summary = summarise(world, base, navigator, goal=(gx, gy, goal_yaw), elapsed=elapsed,
-                        calibration=calibration, frames=camera.frames,
-                        sightings=tracker.sightings, dwa=dwa_config, start=camera.start,
-                        body_radius=max(world.robot_radius,
-                                        costmap_params.circumscribed_radius))
-    summary["wall_seconds"] = round(time.perf_counter() - wall, 2)
-    #: the simulated time the run started at (the camera's first frame; obstacles appear at
-    #: their ``appear_at`` after it): the bag's and the repairs' times count from the clock's 0
-    summary["start_time_s"] = camera.start
-    summary["bag"] = str(bag)
-    summary["calibration_file"] = str(run_folder.file("calibration.yaml"))
-    summary["board_at"] = list(board_at)
-    summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy, grid,
-                                          run_folder.file("navigate.png")))
-    summary["motors_on_stop"] = "wheels stopped (goal speed 0)"
-    summary["wheels_after_stop"] = wheels_after_stop
-    if interrupted is not None:
-        summary["status"] = "INTERRUPTED"
-        summary["reason"] = f"interrupted: {interruption(interrupted)}"
+                try:
+                    context.close()  # the recorder finishes the bag
+                finally:
+                    base.bus.close()
+        with ending.step("measuring"):
+            elapsed = base.clock.now() - start
+            summary.update(summarise(
+                world, base, navigator, goal=(gx, gy, goal_yaw), elapsed=elapsed,
+                calibration=calibration, frames=camera.frames, sightings=tracker.sightings,
+                dwa=dwa_config, start=camera.start,
+                body_radius=max(world.robot_radius, costmap_params.circumscribed_radius)))
+            summary["wall_seconds"] = round(time.perf_counter() - wall, 2)
+            #: the simulated time the run started at (the camera's first frame; obstacles
+            #: appear at their ``appear_at`` after it): the bag's and the repairs' times count
+            #: from the clock's 0
+            summary["start_time_s"] = camera.start
+        summary["bag"] = str(bag)
+        summary["calibration_file"] = str(run_folder.file("calibration.yaml"))
+        summary["board_at"] = list(board_at)
+        with ending.step("plotting"):
+            summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy,
+                                                  grid, run_folder.file("navigate.png")))
+        interrupted = ending.settle(late, summary)
+        if interrupted is not None:
+            summary["status"] = "INTERRUPTED"
+            summary["reason"] = f"interrupted: {interruption(interrupted)}"
+        elif navigator.status is not NavigationStatus.SUCCEEDED:
+            summary["reason"] = navigator.reason or f"not at the goal after {timeout:g} s"
         run_folder.write_summary(summary, interrupted=interrupted)
-        raise interrupted
+    ending.raise_if_ended()
     if navigator.status is not NavigationStatus.SUCCEEDED:
-        reason = navigator.reason or f"not at the goal after {timeout:g} s"
-        summary["reason"] = reason
-        run_folder.write_summary(summary)
-        raise GoalNotReached(f"navigation failed: {reason} (run folder: {run_folder.path})",
-                             summary)
-    run_folder.write_summary(summary)
+        raise GoalNotReached(f"navigation failed: {summary['reason']} (run folder: "
+                             f"{run_folder.path})", summary)
     say(f"goal reached in {elapsed:.1f} s: {summary['goal_distance_m'] * 1000:.0f} mm and "
         f"{math.degrees(summary['goal_yaw_error_rad']):.1f}° from the goal (truth), nearest "
         f"obstacle {summary['min_clearance_m'] * 1000:.0f} mm from the robot's edge, "

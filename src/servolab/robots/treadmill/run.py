@@ -25,11 +25,14 @@ from __future__ import annotations
 import math
 import shutil
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ...harness import DeferredStop, RunEnding, stops_deferred
 from ...middleware.context import Context
 from ..errors import RobotError, RobotValueError
+from . import ON_STOP
 from .analysis import analysed_run
 from .logs import EncoderLogWriter
 from .node import (
@@ -46,8 +49,6 @@ if TYPE_CHECKING:
     from ...sim.fly_walk import FlyWalkConfig
 
 Say = Callable[[str], None]
-#: what stopping does to the treadmill: a ball left turning would carry the fly away
-MOTORS_ON_STOP = "wheels stopped (goal velocity 0) and torque off"
 
 
 def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0,
@@ -78,33 +79,35 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
     say(f"the fly walks on the simulated treadmill for {duration:g} s (seed {seed}); "
         "the robot follows the ball")
-    interrupted: BaseException | None = None
     node: TreadmillNode | None = None
     tracker: MobrobDataTracker | None = None
-    with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path) as encoder_log, \
-            Context.open(clock=sim) as context:
-        try:
-            node = TreadmillNode(context, aot, camera, log=fly_log)
-            BaseNode(context, base)
-            tracker = MobrobDataTracker(context, encoder_log)
-            Recorder(context, str(bag), list(RECORDED))
-            _spin(context, sim, duration, show_progress)
-        except BaseException as error:  # a stop signal, a node's error: keep and analyse
-            interrupted = error
-        finally:
+    ending = RunEnding(None)
+    late = DeferredStop()
+    summary: dict[str, Any] = {"duration_s": duration, "seed": seed, "motors_on_stop": ON_STOP}
+    with ExitStack() as way_out:
+        with ending.step("closing the logs and the bag"), FlyLogWriter(fly_path) as fly_log, \
+                EncoderLogWriter(encoder_path) as encoder_log, \
+                Context.open(clock=sim) as context:
             try:
+                node = TreadmillNode(context, aot, camera, log=fly_log)
+                BaseNode(context, base)
+                tracker = MobrobDataTracker(context, encoder_log)
+                Recorder(context, str(bag), list(RECORDED))
+                _spin(context, sim, duration, show_progress)
+            except BaseException as error:  # a stop signal, a node's error: keep, analyse
+                ending.error = error
+            late = way_out.enter_context(stops_deferred())  # the way out is not cut short
+            with ending.step("stopping the robot"):
                 base.stop()
-            finally:
+            with ending.step("stopping the treadmill"):
                 stop_wheels(aot)
-    summary = analysed_run(run_folder, fly_path, encoder_path, bag)
-    summary.update({"duration_s": duration, "seed": seed,
-                    "frames": node.frames if node is not None else 0,
-                    "encoder_records": tracker.records if tracker is not None else 0,
-                    "fly_walked_m": world.ground_truth()["fly_walked"],
-                    "motors_on_stop": MOTORS_ON_STOP})
-    run_folder.write_summary(summary, interrupted=interrupted)
-    if interrupted is not None:
-        raise interrupted
+        with ending.step("analysing"):
+            summary.update(analysed_run(run_folder, fly_path, encoder_path, bag))
+        summary.update({"frames": node.frames if node is not None else 0,
+                        "encoder_records": tracker.records if tracker is not None else 0,
+                        "fly_walked_m": world.ground_truth()["fly_walked"]})
+        run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
+    ending.raise_if_ended()
     a = summary["analysis"]
     if a is None:
         raise RobotError(f"{summary['frames']} frame(s) in {duration:g} s; the analysis "
@@ -149,37 +152,41 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
         f"{'on ' + port if port else 'emulated'}")
     from tqdm import tqdm
 
-    interrupted: BaseException | None = None
     node: TreadmillNode | None = None
-    try:
-        with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path), \
-                Context.open(clock=clock) as context, \
-                tqdm(total=len(source) or None, unit="frame", disable=not show_progress,
-                     leave=False) as bar:
+    ending = RunEnding(None)
+    late = DeferredStop()
+    summary: dict[str, Any] = {"frames_source": str(frames), "port": port or "emulated",
+                               "motors_on_stop": ON_STOP}
+    with ExitStack() as way_out:
+        with ending.step("closing the log, the bag and the port"):
             try:
-                node = TreadmillNode(context, bus, source, log=fly_log)
-                Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
-                                             "/treadmill/joint_states"])
-                while not node.finished:
-                    context.spin_until(lambda: node is not None and node.finished,
-                                       timeout=1.0)
-                    bar.update(node.frames - bar.n)
-                    if not show_progress:  # a log (no terminal): a line a second
-                        say(f"tracked {node.frames} of {len(source) or '?'} frames")
-            except BaseException as error:  # a bad frame mid-video, a stop: keep the log
-                interrupted = error
+                with FlyLogWriter(fly_path) as fly_log, EncoderLogWriter(encoder_path), \
+                        Context.open(clock=clock) as context, \
+                        tqdm(total=len(source) or None, unit="frame",
+                             disable=not show_progress, leave=False) as bar:
+                    try:
+                        node = TreadmillNode(context, bus, source, log=fly_log)
+                        Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
+                                                     "/treadmill/joint_states"])
+                        while not node.finished:
+                            context.spin_until(lambda: node is not None and node.finished,
+                                               timeout=1.0)
+                            bar.update(node.frames - bar.n)
+                            if not show_progress:  # a log (no terminal): a line a second
+                                say(f"tracked {node.frames} of {len(source) or '?'} frames")
+                    except BaseException as error:  # a bad frame mid-video, a stop
+                        ending.error = error
+                    late = way_out.enter_context(stops_deferred())  # not cut short
+                    with ending.step("stopping the treadmill"):
+                        stop_wheels(bus)  # whether or not the node got to start them
             finally:
-                stop_wheels(bus)  # whether or not the node got to start them
-    finally:
-        source.close()
-        bus.close()
-    summary = analysed_run(run_folder, fly_path, encoder_path, bag)
-    summary.update({"frames_source": str(frames), "port": port or "emulated",
-                    "frames": node.frames if node is not None else 0,
-                    "motors_on_stop": MOTORS_ON_STOP})
-    run_folder.write_summary(summary, interrupted=interrupted)
-    if interrupted is not None:
-        raise interrupted
+                source.close()
+                bus.close()
+        with ending.step("analysing"):
+            summary.update(analysed_run(run_folder, fly_path, encoder_path, bag))
+        summary["frames"] = node.frames if node is not None else 0
+        run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
+    ending.raise_if_ended()
     if summary["analysis"] is None:
         raise RobotError(f"{frames}: {summary['frames']} frame(s) tracked; the analysis "
                          "needs at least two")
