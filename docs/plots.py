@@ -248,7 +248,8 @@ def biped(out: Path) -> dict[str, float]:
     from servolab.gait.plots import plot_foot_positions, plot_joint_angles
     from servolab.gait.walking import generate_walk
     from servolab.robots.armstrong.control_node import Armstrong
-    from servolab.robots.armstrong.run import load_motion, run_walk
+    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.run import run_walk
     from servolab.runs import RunFolder
 
     walk = generate_walk()

@@ -16,7 +16,7 @@ from servolab.harness import (
     interruption,
     stop_signals_raise,
 )
-from servolab.middleware.errors import ServiceError
+from servolab.middleware.errors import BagWriteError, ServiceError
 from servolab.robots.errors import RobotError
 
 
@@ -65,6 +65,7 @@ def test_a_second_signal_does_not_cut_the_stop_short() -> None:
     (NoResponse("motor 3 did not answer"), 1),
     (ServiceError("/x did not answer"), 1),
     (RobotError("the goal was not reached"), 1),
+    (BagWriteError("bag run/x: cannot write: No space left on device"), 1),  # while running
     (IndexError("a bug"), 1),
 ])
 def test_exit_status(error: BaseException | None, status: int) -> None:

@@ -1,5 +1,5 @@
-"""Imports point down only (ARCHITECTURE.md, docs/layout.md): nothing below the robots imports
-them or the commands, the algorithms import nothing of servolab but each other and the core's
+"""Imports point down only (docs/layout.md): nothing below the robots imports them or the
+commands, the algorithms import nothing of servolab but each other and the core's
 errors, and the driver never imports the emulator. Checked on the source, every import
 statement (also those inside functions), relative ones resolved."""
 
@@ -89,3 +89,15 @@ def test_the_driver_never_imports_the_emulator() -> None:
               ("bus.py", "ports.py", "packets.py", "protocol1.py", "protocol2.py")]
     assert [f"{p.name}:{line}" for p in driver for line, target in imports(p)
             if target.endswith(".emulator")] == []
+
+
+def test_only_the_commands_import_a_robots_run_module() -> None:
+    """A robot's ``run`` module is its command's body (docs/layout.md): what another module
+    needs from it belongs in the robot's other modules."""
+    runs = {f"servolab.robots.{p.parent.name}.run" for p in (PACKAGE / "robots").glob("*/run.py")}
+    assert runs, "no run modules found: the checker looks in the wrong place"
+    outside = [f"{path.relative_to(SRC)}:{line} imports {target}"
+               for path in sorted(PACKAGE.rglob("*.py"))
+               if "apps" not in path.relative_to(PACKAGE).parts
+               for line, target in imports(path) if target in runs]
+    assert outside == []

@@ -23,7 +23,7 @@ from servolab.planning.dwa import (
 )
 
 RES = 0.05
-#: seed 000's D.3 values (configs/dwa_params.yaml)
+#: seed 000's D.3 values (the shipped dwa_params.yaml)
 D3 = DwaConfig(max_vel_x=0.15, min_vel_x=0.0, max_trans_vel=0.15, min_trans_vel=0.1,
                trans_stopped_vel=0.1, max_rot_vel=1.5, min_rot_vel=0.4, rot_stopped_vel=0.4,
                acc_lim_x=1.0, acc_lim_theta=2.0, yaw_goal_tolerance=0.3, xy_goal_tolerance=0.15,

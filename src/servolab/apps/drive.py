@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .arguments import add_out, finite_float, positive_float
+from .arguments import PORT_HELP, add_out, finite_float, positive_float
 from .registry import Command
 
 
@@ -17,8 +17,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--base", metavar="NAME|YAML", help="a shipped base by name (seed000, "
                    "seed000_4motor, turtlebot3_waffle: 'servolab robots') or a base file "
                    "(default seed000, seed 000's two-wheel robot)")
-    p.add_argument("--port", metavar="DEV", help="the base's serial port; default: the "
-                   "base emulated on a simulated floor")
+    p.add_argument("--port", metavar="PORT", help="the base's port: " + PORT_HELP +
+                   "; default: the base emulated on a simulated floor")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--slip", type=finite_float, default=0.0, metavar="FRACTION",
                    help="emulated floor: the part of each wheel's turn that does not move the "

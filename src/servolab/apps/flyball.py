@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from .arguments import add_out, nonnegative_int, positive_float
+from .arguments import PORT_HELP, add_out, nonnegative_int, positive_float
 from .registry import Command
 
 
@@ -22,8 +22,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", metavar="DIR|VIDEO", help="track a recording instead of the "
                    "simulated fly: a folder of 640x376 images in name order, or a video "
                    "OpenCV can open (one record per frame)")
-    p.add_argument("--port", metavar="DEV", help="with --frames: the treadmill's real motors "
-                   "(IDs 100-102, Protocol 2.0, 1 Mbps) on this serial port; default emulated")
+    p.add_argument("--port", metavar="PORT", help="with --frames: the treadmill's real motors "
+                   "(IDs 100-102, Protocol 2.0, 1 Mbps) on this port: " + PORT_HELP +
+                   "; default emulated")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_out(p)
     sub = p.add_subparsers(dest="action", metavar="analyze")

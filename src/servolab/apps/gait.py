@@ -49,15 +49,15 @@ def _run(args: argparse.Namespace) -> int:
     # a parameter out of range, a foot out of reach: GaitValueError, one line (exit 2)
     params = GaitParameters(**{name: getattr(args, name) for name in PARAMETERS})
     walk = generate_walk(params)
-    run = RunFolder.create("gait", args.out)
-    csv = run.file("gait.csv")
-    write_motion_file(csv, walk.motion())
-    feet = plot_foot_positions(walk, run.file("feet.png"))
-    angles = plot_joint_angles(walk, run.file("joint_angles.png"))
-    run.write_summary({"parameters": dataclasses.asdict(params), "rows": int(walk.motors.shape[0]),
-                       "columns": list(walk.columns), "motion_file": str(csv),
-                       "plots": [str(feet), str(angles)],
-                       "duration_ms": float(walk.time_ms[-1])})
+    with RunFolder.create("gait", args.out) as run:  # a summary also when stopped
+        csv = run.file("gait.csv")
+        write_motion_file(csv, walk.motion())
+        feet = plot_foot_positions(walk, run.file("feet.png"))
+        angles = plot_joint_angles(walk, run.file("joint_angles.png"))
+        run.write_summary({"parameters": dataclasses.asdict(params),
+                           "rows": int(walk.motors.shape[0]), "columns": list(walk.columns),
+                           "motion_file": str(csv), "plots": [str(feet), str(angles)],
+                           "duration_ms": float(walk.time_ms[-1])})
     print(f"wrote {walk.motors.shape[0]} rows to {csv}; plots {feet.name}, {angles.name}")
     print(f"run folder: {run.path}")
     return 0

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from .arguments import add_out
+from .arguments import PORT_HELP, add_out
 from .registry import Command
 
 
@@ -19,8 +19,8 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="how many times the sequence is played (default 1)")
     p.add_argument("--rate", type=float, default=4.5, metavar="HZ",
                    help="rows a second (default 4.5: 17 rows, 3.78 s a step, as the seed)")
-    p.add_argument("--port", metavar="DEV", help="the robot's serial port; default: the "
-                   "emulated robot (20 RX-28, motor 62 absent, as in the seed)")
+    p.add_argument("--port", metavar="PORT", help="the robot's port: " + PORT_HELP +
+                   "; default: the emulated robot (20 RX-28, motor 62 absent, as in the seed)")
     p.add_argument("--config", metavar="YAML", help="controller configuration "
                    "(default: the seed's, armstrong.yaml; 'servolab robots show armstrong' "
                    "prints it)")
@@ -30,7 +30,8 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     from ..errors import UsageError
-    from ..robots.armstrong.run import load_motion, run_walk
+    from ..robots.armstrong.hardware import load_motion
+    from ..robots.armstrong.run import run_walk
     from ..runs import RunFolder
 
     if args.steps < 1:

@@ -85,6 +85,11 @@ class BagError(MiddlewareError, ValueError):
     """A bag that cannot be opened, read or written."""
 
 
+class BagWriteError(MiddlewareError):
+    """A bag that stopped taking what is recorded (a full disk, a folder removed): a failure
+    while running, not bad input (``servolab`` exits 1)."""
+
+
 class TransportError(MiddlewareError, ValueError):
     """A transport that cannot be opened (bad endpoint, Zenoh failure): bad input, refused
     before anything moves (``servolab`` exits 2)."""

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 
+from servolab.harness import signal_status
 from servolab.signals import on_stop_signals
 
 from .context import Context
@@ -218,7 +219,7 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
             for entry in started:
                 out(f"[launch] stopped {entry.name}")
     # stopped by a signal: 128 + its number, as every servolab command (servolab.harness)
-    return 0 if context.stopped_by is None else 128 + context.stopped_by
+    return 0 if context.stopped_by is None else signal_status(context.stopped_by)
 
 
 # -- child processes -------------------------------------------------------------------------
@@ -278,7 +279,7 @@ def exec_command(entry: NodeEntry, endpoint: str | None) -> list[str]:
 
 
 def _exit_code(returncode: int) -> int:
-    return returncode if returncode >= 0 else 128 - returncode
+    return returncode if returncode >= 0 else signal_status(-returncode)
 
 
 def _describe(returncode: int) -> str:
@@ -387,7 +388,7 @@ class _Supervisor:
                 self.emit(f"[launch] {name}: stopping everything")
                 killed = self._stop_all()
                 # stopped by a signal: 128 + its number, as every servolab command
-                return 128 + self.signals[0] if self.signals else (1 if killed else 0)
+                return signal_status(self.signals[0]) if self.signals else (1 if killed else 0)
             running = False
             for child in self.children:
                 if child.proc is None or child.reported:

@@ -166,7 +166,7 @@ def shipped_files() -> dict[str, Path]:
     """Every configuration file servolab ships, by the name ``servolab robots show`` takes:
     each robot's default file, and the navigation's parameter files and scene."""
     from ..sim.scene import DEFAULT_SCENE
-    from .navigation.run import DEFAULT_COSTMAP, DEFAULT_DWA, DEFAULT_MOVE_BASE
+    from .navigation.params import DEFAULT_COSTMAP, DEFAULT_DWA, DEFAULT_MOVE_BASE
 
     files = {name: path for name, e in ROBOTS.items() if (path := e.config()) is not None}
     files.update({"costmap_params": DEFAULT_COSTMAP, "dwa_params": DEFAULT_DWA,

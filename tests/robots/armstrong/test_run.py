@@ -20,8 +20,9 @@ from mcap_ros2.reader import read_ros2_messages
 from servolab.gait.motionfile import MotionFileError, write_motion_file
 from servolab.gait.walking import generate_walk
 from servolab.robots.armstrong.control_node import Armstrong
+from servolab.robots.armstrong.hardware import load_motion
 from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
-from servolab.robots.armstrong.run import load_motion, run_walk
+from servolab.robots.armstrong.run import run_walk
 from servolab.runs import RunFolder
 
 LEGS = MOTORS[:12]

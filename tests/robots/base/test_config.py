@@ -1,4 +1,4 @@
-"""Base configurations (configs/base_*.yaml) and every malformed one refused with its line.
+"""Base configurations (the shipped base_*.yaml) and every malformed one refused with its line.
 
 Facts: seed 000 Appendix A (EX-106+, Protocol 1.0, 1 Mbps from dxl_initialize(16, 1), wheel
 radius 5.2 cm and wheel base 38 cm in Figure A3, IDs 0 and 1; A.2's four motors 1-4, 1 and 2

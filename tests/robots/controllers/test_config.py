@@ -1,4 +1,4 @@
-"""The dynamixel_controllers configuration of seed 001: ``configs/armstrong.yaml``, the
+"""The dynamixel_controllers configuration of seed 001: the shipped ``armstrong.yaml``, the
 appendix as printed, and every malformed file refused with its line.
 
 Facts from seed 001 (Armstrong): Listing 3.3 (controller_manager.launch: pan_tilt_port,

@@ -19,7 +19,7 @@ from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
-from ..errors import BagError
+from ..errors import BagError, BagWriteError
 from ..messages import MessageTypes
 from .layout import LIBRARY, METADATA_VERSION, ROS_DISTRO, _yaml
 
@@ -137,7 +137,7 @@ class BagWriter:
             self._mcap.start(profile="ros2", library=LIBRARY)
         except OSError as exc:
             self._file.close()
-            raise BagError(f"cannot write bag {self.path}: {exc.strerror or exc}") from None
+            raise BagWriteError(f"cannot write bag {self.path}: {exc.strerror or exc}") from None
         self._lock = threading.Lock()
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
@@ -217,7 +217,8 @@ class BagWriter:
                 self._mcap.add_message(channel_id=entry.channel_id, log_time=log_time_ns,
                                        data=payload, publish_time=publish)
             except OSError as exc:
-                raise BagError(f"bag {self.path}: cannot write: {exc.strerror or exc}") from None
+                raise BagWriteError(f"bag {self.path}: cannot write: "
+                                    f"{exc.strerror or exc}") from None
             entry.count += 1
             self._start_ns = log_time_ns if self._start_ns is None else min(self._start_ns,
                                                                             log_time_ns)
@@ -233,7 +234,8 @@ class BagWriter:
                 if fsync:
                     self._file.fsync()
             except OSError as exc:
-                raise BagError(f"bag {self.path}: cannot write: {exc.strerror or exc}") from None
+                raise BagWriteError(f"bag {self.path}: cannot write: "
+                                    f"{exc.strerror or exc}") from None
 
     def close(self) -> None:
         """Finish the MCAP file (the ``rosbag2`` metadata record, summary, index, footer) and
@@ -258,7 +260,8 @@ class BagWriter:
                     self._file.close()
                 self._write_metadata()
             except OSError as exc:
-                raise BagError(f"bag {self.path}: cannot finish: {exc.strerror or exc}") from None
+                raise BagWriteError(f"bag {self.path}: cannot finish: "
+                                    f"{exc.strerror or exc}") from None
 
     def _check_open(self) -> None:
         if self._closed:

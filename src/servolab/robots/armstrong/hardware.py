@@ -13,14 +13,20 @@ import math
 from collections.abc import Collection
 from pathlib import Path
 
+import numpy as np
+
 from ...configfile import shipped
 from ...dynamixel import units
 from ...dynamixel.bus import Bus
 from ...dynamixel.models import model
 from ...dynamixel.motorspec import MotorEntry, MotorSpec
+from ...gait.motionfile import MotionFile, read_motion_file
+from ...gait.walking import GaitParameters, generate_walk
 from ...sim.emulated import emulated_port
 from ...sim.simulation import Simulation
 from ..controllers.config import ControllerConfigError, RobotConfig, SerialPortConfig, load
+from ..errors import RobotValueError
+from .poses import MOTORS
 
 #: armstrong.yaml beside this module (Listing 3.3 + Appendix A): the default configuration
 CONFIG = shipped(__package__ or "servolab.robots.armstrong", "armstrong.yaml")
@@ -95,3 +101,22 @@ def open_bus(config: RobotConfig, *, port_name: str | None = None,
     used = SerialPortConfig(port.name, port_name or bus.port.name, baud, port.min_motor_id,
                             port.max_motor_id, port.update_rate)
     return bus, used
+
+
+def load_motion(path: str | Path | None, config: str | Path | None = None,
+                parameters: GaitParameters | None = None) -> MotionFile:
+    """The motion to play: the file at ``path`` (all 21 columns, within the configured
+    joints' limits), or the seed's gait generated with ``parameters``."""
+    limits = joint_limits(load_config(config))
+    if path is not None:
+        return read_motion_file(path, limits=limits, required=MOTORS)
+    motion = generate_walk(parameters or GaitParameters()).motion()
+    for k, name in enumerate(motion.names):
+        low, high = limits.get(name, (-math.inf, math.inf))
+        outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
+        if outside.size:
+            row = int(outside[0])
+            raise RobotValueError(f"the generated gait's row {row} sends {name} to "
+                                  f"{motion.angles[row, k]:.3f} degrees, outside the "
+                                  f"joint's limits [{low:.3f}, {high:.3f}]")
+    return motion

@@ -10,7 +10,6 @@ Ctrl-C stops at once, and the motors hold the last pose they were sent.
 
 from __future__ import annotations
 
-import math
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -18,11 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...gait.motionfile import MotionFile, read_motion_file
-from ...gait.walking import GaitParameters, generate_walk
-from ..errors import RobotValueError
+from ...gait.motionfile import MotionFile
 from . import ON_STOP
-from . import hardware as armstrong
 from .control_node import PLAY_RATE, Armstrong, controller_of
 from .poses import MOTORS
 
@@ -30,25 +26,6 @@ if TYPE_CHECKING:
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
-
-
-def load_motion(path: str | Path | None, config: str | Path | None = None,
-                parameters: GaitParameters | None = None) -> MotionFile:
-    """The motion to play: the file at ``path`` (all 21 columns, within the configured
-    joints' limits), or the seed's gait generated with ``parameters``."""
-    limits = armstrong.joint_limits(armstrong.load_config(config))
-    if path is not None:
-        return read_motion_file(path, limits=limits, required=MOTORS)
-    motion = generate_walk(parameters or GaitParameters()).motion()
-    for k, name in enumerate(motion.names):
-        low, high = limits.get(name, (-math.inf, math.inf))
-        outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
-        if outside.size:
-            row = int(outside[0])
-            raise RobotValueError(f"the generated gait's row {row} sends {name} to "
-                                  f"{motion.angles[row, k]:.3f} degrees, outside the "
-                                  f"joint's limits [{low:.3f}, {high:.3f}]")
-    return motion
 
 
 def recorded_topics(robot: Armstrong) -> dict[str, str]:
@@ -132,7 +109,6 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
 def tracking_errors(robot: Armstrong) -> dict[str, float]:
     """Per leg motor: the largest difference (degrees) between the last command sent before a
     state and that state's present angle, over the run's second half (after the stand)."""
-    import numpy as np
 
     out: dict[str, float] = {}
     node = robot.node

@@ -261,7 +261,8 @@ class MobileBase:
             if self.on_update is not None:
                 self.on_update(pose)
             if self.clock.now() > end:
-                raise TimeoutError(f"the move did not finish within {timeout:g} s")
+                raise RobotError(f"the move did not finish within {timeout:g} s: is a wheel "
+                                 "blocked, or the base against something?")
             self.clock.sleep(LOOP_PERIOD)
 
     def line(self, distance: float, speed: float) -> float:

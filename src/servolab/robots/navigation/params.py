@@ -42,6 +42,7 @@ from ...configfile import (
     load_text,
     nonnegative_float,
     positive_float,
+    shipped,
 )
 from ...configfile import load as load_config
 from ...errors import ConfigFileError
@@ -50,6 +51,12 @@ from ...planning.dwa import DwaConfig
 
 if TYPE_CHECKING:
     from ...sim.scene import Scene
+
+#: seed 000's parameter files, installed with this package: D.2's costmap, D.3's DWA and
+#: turtlebot's move_base (``servolab robots show costmap_params`` prints one)
+DEFAULT_COSTMAP = shipped(__package__ or "servolab.robots.navigation", "costmap_params.yaml")
+DEFAULT_DWA = shipped(__package__ or "servolab.robots.navigation", "dwa_params.yaml")
+DEFAULT_MOVE_BASE = shipped(__package__ or "servolab.robots.navigation", "move_base_params.yaml")
 
 
 class NavParamsError(ConfigFileError):

@@ -46,7 +46,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from ...configfile import shipped
 from ...planning.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     inflate,
@@ -56,7 +55,7 @@ from ...planning.costmap import (
 from ...planning.dstar_lite import DStarLite
 from ...planning.errors import NoPath
 from ..errors import RobotValueError
-from .params import DEFAULT_RESOLUTION, CostmapParams, load_costmap
+from .params import DEFAULT_COSTMAP, DEFAULT_RESOLUTION, CostmapParams, load_costmap
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -64,7 +63,7 @@ if TYPE_CHECKING:
     from ...runs import RunFolder
 
 #: costmap_params.yaml of this package: seed 000's D.2, ``servolab plan``'s default
-DEFAULT_PARAMS = shipped(__package__ or "servolab.robots.navigation", "costmap_params.yaml")
+DEFAULT_PARAMS = DEFAULT_COSTMAP
 #: pixels darker than this are occupied
 DEFAULT_THRESHOLD = 128.0
 

@@ -47,7 +47,6 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
-from ...configfile import shipped
 from ...estimation.kalman import Seed000Fusion
 from ...harness import RunEnding, interruption, stops_deferred
 from ...planning.dwa import DwaConfig
@@ -69,6 +68,9 @@ from ..base.mobile_base import MobileBase
 from ..errors import RobotError, RobotValueError
 from .navigator import NavigationStatus, NavigatorNode, Patience
 from .params import (
+    DEFAULT_COSTMAP,
+    DEFAULT_DWA,
+    DEFAULT_MOVE_BASE,
     CostmapParams,
     MoveBaseParams,
     load_costmap,
@@ -81,10 +83,6 @@ if TYPE_CHECKING:
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
-#: the defaults, installed with this package (the scene with :mod:`servolab.sim`)
-DEFAULT_COSTMAP = shipped(__package__ or "servolab.robots.navigation", "costmap_params.yaml")
-DEFAULT_DWA = shipped(__package__ or "servolab.robots.navigation", "dwa_params.yaml")
-DEFAULT_MOVE_BASE = shipped(__package__ or "servolab.robots.navigation", "move_base_params.yaml")
 #: the calibration board of the synthetic session: 10 x 7 squares of 80 mm (even x odd, as
 #: the seed requires), 15 views
 BOARD, SQUARE_MM, VIEWS = (10, 7), 80.0, 15

@@ -9,6 +9,7 @@ import time
 from collections.abc import Mapping
 from typing import Any
 
+from ...harness import StopSignal
 from ...middleware.context import Context
 from ...middleware.node import Node
 from ..errors import RobotError, RobotValueError
@@ -132,7 +133,8 @@ class TreadmillRig(Node):
 
     def finish(self, error: str | None = None) -> dict[str, Any]:
         """Stop the wheels, close the logs, analyse them (once); ``error`` says why the run
-        failed, in the summary."""
+        failed, in the summary, whose ``interrupted`` is that error, or the stop signal that
+        ended the launch, or null when it ran its duration."""
         if self.summary is not None:
             return self.summary
         try:
@@ -145,10 +147,14 @@ class TreadmillRig(Node):
                             self.run.file("robot_encoders.bin"), None)
         summary.update({"duration_s": self.duration, "frames": self.node.frames,
                         "encoder_records": self.tracker.records})
+        ended: BaseException | None = None
         if error is not None:
             summary["error"] = error
+            ended = RobotError(error)
+        elif self.context.stopped_by is not None:
+            ended = StopSignal(self.context.stopped_by)
         self.summary = summary
-        self.run.write_summary(summary)
+        self.run.write_summary(summary, interrupted=ended)
         analysis = summary["analysis"] or {}
         self.get_logger().info(
             f"{self.node.frames} frames, {self.tracker.records} robot encoder records: mean "
