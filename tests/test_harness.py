@@ -78,3 +78,16 @@ def test_interruption_names_the_signal_or_the_error() -> None:
     assert interruption(KeyboardInterrupt()) == "SIGINT"
     assert interruption(NoResponse("motor 3 did not answer")) == \
         "NoResponse: motor 3 did not answer"
+
+
+def test_a_signal_inside_signals_held_comes_when_it_is_left() -> None:
+    """A bag's record is appended whole: the stop comes between two writes, never inside."""
+    from servolab.signals import signals_held
+
+    steps = []
+    with pytest.raises(StopSignal), stop_signals_raise():
+        with signals_held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            steps.append("the rest of the record")  # not cut short
+        steps.append("after the write")  # never reached: the stop comes first
+    assert steps == ["the rest of the record"]

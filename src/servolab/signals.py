@@ -26,16 +26,58 @@ def stop_signals() -> list[signal.Signals]:
     return found
 
 
+class _Held:
+    """How deep the main thread is in :func:`signals_held`, and the stop signals that came
+    meanwhile. Process-wide, as signal handlers are: there is one main thread."""
+
+    depth = 0
+    pending: list[int] = []  # noqa: RUF012 (one instance, never shared by value)
+
+
+_HELD = _Held()
+
+
 @contextmanager
-def on_stop_signals(handler: SignalHandler) -> Iterator[None]:
-    """Call ``handler(signum, frame)`` on a stop signal while inside. Signal handlers belong
-    to the main thread, so elsewhere this changes nothing."""
+def signals_held() -> Iterator[None]:
+    """Hold stop signals back for a few statements that must not be cut in half (a message
+    half appended to a bag's chunk would corrupt the chunk): a signal that comes while the
+    main thread is inside reaches the handler of :func:`on_stop_signals` as it leaves. Costs
+    no system call, so it may wrap every message a recorder writes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _HELD.depth += 1
+    try:
+        yield
+    finally:
+        _HELD.depth -= 1
+        if _HELD.depth == 0 and _HELD.pending:
+            signum = _HELD.pending[0]
+            _HELD.pending.clear()
+            handler = signal.getsignal(signum)
+            if callable(handler):
+                handler(signum, None)  # may raise: now, between two whole writes
+
+
+@contextmanager
+def on_stop_signals(handler: SignalHandler) -> Iterator[None]:
+    """Call ``handler(signum, frame)`` on a stop signal while inside (once the main thread has
+    left any :func:`signals_held` it is in). Signal handlers belong to the main thread, so
+    elsewhere this changes nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def held_back(signum: int, frame: FrameType | None) -> None:
+        if _HELD.depth:
+            _HELD.pending.append(signum)
+            return
+        handler(signum, frame)
+
+    held_back.__wrapped__ = handler  # type: ignore[attr-defined]
     previous = {s: signal.getsignal(s) for s in stop_signals()}
     for s in previous:
-        signal.signal(s, handler)
+        signal.signal(s, held_back)
     try:
         yield
     finally:

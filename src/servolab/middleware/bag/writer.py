@@ -19,6 +19,7 @@ from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
+from ...signals import signals_held
 from ..errors import BagError, BagWriteError
 from ..messages import MessageTypes
 from .layout import LIBRARY, METADATA_VERSION, ROS_DISTRO, _yaml
@@ -214,8 +215,9 @@ class BagWriter:
                 entry = self._add_topic(topic, self.types.type_of(data))  # or its type differs
                 payload = self.types.serialize(data)
             try:
-                self._mcap.add_message(channel_id=entry.channel_id, log_time=log_time_ns,
-                                       data=payload, publish_time=publish)
+                with signals_held():  # a stop signal must not leave half a record in a chunk
+                    self._mcap.add_message(channel_id=entry.channel_id, log_time=log_time_ns,
+                                           data=payload, publish_time=publish)
             except OSError as exc:
                 raise BagWriteError(f"bag {self.path}: cannot write: "
                                     f"{exc.strerror or exc}") from None
@@ -230,7 +232,8 @@ class BagWriter:
         with self._lock:
             self._check_open()
             try:
-                self._mcap.flush()
+                with signals_held():
+                    self._mcap.flush()
                 if fsync:
                     self._file.fsync()
             except OSError as exc:
@@ -251,10 +254,11 @@ class BagWriter:
                     # metadata.yaml. Its ros_distro is inside serialized_metadata.
                     inner = self.metadata()["rosbag2_bagfile_information"]
                     # ROS_DISTRO is what Humble wrote and Jazzy still reads.
-                    self._mcap.add_metadata("rosbag2", {
-                        "serialized_metadata": _yaml(inner).rstrip("\n"),
-                        "ROS_DISTRO": ROS_DISTRO})
-                    self._mcap.finish()
+                    with signals_held():
+                        self._mcap.add_metadata("rosbag2", {
+                            "serialized_metadata": _yaml(inner).rstrip("\n"),
+                            "ROS_DISTRO": ROS_DISTRO})
+                        self._mcap.finish()
                     self._file.fsync()
                 finally:
                     self._file.close()
