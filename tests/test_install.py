@@ -96,3 +96,31 @@ def test_robots_lists_the_installed_files(installed: Path, tmp_path: Path) -> No
     assert f"config:  {installed.parent}" in result.stdout
     shown = _run(installed, tmp_path, "robots", "show", "armstrong")
     assert shown.returncode == 0 and "controller_m14:" in shown.stdout
+
+
+def test_the_wheel_requires_every_package_servolab_imports(installed: Path) -> None:
+    """The venv above borrows its dependencies, so a dependency missing from pyproject.toml
+    would not show there: every third-party module that src/servolab imports must come from a
+    distribution the wheel's metadata requires."""
+    import ast
+    import importlib.metadata as metadata
+    import re
+
+    (dist_info,) = (installed.parent / "lib").glob("python*/site-packages/servolab-*.dist-info")
+    required = {re.split(r"[ ;<>=!~\[(]", line.split(":", 1)[1].strip())[0].lower()
+                .replace("_", "-")
+                for line in (dist_info / "METADATA").read_text().splitlines()
+                if line.startswith("Requires-Dist:") and "extra ==" not in line}
+    imported: set[str] = set()
+    for path in (ROOT / "src" / "servolab").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                imported |= {alias.name.split(".")[0] for alias in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                imported.add(node.module.split(".")[0])
+    providers = metadata.packages_distributions()
+    third_party = {m for m in imported if m in providers and m != "servolab"}
+    missing = {m: providers[m] for m in third_party
+               if not {d.lower().replace("_", "-") for d in providers[m]} & required}
+    assert third_party, "the check found no third-party import: it looks in the wrong place"
+    assert missing == {}, f"imported but not in the wheel's Requires-Dist: {missing}"

@@ -80,3 +80,4 @@ def test_a_base_is_named_or_a_file_and_a_typo_gets_a_suggestion(
     assert status == 2
     assert line == ("servolab drive: error: turtlebot: no such file, nor a shipped base; "
                     "did you mean turtlebot3_waffle?")
+    assert not (tmp_path / "run").exists()  # refused before a run folder was made

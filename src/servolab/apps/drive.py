@@ -60,15 +60,18 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..robots.base.run import run_drive
+    from ..robots.base.run import prepare, run_drive
     from ..runs import RunFolder
 
+    # the move, the floor and the base checked before a run folder is made
+    base = prepare(args.move, args.base, slip=args.slip, slip_jitter=args.slip_jitter,
+                   encoder_noise=args.encoder_noise)
     with RunFolder.create("drive", args.out) as run:
         run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
                   speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
                   clockwise=getattr(args, "clockwise", False),
                   turns=getattr(args, "turns", 1.0), angle_deg=getattr(args, "angle", 90.0),
-                  base=args.base, port=args.port, show_progress=not args.no_progress,
+                  base=base, port=args.port, show_progress=not args.no_progress,
                   slip=args.slip, slip_jitter=args.slip_jitter,
                   encoder_noise=args.encoder_noise, real_time=args.real_time)
     print(f"run folder: {run.path}")

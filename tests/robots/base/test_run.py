@@ -85,9 +85,10 @@ def test_a_base_without_a_wheel_radius_is_refused_before_anything_moves(tmp_path
     result = subprocess.run([sys.executable, "-m", "servolab", "drive", "line", "--distance",
                              "1", "--base", str(bad), "--out", str(out)],
                             capture_output=True, text=True, timeout=120)
-    assert result.returncode != 0
+    assert result.returncode == 2  # bad input (servolab.harness)
     assert f"{bad}:" in result.stderr and "wheel_radius" in result.stderr
     assert result.stderr.strip().count("\n") == 0
+    assert not out.exists()  # refused before a run folder was made
 
 
 def test_a_speed_over_the_motors_limit_is_refused_in_one_line(tmp_path: Path) -> None:

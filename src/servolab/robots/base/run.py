@@ -25,6 +25,7 @@ import numpy as np
 from ...harness import RunEnding, stops_deferred
 from ..errors import RobotValueError
 from . import ON_STOP
+from .config import BaseConfig
 from .config import load as load_base
 from .config import resolve as resolve_base
 from .mobile_base import MobileBase, open_base
@@ -36,14 +37,10 @@ Say = Callable[[str], None]
 MOVES = ("line", "circle", "eight", "rotate", "rpm", "stop")
 
 
-def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
-              radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
-              angle_deg: float = 90.0, base: str | Path | None = None,
-              port: str | None = None, say: Say = print, show_progress: bool = True,
-              slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
-              real_time: bool = False) -> dict[str, Any]:
-    """Run one move (see the module docstring); returns the summary. An emulated base runs
-    in simulated time, as fast as the computer allows, unless ``real_time``."""
+def prepare(move: str, base: str | Path | None = None, *, slip: float = 0.0,
+            slip_jitter: float = 0.0, encoder_noise: float = 0.0) -> BaseConfig:
+    """Everything a drive is given, checked before a run folder is made or a port opened:
+    the move, the floor's slip and noise, and the base's file (loaded)."""
     if move not in MOVES:
         raise RobotValueError(f"no move {move!r}; there are {', '.join(MOVES)}")
     for name, value in (("slip", slip), ("slip_jitter", slip_jitter)):
@@ -51,7 +48,20 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
             raise RobotValueError(f"{name} must be a fraction in [0, 1), not {value!r}")
     if not (math.isfinite(encoder_noise) and encoder_noise >= 0):
         raise RobotValueError(f"encoder_noise must be 0 or more rad, not {encoder_noise!r}")
-    config = load_base(resolve_base(base))
+    return load_base(resolve_base(base))
+
+
+def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
+              radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
+              angle_deg: float = 90.0, base: str | Path | BaseConfig | None = None,
+              port: str | None = None, say: Say = print, show_progress: bool = True,
+              slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
+              real_time: bool = False) -> dict[str, Any]:
+    """Run one move (see the module docstring); returns the summary. An emulated base runs
+    in simulated time, as fast as the computer allows, unless ``real_time``. ``base`` is a
+    shipped base's name, a file, or what :func:`prepare` loaded."""
+    config = base if isinstance(base, BaseConfig) else prepare(
+        move, base, slip=slip, slip_jitter=slip_jitter, encoder_noise=encoder_noise)
     robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter,
                       encoder_noise=encoder_noise)
     simulation = robot.clock if robot.floor is not None and real_time else None
