@@ -32,11 +32,14 @@ import pytest
 from mcap.reader import make_reader
 
 from servolab.dynamixel.bus import Bus
+from servolab.robots.armstrong.hardware import load_config
 from tests.simproc import sim_process
 from tests.waiting import wait_for_line, wait_until
 
 pytestmark = pytest.mark.slow
 
+#: Armstrong's leg motors (001 Table 2.2): the ones the stand pose moves
+LEG_MOTORS = (*range(11, 17), *range(21, 27))
 #: how each signal reaches the command: (signal, start the job with SIGINT ignored)
 SIGNALS = [pytest.param(signal.SIGTERM, id="SIGTERM"),
            pytest.param(signal.SIGHUP, id="SIGHUP"),
@@ -153,6 +156,14 @@ def test_walk_holds_the_last_pose(tmp_path: Path, sig: signal.Signals) -> None:
             assert all(bus.read(i, "torque_enable", raw=True) == 1 for i in motors)
             wait_until(lambda: not any(bus.read(i, "moving", raw=True) for i in motors),
                        timeout=10.0)
+            held = {i: bus.read(i, ["goal_position", "present_position"], raw=True)
+                    for i in motors}
+    # at rest on the goals they were last sent (a few ticks of compliance margin), and those
+    # goals a pose of the walk: the stand of Table 4.2 moved the legs off their init positions
+    assert all(abs(g["present_position"] - g["goal_position"]) <= 3  # type: ignore[operator]
+               for g in held.values()), held
+    init = {c.motor.id: c.motor.init for c in load_config().controllers}
+    assert sum(held[i]["goal_position"] != init[i] for i in LEG_MOTORS) >= 6, held
     summary = summary_of(run, sig)
     assert summary["rows_played"] < summary["rows_asked"]  # type: ignore[operator]
     assert mcap_messages(run / "walk_bag")["/controller_m14/command"] > 0
