@@ -272,3 +272,26 @@ def test_a_stop_before_the_run_starts_still_leaves_a_summary(tmp_path: Path) -> 
         stop(navigate, signal.SIGTERM, "calibrating the overhead camera")
     summary = summary_of(run, signal.SIGTERM)
     assert summary["stage"] == "setting up, before the run started"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+def test_the_treadmill_launch_stops_its_wheels_and_says_so(tmp_path: Path,
+                                                           sig: signal.Signals) -> None:
+    """configs/flyball.launch.yaml, camera PC and robot as two processes over Zenoh, stopped
+    while the fly runs: the supervisor stops its children as ROS 2 launch does (SIGINT first),
+    the camera PC stops the treadmill's wheels and writes its summary, and the launch exits
+    128 + the signal it got."""
+    launch = Path(__file__).resolve().parents[2] / "configs" / "flyball.launch.yaml"
+    out = tmp_path / "run"
+    shipped = 'parameters: {duration: 30.0, seed: 0, out: "runs/flyball-launch"}'
+    text = launch.read_text()
+    assert shipped in text
+    path = tmp_path / "flyball.launch.yaml"
+    path.write_text(text.replace(shipped, f'parameters: {{duration: 60.0, seed: 0, '
+                                          f'out: "{out}"}}'))
+    with servolab(["launch", str(path)], sig) as proc:
+        said = stop(proc, sig, "[robot]", timeout=60.0, last_line=False)
+    summary = summary_of(out, signal.SIGINT)  # what its supervisor sent the camera PC
+    assert summary["wheels_after_stop"] == {
+        str(i): {"goal_velocity": 0, "torque_enable": 0} for i in (100, 101, 102)}
+    assert any(f"[launch] {sig.name}: stopping everything" in line for line in said)

@@ -13,6 +13,7 @@ from ...harness import StopSignal
 from ...middleware.context import Context
 from ...middleware.node import Node
 from ..errors import RobotError, RobotValueError
+from . import ON_STOP
 from .analysis import analysed_run
 from .logs import EncoderLogWriter
 from .node import TreadmillNode, simulated_treadmill
@@ -137,8 +138,11 @@ class TreadmillRig(Node):
         ended the launch, or null when it ran its duration."""
         if self.summary is not None:
             return self.summary
+        wheels: dict[str, Any] = {}
         try:
             self.node.motor_deinit()
+            wheels = {str(i): self.bus.read(i, ["goal_velocity", "torque_enable"], raw=True)
+                      for i in self.node.ids}  # read back: the stop reached the motors
         finally:
             self.simulation.stop_real_time()
             self.fly_log.close()
@@ -146,7 +150,8 @@ class TreadmillRig(Node):
         summary = analysed_run(self.run, self.run.file("fly_data.bin"),
                             self.run.file("robot_encoders.bin"), None)
         summary.update({"duration_s": self.duration, "frames": self.node.frames,
-                        "encoder_records": self.tracker.records})
+                        "encoder_records": self.tracker.records, "motors_on_stop": ON_STOP,
+                        "wheels_after_stop": wheels})
         ended: BaseException | None = None
         if error is not None:
             summary["error"] = error
