@@ -124,3 +124,51 @@ def test_the_wheel_requires_every_package_servolab_imports(installed: Path) -> N
                if not {d.lower().replace("_", "-") for d in providers[m]} & required}
     assert third_party, "the check found no third-party import: it looks in the wrong place"
     assert missing == {}, f"imported but not in the wheel's Requires-Dist: {missing}"
+
+
+def test_installed_drive_on_a_pty_stops_on_sigterm(installed: Path, tmp_path: Path) -> None:
+    """The whole chain as a lab meets it: the installed `servolab sim --pty` serves seed 000's
+    two EX-106+ at 1 Mbps in real time, the installed `servolab drive` drives them from
+    another folder, and SIGTERM mid-line stops the wheels (read back over the pty) with
+    exit 143 and the summary written."""
+    import signal
+
+    from servolab.dynamixel.bus import Bus
+    from tests.waiting import wait_for_line
+
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env["PYTHONUNBUFFERED"] = "1"
+    sim = subprocess.Popen([str(installed / "servolab"), "sim", "--pty", "--motors",
+                            "ex106+:0-1", "--baud", "1000000", "--out", str(tmp_path / "sim")],
+                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                           env=env, cwd=tmp_path)
+    try:
+        (pty,) = wait_for_line(sim, "/", timeout=30.0)[-1:]
+        drive = subprocess.Popen([str(installed / "servolab"), "drive", "line", "--distance",
+                                  "5", "--speed", "0.1", "--port", pty.strip(),
+                                  "--no-progress", "--out", "run"], stdout=subprocess.PIPE,
+                                 stderr=subprocess.STDOUT, text=True, env=env, cwd=tmp_path)
+        try:
+            wait_for_line(drive, "moving: 1 of 50 s", timeout=60.0)
+            drive.send_signal(signal.SIGTERM)
+            assert drive.wait(60) == 143
+        finally:
+            if drive.poll() is None:
+                drive.kill()
+                drive.wait()
+            if drive.stdout is not None:
+                drive.stdout.close()
+        with Bus.open(pty.strip(), protocol=1, baudrate=1_000_000) as bus:
+            assert [bus.read(i, "moving_speed", raw=True) for i in (0, 1)] == [0, 0]
+    finally:
+        sim.send_signal(signal.SIGINT)
+        try:
+            sim.wait(10)
+        except subprocess.TimeoutExpired:
+            sim.kill()
+            sim.wait()
+        if sim.stdout is not None:
+            sim.stdout.close()
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["interrupted"] == "SIGTERM" and summary["wheels_after_stop"] == {"0": 0,
+                                                                                    "1": 0}
