@@ -122,3 +122,27 @@ def test_measure_without_a_floor_plane_is_bad_input(tmp_path: Path,
     assert main(["measure", "--calib", str(path), "1", "2", "3", "4"]) == 2
     assert _one_line(capsys) == (f"servolab measure: error: --calib {path} has no floor plane; "
                                  "calibrate with --floor IMAGE")
+
+
+def test_gait_stopped_while_it_plots_leaves_its_summary(tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    """SIGTERM while `servolab gait generate` draws its figures: exit 143, and the run folder
+    still gets summary.json saying what ended it (the run folder's own guard)."""
+    import json
+    import signal
+
+    import servolab.gait.plots as plots
+    from servolab.harness import StopSignal
+
+    def stopped(*args: object, **kwargs: object) -> Path:
+        raise StopSignal(signal.SIGTERM)
+
+    monkeypatch.setattr(plots, "plot_joint_angles", stopped)
+    out = tmp_path / "run"
+    assert main(["gait", "generate", "--out", str(out)]) == 143
+    assert capsys.readouterr().err == "servolab gait generate: stopped by SIGTERM\n"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"] == "SIGTERM"
+    assert (out / "gait.csv").exists()  # what was made before the stop is kept
