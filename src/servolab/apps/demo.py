@@ -187,7 +187,7 @@ def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, objec
     say("   (servolab walk; see docs/biped.md)")
     summary = run_walk(run_folder, load_motion(None), steps=1,
                        say=lambda text: say("   " + text), show_progress=False)
-    return {k: summary[k] for k in ("rows_played", "duration_s", "bag", "plot")}
+    return {k: summary[k] for k in ("rows_played", "walked_s", "bag", "plot")}
 
 
 def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:

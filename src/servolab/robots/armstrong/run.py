@@ -90,7 +90,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             summary: dict[str, Any] = {
                 "rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
                 "stopped": played < total,
-                "duration_s": robot.context.clock.now() - started, "bag": str(bag),
+                "walked_s": robot.context.clock.now() - started, "bag": str(bag),
                 "port": port or "emulated", "controllers_failed": robot.manager.failed,
                 "motors_on_stop": ON_STOP}
             with ending.step("plotting"):

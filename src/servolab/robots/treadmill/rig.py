@@ -149,7 +149,7 @@ class TreadmillRig(Node):
             self.encoder_log.close()
         summary = analysed_run(self.run, self.run.file("fly_data.bin"),
                             self.run.file("robot_encoders.bin"), None)
-        summary.update({"duration_s": self.duration, "frames": self.node.frames,
+        summary.update({"duration_asked_s": self.duration, "frames": self.node.frames,
                         "encoder_records": self.tracker.records, "motors_on_stop": ON_STOP,
                         "wheels_after_stop": wheels})
         ended: BaseException | None = None

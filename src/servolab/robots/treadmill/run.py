@@ -83,7 +83,8 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     tracker: MobrobDataTracker | None = None
     ending = RunEnding(None)
     late = DeferredStop()
-    summary: dict[str, Any] = {"duration_s": duration, "seed": seed, "motors_on_stop": ON_STOP}
+    summary: dict[str, Any] = {"duration_asked_s": duration, "seed": seed,
+                               "motors_on_stop": ON_STOP}
     with ExitStack() as way_out:
         with ending.step("closing the logs and the bag"), FlyLogWriter(fly_path) as fly_log, \
                 EncoderLogWriter(encoder_path) as encoder_log, \
