@@ -244,7 +244,34 @@ def port_failed(port: str, what: str, exc: BaseException, advice: str) -> PortEr
     return PortError(f"{port}: {what} failed ({reason}); {advice}")
 
 
-class SerialPort(Port):
+class DevicePort(Port):
+    """A port whose I/O can fail under it (an adapter unplugged, a server gone): every read
+    and write error becomes one :class:`PortError` line that names the port and what to do
+    (``_failed``), so the driver above sees one kind of error from any port."""
+
+    @abstractmethod
+    def _failed(self, what: str, exc: BaseException) -> PortError: ...
+
+    @abstractmethod
+    def _write(self, data: bytes) -> None: ...
+
+    @abstractmethod
+    def _read(self, size: int, timeout: float) -> bytes: ...
+
+    def write(self, data: bytes) -> None:
+        try:
+            self._write(data)
+        except _io_errors() as exc:
+            raise self._failed("writing", exc) from exc
+
+    def read(self, size: int, timeout: float) -> bytes:
+        try:
+            return self._read(size, timeout)
+        except _io_errors() as exc:
+            raise self._failed("reading", exc) from exc
+
+
+class SerialPort(DevicePort):
     """A real serial port (USB2Dynamixel, U2D2, OpenCM, ...) through pyserial.
 
     Reads and writes go straight to the port's file descriptor where there is one (POSIX):
@@ -296,12 +323,6 @@ class SerialPort(Port):
                            "was the adapter unplugged or the device closed? Check the cable "
                            "and the port, then open it again")
 
-    def write(self, data: bytes) -> None:
-        try:
-            self._write(data)
-        except _io_errors() as exc:
-            raise self._failed("writing", exc) from exc
-
     def _write(self, data: bytes) -> None:
         # No flush() (tcdrain) after the write: it would block until the last byte has left
         # the UART, which only matters to a controller that switches the half-duplex line's
@@ -322,12 +343,6 @@ class SerialPort(Port):
                 return
             data = data[sent:]  # the kernel's buffer is full: let pyserial wait for room
         self._serial.write(bytes(data))
-
-    def read(self, size: int, timeout: float) -> bytes:
-        try:
-            return self._read(size, timeout)
-        except _io_errors() as exc:
-            raise self._failed("reading", exc) from exc
 
     def _read(self, size: int, timeout: float) -> bytes:
         fd = self._fd
@@ -381,7 +396,7 @@ class SerialPort(Port):
         self._fd = None
 
 
-class PyserialPort(Port):
+class PyserialPort(DevicePort):
     """A port pyserial opens from one of its URLs, read and written through pyserial itself:
     ``spy://DEVICE?file=LOG`` (a serial device, every byte each way logged as a hex dump),
     ``socket://HOST:PORT`` (a raw TCP serial server such as ser2net), ``rfc2217://HOST:PORT``
@@ -447,17 +462,8 @@ class PyserialPort(Port):
                            "was the connection closed, the server stopped or the adapter "
                            "unplugged? Check it, then open the port again")
 
-    def write(self, data: bytes) -> None:
-        try:
-            self._serial.write(bytes(data))
-        except _io_errors() as exc:
-            raise self._failed("writing", exc) from exc
-
-    def read(self, size: int, timeout: float) -> bytes:
-        try:
-            return self._read(size, timeout)
-        except _io_errors() as exc:
-            raise self._failed("reading", exc) from exc
+    def _write(self, data: bytes) -> None:
+        self._serial.write(bytes(data))
 
     def _read(self, size: int, timeout: float) -> bytes:
         ser = self._serial
