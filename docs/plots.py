@@ -76,6 +76,9 @@ FIGURES: dict[str, Figure] = {
     "biped.update_rate_hz": Figure(
         "docs/biped.md", 0.0, lambda v, t: f"updates at {v:.1f} Hz",
         "Armstrong(): the rate its controller manager updates at"),
+    "biped.fault_rows": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"after {v:.0f} of its 17 rows",
+        "docs/plots.py's biped(): the knee made to overheat from row 5"),
     "mobile.circle_raw_slow": Figure(
         "docs/mobile.md", 0.0, lambda v, t: f"the same circle goes out as {v:.0f} and", _SLIP),
     "mobile.circle_raw_fast": Figure(
@@ -259,9 +262,22 @@ def biped(out: Path) -> dict[str, float]:
         summary = run_walk(RunFolder.create("walk", tmp), load_motion(None), steps=2,
                            say=lambda text: None, show_progress=False)
         shutil.copy(str(summary["plot"]), out / "biped_walk.png")
+        # a fault: the knee, warm (70 deg C) and quick to heat, made to hold 95 % of its torque
+        # from row 5 (tests/robots/armstrong/test_supervisor.py's overheat)
+        def heat(robot: Armstrong, row: int) -> None:
+            if row == 5:
+                motor = robot.bus.port.emulator.motor(14)  # type: ignore[attr-defined]
+                motor.temperature = 70.0
+                motor.thermal_time_constant = 2.0
+                motor.external_load = 0.95
+
+        fault = run_walk(RunFolder.create("walk", Path(tmp) / "fault"), load_motion(None),
+                         steps=1, say=lambda text: None, show_progress=False, on_row=heat)
+        shutil.copy(str(fault["alarm_plot"]), out / "biped_fault.png")
     with Armstrong() as robot:
         return {"biped.update_ms": robot.manager.update_time * 1000,
-                "biped.update_rate_hz": robot.manager.rate}
+                "biped.update_rate_hz": robot.manager.rate,
+                "biped.fault_rows": float(fault["rows_played"])}
 
 
 def mobile(out: Path) -> dict[str, float]:

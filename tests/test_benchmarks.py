@@ -234,14 +234,22 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
 GAIT = BENCHMARK.parent / "gait.py"
 # The controller manager's buses benchmarks/gait.py promises: (baud rate, return delay raw).
 MANAGER_BUSES = [(57_142, 250), (57_142, 0), (1_000_000, 250), (1_000_000, 0)]
+# Its real-time walks over a pty: the baud rates, and what one step of the gait sends to the
+# twelve leg motors (17 rows each, after the stand's 40 poses).
+PTY_BAUDS = [57_142, 1_000_000]
+GAIT_ROWS, LEG_MOTORS = 17, 12
+FACTORY_DELAY_RAW = 250  # what servolab sim's RX-28 answer with
 
 
-@pytest.mark.timeout(60)
+@pytest.mark.timeout(90)
 def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """benchmarks/gait.py --quick: the walk generator's ratio, and the controller manager's
-    update rate on the four buses, every figure finite and positive, the achieved rate within
-    the wire limit computed from the packet sizes, one READ per register slower than one READ
-    per motor."""
+    """benchmarks/gait.py --quick: the walk generator's ratio; the controller manager's bus
+    owner on the four emulated buses (every figure finite and positive, the achieved rate the
+    wire limit computed from the packet sizes, one READ per register slower than one READ of
+    the 17 state bytes per motor); and the real-time walks over ``servolab sim --pty`` at
+    57142 and 1 000 000 bps (rows delivered / commanded in 0..1, the state rate achieved
+    within both its wire limit and the configured update_rate, that limit the one computed
+    for the same bus in virtual time)."""
     bench = _load(GAIT, "gait_bench")
     out_json = tmp_path / "figures.json"
     assert bench.main(["--quick", "--json", str(out_json)]) == 0
@@ -258,20 +266,71 @@ def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     for bus in buses:
         assert bus["motors"] == 20 and bus["updates"] == manager["updates"], bus
         assert bus["transactions_per_update"] == 21, bus  # 20 READs + one SYNC_WRITE
+        assert bus["goals_per_update"] == 20, bus          # every goal, in that SYNC_WRITE
+        assert bus["goals_replaced"] == 0, bus             # one goal per motor per sweep
         for name in ("achieved_hz", "limit_hz", "ratio_achieved_limit", "per_register_hz",
                      "per_register_limit_hz", "ratio_per_register_limit",
-                     "ratio_per_register_achieved", "manager_wire_ms"):
+                     "ratio_per_register_achieved", "manager_wire_ms", "owner_sweep_hz",
+                     "owner_sweep_ms"):
             assert _positive(bus[name]), (name, bus)
-        assert bus["achieved_hz"] <= 1.01 * bus["limit_hz"], bus
+        # Virtual time, sweeps back to back: the wire alone bounds the rate, and the owner
+        # loses none of it (deterministic: no host time in it).
+        assert 0.95 * bus["limit_hz"] <= bus["achieved_hz"] <= 1.01 * bus["limit_hz"], bus
+        assert math.isclose(bus["ratio_achieved_limit"], bus["achieved_hz"] / bus["limit_hz"])
+        assert math.isclose(bus["owner_sweep_hz"], bus["achieved_hz"], rel_tol=0.05), bus
+        # a sweep's 20 READs take the update's time less the SYNC_WRITE's
+        assert bus["owner_sweep_ms"] < 1e3 / bus["achieved_hz"], bus
         assert bus["per_register_limit_hz"] < bus["limit_hz"], bus
         assert bus["per_register_hz"] <= 1.01 * bus["per_register_limit_hz"], bus
         # The manager's own wire time is the one computed from the packet sizes.
         assert math.isclose(1e3 / bus["manager_wire_ms"], bus["limit_hz"], rel_tol=1e-6), bus
         assert bus["label"] in out
-    # 57142 bps with the factory delay: one READ per motor gives 9.1 Hz (the seed's 3-4 Hz).
-    assert math.isclose(buses[0]["limit_hz"], 1 / (20 * (25e-3 / 5.7142 + 0.5e-3)
-                                                   + 0.68 / 57.142), rel_tol=1e-9)
+    # 57142 bps with the factory delay: one READ of the 17 state bytes per motor (an 8-byte
+    # instruction, a 23-byte status) and the SYNC_WRITE of 8 + 3 x 20 bytes give 7.7 Hz (the
+    # seed's ROS driver: 3-4 Hz).
+    assert math.isclose(buses[0]["limit_hz"], 1 / (20 * ((8 + 23) * 10 / 57_142 + 0.5e-3)
+                                                   + (8 + 3 * 20) * 10 / 57_142),
+                        rel_tol=1e-9)
     assert "ratio achieved/limit" in out and "ratio per-register/one-READ" in out
+
+    pty = figures["pty"]
+    assert (pty["gait_rows"], pty["leg_motors"]) == (GAIT_ROWS, LEG_MOTORS)
+    walks = pty["buses"]
+    assert [w["baudrate"] for w in walks] == PTY_BAUDS
+    for walk in walks:
+        assert walk["rows_played"] == GAIT_ROWS, walk
+        assert walk["rows_commanded"] == GAIT_ROWS * LEG_MOTORS, walk
+        assert 0 <= walk["rows_delivered"] <= walk["rows_commanded"], walk
+        assert 0.0 <= walk["ratio_delivered"] <= 1.0, walk
+        assert math.isclose(walk["ratio_delivered"],
+                            walk["rows_delivered"] / walk["rows_commanded"]), walk
+        assert 0 <= walk["never_read_back"] <= walk["rows_commanded"] - walk["rows_delivered"]
+        assert math.isclose(walk["row_period_ms"], 1e3 / 4.5), walk
+        if walk["never_read_back"] < walk["rows_commanded"]:
+            assert _positive(walk["worst_delay_ms"]), walk
+            assert math.isclose(walk["ratio_worst_delay_row"],
+                                walk["worst_delay_ms"] / walk["row_period_ms"]), walk
+        if walk["rows_delivered"] == walk["rows_commanded"]:
+            assert walk["worst_delay_ms"] <= walk["row_period_ms"], walk
+        for name in ("state_rate_hz", "state_rate_wire_limit_hz", "ratio_state_limit",
+                     "update_rate_hz", "ratio_state_asked", "goals_written", "walk_wall_s"):
+            assert _positive(walk[name]), (name, walk)
+        assert walk["update_rate_hz"] == 20.0, walk  # armstrong.yaml's, at both baud rates
+        assert walk["state_rate_hz"] <= 1.02 * walk["state_rate_wire_limit_hz"], walk
+        assert walk["state_rate_hz"] <= 1.02 * walk["update_rate_hz"], walk
+        assert 0.0 < walk["ratio_state_limit"] <= 1.02, walk
+        assert math.isclose(walk["ratio_state_limit"],
+                            walk["state_rate_hz"] / walk["state_rate_wire_limit_hz"]), walk
+        # the walk's wire limit (summary.json, 2 decimals) is the one part 2 computed for the
+        # same bus: the emulated RX-28 answer after the factory return delay
+        same = next(b for b in buses
+                    if (b["baudrate"], b["return_delay_raw"]) == (walk["baudrate"],
+                                                                  FACTORY_DELAY_RAW))
+        assert math.isclose(walk["state_rate_wire_limit_hz"], same["limit_hz"], abs_tol=0.01)
+        # every goal of the stand and the gait went out, 20 motors a row
+        assert walk["goals_written"] >= 20 * (40 + GAIT_ROWS), walk
+        assert walk["label"] in out
+    assert "ratio delivered/commanded" in out and "ratio state/limit" in out
 
 
 BASE = BENCHMARK.parent / "base.py"

@@ -61,7 +61,7 @@ def test_several_registers_of_one_motor_are_one_contiguous_read() -> None:
     assert got == {n: motor.get_raw(n) for n in names}
     assert got["present_position"] == 512
     assert got["present_speed"] == 0
-    assert got["present_load"] == 1024 + 300       # 30 %, clockwise bit
+    assert got["present_load"] == 300  # 30 %: the motor holds a clockwise push with a CCW torque
     # the emulated supply is the model's nominal voltage (RX-28: 18.5 V, e-Manual)
     assert got["present_voltage"] == pytest.approx(10 * motor.model.nominal_voltage, abs=5)
 

@@ -13,6 +13,7 @@ from servolab.dynamixel import Bus
 from servolab.dynamixel.plant import (
     AMBIENT_C,
     IDLE_RISE_C,
+    MECHANICAL_TIME_CONSTANT_S,
     STALL_HEATING_C,
     KinematicServo,
     ServoCommand,
@@ -71,17 +72,23 @@ def test_overheating_stop_lands_on_the_first_step_above_the_limit(load: float, s
 
 def test_motion_matches_the_closed_form() -> None:
     """1 rad/s toward +1 rad: at 0.5 s half way, at 1 s there and at rest; load is friction
-    while moving; temperature rises toward its steady value with the 300 s lag."""
+    while moving (the start's acceleration torque long gone); temperature rises toward its
+    steady value, which goes with the square of the load (copper loss), with the 300 s lag."""
     p = KinematicServo(6.27)
     p.command = ServoCommand(True, False, goal_position=1.0, profile_velocity=1.0)
     p.advance(500, 0.001)
     assert (p.position, p.velocity) == (0.5, 1.0)
     assert p.effort == pytest.approx(0.04 + 0.12 / 6.27)
-    steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * p.effort
+    steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * p.effort ** 2
     start = AMBIENT_C + IDLE_RISE_C
     assert p.temperature == pytest.approx(steady + (start - steady) * math.exp(-0.5 / 300))
     p.advance(500, 0.001)
-    assert (p.position, p.velocity, p.effort) == (1.0, 0.0, 0.0)
+    assert (p.position, p.velocity) == (1.0, 0.0)
+    # Arrived on step 1000: braking, -dv / no-load speed, one step into its decay.
+    braking = -1.0 / 6.27 * math.exp(-0.001 / MECHANICAL_TIME_CONSTANT_S)
+    assert p.effort == pytest.approx(braking, rel=1e-9)
+    p.advance(500, 0.001)
+    assert p.effort == pytest.approx(0.0, abs=1e-10)           # 25 mechanical time constants
 
 
 def test_a_load_above_the_torque_limit_stalls_the_horn() -> None:
@@ -131,7 +138,8 @@ def _session(eager: bool, spec: str, baud: int) -> list[object]:
             plant = KinematicServo(m.model.no_load_speed, m.plant.position)
             world.plants.append(plant)
             m.attach_plant(plant)
-    regs = ["present_position", "present_temperature"]
+    regs = ["present_position", "present_temperature", "present_load" if spec.startswith("rx")
+            else "present_current"]
     answers: list[object] = []
     bus.write(ids[0], "temperature_limit", 40, raw=True)
     bus.sync_write("torque_enable", {i: 1 for i in ids})
@@ -139,10 +147,12 @@ def _session(eager: bool, spec: str, baud: int) -> list[object]:
     for k in range(60):
         if k % 9 == 0:
             bus.sync_write("goal_position", {i: 0.4 * math.sin(k + i) for i in ids})
+        if k == 40:     # more than the torque limit holds: overload, shutdown
+            bus.emulator.motor(ids[1]).external_load = -1.2
         motor = ids[k % len(ids)]
         answers.append(bus.read(motor, regs, raw=True, check=False))
         answers.append(bus.emulator.motor(motor).hardware_error)
-        bus.port.clock.advance(0.011 * (1 + k % 4) + (60.0 if k == 30 else 0.0))
+        bus.port.clock.advance(0.011 * (1 + k % 4) + (120.0 if k == 30 else 0.0))
     return answers
 
 
@@ -150,7 +160,9 @@ def _session(eager: bool, spec: str, baud: int) -> list[object]:
 def test_lazy_firmware_answers_as_if_stepped_every_step(spec: str, baud: int) -> None:
     lazy, eager = _session(False, spec, baud), _session(True, spec, baud)
     assert lazy == eager
-    assert any(a for a in lazy if isinstance(a, int)), "the session should overheat a motor"
+    errors = [a for a in lazy if isinstance(a, int)]
+    assert any(a & 0x04 for a in errors), "the session should overheat a motor"
+    assert any(a & 0x20 for a in errors), "the session should overload a motor"
 
 
 def test_set_raw_acts_from_now_not_in_the_past() -> None:
@@ -196,12 +208,13 @@ class _Reference:
             else:
                 self.velocity = math.copysign(speed, error)
                 self.position += math.copysign(speed * dt, error)
-        effort = 0.0
+        effort = 0.0    # the sustained torque the motor gives: friction, holding the load
         if cmd.torque_enabled:
+            limit = max(0.0, min(1.0, cmd.torque_limit))
             friction = 0.04 + 0.12 * (abs(self.velocity) / top if top else 0.0)
-            effort = max(-1.0, min(1.0, (math.copysign(friction, self.velocity)
-                                         if self.velocity else 0.0) + load))
-        steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * abs(effort)
+            effort = max(-limit, min(limit, (math.copysign(friction, self.velocity)
+                                             if self.velocity else 0.0) - load))
+        steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * effort ** 2
         self.temperature = steady + (self.temperature - steady) * math.exp(-dt / 300)
 
 
@@ -218,3 +231,23 @@ def test_the_closed_form_agrees_with_plain_stepping(plan: list) -> None:
             assert plant.position == pytest.approx(ref.position, abs=1e-9)
             assert plant.velocity == pytest.approx(ref.velocity, abs=1e-12)
             assert plant.temperature == pytest.approx(ref.temperature, rel=1e-9)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(phases, st.floats(20.0, 95.0), st.sampled_from([300.0, 5.0, 0.5]))
+def test_setting_temperature_or_time_constant_keeps_lazy_equal_to_stepping(
+        plan: list, celsius: float, tau: float) -> None:
+    """The thermal knobs act from the present step, and the closed form goes on from there:
+    still bit for bit one step at a time."""
+    lazy, eager = KinematicServo(6.27, 0.2), KinematicServo(6.27, 0.2)
+    for i, (command, load, steps) in enumerate(plan):
+        for p in (lazy, eager):
+            p.command, p.external_load = command, load
+            if i == 1:
+                p.temperature, p.thermal_time_constant = celsius, tau
+        lazy.advance(steps, 0.001)
+        for _ in range(steps):
+            eager.step(0.001)
+        assert _state(lazy) == _state(eager)
+    if len(plan) > 1:
+        assert lazy.thermal_time_constant == tau

@@ -46,10 +46,11 @@ def test_table_4_3_printed_rows() -> None:
 
 
 def test_row_order_is_time_order_and_walks_forwards() -> None:
-    """Sample 0 is t = 0 (Appendix D's time vector, t_step / 4 apart); while a foot is lifted
-    (z = -275) it moves forwards (x grows) and the other foot backwards under the hip."""
+    """Sample 0 is t = 0 (Appendix D's time vector, t_step / 4 apart: one row period of the
+    robot's 4.5 Hz loop); while a foot is lifted (z = -275) it moves forwards (x grows) and
+    the other foot backwards under the hip."""
     walk = generate_walk()
-    assert walk.time_ms == pytest.approx(np.arange(17) * 500.0)
+    assert walk.time_ms == pytest.approx(np.arange(17) * 1000.0 / 4.5)
     for lifted, stance in ((walk.feet.right, walk.feet.left), (walk.feet.left, walk.feet.right)):
         up = np.flatnonzero(lifted[:, 2] == -275.0)
         assert len(up) == 2
@@ -110,9 +111,12 @@ def test_appendix_e_upper_body() -> None:
 
 
 def test_table_5_1_defaults() -> None:
+    """Table 5.1's values, except t_step: derived from the robot's 4.5 rows a second
+    (tests/gait/test_timing.py), Table 5.1's 2000 ms being that of 2 rows a second."""
     p = GaitParameters()
-    assert (p.t_step, p.d_step, p.l_step, p.c_step, p.h_step, p.s_step) == (
-        2000.0, 15.0, 40.0, 4, 20.0, 20.0)
+    assert (p.d_step, p.l_step, p.c_step, p.h_step, p.s_step) == (15.0, 40.0, 4, 20.0, 20.0)
+    assert p.t_step == pytest.approx(4 * 1000 / 4.5)
+    assert GaitParameters.at_rate(2.0).t_step == 2000.0
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.l_step = 10.0  # type: ignore[misc]
     with pytest.raises(TypeError):
@@ -133,8 +137,10 @@ def test_nonsensical_parameters_are_refused(changes: dict[str, Any], message: st
 
 @pytest.mark.parametrize(("changes", "message"), [
     ({"d_step": 310.0}, "d_step"),
-    ({"s_step": 100.0}, r"gait sample 1 \(t = 500 ms\): the left foot at \(20, -117, -295\)"),
-    ({"h_step": 200.0}, r"gait sample 2 \(t = 1000 ms\): the right foot .* above"),
+    ({"s_step": 100.0, "t_step": 2000.0},
+     r"gait sample 1 \(t = 500 ms\): the left foot at \(20, -117, -295\)"),
+    ({"h_step": 200.0, "t_step": 2000.0},
+     r"gait sample 2 \(t = 1000 ms\): the right foot .* above"),
 ])
 def test_unreachable_gait_names_the_first_sample(changes: dict[str, Any], message: str) -> None:
     with pytest.raises(ValueError, match=message):

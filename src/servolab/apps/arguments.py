@@ -104,6 +104,34 @@ def add_out(p: argparse.ArgumentParser) -> None:
                    "(default: runs/<command>-<timestamp>/)")
 
 
+#: ``--log-level`` names, as ``ros2 run ... --ros-args --log-level`` takes them
+LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+#: where a launch's children find the level their parent was given
+LOG_LEVEL_ENV = "SERVOLAB_LOG_LEVEL"
+
+
+def add_log_level(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--log-level", choices=LOG_LEVELS, default=None,
+                   help="the nodes' log level (default info: the controller manager says "
+                   "which motors it found, as seed 001 Figure 3.1 shows)")
+
+
+def log_level(args: argparse.Namespace) -> int:
+    """The ``logging`` level ``--log-level`` asks for (else ``$SERVOLAB_LOG_LEVEL``, else
+    info), set on servolab's loggers and handed to child processes through the
+    environment."""
+    import logging
+
+    name = args.log_level or os.environ.get(LOG_LEVEL_ENV, "") or "info"
+    if name not in LOG_LEVELS:
+        name = "info"
+    os.environ[LOG_LEVEL_ENV] = name
+    level: int = {"warn": logging.WARNING, "fatal": logging.CRITICAL}.get(
+        name, getattr(logging, name.upper()))
+    logging.getLogger("servolab").setLevel(level)
+    return level
+
+
 def add_port(p: argparse.ArgumentParser) -> None:
     """``--port``: a device path or a URL (servolab's ``emu://`` or any of pyserial's); which
     one is for :meth:`Bus.open` to tell."""

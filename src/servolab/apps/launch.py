@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from .arguments import add_transport
+from .arguments import add_log_level, add_transport, log_level
 from .registry import Command
 
 
@@ -19,6 +19,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
     p.add_argument("--process", help=argparse.SUPPRESS)
     add_transport(p, default="")
+    add_log_level(p)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -26,6 +27,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from ._graph import say
 
+    log_level(args)  # the children inherit it through the environment
     return launch_main(args.file, machine=args.machine, process=args.process,
                        transport=args.transport or None, listen=args.listen,
                        connect=args.connect, domain_id=args.domain_id, out=say)

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
+import warnings
 
-from .arguments import PORT_HELP, add_out
+from .arguments import PORT_HELP, add_log_level, add_out, log_level
 from .registry import Command
 
 
@@ -25,11 +27,14 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "(default: the seed's, armstrong.yaml; 'servolab robots show armstrong' "
                    "prints it)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_log_level(p)
     add_out(p)
 
 
 def _run(args: argparse.Namespace) -> int:
     from ..errors import UsageError
+    from ..gait.motionfile import MotionFileWarning
+    from ..middleware.logger import console_log
     from ..robots.armstrong.hardware import load_motion
     from ..robots.armstrong.run import run_walk
     from ..runs import RunFolder
@@ -38,8 +43,13 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(f"--steps {args.steps}: must be 1 or more")
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
-    motion = load_motion(args.file, args.config)  # checked whole before anything moves
-    with RunFolder.create("walk", args.out) as run:
+    with warnings.catch_warnings(record=True) as caught:  # one line each, not Python's two
+        warnings.simplefilter("always", MotionFileWarning)
+        motion = load_motion(args.file, args.config)  # checked whole before anything moves
+    for warning in caught:
+        print(f"servolab walk: warning: {warning.message}", file=sys.stderr)
+    log_level(args)
+    with console_log(), RunFolder.create("walk", args.out) as run:
         run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
                  config=args.config, show_progress=not args.no_progress)
     print(f"run folder: {run.path}")

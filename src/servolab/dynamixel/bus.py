@@ -1022,17 +1022,18 @@ class Bus:
     # -- one motor ---------------------------------------------------------------------------
     @overload
     def read(self, motor_id: int, names: str, *, raw: bool = False,
-             check: bool = True) -> Value: ...
+             check: bool = True, retries: int | None = None) -> Value: ...
 
     @overload
     def read(self, motor_id: int, names: NameList, *, raw: bool = False,
-             check: bool = True) -> dict[str, Value]: ...
+             check: bool = True, retries: int | None = None) -> dict[str, Value]: ...
 
     def read(self, motor_id: int, names: Names, *, raw: bool = False,
-             check: bool = True) -> Value | dict[str, Value]:
+             check: bool = True, retries: int | None = None) -> Value | dict[str, Value]:
         """Read one register (returns its value) or several (returns a dict), in SI units
         unless ``raw``. Several registers go out as one contiguous READ. (Moving and present
-        speed of an RX-28 or EX-106+ in wheel mode: the unloaded speed, see :meth:`write`.)"""
+        speed of an RX-28 or EX-106+ in wheel mode: the unloaded speed, see :meth:`write`.)
+        ``retries`` replaces the bus's own for this read."""
         if not isinstance(names, str | list | tuple):
             names = list(names)  # any other iterable: read it once
         key = (motor_id, names if isinstance(names, str) else tuple(names))
@@ -1044,7 +1045,7 @@ class Bus:
             self._check_reads_answered((motor_id,))
         # moving/present speed in wheel mode on AX/RX/EX: the motor's mode decides the unit
         wheel = not raw and plan.fields.moded and self._wheel(motor_id)
-        buf, data_at, _ = self._exchange(plan.request, "READ", plan.replies, check, None)
+        buf, data_at, _ = self._exchange(plan.request, "READ", plan.replies, check, retries)
         return plan.fields.values(buf, data_at[0], raw, wheel)  # type: ignore[no-any-return]
 
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,

@@ -60,6 +60,13 @@ _WATCHDOG_UNIT_S = 0.020
 _SECONDARY_OFF = 253
 
 
+#: How far below Temperature Limit a 1.0 servo must cool before its status packets stop
+#: reporting the overheating it found (°C). ROBOTIS publish no figure; the e-Manual asks for
+#: 20 minutes of cooling after a temperature shutdown (Temperature Limit, caution). Without a
+#: margin the error would last one physics step: once the shutdown has cut the output, the
+#: windings cool at once (:mod:`.plant`), and a host polling at 10 Hz would never see it.
+OVERHEATING_HYSTERESIS_C = 5.0
+
 #: Instructions after which a motor is at its factory (or EEPROM) settings.
 _RESETS = frozenset({"REBOOT", "FACTORY_RESET", "RESET"})
 
@@ -152,11 +159,13 @@ class VirtualMotor:
         self._joint_before = True   # (1.0) joint mode as _table_changed last saw it
         self._heard_step = 0        # the step of the last instruction that reached the motor
         self._too_hot = False       # overheating found by the firmware (not injected)
+        self._overloaded = False    # overload found by the firmware (not injected)
         self._watchdog_tripped = False
         self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._layout = _layout(model)
         self._overheating_bit = _hardware_bit(model, "overheating")
+        self._overload_bit = _hardware_bit(model, "overload")
         self._table_changed()       # (in mode 3 at power-up: the count within one turn)
         self._hold_position()
 
@@ -364,7 +373,38 @@ class VirtualMotor:
 
     @property
     def temperature(self) -> float:
+        """Winding temperature, °C, as present_temperature shows it (rounded there).
+
+        Settable on the motor's own plant: the windings are that warm from now on and the
+        thermal model goes on from there, so a test can start a motor near its Temperature
+        Limit (``motor.temperature = 78.0``) and see the overheating error come through the
+        real model. The firmware looks at the temperature once a physics step: a value set
+        above the limit is an overheating error from the next step on."""
         return self.plant.temperature
+
+    @temperature.setter
+    def temperature(self, celsius: float) -> None:
+        self._own_plant("set its temperature").temperature = celsius
+        self._stale = True
+
+    @property
+    def thermal_time_constant(self) -> float:
+        """The lag (s) of the default plant's winding temperature
+        (:attr:`.plant.KinematicServo.thermal_time_constant`, 300 s unless set): set it
+        shorter to see a motor warm up in seconds of virtual time. Acts from now on."""
+        return self._own_plant("read its thermal time constant").thermal_time_constant
+
+    @thermal_time_constant.setter
+    def thermal_time_constant(self, seconds: float) -> None:
+        self._own_plant("set its thermal time constant").thermal_time_constant = seconds
+
+    def _own_plant(self, action: str) -> KinematicServo:
+        """The motor's own plant, brought up to now; a world's plant is the world's to set."""
+        plant = self.plant
+        if not isinstance(plant, KinematicServo):
+            raise ConfigError(f"motor {self.id}: its plant belongs to a world; {action} "
+                              "through the world")
+        return plant
 
     @property
     def external_load(self) -> float:
@@ -375,11 +415,7 @@ class VirtualMotor:
 
     @external_load.setter
     def external_load(self, load: float) -> None:
-        plant = self.plant
-        if not isinstance(plant, KinematicServo):
-            raise ConfigError(f"motor {self.id}: its plant belongs to a world; apply loads "
-                              "through the world")
-        plant.external_load = load
+        self._own_plant("apply loads").external_load = load
 
     @property
     def supply_voltage(self) -> float:
@@ -436,6 +472,7 @@ class VirtualMotor:
 
     def clear_hardware_error(self) -> None:
         self.hardware_error = 0
+        self._too_hot = self._overloaded = False
         self._sync_hardware_register()
 
     def _sync_hardware_register(self) -> None:
@@ -493,24 +530,63 @@ class VirtualMotor:
         self._set_raw("bus_watchdog", -1)
 
     def _catch_up(self, steps: int, dt: float) -> None:
-        """Step the default plant ``steps`` steps, stopping where it overheats so that the
-        shutdown happens on the step it would on the motor."""
+        """Step the default plant ``steps`` steps, stopping where it overheats or finds itself
+        overloaded, so that the shutdown happens on the step it would on the motor (what
+        :meth:`_after_step` does after each step of a world's plant)."""
         plant = self._plant
         assert isinstance(plant, KinematicServo)
         overheating = self._overheating_bit
         while steps > 0:
             limit = math.inf if self.hardware_error & overheating else self._temperature_limit
-            steps -= plant.advance(steps, dt, temperature_limit=limit)
+            # An overload is found on the first step after the load came to beat the limit.
+            chunk = 1 if self._overload_due() else steps
+            steps -= plant.advance(chunk, dt, temperature_limit=limit)
             if plant.temperature > limit:
                 self._hardware_error(overheating)
                 self._too_hot = True
+            if self._overload_due():
+                self._overload()
         self._cooled_down(overheating)
+        self._unloaded()
+
+    def _overload_due(self) -> bool:
+        """The motor gives torque and the plant is stalled by a load its torque limit cannot
+        hold — "Overload Error: when the current load cannot be controlled with the set
+        maximum torque" (e-Manual, RX-28 Alarm Shutdown) — and the firmware has yet to say
+        so, or (1.0) a host gave the motor its torque limit back while the load still beats
+        it. (A motor whose torque limit is 0 is not trying: no overload.) A world's plant
+        takes part when it has a ``stalled`` attribute, as :class:`~.plant.KinematicServo`
+        does."""
+        plant = self._plant
+        if not (getattr(plant, "stalled", False) and plant.command.torque_limit > 0):
+            return False
+        bit = self._overload_bit
+        if not self.hardware_error & bit:
+            return True
+        return self.model.protocol == 1 and bool(self.get_raw("shutdown") & bit)
+
+    def _overload(self) -> None:
+        """The overload error, found by the firmware: a bit of every status error byte (1.0)
+        or of Hardware Error Status (2.0), and a shutdown when the shutdown register selects
+        it (RX-28 default 0x24: overheating and overload; e-Manual, Alarm Shutdown)."""
+        self._hardware_error(self._overload_bit)
+        self._overloaded = True
+
+    def _unloaded(self) -> None:
+        """A 1.0 servo reports overload while the load it cannot control lasts (as it does
+        overheating); an X-series keeps it in Hardware Error Status until a REBOOT. After a
+        1.0 shutdown (torque limit 0) a load that still pushes keeps the condition."""
+        if (self._overloaded and self.model.protocol == 1
+                and not getattr(self._plant, "stalled", False)):
+            self.hardware_error &= ~self._overload_bit
+            self._overloaded = False
 
     def _cooled_down(self, overheating: int) -> None:
         """A 1.0 servo reports overheating while it lasts (its status error byte is the
-        condition now); an X-series keeps it in Hardware Error Status until a REBOOT."""
-        if (self._too_hot and self.model.protocol == 1
-                and self._plant.temperature <= self._temperature_limit):
+        condition now) — until it has cooled :data:`OVERHEATING_HYSTERESIS_C` below the
+        limit; an X-series keeps it in Hardware Error Status until a REBOOT."""
+        if (self._too_hot and self.model.protocol == 1 and self._plant.temperature
+                <= self._temperature_limit - OVERHEATING_HYSTERESIS_C):
             self.hardware_error &= ~overheating
             self._too_hot = False
 
@@ -526,7 +602,10 @@ class VirtualMotor:
                 and not self.hardware_error & overheating):
             self._hardware_error(overheating)
             self._too_hot = True
+        if self._overload_due():
+            self._overload()
         self._cooled_down(overheating)
+        self._unloaded()
 
     def _command(self) -> ServoCommand:
         """The registers as the joint sees them: torque, the goal and the limits, in SI."""
@@ -1001,6 +1080,18 @@ class Emulator:
         self._by_id = None
         if not motor._lazy:
             self._eager.append(motor)
+        return motor
+
+    def unplug(self, motor_id: int) -> VirtualMotor:
+        """Take the (first) motor with this ID off the bus, as a pulled cable or a dead
+        motor would leave it: from now on it hears and answers nothing. Returns it (its
+        state is kept; :meth:`add` puts it back)."""
+        motor = self.motor(motor_id)
+        self.motors.remove(motor)
+        if motor in self._eager:
+            self._eager.remove(motor)
+        motor._emulator = None
+        self._by_id = None
         return motor
 
     def motor(self, motor_id: int) -> VirtualMotor:

@@ -27,12 +27,21 @@ from .errors import ConfigError
 AMBIENT_C = 25.0
 #: Winding temperature above ambient with no load (electronics and holding current).
 IDLE_RISE_C = 7.0
-#: Further steady-state rise at 100 % load.
+#: Further steady-state rise at 100 % load. The heat is the windings' copper loss, I²R, and the
+#: current goes with the torque, so the rise goes with the square of the load: 60 °C at stall
+#: (92 °C, past the RX-28's 80 °C Temperature Limit), 15 °C at half load.
 STALL_HEATING_C = 60.0
+#: Default lag of the winding temperature (first order); per plant:
+#: :attr:`KinematicServo.thermal_time_constant`.
 THERMAL_TIME_CONSTANT_S = 300.0
 #: Load fraction that friction takes at rest and, additionally, at full speed.
 FRICTION_STATIC = 0.04
 FRICTION_VISCOUS = 0.12
+#: Mechanical time constant of motor and gear train: after the horn's speed changes by ``dv``
+#: the motor gives ``dv / no_load_speed`` of its stall torque to accelerate (or brake) them,
+#: decaying as exp(-t / this) — a DC motor's torque after a step of its drive. ROBOTIS publish
+#: no figure; 20 ms is typical of a small geared DC motor.
+MECHANICAL_TIME_CONSTANT_S = 0.020
 
 
 @dataclass(frozen=True)
@@ -94,27 +103,58 @@ class KinematicServo:
     In position control the horn moves straight to the goal at the commanded speed and stops
     on it; in velocity control it turns at the commanded speed. Either speed is capped by
     ``no_load_speed`` × (1 − |external_load|), the DC motor's torque-speed line; when the
-    external load exceeds the torque limit the horn stalls. The load it reports is friction
-    plus the external load; the temperature follows the load with a first-order lag.
+    external load exceeds the torque limit the horn stalls (:attr:`stalled`).
 
     ``external_load`` is the torque the world applies to the horn, as a fraction of stall
     torque (negative pushes clockwise).
+
+    **Effort** (:attr:`effort`, what present_load shows) is the torque the motor gives, as a
+    signed fraction of stall torque, counter-clockwise positive — the e-Manual's Present Load
+    is "an inferred value based on the internal output value", bit 10 set for a CW load
+    (RX-28, Present Load(40)). It is what the motion demands:
+
+    - friction while the horn turns (:data:`FRICTION_STATIC` + :data:`FRICTION_VISCOUS` at full
+      speed), in the direction it turns;
+    - accelerating or braking the motor and gear train: a change of speed ``dv`` asks
+      ``dv / no_load_speed``, decaying with :data:`MECHANICAL_TIME_CONSTANT_S` (the horn's
+      motion itself stays ideal: the lag that torque would give is not modelled);
+    - holding the external load: ``-external_load`` (a load pushing clockwise is held by a
+      counter-clockwise torque);
+
+    and never more than the torque limit allows: held against a load above its limit, the
+    motor stalls and gives exactly its limit; with torque off or a limit of 0 it gives none.
+
+    **Temperature** (:attr:`temperature`) is the winding temperature, a first-order lag of
+    :attr:`thermal_time_constant` toward ``ambient`` + :data:`IDLE_RISE_C` +
+    :data:`STALL_HEATING_C` × effort² (copper loss). The effort that heats is the sustained
+    one (friction and the load held); the acceleration transients are left out, as their heat
+    (at most STALL_HEATING_C × τ_mech / 2τ per move, under 0.01 °C) is too small to show.
+
+    Two public knobs let a test reach a temperature limit in seconds of virtual time through
+    this same model, without faking a reading: ``temperature`` may be *set* (the windings are
+    that warm now — say a motor that has worked all morning: ``plant.temperature = 78.0``),
+    and ``thermal_time_constant`` (s, default :data:`THERMAL_TIME_CONSTANT_S`) may be set
+    shorter (a motor that warms in seconds). Either acts from the present step on.
     """
 
     def __init__(self, no_load_speed: float, position: float = 0.0, *,
-                 ambient: float = AMBIENT_C) -> None:
+                 ambient: float = AMBIENT_C,
+                 thermal_time_constant: float = THERMAL_TIME_CONSTANT_S) -> None:
         if not (math.isfinite(no_load_speed) and no_load_speed > 0):
             raise ConfigError(f"no_load_speed {no_load_speed!r} rad/s must be positive")
         self.no_load_speed = float(no_load_speed)
         self.ambient = float(ambient)
+        self._tau = _time_constant(thermal_time_constant)
         self._command = ServoCommand()
         self._external_load = 0.0
-        self._decay: tuple[float, float] = (math.nan, 1.0)  # (dt, exp(-dt / tau))
+        # (dt, exp(-dt / thermal tau), exp(-dt / mechanical tau))
+        self._decay: tuple[float, float, float] = (math.nan, 1.0, 1.0)
         # Segment: the motion since the last change of command or load, in closed form.
         self._p0 = float(position)      # position at the segment's start
         self._t0 = self.ambient + IDLE_RISE_C  # temperature at the segment's start
         self._v0 = 0.0                  # velocity and effort at the start: until the first
         self._e0 = 0.0                  # step of a new command, the joint is as it was
+        self._i0 = 0.0                  # the acceleration torque still decaying at the start
         self._j = 0                     # steps taken in the segment
         self._cached_j = -1
         self._cached = (0.0, 0.0, 0.0, 0.0)
@@ -145,6 +185,29 @@ class KinematicServo:
             self._external_load = float(load)
             self._plan()
 
+    @property
+    def thermal_time_constant(self) -> float:
+        """The winding temperature's first-order lag, s (default
+        :data:`THERMAL_TIME_CONSTANT_S`). Setting it acts from the present step: the
+        temperature goes on from where it is, at the new pace."""
+        return self._tau
+
+    @thermal_time_constant.setter
+    def thermal_time_constant(self, seconds: float) -> None:
+        tau = _time_constant(seconds)
+        if tau != self._tau:
+            self._restart()
+            self._tau = tau
+            self._decay = _decay(self._decay[0], tau)
+            self._plan()
+
+    @property
+    def stalled(self) -> bool:
+        """Torque is on and the external load beats the torque limit: the horn cannot turn
+        and the motor gives all the limit allows (the firmware's overload condition)."""
+        return self._command.torque_enabled and abs(self._external_load) > max(
+            0.0, self._command.torque_limit)
+
     # -- state ----------------------------------------------------------------------------------
     @property
     def position(self) -> float:
@@ -160,7 +223,17 @@ class KinematicServo:
 
     @property
     def temperature(self) -> float:
+        """Winding temperature, °C. Settable: the windings are that warm from the present
+        step on, and the model goes on from there (see the class docstring)."""
         return self._state()[3]
+
+    @temperature.setter
+    def temperature(self, celsius: float) -> None:
+        if not math.isfinite(celsius):
+            raise ConfigError(f"temperature {celsius!r} °C is not a finite number")
+        self._restart()
+        self._t0 = float(celsius)
+        self._plan()
 
     def _state(self) -> tuple[float, float, float, float]:
         """(position, velocity, effort, temperature) now, computed once per step."""
@@ -168,7 +241,7 @@ class KinematicServo:
             j = self._j
             velocity = self._velocity(j) if j else self._v0
             self._cached = (self._position(j), velocity,
-                            self._effort(velocity) if j else self._e0, self._temperature(j))
+                            self._effort(velocity, j) if j else self._e0, self._temperature(j))
             self._cached_j = j
         return self._cached
 
@@ -185,7 +258,7 @@ class KinematicServo:
             return 0
         if dt != self._decay[0]:
             self._restart()
-            self._decay = (dt, math.exp(-dt / THERMAL_TIME_CONSTANT_S))
+            self._decay = _decay(dt, self._tau)
             self._plan_steps(dt)
         first, last = self._j + 1, self._j + steps
         hot = self._first_above(first, last, temperature_limit)
@@ -197,8 +270,14 @@ class KinematicServo:
         """Start a new segment where the current one stands."""
         self._p0, self._t0 = self.position, self.temperature
         self._v0, self._e0 = self.velocity, self.effort
+        self._i0 = self._inertia(self._j)
         self._j = 0
         self._cached_j = -1
+
+    def _limit(self) -> float:
+        """The most torque the motor may give (fraction of stall torque)."""
+        cmd = self._command
+        return max(0.0, min(1.0, cmd.torque_limit)) if cmd.torque_enabled else 0.0
 
     def _max_speed(self) -> float:
         load = abs(self._external_load)
@@ -251,7 +330,7 @@ class KinematicServo:
         else:
             self._v_move = 0.0 if self._arrive == -1 else math.copysign(
                 self._speed, self._target - self._p0)
-        self._e_move, self._e_rest = self._effort(self._v_move), self._effort(0.0)
+        self._e_move, self._e_rest = self._sustained(self._v_move), self._sustained(0.0)
         self._steady_move = self._steady(self._e_move)
         self._steady_rest = self._steady(self._e_rest)
         # The first step at rest after moving, when the segment has both parts.
@@ -260,6 +339,18 @@ class KinematicServo:
         self._t_before_rest = self._t0
         if self._first_rest is not None and self._first_rest > 1:
             self._t_before_rest = self._temperature(self._first_rest - 1)
+        # The acceleration torque: the one still decaying from before, plus the speed change
+        # of the first step (to the moving speed, or straight to rest), then that of the
+        # arrival. Each decays by exp(-dt / MECHANICAL_TIME_CONSTANT_S) a step.
+        top = self.no_load_speed
+        first_rest = self._first_rest
+        if first_rest == 1:
+            self._kick_move = self._kick_rest = self._i0 - self._v0 / top
+        else:
+            self._kick_move = self._i0 + (self._v_move - self._v0) / top
+            self._kick_rest = (0.0 if first_rest is None else
+                               self._kick_move * self._decay[2] ** (first_rest - 1)
+                               - self._v_move / top)
 
     def _moving(self, j: int) -> bool:
         if j <= 0 or not self._command.torque_enabled:
@@ -282,16 +373,42 @@ class KinematicServo:
     def _velocity(self, j: int) -> float:
         return self._v_move if self._moving(j) else 0.0
 
-    def _effort(self, velocity: float) -> float:
+    def _inertia(self, j: int) -> float:
+        """The torque accelerating or braking motor and gears after step ``j`` (fraction of
+        stall torque, before the torque limit); 0 with torque off."""
+        if j <= 0:
+            return self._i0
         if not self._command.torque_enabled:
+            return 0.0
+        r = self._decay[2]
+        first_rest = self._first_rest
+        if first_rest is None or j < first_rest:
+            return self._kick_move * r ** j
+        return self._kick_rest * r ** (j - first_rest + 1)
+
+    def _sustained(self, velocity: float) -> float:
+        """The torque the motor gives turning at ``velocity`` against friction and holding the
+        external load, within its torque limit (the effort that heats it)."""
+        limit = self._limit()
+        top = self._max_speed()
+        friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
+        load = (math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
+        return max(-limit, min(limit, load))
+
+    def _effort(self, velocity: float, j: int) -> float:
+        """The torque the motor gives after step ``j``: sustained plus acceleration, within
+        its torque limit."""
+        limit = self._limit()
+        if not limit:
             return 0.0
         top = self._max_speed()
         friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
-        load = (math.copysign(friction, velocity) if velocity else 0.0) + self._external_load
-        return max(-1.0, min(1.0, load))
+        load = ((math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
+                + self._inertia(j))
+        return max(-limit, min(limit, load))
 
     def _steady(self, effort: float) -> float:
-        return self.ambient + IDLE_RISE_C + STALL_HEATING_C * abs(effort)
+        return self.ambient + IDLE_RISE_C + STALL_HEATING_C * effort * effort
 
     def _temperature(self, j: int) -> float:
         """Temperature after step ``j`` of the segment: a first-order lag toward the steady
@@ -329,3 +446,17 @@ class KinematicServo:
                     lo = mid
             return hi
         return None
+
+
+def _time_constant(seconds: float) -> float:
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise ConfigError(f"thermal_time_constant {seconds!r} s must be a positive number")
+    return float(seconds)
+
+
+def _decay(dt: float, thermal_tau: float) -> tuple[float, float, float]:
+    """(dt, the thermal decay per step, the mechanical decay per step); nan before the first
+    step, when dt is not known yet."""
+    if math.isnan(dt):
+        return (dt, 1.0, 1.0)
+    return (dt, math.exp(-dt / thermal_tau), math.exp(-dt / MECHANICAL_TIME_CONSTANT_S))

@@ -30,6 +30,21 @@ What is accepted, precisely:
   poses is refused (it may be a pose that was lost).
 * at least one pose after the header.
 
+A file without a header, as MATLAB's ``csvwrite`` writes one (Appendix E line 89: plain
+numbers, comma-separated), is recognised by its first line being all numbers, and read in the
+seed's column order :data:`SEED_COLUMNS` after a :class:`MotionFileWarning` (one line naming
+the file and the order assumed); ``headerless="refuse"`` refuses it instead, saying the same.
+That order is a fact of the seed, not a guess: it is the order of the control node's
+``structmotoren`` and of the cells its reader takes from each line (001 section 4.2.4.2,
+Appendix B lines 10-33 and 354-417), of Table 4.3's header, and of Appendix E's ``M_wink``
+(m11..m26, then ``P_odd``/``P_par`` for m31..m62, line 70). Such a file must then have 21
+cells in every line. A first line of zeros only (21 cells, or 22 as Appendix E line 76
+prints it) is Appendix E's placeholder, which the seed's reader skipped as its header line:
+it is skipped too (a pose of zeros would throw every joint to its calibration position), and
+the warning says so. Any other first line is read as the first pose (the seed's reader would
+have dropped it). Motor names that are all numbers are refused by :class:`MotionFile`, so a
+header can never be taken for a pose.
+
 :func:`write_motion_file` writes the same format with each angle as Python's shortest
 round-tripping representation (``repr``), so ``read_motion_file(write_motion_file(m))``
 gives back ``m`` bit for bit.
@@ -43,9 +58,11 @@ import csv
 import io
 import math
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -54,7 +71,18 @@ from ..configfile import suggest
 from ..errors import ConfigFileError
 from .errors import GaitValueError, UnknownMotorError
 
-__all__ = ["MotionFile", "MotionFileError", "read_motion_file", "write_motion_file"]
+__all__ = ["SEED_COLUMNS", "MotionFile", "MotionFileError", "MotionFileWarning",
+           "read_motion_file", "write_motion_file"]
+
+#: The seed's column order: 001 section 4.2.4.2 (``structmotoren``, the order in which the
+#: control node's reader takes the cells of a line, Appendix B lines 354-417), Table 4.3's
+#: header and Appendix E's ``M_wink`` (lines 33, 70, 80-84). What a file without a header
+#: is read with.
+SEED_COLUMNS = (
+    "m11", "m12", "m13", "m14", "m15", "m16",
+    "m21", "m22", "m23", "m24", "m25", "m26",
+    "m31", "m32", "m33", "m41", "m42", "m43", "m51", "m61", "m62",
+)
 
 #: A decimal number as a motion file may write it (ASCII digits only, no ``_``): what Matlab,
 #: spreadsheets and ``repr`` write, and nothing ``float()`` would accept beyond that.
@@ -72,6 +100,11 @@ class MotionFileError(ConfigFileError, GaitValueError):
     the whole file, e.g. when it cannot be opened) and ``key`` (the column's motor name, or
     ``""``) are attributes, as for every :class:`~servolab.errors.ConfigFileError`.
     """
+
+
+class MotionFileWarning(UserWarning):
+    """A motion file that was read, but not as written: one without a header, read in the
+    seed's column order. The message is one line naming the file."""
 
 
 #: What a motor name may not hold: what a CSV header would split or quote on.
@@ -102,6 +135,9 @@ class MotionFile:
                                      "(, ; tab)")
         if not names:
             raise GaitValueError("a motion needs at least one motor")
+        if all(_NUMBER.fullmatch(name) for name in names):
+            raise GaitValueError(f"motor names are all numbers ({', '.join(names)}): written "
+                                 "as a header they would read as a pose")
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
             raise GaitValueError(f"motor names appear twice: {', '.join(twice)}")
@@ -141,7 +177,8 @@ class MotionFile:
 
 def read_motion_file(path: str | Path,
                      limits: Mapping[str, tuple[float, float]] | None = None,
-                     required: Sequence[str] | None = None) -> MotionFile:
+                     required: Sequence[str] | None = None, *,
+                     headerless: Literal["seed", "refuse"] = "seed") -> MotionFile:
     """Read and check a motion file.
 
     ``required``: the motors the file must have; the result's columns are in this order
@@ -152,8 +189,14 @@ def read_motion_file(path: str | Path,
     in file order. ``required`` or ``limits`` that do not make sense are a ValueError (a
     program's mistake, not the file's).
 
+    ``headerless``: what to do with a file whose first line is numbers (MATLAB's ``csvwrite``
+    writes no header): ``"seed"`` reads it in the seed's column order :data:`SEED_COLUMNS`
+    and warns (:class:`MotionFileWarning`), ``"refuse"`` refuses it; see the module docstring.
+
     Raises :class:`MotionFileError` for the first problem in the file, top to bottom.
     """
+    if headerless not in ("seed", "refuse"):
+        raise GaitValueError(f"headerless must be 'seed' or 'refuse', not {headerless!r}")
     bounds = _check_limits(limits)
     wanted = _check_required(required)
     known = None if wanted is None and bounds is None else {*(wanted or ()), *(bounds or {})}
@@ -181,6 +224,9 @@ def read_motion_file(path: str | Path,
 
     header_line, header_cells = rows[0]
     header = [cell.strip() for cell in header_cells]
+    body = rows[1:]
+    if all(_NUMBER.fullmatch(cell) for cell in header):
+        header, body = _seed_columns(source, rows, headerless)
     if len(header) == 1 and ("\t" in header[0] or ";" in header[0]):
         raise fail(header_line, "", "the header has no commas; motion files are "
                    "comma-separated (not tab- or semicolon-separated)")
@@ -200,8 +246,8 @@ def read_motion_file(path: str | Path,
         if name not in first_at:
             raise fail(header_line, name, "missing from the header")
 
-    values = np.empty((len(rows) - 1, len(header)), dtype=np.float64)
-    for pose, (line, cells) in enumerate(rows[1:]):
+    values = np.empty((len(body), len(header)), dtype=np.float64)
+    for pose, (line, cells) in enumerate(body):
         if not cells:
             raise fail(line, "", "blank line between poses (was a pose lost?)")
         if len(cells) < len(header):
@@ -251,6 +297,37 @@ def write_motion_file(path: str | Path, motion: MotionFile) -> None:
 
 
 # -- helpers ---------------------------------------------------------------------------------
+
+
+def _seed_columns(source: str, rows: list[tuple[int, list[str]]],
+                  headerless: str) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    """The header and poses of a file whose first line is numbers (module docstring): the
+    seed's column order and every row, less Appendix E's placeholder row of zeros."""
+    line, cells = rows[0]
+    order = ",".join(SEED_COLUMNS)
+    if headerless == "refuse":
+        raise MotionFileError(source, line, "", "no header: the first line is numbers (as "
+                              "MATLAB's csvwrite writes); add the header line "
+                              f"{order} if that is the seed's column order (001 section "
+                              "4.2.4.2)")
+    placeholder = len(cells) in (len(SEED_COLUMNS), len(SEED_COLUMNS) + 1) and all(
+        float(cell) == 0.0 for cell in cells)
+    if not placeholder and len(cells) != len(SEED_COLUMNS):
+        raise MotionFileError(source, line, "", f"no header: the first line is numbers, and "
+                              f"{len(cells)} of them; a file without a header is read only in "
+                              f"the seed's column order ({len(SEED_COLUMNS)} columns, {order}; "
+                              "001 section 4.2.4.2)")
+    body = rows[1:] if placeholder else rows
+    if not body:
+        raise MotionFileError(source, line + 1, "", "no poses after Appendix E's placeholder "
+                              "row of zeros")
+    first = (f"line {line}, all zeros, is Appendix E's placeholder row and was skipped, as "
+             "the seed's reader skips its first line" if placeholder
+             else f"line {line} is read as the first pose")
+    warnings.warn(f"{source}: no header (the first line is numbers, as MATLAB's csvwrite "
+                  f"writes); assumed the seed's column order {order} (001 section "
+                  f"4.2.4.2); {first}", MotionFileWarning, stacklevel=3)
+    return list(SEED_COLUMNS), body
 
 
 def _rows(text: str, source: str) -> list[tuple[int, list[str]]]:

@@ -12,17 +12,47 @@ excerpt printed as Table 4.3 runs the other way, from the last sample back to th
 (seeds/README.md); played in that order the robot would walk backwards. Appendix E's leading
 row of zeros is not part of the sequence: it stands in the place of the CSV header line, which
 the robot's reader skips (section 4.2.4.1), and writing headers is the motion file's job.
+
+What :func:`generate_walk` adds to the seed, each refused with one line naming the parameter
+and its value (a :class:`~servolab.gait.errors.GaitValueError`) before any file is written:
+
+* **The loop.** The robot plays a sequence N times in a row (section 4.2.4.4), so the last
+  row is followed by the first. An odd ``c_step`` ends with the feet swapped (the left foot
+  40 mm behind where the first row has it forward): looped, both planted feet would be
+  dragged 40 mm and m12 would jump 12.7 degrees between two rows. It is **refused**, not
+  closed: closing it means adding or dropping a half cycle, which is choosing another
+  ``c_step`` for the user. Every sequence that is generated is then measured with
+  :func:`loop_jumps`: no joint may change more from the last row to the first than it
+  changes between two rows inside the sequence. With an even ``c_step`` the wrap is the
+  move from the end pose (Table 4.2's stand pose) back to Appendix D's start and changes the
+  feet's distance by ``|d_step - 2 y_start|`` (4 mm with Table 5.1's values), exactly as
+  much as the first row's own move does (``d_step / 2`` against ``y_start``, the seed's),
+  so it adds no slide the sequence does not already have.
+* **The joints' limits.** Given ``limits`` (each motor column's range in degrees, from the
+  robot's configuration: this layer knows no robot), a row that sends a joint beyond them
+  is refused at generation, naming the parameter that takes it there (the one whose Table
+  5.1 value would keep the joint inside), the motor, its joint, the angle and the limit.
+* **Time.** A motion file holds no time: the robot plays one row per period of its loop,
+  4.5 rows a second (``ros::Rate loop_rate(4.5)``, section 4.2.4.4: "each movement ... is
+  executed in 222ms", 17 rows in 3.78 s). So ``t_step``, one half cycle of four rows, is
+  derived from that rate: ``t_step = 4 rows / rate``, 888.9 ms at :data:`PLAY_RATE`. Table
+  5.1's 2000 ms is the time axis of the seed's MATLAB plots (Appendix D's ``t``); the robot
+  never played it (at 2000 ms a step it would have to play 2 rows a second).
+  :attr:`GaitParameters.play_rate` is the rate a sequence must be played at to take
+  ``t_step`` a step, and :meth:`GaitParameters.at_rate` makes parameters for a rate.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from servolab.gait.errors import GaitValueError
-from servolab.gait.motionfile import MotionFile
+from servolab.gait.motionfile import SEED_COLUMNS, MotionFile
 from servolab.kinematics.dh import FloatArray
 from servolab.kinematics.leg import (
     ARMSTRONG_LEG,
@@ -34,12 +64,17 @@ from servolab.kinematics.leg import (
     unreachable_reason,
 )
 
-MOTOR_COLUMNS = (
-    "m11", "m12", "m13", "m14", "m15", "m16",
-    "m21", "m22", "m23", "m24", "m25", "m26",
-    "m31", "m32", "m33", "m41", "m42", "m43", "m51", "m61", "m62",
-)
+#: The 21 motor columns in the seed's order (:data:`~servolab.gait.motionfile.SEED_COLUMNS`).
+MOTOR_COLUMNS = SEED_COLUMNS
 PHASES_PER_HALF_CYCLE = 4
+#: Rows a second the seed's control node plays a sequence at (001 section 4.2.4.4).
+PLAY_RATE = 4.5
+#: The joint each leg motor turns, in the order of a leg's columns m?1..m?6 (Appendix E
+#: line 33 and its swaps, lines 54-67; ``kinematics.leg.leg_motor_angles``).
+LEG_MOTOR_JOINTS = ("hip yaw", "hip pitch", "hip roll", "knee", "ankle pitch", "ankle roll")
+#: Units of the parameters, for messages.
+_UNITS = {"t_step": " ms", "d_step": " mm", "l_step": " mm", "c_step": "", "h_step": " mm",
+          "s_step": " mm", "y_start": " mm", "arm_swing": " degrees"}
 
 
 def _check_distance(name: str, value: float) -> None:
@@ -49,14 +84,18 @@ def _check_distance(name: str, value: float) -> None:
 
 @dataclass(frozen=True, kw_only=True)
 class GaitParameters:
-    """Table 5.1 of seed 001 (defaults as printed) and Appendix D/E's fixed values.
+    """Table 5.1 of seed 001 (defaults as printed, but ``t_step``) and Appendix D/E's fixed
+    values.
 
     ``c_step`` is the number of half cycles (Appendix D's ``P``; Table 5.1 prints it in mm, a
-    slip: it counts). ``y_start`` is Appendix D's ``y_b2 = -y_b1 = 9.5`` mm, ``arm_swing``
-    Appendix E's shoulder angle ``P_odd = -P_par`` (degrees, m31 and m41).
+    slip: it counts); :func:`generate_walk` takes only an even number (module docstring).
+    ``t_step`` defaults to one half cycle at the seed's playback rate, ``4 / 4.5`` s, not
+    Table 5.1's 2000 ms, which the robot never played (module docstring). ``y_start`` is
+    Appendix D's ``y_b2 = -y_b1 = 9.5`` mm, ``arm_swing`` Appendix E's shoulder angle
+    ``P_odd = -P_par`` (degrees, m31 and m41).
     """
 
-    t_step: float = 2000.0   # ms per half cycle (one step)
+    t_step: float = 1000.0 * PHASES_PER_HALF_CYCLE / PLAY_RATE   # ms per half cycle (step)
     d_step: float = 15.0     # mm the hip is lowered
     l_step: float = 40.0     # mm forward per step
     c_step: int = 4          # half cycles
@@ -76,6 +115,21 @@ class GaitParameters:
         for name in ("y_start", "arm_swing"):
             if not np.isfinite(getattr(self, name)):
                 raise GaitValueError(f"{name} must be finite, got {getattr(self, name)}")
+
+    @property
+    def play_rate(self) -> float:
+        """Rows a second that play one half cycle (four rows) in ``t_step``: the ``--rate``
+        of ``servolab walk`` for this gait (4.5 with the default ``t_step``)."""
+        return 1000.0 * PHASES_PER_HALF_CYCLE / self.t_step
+
+    @classmethod
+    def at_rate(cls, rate: float, **changes: Any) -> GaitParameters:
+        """Parameters whose ``t_step`` is what playing at ``rate`` rows a second gives."""
+        if not (np.isfinite(rate) and rate > 0):
+            raise GaitValueError(f"rate must be a positive number of rows a second, got {rate}")
+        if "t_step" in changes:
+            raise GaitValueError("give t_step or a rate, not both: t_step = 4 rows / rate")
+        return cls(t_step=1000.0 * PHASES_PER_HALF_CYCLE / rate, **changes)
 
 
 @dataclass(frozen=True)
@@ -202,13 +256,180 @@ def check_reach(feet: FootTrajectory, leg: LegGeometry = ARMSTRONG_LEG) -> None:
                 f"{unreachable_reason(positions[index], leg)}")
 
 
-def generate_walk(params: GaitParameters = GaitParameters(),
-                  leg: LegGeometry = ARMSTRONG_LEG) -> WalkingSequence:
-    """The whole walking sequence: Appendix D's feet, inverse kinematics with flat feet,
-    Appendix E's motor angles. Raises ``ValueError`` naming the first unreachable sample."""
+def motor_joint(column: str) -> str:
+    """What ``column`` turns, for messages: ``"m24"`` -> ``"right knee"``, ``"m31"`` ->
+    ``"left shoulder"`` (the arm swing's motors); the column itself for the others."""
+    if len(column) == 3 and column[1] in "12" and column[2] in "123456":
+        side = "left" if column[1] == "1" else "right"
+        return f"{side} {LEG_MOTOR_JOINTS[int(column[2]) - 1]}"
+    return {"m31": "left shoulder", "m41": "right shoulder"}.get(column, column)
+
+
+def _motor(column: str) -> str:
+    joint = motor_joint(column)
+    return column if joint == column else f"{column} ({joint})"
+
+
+def loop_jumps(angles: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """For a sequence played in a loop (``poses x columns``): per column, the change from the
+    last row back to the first, and the largest change between two rows inside the
+    sequence (both absolute; zeros for a single row)."""
+    a = np.atleast_2d(np.asarray(angles, dtype=np.float64))
+    wrap = np.abs(a[0] - a[-1])
+    inner = np.abs(np.diff(a, axis=0)).max(axis=0) if a.shape[0] > 1 else np.zeros(a.shape[1])
+    return wrap, inner
+
+
+def check_loop_parameters(params: GaitParameters, walk: WalkingSequence | None = None) -> None:
+    """Refuse an odd ``c_step``: the sequence would end with the feet swapped (module
+    docstring); ``walk``, the sequence generated with ``params``, gives the jump's size."""
+    c = params.c_step
+    if c % 2 == 0:
+        return
+    jump = ""
+    if walk is not None:
+        wrap, _ = loop_jumps(walk.motors)
+        k = int(np.argmax(wrap))
+        jump = (f" and turn {MOTOR_COLUMNS[k]} ({motor_joint(MOTOR_COLUMNS[k])}) "
+                f"{wrap[k]:.2f} degrees between two rows")
+    even = " or ".join(str(n) for n in (c - 1, c + 1) if n > 0)
+    raise GaitValueError(
+        f"c_step {c}: odd, so the sequence ends with the right foot forward where its first "
+        f"row has the left foot forward; played in a loop the wrap would drag both planted "
+        f"feet {params.l_step:g} mm{jump}; use an even c_step ({even})")
+
+
+def _wrap_offence(angles: FloatArray) -> tuple[int, float, float] | None:
+    """The column whose wrap most exceeds its largest inner change: ``(column, wrap,
+    inner)``, or None."""
+    wrap, inner = loop_jumps(angles)
+    over = np.flatnonzero(wrap > inner + 1e-9)
+    if not over.size:
+        return None
+    k = int(over[np.argmax(wrap[over] - inner[over])])
+    return k, float(wrap[k]), float(inner[k])
+
+
+def check_loop(angles: npt.ArrayLike, columns: tuple[str, ...] = MOTOR_COLUMNS, *,
+               what: str = "the sequence") -> None:
+    """Refuse a sequence whose wrap, last row to first, turns a column more than any two
+    rows inside it do (:func:`loop_jumps`), naming ``what``, the column and both changes."""
+    offence = _wrap_offence(np.atleast_2d(np.asarray(angles, dtype=np.float64)))
+    if offence is not None:
+        k, wrap, inner = offence
+        raise GaitValueError(
+            f"{what}: played in a loop, the wrap from the last row back to the first turns "
+            f"{_motor(columns[k])} {wrap:.2f} degrees, more than any two rows inside it do "
+            f"({inner:.2f})")
+
+
+def _check_wrap(walk: WalkingSequence, params: GaitParameters, leg: LegGeometry) -> None:
+    """:func:`check_loop` for a generated sequence, naming the parameters that cause it."""
+    offence = _wrap_offence(walk.motors)
+    if offence is None:
+        return
+    k, wrap, inner = offence
+    who, back = _blame(params, leg, lambda w: _wrap_offence(w.motors) is None,
+                       among=("d_step", "y_start"))
+    first = 2 * params.y_start
+    raise GaitValueError(
+        f"{who}: played in a loop, the wrap from the last row back to the first turns "
+        f"{_motor(MOTOR_COLUMNS[k])} {wrap:.2f} degrees, more than any two rows inside the "
+        f"sequence do ({inner:.2f}): the first row has the feet {first:g} mm apart sideways "
+        f"(2 y_start), the others {params.d_step:g} mm (d_step), so the wrap drags a planted "
+        f"foot {abs(params.d_step - first):g} mm{back}")
+
+
+def _parameter(params: GaitParameters, name: str) -> str:
+    return f"{name} {getattr(params, name):g}{_UNITS.get(name, '')}"
+
+
+def _limit_offence(motors: FloatArray, limits: Mapping[str, tuple[float, float]]
+                   ) -> tuple[int, int, float, float] | None:
+    """The first row (in time), and in it the first column, beyond its limits: ``(row,
+    column, low, high)``, or None."""
+    first: tuple[int, int, float, float] | None = None
+    for k, name in enumerate(MOTOR_COLUMNS):
+        if name not in limits:
+            continue
+        low, high = (float(v) for v in limits[name])
+        bad = np.flatnonzero((motors[:, k] < low) | (motors[:, k] > high))
+        if bad.size and (first is None or int(bad[0]) < first[0]):
+            first = (int(bad[0]), k, low, high)
+    return first
+
+
+def _motors(params: GaitParameters, leg: LegGeometry) -> WalkingSequence:
     feet = foot_positions(params, leg)
     check_reach(feet, leg)
     left = leg_inverse(feet.left, leg)
     right = leg_inverse(feet.right, leg)
     return WalkingSequence(feet=feet, left_joints=left, right_joints=right,
                            motors=motor_angles(left, right, params.arm_swing))
+
+
+def _blame(params: GaitParameters, leg: LegGeometry, passes: Callable[[WalkingSequence], bool],
+           among: tuple[str, ...] | None = None) -> tuple[str, str]:
+    """Who to name for a sequence that fails ``passes``: the parameters changed from Table 5.1
+    (of ``among``, if given) whose seed value alone makes it pass, else every changed one;
+    and the sentence that says the seed value fixes it (or ``""``)."""
+    seed = GaitParameters()
+    changed = [f.name for f in fields(params) if f.name != "t_step"
+               and getattr(params, f.name) != getattr(seed, f.name)]
+    if among is not None:
+        changed = [n for n in changed if n in among] or list(among)
+
+    def fixed(name: str) -> bool:
+        if getattr(params, name) == getattr(seed, name):
+            return False
+        try:
+            return passes(_motors(replace(params, **{name: getattr(seed, name)}), leg))
+        except GaitValueError:
+            return False
+
+    alone = [n for n in changed if fixed(n)]
+    names = alone or changed
+    if not names:
+        return "Table 5.1's parameters", ""
+    who = " and ".join(_parameter(params, n) for n in names)
+    back = (f"; with Table 5.1's {' or '.join(_parameter(seed, n) for n in alone)} it "
+            "stays within" if alone else "")
+    return who, back
+
+
+def check_limits(walk: WalkingSequence, params: GaitParameters,
+                 limits: Mapping[str, tuple[float, float]],
+                 leg: LegGeometry = ARMSTRONG_LEG) -> None:
+    """Refuse a sequence that sends a motor beyond ``limits`` (degrees, inclusive, by motor
+    column; columns without limits are not checked), naming the first such row in time, the
+    parameter that takes it there, the motor, its joint, the angle and the limit."""
+    offence = _limit_offence(walk.motors, limits)
+    if offence is None:
+        return
+    row, k, low, high = offence
+    angle = float(walk.motors[row, k])
+    limit = high if angle > high else low
+    who, back = _blame(params, leg, lambda w: _limit_offence(w.motors, limits) is None)
+    raise GaitValueError(
+        f"{who}: row {row} (t = {walk.time_ms[row]:g} ms) turns {_motor(MOTOR_COLUMNS[k])} "
+        f"to {angle:.2f} degrees, beyond its limit {limit:.2f} (range [{low:.2f}, "
+        f"{high:.2f}]){back}")
+
+
+def generate_walk(params: GaitParameters = GaitParameters(),
+                  leg: LegGeometry = ARMSTRONG_LEG,
+                  limits: Mapping[str, tuple[float, float]] | None = None) -> WalkingSequence:
+    """The whole walking sequence: Appendix D's feet, inverse kinematics with flat feet,
+    Appendix E's motor angles.
+
+    Refused with a one-line ``GaitValueError`` (module docstring), in this order: the first
+    unreachable sample; an odd ``c_step``; with ``limits`` (degrees by motor column, as
+    the robot's configuration gives them), the first row beyond them; a wrap, last row to
+    first, that turns a joint more than two rows inside the sequence do.
+    """
+    walk = _motors(params, leg)
+    check_loop_parameters(params, walk)
+    if limits is not None:
+        check_limits(walk, params, limits, leg)
+    _check_wrap(walk, params, leg)
+    return walk

@@ -13,6 +13,13 @@ messages cannot starve a control loop's timer: a due timer waits for at most the
 already running. (Should timers alone keep the executor busy, a waiting message callback runs
 between two timer callbacks, so messages are never starved either.)
 
+*Background work* (:meth:`Executor.add_background`) is what a node does with the time no
+callback wants: a serial bus's owner reading the next motor's state, say. It runs only when
+no message waits and no timer is due, one short piece at a time, so a command or a timer
+waits for at most one piece (one bus transaction), never for a whole sweep of them. It says
+when it next wants to run (:meth:`BackgroundWork.due`), and on a virtual clock the executor
+moves time to that moment as it would to a timer's.
+
 :meth:`Executor.spin_in_thread` never dies silently: a callback that raises stops the thread
 and is raised again to the owner by the next ``spin_*``/``Rate.sleep`` call, by
 :meth:`Executor.shutdown` or by the thread's ``join()``; with ``on_error="log"`` it is logged
@@ -27,7 +34,7 @@ import logging
 import threading
 from collections import deque
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from servolab.clock import Clock
 
@@ -37,6 +44,20 @@ from .errors import MiddlewareValueError
 OnError = Literal["raise", "log"]
 
 _log = logging.getLogger("servolab.executor")
+
+
+class BackgroundWork(Protocol):
+    """Work that fills the executor's idle time in short pieces (see the module docstring)."""
+
+    def due(self) -> float | None:
+        """The clock time at which the next piece wants to run (``-inf``, or any time not
+        later than now: at once), or None while there is nothing to do (a callback that gives
+        it some makes it due)."""
+        ...
+
+    def run(self) -> None:
+        """Do one piece: short, since timers and messages wait for it."""
+        ...
 
 
 class Timer:
@@ -106,6 +127,7 @@ class Executor:
         self._shutdown = False
         self._last_was_timer = False
         self._error: BaseException | None = None  # from the spin thread, not yet raised
+        self._background: list[BackgroundWork] = []
 
     # -- queueing (any thread) --------------------------------------------------------------
 
@@ -122,6 +144,34 @@ class Executor:
     def pending(self) -> int:
         """Pieces of work queued and waiting (not counting timers)."""
         return len(self._ready)
+
+    def add_background(self, work: BackgroundWork) -> None:
+        """Run ``work`` in the executor's idle time from now on (see the module docstring)."""
+        with self._cond:
+            if work not in self._background:
+                self._background.append(work)
+            self._cond.notify()
+
+    def remove_background(self, work: BackgroundWork) -> None:
+        with self._cond:
+            if work in self._background:
+                self._background.remove(work)
+
+    def wake(self) -> None:
+        """Look again at what is due: for background work given something to do from
+        another thread (a callback on the executor's own thread needs no wake-up)."""
+        if self._sleepers:
+            with self._cond:
+                self._cond.notify()
+
+    def _background_due(self) -> tuple[float | None, BackgroundWork | None]:
+        """The background work that wants to run first, and when."""
+        first: tuple[float | None, BackgroundWork | None] = (None, None)
+        for work in self._background:
+            due = work.due()
+            if due is not None and (first[0] is None or due < first[0]):
+                first = (due, work)
+        return first
 
     def _add_timer(self, timer: Timer) -> None:
         with self._cond:
@@ -202,6 +252,11 @@ class Executor:
                         timer.next_due = now + timer.period
                     heapq.heappush(self._timers, (timer.next_due, next(self._order), timer))
                     return timer.callback
+                background_due, background = self._background_due()
+                if background is not None and background_due is not None:
+                    if background_due <= now or background_due <= clock.now():
+                        return background.run
+                    due = background_due if due is None else min(due, background_due)
                 wake = due if deadline is None else (deadline if due is None
                                                      else min(due, deadline))
                 if deadline is not None and now >= deadline:

@@ -167,21 +167,20 @@ class _LineHandler(logging.Handler):
 
 @contextmanager
 def _node_logging(entries: Sequence[NodeEntry], out: Callable[[str], None]) -> Iterator[None]:
-    """Route the nodes' loggers to ``out`` at INFO while they run, and undo it after: the
-    loggers are named after the nodes, so only theirs are touched."""
+    """Route servolab's loggers — every node's in this process, the entries' and those they
+    create (a robot's controller manager), and the driver's — to ``out`` while they run, at
+    INFO unless a level was set (``--log-level``), and undo it after."""
     handler = _LineHandler(out)
-    loggers = [logging.getLogger(f"{LOGGER_PREFIX}{e.fully_qualified_name}") for e in entries]
-    saved = [(logger, logger.level) for logger in loggers]
-    for logger in loggers:
-        logger.addHandler(handler)
-        if logger.level == logging.NOTSET:
-            logger.setLevel(logging.INFO)
+    top = logging.getLogger(LOGGER_PREFIX.split(".")[0])
+    saved = top.level
+    top.addHandler(handler)
+    if top.level == logging.NOTSET:
+        top.setLevel(logging.INFO)
     try:
         yield
     finally:
-        for logger, level in saved:
-            logger.removeHandler(handler)
-            logger.setLevel(level)
+        top.removeHandler(handler)
+        top.setLevel(saved)
 
 
 def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: TransportOptions,

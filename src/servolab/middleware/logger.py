@@ -16,6 +16,8 @@ import logging
 import sys
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from .errors import MiddlewareValueError
@@ -105,3 +107,20 @@ class NodeLogger:
     def exception(self, message: Any, *args: Any, **kwargs: Any) -> bool:
         kwargs.setdefault("exc_info", True)
         return self.log(logging.ERROR, message, *args, _from_level=True, **kwargs)
+
+
+@contextmanager
+def console_log(stream: Any = None, *, logger: str = "servolab") -> Iterator[None]:
+    """While inside, write ``logger``'s records (all of servolab's, nodes' included) to
+    ``stream`` (stderr) as rospy writes them: ``[INFO] [WallTime: 1391262404.008801]
+    pan_tilt_port: Pinging motor IDs 1 through 65...`` (seed 001 Figure 3.1). Levels below
+    the logger's own are not written (``--log-level``)."""
+    handler = logging.StreamHandler(stream if stream is not None else sys.stderr)
+    handler.setFormatter(logging.Formatter("[%(levelname)s] [WallTime: %(created).6f] "
+                                           "%(message)s"))
+    target = logging.getLogger(logger)
+    target.addHandler(handler)
+    try:
+        yield
+    finally:
+        target.removeHandler(handler)

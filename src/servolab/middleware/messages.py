@@ -14,6 +14,7 @@ them) into a message, checking every field, and a message back into plain values
 
 from __future__ import annotations
 
+import difflib
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -88,11 +89,49 @@ float32 battery
 """,
 }
 
+#: The controller-manager services' request, the same in StartController and
+#: RestartController (dynamixel_controllers/srv/StartController.srv, RestartController.srv).
+_CONTROLLER_SPEC = """\
+string port_name            # serial port that this controller is connected to
+string package_path         # path to ROS package containing controller module
+string module_name          # name of the controller module within that package
+string class_name           # controller class name within that module
+string controller_name      # path to controller config parameters on param server
+string[] dependencies       # optional, list names of all controllers this controller depends on
+"""
+_SUCCESS_REASON = "bool success\nstring reason\n"
+
+#: ``dynamixel_controllers`` of the ROS 1 ``dynamixel_motor`` stack, exactly as its ``.srv``
+#: files define them (arebgun/dynamixel_motor, ``dynamixel_controllers/srv/*.srv``; the file
+#: of each is named on its line): name -> (request text, response text). Each joint controller
+#: offers the first six, the controller manager the last three. An empty response (``---``
+#: with nothing after it) is ROS 2's empty message: one ``uint8
+#: structure_needs_at_least_one_member``, as rosidl (and rosbags) make it.
+DYNAMIXEL_SRVS = {
+    # srv/SetSpeed.srv
+    "dynamixel_controllers/srv/SetSpeed": ("float64 speed\n", ""),
+    # srv/TorqueEnable.srv
+    "dynamixel_controllers/srv/TorqueEnable": ("bool torque_enable\n", ""),
+    # srv/SetComplianceSlope.srv: "See Dynamixel documentation for details"
+    "dynamixel_controllers/srv/SetComplianceSlope": ("uint8 slope\n", ""),
+    # srv/SetComplianceMargin.srv: "Range is 0 to 255, larger value = more error"
+    "dynamixel_controllers/srv/SetComplianceMargin": ("uint8 margin\n", ""),
+    # srv/SetCompliancePunch.srv: "See Dynamixel documentation for details"
+    "dynamixel_controllers/srv/SetCompliancePunch": ("uint8 punch\n", ""),
+    # srv/SetTorqueLimit.srv: "Set maximum motor torque in percenatge (0 - no torque to 1 -
+    # maximum torque)" (sic: a fraction, not a percentage)
+    "dynamixel_controllers/srv/SetTorqueLimit": ("float64 torque_limit\n", ""),
+    # srv/StartController.srv
+    "dynamixel_controllers/srv/StartController": (_CONTROLLER_SPEC, _SUCCESS_REASON),
+    # srv/StopController.srv
+    "dynamixel_controllers/srv/StopController": ("string controller_name\n", _SUCCESS_REASON),
+    # srv/RestartController.srv
+    "dynamixel_controllers/srv/RestartController": (_CONTROLLER_SPEC, _SUCCESS_REASON),
+}
+
 #: Services: name -> (request text, response text).
 SERVICES = {
-    # dynamixel_controllers (ROS 1 dynamixel_motor): what a joint controller offers.
-    "dynamixel_controllers/srv/TorqueEnable": ("bool torque_enable\n", ""),
-    "dynamixel_controllers/srv/SetSpeed": ("float64 speed\n", ""),
+    **DYNAMIXEL_SRVS,
     # std_srvs
     "std_srvs/srv/Empty": ("", ""),
     "std_srvs/srv/Trigger": ("", "bool success\nstring message\n"),
@@ -231,12 +270,36 @@ class MessageTypes:
         """Every known message type name, sorted."""
         return sorted(n for n in self.store.fielddefs if "/msg/" in n)
 
+    def service_names(self) -> list[str]:
+        """Every known service type name (``pkg/srv/Name``), sorted."""
+        return sorted(n for n in self.store.fielddefs
+                      if "/srv/" in n and f"{n}_Request" in self.store.fielddefs)
+
     def service(self, name: str) -> ServiceType:
-        """The service type of that name, or a :class:`MessageError` naming it."""
+        """The service type of that name (``pkg/srv/Name``, or ``pkg/Name`` as ``ros2 service
+        call`` also takes it), or a one-line :class:`MessageError` naming it, with a guess
+        when one is near (the same name in another package, or a near spelling)."""
+        given = name
         name = name.strip()
-        if name not in self.store.fielddefs or f"{name}_Request" not in self.store.fielddefs:
-            raise MessageError(f"unknown service type {name!r}")
-        return ServiceType(name)
+        parts = name.split("/")
+        if len(parts) == 2 and all(parts):
+            name = f"{parts[0]}/srv/{parts[1]}"
+        if name in self.store.fielddefs and f"{name}_Request" in self.store.fielddefs:
+            return ServiceType(name)
+        known = self.service_names()
+        short = name.rsplit("/", 1)[-1]
+        hint = [n for n in known if n.rsplit("/", 1)[-1] == short]
+        if not hint:
+            by_short = {n.rsplit("/", 1)[-1]: n for n in known}
+            hint = [n for n in difflib.get_close_matches(name, known, n=1, cutoff=0.8)]
+            hint += [by_short[s] for s in difflib.get_close_matches(short, by_short, n=1)]
+        if hint:
+            also = f" (did you mean {hint[0]}?)"
+        elif canonical_name(name) in self.store.fielddefs:
+            also = " (that is a message type, not a service)"
+        else:
+            also = ""
+        raise MessageError(f"unknown service type {given!r}{also}")
 
     def get(self, name: str) -> type:
         """The message class for ``pkg/msg/Name`` (or ``pkg/Name``)."""
@@ -429,6 +492,33 @@ class MessageTypes:
             return int(value)
         raise MessageError(f"{where}: unsupported field type {kind}")
 
+    def repr_of(self, msg: Any) -> str:
+        """A message as rclpy's generated classes show it (``repr``), which ``ros2 service
+        call`` prints: ``dynamixel_controllers.srv.SetSpeed_Request(speed=0.5)``. As rosidl's
+        Python repr does, it leaves out the one member of an empty message
+        (``structure_needs_at_least_one_member``), shows a sequence of numbers as a list and a
+        fixed array as numpy shows it."""
+        name = self.type_of(msg)
+        _, fields = self.store.fielddefs[name]
+        if [f for f, _ in fields] == ["structure_needs_at_least_one_member"]:
+            fields = []
+        shown = [f"{f}={self._repr_field(desc, getattr(msg, f))}" for f, desc in fields]
+        return f"{name.replace('/', '.')}({', '.join(shown)})"
+
+    def _repr_field(self, desc: FieldDesc, value: Any) -> str:
+        if desc[0] == Nodetype.BASE:
+            return _repr_scalar(desc[1][0], value)
+        if desc[0] == Nodetype.NAME:
+            return self.repr_of(value)
+        sub = desc[1][0]
+        if (desc[0] == Nodetype.ARRAY and isinstance(value, np.ndarray)
+                and value.dtype != np.bool_):
+            return repr(value)  # rosidl keeps a fixed numeric array as a numpy array
+        if sub[0] == Nodetype.NAME:
+            return f"[{', '.join(self.repr_of(v) for v in value)}]"
+        items = value.tolist() if isinstance(value, np.ndarray) else list(value)
+        return f"[{', '.join(_repr_scalar(sub[1][0], v) for v in items)}]"
+
     def to_value(self, msg: Any) -> Any:
         """Plain values (dicts, lists, numbers, strings) for a message: what ``echo`` prints and
         what :meth:`from_value` takes back."""
@@ -442,6 +532,18 @@ class MessageTypes:
         if isinstance(msg, np.generic):
             return msg.item()
         return msg
+
+
+def _repr_scalar(kind: str, value: Any) -> str:
+    if isinstance(value, np.generic):
+        value = value.item()
+    if kind == "byte":
+        return repr(bytes([int(value)]))  # rosidl's byte is a bytes of length 1
+    if kind == "bool":
+        return repr(bool(value))
+    if kind in _FLOATS:
+        return repr(float(value))
+    return repr(value)
 
 
 def _join(path: str, field: str) -> str:

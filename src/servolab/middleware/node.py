@@ -351,14 +351,30 @@ class Node:
         """The context's clock (wall time, or a simulation's): ``now()``, ``sleep()``."""
         return self.context.clock
 
+    def destroy_entity(self, entity: Any) -> bool:
+        """Destroy one publisher, subscription, service, client or timer of this node (as
+        rclpy's ``destroy_subscription`` and its kin); False if it is not this node's."""
+        if entity not in self._entities:
+            return False
+        self._entities.remove(entity)
+        self._release(entity)
+        return True
+
+    @staticmethod
+    def _release(entity: Any) -> None:
+        if isinstance(entity, Timer):
+            entity.cancel()
+        elif hasattr(entity, "destroy"):
+            entity.destroy()
+        else:
+            entity.close()
+
+    destroy_publisher = destroy_subscription = destroy_service = destroy_client = \
+        destroy_timer = destroy_entity
+
     def destroy(self) -> None:
         for entity in reversed(self._entities):
-            if isinstance(entity, Timer):
-                entity.cancel()
-            elif hasattr(entity, "destroy"):
-                entity.destroy()
-            else:
-                entity.close()
+            self._release(entity)
         self._entities.clear()
         self.context.remove_node(self)
 

@@ -35,7 +35,7 @@ def test_the_shipped_launch_file_walks_in_one_process(tmp_path: Path) -> None:
     result = _launch(path)
     assert result.returncode == 0, result.stderr[-2000:]
     assert "walked: 17 rows" in result.stdout + result.stderr
-    assert "Unable to start controller controller_m62" in result.stderr
+    assert "Unable to start controller controller_m62" in result.stdout + result.stderr
 
 
 @pytest.mark.slow

@@ -8,6 +8,7 @@ the stand pose of Table 4.2 first); Appendix B (the seed's node turned an unread
 from __future__ import annotations
 
 import json
+import math
 import re
 import subprocess
 import sys
@@ -19,10 +20,11 @@ from mcap_ros2.reader import read_ros2_messages
 
 from servolab.gait.motionfile import MotionFileError, write_motion_file
 from servolab.gait.walking import generate_walk
-from servolab.robots.armstrong.control_node import Armstrong
+from servolab.robots.armstrong.control_node import MOVE_RATE, Armstrong
 from servolab.robots.armstrong.hardware import load_motion
 from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
 from servolab.robots.armstrong.run import run_walk
+from servolab.robots.armstrong.supervisor import FINISH_DURATION
 from servolab.runs import RunFolder
 
 LEGS = MOTORS[:12]
@@ -164,7 +166,8 @@ def test_gait_generate_refuses_an_unreachable_gait(tmp_path: Path) -> None:
 def test_ctrl_c_stops_at_once_and_keeps_what_was_recorded(tmp_path: Path) -> None:
     """A long walk interrupted with Ctrl-C (SIGINT) while it plays: it stops before the end,
     says so (exit status 130), leaves its summary and a bag an independent reader opens, and
-    the motors were last sent a pose of the sequence (they hold it)."""
+    finishes to double support: the last command sent is the stand pose of Table 4.2
+    (servolab.robots.armstrong.supervisor)."""
     import signal
 
     from tests.processes import started
@@ -181,8 +184,12 @@ def test_ctrl_c_stops_at_once_and_keeps_what_was_recorded(tmp_path: Path) -> Non
     assert summary["interrupted"] == "SIGINT"
     commands = _messages(out / "walk_bag", "/controller_m14/command")
     assert commands, "nothing recorded"
+    assert summary["ending"] == "stand"
+    assert commands[-1][1].data == pytest.approx(  # type: ignore[attr-defined]
+        math.radians(STAND_POSE["m14"]), abs=1e-12)
     rows = np.radians(generate_walk().motion().angles[:, MOTORS.index("m14")])
-    assert np.min(np.abs(rows - commands[-1][1].data)) < 1e-12  # type: ignore[attr-defined]
+    before = [c.data for _, c in commands[:-int(FINISH_DURATION * MOVE_RATE)]]  # type: ignore[attr-defined]
+    assert np.min(np.abs(rows - before[-1])) < 1e-12  # the gait played until the stop
 
 
 def test_goals_reach_the_bus_in_small_steps_while_standing(
@@ -214,7 +221,8 @@ def test_a_generated_gait_beyond_the_configured_limits_is_refused(tmp_path: Path
     path.write_text(armstrong.CONFIG.read_text().replace(
         "motor: {id: 14, init: 512, min: 0, max: 1023}",
         "motor: {id: 14, init: 512, min: 450, max: 1023}"))  # at most ~18 degrees down
-    with pytest.raises(ValueError, match=r"row 0 sends m14 to -42\.628 degrees, outside"):
+    with pytest.raises(ValueError, match=r"row 0 \(t = 0 ms\) turns m14 \(left knee\) to "
+                                         r"-42\.63 degrees, beyond"):
         load_motion(None, path)
 
 

@@ -8,9 +8,10 @@ Facts checked, and where they come from:
   joint's range is min..max seen from init, ``min > max`` flips the joint, commands outside the
   range are clamped; topics /<controller>/command and /state, services /<controller>/set_speed
   and /<controller>/torque_enable;
-- the wire (issue 16): one READ of an RX-28's addresses 36..46 is an 8-byte instruction and a
-  17-byte status, 25 bytes of 10 bits; at 57142 bps with the factory return delay (250 x 2 us,
-  RX-28 e-Manual) 20 of them take 97.5 ms.
+- the wire (issue 16): one READ of an RX-28's addresses 30..46 (dynamixel_io's get_feedback
+  reads these 17 bytes) is an 8-byte instruction and a 23-byte status, 31 bytes of 10 bits; at
+  57142 bps with the factory return delay (250 x 2 us, RX-28 e-Manual) 20 of them take
+  118.5 ms.
 """
 
 from __future__ import annotations
@@ -175,11 +176,12 @@ def test_motor_states_list_every_motor(robot: Robot) -> None:
 
 
 def test_the_wire_sets_the_rate(robot: Robot, caplog: pytest.LogCaptureFixture) -> None:
-    """At 57142 bps 20 READs take 97.5 ms with the factory return delay: update_rate 20 Hz
-    cannot be met, and the manager says so and updates as fast as the wire allows."""
+    """At 57142 bps 20 READs of the 17 bytes from goal_position (8-byte instruction, 23-byte
+    status) take 119 ms with the factory return delay: update_rate 20 Hz cannot be met, and
+    the manager says so and updates as fast as the wire allows."""
     manager = robot.manager
-    reads = 20 * (25 * 10 / 57142 + 250 * 2e-6)
-    assert reads == pytest.approx(0.0975, abs=1e-4)
+    reads = 20 * (31 * 10 / 57142 + 250 * 2e-6)
+    assert reads == pytest.approx(0.1185, abs=1e-4)
     sync = manager.update_time - reads  # the SYNC_WRITE of 20 goals: 8 + 20 x 3 bytes
     assert sync == pytest.approx((8 + 20 * 3) * 10 / 57142, abs=1e-9)
     assert manager.rate == pytest.approx(1 / manager.update_time)
@@ -196,7 +198,7 @@ def test_at_one_megabit_and_return_delay_0_the_rate_is_met(tmp_path: Path) -> No
     try:
         for motor_id in r.manager.motors:
             r.bus.write(motor_id, "return_delay_time", 0)
-        assert r.manager.wire_time() < 0.006
+        assert r.manager.wire_time() < 0.0075  # 20 x 31 bytes + the SYNC_WRITE: 6.9 ms
     finally:
         r.close()
 
@@ -214,6 +216,57 @@ def test_set_speed_and_torque_enable_services(robot: Robot) -> None:
     assert robot.bus.read(14, "torque_enable") == 1
     torque.call(torque.request(torque_enable=False))
     assert robot.bus.read(14, "torque_enable") == 0
+
+
+def test_compliance_and_torque_limit_services(robot: Robot) -> None:
+    """dynamixel_controllers' set_compliance_slope/_margin/_punch write both directions of
+    the motor's raw register (punch has one), clamped to its range (servolab's RX-28 table,
+    checked against the e-Manual in tests/dynamixel/test_tables_emanual.py: slope 0..254);
+    set_torque_limit a fraction of the maximum torque."""
+    srv = "dynamixel_controllers/srv/"
+    clients = {name: robot.probe.create_client(srv + kind, f"/controller_m14/{name}")
+               for name, kind in (("set_compliance_slope", "SetComplianceSlope"),
+                                  ("set_compliance_margin", "SetComplianceMargin"),
+                                  ("set_compliance_punch", "SetCompliancePunch"),
+                                  ("set_torque_limit", "SetTorqueLimit"))}
+    clients["set_compliance_slope"].call(clients["set_compliance_slope"].request(slope=64))
+    clients["set_compliance_margin"].call(clients["set_compliance_margin"].request(margin=3))
+    clients["set_compliance_punch"].call(clients["set_compliance_punch"].request(punch=50))
+    clients["set_torque_limit"].call(clients["set_torque_limit"].request(torque_limit=0.4))
+    assert robot.bus.read(14, ["cw_compliance_slope", "ccw_compliance_slope",
+                               "cw_compliance_margin", "ccw_compliance_margin", "punch"],
+                          raw=True) == {"cw_compliance_slope": 64, "ccw_compliance_slope": 64,
+                                        "cw_compliance_margin": 3, "ccw_compliance_margin": 3,
+                                        "punch": 50}
+    assert float(robot.bus.read(14, "torque_limit")) == pytest.approx(0.4, abs=0.001)
+    clients["set_compliance_slope"].call(clients["set_compliance_slope"].request(slope=255))
+    assert robot.bus.read(14, "ccw_compliance_slope", raw=True) == 254  # clamped
+    assert robot.bus.read(13, "cw_compliance_slope", raw=True) == 32  # another motor: untouched
+
+
+def test_stop_start_and_restart_controller_services(robot: Robot) -> None:
+    """controller_manager.py's services under /<namespace>/<port>/: a stopped controller's
+    topics and services leave the graph and its motor keeps its goal; start brings it back;
+    a controller not in the configuration is refused with a reason."""
+    srv, base = "dynamixel_controllers/srv/", "/dxl_manager/pan_tilt_port"
+    stop = robot.probe.create_client(srv + "StopController", f"{base}/stop_controller")
+    start = robot.probe.create_client(srv + "StartController", f"{base}/start_controller")
+    restart = robot.probe.create_client(srv + "RestartController",
+                                        f"{base}/restart_controller")
+    assert stop.call(stop.request(controller_name="controller_m14")).success
+    assert "controller_m14" not in robot.manager.controllers
+    assert not stop.call(stop.request(controller_name="controller_m14")).success
+    graph = robot.context.transport.graph()
+    assert not [e for e in graph if e.name.startswith("/controller_m14/")]
+    assert [e for e in graph if e.name == "/controller_m13/command"]
+    answer = start.call(start.request(controller_name="controller_m14"))
+    assert answer.success and "controller_m14" in robot.manager.controllers
+    assert restart.call(restart.request(controller_name="controller_m14")).success
+    refused = start.call(start.request(controller_name="controller_m99"))
+    assert not refused.success and "no controller 'controller_m99'" in refused.reason
+    wrong = start.call(start.request(controller_name="controller_m14", package_path="x",
+                                     module_name="y", class_name="Z"))
+    assert not wrong.success and "x/y/Z is not supported" in wrong.reason
 
 
 def test_tuning_from_the_configuration_is_written(tmp_path: Path) -> None:

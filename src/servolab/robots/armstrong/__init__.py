@@ -3,5 +3,6 @@
 of its launch files, and ``servolab walk``'s run."""
 
 #: what stopping this robot does to its motors, on any end of a run (servolab.harness)
-ON_STOP = ("the motors hold the last pose sent "
-           "(torque stays on: a biped that went limp would fall)")
+ON_STOP = ("the joints go to the stand pose (double support) over 1 s, then hold it with "
+           "torque on (a biped that went limp would fall); with the bus gone, the motors "
+           "hold the last pose sent")

@@ -15,8 +15,11 @@ angles to the joint controllers' ``/controller_mXX/command`` topics and listens 
 ``/state``; it knows nothing of the bus, so it runs the same beside the manager or in another
 process. :class:`Armstrong` puts the bus, the
 :class:`~servolab.robots.controllers.manager.DynamixelManager` and a :class:`BipedNode` together
-in one context. Leaving it (or Ctrl-C) stops sending and
-leaves the motors holding the last pose they were sent: a biped that loses torque falls.
+in one context, with a :class:`~.supervisor.SafetySupervisor` that ends a walk on an
+alarm. It refuses to start without all twelve leg motors (their controllers must run).
+:meth:`Armstrong.finish` brings it to double support (the stand pose) after an alarm or a
+stop; leaving it stops sending and leaves the motors holding the last pose they were sent:
+a biped that loses torque falls.
 """
 
 from __future__ import annotations
@@ -26,23 +29,28 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ...dynamixel.errors import PortError
+from ...gait import walking
 from ...gait.motionfile import MotionFile
 from ...middleware.context import Context
 from ...middleware.node import Node
 from ..controllers.manager import DynamixelManager
 from ..errors import RobotError, RobotValueError
 from . import hardware as armstrong
-from .poses import MOTORS, POSES, Pose, interpolate, joint_pose, radians
+from .poses import MOTORS, POSES, STAND_POSE, Pose, interpolate, joint_pose, radians
+from .supervisor import FINISH_DURATION, SafetySupervisor
 
 if TYPE_CHECKING:
+    from ...dynamixel.emulator import Faults
     from ...sim.simulation import Simulation
 
 FLOAT64 = "std_msgs/msg/Float64"
 JOINT_STATE = "dynamixel_msgs/msg/JointState"
 #: How often an interpolated move sends its intermediate poses (Hz).
 MOVE_RATE = 20.0
-#: The seed's playback rate: 17 rows a step at 4.5 Hz, 3.78 s a step (001 section 4.2.4).
-PLAY_RATE = 4.5
+#: The seed's playback rate: 17 rows a step at 4.5 Hz, 3.78 s a step (001 section 4.2.4);
+#: the gait generator derives its t_step from it.
+PLAY_RATE = walking.PLAY_RATE
 
 
 def controller_of(motor: str) -> str:
@@ -147,17 +155,22 @@ class BipedNode(Node):
 class Armstrong:
     """The biped, whole: its bus (emulated unless ``port`` names a serial device), the
     controller manager with its 20 joint controllers, and a :class:`BipedNode`, in one
-    context on the simulation's time (emulated) or the wall clock (a real robot)."""
+    context on the simulation's time (emulated) or the wall clock (a real robot).
+    ``require_legs`` False lets it start with leg motors missing (to test one joint on the
+    bench); walking needs them all. ``faults`` are injected into the emulated robot's
+    answers (dropped or corrupted bytes), to see what the supervisor makes of them."""
 
     def __init__(self, *, port: str | None = None, config: str | Path | None = None,
-                 baudrate: int | None = None, history: bool = False) -> None:
+                 baudrate: int | None = None, history: bool = False,
+                 require_legs: bool = True, faults: Faults | None = None) -> None:
         from ...clock import WallClock
         from ...sim.simulation import Simulation
 
         self.config = armstrong.load_config(config)
         self.simulation: Simulation | None = None if port else Simulation()
         self.bus, self.port = armstrong.open_bus(self.config, port_name=port,
-                                                 simulation=self.simulation, baudrate=baudrate)
+                                                 simulation=self.simulation, baudrate=baudrate,
+                                                 faults=faults)
         try:
             self.context = Context.open(clock=self.simulation or WallClock())
         except BaseException:
@@ -166,6 +179,20 @@ class Armstrong:
         try:
             self.manager = DynamixelManager(self.context, self.bus, self.port,
                                             self.config.controllers)
+            for warning in self.config.warnings:
+                self.manager.get_logger().warning(warning)
+            missing = [m for m in MOTORS[:12] if controller_of(m) not in
+                       self.manager.controllers]
+            if missing and require_legs:
+                raise RobotValueError(
+                    f"cannot walk: leg motor(s) {', '.join(missing)} did not answer on "
+                    f"{self.port.port_name} (their controllers could not start; "
+                    f"{self.port.ping_retries} pings each); nothing was moved. Check their "
+                    "cables and power, then 'servolab scan --port PORT'")
+            self.supervisor = SafetySupervisor(
+                self.manager, [c.motor_id for c in self.manager.controllers.values()])
+            #: how the last walk ended: "stand" (double support) or "hold"
+            self.ending: str | None = None
             self.node = BipedNode(self.context, history=history)
             # where each joint is, before anything moves: a move from a guessed pose jumps
             if not self.context.spin_until(self._heard_every_joint, timeout=5.0):
@@ -185,6 +212,21 @@ class Armstrong:
     def ok(self) -> bool:
         return self.context.ok()
 
+    def should_stop(self) -> bool:
+        """The context ended or the supervisor raised an alarm."""
+        return not self.context.ok() or self.supervisor.tripped
+
+    def finish(self, error: BaseException | None = None) -> str:
+        """End a walk safely (see :mod:`.supervisor`): "stand", the joints brought to the
+        stand pose (double support) over :data:`~.supervisor.FINISH_DURATION` s, or "hold"
+        when the bus is gone (``error`` a :class:`PortError`) and nothing can be sent."""
+        if isinstance(error, PortError) or not self.context.ok():
+            self.ending = "hold"
+            return self.ending
+        self.node.move_to(STAND_POSE, FINISH_DURATION)
+        self.ending = "stand"
+        return self.ending
+
     def stand(self, duration: float = 2.0) -> bool:
         """Table 4.2's stand pose, reached over ``duration`` seconds."""
         return self.pose("stand", duration)
@@ -192,16 +234,16 @@ class Armstrong:
     def pose(self, name: str, duration: float = 2.0) -> bool:
         if name not in POSES:
             raise RobotValueError(f"no pose {name!r}; there are {', '.join(POSES)}")
-        return self.node.move_to(POSES[name], duration, should_stop=lambda: not self.ok())
+        return self.node.move_to(POSES[name], duration, should_stop=self.should_stop)
 
     def move_joint(self, joint: str, duration: float = 1.0, **axes: float) -> bool:
         """Move one joint of Table 4.1 (degrees per axis) over ``duration`` seconds."""
         return self.node.move_to(joint_pose(joint, **axes), duration,
-                                 should_stop=lambda: not self.ok())
+                                 should_stop=self.should_stop)
 
     def play(self, motion: MotionFile, steps: int = 1, rate: float = PLAY_RATE, *,
              progress: Callable[[int, int], None] | None = None) -> int:
-        return self.node.play(motion, steps, rate, should_stop=lambda: not self.ok(),
+        return self.node.play(motion, steps, rate, should_stop=self.should_stop,
                               progress=progress)
 
     def close(self) -> None:

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
+from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
 
 from ...configfile import shipped
 from ...dynamixel import units
 from ...dynamixel.bus import Bus
+from ...dynamixel.emulator import Faults
 from ...dynamixel.models import model
 from ...dynamixel.motorspec import MotorEntry, MotorSpec
 from ...gait.motionfile import MotionFile, read_motion_file
@@ -25,7 +25,6 @@ from ...gait.walking import GaitParameters, generate_walk
 from ...sim.emulated import emulated_port
 from ...sim.simulation import Simulation
 from ..controllers.config import ControllerConfigError, RobotConfig, SerialPortConfig, load
-from ..errors import RobotValueError
 from .poses import MOTORS
 
 #: armstrong.yaml beside this module (Listing 3.3 + Appendix A): the default configuration
@@ -87,20 +86,20 @@ def emulated_spec(config: RobotConfig, *, absent: Collection[int] = ABSENT,
 
 def open_bus(config: RobotConfig, *, port_name: str | None = None,
              simulation: Simulation | None = None, absent: Collection[int] = ABSENT,
-             baudrate: int | None = None) -> tuple[Bus, SerialPortConfig]:
+             baudrate: int | None = None, faults: Faults | None = None
+             ) -> tuple[Bus, SerialPortConfig]:
     """The robot's bus: the real one on ``port_name`` (a serial device), else the emulated
-    robot in ``simulation`` (a new one if None). Returns the bus and the port settings it
-    runs with (the configured ones, with the device and baud rate used)."""
+    robot in ``simulation`` (a new one if None; ``faults`` injected into its answers).
+    Returns the bus and the port settings it runs with (the configured ones, with the device
+    and baud rate used)."""
     port = config.manager.serial_ports[0]
     baud = baudrate or port.baud_rate
     if port_name is not None:
         bus = Bus.open(port_name, protocol=1, baudrate=baud)
     else:
         spec = emulated_spec(config, absent=absent, baudrate=baud)
-        bus = Bus(emulated_port(spec, baud, simulation=simulation))
-    used = SerialPortConfig(port.name, port_name or bus.port.name, baud, port.min_motor_id,
-                            port.max_motor_id, port.update_rate)
-    return bus, used
+        bus = Bus(emulated_port(spec, baud, simulation=simulation, faults=faults))
+    return bus, replace(port, port_name=port_name or bus.port.name, baud_rate=baud)
 
 
 def load_motion(path: str | Path | None, config: str | Path | None = None,
@@ -110,13 +109,5 @@ def load_motion(path: str | Path | None, config: str | Path | None = None,
     limits = joint_limits(load_config(config))
     if path is not None:
         return read_motion_file(path, limits=limits, required=MOTORS)
-    motion = generate_walk(parameters or GaitParameters()).motion()
-    for k, name in enumerate(motion.names):
-        low, high = limits.get(name, (-math.inf, math.inf))
-        outside = np.flatnonzero((motion.angles[:, k] < low) | (motion.angles[:, k] > high))
-        if outside.size:
-            row = int(outside[0])
-            raise RobotValueError(f"the generated gait's row {row} sends {name} to "
-                                  f"{motion.angles[row, k]:.3f} degrees, outside the "
-                                  f"joint's limits [{low:.3f}, {high:.3f}]")
-    return motion
+    # checked against the same limits as a file, at generation (gait.walking)
+    return generate_walk(parameters or GaitParameters(), limits=limits).motion()

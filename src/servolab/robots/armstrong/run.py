@@ -3,9 +3,11 @@
 As 001's control node: move to the stand pose (Table 4.2), then play a motion sequence N times
 at 4.5 rows a second. The motion is the seed's gait generated now, or a motion file checked
 whole against the joints' limits *before* anything moves (a bad cell is an error naming its
-line and column, never 0 degrees). Every command, every joint state and the motors' states go
-to the run folder's MCAP bag; a plot compares commanded and present angles of both legs.
-Ctrl-C stops at once, and the motors hold the last pose they were sent.
+line and column, never 0 degrees). Every command, every joint state, the motors' states and
+``/diagnostics`` go to the run folder's MCAP bag; a plot compares commanded and present
+angles of both legs. An alarm of the safety supervisor (:mod:`.supervisor`), Ctrl-C or
+SIGTERM end the gait at the next row and bring the robot to double support (the stand
+pose); ``summary.json`` lists each alarm and the errors each motor's reads met.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from .control_node import PLAY_RATE, Armstrong, controller_of
 from .poses import MOTORS
 
 if TYPE_CHECKING:
+    from ...dynamixel.emulator import Faults
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
@@ -35,17 +38,22 @@ def recorded_topics(robot: Armstrong) -> dict[str, str]:
     for name in robot.manager.controllers:
         topics[f"/{name}/state"] = "dynamixel_msgs/msg/JointState"
     topics[f"/motor_states/{robot.port.name}"] = "dynamixel_msgs/msg/MotorStateList"
+    topics["/diagnostics"] = "diagnostic_msgs/msg/DiagnosticArray"
     return topics
 
 
 def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
              rate: float = PLAY_RATE, port: str | None = None,
              config: str | Path | None = None, say: Say = print,
-             show_progress: bool = True) -> dict[str, Any]:
+             show_progress: bool = True, faults: Faults | None = None,
+             on_row: Callable[[Armstrong, int], None] | None = None) -> dict[str, Any]:
     """Stand, play ``motion`` ``steps`` times at ``rate``, record; write the summary and
-    return it. Stopped by a signal or an error, the motors hold the last pose they were sent
-    (a biped whose torque went off would fall), the bag is closed and the summary written
-    with ``interrupted`` and the rows played so far, and the stop goes on to the caller."""
+    return it. Ended by an alarm, a signal or an error, the robot finishes to double support
+    (or holds, when its bus is gone: :meth:`Armstrong.finish`), the bag is closed and the
+    summary written with ``interrupted``, the alarms and the rows played so far, and a
+    signal or error goes on to the caller. ``faults`` go to the emulated robot's bus;
+    ``on_row(robot, rows_played)`` is called after each row is sent, for scripted
+    experiments (a fault made to happen at a given row of the emulated robot)."""
     from tqdm import tqdm
 
     from ...harness import RunEnding, interruption, stops_deferred
@@ -57,7 +65,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     total = steps * motion.poses
     played = 0
     interrupted: BaseException | None = None
-    with Armstrong(port=port, config=config, history=True) as robot:
+    with Armstrong(port=port, config=config, history=True, faults=faults) as robot:
         where = port or "the emulated robot"
         say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
             f"{len(robot.manager.controllers)} controllers running"
@@ -77,31 +85,53 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                     nonlocal played
                     played = done
                     bar.update(done - bar.n)
+                    if on_row is not None:
+                        on_row(robot, done)
                     if not show_progress and done % motion.poses == 0:
                         say(f"step {done // motion.poses} of {steps} played")
                 played = robot.play(motion, steps, rate, progress=progress)
-            robot.context.spin_for(0.5)  # the last goals reached and recorded
-        except BaseException as error:  # a stop signal or an error: hold, record, report
+            if robot.supervisor.tripped:
+                say("alarm: " + "; ".join(str(a) for a in robot.supervisor.alarms))
+        except BaseException as error:  # a stop signal or an error: finish, record, report
             interrupted = error
         ending = RunEnding(interrupted)
         with stops_deferred() as late:  # the way out is not cut short by a signal
+            if played < total or interrupted is not None:
+                with ending.step("finishing to double support"):
+                    robot.finish(interrupted)
+            with ending.step("letting the last goals be reached and recorded"):
+                robot.context.spin_for(0.5)
             with ending.step("closing the bag"):
                 recorder.destroy()
+            manager = robot.manager
             summary: dict[str, Any] = {
                 "rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
-                "stopped": played < total,
+                "stopped": played < total, "ending": robot.ending or "walked",
+                "alarms": [a.as_dict() for a in robot.supervisor.alarms],
+                "motor_errors": {str(i): e for i, e in manager.error_counts().items()},
+                "bus": {k: getattr(robot.bus.stats, k)
+                        for k in ("transactions", "retries", "timeouts", "corrupt")},
+                "state_rate_hz": round(manager.sweep_rate, 2),
+                "state_rate_wire_limit_hz": round(1.0 / manager.update_time, 2),
+                "goals": {"written": manager.owner.goals_written,
+                          "replaced_before_written": manager.owner.goals_replaced},
                 "walked_s": robot.context.clock.now() - started, "bag": str(bag),
-                "port": port or "emulated", "controllers_failed": robot.manager.failed,
+                "port": port or "emulated", "controllers_failed": manager.failed,
                 "motors_on_stop": ON_STOP}
             with ending.step("plotting"):
                 summary["plot"] = str(plot_tracking(robot, run_folder.file("walk.png")))
+                if robot.supervisor.alarms:
+                    summary["alarm_plot"] = str(plot_alarms(robot,
+                                                            run_folder.file("alarms.png")))
             with ending.step("measuring"):
                 summary["max_tracking_error_deg"] = tracking_errors(robot)
             say(("stopped after " if played < total else "played ") + f"{played} of {total} "
                 f"rows; recorded to {bag}; plot {summary.get('plot')}")
             run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
     if ending.error is not None:
-        say(f"interrupted ({interruption(ending.error)}): the motors hold the last pose")
+        say(f"interrupted ({interruption(ending.error)}): "
+            + ("the robot is in double support (the stand pose)" if robot.ending == "stand"
+               else "the motors hold the last pose"))
     ending.raise_if_ended()
     return summary
 
@@ -150,6 +180,60 @@ def plot_tracking(robot: Armstrong, path: Path) -> Path:
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", ncol=6, fontsize="small")
     axes[1].set_xlabel("time [s]" + (" (simulated)" if robot.simulation else ""))
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+    return path
+
+
+def plot_alarms(robot: Armstrong, path: Path) -> Path:
+    """The motors that raised an alarm: temperature against ``warn_level_temp`` and
+    ``error_level_temp``, load, and how long each had been silent, with the alarms marked;
+    their joints' commanded and present angles below, to show the walk ending in the stand
+    pose."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    supervisor, port = robot.supervisor, robot.port
+    motors = sorted({a.motor for a in supervisor.alarms})
+    figure, axes = plt.subplots(4, 1, figsize=(10, 10), sharex=True)
+    temp, load, silent, joint = axes
+    for k, motor in enumerate(motors):
+        colour = f"C{k}"
+        rows = supervisor.history.get(motor, [])
+        t = [r[0] for r in rows]
+        temp.plot(t, [np.nan if r[1] is None else r[1] for r in rows], color=colour,
+                  label=f"motor {motor}")
+        load.plot(t, [np.nan if r[2] is None else r[2] for r in rows], color=colour)
+        silent.plot(t, [r[3] for r in rows], color=colour)
+        name = f"m{motor}"
+        sent = [(s - supervisor.started, a) for s, m, a in robot.node.sent if m == name]
+        heard = [(s - supervisor.started, a) for s, m, a in robot.node.heard if m == name]
+        if sent:
+            joint.step(*zip(*sent, strict=True), where="post", color=colour, alpha=0.5,
+                       linestyle="--")
+        if heard:
+            joint.plot(*zip(*heard, strict=True), color=colour, label=name)
+    temp.axhline(port.warn_level_temp, color="orange", linestyle=":", label="warn_level_temp")
+    temp.axhline(port.error_level_temp, color="red", linestyle=":", label="error_level_temp")
+    silent.axhline(port.silent_timeout, color="red", linestyle=":", label="silent_timeout")
+    for ax in axes:
+        for alarm in supervisor.alarms:
+            ax.axvline(alarm.time, color="red", alpha=0.6)
+        ax.grid(True, alpha=0.3)
+    temp.set_title("Alarms: " + "; ".join(f"motor {a.motor} {a.cause} at {a.time:.2f} s"
+                                          for a in supervisor.alarms))
+    temp.set_ylabel("temperature [deg C]")
+    temp.legend(loc="upper left", fontsize="small")
+    load.set_ylabel("load [fraction]")
+    silent.set_ylabel("silent for [s]")
+    silent.legend(loc="upper left", fontsize="small")
+    joint.set_ylabel("angle [deg]")
+    joint.set_title("commanded (dashed) and present (solid): the walk ends in the stand pose")
+    joint.legend(loc="upper left", fontsize="small")
+    joint.set_xlabel("time since start [s]" + (" (simulated)" if robot.simulation else ""))
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)

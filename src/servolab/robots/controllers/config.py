@@ -35,8 +35,18 @@ radians through the motor's model, in the Dynamixel layer.
 Appendix A as printed nests ``joint_name``, ``joint_speed`` and ``motor`` under ``controller:``
 for its first four controllers and beside it for the others: both load (ROS's parameter server
 would not have found the nested ones, which is a slip of the document's layout, not a format).
-Two controllers of one joint name are refused naming both, as are two of one motor ID: each
-would fight the other for the same joint.
+Two controllers of one motor ID are refused naming both: each would fight the other for the
+same motor. Two of one joint name load, with a warning naming both (:attr:`RobotConfig.
+warnings`): in ``dynamixel_controllers`` a joint name is only the label of the joint's state
+message and each controller drives its own motor, and Appendix A as printed gives
+``pan_joint_33`` to m31..m51, which the seed's Figure 3.4 shows starting.
+
+Beside ROS's keys of a serial port, servolab reads three of its own, each with a default
+that works: ``ping_retries`` (5: how many times each ID is pinged before it is taken as
+absent, ``dynamixel_serial_proxy``'s ``num_ping_retries``), ``silent_timeout`` (0.5 s: a
+motor that has not answered for longer raises an alarm) and ``read_retries`` (2: how many
+times a failed READ of a motor's state is sent again before the motor is skipped for that
+sweep).
 
 Errors are :class:`ControllerConfigError`, one line ``file:line: message``, raised by
 :mod:`servolab.configfile` before anything opens a port.
@@ -67,7 +77,8 @@ DEFAULT_JOINT_SPEED = 1.0
 _TYPE_KEYS = ("package", "module", "type")
 _MOTOR_KEYS = ("id", "init", "min", "max")
 _PORT_KEYS = ("port_name", "baud_rate", "min_motor_id", "max_motor_id", "update_rate",
-              "diagnostics_rate", "error_level_temp", "warn_level_temp", "readback_echo")
+              "diagnostics_rate", "error_level_temp", "warn_level_temp", "readback_echo",
+              "ping_retries", "silent_timeout", "read_retries")
 
 
 class ControllerConfigError(ConfigFileError):
@@ -119,6 +130,15 @@ class SerialPortConfig:
     min_motor_id: int = 1
     max_motor_id: int = 25
     update_rate: float = 5.0    # Hz; dynamixel_driver's default
+    #: Hz of /diagnostics, and the temperatures (deg C) from which a motor's diagnostic
+    #: status is WARN ("VERY HOT") and ERROR ("OVERHEATING"): dynamixel_serial_proxy's
+    #: defaults (1, 70, 75)
+    diagnostics_rate: float = 1.0
+    warn_level_temp: float = 70.0
+    error_level_temp: float = 75.0
+    ping_retries: int = 5       # servolab's; see the module docstring
+    silent_timeout: float = 0.5
+    read_retries: int = 2
 
 
 @dataclass(frozen=True)
@@ -135,6 +155,9 @@ class RobotConfig:
     manager: ManagerConfig
     controllers: tuple[ControllerConfig, ...]
     path: str = ""
+    #: what loads but should be said once (``file:line: ...``): two controllers of one joint
+    #: name
+    warnings: tuple[str, ...] = ()
 
     def controller(self, name: str) -> ControllerConfig:
         for c in self.controllers:
@@ -161,7 +184,8 @@ def parse(top: ConfigValue, path: str = "") -> RobotConfig:
         else:
             controllers.append(_controller(name, value))
     _check_unique(mapping, controllers)
-    return RobotConfig(manager, tuple(controllers), path)
+    return RobotConfig(manager, tuple(controllers), path,
+                       _shared_joint_names(controllers, path))
 
 
 def _manager(value: ConfigValue) -> ManagerConfig:
@@ -190,12 +214,28 @@ def _port(name: str, value: ConfigValue) -> SerialPortConfig:
     if low > high:
         raise p.require("max_motor_id").error(
             f"{what}: max_motor_id {high} is below min_motor_id {low}")
-    rate_value = p.get("update_rate")
-    rate = rate_value.as_float() if rate_value is not None else 5.0
-    if rate_value is not None and rate <= 0:
-        raise rate_value.error(f"{what}: update_rate must be > 0 Hz, not {rate:g}")
+    rate = _positive(p, "update_rate", 5.0, what, "Hz")
+    diagnostics = _positive(p, "diagnostics_rate", 1.0, what, "Hz")
+    warn = _positive(p, "warn_level_temp", 70.0, what, "deg C")
+    error = _positive(p, "error_level_temp", 75.0, what, "deg C")
+    if warn > error:
+        raise p.require("warn_level_temp").error(
+            f"{what}: warn_level_temp {warn:g} is above error_level_temp {error:g}")
     return SerialPortConfig(name, p.require("port_name").as_str(nonempty=True), int(baud),
-                            low, high, rate)
+                            low, high, rate, diagnostics, warn, error,
+                            _int(p, "ping_retries", 5, 1, 100, what),
+                            _positive(p, "silent_timeout", 0.5, what, "s"),
+                            _int(p, "read_retries", 2, 0, 100, what))
+
+
+def _positive(m: ConfigMapping, key: str, default: float, what: str, unit: str) -> float:
+    value = m.get(key)
+    if value is None:
+        return default
+    number = value.as_float()
+    if not number > 0:
+        raise value.error(f"{what}: {key} must be > 0 {unit}, not {number:g}")
+    return number
 
 
 def _int(m: ConfigMapping, key: str, default: int, low: int, high: int, what: str) -> int:
@@ -294,14 +334,26 @@ def _motor(value: ConfigValue, what: str) -> MotorConfig:
 
 
 def _check_unique(mapping: ConfigMapping, controllers: list[ControllerConfig]) -> None:
-    """Refuse two controllers of one joint name or one motor, naming both."""
-    for attribute, label in (("joint_name", "joint name"), ("id", "motor id")):
-        seen: dict[object, ControllerConfig] = {}
-        for c in controllers:
-            key = c.joint_name if attribute == "joint_name" else c.motor.id
-            if key in seen:
-                first = seen[key]
-                raise mapping.key_of(c.name).error(
-                    f"controllers {first.name!r} (line {first.line}) and {c.name!r} have the "
-                    f"same {label} {key!r}: each joint needs its own")
-            seen[key] = c
+    """Refuse two controllers of one motor, naming both."""
+    seen: dict[int, ControllerConfig] = {}
+    for c in controllers:
+        if c.motor.id in seen:
+            first = seen[c.motor.id]
+            raise mapping.key_of(c.name).error(
+                f"controllers {first.name!r} (line {first.line}) and {c.name!r} drive the "
+                f"same motor id {c.motor.id}: each motor needs its own controller")
+        seen[c.motor.id] = c
+
+
+def _shared_joint_names(controllers: list[ControllerConfig], path: str) -> tuple[str, ...]:
+    """One warning per controller whose joint name an earlier one has already."""
+    seen: dict[str, ControllerConfig] = {}
+    warnings = []
+    for c in controllers:
+        first = seen.setdefault(c.joint_name, c)
+        if first is not c:
+            warnings.append(f"{path or '<config>'}:{c.line}: controllers {first.name!r} (line "
+                            f"{first.line}) and {c.name!r} share joint name {c.joint_name!r}: "
+                            "both run (a joint name only labels the state message), but their "
+                            "states cannot be told apart by name")
+    return tuple(warnings)

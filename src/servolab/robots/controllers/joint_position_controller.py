@@ -7,8 +7,11 @@ Topics and services under the controller's name (``controller_m14``), named as R
   the motor's ``init``; clamped to the joint's range with a warning; NaN or infinity refused;
 - ``/controller_m14/state`` (``dynamixel_msgs/msg/JointState``, 001 Figure 3.2), published at
   every update of the manager;
-- ``/controller_m14/set_speed`` (``dynamixel_controllers/srv/SetSpeed``, rad/s) and
-  ``/controller_m14/torque_enable`` (``dynamixel_controllers/srv/TorqueEnable``).
+- ``/controller_m14/set_speed`` (``dynamixel_controllers/srv/SetSpeed``, rad/s),
+  ``/controller_m14/torque_enable`` (``TorqueEnable``), ``set_compliance_slope``,
+  ``set_compliance_margin``, ``set_compliance_punch`` (raw, both directions alike, clamped to
+  the register's range as ``joint_position_controller.py`` clamps them) and
+  ``set_torque_limit`` (``SetTorqueLimit``: a fraction 0..1 of the maximum torque).
 
 The arithmetic is ``dynamixel_controllers``' (joint_position_controller.py): ``min > max``
 flips the joint; the joint's range is ``min``..``max`` seen from ``init``. It is done here in
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from ..errors import RobotValueError
@@ -40,6 +44,14 @@ FLOAT64 = "std_msgs/msg/Float64"
 JOINT_STATE = "dynamixel_msgs/msg/JointState"
 SET_SPEED = "dynamixel_controllers/srv/SetSpeed"
 TORQUE_ENABLE = "dynamixel_controllers/srv/TorqueEnable"
+SET_COMPLIANCE_SLOPE = "dynamixel_controllers/srv/SetComplianceSlope"
+SET_COMPLIANCE_MARGIN = "dynamixel_controllers/srv/SetComplianceMargin"
+SET_COMPLIANCE_PUNCH = "dynamixel_controllers/srv/SetCompliancePunch"
+SET_TORQUE_LIMIT = "dynamixel_controllers/srv/SetTorqueLimit"
+#: The compliance services: request field -> the registers written (both directions alike).
+COMPLIANCE = {"slope": ("cw_compliance_slope", "ccw_compliance_slope"),
+              "margin": ("cw_compliance_margin", "ccw_compliance_margin"),
+              "punch": ("punch",)}
 
 
 @dataclass(frozen=True)
@@ -102,10 +114,20 @@ class JointPositionController:
         #: the joint angle last commanded (rad); at start, the motor's own goal
         self.goal_angle = self.geometry.joint(float(bus.read(self.motor_id, "goal_position")))
         self.state_pub = node.create_publisher(JOINT_STATE, f"/{self.name}/state", 10)
-        node.create_subscription(FLOAT64, f"/{self.name}/command", self._on_command, 10)
-        node.create_service(SET_SPEED, f"/{self.name}/set_speed", self._on_set_speed)
-        node.create_service(TORQUE_ENABLE, f"/{self.name}/torque_enable",
-                            self._on_torque_enable)
+        base = f"/{self.name}"
+        self._entities: list[Any] = [
+            self.state_pub,
+            node.create_subscription(FLOAT64, f"{base}/command", self._on_command, 10),
+            node.create_service(SET_SPEED, f"{base}/set_speed", self._on_set_speed),
+            node.create_service(TORQUE_ENABLE, f"{base}/torque_enable", self._on_torque_enable),
+            node.create_service(SET_TORQUE_LIMIT, f"{base}/set_torque_limit",
+                                self._on_set_torque_limit)]
+        for field_name, srv in (("slope", SET_COMPLIANCE_SLOPE),
+                                ("margin", SET_COMPLIANCE_MARGIN),
+                                ("punch", SET_COMPLIANCE_PUNCH)):
+            self._entities.append(node.create_service(
+                srv, f"{base}/set_compliance_{field_name}",
+                partial(self._on_compliance, field_name)))
         self.set_speed(config.joint_speed)
         self._tune(config)
 
@@ -167,6 +189,41 @@ class JointPositionController:
     def _on_torque_enable(self, request: Any, response: Any) -> Any:
         self.torque_enable(bool(request.torque_enable))
         return response
+
+    def set_compliance(self, which: str, value: int) -> int:
+        """Write compliance ``which`` (slope, margin or punch) in the motor's raw units,
+        clamped to the register's range; returns the value written."""
+        names = COMPLIANCE[which]
+        register = self._bus.model_of(self.motor_id).register(names[0])
+        top = register.maximum if register.maximum is not None else value
+        chosen = min(max(int(value), register.minimum), top)
+        if chosen != value:
+            self._log.warning(f"{self.name}: compliance {which} {value} outside "
+                              f"{register.minimum}..{top}; set to {chosen}")
+        self._bus.write(self.motor_id, dict.fromkeys(names, chosen), raw=True)
+        return chosen
+
+    def _on_compliance(self, which: str, request: Any, response: Any) -> Any:
+        self.set_compliance(which, int(getattr(request, which)))
+        return response
+
+    def set_torque_limit(self, fraction: float) -> float:
+        """The most torque the motor may use, a fraction 0..1 of its maximum (clamped)."""
+        if not math.isfinite(fraction):
+            raise RobotValueError(f"{self.name}: torque limit {fraction!r} is not a number")
+        chosen = min(max(fraction, 0.0), 1.0)
+        self._bus.write(self.motor_id, "torque_limit", chosen)
+        return chosen
+
+    def _on_set_torque_limit(self, request: Any, response: Any) -> Any:
+        self.set_torque_limit(float(request.torque_limit))
+        return response
+
+    def destroy(self) -> None:
+        """Take the controller's topics and services off the graph."""
+        for entity in self._entities:
+            self._node.destroy_entity(entity)
+        self._entities.clear()
 
     # -- state -----------------------------------------------------------------------------
 
