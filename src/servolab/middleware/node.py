@@ -357,11 +357,11 @@ class Node:
         if entity not in self._entities:
             return False
         self._entities.remove(entity)
-        self._release(entity)
+        self._release_entity(entity)
         return True
 
     @staticmethod
-    def _release(entity: Any) -> None:
+    def _release_entity(entity: Any) -> None:
         if isinstance(entity, Timer):
             entity.cancel()
         elif hasattr(entity, "destroy"):
@@ -374,7 +374,7 @@ class Node:
 
     def destroy(self) -> None:
         for entity in reversed(self._entities):
-            self._release(entity)
+            self._release_entity(entity)
         self._entities.clear()
         self.context.remove_node(self)
 

@@ -9,8 +9,13 @@
 - ``/sensor_state`` (``turtlebot3_msgs/msg/SensorState``): the time and the raw encoder counts
   of the left and right wheels, what seed 002's Listing 4 logs, and the torque state.
 
-Each cycle is one SYNC_WRITE of the wheels' speeds and the encoders' reads. Stopping the node
-(or its context) stops the wheels.
+Each cycle is one SYNC_WRITE of the wheels' speeds and the encoders' reads, together,
+``rate`` times a second: the one step of the sweep of the bus's
+:class:`~servolab.robots.bus_owner.BusOwner`, the one owner of the bus's time (as the biped's
+controller manager has it). The two stay one step, as the cycle always was: the wheels'
+command and the odometry read right after it belong together (split, other callbacks ran
+between them, and the navigation's timing moved). Stopping the node (or its context) stops
+the wheels.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from ...kinematics.diffdrive import wheel_speeds
 from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
+from ..bus_owner import BusOwner
 from ..errors import RobotValueError
 from .mobile_base import MobileBase
 
@@ -57,13 +63,15 @@ class BaseNode(Node):
         self.last_command: float | None = None
         self.stopped_by_watchdog = 0
         self._sent: tuple[float, float] | None = None
+        self._cycle_started = self.now()
         self._previous = (base.pose.x, base.pose.y, base.pose.theta, self.now())
         self.odom = self.create_publisher(ODOMETRY, "odom", 10)
         self.tf = self.create_publisher(TF, "tf", 10)
         self.joint_states = self.create_publisher(JOINT_STATE, "joint_states", 10)
         self.sensor_state = self.create_publisher(SENSOR_STATE, "sensor_state", 10)
         self.create_subscription(TWIST, "cmd_vel", self._on_cmd_vel, 10)
-        self.create_timer(1.0 / rate, self._cycle)
+        self.owner = BusOwner(context, base.bus, rate=rate,
+                              steps=[self._cycle])
 
     def _on_cmd_vel(self, msg: Any) -> None:
         v, omega = float(msg.linear.x), float(msg.angular.z)
@@ -85,6 +93,12 @@ class BaseNode(Node):
         self.last_command = self.now()
 
     def _cycle(self) -> None:
+        """One cycle: the wheels' speeds, then the encoders."""
+        self._drive()
+        self._odometry()
+
+    def _drive(self) -> None:
+        """The cycle's first transaction: the wheels' speeds (stopped by the watchdog)."""
         now = self.now()
         if self.last_command is not None and now - self.last_command > self.watchdog:
             self.command, self.last_command = (0.0, 0.0), None
@@ -92,13 +106,21 @@ class BaseNode(Node):
             self.get_logger().warning(f"no cmd_vel for {self.watchdog:g} s: wheels stopped")
         v, omega = self.command
         left, right = wheel_speeds(v, omega, self.base.drive)
+        self._cycle_started = now
         try:
             self.base.set_wheel_speeds(float(left), float(right))
-            pose = self.base.update_odometry()
         except BaseException:
             self.base.stop()  # whatever went wrong, the wheels do not keep turning
             raise
-        self._publish(pose.x, pose.y, pose.theta, now)
+
+    def _odometry(self) -> None:
+        """The cycle's second: the encoders, integrated and published."""
+        try:
+            pose = self.base.update_odometry()
+        except BaseException:
+            self.base.stop()
+            raise
+        self._publish(pose.x, pose.y, pose.theta, self._cycle_started)
 
     def _publish(self, x: float, y: float, theta: float, now: float) -> None:
         px, py, ptheta, pt = self._previous
@@ -128,6 +150,7 @@ class BaseNode(Node):
             left_encoder=ticks["left"], right_encoder=ticks["right"]))
 
     def destroy(self) -> None:
+        self.owner.close()
         try:
             self.base.stop()
         finally:
