@@ -131,9 +131,10 @@ class BusOwner:
             end = self._clock.now()
             if self._sweep_started is not None:
                 self._durations.append(end - self._sweep_started)
-            # the next sweep starts a period after this one did, or at once when it is late
-            start = self._sweep_started if self._sweep_started is not None else end
-            self._sweep_due = max(start + self.period, end)
+            # the next sweep is due a period after this one was (a fixed schedule, as a
+            # timer's: no drift when callbacks made a sweep start late), or at once when the
+            # sweep itself took longer than that
+            self._sweep_due = max(self._sweep_due + self.period, end)
             self._on_sweep()
 
     def flush(self) -> None:

@@ -84,3 +84,42 @@ def test_move_a_joint_from_the_command_line() -> None:
             assert pub.returncode == 0, pub.stderr
             assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
                                   timeout=30.0), heard[-3:]
+
+
+def test_the_walker_ends_in_double_support_on_an_error_in_diagnostics() -> None:
+    """The walking side alone, on a simulated clock: joint states for the legs, then, while
+    it stands up, /diagnostics says motor 14 is OVERHEATING (level ERROR, as
+    dynamixel_serial_proxy publishes it): the walker stops the gait, sends the joints to the
+    stand pose, and ends with the alarm as its error."""
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Node
+    from servolab.robots.armstrong.launch_nodes import Walker
+    from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
+    from servolab.robots.errors import RobotError
+    from servolab.sim.simulation import Simulation
+
+    context = Context.open(clock=Simulation())
+    try:
+        walker = Walker(context, parameter_overrides={"steps": 1})
+        probe = Node(context, "probe")
+        states = {m: probe.create_publisher("dynamixel_msgs/msg/JointState",
+                                            f"/controller_{m}/state", 10) for m in MOTORS}
+        diagnostics = probe.create_publisher("diagnostic_msgs/msg/DiagnosticArray",
+                                             "/diagnostics", 10)
+        for m, pub in states.items():
+            pub.publish(probe.message("dynamixel_msgs/msg/JointState", name=m,
+                                      current_pos=0.0))
+        context.spin_until(lambda: bool(walker.commanded), timeout=2.0)
+        assert walker.commanded, "the walker never started standing"
+        diagnostics.publish(probe.message("diagnostic_msgs/msg/DiagnosticArray", status=[
+            {"level": 0, "name": "Robotis Dynamixel Motor 13 on port pan_tilt_port",
+             "message": "OK"},
+            {"level": 2, "name": "Robotis Dynamixel Motor 14 on port pan_tilt_port",
+             "message": "OVERHEATING"}]))
+        with pytest.raises(RobotError, match=r"motor 14: OVERHEATING.*stand pose"):
+            context.spin_for(5.0)
+        assert walker.alarms == ["motor 14: OVERHEATING"]
+        assert walker.rows_played == 0
+        assert walker.commanded == pytest.approx(STAND_POSE)
+    finally:
+        context.close()

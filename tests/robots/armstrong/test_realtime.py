@@ -43,16 +43,19 @@ def _walk(out: Path, *port: str) -> dict[str, object]:
 
 
 @pytest.mark.slow
-def test_every_gait_row_reaches_every_leg_motor_within_a_row_period(tmp_path: Path) -> None:
-    legs = {f"m{c.motor.id}": c for c in load_config().controllers}
-    inits = {legs[m].motor.id: legs[m].motor.init for m in MOTORS[:12]}
+def test_every_gait_row_reaches_every_motor_within_a_row_period(tmp_path: Path) -> None:
+    controllers = {f"m{c.motor.id}": c for c in load_config().controllers}
+    # every motor on the robot's bus (motor 62 is not: 001 Figure 3.4); the legs tracked
+    everyone = {c.motor.id: c.motor.init for m, c in controllers.items() if m != "m62"}
+    inits = {controllers[m].motor.id: controllers[m].motor.init for m in MOTORS[:12]}
     with sim_process("--motors", "rx28:11-16,21-26,31-33,41-43,51,61", "--baud", "57142",
                      out_dir=tmp_path / "sim") as (pty, _):
         real = _walk(tmp_path / "real", "--port", pty)
     virtual = _walk(tmp_path / "virtual")
     assert real["rows_played"] == virtual["rows_played"] == GAIT_ROWS
 
-    deliveries = goal_deliveries(Path(str(real["bag"])), inits, rows=ROWS)
+    deliveries = goal_deliveries(Path(str(real["bag"])), everyone, rows=ROWS)
+    assert len(deliveries) == 20
     for motor, delivery in deliveries.items():
         assert len(delivery.delays) == GAIT_ROWS, motor
         late = [(k, d) for k, d in enumerate(delivery.delays) if d is None or d > ROW_PERIOD]

@@ -9,7 +9,12 @@ robot, the control node beside them or on another machine).
 - :class:`Walker` is the control node: when every joint's state has come, it moves to the
   stand pose over ``stand_duration`` s, plays the motion (``file``, or the seed's gait) ``steps``
   times at ``rate`` rows a second, and stops its context, so that a launch whose walker is
-  ``required`` ends when the walk does. Timers drive it: it never blocks the executor.
+  ``required`` ends when the walk does. Timers drive it: it never blocks the executor. It
+  listens to ``/diagnostics``: a motor of the robot at level ERROR (silent, overloaded,
+  overheating: :mod:`..controllers.diagnostics`) ends the gait and brings the joints to the
+  stand pose, as the in-process supervisor does, then stops with the alarm as its error. It
+  may run in another process than the robot, so it learns of an alarm at the diagnostics'
+  rate (1 Hz by default), not at every sweep.
 
 ``configs/armstrong.launch.yaml`` runs both, in one process or, over Zenoh, in two.
 """
@@ -21,11 +26,16 @@ from typing import Any
 
 from ...middleware.context import Context
 from ...middleware.node import Node
+from ..controllers.diagnostics import DIAGNOSTIC_ARRAY, ERROR
 from ..controllers.manager import DynamixelManager
 from ..errors import RobotError, RobotValueError
 from . import hardware as armstrong
 from .control_node import MOVE_RATE, PLAY_RATE, BipedNode
 from .poses import MOTORS, STAND_POSE, interpolate
+from .supervisor import FINISH_DURATION
+
+#: How a motor's status is named in /diagnostics (dynamixel_serial_proxy's naming).
+_MOTOR_STATUS = "Robotis Dynamixel Motor "
 
 
 class ArmstrongRobot(Node):
@@ -97,9 +107,13 @@ class Walker(BipedNode):
         self.motion = load_motion(path or None, config or None)
         self.steps, self.rate = steps, rate
         self.rows_played = 0
+        #: the alarms /diagnostics reported ("motor 14: OVERHEATING"); any ends the walk
+        self.alarms: list[str] = []
+        self._finishing = False
         self._started = self.now()
         self._queue: list[dict[str, float]] = []
         self._timer = self.create_timer(0.1, self._wait_for_states)
+        self.create_subscription(DIAGNOSTIC_ARRAY, "/diagnostics", self._on_diagnostics, 10)
 
     def _param(self, name: str, default: Any) -> Any:
         return self.declare_parameter(name, default).value
@@ -142,3 +156,41 @@ class Walker(BipedNode):
         self._timer.cancel()
         self.get_logger().info(f"walked: {self.rows_played} rows")
         self.context.shutdown()  # a required walker ends the launch
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        """A motor of this robot at level ERROR: end the walk in double support."""
+        if self._finishing:
+            return
+        for status in msg.status:
+            name = str(status.name)
+            if int(status.level) < ERROR or not name.startswith(_MOTOR_STATUS):
+                continue
+            motor = name.removeprefix(_MOTOR_STATUS).split()[0]
+            if f"m{motor}" in self.motors:
+                self.alarms.append(f"motor {motor}: {status.message}")
+        if self.alarms:
+            self._finish()
+
+    def _finish(self) -> None:
+        self._finishing = True
+        self._timer.cancel()
+        self.get_logger().error(f"ALARM {'; '.join(self.alarms)}: ending the walk in double "
+                                "support")
+        if not self.present:  # nothing moved yet: nothing to bring down
+            self._end()
+            return
+        samples = max(2, round(FINISH_DURATION * MOVE_RATE) + 1)
+        rows = interpolate(self.where(), STAND_POSE, samples)[1:]
+        self._queue = [dict(zip(STAND_POSE, r.tolist(), strict=True)) for r in rows]
+        self._timer = self.create_timer(1.0 / MOVE_RATE, self._finish_step)
+
+    def _finish_step(self) -> None:
+        if self._queue:
+            self.send(self._queue.pop(0))
+            return
+        self._timer.cancel()
+        self._end()
+
+    def _end(self) -> None:
+        raise RobotError(f"walker: the walk ended after {self.rows_played} rows on an alarm "
+                         f"({'; '.join(self.alarms)}); the robot is in the stand pose")

@@ -34,6 +34,7 @@ from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
 from ...vision.fly_tracker import FlySighting, FlyTrackerConfig, track_fly
+from ..bus_owner import BusOwner
 from ..errors import RobotValueError
 from .control import FlyCommand, FlyControllerConfig, fly_command
 from .logs import FlyLogWriter
@@ -124,7 +125,9 @@ class TreadmillNode(Node):
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.pose = self.create_publisher(POSE2D, "/fly/pose", 10)
         self.wheels = self.create_publisher(JOINT_STATE, "/treadmill/joint_states", 10)
-        self.timer = self.create_timer(1.0 / frame_rate, self._frame)
+        # each frame's bus work (the wheels' goal velocities, then their positions) is the
+        # one step of the sweep of the bus's one owner, at the camera's frame rate
+        self.owner = BusOwner(context, bus, rate=frame_rate, steps=[self._frame])
 
     def _motor_init(self) -> None:
         """``motor_init``: torque off, velocity mode (address 11 <- 1), torque on."""
@@ -177,6 +180,7 @@ class TreadmillNode(Node):
         self.frames += 1
 
     def destroy(self) -> None:
+        self.owner.close()
         try:
             self.motor_deinit()
         finally:
