@@ -31,8 +31,10 @@ class Recorder(Node):
     def __init__(self, context: Context, output: str, topics: list[str], *,
                  types: Mapping[str, str] | None = None, name: str = "_servolab_recorder",
                  namespace: str = "/", flush_period: float = 1.0,
-                 discovery_period: float = 0.2) -> None:
+                 discovery_period: float = 0.2, quiet: bool = False) -> None:
         super().__init__(context, name, namespace)
+        #: a robot's run records dozens of topics: ``quiet`` says each at debug level only
+        self._say = self.get_logger().debug if quiet else self.get_logger().info
         self.topics = [self.resolve(t) for t in topics]
         given = {self.resolve(t): context.types.check(k) for t, k in (types or {}).items()}
         self.writer = BagWriter(output, context.types)
@@ -69,7 +71,7 @@ class Recorder(Node):
                 kind, topic, self._writer_for(topic), request_for(offers), raw=True,
                 with_info=True))
             del self._pending[topic]
-            self.get_logger().info("recording %s [%s]", topic, kind)
+            self._say("recording %s [%s]", topic, kind)
 
     def _writer_for(self, topic: str) -> Any:
         clock = self.context.clock

@@ -61,14 +61,18 @@ def test_every_gait_row_reaches_every_motor_within_a_row_period(tmp_path: Path) 
         late = [(k, d) for k, d in enumerate(delivery.delays) if d is None or d > ROW_PERIOD]
         assert not late, f"motor {motor}: rows (index, s) not read back within 222 ms: {late}"
 
-    # tracking: where each joint got to by the end of each row, real time against virtual
+    # tracking: how far each joint was from its row's goal at the row's last read, real
+    # time against virtual. The real sweep runs at the machine's pace, so its last read of a
+    # row may come earlier in the row than the virtual one, while the joint still moves (at
+    # 1 rad/s, 5.7 degrees per 100 ms): the mean over the rows shows a lag that matters
+    # (unloaded: within 0.5 degrees of virtual time), the largest allows one read 100 ms early
     real_errors = row_end_errors(Path(str(real["bag"])), inits, rows=ROWS)
     virtual_errors = row_end_errors(Path(str(virtual["bag"])), inits, rows=ROWS)
     for motor in inits:
         r, v = real_errors[motor], virtual_errors[motor]
         assert len(r) == len(v) == GAIT_ROWS, motor
-        assert sum(r) / len(r) <= sum(v) / len(v) + 1.0, (motor, r, v)
-        assert max(r) <= max(v) + 3.0, (motor, r, v)
+        assert sum(r) / len(r) <= sum(v) / len(v) + 1.5, (motor, r, v)
+        assert max(r) <= max(v) + 6.0, (motor, r, v)
     # the state sweep said what it achieved, within the wire's limit
     rate, limit = real["state_rate_hz"], real["state_rate_wire_limit_hz"]
     assert isinstance(rate, float) and isinstance(limit, float)

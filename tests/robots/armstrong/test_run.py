@@ -27,6 +27,8 @@ from servolab.robots.armstrong.run import run_walk
 from servolab.robots.armstrong.supervisor import FINISH_DURATION
 from servolab.runs import RunFolder
 
+ROOT = Path(__file__).resolve().parents[3]
+
 LEGS = MOTORS[:12]
 
 
@@ -234,3 +236,22 @@ def test_a_rate_that_is_not_a_positive_number_is_refused(tmp_path: Path, rate: s
     assert result.returncode != 0
     assert "--rate" in result.stderr and result.stderr.strip().count("\n") == 0
     assert not out.exists()
+
+
+def test_appendix_a_as_printed_walks(tmp_path: Path) -> None:
+    """Seed 001 Appendix A as printed (tests/data/armstrong_appendix_a.yaml: controllers only,
+    m31..m51 all named pan_joint_33): it loads with a warning per repeated joint name, takes
+    the manager's settings of Listing 3.3 from the shipped file (as ROS takes them from
+    controller_manager.launch), and walks a step."""
+    out = tmp_path / "run"
+    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--config",
+                             str(ROOT / "tests" / "data" / "armstrong_appendix_a.yaml"),
+                             "--no-progress", "--out", str(out)],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("[WARNING]")]
+    assert sum("share joint name 'pan_joint_33'" in w for w in warnings) == 6
+    assert any("no dynamixel_manager in it" in w for w in warnings)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["rows_played"] == summary["rows_asked"] == 17
+    assert summary["controllers_failed"] == ["controller_m62"]

@@ -39,10 +39,13 @@ def load_config(path: str | Path | None = None) -> RobotConfig:
     """The robot's configuration (the shipped ``armstrong.yaml`` unless another is named)."""
     config = load(path or CONFIG)
     if not config.manager.serial_ports:
-        raise ControllerConfigError(config.path, 0, "dynamixel_manager",
-                                    "no dynamixel_manager serial port configured; add one "
-                                    "as the shipped armstrong.yaml has it ('servolab "
-                                    "robots show armstrong')")
+        # a controllers-only file, as Appendix A is: in ROS the manager's settings come from
+        # controller_manager.launch (Listing 3.3), which the shipped file carries
+        shipped = load(CONFIG)
+        config = replace(config, manager=shipped.manager, warnings=(
+            *config.warnings,
+            f"{config.path}: no dynamixel_manager in it: the seed's (Listing 3.3) from the "
+            "shipped armstrong.yaml is used ('servolab robots show armstrong' prints it)"))
     position = model(MODEL).register("goal_position")
     top = position.maximum if position.maximum is not None else 1023
     for c in config.controllers:

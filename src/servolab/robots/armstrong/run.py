@@ -72,7 +72,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             + (f" ({', '.join(robot.manager.failed)} could not start)"
                if robot.manager.failed else ""))
         topics = recorded_topics(robot)
-        recorder = Recorder(robot.context, str(bag), list(topics), types=topics)
+        recorder = Recorder(robot.context, str(bag), list(topics), types=topics, quiet=True)
         started = robot.context.clock.now()
         try:
             say("standing up (Table 4.2, over 2 s)")
