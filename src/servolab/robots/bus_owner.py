@@ -21,12 +21,14 @@ sweeps back to back. On a virtual clock every transaction moves simulated time b
 time, so the same scheduling is exercised, bit for bit, in virtual time and over a pty in
 real time.
 
-Running on the executor's thread, the owner needs no lock: the nodes' callbacks (a service
-that writes a motor's compliance, say) use the bus between two of its transactions.
+Running on the executor's thread, the owner needs no lock on the bus: the nodes' callbacks
+(a service that writes a motor's compliance, say) use it between two of its transactions.
+Goals may be given from any thread (:meth:`BusOwner.set_goals`).
 """
 
 from __future__ import annotations
 
+import threading
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
@@ -61,8 +63,10 @@ class BusOwner:
         self._executor = context.executor
         self._steps = list(steps)
         self._on_sweep = on_sweep
-        #: register -> motor ID -> value (SI), in the order the registers were first given
+        #: register -> motor ID -> value (SI), in the order the registers were first given;
+        #: under ``_lock``, since goals may come from another thread than the executor's
         self._pending: dict[str, dict[int, float]] = {}
+        self._lock = threading.Lock()
         self._next = 0
         self._sweep_due = self._clock.now()
         self._sweep_started: float | None = None
@@ -80,17 +84,20 @@ class BusOwner:
 
     def set_goals(self, register: str, values: Mapping[int, float]) -> None:
         """Write ``values`` (motor ID -> SI value) to ``register`` at the next transaction;
-        a goal not yet written is replaced by a newer one for the same motor."""
-        pending = self._pending.setdefault(register, {})
-        self.goals_replaced += len(pending.keys() & values.keys())
-        pending.update(values)
+        a goal not yet written is replaced by a newer one for the same motor. Any thread may
+        call it."""
+        with self._lock:
+            pending = self._pending.setdefault(register, {})
+            self.goals_replaced += len(pending.keys() & values.keys())
+            pending.update(values)
         if not self._executor.in_executor_thread:
             self._executor.wake()
 
     @property
     def pending(self) -> dict[str, dict[int, float]]:
         """The goals not yet written (a copy)."""
-        return {register: dict(v) for register, v in self._pending.items()}
+        with self._lock:
+            return {register: dict(v) for register, v in self._pending.items()}
 
     def set_sweep(self, steps: Sequence[SweepStep], on_sweep: Callable[[], None]) -> None:
         """Sweep with ``steps`` from the next sweep on."""
@@ -116,17 +123,18 @@ class BusOwner:
         if self._pending:
             self.flush()
             return
-        if not self._steps:
+        steps = self._steps
+        if not steps:
             return
-        now = self._clock.now()
+        index = self._next % len(steps)
+        # moved on before the step runs: a step that raises (a stop signal mid-READ, a port
+        # gone) leaves the sweep at the next one, never past its end
+        self._next = (index + 1) % len(steps)
+        if index == 0:
+            self._sweep_started = self._clock.now()
+            self._starts.append(self._sweep_started)
+        steps[index]()
         if self._next == 0:
-            self._sweep_started = now
-            self._starts.append(now)
-        step = self._steps[self._next]
-        self._next += 1
-        step()
-        if self._next >= len(self._steps):
-            self._next = 0
             self.sweeps += 1
             end = self._clock.now()
             if self._sweep_started is not None:
@@ -139,11 +147,20 @@ class BusOwner:
 
     def flush(self) -> None:
         """Write every pending goal now: one SYNC_WRITE per register. A goal is forgotten
-        only once written, so an error leaves it to be sent again."""
-        while self._pending:
-            register, values = next(iter(self._pending.items()))
-            self.bus.sync_write(register, values)
-            del self._pending[register]
+        only once written: on an error the goals not written are pending again (a newer one
+        given meanwhile still wins)."""
+        while True:
+            with self._lock:
+                if not self._pending:
+                    return
+                register = next(iter(self._pending))
+                values = self._pending.pop(register)
+            try:
+                self.bus.sync_write(register, values)
+            except BaseException:
+                with self._lock:
+                    self._pending[register] = {**values, **self._pending.get(register, {})}
+                raise
             self.writes += 1
             self.goals_written += len(values)
 

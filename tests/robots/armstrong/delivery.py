@@ -21,7 +21,8 @@ TICKS_PER_RAD = 1023 / math.radians(300)
 
 @dataclass(frozen=True)
 class Delivery:
-    """One motor's rows: each row's delay (s) until read back, None where never seen."""
+    """One motor's rows that changed its goal: each one's delay (s) until read back, None
+    where never seen."""
 
     motor: int
     delays: list[float | None]
@@ -34,8 +35,10 @@ class Delivery:
 def goal_deliveries(bag: Path, inits: dict[int, int], *, rows: slice = slice(None)
                     ) -> dict[int, Delivery]:
     """Per motor of ``inits`` (ID -> raw init): the commands ``rows`` picks of those sent to
-    its controller, in order (the stand's 20 Hz poses come before the gait's rows, and no
-    sweep can read back each of those: they are left out with ``rows``). A MotorState's
+    its controller, in order, each that changed the motor's goal (a row that repeats the
+    goal before it would be found read back at once, proving nothing). The stand's 20 Hz
+    poses come before the gait's rows, and no sweep can read back each of those: they are
+    left out with ``rows``. A MotorState's
     ``timestamp`` is when its READ was made, on the clock the bag's log times are on (the
     epoch on a real robot, as ROS stamps it; the simulation's time on an emulated one)."""
     (file,) = sorted(bag.glob("*.mcap"))
@@ -57,7 +60,11 @@ def goal_deliveries(bag: Path, inits: dict[int, int], *, rows: slice = slice(Non
     for motor, sent in commands.items():
         seen = sorted(reads[motor])
         delays: list[float | None] = []
-        for t, raw in sent[rows]:
+        picked = list(range(len(sent)))[rows]
+        for k in picked:
+            t, raw = sent[k]
+            if k > 0 and abs(sent[k - 1][1] - raw) <= 1:
+                continue  # the goal did not change: a read-back could not tell the row
             hit = next((ts for ts, goal in seen if ts >= t and abs(goal - raw) <= 1), None)
             delays.append(None if hit is None else hit - t)
         out[motor] = Delivery(motor, delays)

@@ -157,6 +157,22 @@ def test_an_overheat_ends_the_walk_in_double_support(tmp_path: Path) -> None:
     assert Path(written["alarm_plot"]).stat().st_size > 10_000  # saved beside the bag
 
 
+def test_a_leg_controller_stopped_mid_walk_ends_it_in_double_support(tmp_path: Path) -> None:
+    """stop_controller (a service call away, as in ROS) on the knee at row 5: its joint would
+    take no more commands, so the supervisor ends the walk."""
+    finals: dict[str, Any] = {}
+
+    def stop(robot: Armstrong, row: int) -> None:
+        if row == 5:
+            robot.manager.stop_controller("controller_m14")
+
+    summary = _walk(tmp_path, on_row=stop, finals=finals)
+    assert 5 <= summary["rows_played"] < 17
+    assert [(a["motor"], a["cause"]) for a in summary["alarms"]] == [
+        (14, "controller stopped")]
+    _in_double_support(finals)
+
+
 FIGURE_3_1 = ("pan_tilt_port: Found 20 motors - 20 RX-28 [11, 12, 13, 14, 15, 16, 21, 22, "
               "23, 24, 25, 26, 31, 32, 33, 41, 42, 43, 51, 61], initialization complete.")
 

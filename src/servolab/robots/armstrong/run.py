@@ -101,6 +101,9 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                     robot.finish(interrupted)
             with ending.step("letting the last goals be reached and recorded"):
                 robot.context.spin_for(0.5)
+                if robot.supervisor.tripped and robot.ending is None:  # an alarm just now
+                    robot.finish()
+                    robot.context.spin_for(0.5)
             with ending.step("closing the bag"):
                 recorder.destroy()
             manager = robot.manager

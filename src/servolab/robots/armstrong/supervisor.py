@@ -11,7 +11,12 @@ it looks at each running joint's motor (:attr:`DynamixelManager.health`) and rai
   torque off);
 - ``overheating``: the status reports it, or the temperature read is at or above
   ``error_level_temp`` (75 deg C by default, ``dynamixel_serial_proxy``'s "OVERHEATING").
-  From ``warn_level_temp`` it only warns, once.
+  From ``warn_level_temp`` it only warns, once;
+- ``controller stopped``: a joint controller that ran when the supervisor started no longer
+  does (``stop_controller`` called mid-walk: its joint would take no more commands).
+
+It watches the motors of the controllers running at each sweep (one started later is
+watched from then on).
 
 An alarm stops the gait at the next row, and the walk then *finishes to double support*:
 from the pose last sent, the joints go to the stand pose of Table 4.2 (both feet down) over
@@ -57,16 +62,17 @@ class Alarm:
 class SafetySupervisor:
     """Watches ``motors`` (IDs) of ``manager``; see the module docstring."""
 
-    def __init__(self, manager: DynamixelManager, motors: Iterable[int]) -> None:
+    def __init__(self, manager: DynamixelManager, motors: Iterable[int] = ()) -> None:
         self.manager = manager
-        self.motors = sorted(set(motors))
+        #: the controllers that must keep running, by name -> motor ID
+        self.required = {name: c.motor_id for name, c in manager.controllers.items()}
+        self.motors = sorted(set(motors) | set(self.required.values()))
         self.port = manager.port
         self.started = manager.context.clock.now()
         self.alarms: list[Alarm] = []
         #: per watched motor, after every sweep: (s since start, deg C or None, load or None,
         #: s since it last answered) — what the run's alarm plot shows
-        self.history: dict[int, list[tuple[float, float | None, float | None, float]]] = {
-            i: [] for i in self.motors}
+        self.history: dict[int, list[tuple[float, float | None, float | None, float]]] = {}
         self._raised: set[tuple[int, str]] = set()
         self._warned: set[int] = set()
         self._log = manager.get_logger()
@@ -81,14 +87,21 @@ class SafetySupervisor:
         """Look at every watched motor after a sweep; returns the alarms raised now."""
         port = self.port
         new: list[Alarm] = []
+        running = self.manager.controllers
+        for name, motor_id in self.required.items():
+            if name not in running:
+                new += self._raise(now, motor_id, "controller stopped",
+                                   f"{name} no longer runs: its joint takes no commands")
+        self.motors = sorted(set(self.motors) | {c.motor_id for c in running.values()})
         for motor_id in self.motors:
             health = self.manager.health.get(motor_id)
             if health is None:
                 continue
             silent = health.silent_for(now, self.manager.started)
             reading = self.manager.latest.get(motor_id)
-            self.history[motor_id].append((now - self.started, health.temperature,
-                                           None if reading is None else reading.load, silent))
+            self.history.setdefault(motor_id, []).append(
+                (now - self.started, health.temperature,
+                 None if reading is None else reading.load, silent))
             if silent > port.silent_timeout:
                 new += self._raise(now, motor_id, "silent",
                                    f"no answer for {silent:.2f} s (silent_timeout "
@@ -119,6 +132,13 @@ class SafetySupervisor:
         self.alarms.append(alarm)
         self._log.error(f"ALARM {alarm}: ending the walk in double support")
         return [alarm]
+
+    def reset(self) -> None:
+        """Forget the alarms (once their cause is dealt with), so that the robot may move
+        again; a cause still there raises its alarm again at the next sweep."""
+        self.alarms.clear()
+        self._raised.clear()
+        self.required = {name: c.motor_id for name, c in self.manager.controllers.items()}
 
     def close(self) -> None:
         if self.check in self.manager.sweep_listeners:
