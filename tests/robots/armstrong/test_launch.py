@@ -35,7 +35,11 @@ def test_the_shipped_launch_file_walks_in_one_process(tmp_path: Path) -> None:
     result = _launch(path)
     assert result.returncode == 0, result.stderr[-2000:]
     assert "walked: 17 rows" in result.stdout + result.stderr
-    assert "Unable to start controller controller_m62" in result.stdout + result.stderr
+    said = result.stdout + result.stderr
+    assert "Unable to start controller controller_m62" in said
+    # seed 001 Figure 3.1, as the launch's nodes say it
+    assert ("pan_tilt_port: Found 20 motors - 20 RX-28 [11, 12, 13, 14, 15, 16, 21, 22, 23, 24, "
+            "25, 26, 31, 32, 33, 41, 42, 43, 51, 61], initialization complete.") in said
 
 
 @pytest.mark.slow

@@ -94,8 +94,11 @@ def test_transient_errors_are_counted_and_survived(tmp_path: Path) -> None:
     assert summary["alarms"] == [] and summary["ending"] == "walked"
     assert summary["bus"]["retries"] > 0.1 * summary["bus"]["transactions"]
     errors = summary["motor_errors"]
-    assert errors, "no read failed three times: drop_rate did not reach the bus?"
-    assert all(e["skipped"] == sum(e["errors"].values()) for e in errors.values())
+    assert len(errors) >= 15, errors  # nearly every motor's reads were sent again
+    assert sum(e["retried"] for e in errors.values()) <= summary["bus"]["retries"]
+    failed = {m: e for m, e in errors.items() if e["errors"]}
+    assert failed, "no read failed three times: drop_rate did not reach the bus?"
+    assert all(e["skipped"] == sum(e["errors"].values()) for e in failed.values())
 
 
 def test_a_motor_silent_at_row_5_ends_the_walk_in_double_support(tmp_path: Path) -> None:

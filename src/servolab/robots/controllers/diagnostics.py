@@ -78,7 +78,8 @@ def diagnostics(port: SerialPortConfig, *, baud_rate: int, actual_rate: float,
                       ("Error", state["error"]), ("Velocity", state["speed"]),
                       ("Load", state["load"]), ("Voltage", state["voltage"]),
                       ("Temperature", state["temperature"]), ("Moving", state["moving"])]
-        pairs += [("# Non Fatal Errors", record.errors[NON_FATAL]),
+        pairs += [("# Retries", record.retried),
+                  ("# Non Fatal Errors", record.errors[NON_FATAL]),
                   ("# Checksum Errors", record.errors[CHECKSUM]),
                   ("# Dropped Packet Errors", record.errors[DROPPED])]
         statuses.append({"level": level,

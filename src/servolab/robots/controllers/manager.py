@@ -295,13 +295,17 @@ class DynamixelManager(Node):
         """One step of the sweep: one READ of ``motor_id``'s state, retried up to
         ``read_retries`` times; failing that, counted and skipped for this sweep."""
         record = self.health[motor_id]
+        stats = self.bus.stats
+        retried = stats.retries
         try:
             reading = MotorReading.read(self.bus, motor_id, self._now(),
                                         retries=self.port.read_retries)
         except (CommError, MotorError) as error:
+            record.retried += stats.retries - retried
             record.failed(error)
             self.get_logger().debug(f"motor {motor_id}: {error}")
             return
+        record.retried += stats.retries - retried
         alert = self.bus.alerts.get(motor_id, 0)
         record.heard(self.context.clock.now(), reading.temperature,
                      self.bus.proto.error_names(alert) if alert else ())
@@ -349,8 +353,9 @@ class DynamixelManager(Node):
             stamp_ns=int(self._now() * 1e9))))
 
     def error_counts(self) -> dict[int, dict[str, object]]:
-        """Per motor with any: the errors its reads met and the sweeps it was skipped."""
-        return {i: h.as_dict() for i, h in self.health.items() if h.errors}
+        """Per motor with any: the reads sent again, the errors of those that failed every
+        time and the sweeps it was skipped."""
+        return {i: h.as_dict() for i, h in self.health.items() if h.errors or h.retried}
 
     def destroy(self) -> None:
         owner = getattr(self, "owner", None)  # None if start-up failed before it existed

@@ -38,6 +38,8 @@ class MotorHealth:
     errors: Counter[str] = field(default_factory=Counter)
     #: sweeps in which the motor was skipped: its READ failed after every retry
     skipped: int = 0
+    #: READs of it sent again (each a transient error survived)
+    retried: int = 0
     last_heard: float | None = None
     #: hardware errors of its last status, by the e-Manual's names ("overload", ...)
     hardware: tuple[str, ...] = ()
@@ -57,5 +59,5 @@ class MotorHealth:
         return now - (self.last_heard if self.last_heard is not None else since)
 
     def as_dict(self) -> dict[str, object]:
-        return {"errors": dict(self.errors), "skipped": self.skipped,
+        return {"errors": dict(self.errors), "skipped": self.skipped, "retried": self.retried,
                 "hardware_errors": list(self.hardware), "temperature": self.temperature}
