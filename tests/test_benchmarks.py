@@ -296,7 +296,7 @@ def test_gait_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     pty = figures["pty"]
     assert (pty["gait_rows"], pty["leg_motors"]) == (GAIT_ROWS, LEG_MOTORS)
     walks = pty["buses"]
-    assert [w["baudrate"] for w in walks] == PTY_BAUDS
+    assert [w["baudrate"] for w in walks] == PTY_BAUDS[:1]  # --quick: the seed's bus only
     for walk in walks:
         assert walk["rows_played"] == GAIT_ROWS, walk
         # the rows that changed a leg motor's goal (a repeated goal cannot be told read back)
