@@ -19,8 +19,15 @@ import cv2
 import numpy as np
 import pytest
 
+from servolab.vision.errors import VisionValueError
 from servolab.vision.fly_render import FlyPose, FlyShape, FlyTruth, render_fly
-from servolab.vision.fly_tracker import FlySighting, FlyTrackerConfig, track_fly
+from servolab.vision.fly_tracker import (
+    DEFAULT_MAX_AREA,
+    DEFAULT_TARGET,
+    FlySighting,
+    FlyTrackerConfig,
+    track_fly,
+)
 
 TARGET = (320.0, 188.0)  # seed 002, section 3.2 and Chapter 3: the image centre of 640 x 376
 
@@ -234,3 +241,44 @@ def test_rendering_is_reproducible() -> None:
     a, ta = render_fly(FlyPose(200.5, 150.25, 0.4), noise_std=5.0, rng=np.random.default_rng(4))
     b, tb = render_fly(FlyPose(200.5, 150.25, 0.4), noise_std=5.0, rng=np.random.default_rng(4))
     assert np.array_equal(a, b) and ta == tb
+
+
+def test_a_blank_white_frame_is_no_fly() -> None:
+    """Listing 1 alone 'tracks' a white frame as one 239 625 px² fly (issue 28); above
+    max_area it is no fly, and the sighting stays at the target as for a lost fly."""
+    white = np.full((376, 640), 255, dtype=np.uint8)
+    sighting = track_fly(white)
+    assert not sighting.present and sighting.area > DEFAULT_MAX_AREA
+    assert (sighting.cx, sighting.cy) == DEFAULT_TARGET
+    assert track_fly(white, FlyTrackerConfig(max_area=None)).present  # Listing 1's own
+
+
+def _dark_fly_on_a_lit_ball() -> tuple[np.ndarray, tuple[float, float]]:
+    image = np.zeros((376, 640), dtype=np.uint8)
+    cv2.circle(image, (320, 188), 180, 230, -1)                       # the lit ball
+    cv2.ellipse(image, (350, 170), (45, 18), 30, 0, 360, 20, -1)       # a dark fly on it
+    return image, (350.0, 170.0)
+
+
+def test_a_dark_fly_on_a_lit_ball_is_no_fly_at_listing_1s_polarity() -> None:
+    image, _ = _dark_fly_on_a_lit_ball()
+    sighting = track_fly(image)
+    assert not sighting.present and sighting.area > DEFAULT_MAX_AREA  # the ball, not a fly
+
+
+def test_polarity_dark_finds_the_dark_fly_within_the_ball() -> None:
+    """``polarity="dark"`` thresholds the other way (darker than ``threshold``); the ROI keeps
+    the dark room around the ball out."""
+    image, (x, y) = _dark_fly_on_a_lit_ball()
+    config = FlyTrackerConfig(polarity="dark", roi=(200, 68, 240, 240))
+    sighting = track_fly(image, config)
+    assert sighting.present
+    assert (sighting.cx, sighting.cy) == pytest.approx((x, y), abs=0.5)
+    assert math.degrees(sighting.theta) == pytest.approx(30.0, abs=1.0)
+
+
+@pytest.mark.parametrize("kwargs", [{"max_area": 50.0}, {"max_area": float("nan")},
+                                    {"polarity": "grey"}])
+def test_bad_bounds_and_polarity_are_refused(kwargs: dict[str, object]) -> None:
+    with pytest.raises(VisionValueError):
+        FlyTrackerConfig(**kwargs)  # type: ignore[arg-type]

@@ -17,6 +17,12 @@ stops rather than jumping after a lost fly; :func:`track_fly` does the same and 
 Two additions, both off by default so the default is Listing 1: a region of interest (the seed's
 camera did this in hardware with ``format7_roi``, section 5.2) and subtraction of a background
 frame, so that a static reflection brighter than 50 does not become "the largest contour".
+
+Two checks Listing 1 lacks, on by default because without them a frame with no fly in it is
+"tracked": a largest contour above ``max_area`` is no fly (a blank white frame was a 239 625
+px² fly, a lit ball a 102 140 px² one), and ``polarity`` says which way the fly differs from
+its background. Listing 1's is ``"bright"``: a lit fly on a dark ball, ``THRESH_BINARY``.
+``"dark"`` tracks a dark fly on a lit ball (``THRESH_BINARY_INV``: darker than ``threshold``).
 """
 
 from __future__ import annotations
@@ -31,6 +37,12 @@ import numpy.typing as npt
 from .errors import VisionValueError
 
 Image = npt.NDArray[np.uint8]
+
+#: px². A Drosophila, about 2.5 x 1 mm, is about 3 000 px² at the rig's 38.4 px/mm (seed 002,
+#: Listing 3's px_per_mm), as the synthetic fly of :mod:`.fly_render` is; 20 000 leaves room
+#: for a bigger fly or a closer camera and none for a lit ball or a blank frame.
+DEFAULT_MAX_AREA = 20_000.0
+POLARITIES = ("bright", "dark")
 
 #: Listing 1's ``target_location``: the centre of its 640 x 376 frame, heading 0 (section 3.2).
 DEFAULT_TARGET = (320.0, 188.0)
@@ -48,6 +60,10 @@ class FlyTrackerConfig:
     roi: tuple[int, int, int, int] | None = None
     #: Subtract a background frame (saturating, ``cv2.subtract``) before the threshold.
     background_subtraction: bool = False
+    #: px²; a largest contour above it is no fly (module docstring). ``None``: no bound.
+    max_area: float | None = DEFAULT_MAX_AREA
+    #: ``"bright"``: the fly is lighter than ``threshold`` (Listing 1); ``"dark"``: darker.
+    polarity: str = "bright"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.threshold) and 0.0 <= self.threshold < 255.0):
@@ -55,6 +71,13 @@ class FlyTrackerConfig:
                                    f"{self.threshold}")
         if not (math.isfinite(self.min_area) and self.min_area >= 0.0):
             raise VisionValueError(f"min_area must be a finite area >= 0 px², got {self.min_area}")
+        if self.max_area is not None and not (math.isfinite(self.max_area)
+                                              and self.max_area > self.min_area):
+            raise VisionValueError(f"max_area must be a finite area above min_area "
+                                   f"{self.min_area:g} px², got {self.max_area}")
+        if self.polarity not in POLARITIES:
+            raise VisionValueError(f"polarity must be 'bright' (a lit fly on a dark ball, "
+                                   f"Listing 1) or 'dark', got {self.polarity!r}")
         if self.roi is not None:
             if len(self.roi) != 4 or not all(isinstance(v, int) for v in self.roi):
                 raise VisionValueError("roi must be four integers (x, y, width, height), got "
@@ -113,7 +136,8 @@ def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
         if x0 < 0 or y0 < 0 or x0 + w > width or y0 + h > height:
             raise VisionValueError(f"roi {config.roi} is outside the {width} x {height} image")
         work = work[y0:y0 + h, x0:x0 + w]
-    _, binary = cv2.threshold(work, config.threshold, 255.0, cv2.THRESH_BINARY)
+    kind = cv2.THRESH_BINARY if config.polarity == "bright" else cv2.THRESH_BINARY_INV
+    _, binary = cv2.threshold(work, config.threshold, 255.0, kind)
     contours, _ = cv2.findContours(binary, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     # Listing 1: strictly larger wins, so the first of equal areas is kept.
     best = -1
@@ -123,7 +147,8 @@ def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
         if area > max_area:
             max_area = area
             best = i
-    if best < 0 or not max_area > config.min_area:
+    too_big = config.max_area is not None and max_area > config.max_area
+    if best < 0 or not max_area > config.min_area or too_big:
         return FlySighting(False, float(target[0]), float(target[1]), 0.0, max_area)
     mu = cv2.moments(contours[best], False)
     cx = mu["m10"] / mu["m00"]

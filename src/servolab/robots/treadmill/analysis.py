@@ -36,6 +36,7 @@ import numpy.typing as npt
 
 from ...kinematics.aot import AotGeometry, AotKinematics, surface_in_camera
 from ...kinematics.diffdrive import DiffDrive
+from ...vision.fly_tracker import DEFAULT_MAX_AREA
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
@@ -71,10 +72,14 @@ class FlyAnalysis:
 
 
 def errors(fly: npt.NDArray[np.void], *, target: tuple[float, float] = (320.0, 188.0),
-           px_per_mm: float = 38.40983291722681, min_area: float = 100.0
+           px_per_mm: float = 38.40983291722681, min_area: float = 100.0,
+           max_area: float | None = DEFAULT_MAX_AREA
            ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """Per frame: distance error (mm), angle error (deg), and whether the fly was found."""
-    found = np.asarray(fly["contour_area"] > min_area)
+    """Per frame: distance error (mm), angle error (deg), and whether the fly was found (its
+    logged contour area within the tracker's bounds, :mod:`servolab.vision.fly_tracker`)."""
+    area = fly["contour_area"]
+    found = np.asarray((area > min_area) & (area <= (np.inf if max_area is None
+                                                      else max_area)))
     distance = np.hypot(fly["cx"] - target[0], fly["cy"] - target[1]) / px_per_mm
     angle = np.degrees(np.abs(fly["theta"]))
     return np.asarray(distance, dtype=np.float64), np.asarray(angle, dtype=np.float64), found
@@ -189,9 +194,10 @@ def response_delay(fly: npt.NDArray[np.void]) -> tuple[float, int]:
 
 def analyze(fly: npt.NDArray[np.void], encoders: npt.NDArray[np.void], *,
             geometry: AotGeometry | None = None, drive: DiffDrive | None = None,
-            min_area: float = 100.0) -> tuple[FlyAnalysis, dict[str, FloatArray]]:
+            min_area: float = 100.0, max_area: float | None = DEFAULT_MAX_AREA
+            ) -> tuple[FlyAnalysis, dict[str, FloatArray]]:
     """The figures of chapter 3 (see the module docstring) and the series the plots draw."""
-    distance, angle, found = errors(fly, min_area=min_area)
+    distance, angle, found = errors(fly, min_area=min_area, max_area=max_area)
     t_sphere, dt, motion = sphere_motion(fly, geometry or AotGeometry())
     sphere = fictive_path(motion)
     with np.errstate(divide="ignore", invalid="ignore"):
