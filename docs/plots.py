@@ -137,7 +137,13 @@ FIGURES: dict[str, Figure] = {
         "docs/treadmill.md", 1.4, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
         _FLYBALL, True),
     "treadmill.path_disparity": Figure(
-        "docs/treadmill.md", 0.35, lambda v, t: f"Here it is {v:.2f} ± {t:g}", _FLYBALL, True),
+        "docs/treadmill.md", 0.05, lambda v, t: f"Here it is {v:.3f} ± {t:g}", _FLYBALL, True),
+    "treadmill.per_wheel_disparity": Figure(
+        "docs/treadmill.md", 0.05, lambda v, t: f"| per-wheel (Listing 4) | {v:.3f} ± {t:g} |",
+        _FLYBALL + " --clamp per-wheel", True),
+    "treadmill.per_wheel_robot_path_m": Figure(
+        "docs/treadmill.md", 1.4, lambda v, t: f"| {v:.2f} ± {t:g} m |",
+        _FLYBALL + " --clamp per-wheel", True),
 }
 
 
@@ -470,14 +476,26 @@ def navigation_loop(out: Path) -> dict[str, float]:
     return figures
 
 
-def flyball_run(out: Path, duration: float, seed: int = 0) -> dict[str, Any]:
-    """``servolab flyball --duration DURATION --seed SEED`` in ``out``: its summary.json."""
+def flyball_run(out: Path, duration: float, seed: int = 0, clamp: str = "scaled"
+                ) -> dict[str, Any]:
+    """``servolab flyball --duration DURATION --seed SEED --clamp CLAMP`` in ``out``: its
+    summary.json."""
     from servolab.robots.treadmill.run import run_flyball
     from servolab.runs import RunFolder
 
     run = RunFolder.create("flyball", out)
-    run_flyball(run, duration=duration, seed=seed, say=lambda _: None, show_progress=False)
+    run_flyball(run, duration=duration, seed=seed, say=lambda _: None, show_progress=False,
+                wheel_clamp=clamp)
     return _summary(run)
+
+
+def flyball_runs(out: Path, duration: float, seed: int = 0) -> dict[str, float]:
+    """The numbers of a flyball run and of the same run with Listing 4's per-wheel clamp."""
+    scaled = flyball_run(out / "scaled", duration, seed)
+    per_wheel = flyball_run(out / "per_wheel", duration, seed, "per-wheel")
+    return {**treadmill_figures(scaled),
+            "treadmill.per_wheel_disparity": per_wheel["analysis"]["path_disparity"],
+            "treadmill.per_wheel_robot_path_m": per_wheel["analysis"]["robot_path_length_m"]}
 
 
 def treadmill_figures(summary: dict[str, Any]) -> dict[str, float]:
@@ -536,13 +554,14 @@ def treadmill(out: Path, *, quick: bool = False
     fig.savefig(out / "treadmill_frame.png", dpi=100, bbox_inches="tight")
     plt.close(fig)
     with tempfile.TemporaryDirectory() as tmp:
-        short_run = flyball_run(Path(tmp) / "short", TREADMILL_QUICK_S)
+        short = flyball_runs(Path(tmp) / "short", TREADMILL_QUICK_S)
         if quick:
-            shutil.copy(short_run["plot"], out / "treadmill_run.png")
-            return None, treadmill_figures(short_run)
-        full_run = flyball_run(Path(tmp) / "full", TREADMILL_S)
-        shutil.copy(full_run["plot"], out / "treadmill_run.png")
-        return treadmill_figures(full_run), treadmill_figures(short_run)
+            shutil.copy(Path(tmp) / "short" / "scaled" / "flyball.png",
+                        out / "treadmill_run.png")
+            return None, short
+        full = flyball_runs(Path(tmp) / "full", TREADMILL_S)
+        shutil.copy(Path(tmp) / "full" / "scaled" / "flyball.png", out / "treadmill_run.png")
+        return full, short
 
 
 def write_figures(path: Path, values: dict[str, float], full: dict[str, float] | None,
@@ -580,9 +599,8 @@ def spread(seed_0: dict[str, float], *, quick: bool) -> None:
     for seed in SPREAD_SEEDS:
         with tempfile.TemporaryDirectory() as tmp:
             other = {**navigation_figures(navigate_run(Path(tmp) / "nav", seed)),
-                     **treadmill_figures(flyball_run(
-                         Path(tmp) / "fly", TREADMILL_QUICK_S if quick else TREADMILL_S,
-                         seed)),
+                     **flyball_runs(Path(tmp) / "fly",
+                                    TREADMILL_QUICK_S if quick else TREADMILL_S, seed),
                      "mobile.slip_closure_m": slip_closure(seed)}
         run = fusion_run(seed)
         run.pop("tracks")

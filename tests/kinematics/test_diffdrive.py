@@ -15,6 +15,7 @@ from servolab.kinematics.diffdrive import (
     Encoder,
     circle,
     circle_time,
+    clamp_wheel_speeds,
     distance_to_ticks,
     figure_eight,
     integrate_odometry,
@@ -291,3 +292,14 @@ def test_moves_refuse_bad_input() -> None:
         rotation(math.nan, 1.0, ROBOT)
     with pytest.raises(ValueError, match="turns"):
         circle_time(0.5, 0.2, 0)
+
+
+def test_clamp_wheel_speeds_clamps_each_wheel_on_its_own() -> None:
+    """Seed 002 Listing 4: lin_vel1 and lin_vel2 each clamped at +-LIMIT_X_MAX_VELOCITY, so
+    past the limit the ratio (the path's curvature) changes; limit_wheel_speeds keeps it."""
+    left, right = clamp_wheel_speeds([9.0, -9.0, 3.0], [12.0, 2.0, -4.0], 8.0)
+    assert left.tolist() == [8.0, -8.0, 3.0] and right.tolist() == [8.0, 2.0, -4.0]
+    scaled_left, scaled_right = limit_wheel_speeds(9.0, 12.0, 8.0)
+    assert float(scaled_right) == 8.0 and float(scaled_left) == pytest.approx(6.0)
+    with pytest.raises(ValueError):
+        clamp_wheel_speeds(1.0, float("nan"), 8.0)

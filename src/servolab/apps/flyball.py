@@ -25,6 +25,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="PORT", help="with --frames: the treadmill's real motors "
                    "(IDs 100-102, Protocol 2.0, 1 Mbps) on this port: " + PORT_HELP +
                    "; default emulated")
+    p.add_argument("--clamp", choices=("scaled", "per-wheel"), default="scaled",
+                   help="how the robot brings wheel speeds past its limit back: scaled "
+                   "together, keeping its path (default), or per-wheel, each on its own as "
+                   "the thesis's Listing 4 does")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_out(p)
     sub = p.add_subparsers(dest="action", metavar="analyze")
@@ -96,7 +100,8 @@ def _run(args: argparse.Namespace) -> int:
     else:
         with RunFolder.create("flyball", args.out) as run:
             run_flyball(run, duration=100.0 if args.duration is None else args.duration,
-                        seed=args.seed or 0, show_progress=not args.no_progress)
+                        seed=args.seed or 0, show_progress=not args.no_progress,
+                        wheel_clamp=args.clamp)
     print(f"run folder: {run.path}")
     return 0
 

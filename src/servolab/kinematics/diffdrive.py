@@ -138,6 +138,18 @@ def limit_wheel_speeds(left: npt.ArrayLike, right: npt.ArrayLike,
     return left_arr * scale, right_arr * scale
 
 
+def clamp_wheel_speeds(left: npt.ArrayLike, right: npt.ArrayLike,
+                       max_wheel_speed: float) -> tuple[FloatArray, FloatArray]:
+    """Clamp each wheel on its own to ``[-max_wheel_speed, max_wheel_speed]``, as seed 002's
+    Listing 4 clamps ``lin_vel1`` and ``lin_vel2`` at ``LIMIT_X_MAX_VELOCITY``: past the
+    limit the ratio of the speeds, and so the path's curvature, changes (both wheels at the
+    limit drive straight whatever turn was asked). :func:`limit_wheel_speeds` keeps it."""
+    limit = _check_positive("max_wheel_speed", max_wheel_speed)
+    left_arr = finite_array("left wheel speed", left)
+    right_arr = finite_array("right wheel speed", right)
+    return np.clip(left_arr, -limit, limit), np.clip(right_arr, -limit, limit)
+
+
 # -- encoders and odometry ----------------------------------------------------------------------
 
 def _ticks(name: str, values: npt.ArrayLike, encoder: Encoder) -> IntArray:

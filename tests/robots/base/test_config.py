@@ -51,6 +51,8 @@ GOOD = (CONFIGS / "base_seed000.yaml").read_text()
     ("wheel_radius: 0.052", "wheel_radius: 0.052\n  max_linear_velocity: 5.0",
      "is over what a EX-106\\+ can drive"),
     ("wheel_radius: 0.052", "wheel_radus: 0.052", "did you mean 'wheel_radius'"),
+    ("wheel_radius: 0.052", "wheel_radius: 0.052\n  wheel_clamp: per_wheel",
+     "wheel_clamp must be scaled or per-wheel, not 'per_wheel' \\(did you mean 'per-wheel'"),
 ])
 def test_a_bad_base_is_refused_naming_the_key(tmp_path: Path, old: str, new: str,
                                               says: str) -> None:

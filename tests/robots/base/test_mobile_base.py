@@ -101,8 +101,28 @@ def test_rpm_reads_each_wheel() -> None:
     base.clock.sleep(0.5)
     rpm = base.rpm()
     assert rpm[1] == pytest.approx(2.0 * 60 / (2 * math.pi), rel=0.02)
-    assert rpm[2] == pytest.approx(-rpm[1], rel=0.02)  # mirrored
+    # the right motor is mounted mirrored but in reverse Drive Mode (ROBOTIS's
+    # turtlebot3_setup_motor.ino writes Drive Mode 1 on it): it reads forward as positive
+    assert rpm[2] == pytest.approx(rpm[1], rel=0.02)
     base.stop()
+
+
+def test_the_waffles_encoders_both_count_up_driving_forward() -> None:
+    """Seed 002 Listing 4 sends one signed speed to both wheels and logs both encoders as
+    they count: on a Waffle set up by ROBOTIS (right motor Drive Mode 1, OpenCR's
+    turtlebot3_setup_motor.ino) both count up when it drives forward, and the emulated motor
+    honours the Drive Mode bit (its register reads 1 after setup)."""
+    base = _base("base_turtlebot3_waffle.yaml")
+    assert int(base.bus.read(2, "drive_mode", raw=True)) & 1 == 1
+    assert int(base.bus.read(1, "drive_mode", raw=True)) & 1 == 0
+    before = {i: int(base.bus.read(i, "present_position", raw=True)) for i in (1, 2)}
+    base.set_wheel_speeds(2.0, 2.0)
+    base.clock.sleep(1.0)
+    base.stop()
+    after = {i: int(base.bus.read(i, "present_position", raw=True)) for i in (1, 2)}
+    assert after[1] - before[1] > 500 and after[2] - before[2] > 500
+    pose = base.update_odometry()
+    assert pose.x > 0.05 and abs(pose.theta) < 0.01  # straight ahead
 
 
 def test_the_velocity_limit_register_bounds_a_2_0_wheel() -> None:

@@ -129,3 +129,40 @@ def test_sensor_state_carries_the_raw_encoder_counts(rig: Rig) -> None:
     assert abs(last.left_encoder - left) < 3 * per_cycle
     assert abs(last.right_encoder - right) < 3 * per_cycle
     assert last.left_encoder > got[0].left_encoder  # the left wheel turned forwards
+
+
+def test_listing_4s_per_wheel_clamp_drives_straight_past_the_limit(tmp_path: Any) -> None:
+    """Seed 002 Listing 4 (AOTMotorControl): each wheel's speed is clamped on its own at
+    LIMIT_X_MAX_VELOCITY, with no clamp of cmd_vel before. With wheel_clamp: per-wheel and a
+    lin_vel over the limit, both wheels run at the limit, so the asked turn is lost (the
+    thesis's robot "does not switch directions as much as the sphere", chapter 3); scaled,
+    the default, keeps the turn."""
+    from dataclasses import replace
+
+    text = (CONFIGS / "base_turtlebot3_waffle.yaml").read_text()
+    path = tmp_path / "waffle_listing4.yaml"
+    path.write_text(text.replace("  motors:", "  wheel_clamp: per-wheel\n  motors:"))
+    per_wheel = load(path)
+    assert per_wheel.wheel_clamp == "per-wheel"
+    speeds = {}
+    for config in (per_wheel, replace(per_wheel, wheel_clamp="scaled")):
+        base = MobileBase.emulated(config)
+        context = Context.open(clock=base.clock)
+        try:
+            BaseNode(context, base)
+            probe = Node(context, "probe")
+            cmd = probe.create_publisher(TWIST, "/cmd_vel")
+            cmd.publish(probe.message(TWIST, linear={"x": 2.0}, angular={"z": 0.5}))
+            context.spin_for(0.2)
+            left, right = (float(base.bus.read(m.id, "goal_velocity")) * m.direction
+                           for m in sorted(config.motors, key=lambda m: m.side))
+            speeds[config.wheel_clamp] = (left, right, base.wheel_limit)
+        finally:
+            context.close()
+    left, right, limit = speeds["per-wheel"]
+    # the Waffle's limit: max_linear_velocity 0.26 m/s at its 0.033 m wheel's rim
+    assert limit == pytest.approx(0.26 / 0.033)
+    unit = 0.229 * 2 * math.pi / 60  # XM430 goal_velocity unit, rad/s (e-Manual)
+    assert left == pytest.approx(limit, abs=unit) and right == pytest.approx(limit, abs=unit)
+    left, right, _ = speeds["scaled"]
+    assert right > left + 0.5  # the turn asked is kept

@@ -183,3 +183,42 @@ def test_ctrl_c_stops_the_wheels_and_keeps_the_analysis(tmp_path: Path,
 def test_analyze_a_treadmill_without_a_robot(run: dict[str, Any], tmp_path: Path) -> None:
     (tmp_path / "fly_data.bin").write_bytes(Path(run["fly_data"]).read_bytes())
     assert main(["flyball", "analyze", str(tmp_path)]) == 0
+
+
+def _net_turning(path: np.ndarray) -> float:
+    """The signed total turn (rad) of a path drawn with y up: counter-clockwise positive."""
+    steps = np.diff(np.asarray(path, dtype=float), axis=0)
+    steps = steps[np.hypot(steps[:, 0], steps[:, 1]) > 1e-9]
+    heading = np.unwrap(np.arctan2(steps[:, 1], steps[:, 0]))
+    return float(heading[-1] - heading[0])
+
+
+def test_the_robot_draws_the_spheres_path_with_each_clamp(tmp_path: Path) -> None:
+    """Issue 28 on seed 002's Figure 21: with the Waffle as ROBOTIS sets it up (right motor
+    in reverse Drive Mode), both encoders count up driving forward, and the robot's path has
+    the sphere's shape (disparity <= 0.05 on seed 1's 20 s run; it was 0.76 with the right
+    encoder counting backwards) and turns the sphere's way. Listing 4's per-wheel clamp
+    (``--clamp per-wheel``) is reported beside it."""
+    from servolab.robots.treadmill.analysis import analyze
+    from servolab.robots.treadmill.logs import read_encoder_log, read_fly_log
+
+    runs = {}
+    for clamp in ("scaled", "per-wheel"):
+        folder = RunFolder.create("flyball", tmp_path / clamp)
+        summary = run_flyball(folder, duration=20.0, seed=1, say=lambda _: None,
+                              show_progress=False, wheel_clamp=clamp)
+        assert summary["wheel_clamp"] == clamp
+        fly = read_fly_log(summary["fly_data"])
+        encoders = read_encoder_log(summary["robot_encoders"])
+        result, series = analyze(fly, encoders)
+        runs[clamp] = (result, series, encoders)
+    result, series, encoders = runs["scaled"]
+    assert result.path_disparity <= 0.05
+    sphere, robot = _net_turning(series["sphere_path"]), _net_turning(series["robot_path"])
+    assert sphere * robot > 0 and abs(sphere) > 0.5, (sphere, robot)
+    # driving forward (the robot's command is always forward, Listing 1): both count up
+    assert encoders["left"][-1] > encoders["left"][0]
+    assert encoders["right"][-1] > encoders["right"][0]
+    per_wheel = runs["per-wheel"][0]
+    assert 0.0 <= per_wheel.path_disparity <= 1.0  # reported: the thesis's robot
+    assert per_wheel.robot_path_length_m != pytest.approx(result.robot_path_length_m, rel=0.01)

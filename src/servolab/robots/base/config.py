@@ -16,6 +16,16 @@ on EX-106+ in wheel mode, its 4-motor variant, a TurtleBot3 Waffle on XM430s)::
         - {id: 0, side: left, direction: 1}
         - {id: 1, side: right, direction: -1}
 
+``wheel_clamp`` (optional) says how wheel speeds past the limit come back within it:
+``scaled`` (the default) scales both by one factor, so the robot keeps its path and only
+slows; ``per-wheel`` clamps each on its own, as seed 002's Listing 4 does (the limit is
+``max_linear_velocity`` at the wheel's rim, else the motor's no-load speed).
+
+``drive_mode: reverse`` (optional, Protocol 2.0 motors) sets the motor's Drive Mode bit 0, so
+that the motor itself turns the other way: ROBOTIS's ``turtlebot3_setup_motor.ino`` (OpenCR)
+writes it on a TurtleBot3's right motor, so that a positive speed drives both wheels forward
+and both encoders count up. ``direction`` is then as the motor sees it, reverse included.
+
 ``direction`` is +1 when the motor's positive speed (counter-clockwise seen from the horn,
 ROBOTIS's convention) drives its wheel forwards, -1 when it is mounted mirrored. Several motors
 may share a side (the 4-motor base of 000 A.2): they are driven alike.
@@ -38,9 +48,13 @@ from ...errors import ConfigFileError
 
 _TOP = ("base",)
 _BASE_KEYS = ("name", "model", "protocol", "baudrate", "wheel_radius", "wheel_separation",
-              "max_linear_velocity", "max_angular_velocity", "motors")
+              "max_linear_velocity", "max_angular_velocity", "motors", "wheel_clamp")
+#: How wheel speeds past the limit are brought back: ``scaled`` both by one factor (the path
+#: is kept: servolab's default), ``per-wheel`` each on its own (seed 002's Listing 4).
+WHEEL_CLAMPS = ("scaled", "per-wheel")
 _REQUIRED = ("model", "protocol", "baudrate", "wheel_radius", "wheel_separation", "motors")
-_MOTOR_KEYS = ("id", "side", "direction")
+_MOTOR_KEYS = ("id", "side", "direction", "drive_mode")
+_MOTOR_REQUIRED = ("id", "side", "direction")
 SIDES = ("left", "right")
 
 
@@ -53,6 +67,15 @@ class WheelMotor:
     id: int
     side: str       # left | right
     direction: int  # +1: positive motor speed drives the wheel forwards; -1: mirrored
+    #: Drive Mode bit 0 set ("reverse"): the motor itself turns the other way for a positive
+    #: speed, as ROBOTIS's turtlebot3_setup_motor.ino sets the Waffle's right motor
+    reverse: bool = False
+
+    @property
+    def mounting(self) -> int:
+        """+1 when the horn turning counter-clockwise drives the wheel forwards, -1 when the
+        motor is mounted mirrored: ``direction`` as the motor would see it in normal mode."""
+        return -self.direction if self.reverse else self.direction
 
 
 @dataclass(frozen=True)
@@ -69,6 +92,8 @@ class BaseConfig:
     max_linear_velocity: float | None = None
     max_angular_velocity: float | None = None
     path: str = ""
+    #: one of :data:`WHEEL_CLAMPS`
+    wheel_clamp: str = "scaled"
 
     @property
     def max_wheel_speed(self) -> float:
@@ -154,10 +179,24 @@ def parse(top: ConfigValue, path: str = "") -> BaseConfig:
             f"base.max_linear_velocity {linear:g} m/s is over what a {wheel_model.name} can "
             f"drive a {radius:g} m wheel at ({top_linear:.3g} m/s, its no-load speed)")
     motors = _motors(base)
+    if protocol == 1 and any(m.reverse for m in motors):
+        raise base.require("motors").error(
+            "base.motors: drive_mode reverse needs a Protocol 2.0 motor (a 1.0 motor in wheel "
+            "mode ignores Drive Mode, e-Manual): give the mirrored motor direction -1 instead")
     name_value = base.get("name")
+    clamp = "scaled"
+    clamp_value = base.get("wheel_clamp")
+    if clamp_value is not None:
+        clamp = clamp_value.as_str("base.wheel_clamp")
+        if clamp not in WHEEL_CLAMPS:
+            guess = suggest(clamp, WHEEL_CLAMPS)
+            raise clamp_value.error(f"base.wheel_clamp must be {' or '.join(WHEEL_CLAMPS)}, "
+                                    f"not {clamp!r}"
+                                    + (f" (did you mean {guess!r}?)" if guess else ""))
     return BaseConfig(name_value.as_str(nonempty=True) if name_value is not None
                       else Path(path).stem, wheel_model, protocol, baudrate, radius,
-                      separation, motors, linear, limits["max_angular_velocity"], path)
+                      separation, motors, linear, limits["max_angular_velocity"], path,
+                      clamp)
 
 
 def _positive(base: ConfigMapping, key: str, unit: str) -> float:
@@ -176,7 +215,7 @@ def _motors(base: ConfigMapping) -> tuple[WheelMotor, ...]:
     for k, item in enumerate(items):
         what = f"base.motors[{k}]"
         m = item.as_mapping(what)
-        m.check_keys(_MOTOR_KEYS, required=_MOTOR_KEYS, what=what)
+        m.check_keys(_MOTOR_KEYS, required=_MOTOR_REQUIRED, what=what)
         motor_id = m.require("id").as_int(f"{what}.id")
         if not 0 <= motor_id <= 252:
             raise m.require("id").error(f"{what}.id {motor_id} is outside 0..252")
@@ -190,7 +229,15 @@ def _motors(base: ConfigMapping) -> tuple[WheelMotor, ...]:
         if direction not in (1, -1):
             raise m.require("direction").error(
                 f"{what}.direction must be 1 or -1 (mirrored), not {direction}")
-        motors.append(WheelMotor(motor_id, side, direction))
+        reverse = False
+        mode_value = m.get("drive_mode")
+        if mode_value is not None:
+            mode = mode_value.as_str(f"{what}.drive_mode")
+            if mode not in ("normal", "reverse"):
+                raise mode_value.error(f"{what}.drive_mode must be normal or reverse, not "
+                                       f"{mode!r}")
+            reverse = mode == "reverse"
+        motors.append(WheelMotor(motor_id, side, direction, reverse))
     for side in SIDES:
         if not any(m.side == side for m in motors):
             raise items.error(f"base.motors: no {side} wheel motor")

@@ -28,6 +28,7 @@ from ...kinematics.diffdrive import (
     DiffDrive,
     Encoder,
     circle,
+    clamp_wheel_speeds,
     integrate_odometry,
     limit_wheel_speeds,
     tick_delta,
@@ -128,16 +129,16 @@ class MobileBase:
         floor = DiffDriveFloor.for_base(
             sim, emulator, [m.id for m in left], [m.id for m in right],
             wheel_radius=config.wheel_radius, wheel_separation=config.wheel_separation,
-            left_forward=tuple(m.direction for m in left),
-            right_forward=tuple(m.direction for m in right),
+            left_forward=tuple(m.mounting for m in left),
+            right_forward=tuple(m.mounting for m in right),
             slip=slip, slip_jitter=slip_jitter, max_acceleration=max_acceleration,
             encoder_noise=encoder_noise, seed=seed, x=start[0], y=start[1], yaw=start[2])
         bus = Bus(port_to(emulator, sim, config.baudrate))
         return cls(config, bus, sim, floor=floor)
 
     def _setup(self) -> None:
-        """Wheel mode (1.0: both angle limits 0) or velocity mode (2.0), wheels stopped,
-        torque on."""
+        """Wheel mode (1.0: both angle limits 0) or velocity mode (2.0) with each motor's
+        Drive Mode direction bit as configured, wheels stopped, torque on."""
         bus = self.bus
         if self.config.protocol == 1:
             for i in self._ids:
@@ -147,6 +148,11 @@ class MobileBase:
         else:
             bus.sync_write("torque_enable", dict.fromkeys(self._ids, 0))
             bus.sync_write("operating_mode", dict.fromkeys(self._ids, 1), raw=True)
+            for m in self.config.motors:  # Drive Mode bit 0 as configured (EEPROM: torque off)
+                mode = int(bus.read(m.id, "drive_mode", raw=True))
+                wanted = mode | 0x01 if m.reverse else mode & ~0x01
+                if wanted != mode:
+                    bus.write(m.id, "drive_mode", wanted, raw=True)
             bus.sync_write("goal_velocity", dict.fromkeys(self._ids, 0.0))
             limits = [float(bus.read(i, "velocity_limit")) for i in self._ids]
             self.max_wheel_speed = min(self.max_wheel_speed, *limits)
@@ -156,15 +162,28 @@ class MobileBase:
 
     def set_wheel_speeds(self, left: float, right: float) -> tuple[float, float]:
         """Turn the wheels at ``left`` and ``right`` rad/s (positive: forwards), scaled
-        together to the motors' no-load speed (the curvature is kept), in one SYNC_WRITE;
+        together to the motors' no-load speed (the curvature is kept), or with ``wheel_clamp:
+        per-wheel`` each clamped to :attr:`wheel_limit` (Listing 4), in one SYNC_WRITE;
         returns the speeds sent. NaN or infinity is refused and nothing is sent."""
-        l_speed, r_speed = limit_wheel_speeds(left, right, self.max_wheel_speed)
+        if self.config.wheel_clamp == "per-wheel":  # Listing 4: each wheel on its own
+            l_speed, r_speed = clamp_wheel_speeds(left, right, self.wheel_limit)
+        else:
+            l_speed, r_speed = limit_wheel_speeds(left, right, self.max_wheel_speed)
         wheel = {"left": float(l_speed), "right": float(r_speed)}
         values = {m.id: m.direction * wheel[m.side] for m in self.config.motors}
         register = "moving_speed" if self.config.protocol == 1 else "goal_velocity"
         self.bus.sync_write(register, values)
         self.commands.append((self.clock.now(), wheel["left"], wheel["right"]))
         return wheel["left"], wheel["right"]
+
+    @property
+    def wheel_limit(self) -> float:
+        """The per-wheel limit of ``wheel_clamp: per-wheel`` (rad/s): ``max_linear_velocity``
+        at the wheel's rim (Listing 4's LIMIT_X_MAX_VELOCITY is the TurtleBot3's top speed),
+        else the fastest a wheel may turn."""
+        linear = self.config.max_linear_velocity
+        rim = math.inf if linear is None else linear / self.config.wheel_radius
+        return min(rim, self.max_wheel_speed)
 
     def wheel_commands(self) -> dict[int, int]:
         """Each wheel motor's speed command as its register holds it now (raw), read back

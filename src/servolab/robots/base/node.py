@@ -79,9 +79,13 @@ class BaseNode(Node):
             self.get_logger().error(f"cmd_vel refused: linear.x {v!r}, angular.z {omega!r} "
                                     "is not a finite number; the wheels keep what they had")
             return
+        base = self.base
+        if base.config.wheel_clamp == "per-wheel":
+            # Listing 4 takes cmd_vel as it comes; each wheel is clamped on its own after
+            self.command, self.last_command = (v, omega), self.now()
+            return
         # within the base's limits, and always within what its wheels can do (a huge but
         # finite value would otherwise become an infinite wheel speed)
-        base = self.base
         top_v = base.max_wheel_speed * base.drive.wheel_radius
         top_w = 2 * top_v / base.drive.wheel_separation
         config = base.config

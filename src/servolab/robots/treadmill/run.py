@@ -26,6 +26,7 @@ import math
 import shutil
 from collections.abc import Callable
 from contextlib import ExitStack
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,16 +54,18 @@ Say = Callable[[str], None]
 
 def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0,
                 fly: FlyWalkConfig | None = None, say: Say = print,
-                show_progress: bool = True) -> dict[str, Any]:
+                show_progress: bool = True, wheel_clamp: str = "scaled") -> dict[str, Any]:
     """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
-    returns the summary (the analysis and where the files are)."""
+    returns the summary (the analysis and where the files are). ``wheel_clamp``
+    ``"per-wheel"`` drives the robot as Listing 4 does (each wheel clamped on its own; see
+    :mod:`servolab.robots.base.config`)."""
 
     from ...middleware.recorder import Recorder
     from ...sim import Simulation
     from ...sim.fly_camera import SimulatedFlyCamera
     from ...sim.fly_walk import FlyWalkConfig, FlyWalker
+    from ..base.config import WHEEL_CLAMPS, shipped_base
     from ..base.config import load as load_base
-    from ..base.config import shipped_base
     from ..base.mobile_base import MobileBase
     from ..base.node import BaseNode
     from .logs import FlyLogWriter
@@ -72,7 +75,11 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     sim = Simulation()
     aot, world = simulated_treadmill(sim, FlyWalker(fly or FlyWalkConfig(), seed=seed))
     camera = SimulatedFlyCamera(world, seed=seed)
-    base = MobileBase.emulated(load_base(shipped_base("turtlebot3_waffle")), sim)
+    if wheel_clamp not in WHEEL_CLAMPS:
+        raise RobotValueError(f"wheel_clamp {wheel_clamp!r} must be one of "
+                              f"{', '.join(WHEEL_CLAMPS)}")
+    waffle = replace(load_base(shipped_base("turtlebot3_waffle")), wheel_clamp=wheel_clamp)
+    base = MobileBase.emulated(waffle, sim)
     bag = run_folder.file("flyball_bag")
     if bag.exists():
         shutil.rmtree(bag)
@@ -84,7 +91,7 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
     ending = RunEnding(None)
     late = DeferredStop()
     summary: dict[str, Any] = {"duration_asked_s": duration, "seed": seed,
-                               "motors_on_stop": ON_STOP}
+                               "wheel_clamp": wheel_clamp, "motors_on_stop": ON_STOP}
     with ExitStack() as way_out:
         with ending.step("closing the logs and the bag"), FlyLogWriter(fly_path) as fly_log, \
                 EncoderLogWriter(encoder_path) as encoder_log, \
