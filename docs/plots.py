@@ -102,10 +102,10 @@ FIGURES: dict[str, Figure] = {
         "docs/navigation.md", 30.0, lambda v, t: f"stopped {v:.0f} ± {t:g} mm from the goal",
         _NAVIGATE),
     "navigation.goal_yaw_error_deg": Figure(
-        "docs/navigation.md", 4.0, lambda v, t: f"ended {v:.1f} ± {t:g}° from the goal's",
+        "docs/navigation.md", 5.0, lambda v, t: f"ended {v:.1f} ± {t:g}° from the goal's",
         _NAVIGATE),
     "navigation.min_clearance_mm": Figure(
-        "docs/navigation.md", 40.0, lambda v, t: f"at least {v:.0f} ± {t:g} mm clear",
+        "docs/navigation.md", 70.0, lambda v, t: f"at least {v:.0f} ± {t:g} mm clear",
         _NAVIGATE),
     "navigation.estimate_error_mm": Figure(
         "docs/navigation.md", 1.0, lambda v, t: f"ended {v:.0f} ± {t:g} mm and", _NAVIGATE),
@@ -113,7 +113,7 @@ FIGURES: dict[str, Figure] = {
         "docs/navigation.md", 2.5, lambda v, t: f"and {v:.1f} ± {t:g}° from the truth",
         _NAVIGATE),
     "navigation.camera_frames": Figure(
-        "docs/navigation.md", 25.0, lambda v, t: f"in all {v:.0f} ± {t:g} frames", _NAVIGATE),
+        "docs/navigation.md", 30.0, lambda v, t: f"in all {v:.0f} ± {t:g} frames", _NAVIGATE),
     "navigation.repair_cells": Figure(
         "docs/navigation.md", 0.0, lambda v, t: f"The map changed in {v:.0f} cells", _NAVIGATE),
     "navigation.calibration_fx_px": Figure(
@@ -125,7 +125,7 @@ FIGURES: dict[str, Figure] = {
     "treadmill.mean_angle_error_deg": Figure(
         "docs/treadmill.md", 2.1, lambda v, t: f"| {v:.2f} ± {t:g}° |", _FLYBALL, True),
     "treadmill.response_delay_ms": Figure(
-        "docs/treadmill.md", 4.0, lambda v, t: f"| {v:.0f} ± {t:g} ms |", _FLYBALL, True),
+        "docs/treadmill.md", 5.0, lambda v, t: f"| {v:.0f} ± {t:g} ms |", _FLYBALL, True),
     "treadmill.frames": Figure(
         "docs/treadmill.md", 0.0, lambda v, t: f"| {_grouped(v)}, all", _FLYBALL, True),
     "treadmill.frames_with_fly": Figure(
@@ -134,15 +134,15 @@ FIGURES: dict[str, Figure] = {
         "docs/treadmill.md", 40.0, lambda v, t: f"fictive walk, {v:.0f} ± {t:g} mm long",
         _FLYBALL, True),
     "treadmill.robot_path_m": Figure(
-        "docs/treadmill.md", 1.4, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
+        "docs/treadmill.md", 2.7, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
         _FLYBALL, True),
     "treadmill.path_disparity": Figure(
-        "docs/treadmill.md", 0.05, lambda v, t: f"Here it is {v:.3f} ± {t:g}", _FLYBALL, True),
+        "docs/treadmill.md", 0.2, lambda v, t: f"Here it is {v:.3f} ± {t:g}", _FLYBALL, True),
     "treadmill.per_wheel_disparity": Figure(
-        "docs/treadmill.md", 0.05, lambda v, t: f"| per-wheel (Listing 4) | {v:.3f} ± {t:g} |",
+        "docs/treadmill.md", 0.55, lambda v, t: f"| per-wheel (Listing 4) | {v:.3f} ± {t:g} |",
         _FLYBALL + " --clamp per-wheel", True),
     "treadmill.per_wheel_robot_path_m": Figure(
-        "docs/treadmill.md", 1.4, lambda v, t: f"| {v:.2f} ± {t:g} m |",
+        "docs/treadmill.md", 3.2, lambda v, t: f"| {v:.2f} ± {t:g} m |",
         _FLYBALL + " --clamp per-wheel", True),
 }
 
