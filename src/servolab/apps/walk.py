@@ -61,8 +61,10 @@ COMMAND = Command(
     description="Move Armstrong to the stand pose of 001 Table 4.2, then play a motion "
     "sequence N times at 4.5 rows a second, as the seed's control node does; commands and "
     "motor states go to the run folder's MCAP bag, with a plot of commanded against present "
-    "angles. Ctrl-C, SIGTERM or SIGHUP stop at once: the motors hold the last pose (torque on, "
-    "so the robot does not fall), the bag is closed and summary.json says what ended the run.",
+    "angles. Ctrl-C, SIGTERM, SIGHUP or an alarm (a motor silent, overloaded or overheating) "
+    "end the gait at the next row and bring the joints to the stand pose, both feet down, "
+    "with torque on (a biped that went limp would fall); the bag is closed and summary.json "
+    "says what ended the run and lists the alarms.",
     examples=("servolab walk --steps 2", "servolab walk --file gait.csv --steps 4",
               "servolab walk --port /dev/ttyUSB0 --steps 1"),
     add_arguments=_add_arguments, run=_run)
