@@ -25,6 +25,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="PORT", help="with --frames: the treadmill's real motors "
                    "(IDs 100-102, Protocol 2.0, 1 Mbps) on this port: " + PORT_HELP +
                    "; default emulated")
+    p.add_argument("--fps", type=positive_float, metavar="HZ",
+                   help="with --frames: the rate the recording was made at (default: a "
+                   "video's own, else the thesis camera's 66)")
     p.add_argument("--clamp", choices=("scaled", "per-wheel"), default="scaled",
                    help="how the robot brings wheel speeds past its limit back: scaled "
                    "together, keeping its path (default), or per-wheel, each on its own as "
@@ -87,6 +90,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.frames is not None and (args.duration is not None or args.seed is not None):
         raise UsageError("--duration and --seed are the simulated fly's; a recording "
                          "(--frames) runs as long as it is")
+    if args.fps is not None and args.frames is None:
+        raise UsageError("--fps is the rate a recording was made at: give --frames DIR|VIDEO "
+                         "too (the simulated camera runs at Listing 3's 66 frames/s)")
     if args.port is not None and args.frames is None:
         raise UsageError("--port drives the real treadmill, which needs real frames: give "
                          "--frames DIR|VIDEO too (the simulated fly is on a simulated ball)")
@@ -95,7 +101,7 @@ def _run(args: argparse.Namespace) -> int:
 
         FrameSource.open(args.frames).close()  # a bad recording: before a run folder
         with RunFolder.create("flyball", args.out) as run:
-            run_recorded(run, args.frames, port=args.port,
+            run_recorded(run, args.frames, port=args.port, fps=args.fps,
                          show_progress=not args.no_progress)
     else:
         with RunFolder.create("flyball", args.out) as run:

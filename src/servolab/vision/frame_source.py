@@ -107,6 +107,12 @@ class FrameSource(ABC):
         self._pending: tuple[Image, str] | None = None
         self._closed = False
 
+    @property
+    def frame_rate(self) -> float | None:
+        """Frames a second the recording says it was made at (a video's ``CAP_PROP_FPS``),
+        None when it does not say (a folder of images, a container without it)."""
+        return None
+
     @classmethod
     def open(cls, path: str | Path, *, size: tuple[int, int] = DEFAULT_SIZE) -> FrameSource:
         """A folder of images (in natural name order) or a video file, by what ``path`` is.
@@ -240,9 +246,15 @@ class _VideoSource(FrameSource):
         count = self.capture.get(cv2.CAP_PROP_FRAME_COUNT)
         # Streams and some containers report -1, 0 or NaN: "unknown", which len() says as 0.
         self._count = int(count) if math.isfinite(count) and count > 0 else 0
+        fps = self.capture.get(cv2.CAP_PROP_FPS)
+        self._fps = float(fps) if math.isfinite(fps) and 0 < fps <= 10_000 else None
 
     def __len__(self) -> int:
         return self._count
+
+    @property
+    def frame_rate(self) -> float | None:
+        return self._fps
 
     def _empty_message(self) -> str:
         return f"{self.path}: OpenCV opened this video but could not read a frame from it"

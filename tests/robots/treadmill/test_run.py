@@ -134,8 +134,49 @@ def test_recorded_frames_are_tracked_one_record_each(tmp_path: Path) -> None:
     assert np.max(np.hypot(*(got - np.array(truths)).T)) < 0.5
 
 
+@pytest.mark.parametrize(("fps", "option", "time_base"), [
+    (30.0, None, "the video's own (CAP_PROP_FPS)"),
+    (30.0, "25", "given (--fps)"),
+])
+def test_a_video_plays_at_its_own_frame_rate(tmp_path: Path, fps: float, option: str | None,
+                                             time_base: str) -> None:
+    """Issue 28: a 30 fps video spanned 30 frames / 66 fps = 0.45 s instead of 1 s, and the
+    controller divides by that time. Now the run's time base is the video's CAP_PROP_FPS
+    (written by cv2.VideoWriter, read back by cv2.VideoCapture), or --fps; summary.json says
+    which, and the log's time and sampling fields (Listing 1's layout) follow it."""
+    import json
+
+    import cv2
+
+    from servolab.robots.treadmill.logs import read_fly_log
+
+    video = tmp_path / "fly.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), fps, (640, 376),
+                             isColor=False)
+    assert writer.isOpened()
+    frames = 30
+    for k in range(frames):
+        image, _ = render_fly(FlyPose(300.0 + 4 * k, 200.0, 0.05 * k))
+        writer.write(image)
+    writer.release()
+    out = tmp_path / "run"
+    extra = ["--fps", option] if option else []
+    assert main(["flyball", "--frames", str(video), *extra, "--out", str(out),
+                 "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    rate = float(option) if option else fps
+    assert summary["frame_rate_hz"] == pytest.approx(rate)
+    assert summary["time_base"] == time_base
+    records = read_fly_log(out / "fly_data.bin")
+    assert len(records) == frames
+    assert records["time"][-1] - records["time"][0] == pytest.approx((frames - 1) / rate,
+                                                                       rel=0.01)
+    assert records["sampling_time_us"][-1] == pytest.approx(1e6 / rate, rel=0.01)
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--frames", "MISSING"], "MISSING: no such file or folder"),
+    (["--fps", "30"], "give --frames DIR|VIDEO"),
     (["--port", "/dev/null"], "give --frames DIR|VIDEO too"),
     (["--duration", "-1"], "argument --duration"),
     (["--frames", "/tmp", "--duration", "5"], "a recording (--frames) runs as long as it is"),

@@ -37,6 +37,7 @@ from . import ON_STOP
 from .analysis import analysed_run
 from .logs import EncoderLogWriter
 from .node import (
+    FRAME_RATE,
     TREADMILL_BAUDRATE,
     TreadmillNode,
     emulated_treadmill_bus,
@@ -130,12 +131,17 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
 
 
 def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None = None,
-                 say: Say = print, show_progress: bool = True) -> dict[str, Any]:
+                 say: Say = print, show_progress: bool = True,
+                 fps: float | None = None) -> dict[str, Any]:
     """Track a recording (a folder of images or a video, :class:`~servolab.vision.
     frame_source.FrameSource`) frame by frame, with the treadmill's motors emulated or, on
-    ``port``, real (then at the camera's 66 frames/s by the wall clock). One record per frame
-    in ``fly_data.bin``; no robot, so ``robot_encoders.bin`` stays empty. The recording is
-    opened and checked before a motor is touched."""
+    ``port``, real (then by the wall clock). One record per frame in ``fly_data.bin``; no
+    robot, so ``robot_encoders.bin`` stays empty. The recording is opened and checked before
+    a motor is touched.
+
+    The frames are played at the rate the recording was made at, since the controller divides
+    by the time between frames: ``fps`` if given, else the video's own (``CAP_PROP_FPS``),
+    else Listing 3's camera, 66 frames/s. ``summary.json`` says which (``time_base``)."""
     from ...clock import Clock, WallClock
     from ...dynamixel.bus import Bus
     from ...middleware.recorder import Recorder
@@ -143,7 +149,16 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
     from ...vision.frame_source import FrameSource
     from .logs import FlyLogWriter
 
+    if fps is not None and not (math.isfinite(fps) and fps > 0):
+        raise RobotValueError(f"fps {fps!r} must be a number of frames a second > 0")
     source = FrameSource.open(frames)
+    if fps is not None:
+        frame_rate, time_base = fps, "given (--fps)"
+    elif source.frame_rate is not None:
+        frame_rate, time_base = source.frame_rate, "the video's own (CAP_PROP_FPS)"
+    else:
+        frame_rate = FRAME_RATE
+        time_base = "assumed: Listing 3's camera (the recording says none)"
     clock: Clock
     if port is None:
         sim = Simulation()
@@ -156,14 +171,15 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
     if bag.exists():
         shutil.rmtree(bag)
     fly_path, encoder_path = run_folder.file("fly_data.bin"), run_folder.file("robot_encoders.bin")
-    say(f"tracking {len(source) or 'the'} frames of {frames} with the treadmill's motors "
-        f"{'on ' + port if port else 'emulated'}")
+    say(f"tracking {len(source) or 'the'} frames of {frames} at {frame_rate:g} frames/s "
+        f"({time_base}) with the treadmill's motors {'on ' + port if port else 'emulated'}")
     from tqdm import tqdm
 
     node: TreadmillNode | None = None
     ending = RunEnding(None)
     late = DeferredStop()
     summary: dict[str, Any] = {"frames_source": str(frames), "port": port or "emulated",
+                               "frame_rate_hz": frame_rate, "time_base": time_base,
                                "motors_on_stop": ON_STOP}
     with ExitStack() as way_out:
         with ending.step("closing the log, the bag and the port"):
@@ -173,7 +189,8 @@ def run_recorded(run_folder: RunFolder, frames: str | Path, *, port: str | None 
                         tqdm(total=len(source) or None, unit="frame",
                              disable=not show_progress, leave=False) as bar:
                     try:
-                        node = TreadmillNode(context, bus, source, log=fly_log)
+                        node = TreadmillNode(context, bus, source, log=fly_log,
+                                             frame_rate=frame_rate)
                         Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
                                                      "/treadmill/joint_states"])
                         while not node.finished:
