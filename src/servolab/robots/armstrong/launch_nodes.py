@@ -132,10 +132,15 @@ class Walker(BipedNode):
             raise RobotError(f"walker: no joint state from {', '.join(missing)} within "
                              f"{self.wait_for_states:g} s: is the robot side running? "
                              "nothing was moved")
-        samples = max(2, round(self.stand_duration * MOVE_RATE) + 1)
+        self._move_to_stand(self.stand_duration, self._stand)
+
+    def _move_to_stand(self, duration: float, step: Any) -> None:
+        """Queue the poses from where the joints are to the stand pose over ``duration`` s,
+        and send them one at a time at :data:`MOVE_RATE` from ``step``."""
+        samples = max(2, round(duration * MOVE_RATE) + 1)
         rows = interpolate(self.where(), STAND_POSE, samples)[1:]
         self._queue = [dict(zip(STAND_POSE, r.tolist(), strict=True)) for r in rows]
-        self._timer = self.create_timer(1.0 / MOVE_RATE, self._stand)
+        self._timer = self.create_timer(1.0 / MOVE_RATE, step)
 
     def _stand(self) -> None:
         if self._queue:
@@ -179,10 +184,7 @@ class Walker(BipedNode):
         if not self.present:  # nothing moved yet: nothing to bring down
             self._end()
             return
-        samples = max(2, round(FINISH_DURATION * MOVE_RATE) + 1)
-        rows = interpolate(self.where(), STAND_POSE, samples)[1:]
-        self._queue = [dict(zip(STAND_POSE, r.tolist(), strict=True)) for r in rows]
-        self._timer = self.create_timer(1.0 / MOVE_RATE, self._finish_step)
+        self._move_to_stand(FINISH_DURATION, self._finish_step)
 
     def _finish_step(self) -> None:
         if self._queue:
