@@ -446,3 +446,48 @@ def nonnegative_float(value: ConfigValue) -> float:
     if number < 0:
         raise value.error(f"key {value.key!r}: must be >= 0, not {number:g}")
     return number
+
+
+# -- command-line overrides ------------------------------------------------------------------
+
+
+def overridden(root: ConfigValue, assignments: Collection[str], *,
+               error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
+    """``root`` with each ``key.path=value`` of ``assignments`` (a command's ``--set``) put in
+    place; ``value`` is YAML (``60``, ``dark``, ``[0, 0, 640, 376]``, ``null``).
+
+    Why here: a rig file and the command line are two ways to say one thing, so they go
+    through one reader. An override is a small document of its own, located at
+    ``--set key.path=value``, so a wrong one is refused by the consumer's own checks, naming
+    what was typed (``--set tracker.thresold=60:1: unknown key 'tracker.thresold' (did you
+    mean 'tracker.threshold'?)``). A key path that is no mapping's key is added, and refused
+    there."""
+    result = root
+    for assignment in assignments:
+        name, equals, text = assignment.partition("=")
+        parts = name.strip().split(".")
+        source = f"--set {assignment}"
+        if not equals or not all(part.strip() for part in parts):
+            raise error(source, 0, name, "must be KEY.PATH=VALUE, as in "
+                        "--set tracker.threshold=60")
+        document = text
+        for part in reversed(parts):
+            document = f"{{{part.strip()}: {document if document.strip() else 'null'}}}"
+        override = load_text(document, source, error=error)
+        if not isinstance(result, ConfigMapping):
+            raise error(source, 0, name, f"cannot be set: {result.describe()} is not a "
+                        "mapping of keys")
+        result = _merged(result, override.as_mapping())
+    return result
+
+
+def _merged(base: ConfigMapping, over: ConfigMapping) -> ConfigMapping:
+    entries = dict(base._entries)
+    for name, (key, value) in over._entries.items():
+        old = entries.get(name)
+        if old is not None and isinstance(old[1], ConfigMapping) and isinstance(
+                value, ConfigMapping):
+            entries[name] = (old[0], _merged(old[1], value))
+        else:
+            entries[name] = (key, value)
+    return ConfigMapping(base.path, base.line, base.key, base._error, entries)

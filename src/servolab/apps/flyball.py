@@ -19,15 +19,29 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="simulated seconds to run (default 100, the thesis's experiment)")
     p.add_argument("--seed", type=nonnegative_int,
                    help="seed of the fly's walk and the camera's noise (default 0)")
-    p.add_argument("--frames", metavar="DIR|VIDEO", help="track a recording instead of the "
-                   "simulated fly: a folder of 640x376 images in name order, or a video "
-                   "OpenCV can open (one record per frame)")
-    p.add_argument("--port", metavar="PORT", help="with --frames: the treadmill's real motors "
-                   "(IDs 100-102, Protocol 2.0, 1 Mbps) on this port: " + PORT_HELP +
-                   "; default emulated")
+    p.add_argument("--frames", metavar="DIR|VIDEO|BIN", help="track a recording instead of "
+                   "the simulated fly: a folder of images in name order, a video OpenCV can "
+                   "open, or the thesis's Fly_Image.bin (raw frames; see --size); one record "
+                   "per frame")
+    p.add_argument("--camera", metavar="INDEX|DEVICE", help="track a live camera (an OpenCV "
+                   "device index such as 0, or a path such as /dev/video0) until stopped "
+                   "with Ctrl-C; each frame is stamped when it was captured")
+    p.add_argument("--size", type=_size, metavar="WxH", help="with --frames BIN or --camera: "
+                   "the frames' size (default the rig camera's, 640x376)")
+    p.add_argument("--port", metavar="PORT", help="with --frames or --camera: the "
+                   "treadmill's real motors (IDs 100-102, Protocol 2.0, 1 Mbps) on this "
+                   "port: " + PORT_HELP + "; default emulated")
     p.add_argument("--fps", type=positive_float, metavar="HZ",
                    help="with --frames: the rate the recording was made at (default: a "
-                   "video's own, else the thesis camera's 66)")
+                   "video's own, else the rig camera's 66)")
+    p.add_argument("--rig", metavar="FILE", help="the rig's file: ball, camera, tracker, "
+                   "controller (default: the thesis's rig, servolab's treadmill.yaml; copy "
+                   "it to start yours)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                   help="change one value of the rig, as in --set tracker.polarity=dark "
+                   "(repeatable)")
+    p.add_argument("--record-video", metavar="FILE", help="write every camera frame to FILE: "
+                   ".avi (lossless FFV1), .mp4, or .bin (the thesis's Fly_Image.bin)")
     p.add_argument("--clamp", choices=("scaled", "per-wheel"), default="scaled",
                    help="how the robot brings wheel speeds past its limit back: scaled "
                    "together, keeping its path (default), or per-wheel, each on its own as "
@@ -44,6 +58,13 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                          "any folder holding the two logs")
     analyze.add_argument("--partial", action="store_true", help="read the whole records of "
                          "a log cut off by a crash (says how many)")
+
+
+def _size(text: str) -> tuple[int, int]:
+    width, x, height = text.lower().partition("x")
+    if not (x and width.isdigit() and height.isdigit() and int(width) > 0 and int(height) > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a size WxH, as in 640x376")
+    return int(width), int(height)
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -84,32 +105,49 @@ def _run(args: argparse.Namespace) -> int:
     if args.action == "analyze":
         return _analyze(args)
     from ..errors import UsageError
+    from ..robots.treadmill.config import load_rig
     from ..robots.treadmill.run import run_flyball, run_recorded
     from ..runs import RunFolder
 
-    if args.frames is not None and (args.duration is not None or args.seed is not None):
+    real = args.frames is not None or args.camera is not None
+    if args.frames is not None and args.camera is not None:
+        raise UsageError("--frames and --camera are two sources of frames: give one")
+    if real and (args.duration is not None or args.seed is not None):
         raise UsageError("--duration and --seed are the simulated fly's; a recording "
-                         "(--frames) runs as long as it is")
+                         "(--frames) runs as long as it is, a camera until Ctrl-C")
     if args.fps is not None and args.frames is None:
-        raise UsageError("--fps is the rate a recording was made at: give --frames DIR|VIDEO "
-                         "too (the simulated camera runs at Listing 3's 66 frames/s)")
-    if args.port is not None and args.frames is None:
+        raise UsageError("--fps is the rate a recording was made at: give --frames too (a "
+                         "camera's frames are stamped as captured; the simulated camera "
+                         "runs at the rig's camera.frame_rate)")
+    if args.size is not None and not real:
+        raise UsageError("--size is the size of --frames BIN or --camera frames; the "
+                         "simulated camera's is the rig's (--set camera.width=...)")
+    if args.port is not None and not real:
         raise UsageError("--port drives the real treadmill, which needs real frames: give "
-                         "--frames DIR|VIDEO too (the simulated fly is on a simulated ball)")
+                         "--frames or --camera too (the simulated fly is on a simulated ball)")
+    rig = load_rig(args.rig, args.overrides)  # a bad rig: before a run folder
+    size = args.size or rig.camera.size
     if args.frames is not None:
         from ..vision.frame_source import FrameSource
 
-        FrameSource.open(args.frames).close()  # a bad recording: before a run folder
+        FrameSource.open(args.frames, size=size).close()  # a bad recording, likewise
+    if real:
         with RunFolder.create("flyball", args.out) as run:
-            run_recorded(run, args.frames, port=args.port, fps=args.fps,
-                         show_progress=not args.no_progress)
+            run_recorded(run, args.frames, camera=_device(args.camera), port=args.port,
+                         fps=args.fps, show_progress=not args.no_progress, rig=rig,
+                         size=size, record_video=args.record_video)
     else:
         with RunFolder.create("flyball", args.out) as run:
             run_flyball(run, duration=100.0 if args.duration is None else args.duration,
                         seed=args.seed or 0, show_progress=not args.no_progress,
-                        wheel_clamp=args.clamp)
+                        wheel_clamp=args.clamp, rig=rig, record_video=args.record_video)
     print(f"run folder: {run.path}")
     return 0
+
+
+def _device(camera: str | None) -> int | str | None:
+    """An OpenCV camera as given: a number is a device index, anything else a path."""
+    return int(camera) if camera is not None and camera.isdigit() else camera
 
 
 COMMAND = Command(
@@ -122,6 +160,9 @@ COMMAND = Command(
     "robot_encoders.bin in the thesis's binary layouts, flyball_bag/ (MCAP), flyball.png and "
     "summary.json with chapter 3's figures.",
     examples=("servolab flyball --duration 100",
+              "servolab flyball --frames Fly_Image_Mar_28.bin --fps 66",
+              "servolab flyball --camera 0 --rig my_rig.yaml --record-video raw.avi",
+              "servolab flyball --set tracker.polarity=dark --set tracker.threshold=200",
               "servolab flyball --duration 20 --seed 3 --out runs/fly-a",
               "servolab flyball analyze runs/fly-a"),
     add_arguments=_add_arguments, run=_run)

@@ -190,6 +190,12 @@ def time_of(seconds: float) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
 
 
+def seconds_of(stamp: Any) -> float:
+    """The time in seconds of a ``builtin_interfaces/msg/Time`` (a message's ``header.stamp``),
+    the inverse of :func:`time_of`."""
+    return int(stamp.sec) + int(stamp.nanosec) * 1e-9
+
+
 def canonical_name(name: str) -> str:
     """``pkg/msg/Name`` for ``pkg/Name`` (ROS 1 spelling) or ``pkg/msg/Name``."""
     parts = name.strip().split("/")

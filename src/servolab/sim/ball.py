@@ -7,9 +7,17 @@ Each physics step:
    wheel at rest starts ``stiction_delay`` after it is told to move: the thesis measured about
    110 ms between the end of image processing and the motors' motion, chapter 3) and an
    acceleration limit (the ball's inertia);
-2. the wheels' speeds give the ball's surface velocity under the fly through the AOT's
-   kinematics (:class:`~servolab.kinematics.aot.AotKinematics`, eq. 3b of the seed, from the
-   rig's geometry), in the motors' frame;
+2. the wheels' speeds give the ball's surface velocity under the fly, in the motors' frame,
+   through ``ball_model``: by default ``"rigid"``, the ball as a rigid body rolling without
+   slip along each wheel's rim (or with a stated ``slip``;
+   :class:`~servolab.kinematics.ball_rolling.RollingBall`); or ``"eq3b"``, the thesis's
+   eq. 3b itself (:class:`~servolab.kinematics.aot.AotKinematics`, from the rig's geometry).
+   The controller and the analysis use eq. 3b, as the thesis does; a world that moved by it
+   too would agree with them by construction, and hide that eq. 3b is not the rolling
+   constraint (at the rig's 40 deg, for the same wheel speeds, the rolling ball translates
+   2.51 times and turns 0.87 times as fast as eq. 3b says: eq. 3b's turn against translation
+   is 2.9 times the ball's, :mod:`servolab.kinematics.aot`). ``"eq3b"`` is there to show
+   the difference;
 3. that velocity is turned into the camera's image frame (the camera is turned
    ``camera_to_motor`` from the motors' axes, Listing 1's ``thm``; ``handedness`` says which
    image axes run against the ball's, since the thesis does not: the default is the one under
@@ -19,7 +27,8 @@ Each physics step:
 What the camera sees, and what :meth:`ground_truth` reports, is the fly in image pixels
 (``fly_x``, ``fly_y``, ``fly_theta``: x right, y down, theta as the tracker measures it), the
 ball's rotation integrated as the path of its surface (``ball_x``, ``ball_y`` m, ``ball_yaw``
-rad; the thesis's Figure 20 computes that path from the encoders), and how far the fly walked.
+rad, by the world's ``ball_model``; the thesis's Figure 20 computes that path from the
+encoders by eq. 3b), and how far the fly walked.
 """
 
 from __future__ import annotations
@@ -31,6 +40,8 @@ from dataclasses import replace
 from ..dynamixel.emulator import VirtualMotor
 from ..dynamixel.plant import ServoPlant
 from ..kinematics.aot import CAMERA_HANDEDNESS, AotGeometry, AotKinematics, surface_in_camera
+from ..kinematics.ball_rolling import RollingBall, check_slip
+from ..kinematics.errors import KinematicsValueError
 from .errors import SimulationError
 from .floor import RampedWheel
 from .fly_walk import FlyWalker
@@ -41,6 +52,8 @@ from .world import World
 PX_PER_MM = 38.40983291722681
 #: the camera's image (Listing 1, Listing 3's format7 ROI)
 IMAGE_SIZE = (640, 376)
+#: how :class:`BallWorld` turns wheel speeds into the ball's motion (see the module docstring)
+BALL_MODELS = ("rigid", "eq3b")
 
 
 class StictionWheel(RampedWheel):
@@ -71,9 +84,29 @@ class StictionWheel(RampedWheel):
         super().step(dt)
 
 
+def _checked_slip(slip: float) -> float:
+    try:
+        return check_slip(slip)
+    except KinematicsValueError as error:
+        raise SimulationError(str(error)) from None
+
+
+def _ball_kinematics(ball_model: str, geometry: AotGeometry,
+                     slip: float) -> RollingBall | AotKinematics:
+    """The map from wheel speeds to the ball's surface motion, by name (:data:`BALL_MODELS`);
+    both have ``ball_velocity(wheel_speeds) -> (x', y', theta')``."""
+    if ball_model == "rigid":
+        return RollingBall(geometry, slip)
+    if ball_model == "eq3b":
+        return AotKinematics.from_geometry(geometry)
+    raise SimulationError(f"ball_model {ball_model!r} must be one of {', '.join(BALL_MODELS)}")
+
+
 class BallWorld(World):
     """The treadmill (see the module docstring). ``motors`` are the three wheels in the order
-    of the geometry's ``wheel_angles`` (IDs 100, 101, 102 on the rig)."""
+    of the geometry's ``wheel_angles`` (IDs 100, 101, 102 on the rig). ``ball_model`` is one
+    of :data:`BALL_MODELS`; ``slip`` (in [0, 1), default 0) is the fraction of each wheel's
+    rim speed the contact does not pass on to the ball, under either model."""
 
     name = "fly_ball"
 
@@ -82,13 +115,16 @@ class BallWorld(World):
                  image_size: tuple[int, int] = IMAGE_SIZE,
                  handedness: tuple[int, int, int] = CAMERA_HANDEDNESS,
                  stiction_delay: float = 0.11, max_acceleration: float = 40.0,
-                 start: tuple[float, float, float] | None = None) -> None:
+                 start: tuple[float, float, float] | None = None,
+                 ball_model: str = "rigid", slip: float = 0.0) -> None:
         if len(motors) != 3:
             raise SimulationError(f"the treadmill has three wheel motors, not {len(motors)}")
         if any(h not in (-1, 1) for h in handedness) or len(handedness) != 3:
             raise SimulationError(f"handedness {handedness!r} must be three signs (+-1)")
         self.geometry = geometry = geometry or AotGeometry()
-        self.kinematics = AotKinematics.from_geometry(geometry)
+        self.ball_model = ball_model
+        self.slip = _checked_slip(slip)
+        self.kinematics = _ball_kinematics(ball_model, geometry, self.slip)
         self.walker = walker or FlyWalker()
         self.px_per_m = px_per_mm * 1000.0
         self.image_size = image_size
@@ -113,6 +149,8 @@ class BallWorld(World):
         for plant in self.plants:
             plant.step(dt)
         motion = self.kinematics.ball_velocity(self.wheel_speeds())
+        if self.ball_model == "eq3b" and self.slip:
+            motion = motion * (1.0 - self.slip)  # RollingBall applies its own slip
         vx, vy, wz = (float(v) for v in motion)
         self.ball_x += vx * dt
         self.ball_y += vy * dt

@@ -28,7 +28,7 @@ its background. Listing 1's is ``"bright"``: a lit fly on a dark ball, ``THRESH_
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -100,6 +100,8 @@ class FlySighting:
     cy: float
     theta: float
     area: float
+    #: the largest contour (full-image pixels), as Listing 1 draws it; None if there is none
+    contour: npt.NDArray[np.int32] | None = field(default=None, compare=False, repr=False)
 
 
 def _check_image(image: npt.NDArray[np.generic], name: str) -> None:
@@ -148,8 +150,10 @@ def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
             max_area = area
             best = i
     too_big = config.max_area is not None and max_area > config.max_area
+    outline = None if best < 0 else np.asarray(contours[best] + np.array([x0, y0]),
+                                                dtype=np.int32)
     if best < 0 or not max_area > config.min_area or too_big:
-        return FlySighting(False, float(target[0]), float(target[1]), 0.0, max_area)
+        return FlySighting(False, float(target[0]), float(target[1]), 0.0, max_area, outline)
     mu = cv2.moments(contours[best], False)
     cx = mu["m10"] / mu["m00"]
     cy = mu["m01"] / mu["m00"]
@@ -160,4 +164,33 @@ def track_fly(image: Image, config: FlyTrackerConfig = FlyTrackerConfig(), *,
     if theta <= -math.pi / 2:  # atan2(-0.0, negative) = -pi; the same axis as +pi/2
         theta += math.pi
     # The moments are of the ROI's crop; shifting the centroid is exact (the angle is unchanged).
-    return FlySighting(True, cx + x0, cy + y0, theta, max_area)
+    return FlySighting(True, cx + x0, cy + y0, theta, max_area, outline)
+
+
+#: BGR colours of the drawing: the fly's outline (Listing 1 picks a random one each frame;
+#: a fixed one does not flicker), its centre (the listing's magenta), the dead band (red)
+OUTLINE, CENTRE, DEAD_BAND, AXIS = (0, 255, 0), (255, 0, 255), (0, 0, 255), (255, 255, 0)
+
+
+def draw_overlay(image: Image, sighting: FlySighting, *,
+                 target: tuple[float, float] = DEFAULT_TARGET,
+                 dead_band_px: float = 50.0) -> npt.NDArray[np.uint8]:
+    """Listing 1's drawing of what the tracker saw (its ``imshow("a", drawing)``): the frame in
+    colour, the largest contour, a 3 px circle at the fly's centre and the dead band's circle
+    round the target; and, which the listing lacks, the body axis and "no fly" when none
+    passed the area bounds. BGR, the image's size."""
+    _check_image(np.asarray(image), "image")
+    drawing = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    if sighting.contour is not None and sighting.area > 0.0:
+        cv2.drawContours(drawing, [sighting.contour], 0, OUTLINE, 2, cv2.LINE_8)
+    centre = (round(sighting.cx), round(sighting.cy))
+    cv2.circle(drawing, centre, 3, CENTRE, 1, cv2.LINE_8)
+    if sighting.present:
+        dx, dy = 25.0 * math.cos(sighting.theta), 25.0 * math.sin(sighting.theta)
+        cv2.line(drawing, (round(sighting.cx - dx), round(sighting.cy - dy)),
+                 (round(sighting.cx + dx), round(sighting.cy + dy)), AXIS, 1)
+    else:
+        cv2.putText(drawing, "no fly", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, DEAD_BAND, 2)
+    cv2.circle(drawing, (round(target[0]), round(target[1])),
+               round(dead_band_px), DEAD_BAND, 1, cv2.LINE_8)
+    return np.asarray(drawing, dtype=np.uint8)

@@ -55,6 +55,18 @@ def test_camera_pc_and_robot_in_two_processes(tmp_path: Path) -> None:
         assert analysis[key] >= 0.0, key  # a number, not NaN
     assert analysis["robot_path_length_m"] > 0.0  # the robot drove, on /cmd_vel over Zenoh
     assert (out / "flyball.png").stat().st_size > 20_000
+    # a live launch says how well it kept up with the camera (real time, a busy machine:
+    # the numbers vary, their presence and consistency do not)
+    timing = summary["timing"]
+    assert timing["frames"] == len(fly)
+    assert 0 < timing["achieved_fps"] <= 66.0 * 1.1
+    assert timing["interval_ms"]["p50"] <= timing["interval_ms"]["p99"] <= \
+        timing["interval_ms"]["max"]
+    assert 0 <= timing["late_frames"] <= timing["frames"]
+    assert timing["camera_frames"] == timing["frames"] + timing["dropped_frames"]
+    # the log's first value is the camera's frame number: it counts the dropped ones too
+    assert fly["frame"][-1] - fly["frame"][0] == timing["camera_frames"] - 1
+    assert "frames/s, interval p99" in said and "late" in said
 
 
 # -- a robot that never comes up ---------------------------------------------------------------

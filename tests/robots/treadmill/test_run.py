@@ -18,6 +18,7 @@ from servolab.cli import main
 from servolab.clock import VirtualClock
 from servolab.dynamixel.bus import Bus
 from servolab.middleware.context import Context
+from servolab.robots.treadmill.camera_node import CameraNode
 from servolab.robots.treadmill.node import TREADMILL_IDS, TreadmillNode
 from servolab.robots.treadmill.run import run_flyball
 from servolab.runs import RunFolder
@@ -91,8 +92,9 @@ def test_a_truncated_log_is_named_with_its_count(run: dict[str, Any], tmp_path: 
     assert "10 whole records of 136 bytes and 7 bytes more" in line
 
 
-def test_the_node_stops_the_wheels_and_switches_torque_off_when_frames_end() -> None:
-    """Listing 1's motor_deinit: goal velocity 0 and torque off, once the frames end."""
+def test_the_node_takes_image_raw_and_stops_the_wheels_when_destroyed() -> None:
+    """Listing 1's image_converter: frames on /image_raw (a camera node here), each one
+    SYNC_WRITE; its motor_deinit: goal velocity 0 and torque off once the node is gone."""
     sim = Simulation()
     bus = Bus.open("emu://xm430-w210:100-102", baudrate=1_000_000, simulation=sim)
     frames = [render_fly(FlyPose(420.0, 250.0, 0.4))[0] for _ in range(5)]
@@ -101,12 +103,18 @@ def test_the_node_stops_the_wheels_and_switches_torque_off_when_frames_end() -> 
         return frames.pop() if frames else None
 
     with Context.open(clock=VirtualClock()) as context:
-        node = TreadmillNode(context, bus, camera)
-        context.spin_until(lambda: node.finished, timeout=1.0)
+        node = TreadmillNode(context, bus)
+        reader = CameraNode(context, camera, frame_rate=66.0)
+        context.spin_until(lambda: reader.finished, timeout=1.0)
+        context.spin_for(0.05)
         assert node.frames == 5 and node.last is not None
         assert node.last[1].compensating  # the fly was off centre: the wheels were told
-        torque = bus.sync_read("torque_enable", TREADMILL_IDS)
-        goal = bus.sync_read("goal_velocity", TREADMILL_IDS, raw=True)
+        assert set(bus.sync_read("goal_velocity", TREADMILL_IDS, raw=True).values()) != {0}
+        timing = node.timing()
+        assert timing["frames"] == 5 and timing["dropped_frames"] == 0
+        assert timing["achieved_fps"] == pytest.approx(66.0)
+    torque = bus.sync_read("torque_enable", TREADMILL_IDS)
+    goal = bus.sync_read("goal_velocity", TREADMILL_IDS, raw=True)
     assert set(torque.values()) == {0} and set(goal.values()) == {0}
 
 
@@ -176,8 +184,11 @@ def test_a_video_plays_at_its_own_frame_rate(tmp_path: Path, fps: float, option:
 
 @pytest.mark.parametrize(("args", "message"), [
     (["--frames", "MISSING"], "MISSING: no such file or folder"),
-    (["--fps", "30"], "give --frames DIR|VIDEO"),
-    (["--port", "/dev/null"], "give --frames DIR|VIDEO too"),
+    (["--fps", "30"], "give --frames too"),
+    (["--port", "/dev/null"], "give --frames or --camera too"),
+    (["--size", "640x376"], "the simulated camera's is the rig's"),
+    (["--size", "640by376", "--frames", "/tmp"], "not a size WxH"),
+    (["--frames", "/tmp", "--camera", "0"], "give one"),
     (["--duration", "-1"], "argument --duration"),
     (["--frames", "/tmp", "--duration", "5"], "a recording (--frames) runs as long as it is"),
 ])
@@ -263,3 +274,27 @@ def test_the_robot_draws_the_spheres_path_with_each_clamp(tmp_path: Path) -> Non
     per_wheel = runs["per-wheel"][0]
     assert 0.0 <= per_wheel.path_disparity <= 1.0  # reported: the thesis's robot
     assert per_wheel.robot_path_length_m != pytest.approx(result.robot_path_length_m, rel=0.01)
+
+
+def test_fictrac_output_reads_back_as_the_runs_own_figures(run: dict[str, Any]) -> None:
+    """FicTrac's .dat (rjdmoore/fictrac doc/data_header.txt, 25 columns; Trackball.cpp's
+    "%.14g" joined by ", ") read back with FicTrac's layout: one row per logged frame, its
+    frame counter the log's camera frame number, its timestamp the frame's capture stamp
+    (ms), and every column what the whole-run computation from fly_data.bin gives."""
+    from servolab.robots.treadmill.fictrac import fictrac_rows, read_fictrac_dat
+    from servolab.robots.treadmill.logs import read_fly_log
+
+    dat = read_fictrac_dat(run["fictrac"])
+    fly = read_fly_log(run["fly_data"])
+    assert dat.shape == (len(fly), 25)
+    assert np.array_equal(dat[:, 0], fly["frame"])  # column 1: the camera's frame number
+    assert np.array_equal(dat[:, 22], np.arange(len(fly)))  # column 23: frames since start
+    stamps = dat[:, 21] / 1000.0  # column 22: ms; the camera's 66 frames/s (a frame is
+    # taken when the executor gets to its timer: up to a bus transaction late, under 1 ms)
+    assert np.allclose(np.diff(stamps), 1 / 66.0, atol=1e-3)
+    np.testing.assert_allclose(dat[:, 23][1:], np.diff(dat[:, 21]), atol=1e-6)  # column 24
+    whole = fictrac_rows(fly)
+    for column in (1, 2, 3, 8, 9, 10, 14, 15, 16, 18, 19, 20):
+        np.testing.assert_allclose(dat[:, column], whole[:, column], rtol=1e-9, atol=1e-12,
+                                   err_msg=f"column {column + 1}")
+    assert np.ptp(dat[:, 14]) > 0 or np.ptp(dat[:, 15]) > 0  # the ball rolled

@@ -40,6 +40,7 @@ from ...vision.fly_tracker import DEFAULT_MAX_AREA
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
+    from .config import RigConfig
 
 FloatArray = npt.NDArray[np.float64]
 #: the X series' position resolution (e-Manual: 4096 ticks a revolution)
@@ -194,10 +195,14 @@ def response_delay(fly: npt.NDArray[np.void]) -> tuple[float, int]:
 
 def analyze(fly: npt.NDArray[np.void], encoders: npt.NDArray[np.void], *,
             geometry: AotGeometry | None = None, drive: DiffDrive | None = None,
-            min_area: float = 100.0, max_area: float | None = DEFAULT_MAX_AREA
+            min_area: float = 100.0, max_area: float | None = DEFAULT_MAX_AREA,
+            target: tuple[float, float] = (320.0, 188.0),
+            px_per_mm: float = 38.40983291722681
             ) -> tuple[FlyAnalysis, dict[str, FloatArray]]:
-    """The figures of chapter 3 (see the module docstring) and the series the plots draw."""
-    distance, angle, found = errors(fly, min_area=min_area, max_area=max_area)
+    """The figures of chapter 3 (see the module docstring) and the series the plots draw;
+    the defaults are the thesis's rig (a run passes its own, :func:`analysed_run`)."""
+    distance, angle, found = errors(fly, target=target, px_per_mm=px_per_mm,
+                                    min_area=min_area, max_area=max_area)
     t_sphere, dt, motion = sphere_motion(fly, geometry or AotGeometry())
     sphere = fictive_path(motion)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -277,9 +282,10 @@ def plot_analysis(result: FlyAnalysis, series: dict[str, FloatArray], fly: npt.N
     return path
 
 
-def analysed_run(run_folder: RunFolder, fly_path: Path, encoder_path: Path, bag: Path | None
-              ) -> dict[str, Any]:
-    """The run's logs read back and analysed, the figure drawn: the summary's common part."""
+def analysed_run(run_folder: RunFolder, fly_path: Path, encoder_path: Path, bag: Path | None,
+                 rig: RigConfig | None = None) -> dict[str, Any]:
+    """The run's logs read back and analysed with the run's ``rig`` (default the thesis's),
+    the figure drawn: the summary's common part."""
     from .logs import read_encoder_log, read_fly_log
 
     fly_records, encoders = read_fly_log(fly_path), read_encoder_log(encoder_path)
@@ -287,6 +293,12 @@ def analysed_run(run_folder: RunFolder, fly_path: Path, encoder_path: Path, bag:
              "bag": None if bag is None else str(bag)}
     if len(fly_records) < 2:
         return {"analysis": None, **files, "plot": None}
-    result, series = analyze(fly_records, encoders)
+    if rig is None:
+        result, series = analyze(fly_records, encoders)
+    else:
+        result, series = analyze(
+            fly_records, encoders, geometry=rig.geometry, min_area=rig.tracker.min_area,
+            max_area=rig.tracker.max_area, px_per_mm=rig.camera.px_per_mm,
+            target=(rig.controller.target[0], rig.controller.target[1]))
     plot = plot_analysis(result, series, fly_records, run_folder.file("flyball.png"))
     return {"analysis": result.summary(), **files, "plot": str(plot)}

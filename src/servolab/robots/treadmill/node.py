@@ -2,28 +2,37 @@
 the treadmill's three wheels are told how to turn, the robot is told how to drive, and the
 frame's record is logged.
 
-Per frame, in the listing's order:
+Frames come as ``sensor_msgs/msg/Image`` on ``/image_raw``, as Listing 1 subscribes (a queue
+of one: a frame that comes while one is being handled replaces the one waiting), from
+:class:`~.camera_node.CameraNode` or any ROS camera driver. Per frame, in the listing's order:
 
 1. the tracker finds the fly (:func:`~servolab.vision.fly_tracker.track_fly`);
 2. the controller (:func:`~.control.fly_command`) gives the wheel speeds and the robot's
-   Twist;
+   Twist, dividing by the time between the frames' capture stamps;
 3. one SYNC_WRITE of ``goal_velocity`` to the three X-series motors (IDs 100-102), truncated to
    whole units as the listing's ``(int)`` does, and one SYNC_READ of ``present_position``;
 4. the 17-value record of Listing 1 is written to ``fly_data.bin`` (the thesis's layout,
-   :mod:`.fly_logs`) and published, with ``/cmd_vel`` (``geometry_msgs/msg/Twist``) for the
-   robot and ``/fly/pose`` (``geometry_msgs/msg/Pose2D``: cx, cy px, theta rad, in the image).
+   :mod:`.logs`; its first value the camera's frame number, :mod:`.timing`) and published,
+   with ``/cmd_vel`` (``geometry_msgs/msg/Twist``) for the robot, ``/fly/pose``
+   (``geometry_msgs/msg/Pose2D``: cx, cy px, theta rad, in the image) and, when someone
+   subscribes, Listing 1's drawing (the fly's outline, its centre, the dead band round the
+   target) on ``/image_converter/output_video``, the listing's ``image_pub_`` topic;
+5. FicTrac's 25 columns for the frame (:mod:`.fictrac`: the ball's rotation from the wheels
+   through eq. 3b, integrated) on ``/fictrac/data`` and, given a writer, to FicTrac's
+   ``.dat``, so that a FicTrac user's scripts read the run.
 
-The frames come from a ``camera`` callable (the simulated camera, recorded frames, ...), so
-the node is the same on every source. Stopping the node does what ``motor_deinit`` does: the
-wheels are stopped and their torque switched off, also after an error.
+A frame that cannot be used (an encoding or size the rig's camera does not have, a stamp that
+goes back) is refused and counted, with an error logged. Stopping the node does what
+``motor_deinit`` does: the wheels are stopped and their torque switched off, also after an
+error.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -31,25 +40,31 @@ import numpy.typing as npt
 
 from ...dynamixel.bus import Bus
 from ...middleware.context import Context
-from ...middleware.messages import time_of
+from ...middleware.images import IMAGE, ImageMessageError, image_fields, mono8_of
+from ...middleware.messages import seconds_of, time_of
 from ...middleware.node import Node
-from ...vision.fly_tracker import FlySighting, FlyTrackerConfig, track_fly
-from ..bus_owner import BusOwner
-from ..errors import RobotValueError
-from .control import FlyCommand, FlyControllerConfig, fly_command
+from ...vision.fly_tracker import FlySighting, draw_overlay, track_fly
+from .config import FRAME_RATE, RigConfig
+from .control import FlyCommand, fly_command
+from .fictrac import FicTracIntegrator, FicTracWriter, multiarray_value
 from .logs import FlyLogWriter
+from .timing import frame_timing, sequence_of
 
 #: Listing 1: DXL1_ID..DXL3_ID, Protocol 2.0 at 1 Mbps
 TREADMILL_IDS = (100, 101, 102)
 TREADMILL_BAUDRATE = 1_000_000
 #: the thesis's wheel motors (XM430-W210, seed 002 section 2)
 TREADMILL_MODEL = "XM430-W210"
-#: Listing 3: the camera's frame_rate
-FRAME_RATE = 66.0
+#: Listing 1's image_pub_: what the tracker saw, drawn on the frame
+OVERLAY_TOPIC = "/image_converter/output_video"
+__all__ = ["FRAME_RATE", "OVERLAY_TOPIC", "TREADMILL_BAUDRATE", "TREADMILL_IDS", "Treadmill",
+           "TreadmillNode", "emulated_treadmill_bus", "simulated_treadmill", "stop_wheels"]
 TWIST = "geometry_msgs/msg/Twist"
 POSE2D = "geometry_msgs/msg/Pose2D"
 JOINT_STATE = "sensor_msgs/msg/JointState"
-Camera = Callable[[], "npt.NDArray[np.uint8] | None"]
+MULTIARRAY = "std_msgs/msg/Float64MultiArray"
+#: each frame's FicTrac columns (:mod:`.fictrac`), for FicTrac users' live tools
+FICTRAC_TOPIC = "/fictrac/data"
 
 
 def emulated_treadmill_bus(simulation: Any) -> Bus:
@@ -97,37 +112,41 @@ def stop_wheels(bus: Bus, ids: tuple[int, ...] = TREADMILL_IDS) -> None:
 
 
 class TreadmillNode(Node):
-    """See the module docstring. ``camera()`` returns the next frame, or None when there is
-    none (a recording that ended: the node then stops the wheels and sets :attr:`finished`)."""
+    """See the module docstring. ``rig`` is the rig's configuration (default the thesis's,
+    :mod:`.config`); frames come on ``image_topic``."""
 
-    def __init__(self, context: Context, bus: Bus, camera: Camera, *,
-                 log: FlyLogWriter | None = None,
-                 tracker: FlyTrackerConfig | None = None,
-                 controller: FlyControllerConfig | None = None,
-                 frame_rate: float = FRAME_RATE, ids: tuple[int, int, int] = TREADMILL_IDS,
+    def __init__(self, context: Context, bus: Bus, *, rig: RigConfig | None = None,
+                 log: FlyLogWriter | None = None, fictrac_log: FicTracWriter | None = None,
+                 ids: tuple[int, int, int] = TREADMILL_IDS, image_topic: str = "/image_raw",
                  name: str = "image_converter", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
-        if not (math.isfinite(frame_rate) and frame_rate > 0):
-            raise RobotValueError(f"frame_rate {frame_rate!r} must be a number > 0 of frames/s")
-        self.bus, self.camera, self.log, self.ids = bus, camera, log, ids
-        self.tracker = tracker or FlyTrackerConfig()
-        self.controller = controller or FlyControllerConfig(
-            max_wheel_speed=min(float(v) for v in bus.sync_read(
-                "velocity_limit", ids, raw=True).values()))
+        self.rig = rig = rig or RigConfig()
+        self.bus, self.log, self.fictrac_log, self.ids = bus, log, fictrac_log, ids
+        self.fictrac = FicTracIntegrator(rig.geometry)
+        self.tracker = rig.tracker
+        self.frame_rate = rig.camera.frame_rate
+        self.controller = replace(rig.controller, max_wheel_speed=min(
+            float(v) for v in bus.sync_read("velocity_limit", ids, raw=True).values()))
         self.frames = 0
-        self.finished = False
+        self.frames_with_fly = 0
+        self.refused = 0
         self.last: tuple[FlySighting, FlyCommand] | None = None
-        self._previous: float | None = None
+        #: each handled frame's capture stamp and the time it was taken up (s)
+        self.stamps: list[float] = []
+        self.handled: list[float] = []
+        self._first_stamp: float | None = None
+        self._sequence = -1  # the last frame's camera frame number
         self._motor_init()
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.pose = self.create_publisher(POSE2D, "/fly/pose", 10)
         self.wheels = self.create_publisher(JOINT_STATE, "/treadmill/joint_states", 10)
-        # each frame's bus work (the wheels' goal velocities, then their positions) is the
-        # one step of the sweep of the bus's one owner, at the camera's frame rate
-        self.owner = BusOwner(context, bus, rate=frame_rate, steps=[self._frame])
+        self.overlay = self.create_publisher(IMAGE, OVERLAY_TOPIC, 1)
+        self.fictrac_data = self.create_publisher(MULTIARRAY, FICTRAC_TOPIC, 10)
+        # Listing 1: it_.subscribe("/image_raw", 1, ...): a queue of one, the newest frame
+        self.create_subscription(IMAGE, image_topic, self._on_image, 1)
 
     def _motor_init(self) -> None:
         """``motor_init``: torque off, velocity mode (address 11 <- 1), torque on."""
@@ -139,18 +158,40 @@ class TreadmillNode(Node):
         """The wheels stopped and their torque off, as the listing's ``motor_deinit``."""
         stop_wheels(self.bus, tuple(self.ids))
 
-    def _frame(self) -> None:
-        if self.finished:
+    def _refuse(self, why: str) -> None:
+        self.refused += 1
+        if self.refused == 1 or self.refused % 100 == 0:  # a wrong camera: said, not flooded
+            self.get_logger().error(f"frame refused ({self.refused} so far): {why}")
+
+    def _on_image(self, msg: Any) -> None:
+        handled = self.now()
+        try:
+            image = mono8_of(msg)
+        except ImageMessageError as error:
+            self._refuse(str(error))
             return
-        image = self.camera()
-        if image is None:
-            self.finished = True
-            self.motor_deinit()
+        if (image.shape[1], image.shape[0]) != self.rig.camera.size:
+            self._refuse(f"{image.shape[1]}x{image.shape[0]}, but the rig's camera is "
+                         f"{self.rig.camera.width}x{self.rig.camera.height} (camera.width, "
+                         "camera.height)")
             return
+        stamp = seconds_of(msg.header.stamp)
+        previous = self.stamps[-1] if self.stamps else None
+        if previous is not None and stamp <= previous:
+            self._refuse(f"stamp {stamp:.6f} s is not after the previous frame's "
+                         f"{previous:.6f} s")
+            return
+        if self._first_stamp is None:
+            self._first_stamp = stamp
+        sequence = sequence_of(stamp, self._first_stamp, self.frame_rate, self._sequence)
+        self._sequence = sequence
+        self._frame(image, stamp, sequence, previous, handled)
+
+    def _frame(self, image: npt.NDArray[np.uint8], stamp: float, sequence: int,
+               previous: float | None, handled: float) -> None:
         started = time.perf_counter()  # Listing 1's `begin`: once the frame is in hand
-        now = self.now()
-        sampling_us = 0.0 if self._previous is None else (now - self._previous) * 1e6
-        self._previous = now
+        # the time between the frames' captures (Listing 1 reads its clock as each arrives)
+        sampling_us = 0.0 if previous is None else (stamp - previous) * 1e6
         target = self.controller.target
         sighting = track_fly(image, self.tracker, target=(target[0], target[1]))
         command = fly_command(sighting, sampling_us, self.controller)
@@ -160,38 +201,66 @@ class TreadmillNode(Node):
         positions = [float(present[i]) for i in self.ids]
         loop_us = (time.perf_counter() - started) * 1e6
         self.last = (sighting, command)
-        # the listing's `secs` is taken when the record is written, after the bus
-        record = [float(self.frames), loop_us, sampling_us, sighting.cx, sighting.cy,
+        self.stamps.append(stamp)
+        self.handled.append(handled)
+        self.frames_with_fly += sighting.present
+        # the listing's `seq_init` is the camera's sequence; its `secs` is taken when the
+        # record is written, after the bus
+        record = [float(sequence), loop_us, sampling_us, sighting.cx, sighting.cy,
                   sighting.theta, command.dxm, command.dym, command.dthm,
                   *command.wheel_speeds, sighting.area, *positions, self.now()]
         if self.log is not None:
             self.log.write(record)
-        stamp = time_of(now)
+        fictrac = self.fictrac.update(positions, stamp, sequence)
+        if self.fictrac_log is not None:
+            self.fictrac_log.write(fictrac)
+        ros_stamp = time_of(stamp)
         self.cmd_vel.publish(self.message(TWIST, linear={"x": command.linear},
                                           angular={"z": command.angular}))
         self.pose.publish(self.message(POSE2D, x=sighting.cx, y=sighting.cy,
                                        theta=sighting.theta))
         self.wheels.publish(self.message(
-            JOINT_STATE, header={"stamp": stamp},
+            JOINT_STATE, header={"stamp": ros_stamp},
             name=[f"aot_wheel_{i}" for i in self.ids],
             position=[self.bus.to_si(i, "present_position", int(present[i]))
                       for i in self.ids],
             velocity=[self.bus.to_si(i, "goal_velocity", raw[i]) for i in self.ids]))
+        self.fictrac_data.publish(self.message(MULTIARRAY, **multiarray_value(fictrac)))
+        if self.overlay.get_subscription_count():  # drawn only for someone watching
+            self.overlay.publish(self.message(IMAGE, **image_fields(
+                draw_overlay(image, sighting, target=(target[0], target[1]),
+                             dead_band_px=self.controller.dead_band_px),
+                ros_stamp, "camera")))
         self.frames += 1
 
+    def timing(self) -> dict[str, Any]:
+        """The run's frame timing (:func:`.timing.frame_timing`) and the share of frames
+        with the fly found."""
+        out = frame_timing(self.stamps, self.handled, frame_rate=self.frame_rate,
+                           late_after=self.rig.late_after_s)
+        out["frames_refused"] = self.refused
+        out["fly_found_share"] = (self.frames_with_fly / self.frames if self.frames
+                                  else math.nan)
+        return out
+
     def destroy(self) -> None:
-        self.owner.close()
         try:
             self.motor_deinit()
         finally:
             super().destroy()
 
 
-def simulated_treadmill(simulation: Any, walker: Any) -> tuple[Any, Any]:
+def simulated_treadmill(simulation: Any, walker: Any, *, rig: RigConfig | None = None
+                        ) -> tuple[Any, Any]:
     """The emulated wheels (:func:`emulated_treadmill_bus`) under a
-    :class:`~servolab.sim.ball.BallWorld` with ``walker`` on the ball, in ``simulation``."""
+    :class:`~servolab.sim.ball.BallWorld` of ``rig``'s geometry and camera (default the
+    thesis's) with ``walker`` on the ball, in ``simulation``."""
     from ...sim import BallWorld
 
+    rig = rig or RigConfig()
     bus = emulated_treadmill_bus(simulation)
-    world = simulation.add(BallWorld([bus.emulator.motor(i) for i in TREADMILL_IDS], walker=walker))
+    world = simulation.add(BallWorld([bus.emulator.motor(i) for i in TREADMILL_IDS],
+                                     rig.geometry, walker=walker,
+                                     px_per_mm=rig.camera.px_per_mm,
+                                     image_size=rig.camera.size))
     return bus, world

@@ -15,6 +15,9 @@ from ...middleware.node import Node
 from ..errors import RobotError, RobotValueError
 from . import ON_STOP
 from .analysis import analysed_run
+from .camera_node import CameraNode
+from .config import load_rig
+from .fictrac import FICTRAC_FILE, FicTracWriter
 from .logs import EncoderLogWriter
 from .node import TreadmillNode, simulated_treadmill
 
@@ -76,6 +79,9 @@ class TreadmillRig(Node):
                                          "runs/flyball-<time>").value)
         port = str(self.declare_parameter("port", "", description="must stay empty: the "
                                           "simulated fly needs the simulated ball").value)
+        rig_file = str(self.declare_parameter("rig", "", description="rig file; empty: the "
+                                              "thesis's (servolab's treadmill.yaml)").value)
+        self.rig = load_rig(rig_file or None)
         self.robot_timeout = float(self.declare_parameter(
             "robot_timeout", 30.0, description="s of wall time to wait for the robot's first "
             "sensor_state before giving up").value)
@@ -88,17 +94,22 @@ class TreadmillRig(Node):
             raise RobotValueError(f"treadmill: robot_timeout {self.robot_timeout!r} must be > 0 s")
         self.run = RunFolder.create("flyball", out or None)
         self.simulation = Simulation()
-        self.bus, self.world = simulated_treadmill(self.simulation, FlyWalker(seed=seed))
+        self.bus, self.world = simulated_treadmill(self.simulation, FlyWalker(seed=seed),
+                                                   rig=self.rig)
         try:
             self.fly_log = FlyLogWriter(self.run.file("fly_data.bin"))
             self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
+            self.fictrac_log = FicTracWriter(self.run.file(FICTRAC_FILE), overwrite=True)
             self.simulation.start_real_time()
-            self.node = TreadmillNode(context, self.bus, SimulatedFlyCamera(
-                self.world, seed=seed, simulation=self.simulation), log=self.fly_log)
+            self.node = TreadmillNode(context, self.bus, rig=self.rig, log=self.fly_log,
+                                      fictrac_log=self.fictrac_log)
+            self.camera = CameraNode(context, SimulatedFlyCamera(
+                self.world, seed=seed, simulation=self.simulation),
+                frame_rate=self.rig.camera.frame_rate)
             self.tracker = MobrobDataTracker(context, self.encoder_log)
         except BaseException:
             self.simulation.stop_real_time()
-            for name in ("fly_log", "encoder_log"):
+            for name in ("fly_log", "encoder_log", "fictrac_log"):
                 if hasattr(self, name):
                     getattr(self, name).close()
             self.bus.close()
@@ -147,11 +158,14 @@ class TreadmillRig(Node):
             self.simulation.stop_real_time()
             self.fly_log.close()
             self.encoder_log.close()
+            self.fictrac_log.close()
         summary = analysed_run(self.run, self.run.file("fly_data.bin"),
-                            self.run.file("robot_encoders.bin"), None)
+                               self.run.file("robot_encoders.bin"), None, self.rig)
         summary.update({"duration_asked_s": self.duration, "frames": self.node.frames,
                         "encoder_records": self.tracker.records, "motors_on_stop": ON_STOP,
-                        "wheels_after_stop": wheels})
+                        "wheels_after_stop": wheels, "timing": self.node.timing(),
+                        "rig": self.rig.source,
+                        "fictrac": str(self.run.file(FICTRAC_FILE))})
         ended: BaseException | None = None
         if error is not None:
             summary["error"] = error
@@ -161,10 +175,14 @@ class TreadmillRig(Node):
         self.summary = summary
         self.run.write_summary(summary, interrupted=ended)
         analysis = summary["analysis"] or {}
+        timing = summary["timing"]
         self.get_logger().info(
-            f"{self.node.frames} frames, {self.tracker.records} robot encoder records: mean "
-            f"distance error {analysis.get('mean_distance_error_mm', math.nan):.3f} mm, run "
-            f"folder {self.run.path}")
+            f"{self.node.frames} frames ({timing['achieved_fps']:.1f} frames/s, interval p99 "
+            f"{timing['interval_ms']['p99']:.1f} ms, {timing['late_frames']} late, "
+            f"{timing['dropped_frames']} dropped), {self.tracker.records} robot encoder "
+            f"records: mean distance error "
+            f"{analysis.get('mean_distance_error_mm', math.nan):.3f} mm, run folder "
+            f"{self.run.path}")
         return summary
 
     def destroy(self) -> None:
