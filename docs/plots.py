@@ -526,7 +526,7 @@ def treadmill(out: Path, *, quick: bool = False
 
     from servolab.robots.treadmill.control import FlyControllerConfig
     from servolab.vision.fly_render import FlyPose, render_fly
-    from servolab.vision.fly_tracker import track_fly
+    from servolab.vision.fly_tracker import draw_overlay, track_fly
 
     image, _ = render_fly(FlyPose(402.0, 151.0, 0.6), noise_std=4.0,
                           rng=np.random.default_rng(2))
@@ -553,6 +553,9 @@ def treadmill(out: Path, *, quick: bool = False
     ax.legend(fontsize=7, loc="lower left")
     fig.savefig(out / "treadmill_frame.png", dpi=100, bbox_inches="tight")
     plt.close(fig)
+    # the live view: what /image_converter/output_video carries for this frame, as drawn by
+    # the node itself (servolab.vision.fly_tracker.draw_overlay)
+    cv2.imwrite(str(out / "treadmill_overlay.png"), draw_overlay(image, sighting))
     with tempfile.TemporaryDirectory() as tmp:
         short = flyball_runs(Path(tmp) / "short", TREADMILL_QUICK_S)
         if quick:

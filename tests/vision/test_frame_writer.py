@@ -80,23 +80,6 @@ def test_bin_round_trip_is_exact_and_is_listing_1s_layout(tmp_path: Path) -> Non
         np.testing.assert_array_equal(back, image)
 
 
-def test_bin_is_what_the_treadmill_logs_read_and_write(tmp_path: Path) -> None:
-    """The run folder's frame file (robots.treadmill.logs, the same Listing 1 layout) and this
-    writer agree both ways."""
-    from servolab.robots.treadmill.logs import FrameLogWriter, read_frames
-
-    images = noise(2, SMALL)
-    ours = tmp_path / "ours.bin"
-    write(ours, images)
-    np.testing.assert_array_equal(read_frames(ours, *SMALL), np.stack(images))
-    theirs = tmp_path / "theirs.bin"
-    with FrameLogWriter(theirs, *SMALL) as log:
-        for image in images:
-            log.write(image)
-    for image, back in zip(images, read_back(theirs, SMALL), strict=True):
-        np.testing.assert_array_equal(back, image)
-
-
 def test_avi_is_ffv1_and_reads_back_exactly_with_its_rate(tmp_path: Path) -> None:
     path = tmp_path / "run.avi"
     images = noise(3, SMALL)

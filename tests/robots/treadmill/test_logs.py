@@ -19,16 +19,12 @@ from servolab.robots.treadmill.logs import (
     ENCODER_RECORD,
     FLY_RECORD,
     FLY_RECORD_FIELDS,
-    FRAME_HEIGHT,
-    FRAME_WIDTH,
     EncoderLogWriter,
     FlyLogError,
     FlyLogWarning,
     FlyLogWriter,
-    FrameLogWriter,
     read_encoder_log,
     read_fly_log,
-    read_frames,
 )
 
 
@@ -51,8 +47,6 @@ def test_field_order_and_record_sizes_are_the_listings() -> None:
     assert FLY_RECORD.itemsize == 17 * 8
     # Listing 2, line 1102: Output_size_byte = 3*sizeof(int64_t).
     assert ENCODER_RECORD.itemsize == 3 * 8
-    # Listing 1, lines 570-571: width = 640, height = 376.
-    assert (FRAME_WIDTH, FRAME_HEIGHT) == (640, 376)
 
 
 def test_one_fly_record_is_seventeen_little_endian_doubles(tmp_path: Path) -> None:
@@ -124,7 +118,7 @@ def test_a_truncated_fly_log_is_one_line_with_the_count(tmp_path: Path) -> None:
     assert log["frame"].tolist() == [float(n) for n in range(9)]
 
 
-def test_a_truncated_encoder_log_and_frame_file(tmp_path: Path) -> None:
+def test_a_truncated_encoder_log(tmp_path: Path) -> None:
     encoders = tmp_path / "encoders.bin"
     encoders.write_bytes(struct.pack("<3q", 1, 2, 3) + b"\1\2\3")
     with pytest.raises(FlyLogError, match=r"27 bytes is 1 whole record of 24 bytes and 3 bytes "
@@ -133,13 +127,6 @@ def test_a_truncated_encoder_log_and_frame_file(tmp_path: Path) -> None:
     with pytest.warns(FlyLogWarning):
         assert read_encoder_log(encoders, partial=True)["right"].tolist() == [3]
 
-    frames = tmp_path / "frames.bin"
-    frames.write_bytes(bytes(4 * 3 * 2 + 5))
-    with pytest.raises(FlyLogError, match="2 whole frames of 12 bytes and 5 bytes more"):
-        read_frames(frames, width=4, height=3)
-    with pytest.warns(FlyLogWarning):
-        assert read_frames(frames, width=4, height=3, partial=True).shape == (2, 3, 4)
-
 
 def test_empty_files_are_zero_records(tmp_path: Path) -> None:
     path = tmp_path / "empty.bin"
@@ -147,12 +134,11 @@ def test_empty_files_are_zero_records(tmp_path: Path) -> None:
     assert read_fly_log(path).shape == (0,)
     assert read_fly_log(path).dtype == FLY_RECORD
     assert read_encoder_log(path).shape == (0,)
-    assert read_frames(path).shape == (0, 376, 640)
 
 
 def test_a_missing_file_is_one_line(tmp_path: Path) -> None:
     path = tmp_path / "nope.bin"
-    for read in (read_fly_log, read_encoder_log, read_frames):
+    for read in (read_fly_log, read_encoder_log):
         with pytest.raises(FlyLogError) as caught:
             read(path)
         assert str(caught.value) == f"{path}: no such file"
@@ -208,25 +194,6 @@ def test_writers_refuse_a_wrong_record_and_write_nothing(tmp_path: Path) -> None
         with pytest.raises(FlyLogError, match="three int64"):
             enc.write(2**63, 0, 0)
     assert encoders.read_bytes() == b""
-
-
-def test_frames_round_trip_and_a_wrong_frame_is_refused(tmp_path: Path) -> None:
-    # Listing 1, line 1052: OutFile.write(im.data, width*height*sizeof(uchar)), mono8.
-    path = tmp_path / "Fly_Image.bin"
-    rng = np.random.default_rng(2)
-    frames = rng.integers(0, 256, size=(3, FRAME_HEIGHT, FRAME_WIDTH), dtype=np.uint8)
-    with FrameLogWriter(path) as out:
-        for frame in frames:
-            out.write(frame)
-        with pytest.raises(FlyLogError, match=r"uint8 376x640 .* got uint8 640x376"):
-            out.write(frames[0].T.copy())
-        with pytest.raises(FlyLogError, match="got uint16 376x640"):
-            out.write(frames[0].astype(np.uint16))
-    assert path.stat().st_size == 3 * 640 * 376
-    assert path.read_bytes()[:640] == frames[0, 0].tobytes()  # row-major, no header
-    read = read_frames(path)
-    assert read.shape == (3, 376, 640) and read.dtype == np.uint8
-    np.testing.assert_array_equal(read, frames)
 
 
 def test_each_record_is_on_disk_before_close(tmp_path: Path) -> None:

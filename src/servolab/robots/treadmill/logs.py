@@ -1,4 +1,4 @@
-"""The fly tracker's three raw logs (seed 002, Appendix A), readable and writable byte for byte.
+"""The fly tracker's two data logs (seed 002, Appendix A), readable and writable byte for byte.
 
 The thesis's C++ nodes write headerless binary files, one fixed-size record per event, in the
 PC's native byte order (x86: little-endian). Nothing in the file says what it holds, so the only
@@ -8,10 +8,11 @@ of turning into plausible garbage:
 
 - the fly log (Listing 1, the end of ``imageCb``): 17 IEEE-754 float64 per camera frame,
   :data:`FLY_RECORD`, 136 bytes;
-- the frame file (Listing 1, ``OutFile.write(im.data, width*height)``): the raw ``mono8``
-  image, :data:`FRAME_WIDTH` x :data:`FRAME_HEIGHT`, 240 640 bytes per frame;
 - the encoder log (Listing 2, the ``sensor_state`` callback): three int64 per message,
   :data:`ENCODER_RECORD`, 24 bytes.
+
+The third, the raw frames (Listing 1's ``Fly_Image.bin``), is a recording like any video:
+:mod:`servolab.vision.frame_source` reads it and :mod:`servolab.vision.frame_writer` writes it.
 
 The writers flush every record, as the C++ ``ofstream`` effectively does not: a run that is
 killed keeps everything written before the kill (at worst the record being written is cut
@@ -67,9 +68,6 @@ FLY_RECORD = np.dtype([(name, "<f8") for name in FLY_RECORD_FIELDS])
 #: (encoder ticks).
 ENCODER_RECORD = np.dtype([("time_us", "<i8"), ("left", "<i8"), ("right", "<i8")])
 
-#: Listing 1's ``width`` and ``height``, the camera's format7 ROI (launch file: 640 x 376).
-FRAME_WIDTH = 640
-FRAME_HEIGHT = 376
 
 _FLY_STRUCT = struct.Struct("<17d")
 _ENCODER_STRUCT = struct.Struct("<3q")
@@ -175,30 +173,6 @@ def read_encoder_log(path: str | Path, *, partial: bool = False) -> npt.NDArray[
     return _read_records(Path(path), ENCODER_RECORD, "an encoder log", partial)
 
 
-def _check_size(width: int, height: int) -> tuple[int, int]:
-    width, height = operator.index(width), operator.index(height)
-    if width <= 0 or height <= 0:
-        raise RobotValueError(f"a frame is at least 1x1 pixels, got {width}x{height}")
-    return width, height
-
-
-def read_frames(path: str | Path, width: int = FRAME_WIDTH, height: int = FRAME_HEIGHT, *,
-                partial: bool = False) -> npt.NDArray[np.uint8]:
-    """The raw frames as a read-only ``(N, height, width)`` uint8 array, memory-mapped (a
-    run's frames are gigabytes: 240 640 bytes each at the thesis's size) except when empty,
-    which cannot be mapped; ``partial`` as for :func:`read_fly_log`."""
-    path = Path(path)
-    width, height = _check_size(width, height)
-    count = _whole_records(path, width * height, "frame", f"a {width}x{height} frame file",
-                           partial)
-    if count == 0:
-        return np.empty((0, height, width), dtype=np.uint8)
-    try:
-        return np.memmap(path, dtype=np.uint8, mode="r", shape=(count, height, width))
-    except OSError as error:
-        raise FlyLogError(path, f"cannot read: {error.strerror or error}") from None
-
-
 class _RecordWriter:
     """One open file, one record per call, flushed at once so a kill keeps it."""
 
@@ -274,24 +248,3 @@ class EncoderLogWriter(_RecordWriter):
             raise FlyLogError(self.path, f"an encoder record is three int64 (time_us, left, "
                               f"right): {error}") from None
         self._write(data)
-
-
-class FrameLogWriter(_RecordWriter):
-    """Writes raw frames as Listing 1 does, ``height`` rows of ``width`` uint8 each, no header;
-    ``append`` as for :class:`FlyLogWriter`."""
-
-    def __init__(self, path: str | Path, width: int = FRAME_WIDTH,
-                 height: int = FRAME_HEIGHT, *, append: bool = False) -> None:
-        self.width, self.height = _check_size(width, height)
-        super().__init__(path, self.width * self.height, "frame",
-                         f"a {self.width}x{self.height} frame file", append)
-
-    def write(self, frame: npt.NDArray[np.generic]) -> None:
-        """Append one frame; another size or dtype is refused, since the file has no header
-        that could tell a reader the frames changed."""
-        frame = np.asarray(frame)
-        if frame.shape != (self.height, self.width) or frame.dtype != np.uint8:
-            raise FlyLogError(self.path, f"a frame here is uint8 {self.height}x{self.width} "
-                              f"(rows x columns), got {frame.dtype} "
-                              f"{'x'.join(map(str, frame.shape))}")
-        self._write(np.ascontiguousarray(frame).tobytes())
