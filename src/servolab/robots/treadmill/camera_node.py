@@ -122,6 +122,8 @@ class CameraNode(Node):
                 self._end()
                 return
             image, stamp = got
+            if self._stop.is_set():  # the node is going: its publisher may be gone
+                return
             now = self.now()
             if stamp is not None:  # captured a moment ago on the capture clock
                 now -= max(0.0, self.capture_clock() - stamp)

@@ -20,6 +20,7 @@ from .config import load_rig
 from .fictrac import FICTRAC_FILE, FicTracWriter
 from .logs import EncoderLogWriter
 from .node import TreadmillNode, simulated_treadmill
+from .timing import lost_fly_warning
 
 SENSOR_STATE = "turtlebot3_msgs/msg/SensorState"
 #: what a run of the closed loop records in its bag
@@ -166,6 +167,11 @@ class TreadmillRig(Node):
                         "wheels_after_stop": wheels, "timing": self.node.timing(),
                         "rig": self.rig.source,
                         "fictrac": str(self.run.file(FICTRAC_FILE))})
+        warning = lost_fly_warning(summary["timing"]["fly_found_share"],
+                                   self.rig.lost_fly_share)
+        if warning is not None:
+            summary["warnings"] = [warning]
+            self.get_logger().warning(warning)
         ended: BaseException | None = None
         if error is not None:
             summary["error"] = error

@@ -51,6 +51,7 @@ from .node import (
     stop_wheels,
 )
 from .rig import RECORDED, MobrobDataTracker
+from .timing import lost_fly_warning
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
@@ -310,12 +311,8 @@ def _add_timing(summary: dict[str, Any], node: TreadmillNode | None, rig: RigCon
     summary["timing"] = timing
     if record_video is not None:
         summary["video"] = str(record_video)
-    share = timing["fly_found_share"]
-    if math.isfinite(share) and 1.0 - share > rig.lost_fly_share:
-        warning = (f"the fly was found in only {share:.0%} of the frames (lost in more than "
-                   f"run.lost_fly_share {rig.lost_fly_share:.0%}): check the tracker's "
-                   "threshold, polarity and roi against the overlay "
-                   "(/image_converter/output_video)")
+    warning = lost_fly_warning(timing["fly_found_share"], rig.lost_fly_share)
+    if warning is not None:
         summary.setdefault("warnings", []).append(warning)
         say(f"warning: {warning}")
     if timing["frames"]:

@@ -79,3 +79,13 @@ def _spread(values: FloatArray) -> dict[str, float]:
         return {"p50": math.nan, "p99": math.nan, "max": math.nan}
     return {"p50": float(np.percentile(values, 50)), "p99": float(np.percentile(values, 99)),
             "max": float(np.max(values))}
+
+
+def lost_fly_warning(found_share: float, lost_fly_share: float) -> str | None:
+    """The warning a run ends with when the fly was not found in more than
+    ``lost_fly_share`` of its frames (the rig's ``run.lost_fly_share``), or None."""
+    if not math.isfinite(found_share) or 1.0 - found_share <= lost_fly_share:
+        return None
+    return (f"the fly was found in only {found_share:.0%} of the frames (lost in more than "
+            f"run.lost_fly_share {lost_fly_share:.0%}): check the tracker's threshold, "
+            "polarity and roi against the overlay (/image_converter/output_video)")
