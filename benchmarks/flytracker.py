@@ -31,21 +31,52 @@ repeats (each ``PASSES`` passes over the frames, tracker and anchor interleaved 
 repeat), so one slow repeat does not decide; rates are also given as multiples of the camera's
 66 frames/s.
 
-Run: ``.venv/bin/python benchmarks/flytracker.py [--quick] [--json PATH]``. ``--quick`` uses
-fewer frames and repeats (a second or two); the full run takes a few seconds.
+**The real-time loop on ``servolab sim --pty``** (issue 28). The whole loop as a user runs it
+on the real treadmill, in real time (wall clock): ``servolab flyball --frames DIR --port PTY``'s
+:func:`~servolab.robots.treadmill.run.run_recorded` (the camera node publishing the recording
+on ``/image_raw`` on its timer at 66 frames/s, the treadmill node tracking each frame with its
+SYNC_WRITE and SYNC_READ, the log, FicTrac's ``.dat``, the bag) against ``servolab sim --pty
+--motors xm430-w210:100-102 --baud 1000000`` in its own process (started and stopped as
+``benchmarks/gait.py``'s pty walks are: ``tests/simproc.py``), on a recording of
+``LIVE_FRAMES`` PNG frames of a fly walking a smooth seeded path (rendered before any timing).
+From the node's own timing (:meth:`~servolab.robots.treadmill.node.TreadmillNode.timing`,
+:mod:`servolab.robots.treadmill.timing`): the achieved frames per second, the interval
+between handled frames (p50, p99, largest), the late frames (handled more than a frame period
+after capture) and the dropped ones (a gap of more than one period in the camera's sequence:
+a folder's frames are stamped when read, so a camera tick more than 1.5 periods after the one
+before counts as a frame dropped). Two anchors, as ratios: the **ideal** (66 frames/s, every
+interval 15.15 ms) and the **same loop on the in-process emulated bus** (the same
+``run_recorded``, port ``emu://xm430-w210:100-102``), run just before it in the same run: its
+wire time is simulated, not waited for, so pty / in-process is what the pty, the simulator's
+own process and the 1 Mbps wire cost the loop. Each is run on an idle CPU and (not with
+``--quick``) on a busy one: every core kept busy by another process spinning in Python, as
+``tests/robots/test_stop_signals.py``'s ``busy_cpu`` does (``servolab sim`` raises its own
+priority when allowed, as it does for a user). One run each; p99 of ``LIVE_FRAMES - 1``
+intervals is about the fourth largest. A run that ends in an error (a motor that did not
+answer within the driver's timeout) is reported with its figures up to the error, the
+others still run, and the benchmark exits 1.
+
+Run: ``.venv/bin/python benchmarks/flytracker.py [--quick] [--no-pty] [--pty-out DIR]
+[--json PATH]``. ``--quick`` uses fewer frames and repeats, and the real-time loop on an idle
+CPU only (about ten seconds); the full run takes about a minute. ``--no-pty`` leaves the
+real-time part out (a few seconds, or a second or two with ``--quick``).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
+import os
 import platform
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -58,6 +89,9 @@ from servolab.dynamixel.bus import Bus
 from servolab.robots.treadmill.control import FlyControllerConfig, fly_command
 from servolab.robots.treadmill.logs import FLY_RECORD, FlyLogWriter, read_fly_log
 from servolab.robots.treadmill.node import FRAME_RATE, TREADMILL_BAUDRATE, TREADMILL_IDS
+from servolab.robots.treadmill.run import run_recorded
+from servolab.runs import RunFolder
+from servolab.signals import on_stop_signals, raise_keyboard_interrupt
 from servolab.vision.fly_render import DEFAULT_SIZE, FlyPose, render_fly
 from servolab.vision.fly_tracker import FlyTrackerConfig, track_fly
 
@@ -297,26 +331,255 @@ def report(fig: dict[str, Any]) -> list[str]:
     ]
 
 
+# -- the real-time loop on `servolab sim --pty` (issue 28) --------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+FULL_LIVE_FRAMES, QUICK_LIVE_FRAMES = 400, 132   # 6 s and 2 s at 66 frames/s
+LIVE_SEED = 28
+WHEELS = f"xm430-w210:{TREADMILL_IDS[0]}-{TREADMILL_IDS[-1]}"
+EMULATED_PORT = f"emu://{WHEELS}"
+#: a core kept busy in Python, until its parent (this benchmark) is gone, even if it is killed
+BURNER = ("import os\nparent = os.getppid()\nwhile os.getppid() == parent:\n"
+          "    for _ in range(100_000):\n        pass\n")
+
+
+def render_recording(folder: Path, count: int, seed: int) -> None:
+    """``count`` PNG frames of a fly walking a smooth path over most of the frame (Lissajous,
+    seeded phases, heading along the path, noise ``NOISE_STD``): a recording, as
+    ``servolab flyball --frames`` reads it."""
+    rng = np.random.default_rng(seed)
+    width, height = DEFAULT_SIZE
+    ax, ay = width / 2 - MARGIN, height / 2 - MARGIN
+    px, py = (float(v) for v in rng.uniform(0.0, 2 * math.pi, 2))
+    fx, fy = 0.21, 0.33                  # Hz: a path of a few seconds, never repeating on it
+    folder.mkdir(parents=True, exist_ok=True)
+    for k in range(count):
+        t = k / FRAME_RATE
+        wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
+        pose = FlyPose(width / 2 + ax * math.sin(wx * t + px),
+                       height / 2 + ay * math.sin(wy * t + py),
+                       math.atan2(ay * wy * math.cos(wy * t + py),
+                                  ax * wx * math.cos(wx * t + px)))
+        image, truth = render_fly(pose, noise_std=NOISE_STD, rng=rng)
+        if truth is None:  # pragma: no cover - the margins keep the fly in the frame
+            raise RuntimeError(f"the fly at {pose} is outside the frame")
+        if not cv2.imwrite(str(folder / f"{k:04d}.png"), image):
+            raise RuntimeError(f"could not write {folder / f'{k:04d}.png'}")
+
+
+@contextmanager
+def busy_cpu(burners: int) -> Iterator[None]:
+    """``burners`` processes spinning in Python (0: none), all stopped when the block ends."""
+    procs: list[subprocess.Popen[bytes]] = []
+    try:
+        for _ in range(burners):
+            procs.append(subprocess.Popen([sys.executable, "-c", BURNER],
+                                          stdin=subprocess.DEVNULL))
+        yield
+    finally:
+        for proc in procs:
+            proc.kill()
+        for proc in procs:
+            proc.wait()
+
+
+def _sim_process() -> Callable[..., Any]:
+    """tests/simproc.py's ``sim_process``, as benchmarks/gait.py's pty walks use it (the
+    repository's root on the path, as pytest has it)."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    return importlib.import_module("tests.simproc").sim_process  # type: ignore[no-any-return]
+
+
+def _quiet(line: str) -> None:
+    """run_recorded's progress lines: left out (its figures are in the summary)."""
+
+
+def run_live(frames: Path, folder: Path, port: str
+             ) -> tuple[dict[str, Any] | None, float, str | None]:
+    """``run_recorded`` of ``frames`` at 66 frames/s with the wheels on ``port``, into
+    ``folder``: the node's timing, the run's wall time (s, start-up and analysis too) and the
+    error that ended it, if one did (a motor that did not answer in time is a figure of a
+    real-time run, not a fault of the benchmark: the timing up to it is kept, from the run's
+    ``summary.json``)."""
+    started = time.perf_counter()
+    try:
+        with RunFolder.create("flyball", folder) as run:
+            summary = run_recorded(run, frames, port=port, fps=FRAME_RATE, say=_quiet,
+                                   show_progress=False)
+    except Exception as error:  # not a stop signal (KeyboardInterrupt): that ends the run
+        wall = time.perf_counter() - started
+        written = folder / "summary.json"
+        timing = json.loads(written.read_text()).get("timing") if written.exists() else None
+        return timing, wall, f"{type(error).__name__}: {error}"
+    return dict(summary["timing"]), time.perf_counter() - started, None
+
+
+def measure_live(frames: Path, folder: Path, *, pty: bool, burners: int) -> dict[str, Any]:
+    """One real-time run, on ``servolab sim --pty`` (``pty``) or on the in-process emulated
+    bus, with ``burners`` cores kept busy; its figures."""
+    sim_instructions: int | None = None
+    with busy_cpu(burners):
+        if pty:
+            sim_folder = folder / "sim"
+            with _sim_process()("--motors", WHEELS, "--baud", str(TREADMILL_BAUDRATE),
+                                out_dir=sim_folder) as (device, _):
+                timing, wall, error = run_live(frames, folder / "run", device)
+        else:
+            timing, wall, error = run_live(frames, folder / "run", EMULATED_PORT)
+    if pty:  # the simulator's own count: what reached the motors over the pty
+        summary = sim_folder / "summary.json"
+        if summary.exists():
+            sim_instructions = int(json.loads(summary.read_text())["instructions_received"])
+    nan = math.nan
+    timing = timing or {"frames": 0, "camera_frames": 0, "achieved_fps": nan,
+                        "interval_ms": dict.fromkeys(("p50", "p99", "max"), nan),
+                        "latency_ms": dict.fromkeys(("p50", "p99", "max"), nan),
+                        "late_frames": 0, "dropped_frames": 0, "frames_refused": 0,
+                        "fly_found_share": nan}
+    handled = int(timing["frames"])
+    if error is None and not (handled > 1 and math.isfinite(timing["achieved_fps"])):
+        raise RuntimeError(f"{'pty' if pty else 'emulated'} run: {handled} frame(s) handled")
+    if sim_instructions is not None and sim_instructions < 2 * handled:
+        raise RuntimeError(f"the simulator received {sim_instructions} instructions for "
+                           f"{handled} frames (one SYNC_WRITE and one SYNC_READ each)")
+    period_ms = FRAME_PERIOD_S * 1e3
+    interval, latency = timing["interval_ms"], timing["latency_ms"]
+    return {
+        "bus": "pty" if pty else "emulated", "busy_cores": burners,
+        "label": f"{'pty' if pty else 'in-process'}, {'busy' if burners else 'idle'} CPU",
+        "recording_frames": len(list(frames.glob("*.png"))), "handled": handled,
+        "camera_frames": int(timing["camera_frames"]),
+        "achieved_fps": float(timing["achieved_fps"]),
+        "ratio_camera": float(timing["achieved_fps"]) / FRAME_RATE,
+        "interval_ms": dict(interval), "p50_share_of_period": interval["p50"] / period_ms,
+        "p99_share_of_period": interval["p99"] / period_ms,
+        "max_share_of_period": interval["max"] / period_ms,
+        "latency_ms": dict(latency), "late_frames": int(timing["late_frames"]),
+        "dropped_frames": int(timing["dropped_frames"]),
+        "frames_refused": int(timing["frames_refused"]),
+        "fly_found_share": float(timing["fly_found_share"]),
+        "sim_instructions": sim_instructions, "run_wall_s": wall, "error": error,
+    }
+
+
+def bench_live(count: int, busy: bool, keep: Path | None) -> dict[str, Any]:
+    """The recording, then for an idle CPU (and a busy one, ``busy``) the in-process anchor
+    and the pty run, one after the other."""
+    burners = os.cpu_count() or 1
+    loads = (0, burners) if busy else (0,)
+    load_before = os.getloadavg()[0]  # what else the machine ran: "idle" is this run's own
+    with tempfile.TemporaryDirectory(prefix="servolab-flytracker-bench-") as scratch:
+        base = keep or Path(scratch)
+        frames = base / "recording"
+        render_recording(frames, count, LIVE_SEED)
+        runs = []
+        for load in loads:
+            for pty in (False, True):
+                name = f"{'pty' if pty else 'emulated'}_{'busy' if load else 'idle'}"
+                runs.append(measure_live(frames, base / name, pty=pty, burners=load))
+    for pty_run, anchor in zip(runs[1::2], runs[0::2], strict=True):
+        pty_run["ratio_fps_in_process"] = pty_run["achieved_fps"] / anchor["achieved_fps"]
+        pty_run["ratio_p99_in_process"] = (pty_run["interval_ms"]["p99"]
+                                           / anchor["interval_ms"]["p99"])
+    return {"frames": count, "camera_fps": FRAME_RATE, "frame_period_ms": FRAME_PERIOD_S * 1e3,
+            "motors": WHEELS, "baudrate": TREADMILL_BAUDRATE, "seed": LIVE_SEED,
+            "busy_cores": burners if busy else 0, "cores": burners,
+            "load_average_1min": [load_before, os.getloadavg()[0]], "runs": runs}
+
+
+def live_report(fig: dict[str, Any], wire_ms: float | None) -> list[str]:
+    period, camera = fig["frame_period_ms"], fig["camera_fps"]
+    lines = [
+        "",
+        f"Real-time loop (issue 28): run_recorded (servolab flyball --frames --port) on "
+        f"{fig['frames']} PNG frames at {camera:g} frames/s, wall clock; wheels {fig['motors']} "
+        f"at {fig['baudrate']} bps on servolab sim --pty, or in-process emulated (the anchor)",
+        f"{'run':24}{'fps':>7}{'/66':>7}{'p50':>8}{'p99':>8}{'p99/per':>9}{'max':>8}"
+        f"{'late':>6}{'drop':>6}{'handled':>9}",
+        f"{'':24}{'':>7}{'':>7}{'ms':>8}{'ms':>8}{'':>9}{'ms':>8}{'':>6}{'':>6}{'':>9}",
+    ]
+    for r in fig["runs"]:
+        i = r["interval_ms"]
+        handled = f"{r['handled']}/{r['recording_frames']}"
+        lines.append(f"{r['label']:24}{r['achieved_fps']:7.2f}{r['ratio_camera']:7.3f}"
+                     f"{i['p50']:8.2f}{i['p99']:8.2f}{r['p99_share_of_period']:9.3f}"
+                     f"{i['max']:8.2f}{r['late_frames']:6d}{r['dropped_frames']:6d}"
+                     f"{handled:>9}")
+    lines.append(f"p50, p99, max: the interval between handled frames (ideal: every one "
+                 f"{period:.2f} ms); /66 and p99/per: fps over the camera's {camera:g}, p99 "
+                 f"over the frame period (ideal: both 1); late: handled more than a period "
+                 f"after capture; drop: gaps in the camera's sequence (which a camera tick "
+                 f"late by over half a period also makes); handled: frames tracked of the "
+                 f"recording's")
+    for r in fig["runs"]:
+        if r["bus"] != "pty":
+            continue
+        lines.append(f"  {r['label']}: ratio fps pty/in-process = "
+                     f"{r['ratio_fps_in_process']:.3f}, ratio p99 interval pty/in-process = "
+                     f"{r['ratio_p99_in_process']:.3f}; latency p99 "
+                     f"{r['latency_ms']['p99']:.2f} ms, max {r['latency_ms']['max']:.2f} ms; "
+                     f"the simulator received {r['sim_instructions']} instructions; fly "
+                     f"found in {r['fly_found_share']:.0%}; run {r['run_wall_s']:.1f} s")
+    for r in fig["runs"]:
+        if r["error"] is not None:
+            lines.append(f"  {r['label']}: FAILED after {r['handled']} frames (its figures "
+                         f"are of those): {r['error']}")
+    wire = "" if wire_ms is None else f" ({wire_ms:.3f} ms a frame, part 1)"
+    lines.append(f"in-process: the emulated bus's wire time is simulated, not waited for{wire}; "
+                 "the pty's motors answer in real time at 1 Mbps from their own process")
+    before, after = fig["load_average_1min"]
+    lines.append(f"idle: no processes of this benchmark's beside the loop; the machine's 1-minute "
+                 f"load average was {before:.2f} before these runs and {after:.2f} after "
+                 f"({fig['cores']} cores): other work on it is in the figures")
+    if fig["busy_cores"]:
+        lines.append(f"busy CPU: {fig['busy_cores']} processes spinning in Python, one per "
+                     "core, beside the loop (servolab sim raises its own priority where "
+                     "allowed)")
+    return lines
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else "")
-    parser.add_argument("--quick", action="store_true", help="fewer frames and repeats")
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer frames and repeats; the real-time loop on an idle CPU "
+                        f"only, {QUICK_LIVE_FRAMES} frames")
+    parser.add_argument("--no-pty", action="store_true",
+                        help="leave out the real-time loop on servolab sim --pty (and its "
+                        "in-process anchor)")
+    parser.add_argument("--pty-out", type=Path, metavar="DIR",
+                        help="keep the recording and the real-time runs' folders here "
+                        "(default: a temporary folder)")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
-    if args.quick:
-        fig = bench(QUICK_FRAMES, QUICK_PASSES, QUICK_REPEATS)
-    else:
-        fig = bench(FULL_FRAMES, FULL_PASSES, FULL_REPEATS)
-    print("\n".join(report(fig)))
+    # A stop signal unwinds like Ctrl-C, so that the simulator and the busy processes are
+    # stopped on the way out.
+    with on_stop_signals(raise_keyboard_interrupt):
+        if args.quick:
+            fig = bench(QUICK_FRAMES, QUICK_PASSES, QUICK_REPEATS)
+        else:
+            fig = bench(FULL_FRAMES, FULL_PASSES, FULL_REPEATS)
+        print("\n".join(report(fig)), flush=True)
+        live, failed = None, []
+        if not args.no_pty:
+            live = bench_live(QUICK_LIVE_FRAMES if args.quick else FULL_LIVE_FRAMES,
+                              busy=not args.quick, keep=args.pty_out)
+            print("\n".join(live_report(live, fig["loop"]["simulated_wire_ms_per_frame"])))
+            if args.pty_out:
+                print(f"(recording and run folders in {args.pty_out})")
+            failed = [r["label"] for r in live["runs"] if r["error"] is not None]
     elapsed = time.perf_counter() - t0
     print(f"\n(total {elapsed:.1f} s)")
     if args.json:
         figures = {"quick": args.quick, "seed": SEED, "noise_std": NOISE_STD, **fig,
+                   "realtime": live,
                    "opencv": cv2.__version__, "opencv_threads": cv2.getNumThreads(),
                    "elapsed_s": elapsed}
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n")
-    return 0
-
+    if failed:
+        print(f"real-time run(s) failed: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -298,3 +298,31 @@ def test_fictrac_output_reads_back_as_the_runs_own_figures(run: dict[str, Any]) 
         np.testing.assert_allclose(dat[:, column], whole[:, column], rtol=1e-9, atol=1e-12,
                                    err_msg=f"column {column + 1}")
     assert np.ptp(dat[:, 14]) > 0 or np.ptp(dat[:, 15]) > 0  # the ball rolled
+
+
+def test_a_wheel_read_that_fails_keeps_the_last_positions_then_ends_the_run() -> None:
+    """Listing 1 logs "groupSyncRead getdata failed" and goes on; so does the node, for up to
+    MAX_MISSED_READS frames in a row (the positions kept, the misses counted), then it stops
+    the run rather than turn the ball blind."""
+    from servolab.errors import ServolabError
+    from servolab.robots.treadmill.node import MAX_MISSED_READS
+
+    sim = Simulation()
+    bus = Bus.open("emu://xm430-w210:100-102", baudrate=1_000_000, simulation=sim)
+    frame = render_fly(FlyPose(420.0, 250.0, 0.4))[0]
+    with Context.open(clock=VirtualClock()) as context:
+        node = TreadmillNode(context, bus)
+        CameraNode(context, lambda: frame, frame_rate=66.0)
+        context.spin_until(lambda: node.frames >= 3, timeout=1.0)
+        kept = node._last_present
+        motor = bus.emulator.unplug(101)
+        context.spin_until(lambda: node.missed_reads >= 2, timeout=1.0)
+        assert node._last_present == kept and node.timing()["wheel_reads_missed"] >= 2
+        bus.emulator.add(motor)  # back: reads work again
+        missed = node.missed_reads
+        context.spin_until(lambda: node._missed_in_a_row == 0, timeout=1.0)
+        assert node.missed_reads == missed
+        bus.emulator.unplug(101)
+        with pytest.raises(ServolabError, match=rf"for {MAX_MISSED_READS + 1} frame\(s\) in a "
+                           "row"):
+            context.spin_for(1.0)

@@ -39,11 +39,13 @@ import numpy as np
 import numpy.typing as npt
 
 from ...dynamixel.bus import Bus
+from ...dynamixel.errors import CommError
 from ...middleware.context import Context
 from ...middleware.images import IMAGE, ImageMessageError, image_fields, mono8_of
 from ...middleware.messages import seconds_of, time_of
 from ...middleware.node import Node
 from ...vision.fly_tracker import FlySighting, draw_overlay, track_fly
+from ..errors import RobotError
 from .config import FRAME_RATE, RigConfig
 from .control import FlyCommand, fly_command
 from .fictrac import FicTracIntegrator, FicTracWriter, multiarray_value
@@ -55,6 +57,9 @@ TREADMILL_IDS = (100, 101, 102)
 TREADMILL_BAUDRATE = 1_000_000
 #: the thesis's wheel motors (XM430-W210, seed 002 section 2)
 TREADMILL_MODEL = "XM430-W210"
+#: frames in a row that may keep the last wheel positions before the run ends (a third of a
+#: second at 66 frames/s)
+MAX_MISSED_READS = 22
 #: Listing 1's image_pub_: what the tracker saw, drawn on the frame
 OVERLAY_TOPIC = "/image_converter/output_video"
 __all__ = ["FRAME_RATE", "OVERLAY_TOPIC", "TREADMILL_BAUDRATE", "TREADMILL_IDS", "Treadmill",
@@ -139,6 +144,9 @@ class TreadmillNode(Node):
         self.handled: list[float] = []
         self._first_stamp: float | None = None
         self._sequence = -1  # the last frame's camera frame number
+        self.missed_reads = 0
+        self._missed_in_a_row = 0
+        self._last_present: dict[int, float] | None = None
         self._motor_init()
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.pose = self.create_publisher(POSE2D, "/fly/pose", 10)
@@ -197,7 +205,7 @@ class TreadmillNode(Node):
         command = fly_command(sighting, sampling_us, self.controller)
         raw = {i: int(v) for i, v in zip(self.ids, command.wheel_speeds, strict=True)}
         self.bus.sync_write("goal_velocity", raw, raw=True)
-        present = self.bus.sync_read("present_position", self.ids, raw=True)
+        present = self._present_positions()
         positions = [float(present[i]) for i in self.ids]
         loop_us = (time.perf_counter() - started) * 1e6
         self.last = (sighting, command)
@@ -233,12 +241,40 @@ class TreadmillNode(Node):
                 ros_stamp, "camera")))
         self.frames += 1
 
+    def _present_positions(self) -> dict[int, float]:
+        """The wheels' positions: one SYNC_READ, and once more if it went unanswered. A frame
+        whose reads both fail keeps the last positions read, as Listing 1 goes on after its
+        ``groupSyncRead getdata failed`` (logged, counted in :meth:`timing`); more than
+        :data:`MAX_MISSED_READS` such frames in a row end the run, since the ball is then
+        turned blind."""
+        for attempt in (1, 2):
+            try:
+                present = self.bus.sync_read("present_position", self.ids, raw=True)
+            except CommError as error:
+                if attempt == 1:
+                    continue
+                if self._last_present is None or self._missed_in_a_row >= MAX_MISSED_READS:
+                    raise RobotError(f"treadmill: no positions from the wheels for "
+                                     f"{self._missed_in_a_row + 1} frame(s) in a row: "
+                                     f"{error}") from error
+                self.missed_reads += 1
+                self._missed_in_a_row += 1
+                if self._missed_in_a_row == 1:
+                    self.get_logger().error(f"SYNC_READ of the wheels failed twice ({error}); "
+                                            "this frame keeps the last positions")
+                return self._last_present
+            self._missed_in_a_row = 0
+            self._last_present = present
+            return present
+        raise AssertionError("unreachable")
+
     def timing(self) -> dict[str, Any]:
         """The run's frame timing (:func:`.timing.frame_timing`) and the share of frames
         with the fly found."""
         out = frame_timing(self.stamps, self.handled, frame_rate=self.frame_rate,
                            late_after=self.rig.late_after_s)
         out["frames_refused"] = self.refused
+        out["wheel_reads_missed"] = self.missed_reads
         out["fly_found_share"] = (self.frames_with_fly / self.frames if self.frames
                                   else math.nan)
         return out
