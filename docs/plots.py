@@ -121,28 +121,28 @@ FIGURES: dict[str, Figure] = {
     "navigation.calibration_rms_px": Figure(
         "docs/navigation.md", 0.01, lambda v, t: f"RMS error of {v:.2f} ± {t:g} px", _NAVIGATE),
     "treadmill.mean_distance_error_mm": Figure(
-        "docs/treadmill.md", 0.35, lambda v, t: f"| {v:.3f} ± {t:g} mm |", _FLYBALL, True),
+        "docs/treadmill.md", 0.25, lambda v, t: f"| {v:.3f} ± {t:g} mm |", _FLYBALL, True),
     "treadmill.mean_angle_error_deg": Figure(
-        "docs/treadmill.md", 2.1, lambda v, t: f"| {v:.2f} ± {t:g}° |", _FLYBALL, True),
+        "docs/treadmill.md", 2.2, lambda v, t: f"| {v:.2f} ± {t:g}° |", _FLYBALL, True),
     "treadmill.response_delay_ms": Figure(
-        "docs/treadmill.md", 5.0, lambda v, t: f"| {v:.0f} ± {t:g} ms |", _FLYBALL, True),
+        "docs/treadmill.md", 4.0, lambda v, t: f"| {v:.0f} ± {t:g} ms |", _FLYBALL, True),
     "treadmill.frames": Figure(
         "docs/treadmill.md", 0.0, lambda v, t: f"| {_grouped(v)}, all", _FLYBALL, True),
     "treadmill.frames_with_fly": Figure(
         "docs/treadmill.md", 0.0, lambda v, t: f"all {_grouped(v)} |", _FLYBALL, True),
     "treadmill.sphere_path_mm": Figure(
-        "docs/treadmill.md", 40.0, lambda v, t: f"fictive walk, {v:.0f} ± {t:g} mm long",
+        "docs/treadmill.md", 21.0, lambda v, t: f"fictive walk, {v:.0f} ± {t:g} mm long",
         _FLYBALL, True),
     "treadmill.robot_path_m": Figure(
-        "docs/treadmill.md", 2.7, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
+        "docs/treadmill.md", 2.2, lambda v, t: f"from its encoder log: {v:.2f} ± {t:g} m",
         _FLYBALL, True),
     "treadmill.path_disparity": Figure(
-        "docs/treadmill.md", 0.2, lambda v, t: f"Here it is {v:.3f} ± {t:g}", _FLYBALL, True),
+        "docs/treadmill.md", 0.15, lambda v, t: f"Here it is {v:.3f} ± {t:g}", _FLYBALL, True),
     "treadmill.per_wheel_disparity": Figure(
-        "docs/treadmill.md", 0.55, lambda v, t: f"| per-wheel (Listing 4) | {v:.3f} ± {t:g} |",
+        "docs/treadmill.md", 0.31, lambda v, t: f"| per-wheel (Listing 4) | {v:.3f} ± {t:g} |",
         _FLYBALL + " --clamp per-wheel", True),
     "treadmill.per_wheel_robot_path_m": Figure(
-        "docs/treadmill.md", 3.2, lambda v, t: f"| {v:.2f} ± {t:g} m |",
+        "docs/treadmill.md", 2.5, lambda v, t: f"| {v:.2f} ± {t:g} m |",
         _FLYBALL + " --clamp per-wheel", True),
 }
 
