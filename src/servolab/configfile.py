@@ -459,8 +459,8 @@ def overridden(root: ConfigValue, assignments: Collection[str], *,
     Why here: a rig file and the command line are two ways to say one thing, so they go
     through one reader. An override is a small document of its own, located at
     ``--set key.path=value``, so a wrong one is refused by the consumer's own checks, naming
-    what was typed (``--set tracker.thresold=60:1: unknown key 'tracker.thresold' (did you
-    mean 'tracker.threshold'?)``). A key path that is no mapping's key is added, and refused
+    what was typed (``--set tracker.thresold=60:1: tracker: unknown key 'thresold' (did you
+    mean 'threshold'?)``). A key path that is no mapping's key is added, and refused
     there."""
     result = root
     for assignment in assignments:
@@ -474,6 +474,12 @@ def overridden(root: ConfigValue, assignments: Collection[str], *,
         for part in reversed(parts):
             document = f"{{{part.strip()}: {document if document.strip() else 'null'}}}"
         override = load_text(document, source, error=error)
+        level = override
+        for part in parts:  # one value at the path, not more keys smuggled in beside it
+            if not isinstance(level, ConfigMapping) or list(level) != [part.strip()]:
+                raise error(source, 0, name, "must set one value: quote a value holding "
+                            "',' or ':' (--set 'key.path=\"a, b\"')")
+            level = level.require(part.strip())
         if not isinstance(result, ConfigMapping):
             raise error(source, 0, name, f"cannot be set: {result.describe()} is not a "
                         "mapping of keys")

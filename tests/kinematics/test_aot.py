@@ -275,3 +275,13 @@ def test_from_matrix_reproduces_the_listings_motor_command() -> None:
     assert thesis.wheel_speeds(dxm, dym, 0.2 * sf) * k == pytest.approx(listing, rel=1e-12)
     assert thesis.ball_velocity(thesis.wheel_speeds(dxm, dym, 0.2)) == pytest.approx(
         [float(dxm), float(dym), 0.2])
+
+
+def test_listing_matrix_is_the_listings_for_the_thesis_rig() -> None:
+    """listing_matrix (the rig file's ``matrix: geometry``) gives Listing 1's J1M for
+    section 3's rig (SI in, as the rig file says it), and scales with the ball for others."""
+    from servolab.kinematics.aot import listing_matrix
+
+    assert listing_matrix(AotGeometry()) == pytest.approx(THESIS_J1M, rel=2e-6, abs=1e-12)
+    bigger = listing_matrix(AotGeometry(ball_radius=0.0762))
+    assert not np.allclose(bigger, THESIS_J1M, rtol=1e-3)

@@ -26,8 +26,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera", metavar="INDEX|DEVICE", help="track a live camera (an OpenCV "
                    "device index such as 0, or a path such as /dev/video0) until stopped "
                    "with Ctrl-C; each frame is stamped when it was captured")
-    p.add_argument("--size", type=_size, metavar="WxH", help="with --frames BIN or --camera: "
-                   "the frames' size (default the rig camera's, 640x376)")
+    p.add_argument("--size", type=_size, metavar="WxH", help="the camera's frame size, for "
+                   "--frames BIN or --camera: short for --set camera.width=W --set "
+                   "camera.height=H (default the rig's, 640x376; give controller.target too)")
     p.add_argument("--port", metavar="PORT", help="with --frames or --camera: the "
                    "treadmill's real motors (IDs 100-102, Protocol 2.0, 1 Mbps) on this "
                    "port: " + PORT_HELP + "; default emulated")
@@ -122,18 +123,28 @@ def _run(args: argparse.Namespace) -> int:
     if args.size is not None and not real:
         raise UsageError("--size is the size of --frames BIN or --camera frames; the "
                          "simulated camera's is the rig's (--set camera.width=...)")
+    if args.record_video is not None:
+        from pathlib import Path
+
+        from ..vision.frame_writer import SUFFIXES
+
+        if Path(args.record_video).suffix.lower() not in SUFFIXES:
+            raise UsageError(f"--record-video {args.record_video}: the file's suffix says "
+                             f"how it is written: one of {', '.join(SUFFIXES)}")
+    if args.size is not None:
+        args.overrides += [f"camera.width={args.size[0]}", f"camera.height={args.size[1]}"]
     if args.port is not None and not real:
         raise UsageError("--port drives the real treadmill, which needs real frames: give "
                          "--frames or --camera too (the simulated fly is on a simulated ball)")
     rig = load_rig(args.rig, args.overrides)  # a bad rig: before a run folder
-    size = args.size or rig.camera.size
+    size = rig.camera.size
     if args.frames is not None:
         from ..vision.frame_source import FrameSource
 
         FrameSource.open(args.frames, size=size).close()  # a bad recording, likewise
     if real:
         with RunFolder.create("flyball", args.out) as run:
-            run_recorded(run, args.frames, camera=_device(args.camera), port=args.port,
+            run_recorded(run, args.frames, camera=args.camera, port=args.port,
                          fps=args.fps, show_progress=not args.no_progress, rig=rig,
                          size=size, record_video=args.record_video)
     else:
@@ -143,11 +154,6 @@ def _run(args: argparse.Namespace) -> int:
                         wheel_clamp=args.clamp, rig=rig, record_video=args.record_video)
     print(f"run folder: {run.path}")
     return 0
-
-
-def _device(camera: str | None) -> int | str | None:
-    """An OpenCV camera as given: a number is a device index, anything else a path."""
-    return int(camera) if camera is not None and camera.isdigit() else camera
 
 
 COMMAND = Command(

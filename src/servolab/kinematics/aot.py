@@ -181,6 +181,19 @@ def inverse_jacobian_m(geometry: AotGeometry) -> FloatArray:
     return np.asarray(np.linalg.solve(j, m_matrix(geometry.wheel_radius)), dtype=np.float64)
 
 
+def listing_matrix(geometry: AotGeometry) -> FloatArray:
+    """``J^-1 M`` as Listing 1's ``J1M`` was made (module docstring): (3d) for ``geometry``
+    in millimetres with (3c)'s prefactor ``R_1z / |R|^2`` left out. For section 3's rig this is
+    :data:`THESIS_J1M` to its six printed digits, so a rig of other dimensions gets the gains
+    the thesis's controller had (``K``, ``SF`` and pixel errors as inputs)."""
+    mm = AotGeometry(ball_radius=geometry.ball_radius * 1000.0,
+                     wheel_radius=geometry.wheel_radius * 1000.0, tilt=geometry.tilt,
+                     wheel_angles=geometry.wheel_angles,
+                     camera_to_motor=geometry.camera_to_motor)
+    r1z = float(contact_points(mm)[0, 2])
+    return np.asarray(inverse_jacobian_m(mm) * (r1z / mm.ball_radius**2), dtype=np.float64)
+
+
 @dataclass(frozen=True, eq=False)
 class AotKinematics:
     """A ``J^-1 M`` matrix and its inverse: ball-surface velocity <-> wheel speeds.

@@ -42,14 +42,13 @@ from ..dynamixel.plant import ServoPlant
 from ..kinematics.aot import CAMERA_HANDEDNESS, AotGeometry, AotKinematics, surface_in_camera
 from ..kinematics.ball_rolling import RollingBall, check_slip
 from ..kinematics.errors import KinematicsValueError
+from ..vision.fly_tracker import PX_PER_MM
 from .errors import SimulationError
 from .floor import RampedWheel
 from .fly_walk import FlyWalker
 from .simulation import Simulation
 from .world import World
 
-#: seed 002 section 3.2: 38.4 px per mm (Listing 1: 38.40983291722681)
-PX_PER_MM = 38.40983291722681
 #: the camera's image (Listing 1, Listing 3's format7 ROI)
 IMAGE_SIZE = (640, 376)
 #: how :class:`BallWorld` turns wheel speeds into the ball's motion (see the module docstring)

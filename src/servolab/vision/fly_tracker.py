@@ -46,6 +46,9 @@ POLARITIES = ("bright", "dark")
 
 #: Listing 1's ``target_location``: the centre of its 640 x 376 frame, heading 0 (section 3.2).
 DEFAULT_TARGET = (320.0, 188.0)
+#: the thesis rig's image scale, px per mm of the ball's surface (seed 002 section 3.2: 38.4;
+#: Listing 1 multiplies by 38.40983291722681)
+PX_PER_MM = 38.40983291722681
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,17 @@ def test_set_changes_one_value_and_keeps_the_rest() -> None:
     assert rig.source.endswith("--set controller.matrix=[[1, 0, 0], [0, 2, 0], [0, 0, 3]]")
 
 
+def test_another_ball_gets_its_own_matrix_made_as_listing_1s_was() -> None:
+    """``matrix: geometry`` is J1M made for the ball section's rig (kinematics.aot.
+    listing_matrix): for the thesis's ball, Listing 1's own numbers (six printed digits);
+    for a 6-inch ball, other ones."""
+    thesis = load_rig(overrides=["controller.matrix=geometry"])
+    np.testing.assert_allclose(thesis.controller.matrix, THESIS_J1M, rtol=2e-6, atol=1e-12)
+    bigger = load_rig(overrides=["ball.radius=0.0762", "controller.matrix=geometry"])
+    assert not np.allclose(bigger.controller.matrix, THESIS_J1M, rtol=1e-3)
+    assert load_rig(overrides=["fictrac.cam_to_lab=[0, 0, 3.14]"]).cam_to_lab == (0, 0, 3.14)
+
+
 def test_a_copied_rig_file_is_read(tmp_path: Path) -> None:
     mine = tmp_path / "my_rig.yaml"
     mine.write_text(SHIPPED_RIG.read_text().replace("frame_rate: 66.0", "frame_rate: 120.0"))
@@ -72,6 +83,11 @@ def test_a_copied_rig_file_is_read(tmp_path: Path) -> None:
     (["run.lost_fly_share=2"], "--set run.lost_fly_share=2:1: ", "[0, 1]"),
     (["camera.frame_rate=true"], "--set camera.frame_rate=true:1: ", "finite number"),
     (["threshold"], "--set threshold", "KEY.PATH=VALUE"),
+    (["tracker.threshold=60, polarity: dark"], "--set tracker.threshold=60, polarity",
+     "must set one value"),
+    (["camera.angle_to_motors=720"], "--set camera.angle_to_motors=720:1: ", "-180..180"),
+    (["ball.radius=0.0762"], str(SHIPPED_RIG), "listing1 is the thesis rig's J1M"),
+    (["fictrac.cam_to_lab=[0, 0]"], "--set fictrac.cam_to_lab=", "must be 3 numbers"),
 ])
 def test_a_wrong_value_names_where_it_was_written(overrides: list[str], where: str,
                                                     says: str) -> None:

@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from servolab.middleware.context import Context
@@ -62,10 +63,11 @@ def test_camera_pc_and_robot_in_two_processes(tmp_path: Path) -> None:
     assert 0 < timing["achieved_fps"] <= 66.0 * 1.1
     assert timing["interval_ms"]["p50"] <= timing["interval_ms"]["p99"] <= \
         timing["interval_ms"]["max"]
-    assert 0 <= timing["late_frames"] <= timing["frames"]
-    assert timing["camera_frames"] == timing["frames"] + timing["dropped_frames"]
-    # the log's first value is the camera's frame number: it counts the dropped ones too
-    assert fly["frame"][-1] - fly["frame"][0] == timing["camera_frames"] - 1
+    assert timing["latency_ms"]["p50"] >= 0.0  # stamps are capture times, on the same clock
+    # the log's first value is the camera's frame number (its node's own count): it only
+    # goes up, and its span is what the camera took, handled or dropped
+    assert np.all(np.diff(fly["frame"]) >= 1)
+    assert fly["frame"][-1] - fly["frame"][0] + 1 == timing["camera_frames"]
     assert "frames/s, interval p99" in said and "late" in said
 
 

@@ -143,7 +143,7 @@ def test_recorded_frames_are_tracked_one_record_each(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("fps", "option", "time_base"), [
-    (30.0, None, "the video's own (CAP_PROP_FPS)"),
+    (30.0, None, "the video's own: video CAP_PROP_POS_MSEC"),
     (30.0, "25", "given (--fps)"),
 ])
 def test_a_video_plays_at_its_own_frame_rate(tmp_path: Path, fps: float, option: str | None,
@@ -293,11 +293,52 @@ def test_fictrac_output_reads_back_as_the_runs_own_figures(run: dict[str, Any]) 
     # taken when the executor gets to its timer: up to a bus transaction late, under 1 ms)
     assert np.allclose(np.diff(stamps), 1 / 66.0, atol=1e-3)
     np.testing.assert_allclose(dat[:, 23][1:], np.diff(dat[:, 21]), atol=1e-6)  # column 24
+    # the integrated position is the analysis's own sphere path (Figure 20, eq. 3b), in rad of
+    # ball rotation: x rad * r = x m, FicTrac's y the path's -y (FicTrac's frame, see fictrac.py)
+    from servolab.kinematics.aot import AotGeometry
+    from servolab.robots.treadmill.analysis import fictive_path, sphere_motion
+
+    path = fictive_path(sphere_motion(fly, AotGeometry())[2])
+    radius = AotGeometry().wheel_radius
+    np.testing.assert_allclose(dat[:, 14] * radius, path[:, 0], atol=1e-7)
+    np.testing.assert_allclose(-dat[:, 15] * radius, path[:, 1], atol=1e-7)
     whole = fictrac_rows(fly)
     for column in (1, 2, 3, 8, 9, 10, 14, 15, 16, 18, 19, 20):
         np.testing.assert_allclose(dat[:, column], whole[:, column], rtol=1e-9, atol=1e-12,
                                    err_msg=f"column {column + 1}")
     assert np.ptp(dat[:, 14]) > 0 or np.ptp(dat[:, 15]) > 0  # the ball rolled
+
+
+def test_dropped_and_late_frames_are_counted_exactly() -> None:
+    """A source whose numbering skips 3 and 4 (frames lost before the node) and whose frame 6
+    was stamped 5 ms before it could be read: 2 dropped (from the camera's numbers, which its
+    node passes on), 1 late against late_after = 0.2 frame periods (3 ms), and the frames'
+    numbers are the source's."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from servolab.robots.treadmill.config import RigConfig
+
+    period = 1 / 66.0
+    image = render_fly(FlyPose(330.0, 190.0, 0.1))[0]
+    numbers = [0, 1, 2, 5, 6, 7, 8]
+    frames = [SimpleNamespace(image=image, sequence=k,
+                              stamp=i * period - (0.005 if k == 6 else 0.0))
+              for i, k in enumerate(numbers)]
+    source = SimpleNamespace(read=lambda: frames.pop(0) if frames else None)
+    sim = Simulation()
+    bus = Bus.open("emu://xm430-w210:100-102", baudrate=1_000_000, simulation=sim)
+    with Context.open(clock=VirtualClock()) as context:
+        reader = CameraNode(context, source, frame_rate=66.0)
+        node = TreadmillNode(context, bus, rig=replace(RigConfig(), late_after=0.2),
+                             camera=reader)
+        context.spin_until(lambda: reader.finished, timeout=1.0)
+        context.spin_for(0.05)
+        timing = node.timing()
+    assert node.sequences == numbers
+    assert (timing["frames"], timing["dropped_frames"], timing["camera_frames"]) == (7, 2, 9)
+    assert timing["late_frames"] == 1 and timing["latency_ms"]["max"] == pytest.approx(5.0)
+    assert reader.skipped == 2
 
 
 def test_a_wheel_read_that_fails_keeps_the_last_positions_then_ends_the_run() -> None:

@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from ...kinematics.aot import AotGeometry, AotKinematics, surface_in_camera
 from ...kinematics.diffdrive import DiffDrive
-from ...vision.fly_tracker import DEFAULT_MAX_AREA
+from ...vision.fly_tracker import DEFAULT_MAX_AREA, PX_PER_MM
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
@@ -73,7 +73,7 @@ class FlyAnalysis:
 
 
 def errors(fly: npt.NDArray[np.void], *, target: tuple[float, float] = (320.0, 188.0),
-           px_per_mm: float = 38.40983291722681, min_area: float = 100.0,
+           px_per_mm: float = PX_PER_MM, min_area: float = 100.0,
            max_area: float | None = DEFAULT_MAX_AREA
            ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
     """Per frame: distance error (mm), angle error (deg), and whether the fly was found (its
@@ -197,7 +197,7 @@ def analyze(fly: npt.NDArray[np.void], encoders: npt.NDArray[np.void], *,
             geometry: AotGeometry | None = None, drive: DiffDrive | None = None,
             min_area: float = 100.0, max_area: float | None = DEFAULT_MAX_AREA,
             target: tuple[float, float] = (320.0, 188.0),
-            px_per_mm: float = 38.40983291722681
+            px_per_mm: float = PX_PER_MM
             ) -> tuple[FlyAnalysis, dict[str, FloatArray]]:
     """The figures of chapter 3 (see the module docstring) and the series the plots draw;
     the defaults are the thesis's rig (a run passes its own, :func:`analysed_run`)."""

@@ -16,7 +16,7 @@ rig's geometry uses pi. The two differ by 2e-7 of the value.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -32,10 +32,10 @@ from ...configfile import (
     shipped,
 )
 from ...errors import ConfigFileError
-from ...kinematics.aot import MAX_CONDITION, THESIS_J1M, AotGeometry
+from ...kinematics.aot import MAX_CONDITION, THESIS_J1M, AotGeometry, listing_matrix
 from ...kinematics.errors import KinematicsValueError
 from ...vision.errors import VisionValueError
-from ...vision.fly_tracker import POLARITIES, FlyTrackerConfig
+from ...vision.fly_tracker import POLARITIES, PX_PER_MM, FlyTrackerConfig
 from ..errors import RobotValueError
 from .control import FlyControllerConfig
 
@@ -46,12 +46,13 @@ if TYPE_CHECKING:
 FRAME_RATE = 66.0
 #: Listing 1's pi (``limit_th = 3*3.141592/180``, ``thm = 20*3.141592/180``)
 LISTING_PI = 3.141592
-_SECTIONS = ("ball", "camera", "tracker", "controller", "run")
+_SECTIONS = ("ball", "camera", "tracker", "controller", "fictrac", "run")
 _BALL = ("radius", "wheel_radius", "tilt", "wheel_angles")
 _CAMERA = ("width", "height", "frame_rate", "px_per_mm", "angle_to_motors")
 _TRACKER = ("threshold", "polarity", "min_area", "max_area", "roi", "background_subtraction")
 _CONTROLLER = ("target", "dead_band_px", "dead_band_deg", "gain", "rotation_scale", "matrix")
 _RUN = ("lost_fly_share", "late_after")
+_FICTRAC = ("cam_to_lab",)
 
 
 class RigConfigError(ConfigFileError):
@@ -66,7 +67,7 @@ class CameraConfig:
     height: int = 376
     #: frames/s: what the camera delivers, the rate a frame's lateness is measured against
     frame_rate: float = FRAME_RATE
-    px_per_mm: float = 38.40983291722681
+    px_per_mm: float = PX_PER_MM
 
     @property
     def size(self) -> tuple[int, int]:
@@ -89,6 +90,8 @@ class RigConfig:
     lost_fly_share: float = 0.5
     #: frames: a frame handled more than this many frame periods after its capture is late
     late_after: float = 1.0
+    #: FicTrac's ``c2a_r``: the rotation vector (rad) from the camera's frame to the lab's
+    cam_to_lab: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: the file it was read from (and the overrides), for the run's summary
     source: str = ""
 
@@ -110,8 +113,7 @@ def load_rig(path: str | Path | None = None, overrides: Collection[str] = ()) ->
                      error=RigConfigError)
     rig = parse(top)
     shown = str(file) + "".join(f" --set {o}" for o in overrides)
-    return RigConfig(rig.geometry, rig.camera, rig.tracker, rig.controller,
-                     rig.lost_fly_share, rig.late_after, shown)
+    return replace(rig, source=shown)
 
 
 def _section(top: ConfigMapping, name: str, keys: tuple[str, ...]) -> ConfigMapping:
@@ -136,7 +138,11 @@ def parse(top: ConfigValue) -> RigConfig:
     controller_map = _section(mapping, "controller", _CONTROLLER)
     run = _section(mapping, "run", _RUN)
 
-    angle = camera_map.require("angle_to_motors").as_float()
+    angle_value = camera_map.require("angle_to_motors")
+    angle = angle_value.as_float()
+    if not -180.0 <= angle <= 180.0:
+        raise angle_value.error(f"key 'camera.angle_to_motors': must be within -180..180 deg, "
+                                f"not {angle:g}")
     tilt_value = ball.require("tilt")
     tilt = tilt_value.as_float()
     if not 0.0 < tilt < 90.0:
@@ -161,14 +167,24 @@ def parse(top: ConfigValue) -> RigConfig:
                           positive_float(camera_map.require("px_per_mm")))
 
     tracker = _tracker(tracker_map, camera)
-    controller = _controller(controller_map, camera, angle)
+    controller = _controller(controller_map, camera, angle, geometry)
+    fictrac = _section(mapping, "fictrac", _FICTRAC)
+    cam_to_lab = _floats(fictrac.require("cam_to_lab"), 3)
     share_value = run.require("lost_fly_share")
     share = share_value.as_float()
     if not 0.0 <= share <= 1.0:
         raise share_value.error(f"key 'run.lost_fly_share': must be a share in [0, 1], not "
                                 f"{share:g}")
     return RigConfig(geometry, camera, tracker, controller, share,
-                     positive_float(run.require("late_after")))
+                     positive_float(run.require("late_after")),
+                     (cam_to_lab[0], cam_to_lab[1], cam_to_lab[2]))
+
+
+def _same_rig(a: AotGeometry, b: AotGeometry) -> bool:
+    """The same ball and wheels, as far as J1M is concerned (not the camera's angle)."""
+    return bool(np.allclose([a.ball_radius, a.wheel_radius, a.tilt, *a.wheel_angles],
+                            [b.ball_radius, b.wheel_radius, b.tilt, *b.wheel_angles],
+                            rtol=1e-9, atol=1e-12))
 
 
 def _tracker(section: ConfigMapping, camera: CameraConfig) -> FlyTrackerConfig:
@@ -210,14 +226,22 @@ def _tracker(section: ConfigMapping, camera: CameraConfig) -> FlyTrackerConfig:
         raise section.error(f"tracker: {exc}") from None
 
 
-def _controller(section: ConfigMapping, camera: CameraConfig,
-                angle_deg: float) -> FlyControllerConfig:
+def _controller(section: ConfigMapping, camera: CameraConfig, angle_deg: float,
+                geometry: AotGeometry) -> FlyControllerConfig:
     matrix_value = section.require("matrix")
     if isinstance(matrix_value.plain(), str):
-        if matrix_value.as_str() != "listing1":
+        how = matrix_value.as_str()
+        if how not in ("listing1", "geometry"):
             raise matrix_value.error("key 'controller.matrix': must be listing1 (Listing 1's "
-                                     "J1M) or three rows of three numbers")
-        matrix = np.array(THESIS_J1M, dtype=np.float64)
+                                     "J1M), geometry (the same made for the ball section's "
+                                     "rig) or three rows of three numbers")
+        thesis = AotGeometry()
+        if how == "listing1" and not _same_rig(geometry, thesis):
+            raise matrix_value.error("key 'controller.matrix': listing1 is the thesis rig's "
+                                     "J1M, and the ball section is another rig: write "
+                                     "geometry (J1M made for it) or your own rows")
+        matrix = (np.array(THESIS_J1M, dtype=np.float64) if how == "listing1"
+                  else listing_matrix(geometry))
     else:
         rows = matrix_value.as_list()
         if len(rows) != 3:

@@ -33,7 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ...kinematics.aot import THESIS_J1M, camera_to_motor
-from ...vision.fly_tracker import FlySighting
+from ...vision.fly_tracker import PX_PER_MM, FlySighting
 from ..errors import RobotValueError
 
 FloatArray = npt.NDArray[np.float64]
@@ -54,7 +54,7 @@ class FlyControllerConfig:
     gain: float = 100.0                 #: K
     rotation_scale: float = 60.0        #: SF
     camera_to_motor: float = 20 * 3.141592 / 180
-    px_per_mm: float = 38.40983291722681
+    px_per_mm: float = PX_PER_MM
     matrix: FloatArray = field(default_factory=_thesis_matrix)
     #: the largest |goal_velocity| sent, in the motors' units (their velocity_limit)
     max_wheel_speed: float = 330.0

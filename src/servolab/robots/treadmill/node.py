@@ -33,7 +33,7 @@ import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -68,6 +68,14 @@ TWIST = "geometry_msgs/msg/Twist"
 POSE2D = "geometry_msgs/msg/Pose2D"
 JOINT_STATE = "sensor_msgs/msg/JointState"
 MULTIARRAY = "std_msgs/msg/Float64MultiArray"
+
+
+class SequenceSource(Protocol):
+    """A camera that says each frame's number by its stamp (:class:`~.camera_node.CameraNode`)."""
+
+    def sequence_at(self, stamp_ns: int) -> int | None: ...
+
+
 #: each frame's FicTrac columns (:mod:`.fictrac`), for FicTrac users' live tools
 FICTRAC_TOPIC = "/fictrac/data"
 
@@ -123,6 +131,7 @@ class TreadmillNode(Node):
     def __init__(self, context: Context, bus: Bus, *, rig: RigConfig | None = None,
                  log: FlyLogWriter | None = None, fictrac_log: FicTracWriter | None = None,
                  ids: tuple[int, int, int] = TREADMILL_IDS, image_topic: str = "/image_raw",
+                 camera: SequenceSource | None = None, epoch_offset: float = 0.0,
                  name: str = "image_converter", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -130,7 +139,7 @@ class TreadmillNode(Node):
                          remappings=remappings)
         self.rig = rig = rig or RigConfig()
         self.bus, self.log, self.fictrac_log, self.ids = bus, log, fictrac_log, ids
-        self.fictrac = FicTracIntegrator(rig.geometry)
+        self.fictrac = FicTracIntegrator(rig.geometry, cam_to_lab=rig.cam_to_lab)
         self.tracker = rig.tracker
         self.frame_rate = rig.camera.frame_rate
         self.controller = replace(rig.controller, max_wheel_speed=min(
@@ -139,9 +148,15 @@ class TreadmillNode(Node):
         self.frames_with_fly = 0
         self.refused = 0
         self.last: tuple[FlySighting, FlyCommand] | None = None
-        #: each handled frame's capture stamp and the time it was taken up (s)
+        #: each handled frame's capture stamp, its number in the camera's sequence and the
+        #: time it was taken up (s)
         self.stamps: list[float] = []
+        self.sequences: list[int] = []
         self.handled: list[float] = []
+        #: the in-process camera that numbers its frames (None: numbers from the stamps)
+        self.camera = camera
+        #: added to the node clock's stamps to make FicTrac's wall-clock columns (s)
+        self.epoch_offset = epoch_offset
         self._first_stamp: float | None = None
         self._sequence = -1  # the last frame's camera frame number
         self.missed_reads = 0
@@ -191,7 +206,10 @@ class TreadmillNode(Node):
             return
         if self._first_stamp is None:
             self._first_stamp = stamp
-        sequence = sequence_of(stamp, self._first_stamp, self.frame_rate, self._sequence)
+        told = None if self.camera is None else self.camera.sequence_at(
+            int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec))
+        sequence = (told if told is not None
+                    else sequence_of(stamp, self._first_stamp, self.frame_rate, self._sequence))
         self._sequence = sequence
         self._frame(image, stamp, sequence, previous, handled)
 
@@ -210,6 +228,7 @@ class TreadmillNode(Node):
         loop_us = (time.perf_counter() - started) * 1e6
         self.last = (sighting, command)
         self.stamps.append(stamp)
+        self.sequences.append(sequence)
         self.handled.append(handled)
         self.frames_with_fly += sighting.present
         # the listing's `seq_init` is the camera's sequence; its `secs` is taken when the
@@ -219,7 +238,7 @@ class TreadmillNode(Node):
                   *command.wheel_speeds, sighting.area, *positions, self.now()]
         if self.log is not None:
             self.log.write(record)
-        fictrac = self.fictrac.update(positions, stamp, sequence)
+        fictrac = self.fictrac.update(positions, stamp + self.epoch_offset, sequence)
         if self.fictrac_log is not None:
             self.fictrac_log.write(fictrac)
         ros_stamp = time_of(stamp)
@@ -271,8 +290,8 @@ class TreadmillNode(Node):
     def timing(self) -> dict[str, Any]:
         """The run's frame timing (:func:`.timing.frame_timing`) and the share of frames
         with the fly found."""
-        out = frame_timing(self.stamps, self.handled, frame_rate=self.frame_rate,
-                           late_after=self.rig.late_after_s)
+        out = frame_timing(self.stamps, self.handled, self.sequences,
+                           frame_rate=self.frame_rate, late_after=self.rig.late_after_s)
         out["frames_refused"] = self.refused
         out["wheel_reads_missed"] = self.missed_reads
         out["fly_found_share"] = (self.frames_with_fly / self.frames if self.frames

@@ -102,11 +102,11 @@ class TreadmillRig(Node):
             self.encoder_log = EncoderLogWriter(self.run.file("robot_encoders.bin"))
             self.fictrac_log = FicTracWriter(self.run.file(FICTRAC_FILE), overwrite=True)
             self.simulation.start_real_time()
-            self.node = TreadmillNode(context, self.bus, rig=self.rig, log=self.fly_log,
-                                      fictrac_log=self.fictrac_log)
             self.camera = CameraNode(context, SimulatedFlyCamera(
                 self.world, seed=seed, simulation=self.simulation),
                 frame_rate=self.rig.camera.frame_rate)
+            self.node = TreadmillNode(context, self.bus, rig=self.rig, log=self.fly_log,
+                                      fictrac_log=self.fictrac_log, camera=self.camera)
             self.tracker = MobrobDataTracker(context, self.encoder_log)
         except BaseException:
             self.simulation.stop_real_time()

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import math
 import shutil
+import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack, contextmanager, nullcontext
+from contextlib import ExitStack, contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -118,9 +119,10 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 FicTracWriter(fictrac_path, overwrite=True) as fictrac_log, \
                 Context.open(clock=sim) as context:
             try:
-                CameraNode(context, camera, frame_rate=rig.camera.frame_rate, record=video)
+                reader = CameraNode(context, camera, frame_rate=rig.camera.frame_rate,
+                                    record=video)
                 node = TreadmillNode(context, aot, rig=rig, log=fly_log,
-                                     fictrac_log=fictrac_log)
+                                     fictrac_log=fictrac_log, camera=reader)
                 BaseNode(context, base)
                 tracker = MobrobDataTracker(context, encoder_log)
                 Recorder(context, str(bag), list(RECORDED))
@@ -194,7 +196,9 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
         frame_rate = source.frame_rate or rig.camera.frame_rate
         time_base = "the camera's capture times"
     elif source.frame_rate is not None:
-        frame_rate, time_base = source.frame_rate, "the video's own (CAP_PROP_FPS)"
+        frame_rate = source.frame_rate
+        time_base = (f"the video's own: {source.stamps}" if source.stamps is not None
+                     else "the video's own (CAP_PROP_FPS)")
     else:
         frame_rate = rig.camera.frame_rate
         time_base = "assumed: the rig camera's frame_rate (the recording says none)"
@@ -236,10 +240,16 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                         tqdm(total=len(source) or None, unit="frame",
                              disable=not show_progress, leave=False) as bar:
                     try:
+                        # FicTrac's timestamp is wall-clock ms (doc/data_header.txt) where the
+                        # run keeps the wall's time; simulated time otherwise
                         node = TreadmillNode(context, bus, rig=rig, log=fly_log,
-                                             fictrac_log=fictrac_log)
+                                             fictrac_log=fictrac_log,
+                                             epoch_offset=(time.time() - clock.now()
+                                                           if live or port else 0.0))
                         reader = CameraNode(context, source, frame_rate=frame_rate, live=live,
-                                            record=video, source_stamps=fps is None)
+                                            record=video, source_stamps=fps is None,
+                                            pace=live and Path(str(camera)).is_file())
+                        node.camera = reader
                         Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
                                                      "/treadmill/joint_states"])
                         while not reader.finished:
@@ -250,6 +260,10 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                         context.spin_for(2.0 / frame_rate)  # the last frame is handled
                         if reader.error is not None:
                             raise reader.error
+                        if reader.camera_stopped:
+                            summary.setdefault("warnings", []).append(
+                                f"camera {camera} stopped delivering frames after "
+                                f"{reader.published}; the run ended there")
                     except BaseException as error:  # a bad frame mid-video, a stop
                         ending.error = error
                     late = way_out.enter_context(stops_deferred())  # not cut short
@@ -285,6 +299,8 @@ def _video(path: str | Path | None, rig: RigConfig) -> Iterator[Any]:
     from ...vision.frame_writer import FrameWriter
 
     with FrameWriter.open(path, rig.camera.size, rig.camera.frame_rate) as writer:
+        if writer.note is not None:
+            print(f"warning: {writer.note}")
         yield writer
 
 
@@ -292,8 +308,7 @@ def _video(path: str | Path | None, rig: RigConfig) -> Iterator[Any]:
 def _real_time(sim: Any) -> Iterator[None]:
     """The emulated motors in real time, beside a live camera."""
     if sim is None:
-        with nullcontext():
-            yield
+        yield
         return
     sim.start_real_time()
     try:
