@@ -175,19 +175,25 @@ def test_walk_finishes_in_double_support(tmp_path: Path, sig: signal.Signals,
     assert mcap_messages(run / "walk_bag")["/controller_m14/command"] > 0
 
 
-@pytest.mark.parametrize("sig", SIGNALS)
-def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals, busy_cpu: None) -> None:
-    """The treadmill's three XM430-W210 at 1 Mbps (Protocol 2.0), tracking a recording at
-    the camera's 66 frames/s: stopped mid-recording, goal velocity 0 and torque off."""
-    import cv2
-
+@pytest.fixture(scope="module")
+def fly_frames(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """9 s of frames at 66 frames/s, the fly off-centre so that the wheels turn, as the
+    thesis's raw Fly_Image.bin (made once for the three signals)."""
     from servolab.vision.fly_render import FlyPose, render_fly
 
-    frames = tmp_path / "frames"
-    frames.mkdir()
-    for k in range(600):  # 9 s at 66 frames/s: the fly off-centre, so the wheels turn
-        image, _ = render_fly(FlyPose(420.0 - 0.1 * k, 250.0, 0.4))
-        cv2.imwrite(str(frames / f"{k:04d}.png"), image)
+    frames = tmp_path_factory.mktemp("fly") / "Fly_Image.bin"
+    with frames.open("wb") as out:
+        for k in range(600):
+            out.write(render_fly(FlyPose(420.0 - 0.1 * k, 250.0, 0.4))[0].tobytes())
+    return frames
+
+
+@pytest.mark.parametrize("sig", SIGNALS)
+def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals, busy_cpu: None,
+                                     fly_frames: Path) -> None:
+    """The treadmill's three XM430-W210 at 1 Mbps (Protocol 2.0), tracking a recording at
+    the camera's 66 frames/s: stopped mid-recording, goal velocity 0 and torque off."""
+    frames = fly_frames
     run = tmp_path / "run"
     with sim_process("--motors", "xm430-w210:100-102", "--baud", "1000000",
                      out_dir=tmp_path / "sim") as (pty, _), \
