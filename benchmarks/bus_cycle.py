@@ -45,11 +45,33 @@ better than the absolute figures.
 the host's time per cycle (the USB latency aside): achieved rate = 1 / (wire + host), given as
 a share of the wire limit 1 / wire, for servolab and for the SDK.
 
-Goals: host CPU at or below the SDK's for every operation; a cycle rate >= 95 % of the wire
-limit on every bus (return delay 0, the hardest case). The report says which are met, and why
-not where not.
+**4. The pty server on a loaded machine.** ``servolab sim --pty`` stands in for a bus for any
+program that opens a serial port (the SDK, a CI job). One busy process per core loads the
+machine; a client PINGs one emulated XM430-W210 at 57600 bps through the pty, and each reply is
+timed against when the modelled wire says it is due (request, return delay and status crossed:
+4.67 ms after the write). Three servers take turns, each in a process of its own: a bare Python
+responder with the same timing model and nothing else (no emulator, no simulation thread, no
+lock: the anchor), ``servolab sim`` at default priority (as a CI runner without the right to
+raise it has it) and ``servolab sim`` as it runs itself (nice -10 and a real-time serving
+thread where the OS allows). Per server: how late it handed each reply over by its own clock
+(p50, p99, max) and how late the client had it (its own wake-up included), with the client's
+p99 over the anchor's.
 
-Run: ``.venv/bin/python benchmarks/bus_cycle.py [--cycles N] [--rounds R] [--json PATH]``.
+**5. Scan of a mixed bus.** ``servolab scan`` with no options (both protocols at the factory
+rates, 57600 and 1 Mbps: a 2.0 broadcast PING per rate, a 1.0 PING per ID spaced by wire time)
+of eight motors, X-series, XL-320, RX-28, MX-28 and AX-12A, on one emulated bus that mixes 1.0
+and 2.0, on the virtual wire with the adapter's latency timer taken as 16 ms: its wire time,
+beside the SDK's own search of the same bus on the same wire in the same run (2.0
+``broadcastPing``, then 1.0 ``ping`` of every ID, each allowed the SDK's packet timeout), as a
+ratio; and the same scan through a pty at real wire speed (wall clock; not with ``--no-pty``).
+
+Goals: host CPU at or below the SDK's for every operation; a cycle rate >= 95 % of the wire
+limit on every bus (return delay 0, the hardest case); the pty server hands 99 % of its replies
+over within the return delay + 1 ms on the loaded machine; the default scan of the mixed bus
+under 10 s. The report says which are met, and why not where not.
+
+Run: ``.venv/bin/python benchmarks/bus_cycle.py [--cycles N] [--rounds R] [--json PATH]
+[--pty-pings N] [--pty-blocks B] [--load P] [--no-pty]``.
 """
 
 from __future__ import annotations
@@ -58,9 +80,11 @@ import argparse
 import gc
 import json
 import math
+import os
 import platform
 import statistics
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -904,9 +928,468 @@ def rates(config: Config, wire: list[dict[str, Any]], cpu: Mapping[str, Any]
     return rows
 
 
+# -- 4. the pty server's reply latency -------------------------------------------------------------
+PTY_MOTORS = "xm430-w210:1"   # one XM430-W210, ID 1, factory return delay 250 (0.5 ms)
+PTY_BAUD = 57_600
+PTY_RETURN_DELAY = FACTORY_RETURN_DELAY * 2e-6
+PTY_GOAL_S = 1e-3             # a reply handed over within the return delay + 1 ms
+PTY_LOST_S = 0.1              # a ping with no whole reply by then is counted lost
+
+#: The anchor: a responder as bare as Python allows, in a process of its own: no emulator, no
+#: simulation thread, no lock. It answers the one PING with the one status on the server's
+#: own timing model (the reply handed over once the request, the return delay and the reply
+#: have crossed the wire, counted from when the request was read), waiting with
+#: time.sleep; it prints how late it handed each reply over when its stdin closes.
+BARE_RESPONDER = r'''
+import json, os, pty, select, sys, termios, time, tty
+master, slave = pty.openpty()
+tty.setraw(slave, termios.TCSANOW)
+print(os.ttyname(slave), flush=True)
+request, reply = bytes.fromhex(sys.argv[1]), bytes.fromhex(sys.argv[2])
+wait = (len(request) + len(reply)) * 10 / float(sys.argv[3]) + float(sys.argv[4])
+late, buf = [], b""
+while True:
+    ready = select.select([master, sys.stdin], [], [])[0]
+    if sys.stdin in ready:
+        break
+    arrival = time.monotonic()
+    buf += os.read(master, 4096)
+    while request in buf:
+        buf = buf[buf.index(request) + len(request):]
+        due = arrival + wait
+        left = due - time.monotonic()
+        if left > 0:
+            time.sleep(left)
+        os.write(master, reply)
+        late.append(time.monotonic() - due)
+print(json.dumps(late), flush=True)
+'''
+
+#: ``servolab sim`` without raising its priority: as a CI runner without the right to do so
+#: (not root, no CAP_SYS_NICE) runs it.
+SIM_DEFAULT_PRIORITY = r'''
+import sys
+from servolab.apps.sim import sim
+from servolab.dynamixel import motorspec
+from servolab.runs import RunFolder
+spec = motorspec.load(sys.argv[1], baudrate=int(sys.argv[2]))
+sim(spec, run=RunFolder.create("sim", sys.argv[3]), raise_priority=False)
+'''
+
+
+def _ms(seconds: float | None) -> float | None:
+    return None if seconds is None or not math.isfinite(seconds) else round(seconds * 1e3, 3)
+
+
+def _spread(late: Sequence[float]) -> dict[str, Any]:
+    """p50, p99 and max (ms) of lateness figures (s; inf for a ping never answered), the
+    share beyond the goal and the number lost."""
+    ordered = sorted(late)
+    if not ordered:
+        raise BenchmarkError("no pty figures")
+    def q(f: float) -> float:
+        return ordered[min(len(ordered) - 1, max(0, math.ceil(f * len(ordered)) - 1))]
+    return {"n": len(ordered), "p50_ms": _ms(q(0.5)), "p99_ms": _ms(q(0.99)),
+            "max_ms": _ms(max((x for x in ordered if math.isfinite(x)), default=None)),
+            "over_goal": sum(x > PTY_GOAL_S for x in ordered) / len(ordered),
+            "lost": sum(not math.isfinite(x) for x in ordered)}
+
+
+class PtyClient:
+    """The client: the pty opened raw at the line speed, as a serial client opens it, and a
+    PING timed from before its write to after the status's last byte is read."""
+
+    def __init__(self, device: str, baudrate: int) -> None:
+        import select
+        import termios
+        import tty
+
+        self.fd = os.open(device, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
+        attrs = termios.tcgetattr(self.fd)
+        attrs[4] = attrs[5] = getattr(termios, f"B{baudrate}")
+        termios.tcsetattr(self.fd, termios.TCSANOW, attrs)
+        self.poll = select.poll()
+        self.poll.register(self.fd, select.POLLIN)
+
+    def ping(self, request: bytes, size: int) -> float:
+        """Seconds from the write to the whole status (inf if it does not come)."""
+        import termios
+
+        termios.tcflush(self.fd, termios.TCIFLUSH)
+        t0 = time.monotonic()
+        os.write(self.fd, request)
+        got = b""
+        while len(got) < size:
+            left = t0 + PTY_LOST_S - time.monotonic()
+            if left <= 0 or not self.poll.poll(left * 1e3):
+                return math.inf
+            got += os.read(self.fd, size - len(got))
+        return time.monotonic() - t0
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+class PtyServerProcess:
+    """A server in a process of its own: the bare responder or ``servolab sim``."""
+
+    def __init__(self, key: str, argv: list[str], out: Path | None) -> None:
+        import subprocess
+
+        self.key, self.out = key, out
+        self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+        assert self.proc.stdout is not None
+        self.device = self.proc.stdout.readline().strip()
+        if not self.device:
+            self.proc.kill()
+            _, err = self.proc.communicate()
+            raise BenchmarkError(f"pty server {key} did not start: {err.strip()}")
+
+    def stop(self) -> dict[str, Any]:
+        """Stop it; what it says of its own replies: lateness (s) for the bare responder,
+        the summary for servolab sim."""
+        import signal
+        import subprocess
+
+        proc = self.proc
+        try:
+            if self.out is None:
+                out, _ = proc.communicate("", timeout=30)
+                lines = out.strip().splitlines()
+                return {"lateness_s": json.loads(lines[-1]) if lines else []}
+            proc.send_signal(signal.SIGINT)
+            proc.communicate(timeout=30)
+            summary: dict[str, Any] = json.loads((self.out / "summary.json").read_text())
+            return summary
+        except (subprocess.TimeoutExpired, ValueError, OSError) as exc:
+            proc.kill()
+            proc.communicate()
+            raise BenchmarkError(f"pty server {self.key} did not stop cleanly: {exc}") from None
+
+
+def pty_latency(pings: int, blocks: int, load: int, workdir: Path) -> dict[str, Any]:
+    """Replies through the pty on a loaded machine: ``load`` busy processes, and ``pings``
+    PINGs to each server per block, the servers taking turns block by block (each first in
+    turn), so that what the machine does meanwhile falls on all of them alike."""
+    import subprocess
+
+    from servolab.dynamixel.packets import Status
+    from servolab.dynamixel.protocol2 import PROTOCOL2
+
+    request = PROTOCOL2.encode_instruction(PROTOCOL2.ping(1))
+    number = model("XM430-W210").number
+    status = PROTOCOL2.encode_status(Status(1, 0, bytes([number & 0xFF, number >> 8, 46])))
+    modelled = (len(request) + len(status)) * BITS_PER_BYTE / PTY_BAUD + PTY_RETURN_DELAY
+    spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                for _ in range(load)]
+    servers: list[PtyServerProcess] = []
+    seen: dict[str, list[float]] = {}
+    own: dict[str, dict[str, Any]] = {}
+    try:
+        servers.append(PtyServerProcess("bare", [
+            sys.executable, "-c", BARE_RESPONDER, request.hex(), status.hex(), str(PTY_BAUD),
+            str(PTY_RETURN_DELAY)], None))
+        servers.append(PtyServerProcess("sim_default", [
+            sys.executable, "-c", SIM_DEFAULT_PRIORITY, PTY_MOTORS, str(PTY_BAUD),
+            str(workdir / "sim_default")], workdir / "sim_default"))
+        servers.append(PtyServerProcess("sim", [
+            sys.executable, "-m", "servolab", "sim", "--pty", "--motors", PTY_MOTORS,
+            "--baud", str(PTY_BAUD), "--out", str(workdir / "sim")], workdir / "sim"))
+        clients = {s.key: PtyClient(s.device, PTY_BAUD) for s in servers}
+        # The client at real-time priority where allowed, so that what it sees is the
+        # servers' doing rather than its own wake-up on a loaded machine.
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+            client_realtime = True
+        except (OSError, AttributeError):
+            client_realtime = False
+        try:
+            for server in servers:     # each answers at all before anything is timed
+                if not math.isfinite(clients[server.key].ping(request, len(status))):
+                    raise BenchmarkError(f"pty server {server.key} does not answer a PING")
+            for block in range(blocks):
+                turn = block % len(servers)       # each server first in turn
+                for server in servers[turn:] + servers[:turn]:
+                    client = clients[server.key]
+                    for _ in range(pings):
+                        seen.setdefault(server.key, []).append(
+                            client.ping(request, len(status)) - modelled)
+                        time.sleep(0.002)   # a control loop's pause between transactions
+        finally:
+            for client in clients.values():
+                client.close()
+            if client_realtime:
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        for server in servers:
+            own[server.key] = server.stop()
+    finally:
+        for server in servers:
+            if server.proc.poll() is None:
+                server.proc.kill()
+                server.proc.communicate()
+        for spinner in spinners:
+            spinner.kill()
+            spinner.wait()
+    out: dict[str, Any] = {"motors": PTY_MOTORS, "baudrate": PTY_BAUD, "pings": pings,
+                           "blocks": blocks, "load_processes": load, "cores": os.cpu_count(),
+                           "modelled_ms": round(modelled * 1e3, 3), "goal_ms": PTY_GOAL_S * 1e3,
+                           "client_realtime": client_realtime, "servers": {}}
+    for server in servers:
+        figures = own[server.key]
+        if server.key == "bare":
+            handed = _spread(figures["lateness_s"])
+            how = "bare responder (anchor)"
+        else:   # (a servolab sim that does not say: None)
+            handed = dict(figures.get("reply_lateness") or dict.fromkeys(
+                ("replies", "p50_ms", "p99_ms", "max_ms")))
+            raised = [f"nice {figures['nice']}"] if figures.get("nice") is not None else []
+            raised += ["real-time thread"] if figures.get("realtime") else []
+            how = ("servolab sim, default priority" if server.key == "sim_default" else
+                   f"servolab sim ({', '.join(raised) or 'priority not raised: not allowed'})")
+        out["servers"][server.key] = {"label": how, "handed_over": handed,
+                                      "seen": _spread(seen[server.key])}
+    bare_p99 = out["servers"]["bare"]["seen"]["p99_ms"]
+    for figures in out["servers"].values():
+        p99 = figures["seen"]["p99_ms"]
+        figures["seen_p99_vs_bare"] = (p99 / bare_p99 if p99 is not None and bare_p99
+                                       else None)
+    return out
+
+
+def pty_report(pty: dict[str, Any]) -> list[str]:
+    client = "at real-time priority" if pty["client_realtime"] else "at its own priority"
+    lines = ["", f"4. The pty server on a loaded machine ({pty['load_processes']} busy processes "
+             f"on {pty['cores']} cores): a PING of one XM430-W210 at",
+             f"   {pty['baudrate']} bps, whose request, 0.5 ms return delay and status take "
+             f"{pty['modelled_ms']:.2f} ms on the wire; {pty['pings']} PINGs",
+             f"   x {pty['blocks']} blocks per server, the servers taking turns. 'handed over': "
+             "how late after that the server",
+             "   wrote the reply (its own figure); 'seen': how late the client had it (its "
+             "wake-up included;", f"   the client {client}). Each server runs in a process of "
+             "its own; a PING unanswered", f"   after {PTY_LOST_S * 1e3:.0f} ms is lost.", ""]
+    lines.append(f"{'':44}{'handed over, ms':>24}{'seen by the client, ms':>34}")
+    lines.append(f"{'':44}{'p50':>8}{'p99':>8}{'max':>8}{'p50':>8}{'p99':>8}{'max':>8}"
+                 f"{'> 1 ms':>8}{'p99/bare':>10}")
+
+    def f(value: float | None, lost: bool = False) -> str:
+        if lost:
+            return f"{f'>{PTY_LOST_S * 1e3:.0f}':>8}"
+        return f"{value:>8.3f}" if value is not None else f"{'-':>8}"
+
+    for figures in pty["servers"].values():
+        h, s = figures["handed_over"], figures["seen"]
+        ratio = figures["seen_p99_vs_bare"]
+        lost = f" ({s['lost']} lost)" if s["lost"] else ""
+        lines.append(f"   {figures['label']:41}{f(h['p50_ms'])}{f(h['p99_ms'])}{f(h['max_ms'])}"
+                     f"{f(s['p50_ms'], s['p50_ms'] is None)}{f(s['p99_ms'], s['p99_ms'] is None)}"
+                     f"{f(s['max_ms'])}{s['over_goal']:>8.1%}"
+                     + (f"{ratio:>10.2f}" if ratio is not None else f"{'-':>10}") + lost)
+    return lines
+
+
+def pty_goals(pty: dict[str, Any]) -> list[str]:
+    out = []
+    bare = pty["servers"]["bare"]["handed_over"]["p99_ms"]
+    for key in ("sim", "sim_default"):
+        figures = pty["servers"][key]
+        p99 = figures["handed_over"]["p99_ms"]
+        if p99 is None:
+            out.append(f"  NOT met: {figures['label']} does not say how late it handed its "
+                       "replies over (a servolab sim before reply_lateness)")
+        elif p99 <= pty["goal_ms"]:
+            out.append(f"  met: {figures['label']} hands 99 % of replies over within the "
+                       f"return delay + {pty['goal_ms']:g} ms (p99 {p99:.3f} ms late)")
+        else:
+            out.append(f"  NOT met: {figures['label']} hands 99 % of replies over within "
+                       f"{p99} ms of their time, not {pty['goal_ms']:g} ms: the OS wakes an "
+                       f"ordinary thread that late on this loaded machine (the bare "
+                       f"responder's own p99: {bare} ms)")
+    return out
+
+# -- 5. a scan of a mixed bus ----------------------------------------------------------------------
+#: The mixed bus a lab has: (model, ID), each at its factory rate (X-series 2.0 at 57600, XL-320
+#: 2.0 at 1 Mbps, RX-28 and MX-28 1.0 at 57142, AX-12A 1.0 at 1 Mbps).
+SCAN_MOTORS = (("XM430-W210", 1), ("XM430-W210", 2), ("XL430-W250", 3), ("XL-320", 4),
+               ("RX-28", 11), ("RX-28", 12), ("MX-28", 30), ("AX-12A", 21))
+SCAN_GOAL_S = 10.0
+#: A USB adapter's latency timer as FTDI ships it (16 ms): what the SDK's timeouts always
+#: allow (LATENCY_TIMER), and what servolab's allow on a port whose timer it cannot read.
+SCAN_LATENCY = SDK_LATENCY_TIMER_MS / 1000.0
+SCAN_PTY_SERVER = r'''
+import sys, time
+from servolab.dynamixel import model
+from servolab.dynamixel.emulator import Emulator, VirtualMotor
+from servolab.dynamixel.ports import PtyServer
+from servolab.sim import Simulation
+
+simulation = Simulation()
+emulator = simulation.add_emulator(Emulator(None))
+for name, motor_id in MOTORS:
+    emulator.add(VirtualMotor(model(name), motor_id))
+simulation.start_real_time()
+with PtyServer(emulator, 57600, clock=simulation, lock=simulation.lock) as server:
+    print(server.device, flush=True)
+    sys.stdin.read()      # until the benchmark closes it
+    print(server.replies_lost, flush=True)
+simulation.stop_real_time()
+'''
+
+
+def scan_bus() -> tuple[Simulation, Any]:
+    """The mixed bus of :data:`SCAN_MOTORS`, one emulator for both protocols, on a virtual
+    clock."""
+    from servolab.dynamixel.emulator import Emulator, VirtualMotor
+
+    simulation = Simulation()
+    emulator = simulation.add_emulator(Emulator(None))
+    for name, motor_id in SCAN_MOTORS:
+        emulator.add(VirtualMotor(model(name), motor_id))
+    return simulation, emulator
+
+
+def _scan_expected() -> set[tuple[int, int]]:
+    return {(motor_id, model(name).protocol) for name, motor_id in SCAN_MOTORS}
+
+
+def scan_ours_virtual() -> dict[str, Any]:
+    """``servolab scan`` with no options (both protocols at the factory rates) on the virtual
+    wire, the adapter taken to have a 16 ms latency timer: simulated seconds, instructions."""
+    from servolab.apps.scan import scan_plan
+
+    simulation, emulator = scan_bus()
+    port = MemoryPort(emulator, 57600, clock=simulation, lock=simulation.lock)
+    port.latency = SCAN_LATENCY
+    bus = Bus(port)
+    plan = scan_plan([2, 1], None)
+    estimate = sum(bus.scan_time(None, [rate], protocols=versions) for rate, versions in plan)
+    started, wall = simulation.now(), time.perf_counter()
+    found = [r for rate, versions in plan for r in bus.scan(None, [rate], protocols=versions)]
+    took = simulation.now() - started
+    got = {(r.id, r.protocol or 0) for r in found}
+    if got != _scan_expected():
+        raise BenchmarkError(f"servolab's scan found {sorted(got)}, not the bus's motors")
+    return {"wire_s": took, "estimate_s": estimate, "host_s": time.perf_counter() - wall,
+            "instructions": emulator.instructions_seen, "found": len(found),
+            "plan": [[rate, versions] for rate, versions in plan]}
+
+
+def scan_sdk_virtual() -> dict[str, Any]:
+    """The anchor: the ROBOTIS SDK finding the same motors on the same virtual wire, as its
+    own examples and the Dynamixel Wizard do: at each factory rate a 2.0 ``broadcastPing``,
+    then a 1.0 ``ping`` (PING, and READ of the model number) of every ID 0..253, each
+    waiting the SDK's packet timeout (wire time + 2 x LATENCY_TIMER + 2 ms)."""
+    simulation, emulator = scan_bus()
+    mem = MemoryPort(emulator, 57600, clock=simulation, lock=simulation.lock)
+    port = SdkPort(mem)
+    port.openPort()
+    v1, v2 = sdk.PacketHandler(1.0), sdk.PacketHandler(2.0)
+    got: set[tuple[int, int]] = set()
+    started, wall = simulation.now(), time.perf_counter()
+    for rate in (57_600, 1_000_000):
+        port.setBaudRate(rate)
+        found, _ = v2.broadcastPing(port)
+        got |= {(motor_id, 2) for motor_id in found}
+        for motor_id in range(254):
+            _, result, _ = v1.ping(port, motor_id)
+            if result == sdk.COMM_SUCCESS:
+                got.add((motor_id, 1))
+    took = simulation.now() - started
+    if got != _scan_expected():
+        raise BenchmarkError(f"the SDK's scan found {sorted(got)}, not the bus's motors")
+    return {"wire_s": took, "host_s": time.perf_counter() - wall,
+            "instructions": emulator.instructions_seen, "found": len(got)}
+
+
+def scan_ours_pty() -> dict[str, Any]:
+    """The same scan through a pseudo-terminal at real wire speed: the mixed bus served by a
+    process of its own (a real-time simulation behind a ``PtyServer``), scanned from here on
+    the wall clock, as ``servolab scan --port PTY`` does."""
+    import subprocess
+
+    from servolab.apps.scan import scan_plan
+
+    code = f"MOTORS = {SCAN_MOTORS!r}\n" + SCAN_PTY_SERVER
+    with subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
+                          stdout=subprocess.PIPE, text=True) as server:
+        assert server.stdin and server.stdout
+        device = server.stdout.readline().strip()
+        if not device:
+            raise BenchmarkError("the mixed bus's pty server did not start")
+        with Bus.open(device, retries=0) as bus:
+            plan = scan_plan([2, 1], None)
+            estimate = sum(bus.scan_time(None, [rate], protocols=versions)
+                           for rate, versions in plan)
+            started = time.perf_counter()
+            found = [r for rate, versions in plan
+                     for r in bus.scan(None, [rate], protocols=versions)]
+            took = time.perf_counter() - started
+            latency = bus.port.latency
+        server.stdin.close()
+        lost = int(server.stdout.readline() or -1)
+        server.wait(timeout=10)
+    got = {(r.id, r.protocol or 0) for r in found}
+    return {"wall_s": took, "estimate_s": estimate, "found": len(got),
+            "all_found": got == _scan_expected(), "replies_lost": lost,
+            "port_latency_s": latency}
+
+
+def mixed_scan(pty: bool) -> dict[str, Any]:
+    ours, theirs = scan_ours_virtual(), scan_sdk_virtual()
+    figures: dict[str, Any] = {
+        "motors": [[name, motor_id] for name, motor_id in SCAN_MOTORS],
+        "adapter_latency_s": SCAN_LATENCY, "goal_s": SCAN_GOAL_S,
+        "ours": ours, "sdk": theirs, "ratio_ours_sdk": ours["wire_s"] / theirs["wire_s"],
+        "pty": None}
+    if pty:
+        figures["pty"] = through = scan_ours_pty()
+        figures["ratio_pty_virtual"] = through["wall_s"] / ours["wire_s"]
+    return figures
+
+
+def scan_report(scan: dict[str, Any]) -> list[str]:
+    ours, theirs, through = scan["ours"], scan["sdk"], scan["pty"]
+    lines = ["", f"5. Scan of a mixed bus ({len(scan['motors'])} motors: 2.0 and 1.0, at 57600 "
+             "and 1000000 bps), 'servolab scan' with no options, on the",
+             "   virtual wire (every byte its wire time; the adapter's latency timer taken "
+             f"as {scan['adapter_latency_s'] * 1e3:.0f} ms):",
+             f"   servolab   {ours['wire_s']:6.2f} s of wire time, {ours['instructions']} "
+             f"instructions (estimate said {ours['estimate_s']:.2f} s)",
+             f"   SDK        {theirs['wire_s']:6.2f} s of wire time, {theirs['instructions']} "
+             "instructions (broadcastPing, then ping of every 1.0 ID)",
+             f"   ratio servolab/SDK {scan['ratio_ours_sdk']:.3f}"]
+    if through is not None:
+        lines += [f"   through a pty at real wire speed: {through['wall_s']:.2f} s wall "
+                  f"(x {scan['ratio_pty_virtual']:.2f} the virtual wire's), "
+                  f"{through['found']} of {len(scan['motors'])} motors found, "
+                  f"{through['replies_lost']} replies lost"]
+    return lines
+
+
+def scan_goals(scan: dict[str, Any]) -> list[str]:
+    ours, through, goal = scan["ours"], scan["pty"], scan["goal_s"]
+    taken = through["wall_s"] if through is not None else ours["wire_s"]
+    where = "through the pty" if through is not None else "on the virtual wire"
+    if taken < goal and (through is None or through["all_found"]):
+        return [f"  met: the default scan of a mixed bus takes {taken:.1f} s {where} "
+                f"(goal under {goal:g} s)"]
+    why = ("it missed motors: " + str(through["found"]) if through is not None
+           and not through["all_found"] else f"{taken:.1f} s")
+    return [f"  NOT met: the default scan of a mixed bus {where}: {why} (goal all motors "
+            f"under {goal:g} s)"]
+
+
+def with_scan(text: str, scan: dict[str, Any]) -> str:
+    """The report with section 5 before its goals, and its goal after theirs."""
+    lines = text.split("\n")
+    at = lines.index("Goals:") - 1 if "Goals:" in lines else len(lines)
+    return "\n".join(lines[:at] + scan_report(scan) + lines[at:] + scan_goals(scan))
+
+
 # -- report ----------------------------------------------------------------------------------------
 def report(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]],
-           args: argparse.Namespace) -> str:
+           args: argparse.Namespace, pty: dict[str, Any] | None = None) -> str:
     lines = ["Dynamixel bus cycle: write every goal_position, read every present_position", ""]
     lines.append(f"{'':4}{'bus':44}{'instructions per cycle':24}")
     for res in results:
@@ -980,14 +1463,18 @@ def report(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]],
                          f"{best_ms / frame_ms:.0%} of a {frame_ms:.0f} ms camera frame with "
                          "return delay 0 + CPU (+ 2 x the USB latency on a real adapter)")
 
+    if pty is not None:
+        lines += pty_report(pty)
+
     lines += ["", "Goals:"]
-    lines += goals(results, replay)
+    lines += goals(results, replay, pty)
     return "\n".join(lines)
 
 
-def goals(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]]) -> list[str]:
+def goals(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]],
+          pty: dict[str, Any] | None = None) -> list[str]:
     """Which goals are met, and why not where not."""
-    out = []
+    out = pty_goals(pty) if pty is not None else []
     slower = [(key, r) for key, r in replay.items() if r["ratio_ours_sdk"] > 1.0]
     slower += [(f"({res['config'].key}) cycle", res["cpu"]) for res in results
                if res["cpu"]["ratio_ours_sdk"] > 1.0]
@@ -1018,7 +1505,7 @@ def goals(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]]) -> l
 
 
 def to_json(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]],
-            args: argparse.Namespace) -> dict[str, Any]:
+            args: argparse.Namespace, pty: dict[str, Any] | None = None) -> dict[str, Any]:
     return {
         "benchmark": "bus_cycle",
         "python": platform.python_version(),
@@ -1035,7 +1522,8 @@ def to_json(results: list[dict[str, Any]], replay: dict[str, dict[str, Any]],
             } for res in results
         },
         "replay": replay,
-        "goals": goals(results, replay),
+        "pty": pty,
+        "goals": goals(results, replay, pty),
     }
 
 
@@ -1047,14 +1535,27 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         help="timed runs per driver, interleaved; the best counts (default 7)")
     parser.add_argument("--warmup", type=int, default=50,
                         help="untimed calls per driver first (default 50)")
+    parser.add_argument("--pty-pings", type=int, default=200, metavar="N",
+                        help="PINGs per server and block through the pty (default 200)")
+    parser.add_argument("--pty-blocks", type=int, default=3, metavar="B",
+                        help="blocks of PINGs per server, the servers taking turns (default 3)")
+    parser.add_argument("--load", type=int, default=os.cpu_count() or 1, metavar="P",
+                        help="busy processes that load the machine while the pty is timed "
+                        "(default: one per core)")
+    parser.add_argument("--no-pty", action="store_true", help="leave the pty out")
+    parser.add_argument("--no-scan", action="store_true", help="leave the mixed-bus scan out")
     parser.add_argument("--quick", action="store_true",
-                        help="3 calls, 1 round, 1 warm-up: a smoke test, not a measurement")
+                        help="3 calls, 1 round, 1 warm-up, 20 PINGs: a smoke test, not a "
+                        "measurement")
     parser.add_argument("--json", type=Path, metavar="PATH", help="also write the figures here")
     args = parser.parse_args(argv)
     if args.quick:
         args.cycles, args.rounds, args.warmup = 3, 1, 1
+        args.pty_pings, args.pty_blocks = 20, 1
     if args.cycles < 1 or args.rounds < 1 or args.warmup < 0:
         parser.error("--cycles and --rounds must be at least 1, --warmup at least 0")
+    if args.pty_pings < 1 or args.pty_blocks < 1 or args.load < 0:
+        parser.error("--pty-pings and --pty-blocks must be at least 1, --load at least 0")
     return args
 
 
@@ -1072,9 +1573,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         cpu = replay_cycle(config, args.cycles, args.rounds, args.warmup)
         results.append({"config": config, "wire": wire, "cpu": cpu,
                         "rates": rates(config, wire, cpu)})
-    print(report(results, replay, args))
+    pty = None
+    if not args.no_pty:
+        with tempfile.TemporaryDirectory(prefix="bus_cycle_pty_") as workdir:
+            pty = pty_latency(args.pty_pings, args.pty_blocks, args.load, Path(workdir))
+    scan = None if args.no_scan else mixed_scan(pty=not args.no_pty)
+    text = report(results, replay, args, pty)
+    print(text if scan is None else with_scan(text, scan))
     if args.json:
-        args.json.write_text(json.dumps(to_json(results, replay, args), indent=2) + "\n")
+        figures = to_json(results, replay, args, pty)
+        if scan is not None:
+            figures["scan"] = scan
+            figures["goals"] = [*figures["goals"], *scan_goals(scan)]
+        args.json.write_text(json.dumps(figures, indent=2) + "\n")
         print(f"\nfigures written to {args.json}")
     return 0
 

@@ -48,6 +48,12 @@ ALLOWED = {
     # turn into the layer's error as it does the system's (PortError, BagError).
     ("dynamixel/ports.py", "SerialPort._read", "OSError"),
     ("middleware/bag/writer.py", "_DirectFile.write", "OSError"),
+    # The Mapping protocol: a missing key of a read-only mapping (MODELS["x"]) is KeyError, as
+    # `in`, .get() and dict(...) rely on; model(name) is the lookup a user reaches, with its
+    # ConfigError and "did you mean".
+    ("dynamixel/models.py", "_Models.__getitem__", "KeyError"),
+    ("dynamixel/models.py", "_ByNumber.__getitem__", "KeyError"),
+    ("dynamixel/models.py", "_AllowedModes.__getitem__", "KeyError"),
 }
 
 @dataclass(frozen=True)

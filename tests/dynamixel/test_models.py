@@ -2,8 +2,8 @@
 
 Every driver, emulator and CLI address comes from these tables, so a wrong number here is a
 write to the wrong register on a real motor. The expected figures below are typed in from the
-e-Manual pages (RX-28, EX-106+, MX-28 Protocol 1.0, XM430-W210, XM430-W350, XL430-W250), not
-read back from the tables under test.
+e-Manual pages of each model (the row-by-row checks are test_tables_emanual.py and
+test_model_emanual_tables.py), not read back from the tables under test.
 """
 
 from __future__ import annotations
@@ -17,15 +17,29 @@ from servolab.dynamixel.models import Model
 
 # e-Manual: the model number each servo reports at address 0 (and in a 2.0 PING).
 MODEL_NUMBERS = {
-    "RX-28": 28,
-    "EX-106+": 107,
-    "MX-28": 29,
-    "XM430-W210": 1030,
-    "XM430-W350": 1020,
-    "XL430-W250": 1060,
+    "AX-12A": 12, "AX-12W": 300, "AX-18A": 18,
+    "RX-24F": 24, "RX-28": 28, "RX-64": 64, "EX-106+": 107,
+    "MX-12W": 360,   # the page says 104, its low byte: test_model_emanual_tables.py
+    "MX-28": 29, "MX-64": 310, "MX-106": 320,
+    "MX-28(2.0)": 30, "MX-64(2.0)": 311, "MX-106(2.0)": 321,
+    "XL-320": 350,
+    "XL330-M288": 1200, "XC330-M288": 1240,
+    "XL430-W250": 1060, "XM430-W210": 1030, "XM430-W350": 1020, "XH430-W350": 1000,
+    "XM540-W270": 1120, "XH540-W270": 1100,
 }
-PROTOCOL1_MODELS = ["RX-28", "EX-106+", "MX-28"]
-X_MODELS = ["XM430-W210", "XM430-W350", "XL430-W250"]
+AX_RX_EX = ["AX-12A", "AX-12W", "AX-18A", "RX-24F", "RX-28", "RX-64", "EX-106+"]
+MX1 = ["MX-12W", "MX-28", "MX-64", "MX-106"]
+PROTOCOL1_MODELS = AX_RX_EX + MX1
+MX2 = ["MX-28(2.0)", "MX-64(2.0)", "MX-106(2.0)"]
+X330 = ["XL330-M288", "XC330-M288"]
+X_MODELS = ["XL430-W250", "XM430-W210", "XM430-W350", "XH430-W350", "XM540-W270",
+            "XH540-W270", *X330]
+#: Protocol 2.0 models with the X-series control table layout
+X_LAYOUT = X_MODELS + MX2
+#: factory baud register value of the 1.0 models (e-Manual): 1 Mbps (1) or 57 142 bps (34)
+PROTOCOL1_BAUD = {"AX-12A": 1, "AX-12W": 1, "AX-18A": 1, "MX-12W": 1, "RX-24F": 34,
+                  "RX-28": 34, "RX-64": 34, "EX-106+": 34, "MX-28": 34, "MX-64": 34,
+                  "MX-106": 34}
 
 # e-Manual, Protocol 1.0 control table (AX/RX/EX/MX share it): name -> (address, size, access)
 PROTOCOL1_ADDRESSES = {
@@ -75,10 +89,11 @@ X_ADDRESSES = {
 }
 
 
-def test_all_six_models_are_known() -> None:
+def test_every_shipped_model_is_known() -> None:
     """The emulator, the CLI and `scan` enumerate MODELS; a missing model is a motor servolab
     cannot name."""
     assert set(MODELS) == set(MODEL_NUMBERS)
+    assert set(MODEL_NUMBERS) == set(PROTOCOL1_MODELS) | set(X_LAYOUT) | {"XL-320"}
 
 
 @pytest.mark.parametrize(("name", "number"), sorted(MODEL_NUMBERS.items()))
@@ -103,9 +118,9 @@ def test_protocol1_models_speak_protocol1(name: str) -> None:
     assert model(name).protocol == 1
 
 
-@pytest.mark.parametrize("name", X_MODELS)
+@pytest.mark.parametrize("name", [*X_LAYOUT, "XL-320"])
 def test_x_models_speak_protocol2(name: str) -> None:
-    """X-series servos ship with Protocol 2.0."""
+    """X-series servos ship with Protocol 2.0, and so do an MX's 2.0 firmware and the XL-320."""
     assert model(name).protocol == 2
 
 
@@ -118,7 +133,7 @@ def test_protocol1_addresses(name: str, register: str) -> None:
 
 
 @pytest.mark.parametrize(("name", "register"),
-                         [(n, r) for n in X_MODELS for r in X_ADDRESSES])
+                         [(n, r) for n in X_LAYOUT for r in X_ADDRESSES])
 def test_x_series_addresses(name: str, register: str) -> None:
     """Addresses, sizes and access of the X-series control table as the e-Manual gives
     them."""
@@ -126,21 +141,27 @@ def test_x_series_addresses(name: str, register: str) -> None:
     assert (reg.address, reg.size, reg.access) == X_ADDRESSES[register]
 
 
-@pytest.mark.parametrize("name", ["XM430-W210", "XM430-W350"])
-def test_xm430_has_present_current_at_126(name: str) -> None:
-    """XM430 measures current at 126 (2 bytes, 2.69 mA units), not load."""
+@pytest.mark.parametrize(("name", "amps"), [
+    ("XM430-W210", 0.00269), ("XM430-W350", 0.00269), ("XH430-W350", 0.00269),
+    ("XM540-W270", 0.00269), ("XH540-W270", 0.00269), ("XL330-M288", 0.001),
+    ("XC330-M288", 0.001), ("MX-64(2.0)", 0.00336), ("MX-106(2.0)", 0.00336)])
+def test_current_sensing_models_have_present_current_at_126(name: str, amps: float) -> None:
+    """These measure current at 126 (2 bytes, in the page's unit: 2.69 mA, 1 mA or 3.36 mA),
+    not load."""
     m = model(name)
     reg = m.register("present_current")
     assert (reg.address, reg.size, reg.access, reg.signed) == (126, 2, "R", True)
     assert not m.has("present_load")
     assert m.register("goal_current").address == 102
     assert m.register("current_limit").address == 38
+    assert m.current_unit_a == amps
 
 
-def test_xl430_has_present_load_at_126() -> None:
-    """XL430 has no current sensor: 126 is Present Load (0.1 %), and there is no goal
-    current or current limit to write."""
-    m = model("XL430-W250")
+@pytest.mark.parametrize("name", ["XL430-W250", "MX-28(2.0)"])
+def test_load_sensing_models_have_present_load_at_126(name: str) -> None:
+    """XL430 and MX-28(2.0) have no current sensor: 126 is Present Load (0.1 %), and there is
+    no goal current or current limit to write."""
+    m = model(name)
     reg = m.register("present_load")
     assert (reg.address, reg.size, reg.access, reg.signed) == (126, 2, "R", True)
     assert not m.has("present_current")
@@ -166,7 +187,7 @@ def test_eeprom_lies_below_ram(name: str) -> None:
     ram = [r.address for r in regs if r.area == "RAM"]
     assert eeprom and ram
     assert max(eeprom) <= min(ram)
-    expected_ram_start = 24 if name in PROTOCOL1_MODELS else 64
+    expected_ram_start = 64 if name in X_LAYOUT else 24   # XL-320: the AX layout
     assert min(ram) == expected_ram_start
 
 
@@ -181,17 +202,29 @@ def test_defaults_are_within_ranges(name: str) -> None:
 
 @pytest.mark.parametrize("name", PROTOCOL1_MODELS)
 def test_protocol1_factory_defaults(name: str) -> None:
-    """e-Manual factory values: ID 1, baud register 34 (57 142 bps), return delay 250
-    (500 µs), status return level 2, torque off."""
+    """e-Manual factory values: ID 1, baud register 34 (57 142 bps) or, on the AX and the
+    MX-12W, 1 (1 Mbps), return delay 250 (500 µs), status return level 2, torque off."""
     m = model(name)
     assert m.register("id").default == 1
-    assert m.register("baud_rate").default == 34
+    assert m.register("baud_rate").default == PROTOCOL1_BAUD[name]
     assert m.register("return_delay_time").default == 250
     assert m.register("status_return_level").default == 2
     assert m.register("torque_enable").default == 0
 
 
-@pytest.mark.parametrize("name", X_MODELS)
+def test_xl320_factory_defaults() -> None:
+    """e-Manual XL-320: ID 1, baud register 3 (1 Mbps), return delay 250, joint mode
+    (control_mode 2), status return level 2, torque off."""
+    m = model("XL-320")
+    defaults = {n: m.register(n).default for n in (
+        "id", "baud_rate", "return_delay_time", "control_mode", "status_return_level",
+        "torque_enable")}
+    assert defaults == {"id": 1, "baud_rate": 3, "return_delay_time": 250, "control_mode": 2,
+                        "status_return_level": 2, "torque_enable": 0}
+    assert m.baud_from_register(3) == 1_000_000
+
+
+@pytest.mark.parametrize("name", X_LAYOUT)
 def test_x_series_factory_defaults(name: str) -> None:
     """e-Manual factory values: ID 1, baud register 1 (57 600 bps), return delay 250,
     position control mode (3), status return level 2, torque off."""
@@ -205,12 +238,15 @@ def test_x_series_factory_defaults(name: str) -> None:
 
 
 @pytest.mark.parametrize(("name", "rpm", "volts"), [
-    ("RX-28", 85.0, 18.5),
-    ("EX-106+", 91.0, 18.5),
-    ("MX-28", 55.0, 12.0),
-    ("XM430-W210", 77.0, 12.0),
-    ("XM430-W350", 46.0, 12.0),
+    ("AX-12A", 59.0, 12.0), ("AX-12W", 54.0, 12.0), ("AX-18A", 97.0, 12.0),
+    ("RX-24F", 126.0, 12.0), ("RX-28", 85.0, 18.5), ("RX-64", 64.0, 18.5),
+    ("EX-106+", 91.0, 18.5), ("MX-12W", 470.0, 12.0),
+    ("MX-28", 55.0, 12.0), ("MX-64", 63.0, 12.0), ("MX-106", 45.0, 12.0),
+    ("MX-28(2.0)", 55.0, 12.0), ("MX-64(2.0)", 63.0, 12.0), ("MX-106(2.0)", 45.0, 12.0),
+    ("XL-320", 114.0, 7.4), ("XL330-M288", 103.0, 5.0), ("XC330-M288", 81.0, 5.0),
     ("XL430-W250", 57.0, 11.1),  # e-Manual: 57 rpm at the recommended 11.1 V
+    ("XM430-W210", 77.0, 12.0), ("XM430-W350", 46.0, 12.0), ("XH430-W350", 30.0, 12.0),
+    ("XM540-W270", 30.0, 12.0), ("XH540-W270", 39.0, 12.0),
 ])
 def test_no_load_speed_matches_emanual(name: str, rpm: float, volts: float) -> None:
     """The emulator moves at this speed when told 'as fast as you can'; it must be the
@@ -221,8 +257,8 @@ def test_no_load_speed_matches_emanual(name: str, rpm: float, volts: float) -> N
 
 
 @pytest.mark.parametrize(("name", "per_unit"), [
-    ("RX-28", 0.111), ("EX-106+", 0.111), ("MX-28", 0.114),
-    ("XM430-W210", 0.229), ("XM430-W350", 0.229), ("XL430-W250", 0.229),
+    *((n, 0.111) for n in AX_RX_EX), ("XL-320", 0.111), ("MX-12W", 0.916),
+    ("MX-28", 0.114), ("MX-64", 0.114), ("MX-106", 0.114), *((n, 0.229) for n in X_LAYOUT),
 ])
 def test_speed_unit(name: str, per_unit: float) -> None:
     """rpm per unit of moving speed / goal velocity, from the e-Manual."""
@@ -241,21 +277,38 @@ def test_protocol1_baud_formula(name: str, value: int, bps: int) -> None:
     assert model(name).baud_from_register(value) == bps
 
 
+@pytest.mark.parametrize("name", MX1)
 @pytest.mark.parametrize(("value", "bps"), [(250, 2_250_000), (251, 2_500_000),
                                             (252, 3_000_000)])
-def test_mx28_high_baud_rates(value: int, bps: int) -> None:
-    """MX-28 (1.0) has three special register values above 1 Mbps."""
-    assert model("MX-28").baud_from_register(value) == bps
+def test_mx_high_baud_rates(name: str, value: int, bps: int) -> None:
+    """The MX (1.0) have three special register values above 1 Mbps ("For BPS over 250
+    values"); the AX/RX/EX do not."""
+    assert model(name).baud_from_register(value) == bps
+    assert model("RX-28").baud_from_register(value) == 2_000_000 // (value + 1)
 
 
-@pytest.mark.parametrize("name", X_MODELS)
+@pytest.mark.parametrize("name", X_LAYOUT)
 @pytest.mark.parametrize(("value", "bps"), [
     (0, 9_600), (1, 57_600), (2, 115_200), (3, 1_000_000), (4, 2_000_000), (5, 3_000_000),
     (6, 4_000_000), (7, 4_500_000),
 ])
 def test_x_series_baud_table(name: str, value: int, bps: int) -> None:
-    """X-series: the baud register is an index into a fixed table (e-Manual)."""
-    assert model(name).baud_from_register(value) == bps
+    """X-series and MX(2.0): the baud register is an index into a fixed table (e-Manual,
+    control_table_baudrate_2.md); the XL330 and XC330 stop at 6 (4 Mbps)."""
+    if name in X330 and value == 7:
+        with pytest.raises(ConfigError, match=r"\b7\b"):
+            model(name).baud_from_register(value)
+        assert model(name).register("baud_rate").raw_max == 6
+    else:
+        assert model(name).baud_from_register(value) == bps
+
+
+@pytest.mark.parametrize(("value", "bps"), [(0, 9_600), (1, 57_600), (2, 115_200),
+                                            (3, 1_000_000)])
+def test_xl320_baud_table(value: int, bps: int) -> None:
+    """XL-320: four rates, 1 Mbps the factory's (e-Manual XL-320, Baud Rate)."""
+    assert model("XL-320").baud_from_register(value) == bps
+    assert model("XL-320").baud_rates == [9_600, 57_600, 115_200, 1_000_000]
 
 
 def test_x_series_undefined_baud_value_is_config_error() -> None:
@@ -297,6 +350,12 @@ def test_baud_register_for_unreachable_rate(name: str, bps: int) -> None:
     ("mx28", "MX-28"), ("MX_28", "MX-28"),
     ("xm430-w210", "XM430-W210"), ("XM430W210", "XM430-W210"), ("xm430_w350", "XM430-W350"),
     ("xl430-w250", "XL430-W250"), ("XL430w250", "XL430-W250"),
+    ("ax12a", "AX-12A"), ("AX-18A", "AX-18A"), ("rx24f", "RX-24F"), ("mx-12w", "MX-12W"),
+    ("mx28(2.0)", "MX-28(2.0)"), ("MX-28(2.0)", "MX-28(2.0)"), ("mx-28-2", "MX-28(2.0)"),
+    ("MX_64_2.0", "MX-64(2.0)"), ("mx106 2", "MX-106(2.0)"), ("mx-106(2)", "MX-106(2.0)"),
+    ("mx106", "MX-106"), ("xl320", "XL-320"), ("XL-320", "XL-320"),
+    ("xl330-m288", "XL330-M288"), ("xc330m288", "XC330-M288"), ("xh430-w350", "XH430-W350"),
+    ("xm540-w270", "XM540-W270"), ("XH540_W270", "XH540-W270"),
 ])
 def test_lookup_forgives_case_and_separators(text: str, name: str) -> None:
     """Users type model names on the command line in every spelling."""
@@ -315,6 +374,12 @@ def test_lookup_rejects_unknown_names(text: str) -> None:
     assert repr(text) in message
     assert "RX-28" in message
     assert "\n" not in message
+
+
+def test_lookup_suggests_the_closest_name() -> None:
+    """A near miss says which model was likely meant."""
+    with pytest.raises(ConfigError, match=r"did you mean 'XM430-W350'\?"):
+        model("xm430-w530")
 
 
 def test_unknown_register_is_config_error_naming_it() -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import threading
 import time
 from typing import TYPE_CHECKING, TextIO
 
@@ -43,15 +44,27 @@ def hardware_priority() -> int | None:
 
 def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr,
-        duration: float | None = None, raise_priority: bool = False) -> dict[str, object]:
+        duration: float | None = None, raise_priority: bool = False,
+        echo: bool = False) -> dict[str, object]:
     """Serve emulated motors on a pseudo-terminal until Ctrl-C / SIGTERM (or ``duration`` s).
 
     The motors live in a :class:`~servolab.sim.Simulation` that runs in real time on its own
     thread, so they move whether or not the client talks. The device path is the first line
     on stdout, so scripts can read it. ``raise_priority`` (the command's own process only:
-    it stays raised) runs the emulator at :func:`hardware_priority`."""
+    it stays raised) runs the emulator at :func:`hardware_priority` and serves the pty from a
+    real-time thread where the OS allows (:class:`~servolab.dynamixel.ports.PtyServer`'s
+    ``realtime``): on a busy machine the OS then wakes it on time to hand each reply over.
+    ``echo`` serves the motors as an adapter that echoes would
+    (:class:`~servolab.dynamixel.ports.EchoingDevice`). The summary says how late the
+    replies were handed over (``reply_lateness``, after their modelled wire time)."""
     from ..dynamixel.emulator import build_emulator
-    from ..dynamixel.ports import PtyServer
+    from ..dynamixel.ports import (
+        REALTIME_PRIORITY,
+        Device,
+        EchoingDevice,
+        PtyServer,
+        realtime_thread,
+    )
     from ..signals import on_stop_signals, raise_keyboard_interrupt
     from ..sim import Simulation
 
@@ -59,18 +72,35 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     emulator = simulation.add_emulator(build_emulator(spec))
     baud = spec.motor_baudrate
     niceness = hardware_priority() if raise_priority else None
-    simulation.start_real_time()
-    server = PtyServer(emulator, baud, link=link, clock=simulation, lock=simulation.lock)
-    print(server.device, file=stdout, flush=True)
+    # The simulation's thread takes the scheduling of the thread that starts it: real time
+    # just below the pty server's, so that it never sits preempted by an ordinary process
+    # while it holds the motors' lock or the GIL the server waits for. This thread goes back
+    # to ordinary scheduling at once.
+    me = threading.get_native_id()
+    if raise_priority and realtime_thread(me, REALTIME_PRIORITY - 1):
+        try:
+            simulation.start_real_time()
+        finally:
+            os.sched_setscheduler(me, os.SCHED_OTHER, os.sched_param(0))
+    else:
+        simulation.start_real_time()
+    device: Device = EchoingDevice(emulator) if echo else emulator
+    server = PtyServer(device, baud, link=link, clock=simulation, lock=simulation.lock,
+                       realtime=raise_priority)
     names = sorted({e.model.name for e in spec.motors})
     ids = ",".join(str(e.id) for e in spec.motors)
-    print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
-          f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
-          f"{f' (link {link})' if link else ''}"
-          f"{f', at raised priority (nice {niceness})' if niceness is not None else ''}; "
-          "Ctrl-C stops", file=stderr, flush=True)
     started = time.monotonic()
     with on_stop_signals(raise_keyboard_interrupt), server:
+        print(server.device, file=stdout, flush=True)   # once it serves
+        raised = [f"nice {niceness}"] if niceness is not None else []
+        raised += ["replies from a real-time thread"] if server.realtime else []
+        how = ", ".join(raised)
+        print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
+              f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
+              f"{f' (link {link})' if link else ''}"
+              f"{', echoing every byte sent' if echo else ''}"
+              f"{f', at raised priority ({how})' if how else ''}; "
+              "Ctrl-C stops", file=stderr, flush=True)
         try:
             while duration is None or time.monotonic() - started < duration:
                 time.sleep(0.2)
@@ -81,7 +111,11 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
                "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
                "instructions_received": emulator.instructions_seen,
                "served_s": round(time.monotonic() - started, 3),
-               "physics_steps": simulation.steps, "nice": niceness}
+               "physics_steps": simulation.steps, "nice": niceness,
+               "realtime": server.realtime, "echo": echo,
+               "reply_lateness": server.reply_lateness(),
+               "replies_lost": server.replies_lost,
+               "reply_bytes_unread": server.bytes_overflowed}
     run.write_summary(figures)
     print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
           f"summary in {run.path}", file=stderr, flush=True)
@@ -96,6 +130,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the pty")
     p.add_argument("--baud", type=baud, help="motors' baud rate (default: factory default)")
     p.add_argument("--protocol", type=protocol, help="1 or 2 (default: the models')")
+    p.add_argument("--echo", action="store_true",
+                   help="echo every byte the client sends, as a half-duplex RS-485 adapter "
+                   "without echo suppression (or TX and RX tied) does")
     add_out(p)
 
 
@@ -104,7 +141,8 @@ def _run(args: argparse.Namespace) -> int:
     from ..runs import RunFolder
 
     spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
-    sim(spec, run=RunFolder.create("sim", args.out), link=args.link, raise_priority=True)
+    sim(spec, run=RunFolder.create("sim", args.out), link=args.link, raise_priority=True,
+        echo=args.echo)
     return 0
 
 

@@ -21,22 +21,50 @@ from .._lazy import lazy_exports
 #: (``from servolab.dynamixel.bus import Bus``) loads no emulator.
 _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("Bus", "BusStats", "PingResult"), "bus"),
+    "MixedBus": "mixed_bus",
     **dict.fromkeys(("Emulator", "Faults", "VirtualMotor", "build_emulator"), "emulator"),
     **dict.fromkeys(("CommError", "ConfigError", "CorruptResponse", "DynamixelError",
                      "MotorError", "NoResponse", "PacketError", "PortError"), "errors"),
-    **dict.fromkeys(("MODELS", "Model", "Register", "model", "model_by_number"), "models"),
+    **dict.fromkeys(("MODELS", "Model", "Register", "load_model", "model", "model_by_number",
+                     "register_model"), "models"),
     "MotorSpec": "motorspec",
     **dict.fromkeys(("KinematicServo", "ServoCommand", "ServoPlant"), "plant"),
     **dict.fromkeys(("MemoryPort", "Port", "PtyServer", "SerialPort", "open_port"), "ports"),
 }
 
 __all__ = [
-    "MODELS", "Bus", "BusStats", "CommError", "ConfigError", "CorruptResponse",
-    "DynamixelError", "Emulator", "Faults", "KinematicServo", "MemoryPort", "Model",
-    "MotorError", "MotorSpec", "NoResponse", "PacketError", "PingResult", "Port", "PortError",
+    "MODELS",
+    "Bus",
+    "BusStats",
+    "CommError",
+    "ConfigError",
+    "CorruptResponse",
+    "DynamixelError",
+    "Emulator",
+    "Faults",
+    "KinematicServo",
+    "MemoryPort",
+    "MixedBus",
+    "Model",
+    "MotorError",
+    "MotorSpec",
+    "NoResponse",
+    "PacketError",
+    "PingResult",
+    "Port",
+    "PortError",
     "PtyServer",
-    "Register", "SerialPort", "ServoCommand", "ServoPlant", "VirtualMotor", "build_emulator",
-    "model", "model_by_number", "open_port",
+    "Register",
+    "SerialPort",
+    "ServoCommand",
+    "ServoPlant",
+    "VirtualMotor",
+    "build_emulator",
+    "load_model",
+    "model",
+    "model_by_number",
+    "open_port",
+    "register_model",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
@@ -54,7 +82,16 @@ if TYPE_CHECKING:
         PacketError,
         PortError,
     )
-    from .models import MODELS, Model, Register, model, model_by_number
+    from .mixed_bus import MixedBus
+    from .models import (
+        MODELS,
+        Model,
+        Register,
+        load_model,
+        model,
+        model_by_number,
+        register_model,
+    )
     from .motorspec import MotorSpec
     from .plant import KinematicServo, ServoCommand, ServoPlant
     from .ports import MemoryPort, Port, PtyServer, SerialPort, open_port

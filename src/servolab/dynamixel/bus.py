@@ -9,6 +9,13 @@ BULK_READ). On X-series firmware 46 and later, ``fast_sync_read`` / ``fast_bulk_
 for all the motors. Everything is checked before the first byte is sent, so bad input writes
 nothing.
 
+**Safe.** What a motor would refuse is refused before the wire, in one line that says what to
+do: a value beyond the motor's mode and limits, a truth value for an angle, a register name it
+does not have ("did you mean"), an EEPROM write to a 2.0 motor whose torque is on. IDs and baud
+rates change through :meth:`Bus.change_id` and :meth:`Bus.change_baud`, which refuse a used ID
+and follow the motor; a motor's status return level is learnt where it matters and honoured
+(:meth:`Bus.contact`); :meth:`Bus.read_address` and :meth:`Bus.write_address` reach any address.
+
 **Robust.** A status is taken as the answer only if it comes from a motor asked, with the
 length the instruction asks for; anything else (a late answer to an earlier instruction, a
 stray packet) is counted in :attr:`BusStats.stale` and ignored. After an instruction that got
@@ -28,22 +35,36 @@ can in noise, partial and stray packets.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import functools
 import itertools
 import logging
+import numbers
+import os
 import struct
 import threading
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from types import MappingProxyType
 from typing import Any, overload
 
+from . import models as _models
 from . import units
-from .errors import CommError, ConfigError, CorruptResponse, MotorError, NoResponse
+from .errors import (
+    CommError,
+    ConfigError,
+    CorruptResponse,
+    MotorError,
+    NoResponse,
+    PacketError,
+    PortError,
+    did_you_mean,
+)
 from .models import FAST_READ_FIRMWARE, Model, Register, model, model_by_number, supports
-from .packets import Instruction, Protocol, Status
-from .ports import Port, open_port
+from .packets import BROADCAST_ID, Instruction, Protocol, Status
+from .ports import MemoryPort, Port, SerialPort, open_port
 from .protocol import protocol as protocol_for
 from .protocol1 import Protocol1
 from .protocol2 import (
@@ -52,6 +73,8 @@ from .protocol2 import (
     FACTORY_RESET_EXCEPT_ID_BAUD,
     FAST_HEAD,
     HARDWARE_ERRORS,
+    MAX_LENGTH,
+    PROTOCOL2,
     Protocol2,
     crc16_at,
     fast_status_head,
@@ -59,7 +82,7 @@ from .protocol2 import (
     match_fast_status,
     read_fast_status,
 )
-from .wire import byte_time
+from .wire import baud_matches, byte_time, wire_time
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +91,10 @@ MAX_RETURN_DELAY = 254 * 2e-6
 #: next ID takes its turn, 3000 us (ROBOTIS's device-side code, Dynamixel2Arduino
 #: src/utility/protocol.cpp, DXL_PROCESS_BROAD_PING; the emulator's ``Emulator.ping_slot``).
 BROADCAST_PING_SLOT = 0.003
+#: What a scan adds to the wire time of a PING, its status and the longest return delay before
+#: it PINGs the next ID (:meth:`Bus.ping_window`): a USB adapter hands a request to its UART
+#: at the next USB frame (1 ms at full speed), and the host may be woken a little late.
+SCAN_MARGIN = 0.002
 #: The registers of a 1.0 motor that set its mode: both 0 is wheel mode (e-Manual, CW/CCW
 #: Angle Limit).
 _ANGLE_LIMITS = ("cw_angle_limit", "ccw_angle_limit")
@@ -111,6 +138,8 @@ class PingResult:
     firmware: int | None
     baudrate: int
     model: Model | None
+    #: the protocol version it answered in (1 or 2)
+    protocol: int | None = None
 
     @property
     def model_name(self) -> str:
@@ -194,7 +223,7 @@ class _Fields:
     def __init__(self, m: Model, names: Names) -> None:
         self.single = isinstance(names, str)
         self.names = list(dict.fromkeys([names] if isinstance(names, str) else names))
-        self.regs = [m.register(n) for n in self.names]  # ConfigError for an unknown name
+        self.regs = [register_of(m, n) for n in self.names]  # ConfigError: unknown name
         if not self.regs:
             raise ConfigError(f"{m.name}: no register named to read")
         self.start, self.length = m.span(self.names)
@@ -358,13 +387,17 @@ class _SyncWrite:
     """A SYNC_WRITE of one register on the same motors again: the packet with every ID in
     place, where each motor's value goes, its range, its struct code and its SI scale."""
 
-    __slots__ = ("covers_level", "crc_from", "crc_state", "data_at", "high", "ids", "low",
-                 "models", "packer", "proto", "si", "template")
+    __slots__ = ("covers_level", "crc_from", "crc_state", "data_at", "goal", "high", "ids",
+                 "low", "models", "packer", "proto", "si", "template", "torque")
 
     def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
                  reg: Register, covers_level: bool) -> None:
         self.proto, self.ids, self.models = proto, ids, models
         self.covers_level = covers_level
+        #: it writes torque_enable (the bus then knows it), or a goal (which may switch
+        #: torque on: Drive Mode bit 3 of the X-series, every goal on 1.0)
+        self.torque = reg.name == "torque_enable"
+        self.goal = reg.name in _TORQUE_GOALS
         self.si = (_si_encoder(models[0], reg) if all(m is models[0] for m in models)
                    else None)
         self.low, self.high = reg.raw_min, reg.raw_max
@@ -419,6 +452,275 @@ class _SyncWrite:
         return bytes(buf)
 
 
+# -- checks before the wire and commissioning ---------------------------------------------------
+
+def register_of(m: Model, name: str) -> Register:
+    """``m.register(name)``, or a one-line :class:`ConfigError` that says which names are
+    close ("did you mean goal_position?") rather than listing the whole control table."""
+    if isinstance(name, str) and m.has(name):
+        return m.register(name)
+    raise ConfigError(f"{m.name} has no register {name!r}; "
+                      f"{did_you_mean(str(name), (r.name for r in m.registers))}")
+
+
+def _check_type(m: Model, reg: Register, value: object) -> None:
+    """A value in SI units is a real number, and a truth value only for an on/off register
+    (``True`` is not 1 rad)."""
+    if isinstance(value, bool) or type(value).__name__ == "bool_":  # numpy's too
+        if reg.unit == "bool":
+            return
+        unit = units.KINDS.get(reg.unit, "")
+        raise ConfigError(f"{m.name} {reg.name}: {value!r} is a truth value, not a number"
+                          f"{' in ' + unit if unit else ''}; write {int(bool(value))} if that "
+                          "is meant")
+    if not isinstance(value, numbers.Real):
+        raise ConfigError(f"{m.name} {reg.name}: {value!r} is not a number")
+
+
+#: Protocol 2.0 registers that bound what a goal may be (e-Manual, X-series: Operating
+#: Mode(11), PWM Limit(36), Current Limit(38), Velocity Limit(44), Max/Min Position
+#: Limit(48, 52)); all in EEPROM, so they change only by a write, which the bus sees.
+_FACTS_2 = ("operating_mode", "pwm_limit", "current_limit", "velocity_limit",
+            "max_position_limit", "min_position_limit")
+#: Goal registers of 2.0 bounded by a limit register, symmetric (|goal| <= limit).
+_GOAL_LIMITS_2 = {"goal_velocity": "velocity_limit", "goal_current": "current_limit",
+                  "goal_pwm": "pwm_limit"}
+#: Goal registers whose write may switch torque on: every goal on 1.0 (the emulated firmware,
+#: as the seeds' programs rely on), on 2.0 with Drive Mode bit 3 (e-Manual, Drive Mode(10)).
+_TORQUE_GOALS = frozenset({"goal_position", "moving_speed", "goal_velocity", "goal_current",
+                           "goal_pwm"})
+#: Position Control Mode, the one operating mode whose goal position the Min/Max Position
+#: Limit bound (e-Manual, X-series Goal Position(116): Extended Position and
+#: Current-based Position Control Mode count turns, -1 048 575..1 048 575).
+_POSITION_MODE = 3
+#: Rates a port is set to for a motor's baud rate register: the one within UART tolerance
+#: (an RX-28's 57142 bps is spoken to at 57600, as the Dynamixel Wizard does), else the
+#: motor's own.
+_COMMON_RATES = (9_600, 19_200, 38_400, 57_600, 115_200, 200_000, 230_400, 250_000,
+                 400_000, 460_800, 500_000, 921_600, 1_000_000, 2_000_000, 2_250_000,
+                 2_500_000, 3_000_000, 4_000_000, 4_500_000)
+
+
+def line_rate(bps: int) -> int:
+    """The rate a port speaks to a motor at ``bps``: the common rate within UART tolerance
+    (:data:`.wire.BAUD_TOLERANCE`), else ``bps`` itself."""
+    best = min(_COMMON_RATES, key=lambda r: abs(r - bps))
+    return best if baud_matches(best, bps) else int(bps)
+
+
+def usable_rates(m: Model) -> list[int]:
+    """The common baud rates (:data:`_COMMON_RATES`) model ``m`` can be set to, by its
+    e-Manual table (:meth:`.Model.baud_register_for`, within UART tolerance)."""
+    usable = []
+    for rate in _COMMON_RATES:
+        try:
+            m.baud_register_for(rate)
+        except ConfigError:
+            continue
+        usable.append(rate)
+    return usable
+
+
+def raw_access_limits(proto: Protocol) -> tuple[int, int, int]:
+    """(address space, longest READ, longest WRITE) in bytes for raw access in ``proto``.
+
+    Protocol 1.0: addresses and lengths are one byte, and a packet holds at most 253
+    parameters (LENGTH is one byte, parameters + 2), a WRITE's address among them. Protocol
+    2.0: two-byte fields, and a packet's LENGTH (instruction, parameters, CRC; a status's
+    error byte among its parameters) at most :data:`.protocol2.MAX_LENGTH`, as the ROBOTIS
+    SDK's buffers bound it."""
+    if proto.version == 1:
+        return 256, 253, 252
+    return 1 << 16, MAX_LENGTH - 4, MAX_LENGTH - 5
+
+
+@dataclass(frozen=True)
+class _ModelFacts:
+    """What the checks need to know of a model, worked out once (a control table has some
+    170 registers; a write must not walk them)."""
+
+    #: where the last EEPROM register ends: a write from there on touches RAM only
+    eeprom_end: int
+    #: 2.0: the registers of _FACTS_2 it has, and their span (start, end)
+    facts: tuple[str, ...]
+    facts_span: tuple[int, int]
+    #: registers whose value is bounded by the motor's mode or limits
+    goals: frozenset[str]
+    #: torque_enable's address (-1: none), and the span of the goals that may switch it on
+    torque: int
+    goal_span: tuple[int, int]
+
+
+_MODEL_FACTS: dict[int, tuple[Model, _ModelFacts]] = {}
+
+
+def _facts_of(m: Model) -> _ModelFacts:
+    entry = _MODEL_FACTS.get(id(m))
+    if entry is not None and entry[0] is m:
+        return entry[1]
+    eeprom = [r.address + r.size for r in m.registers if r.area == "EEPROM"]
+    goals: set[str] = set()
+    facts: tuple[str, ...] = ()
+    span = (0, 0)
+    if m.protocol == 1 and m.has(_ANGLE_LIMITS[0]) and m.has(_ANGLE_LIMITS[1]):
+        goals = {n for n in ("goal_position", "moving_speed") if m.has(n)}
+    elif m.protocol == 2:
+        facts = tuple(n for n in _FACTS_2 if m.has(n))
+        if facts:
+            regs = [m.register(n) for n in facts]
+            span = (min(r.address for r in regs), max(r.address + r.size for r in regs))
+        if m.has("operating_mode"):
+            goals.add("operating_mode")
+        if m.has("goal_position") and m.has("min_position_limit") \
+                and m.has("max_position_limit") and m.has("operating_mode"):
+            goals.add("goal_position")
+        goals |= {g for g, limit in _GOAL_LIMITS_2.items() if m.has(g) and m.has(limit)}
+    torque = m.register("torque_enable").address if m.has("torque_enable") else -1
+    moving = [m.register(n) for n in _TORQUE_GOALS if m.has(n)]
+    goal_span = ((min(r.address for r in moving), max(r.address + r.size for r in moving))
+                 if moving else (0, 0))
+    info = _ModelFacts(max(eeprom, default=0), facts, span, frozenset(goals), torque,
+                       goal_span)
+    _MODEL_FACTS[id(m)] = (m, info)
+    return info
+
+
+def _eeprom_registers(m: Model, start: int, end: int) -> list[Register]:
+    """The EEPROM registers a write of ``start..end`` (end excluded) touches."""
+    if start >= _facts_of(m).eeprom_end:
+        return []
+    return [r for r in m.registers
+            if r.area == "EEPROM" and start < r.address + r.size and r.address < end]
+
+
+def _near(m: Model, names: list[str], limit: int = 64) -> list[str] | None:
+    """``names`` when one READ of their span costs at most ``limit`` bytes, else None."""
+    if not all(m.has(n) for n in names):
+        return None
+    return names if m.span(names)[1] <= limit else None
+
+
+def _eeprom_hint(m: Model, eeprom: Sequence[Register], exc: MotorError) -> str | None:
+    """What to do when a write to EEPROM registers ``eeprom`` was refused: a 2.0 motor's
+    "access" error is its torque (locked EEPROM, e-Manual Torque Enable), a 1.0 motor's
+    "range" error to a value in range its Lock (e-Manual, Lock: "If Lock is set to 1, the
+    power must be turned off and then turned on again")."""
+    if m.protocol == 2 and "access" in exc.errors:
+        return (f"{eeprom[0].name} is in EEPROM, which the motor locks while its torque is "
+                "on: switch torque off first (torque_enable 0)")
+    if m.protocol == 1 and "range" in exc.errors and m.has("lock"):
+        return ("its EEPROM is locked if lock is 1, until it is powered off and on again "
+                "(e-Manual, Lock)")
+    return None
+
+
+def _hinted(m: Model, eeprom: Sequence[Register], exc: MotorError) -> MotorError:
+    """``exc`` with what to do, where :func:`_eeprom_hint` knows it."""
+    hint = _eeprom_hint(m, eeprom, exc)
+    if hint is None or exc.hint:
+        return exc
+    return MotorError(exc.motor_id, exc.instruction, exc.errors, exc.raw, hint)
+
+
+def _refuse_commissioning(names: Iterable[str], how: str) -> None:
+    """id and baud_rate go alone, through change_id / change_baud, which check and follow."""
+    moved = [n for n in names if n in ("id", "baud_rate")]
+    if moved:
+        raise ConfigError(f"{how} of {' and '.join(moved)} with other registers or motors: "
+                          "change an ID with bus.change_id (servolab id) and a baud rate with "
+                          "bus.change_baud (servolab baud), one motor at a time, so that the "
+                          "bus checks the ID is free and follows the motor")
+
+
+def _motors(ids: Sequence[int]) -> str:
+    """`` (motors 1, 2)``, `` (motor 3)``, or nothing for no ID."""
+    if not ids:
+        return ""
+    return f" (motor{'s' if len(ids) > 1 else ''} {', '.join(map(str, ids))})"
+
+
+def _model_block(m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int, bytes]:
+    """The block a write of ``values`` (name -> value) puts in model ``m``'s table, and its
+    start, checked as far as the table alone can check it (no motor is asked): names, one
+    block of adjacent registers, writable, type and range (an SI value as in joint or
+    position mode), an operating mode the model has."""
+    regs = sorted((register_of(m, n) for n in values), key=lambda r: r.address)
+    for a, b in itertools.pairwise(regs):
+        if a.address + a.size != b.address:
+            raise ConfigError(f"{m.name}: {a.name} and {b.name} are not adjacent; write "
+                              "them separately")
+    block = b""
+    for reg in regs:
+        value = values[reg.name]
+        if not reg.writable:
+            raise ConfigError(f"{m.name} {reg.name} is read-only")
+        if raw:
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+                    or not float(value).is_integer():
+                raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
+            raw_value = int(value)
+            reg.check(raw_value, m)
+        else:
+            _check_type(m, reg, value)
+            raw_value = units.from_si(m, reg, value)
+        allowed = _allowed_modes(m) if reg.name == "operating_mode" else None
+        if allowed is not None and raw_value not in allowed:
+            raise ConfigError(f"{m.name} operating_mode: {raw_value} is not one of its modes: "
+                              f"{', '.join(map(str, allowed))}")
+        block += reg.encode(raw_value)
+    return regs[0].address, block
+
+
+def _allowed_modes(m: Model) -> tuple[int, ...] | None:
+    modes: Mapping[str, tuple[int, ...]] = getattr(_models, "ALLOWED_MODES", {})
+    return modes.get(m.name)
+
+
+def _permission_hint(url: str, exc: BaseException) -> str | None:
+    """What to do when opening ``url`` failed for want of permission (EACCES, EPERM): on
+    Linux a serial device belongs to the group dialout (uucp on Arch), which a user must
+    join; None for any other failure."""
+    seen: set[int] = set()
+    chain: list[BaseException | None] = [exc]
+    denied = False
+    while chain:
+        error = chain.pop()
+        if error is None or id(error) in seen:
+            continue
+        seen.add(id(error))
+        if isinstance(error, OSError) and error.errno in (errno.EACCES, errno.EPERM):
+            denied = True
+            break
+        if "[Errno 13]" in str(error) or "Permission denied" in str(error):
+            denied = True
+            break
+        chain += [error.__cause__, error.__context__]
+    if not denied or os.name != "posix":
+        return None
+    group = "dialout"
+    try:
+        import grp
+
+        if grp.getgrgid(os.stat(url).st_gid).gr_name == "uucp":
+            group = "uucp"
+    except (ImportError, OSError, KeyError):
+        pass
+    return (f"you may not open {url}: join the {group} group (sudo usermod -aG {group} "
+            "$USER), then log out and in again")
+
+
+@dataclass(frozen=True)
+class Contact:
+    """What :meth:`Bus.contact` learnt of a motor: how it answers."""
+
+    id: int
+    model: Model
+    #: 0: PING only, 1: PING and READ, 2: every instruction (e-Manual, Status Return Level)
+    status_return_level: int
+    #: seconds it waits before a status (Return Delay Time, 2 us a unit); None if unread
+    return_delay: float | None
+
+
 @dataclass
 class Bus:
     """Motors on one port, one protocol, one baud rate.
@@ -443,6 +745,9 @@ class Bus:
         if not isinstance(self.protocol, Protocol):
             self.protocol = protocol_for(self.protocol)
         self._proto: Protocol = self.protocol
+        #: (thread, protocol): the thread holding the bus speaks that protocol meanwhile
+        #: (:meth:`_speaking`); other threads see :attr:`protocol` all along
+        self._speaking_as: tuple[int, Protocol] | None = None
         if self.retries < 0:
             raise ConfigError(f"retries {self.retries} must be 0 or more")
         if self.timeout is not None and self.timeout <= 0:
@@ -457,6 +762,15 @@ class Bus:
         self._plans: dict[Any, Any] = {}
         #: after a transaction that got no valid answer: until when a late one may still come
         self._quiet_until: float | None = None
+        #: motors seen to answer a WRITE (status return level 2, though not in ``_srl``)
+        self._answered: set[int] = set()
+        #: each motor's Return Delay Time (s) as read (:meth:`contact`)
+        self._delay: dict[int, float] = {}
+        #: (2.0) each motor's mode and limits (_FACTS_2), raw, as read or written
+        self._facts: dict[int, dict[str, int]] = {}
+        #: each motor's torque_enable as this bus last wrote or read it, until a goal (which
+        #: may switch it on) is written
+        self._torque: dict[int, int] = {}
 
     # -- construction ----------------------------------------------------------------------------
     @classmethod
@@ -467,12 +781,28 @@ class Bus:
         (``emu://rx28:11-16``, in a simulation of their own unless ``simulation=`` names one;
         see :mod:`servolab.sim.emulated` for which baud rate they run at). ``protocol`` None:
         the emulated models', or 2 on a serial port. ``port_options`` go to
-        :func:`~.ports.open_port`."""
-        return cls(open_port(url, baudrate, **port_options), protocol, retries, timeout)
+        :func:`~.ports.open_port`.
+
+        A port the user may not open (EACCES: on Linux, not in the group ``dialout``) says
+        how to join the group, in the one line of its error."""
+        try:
+            port = open_port(url, baudrate, **port_options)
+        except (ConfigError, PortError) as exc:
+            hint = _permission_hint(url, exc)
+            if hint is None:
+                raise
+            kind = type(exc) if type(exc) in (ConfigError, PortError) else ConfigError
+            raise kind(f"{exc}; {hint}") from exc
+        return cls(port, protocol, retries, timeout)
 
     @property
     def proto(self) -> Protocol:
-        """The protocol object (``protocol`` as given may be a version number)."""
+        """The protocol object (``protocol`` as given may be a version number); to the
+        thread that holds the bus to speak another one for a while (a scan of both protocols,
+        a :class:`MixedBus`), that one."""
+        speaking = self._speaking_as
+        if speaking is not None and speaking[0] == threading.get_ident():
+            return speaking[1]
         if self.protocol is not self._proto:  # reassigned since: decode it again
             self._proto = (self.protocol if isinstance(self.protocol, Protocol)
                            else protocol_for(self.protocol or 2))
@@ -783,30 +1113,41 @@ class Bus:
         v1 = self.proto.version == 1
         status = self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3},
                                check=False, retries=retries)[motor_id]
-        self._limits.pop(motor_id, None)   # perhaps another motor now, or other limits
-        if v1:
-            # 1.0 PING carries no model number: read it (addresses 0-2), and in the same READ
-            # the angle limits (6-9), which tell joint from wheel mode. A motor at status
-            # return level 0 answers PING but not READ; it is found, model unknown.
+        return self._identify(motor_id, status, retries=retries)
+
+    def _identify(self, motor_id: int, status: Status, *, retries: int | None = None,
+                  keep: bool = True) -> PingResult:
+        """The motor that answered a PING with ``status``, at the bus's protocol and rate.
+        A 2.0 PING's status carries the model number and firmware; a 1.0 one carries
+        nothing, so they are READ (addresses 0-2), and in the same READ the angle limits
+        (6-9), which tell joint from wheel mode. A 1.0 motor at status return level 0
+        answers PING but not READ: it is found, model unknown. ``keep``: the bus keeps the
+        model (and 1.0 angle limits) in :attr:`motors`."""
+        proto = self.proto
+        if keep:
+            self._limits.pop(motor_id, None)   # perhaps another motor now, or other limits
+        if proto.version == 1:
             try:
-                read = self.transact(self.proto.read(motor_id, 0, _PING_READ_1),
+                read = self.transact(proto.read(motor_id, 0, _PING_READ_1),
                                      {motor_id: _PING_READ_1}, check=False,
                                      retries=retries)[motor_id]
             except NoResponse:
-                return PingResult(motor_id, 0, None, self.baudrate, None)
+                return PingResult(motor_id, 0, None, self.baudrate, None, 1)
             number = int.from_bytes(read.params[0:2], "little")
             firmware: int | None = read.params[2]
-            self._limits[motor_id] = (int.from_bytes(read.params[6:8], "little"),
-                                      int.from_bytes(read.params[8:10], "little"))
+            if keep:
+                self._limits[motor_id] = (int.from_bytes(read.params[6:8], "little"),
+                                          int.from_bytes(read.params[8:10], "little"))
         else:
             number = int.from_bytes(status.params[0:2], "little")
             firmware = status.params[2]
         found = _at_firmware(model_by_number(number), firmware)
-        if found is not None:
+        if found is not None and keep:
             self.motors[motor_id] = found
-        return PingResult(motor_id, number, firmware, self.baudrate, found)
+        return PingResult(motor_id, number, firmware, self.baudrate, found, proto.version)
 
-    def broadcast_ping_wait(self) -> float:
+    def broadcast_ping_wait(self, top: int | None = None, baudrate: int | None = None
+                            ) -> float:
         """How long :meth:`broadcast_ping` listens (s) at least.
 
         "When the Packet ID field is 0xFE (Broadcast ID): All devices send their Status
@@ -817,29 +1158,47 @@ class Bus:
         (3 ms). So each of the IDs 0..251 before ID 252 takes at most the longer of a slot
         and an answer (the longest return delay, 254 x 2 us, and a 14-byte status), and ID
         252 its own answer: with the PING's own wire time, twice the adapter latency and
-        2 ms, that is the wait."""
-        tick = byte_time(self.baudrate)
-        proto = self.proto
+        2 ms, that is the wait. ``top``: the highest ID listened for (default 252); the IDs
+        after it answer later and are not waited for. ``baudrate``: at that rate (default
+        the port's)."""
+        tick = byte_time(baudrate or self.baudrate)
+        proto = PROTOCOL2
         answer = proto.status_size(3) * tick + MAX_RETURN_DELAY
         ping = len(proto.encode_instruction(proto.ping(proto.broadcast_id))) * tick
-        return (ping + proto.max_id * max(BROADCAST_PING_SLOT, answer) + answer
+        last = proto.max_id if top is None else top
+        return (ping + last * max(BROADCAST_PING_SLOT, answer) + answer
                 + 2 * self.port.latency + 0.002)
 
-    def broadcast_ping(self) -> list[PingResult]:
+    def broadcast_ping(self, ids: Iterable[int] | None = None) -> list[PingResult]:
         """Protocol 2.0 broadcast PING: every motor answers, in one transaction (which lasts
         :meth:`broadcast_ping_wait`, enough for ID 252 to answer in its turn, or the bus's
         ``timeout`` if that is longer: a short per-transaction timeout does not cut it
-        short)."""
+        short). ``ids``: only those are wanted, and the bus listens only until the highest
+        of them has had its turn."""
         if self.proto.version != 2:
             raise ConfigError("broadcast ping exists only in protocol 2.0; use scan()")
-        data = self.proto.encode_instruction(self.proto.ping(self.proto.broadcast_id))
-        timeout = max(self.timeout or 0.0, self.broadcast_ping_wait())
-        parser = self.proto.parser()
+        wanted = None
+        if ids is not None:
+            wanted = set(ids)
+            for motor_id in wanted:
+                self.proto.check_id(motor_id)
+        return self._broadcast_ping(wanted, keep=True)
+
+    def _broadcast_ping(self, wanted: set[int] | None, *, keep: bool) -> list[PingResult]:
+        """:meth:`broadcast_ping` of the IDs ``wanted`` (None: all); ``keep``: the models
+        found go to :attr:`motors`."""
+        if wanted is not None and not wanted:
+            return []
+        proto = PROTOCOL2
+        data = proto.encode_instruction(proto.ping(proto.broadcast_id))
+        top = None if wanted is None else max(wanted)
+        timeout = max(self.timeout or 0.0, self.broadcast_ping_wait(top))
+        parser = proto.parser()
         found: dict[int, PingResult] = {}
         with self._lock:
-            self._send(data)
             clock = self.port.clock
-            deadline = clock.now() + timeout
+            deadline = clock.now() + timeout   # (the wait counts the PING's wire time)
+            self._send(data)
             while (remaining := deadline - clock.now()) > 0:
                 chunk = self.port.read(4096, remaining)
                 self.stats.bytes_in += len(chunk)
@@ -847,52 +1206,243 @@ class Bus:
                     clock.sleep(min(remaining, 0.001))  # an in-process port returns at once
                 for frame in parser.feed(chunk):
                     try:
-                        status = self.proto.as_status(frame)
+                        status = proto.as_status(frame)
                     except ValueError:
                         self.stats.stale += 1
                         continue
                     if len(status.params) != 3 or status.id in found:
                         self.stats.stale += 1
                         continue
+                    if wanted is not None and status.id not in wanted:
+                        continue
                     number = int.from_bytes(status.params[0:2], "little")
                     m = _at_firmware(model_by_number(number), status.params[2])
-                    if m:
+                    if m and keep:
                         self.motors[status.id] = m
                     found[status.id] = PingResult(status.id, number, status.params[2],
-                                                  self.baudrate, m)
+                                                  self.baudrate, m, 2)
+            self.port.reset_input()   # answers of IDs after the last one wanted
         return [found[i] for i in sorted(found)]
 
-    def scan(self, ids: Iterable[int] | None = None, baudrates: Iterable[int] | None = None,
-             *, progress: Callable[[int, int], None] | None = None) -> list[PingResult]:
-        """Find motors as the Dynamixel Wizard does: ping every ID at every baud rate.
+    def ping_window(self, baudrate: int | None = None, protocol: int | None = None) -> float:
+        """How long a scan waits for the answer to one PING (s) before it PINGs the next ID,
+        on the bus's protocol at ``baudrate`` (default the port's): the wire time of the
+        PING and of its status (10 bits a byte), the longest return delay (254 x 2 us) and
+        :data:`SCAN_MARGIN`. The adapter's latency is not in it: an answer it hands over
+        later is still taken, by the ID it carries, while the next PINGs go out (the wire
+        itself is free by then). Where the adapter echoes or the port is a serial server
+        across a network, it is (each PING then waits for its answer or its timeout, see
+        :meth:`_ping_each`). The bus's ``timeout``, when set, replaces it.
+        ``protocol``: in that protocol (default the bus's)."""
+        if self.timeout is not None:
+            return self.timeout
+        proto = self.proto if protocol is None else protocol_for(protocol)
+        size = (len(proto.encode_instruction(proto.ping(0)))
+                + proto.status_size(0 if proto.version == 1 else 3))
+        window = (wire_time(size, baudrate or self.baudrate) + MAX_RETURN_DELAY
+                  + SCAN_MARGIN)
+        if self.port.echo or not isinstance(self.port, SerialPort | MemoryPort):
+            window += 2 * self.port.latency   # each PING waits for its answer
+        return window
 
-        Leaves the port at its original baud rate. ``progress(baud, id)`` is called before
-        each ping, for a progress display.
+    def scan(self, ids: Iterable[int] | None = None, baudrates: Iterable[int] | None = None,
+             *, protocols: Iterable[int] | None = None,
+             progress: Callable[[int, int], None] | None = None,
+             broadcast: bool | None = None) -> list[PingResult]:
+        """Find the motors on the port: every ID (or ``ids``) at each baud rate of
+        ``baudrates`` (default: the port's) in each protocol of ``protocols`` (default: the
+        bus's own; ``(1, 2)``: both, as a bus that mixes them needs).
+
+        Protocol 2.0 first, by one broadcast PING per rate when ``ids`` is None (or
+        ``broadcast``): every motor answers it in its turn, in ID order, within
+        :meth:`broadcast_ping_wait` (under 0.8 s at 57600 bps and above); with ``ids`` named
+        (and ``broadcast`` not True), a PING per ID. Then Protocol 1.0, which has no
+        broadcast PING, by a PING per ID, each after the one before it has had its
+        :meth:`ping_window` (the wire time of PING and status, the longest return delay and
+        a small margin): 254 IDs take about 1.2 s at 57600 bps and 0.7 s at 1 Mbps, what
+        an adapter's latency timer adds coming once, at the end. A 1.0 motor found is then
+        READ for its model number. :meth:`scan_time` says beforehand how long it takes.
+
+        Returns the motors found, by rate (in the order given), then protocol (2.0 first),
+        then ID; each :class:`PingResult` names its protocol. The models of those that speak
+        the bus's protocol go to :attr:`motors`. Leaves the port at its original baud rate.
+        ``progress(baud, id)`` is called before each PING (with the broadcast ID, 254, before
+        a broadcast PING), for a progress display.
         """
-        ids = list(range(self.proto.max_id + 1) if ids is None else ids)
-        for i in ids:
-            self.proto.check_id(i)
+        plan = self._scan_plan(ids, baudrates, protocols, broadcast)
+        original, own = self.baudrate, self.proto.version
+        found: list[PingResult] = []
+        # Hold the bus for the whole scan: another thread's transaction must never go out
+        # at one of the scan's baud rates or protocols.
+        with self._lock:
+            try:
+                if self._quiet_until is not None:
+                    self._settle()
+                for rate, version, by_broadcast, id_list in plan:
+                    if self.port.baudrate != rate:
+                        self.port.set_baudrate(rate)
+                    self._speak(version)
+                    keep = self._keeps(version, own)
+                    if by_broadcast:
+                        if progress:
+                            progress(rate, BROADCAST_ID)
+                        found += self._broadcast_ping(
+                            None if id_list is None else set(id_list), keep=keep)
+                        continue
+                    answered = self._ping_each(id_list or (), progress)
+                    found += [self._identify(i, answered[i], retries=0, keep=keep)
+                              for i in sorted(answered)]
+            finally:
+                self._speak(None)
+                if self.port.baudrate != original:
+                    self.port.set_baudrate(original)
+        return found
+
+    def _speak(self, version: int | None) -> None:
+        """Speak protocol ``version`` from this thread (None: the bus's own again); only
+        while holding the bus."""
+        self._speaking_as = (None if version is None
+                             else (threading.get_ident(), protocol_for(version)))
+
+    @contextlib.contextmanager
+    def _speaking(self, version: int) -> Iterator[None]:
+        """Hold the bus and speak protocol ``version`` until the block ends."""
+        with self._lock:
+            before = self._speaking_as
+            self._speak(version)
+            try:
+                yield
+            finally:
+                self._speaking_as = before
+
+    def _keeps(self, version: int, own: int) -> bool:
+        """Whether a scan keeps in :attr:`motors` the motors it finds in protocol
+        ``version`` (``own``: the bus's): those it speaks to."""
+        return version == own
+
+    def scan_time(self, ids: Iterable[int] | None = None,
+                  baudrates: Iterable[int] | None = None, *,
+                  protocols: Iterable[int] | None = None,
+                  broadcast: bool | None = None) -> float:
+        """How long :meth:`scan` with these arguments takes (s) when no motor answers: the
+        broadcast PINGs' waits and every PING's window, and once per rate and protocol what
+        the adapter's latency adds at the end. A motor that answers shortens its PING's
+        window and adds its status (on 1.0 a READ too): a few ms."""
+        plan = self._scan_plan(ids, baudrates, protocols, broadcast)
+        total = 0.0
+        for rate, version, by_broadcast, id_list in plan:
+            if by_broadcast:
+                if id_list is None or id_list:
+                    top = None if id_list is None else max(id_list)
+                    total += self.broadcast_ping_wait(top, rate)
+            elif id_list:
+                total += (len(id_list) * self.ping_window(rate, version)
+                          + 2 * self.port.latency + SCAN_MARGIN)
+        return total
+
+    def _scan_plan(self, ids: Iterable[int] | None, baudrates: Iterable[int] | None,
+                   protocols: Iterable[int] | None, broadcast: bool | None
+                   ) -> list[tuple[int, int, bool, list[int] | None]]:
+        """The steps of a scan, checked before anything is sent: (rate, protocol version,
+        by broadcast PING, the IDs: None for all). A protocol's IDs are those of ``ids``
+        that it can address; an ID none of the protocols can is refused."""
+        versions = [self.proto.version] if protocols is None else sorted(
+            {protocol_for(v).version for v in protocols}, reverse=True)
+        if not versions:
+            raise ConfigError("scan: no protocol to scan")
+        id_list = None if ids is None else list(ids)
+        if id_list is not None:
+            widest = max((protocol_for(v) for v in versions), key=lambda p: p.max_id)
+            for i in id_list:
+                widest.check_id(i)
         rates = [self.baudrate] if baudrates is None else [int(b) for b in baudrates]
         for rate in rates:
             if rate <= 0:
                 raise ConfigError(f"baud rate {rate} must be positive")
-        original = self.baudrate
-        found: list[PingResult] = []
-        # Hold the bus for the whole scan: another thread's transaction must never go out
-        # at one of the scan's baud rates.
-        with self._lock:
-            try:
-                for rate in rates:
-                    self.port.set_baudrate(rate)
-                    for motor_id in ids:
-                        if progress:
-                            progress(rate, motor_id)
-                        try:
-                            found.append(self.ping(motor_id, retries=0))
-                        except (NoResponse, CorruptResponse):
-                            continue
-            finally:
-                self.port.set_baudrate(original)
+        plan: list[tuple[int, int, bool, list[int] | None]] = []
+        for rate in rates:
+            for version in versions:
+                proto = protocol_for(version)
+                mine = (list(range(proto.max_id + 1)) if id_list is None
+                        else [i for i in id_list if i <= proto.max_id])
+                by_broadcast = version == 2 and (broadcast if broadcast is not None
+                                                 else id_list is None)
+                plan.append((rate, version, by_broadcast,
+                             None if by_broadcast and id_list is None else mine))
+        return plan
+
+    def _ping_each(self, ids: Sequence[int], progress: Callable[[int, int], None] | None
+                   ) -> dict[int, Status]:
+        """PING each of ``ids`` in turn, at the bus's protocol and rate; the statuses of those
+        that answered, by ID.
+
+        Each PING goes out when the one before it has been answered or its
+        :meth:`ping_window` has passed: by then the wire is free, whether or not the
+        adapter has handed the answer over. An answer that comes later, during the next
+        PINGs' windows, is taken by the ID it carries; what is still on its way after the
+        last PING is waited for once (twice the adapter's latency and
+        :data:`SCAN_MARGIN`). Where the adapter echoes (or is not known yet not to), or the
+        port is a serial server across a network (``socket://``, ``rfc2217://``: two PINGs
+        may reach its wire together, and the first one's answer collide with the second),
+        each PING is a transaction of its own instead, answered or timed out before the
+        next."""
+        proto, port, stats = self.proto, self.port, self.stats
+        clock = port.clock
+        n = 0 if proto.version == 1 else 3
+        size = proto.status_size(n)
+        rate = port.baudrate
+        parser = proto.parser()
+        found: dict[int, Status] = {}
+        asked: set[int] = set()
+        window = self.ping_window()
+        # Only where what is written reaches the wire at once, as spaced when written.
+        paced = isinstance(port, SerialPort | MemoryPort)
+
+        def take(chunk: bytes) -> None:
+            stats.bytes_in += len(chunk)
+            for frame in parser.feed(chunk):
+                try:
+                    status = proto.as_status(frame)
+                except ValueError:
+                    stats.stale += 1
+                    continue
+                if status.id in asked and status.id not in found and len(status.params) == n:
+                    found[status.id] = status
+                else:
+                    stats.stale += 1
+
+        for motor_id in ids:
+            if progress:
+                progress(rate, motor_id)
+            inst = proto.ping(motor_id)
+            if port.echo is not False or not paced:
+                with contextlib.suppress(NoResponse, CorruptResponse):
+                    found[motor_id] = self.transact(inst, {motor_id: n}, check=False,
+                                                    retries=0)[motor_id]
+                window = self.ping_window()   # the echo is known now
+                continue
+            data = proto.encode_instruction(inst)
+            deadline = clock.now() + window   # (the window counts the PING's wire time)
+            port.write(data)
+            asked.add(motor_id)
+            stats.transactions += 1
+            stats.bytes_out += len(data)
+            while motor_id not in found and (remaining := deadline - clock.now()) > 0:
+                chunk = port.read(max(1, size - parser.pending), remaining)
+                if not chunk:
+                    break
+                take(chunk)
+        if asked - found.keys():
+            # what the adapter still holds of the last answers
+            deadline = clock.now() + 2 * port.latency + SCAN_MARGIN
+            while asked - found.keys() and (remaining := deadline - clock.now()) > 0:
+                chunk = port.read(size, remaining)
+                if not chunk:
+                    break
+                take(chunk)
+            stats.timeouts += len(asked - found.keys())
+        if asked:
+            port.reset_input()
         return found
 
     def model_of(self, motor_id: int) -> Model:
@@ -900,6 +1450,12 @@ class Bus:
         self.proto.check_id(motor_id)
         if motor_id not in self.motors:
             result = self.ping(motor_id)
+            if result.model is None and result.firmware is None and self.proto.version == 1:
+                # the PING was answered, the READ of the model number that follows it not
+                self._note_level(motor_id, 0)
+                raise ConfigError(f"motor {motor_id} answers PING but not READ (status return "
+                                  "level 0), so its model cannot be read: declare it "
+                                  "(bus.declare(id, model); --model on the command line)")
             if result.model is None:
                 raise ConfigError(f"motor {motor_id}: model number {result.model_number} is "
                                   "not one servolab knows; declare it with bus.motors[id] = ...")
@@ -917,6 +1473,7 @@ class Bus:
                               f"{self.proto.version}.0")
         if self.motors.get(motor_id) != m:
             self._limits.pop(motor_id, None)
+            self._facts.pop(motor_id, None)
         self.motors[motor_id] = m
         if wheel_mode is not None and m.has(_ANGLE_LIMITS[1]):
             self._limits[motor_id] = (0, 0) if wheel_mode else (
@@ -958,28 +1515,168 @@ class Bus:
         """A raw value of register ``name`` of ``motor_id`` in SI units, as :meth:`read`
         converts it (by the motor's mode where it matters, see :meth:`wheel_mode`)."""
         m = self.model_of(motor_id)
-        reg = m.register(name)
+        reg = register_of(m, name)
         return units.to_si(m, reg, int(raw), wheel=self._wheel_si(motor_id, m, reg))
 
     def from_si(self, motor_id: int, name: str, value: float) -> int:
         """The raw value :meth:`write` sends for ``value`` (SI units) in register ``name`` of
         ``motor_id``; :class:`ConfigError` when it is out of range."""
         m = self.model_of(motor_id)
-        reg = m.register(name)
+        reg = register_of(m, name)
+        _check_type(m, reg, value)
         return units.from_si(m, reg, value, wheel=self._wheel_si(motor_id, m, reg))
 
     def _encode(self, motor_id: int, m: Model, reg: Register, value: Value, raw: bool
                 ) -> bytes:
+        raw_value = self._raw_value(motor_id, m, reg, value, raw)
+        if reg.name in _facts_of(m).goals:
+            self._check_goal(motor_id, m, reg, raw_value)
+        return reg.encode(raw_value)
+
+    def _raw_value(self, motor_id: int, m: Model, reg: Register, value: Value, raw: bool
+                   ) -> int:
+        """The raw value of ``value`` for ``reg``, checked: writable, a number of the right
+        type (``True`` is no angle) in the register's range."""
         if not reg.writable:
             raise ConfigError(f"{m.name} {reg.name} is read-only")
         if raw:
-            if isinstance(value, bool) or not float(value).is_integer():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+                    or not float(value).is_integer():
                 raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
             raw_value = int(value)
             reg.check(raw_value, m)
+            return raw_value
+        kind = type(value)
+        if kind is not float and kind is not int:
+            _check_type(m, reg, value)
+        return units.from_si(m, reg, value, wheel=self._wheel_si(motor_id, m, reg))
+
+    # -- what the motor's mode and limits allow --------------------------------------------------
+    def _goal_bounds(self, motor_id: int, m: Model, reg: Register
+                     ) -> tuple[int, int, bool] | None:
+        """The raw values of ``reg`` (a goal: :attr:`_ModelFacts.goals`) that ``motor_id``
+        takes as far as the bus knows its mode and limits: (low, high, known). Where it does
+        not know them (``known`` False), the values that every setting of them allows (the
+        factory limits, or the hull of what the limit registers can hold): a value outside
+        is then worth a READ of them before it is refused. None: no bound but the
+        register's own range (operating_mode's is a set, see :meth:`_check_goal`)."""
+        name = reg.name
+        if m.protocol == 1:
+            limits = self._limits.get(motor_id)
+            top = m.register(_ANGLE_LIMITS[1]).raw_max
+            if name == "moving_speed":
+                # joint and multi-turn mode: 0..1023, no direction bit (e-Manual, Moving Speed)
+                if limits is None:
+                    return 0, 0x3FF, False
+                return None if limits == (0, 0) else (0, 0x3FF, True)
+            if limits is None:
+                return 0, top, False
+            cw, ccw = limits
+            if cw == ccw == 0 or (m.has("multi_turn_offset") and cw == ccw == top):
+                return None     # wheel mode (goal ignored), multi-turn (its own range)
+            return cw, ccw, True
+        facts = self._facts.get(motor_id)
+        if name == "goal_position":
+            if facts is None:
+                return (m.register("min_position_limit").raw_min,
+                        m.register("max_position_limit").raw_max, False)
+            if facts.get("operating_mode") != _POSITION_MODE:
+                return None
+            return facts["min_position_limit"], facts["max_position_limit"], True
+        limit_name = _GOAL_LIMITS_2.get(name)
+        if limit_name is None:
+            return None
+        if facts is None or limit_name not in facts:
+            default = m.register(limit_name).default
+            return None if default is None else (-default, default, False)
+        return -facts[limit_name], facts[limit_name], True
+
+    def _check_goal(self, motor_id: int, m: Model, reg: Register, raw: int) -> None:
+        """Refuse, before it is sent, a value the motor would refuse in its mode or beyond
+        its limits (an "angle limit" or "range" error on 1.0, "data limit" on 2.0): where the
+        bus does not know them and the value is outside what every setting allows, it reads
+        them once first (:meth:`_learn_goal_facts`)."""
+        if reg.name == "operating_mode":
+            allowed = _allowed_modes(m)
+            if allowed is not None and raw not in allowed:
+                names = {v: k for k, v in _models.OPERATING_MODES.items()}
+                listed = ", ".join(f"{v} ({names.get(v, '?')})" for v in allowed)
+                raise ConfigError(f"{m.name} operating_mode: {raw} is not one of its modes: "
+                                  f"{listed}")
+            return
+        bounds = self._goal_bounds(motor_id, m, reg)
+        if bounds is None or bounds[0] <= raw <= bounds[1]:
+            return
+        if not bounds[2]:
+            self._learn_goal_facts(motor_id, m)
+            bounds = self._goal_bounds(motor_id, m, reg)
+            if bounds is None or bounds[0] <= raw <= bounds[1] or not bounds[2]:
+                return   # allowed after all, or the motor answers no READ (level 0)
+        raise ConfigError(self._goal_refusal(motor_id, m, reg, raw, bounds[0], bounds[1]))
+
+    def _goal_refusal(self, motor_id: int, m: Model, reg: Register, raw: int, low: int,
+                      high: int) -> str:
+        """The one line that says why ``raw`` is refused, in SI units and raw."""
+        def si(value: int) -> str:
+            try:
+                converted = units.to_si(m, reg, value)
+            except ConfigError:
+                return str(value)
+            unit = units.KINDS.get(reg.unit, "")
+            text = f"{converted:.4g}" if isinstance(converted, float) else str(converted)
+            return text + (f" {unit}" if unit else "")
+
+        head = f"motor {motor_id} ({m.name}) {reg.name}: {si(raw)} (raw {raw})"
+        if m.protocol == 1 and reg.name == "moving_speed":
+            cw, ccw = self._limits.get(motor_id, (0, 0))
+            return (f"{head} has bit 10 set, a direction, which only wheel mode has; in "
+                    f"joint mode (angle limits {cw}..{ccw}) moving_speed is 0..1023, 0 to "
+                    f"{si(0x3FF)} (0: as fast as it goes): write a speed of 0 or more, or set "
+                    "wheel mode first (cw_angle_limit = ccw_angle_limit = 0)")
+        if m.protocol == 1:
+            return (f"{head} is outside its angle limits cw_angle_limit..ccw_angle_limit = "
+                    f"{si(low)}..{si(high)} (raw {low}..{high}): the motor would refuse it "
+                    "(angle limit error); widen the limits first")
+        if reg.name == "goal_position":
+            return (f"{head} is outside its position limits min_position_limit.."
+                    f"max_position_limit = {si(low)}..{si(high)} (raw {low}..{high}) in "
+                    f"position control mode (operating_mode {_POSITION_MODE}): the motor would "
+                    "refuse it (data limit); extended position mode (operating_mode 4) turns "
+                    "further")
+        limit = _GOAL_LIMITS_2[reg.name]
+        return (f"{head} is beyond its {limit} {si(high)} (raw {high}): the motor would refuse "
+                f"it (data limit); raise {limit} first (torque off)")
+
+    def _learn_goal_facts(self, motor_id: int, m: Model) -> None:
+        """Read what bounds ``motor_id``'s goals: (1.0) its angle limits, hence its mode;
+        (2.0) its operating mode and limits. Nothing at status return level 0 (no READ is
+        answered)."""
+        if m.protocol == 1:
+            got = self._read_or_none(motor_id, list(_ANGLE_LIMITS))
+            if got is not None:
+                self._limits[motor_id] = (got[_ANGLE_LIMITS[0]], got[_ANGLE_LIMITS[1]])
         else:
-            raw_value = units.from_si(m, reg, value, wheel=self._wheel_si(motor_id, m, reg))
-        return reg.encode(raw_value)
+            names = _facts_of(m).facts
+            got = self._read_or_none(motor_id, list(names)) if names else None
+            if got is not None:
+                self._facts[motor_id] = dict(got)
+        self._plans.clear()  # sync_write plans bound their values by what the bus knows
+
+    def _read_or_none(self, motor_id: int, names: list[str]) -> dict[str, int] | None:
+        """Raw values of ``names``, or None when the motor answers no READ (status return
+        level 0, known or found now by a PING it answers)."""
+        if self._srl.get(motor_id) == 0:
+            return None
+        try:
+            got = self.read(motor_id, names, raw=True)
+        except CommError:
+            if motor_id in self._srl or motor_id in self._answered \
+                    or not self._answers(motor_id, 0):
+                raise
+            self._note_level(motor_id, 0)
+            log.info("motor %d answers PING but not READ: status return level 0", motor_id)
+            return None
+        return {name: int(value) for name, value in got.items()}
 
     # -- plans ---------------------------------------------------------------------------------
     def _plan(self, key: Any) -> Any:
@@ -1057,24 +1754,284 @@ class Bus:
         On models whose wheel mode sets the output rather than a speed (RX-28, EX-106+:
         :attr:`.Model.wheel_output_ratio`), a moving_speed in rad/s is, in wheel mode, the
         speed of the unloaded horn (:func:`.units.wheel_speed`); the bus knows the mode from
-        the angle limits it wrote, or reads them once (:meth:`wheel_mode`)."""
+        the angle limits it wrote, or reads them once (:meth:`wheel_mode`).
+
+        Checked before anything is sent: the register names ("did you mean"), each value's
+        type and range, what the motor's mode and limits allow (goal_position within the
+        angle or position limits, moving_speed's direction only in wheel mode, goal_velocity
+        within velocity_limit, ...: the bus reads them once where a value needs it), and,
+        for an EEPROM register of a 2.0 motor, that its torque is off (it locks the EEPROM
+        while torque is on: the bus reads torque_enable first).
+
+        ``id`` and ``baud_rate`` go through :meth:`change_id` and :meth:`change_baud`: a used
+        ID is refused, and the bus follows the motor to its new ID or rate.
+
+        A motor whose status return level the bus does not know is taken to be at 2 (the
+        factory level), and where its first WRITE gets no status the bus reads the level
+        (or, when no READ is answered either, PINGs: level 0) and honours it from then on:
+        a write to a motor at level 1 or 0 expects no status.
+
+        Every motor at once (the broadcast ID, 254): :meth:`broadcast_write`."""
+        if motor_id == self.proto.broadcast_id:
+            raise ConfigError(f"motor ID {motor_id} is the broadcast ID: broadcast_write() "
+                              "writes every motor at once, checked against each one's table")
+        if name == "id" or name == "baud_rate":
+            assert isinstance(name, str)
+            if value is None:
+                raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
+            self._commission(motor_id, name, value, raw=raw, registered=registered)
+            return
         m = self.model_of(motor_id)
         given: dict[str, Value | None] = dict(name) if isinstance(name, Mapping) else {name: value}
         values = {n: v for n, v in given.items() if v is not None}
         if len(values) != len(given):
             raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
+        if len(values) > 1:
+            _refuse_commissioning(values, "write")
         start, block = self._block(motor_id, m, values, raw)
-        level = self._level_after(motor_id, m, start, block, registered=registered)
-        self.transact(self.proto.write(motor_id, start, block, registered=registered),
-                      {motor_id: 0} if level >= 2 else None)
+        self._write_checked(motor_id, m, start, block, registered=registered)
+
+    # -- every motor at once -----------------------------------------------------------------
+    def broadcast_write(self, name: str | Mapping[str, Value], value: Value | None = None, *,
+                        raw: bool = False, models: Iterable[str | Model] | None = None
+                        ) -> list[int]:
+        """WRITE one register (or several adjacent ones, as :meth:`write` takes them) of every
+        motor at once: one instruction to the broadcast ID (254), which no motor answers
+        ("Broadcast ID ... no Status Packet is returned", e-Manual, Protocol 1.0 and 2.0,
+        Packet ID), so none is waited for.
+
+        The motors may be of several models, each with its own control table, and the one
+        packet carries one address and one set of bytes. So the write is checked, before
+        anything is sent, against the table of every motor the bus knows in its protocol
+        (found by :meth:`scan` or :meth:`ping`, or declared), as a write to each of them would
+        be (register name, writable, type and range, what its mode and limits allow, and for
+        an EEPROM register of a 2.0 motor, torque off), and it must come to the same address
+        and bytes for all of them: goal_position 0.5 rad is raw 610 on an RX-28 and 2389 on
+        an MX-28, which no single packet can say. ``models`` checks against those models'
+        tables instead (motors the bus has not met; then no mode or limit, which only a
+        motor can tell, is checked, and an EEPROM register is refused). A bus that knows no
+        motor, given no ``models``, refuses: scan first. ``id`` (every motor would take the
+        same) and ``baud_rate`` (each motor is to be followed: :meth:`change_baud`) are
+        refused.
+
+        Returns the IDs of the known motors it was checked for (``[]`` with ``models``); the
+        bus learns from it for each of them what :meth:`write` learns (a status return
+        level, angle limits, torque)."""
+        with self._lock:
+            return self._send_broadcast(self._broadcast_plan(name, value, raw, models))
+
+    def _broadcast_plan(self, name: str | Mapping[str, Value], value: Value | None, raw: bool,
+                        models: Iterable[str | Model] | None
+                        ) -> list[tuple[int | None, Model, int, bytes]]:
+        """:meth:`broadcast_write` checked, nothing sent: (ID or None, model, start, block) of
+        each table it was checked against, all with the same start and block."""
+        proto = self.proto
+        given: dict[str, Value | None] = (dict(name) if isinstance(name, Mapping)
+                                           else {name: value})
+        values = {n: v for n, v in given.items() if v is not None}
+        if not values or len(values) != len(given):
+            raise ConfigError(f"broadcast write needs a value for {name!r}")
+        for special in ("id", "baud_rate"):
+            if special in values:
+                raise ConfigError(
+                    "a broadcast write of id would give every motor the same ID; change IDs "
+                    "one motor at a time (change_id, servolab id)" if special == "id" else
+                    "a broadcast write of baud_rate would leave the bus unable to follow "
+                    "each motor; change baud rates with change_baud (servolab baud)")
+        if models is not None:
+            known: list[tuple[int | None, Model]] = [
+                (None, m if isinstance(m, Model) else model(m)) for m in models]
+            for _, m in known:
+                if m.protocol != proto.version:
+                    raise ConfigError(f"{m.name} speaks protocol {m.protocol}.0, this bus "
+                                      f"{proto.version}.0")
+        else:
+            known = [(i, m) for i, m in sorted(self.motors.items())
+                     if m.protocol == proto.version]
+        if not known:
+            raise ConfigError("broadcast write: the bus knows no motor to check the write "
+                              "against (each model has its own table, and no motor answers a "
+                              "broadcast to say it refused); scan() first, declare the "
+                              "motors, or name their models; nothing was written")
+        with self._lock:
+            blocks: list[tuple[int | None, Model, int, bytes]] = []
+            for motor_id, m in known:
+                if motor_id is None:
+                    start, block = _model_block(m, values, raw)
+                else:
+                    start, block = self._block(motor_id, m, values, raw)
+                blocks.append((motor_id, m, start, block))
+            _, _, start, block = blocks[0]
+            if any((s, b) != (start, block) for _, _, s, b in blocks):
+                kinds: dict[tuple[str, int, bytes], list[int]] = {}
+                for i, m, s, b in blocks:
+                    kinds.setdefault((m.name, s, b), []).extend(() if i is None else (i,))
+                raise ConfigError(
+                    f"broadcast write of {', '.join(values)}: the motors' tables disagree ("
+                    + "; ".join(f"{name}{_motors(ids)}: address {s}, bytes {b.hex(' ')}"
+                                for (name, s, b), ids in kinds.items())
+                    + "): one packet carries one address and one value; write them one by "
+                    "one or with sync_write; nothing was written")
+            for motor_id, m, _, _ in blocks:
+                eeprom = (_eeprom_registers(m, start, start + len(block))
+                          if start < _facts_of(m).eeprom_end else [])
+                if not eeprom:
+                    continue
+                if motor_id is None:
+                    raise ConfigError(f"{m.name}: {eeprom[0].name} is in EEPROM: a broadcast "
+                                      "to motors the bus has not met cannot check that their "
+                                      "torque is off; scan() first; nothing was written")
+                self._guard_eeprom(motor_id, m, eeprom)
+        return blocks
+
+    def _send_broadcast(self, blocks: list[tuple[int | None, Model, int, bytes]]) -> list[int]:
+        """Send the WRITE :meth:`_broadcast_plan` checked, and learn from it."""
+        proto = self.proto
+        _, _, start, block = blocks[0]
+        self.transact(proto.write(proto.broadcast_id, start, block))
+        ids = [i for i, _, _, _ in blocks if i is not None]
+        for motor_id, m, _, _ in blocks:
+            if motor_id is not None:
+                self._learn(motor_id, m, start, block)
+        return ids
+
+    def _write_checked(self, motor_id: int, m: Model, start: int, block: bytes, *,
+                       registered: bool = False) -> None:
+        """WRITE (or REG_WRITE) ``block`` at ``start`` to one motor, its values checked
+        already: an EEPROM block only with torque off (2.0), the status awaited by the
+        motor's status return level, and what the write sets learnt."""
+        end = start + len(block)
+        eeprom = _eeprom_registers(m, start, end) if start < _facts_of(m).eeprom_end else []
+        if eeprom:
+            self._guard_eeprom(motor_id, m, eeprom)
+        inst = self.proto.write(motor_id, start, block, registered=registered)
+        try:
+            self._send_write(motor_id, m, inst,
+                             self._level_after(motor_id, m, start, block,
+                                               registered=registered),
+                             self._level_known(motor_id, m, start, block, registered))
+        except MotorError as exc:
+            if not eeprom:
+                raise
+            raise _hinted(m, eeprom, exc) from None
         if registered:  # the motor keeps one REG_WRITE, the last, until ACTION
             self._registered[motor_id] = (start, block)
         else:
             self._learn(motor_id, m, start, block)
 
+    def _send_write(self, motor_id: int, m: Model, inst: Instruction, level: int,
+                    known: bool) -> None:
+        """Send a WRITE-like instruction to one motor and take its status by the motor's
+        status return level: none below 2; at 2 (known, or taken for the factory level) the
+        status, retried as usual. Where the level is not known and no status comes, the bus
+        finds the level out (:meth:`_probe_level`) before it retries: a motor at level 1 or
+        0 heard the WRITE and rightly stayed silent."""
+        if level < 2:
+            self.transact(inst)
+            return
+        expect = {motor_id: 0}
+        if known:
+            self.transact(inst, expect)
+            return
+        try:
+            self.transact(inst, expect, retries=0)
+        except CommError:
+            found = self._probe_level(motor_id, m)
+            if found is not None and found < 2:
+                return
+            if self.retries == 0:
+                raise
+            self.transact(inst, expect, retries=self.retries - 1)
+        self._answered.add(motor_id)
+
+    def _level_known(self, motor_id: int, m: Model, start: int, block: bytes,
+                     registered: bool) -> bool:
+        """Whether the bus knows the status return level ``motor_id`` answers this write by
+        (told, learnt, seen, or written by this very block)."""
+        if motor_id in self._srl or motor_id in self._answered \
+                or not m.has("status_return_level"):
+            return True
+        reg = m.register("status_return_level")
+        return not registered and start <= reg.address < start + len(block)
+
+    def _probe_level(self, motor_id: int, m: Model) -> int | None:
+        """Find ``motor_id``'s status return level out: READ it (and the return delay, when
+        near it), else PING (a motor that answers PING and not READ is at level 0). None when
+        nothing answers. The bus keeps what it found."""
+        names = ["status_return_level"]
+        if m.has("return_delay_time"):
+            names = _near(m, ["return_delay_time", "status_return_level"]) or names
+        start, length = m.span(names)
+        try:
+            status = self.transact(self.proto.read(motor_id, start, length),
+                                   {motor_id: length}, check=False)[motor_id]
+        except CommError:
+            if not self._answers(motor_id, 0):
+                return None
+            self._note_level(motor_id, 0)
+            log.info("motor %d answers PING only: status return level 0 (the bus sends it "
+                     "no READ and awaits no status but PING's)", motor_id)
+            return 0
+        if self.proto.failed(status.error) or len(status.params) != length:
+            return None
+        values = {n: m.register(n).decode(status.params[m.register(n).address - start:])
+                  for n in names}
+        if "return_delay_time" in values:
+            self._delay[motor_id] = values["return_delay_time"] * 2e-6
+        level = values["status_return_level"]
+        self._note_level(motor_id, level)
+        if level < 2:
+            log.info("motor %d is at status return level %d: the bus awaits no status to "
+                     "its writes", motor_id, level)
+        return level
+
+    def _note_level(self, motor_id: int, level: int) -> None:
+        """Keep a status return level the bus found out (2 as seen, not as told)."""
+        if level >= 2:
+            self._srl.pop(motor_id, None)
+            self._answered.add(motor_id)
+        else:
+            self._srl[motor_id] = level
+            self._answered.discard(motor_id)
+
+    def _answers(self, motor_id: int, retries: int | None = None) -> bool:
+        """Whether something answers a PING of ``motor_id`` (nothing learnt from it)."""
+        v1 = self.proto.version == 1
+        try:
+            self.transact(self.proto.ping(motor_id), {motor_id: 0 if v1 else 3}, check=False,
+                          retries=retries)
+        except CommError:
+            return False
+        return True
+
+    def _guard_eeprom(self, motor_id: int, m: Model, eeprom: Sequence[Register]) -> None:
+        """Before a write to EEPROM: a 2.0 motor locks its EEPROM while torque is on (and
+        answers "access"; e-Manual, X-series Torque Enable(64): "all Data in the EEPROM Area
+        are protected from writing" while it is 1), so the bus reads torque_enable first, and
+        refuses in one line. (1.0 motors lock their EEPROM by the Lock register only, which
+        a refused write names: :func:`_eeprom_hint`.)"""
+        if m.protocol != 2 or not m.has("torque_enable"):
+            return
+        if self._torque.get(motor_id) == 0:
+            return      # this bus switched it off, and wrote no goal since
+        names = ["torque_enable"]
+        if motor_id not in self._srl and motor_id not in self._answered:
+            names = _near(m, ["torque_enable", "status_return_level"], 8) or names
+        got = self._read_or_none(motor_id, names)
+        if got is None:
+            return      # level 0: nothing to read, nothing to learn
+        if "status_return_level" in got:
+            self._note_level(motor_id, got["status_return_level"])
+        self._torque[motor_id] = got["torque_enable"]
+        if got["torque_enable"]:
+            what = eeprom[0].name
+            raise ConfigError(f"motor {motor_id} ({m.name}): {what} is in EEPROM, which the "
+                              "motor locks while its torque is on: switch torque off first "
+                              "(torque_enable 0)")
+
     def _block(self, motor_id: int, m: Model, values: Mapping[str, Value], raw: bool
                ) -> tuple[int, bytes]:
-        regs = sorted((m.register(n) for n in values), key=lambda r: r.address)
+        regs = sorted((register_of(m, n) for n in values), key=lambda r: r.address)
         for a, b in itertools.pairwise(regs):
             if a.address + a.size != b.address:
                 raise ConfigError(f"{m.name}: {a.name} and {b.name} are not adjacent; write "
@@ -1091,6 +2048,19 @@ class Bus:
             reg = m.register("status_return_level")
             if start <= reg.address < end:
                 self._srl[motor_id] = reg.decode(block[reg.address - start:])
+        info = _facts_of(m)
+        if info.torque >= 0 and start <= info.torque < end:
+            self._torque[motor_id] = block[info.torque - start]
+        elif self._torque and info.goal_span[0] < end and start < info.goal_span[1]:
+            self._torque.pop(motor_id, None)    # a goal may have switched it on
+        if info.facts and start < info.facts_span[1] and info.facts_span[0] < end:
+            facts = self._facts.get(motor_id)
+            if facts is not None:
+                for name in info.facts:
+                    reg = m.register(name)
+                    if start <= reg.address and reg.address + reg.size <= end:
+                        facts[name] = reg.decode(block[reg.address - start:])
+            self._plans.clear()  # sync_write plans bound goals by them
         if m.protocol != 1 or not m.has(_ANGLE_LIMITS[0]):
             return
         regs = [m.register(n) for n in _ANGLE_LIMITS]
@@ -1107,6 +2077,7 @@ class Bus:
             self._limits[motor_id] = (limits[0], limits[1])
         else:  # one written, the other unknown: read both when next needed
             self._limits.pop(motor_id, None)
+        self._plans.clear()  # sync_write plans bound goals by them
 
     def _level_after(self, motor_id: int, m: Model, start: int, block: bytes, *,
                      registered: bool = False) -> int:
@@ -1139,7 +2110,9 @@ class Bus:
         The bus keeps it up to date from what it sends: writes of ``status_return_level``
         (WRITE, SYNC_WRITE, BULK_WRITE, and a REG_WRITE once its :meth:`action` is sent),
         :meth:`reboot` (which brings a level kept in RAM, as on the X-series, back to 2) and
-        :meth:`factory_reset`. This is the bus's own dict, not a copy: set an entry to tell
+        :meth:`factory_reset`; and it learns a level below 2 where a motor's first WRITE gets
+        no status (it reads the level then, or PINGs: see :meth:`write`) or from
+        :meth:`contact`. This is the bus's own dict, not a copy: set an entry to tell
         the bus of a level it cannot know (set by another program, or kept in a motor's
         EEPROM from before)."""
         return self._srl
@@ -1175,6 +2148,8 @@ class Bus:
             if m is None or not m.has("status_return_level") \
                     or m.register("status_return_level").area == "RAM":
                 self._srl.pop(i, None)     # the factory level, 2
+                self._answered.discard(i)  # (or what a RAM restore brings back)
+            self._torque.pop(i, None)      # off, or on by its Startup Configuration
 
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
                       keep_baud: bool = True) -> None:
@@ -1211,10 +2186,15 @@ class Bus:
             raise ConfigError(f"FACTORY_RESET does not exist in protocol {proto.version}.0")
         ids = self._targets(motor_id)
         self._reset_exchange(inst, name, motor_id)
+        self._plans.clear()
         for i in [*ids, 1] if moves else ids:
             self._srl.pop(i, None)
             self._registered.pop(i, None)
             self._limits.pop(i, None)
+            self._facts.pop(i, None)       # the limits and mode are the factory's again
+            self._delay.pop(i, None)
+            self._torque.pop(i, None)
+            self._answered.discard(i)
             if moves:
                 self.motors.pop(i, None)
                 self._alerts.pop(i, None)
@@ -1255,6 +2235,8 @@ class Bus:
         ``sync_write(["goal_position", "moving_speed"], {11: (0.1, 2.0)})``."""
         key: tuple[str, str, tuple[int, ...]] | None = None
         if isinstance(names, str):
+            if names == "id" or names == "baud_rate":
+                _refuse_commissioning([names], "SYNC_WRITE")
             ids = tuple(values)
             key = ("sync_write", names, ids)
             plan = self._plan(key)
@@ -1267,8 +2249,15 @@ class Bus:
                             level = values[motor_id]
                             assert isinstance(level, int)  # the plan's encode checked it
                             self._srl[motor_id] = level
+                    if plan.torque:
+                        for motor_id in plan.ids:
+                            self._torque[motor_id] = int(values[motor_id])  # type: ignore[arg-type]
+                    elif plan.goal and self._torque:
+                        for motor_id in plan.ids:
+                            self._torque.pop(motor_id, None)
                     return
         wanted = self._names(names)
+        _refuse_commissioning(wanted, "SYNC_WRITE")
         blocks: list[tuple[int, bytes]] = []
         layout: tuple[int, int] | None = None
         for motor_id, value in values.items():
@@ -1296,6 +2285,12 @@ class Bus:
             blocks.append((motor_id, block))
         if not blocks or layout is None:
             return
+        for motor_id, _ in blocks:
+            m = self.motors[motor_id]
+            if layout[0] < _facts_of(m).eeprom_end:
+                eeprom = _eeprom_registers(m, layout[0], layout[0] + layout[1])
+                if eeprom:
+                    self._guard_eeprom(motor_id, m, eeprom)
         self.transact(self.proto.sync_write(layout[0], layout[1], blocks))
         if key is not None:  # one register: the next time, through a plan
             self._keep(key, self._sync_write_plan(key[1], key[2]))
@@ -1308,8 +2303,10 @@ class Bus:
         models = [self.motors[i] for i in ids]
         reg = models[0].register(name)
         if (any(m.register(name) != reg for m in models) or name in _ANGLE_LIMITS
-                or (reg.size, reg.signed) not in _STRUCT_CODES):
-            return None  # (the angle limits: the checked path learns the motors' mode)
+                or reg.area == "EEPROM" or (reg.size, reg.signed) not in _STRUCT_CODES):
+            # (the angle limits: the checked path learns the motors' mode; EEPROM: it checks
+            # that their torque is off)
+            return None
         covers = any(m.has("status_return_level")
                      and m.register("status_return_level").address == reg.address
                      for m in models)
@@ -1319,7 +2316,16 @@ class Bus:
             return None
         expected = self.proto.encode_instruction(self.proto.sync_write(
             reg.address, reg.size, [(i, bytes(reg.size)) for i in ids]))
-        return plan if len(expected) == len(plan.template) else None
+        if len(expected) != len(plan.template):
+            return None
+        for motor_id, m in zip(ids, models, strict=True):
+            # what the motors' modes and limits allow, as far as the bus knows them: a value
+            # beyond takes the checked path, which reads them or says why it is refused
+            bounds = self._goal_bounds(motor_id, m, reg) if name in _facts_of(m).goals \
+                else None
+            if bounds is not None:
+                plan.low, plan.high = max(plan.low, bounds[0]), min(plan.high, bounds[1])
+        return plan
 
     @overload
     def sync_read(self, names: str, ids: Iterable[int], *, raw: bool = False,
@@ -1425,18 +2431,325 @@ class Bus:
         2.0; on 1.0 (which has none) one WRITE per motor."""
         blocks = []
         for motor_id, regs in values.items():
+            _refuse_commissioning(regs, "BULK_WRITE")
             m = self.model_of(motor_id)
             start, block = self._block(motor_id, m, regs, raw)
             blocks.append((motor_id, m, start, block))
         proto = self.proto
         if isinstance(proto, Protocol2) and all(supports(m, "BULK_WRITE") for _, m, _, _ in blocks):
+            for motor_id, m, start, block in blocks:
+                eeprom = _eeprom_registers(m, start, start + len(block))
+                if eeprom:
+                    self._guard_eeprom(motor_id, m, eeprom)
             self.transact(proto.bulk_write([(i, start, block) for i, _, start, block in blocks]))
         else:
             for motor_id, m, start, block in blocks:
-                level = self._level_after(motor_id, m, start, block)
-                self.transact(self.proto.write(motor_id, start, block),
-                              {motor_id: 0} if level >= 2 else None)
-                self._learn(motor_id, m, start, block)
+                self._write_checked(motor_id, m, start, block)
             return
         for motor_id, m, start, block in blocks:
             self._learn(motor_id, m, start, block)
+
+    # -- commissioning: how a motor answers, its ID, its baud rate ---------------------------
+    @property
+    def return_delay(self) -> Mapping[int, float]:
+        """Each motor's Return Delay Time (s) as the bus read it (:meth:`contact`, or the
+        first write it got no status to): how long the motor waits before its status. The
+        bus's timeouts allow the longest (254 x 2 us) to every motor in any case."""
+        return MappingProxyType(self._delay)
+
+    def contact(self, motor_id: int) -> Contact:
+        """Learn how ``motor_id`` answers, as on first contact: its status return level
+        (e-Manual, Status Return Level: 0 answers PING only, 1 PING and READ, 2 every
+        instruction) and its return delay, in one READ (or a PING, where no READ is
+        answered: level 0), and what bounds its goals (its mode and limits), in another.
+        The bus honours the level from then on: it awaits no status a motor will not send,
+        and sends no READ to a motor at level 0. (Without this call the bus learns the same
+        when it first needs it: the level at the first WRITE that gets no status, mode and
+        limits at the first goal beyond what the factory settings allow.)"""
+        m = self.model_of(motor_id)
+        with self._lock:
+            level = self._probe_level(motor_id, m) if m.has("status_return_level") else 2
+            if level is None:
+                raise NoResponse(f"motor {motor_id}: no answer to READ or PING at "
+                                 f"{self.baudrate} bps (is it powered, at this baud rate and "
+                                 "ID?)", motor_id=motor_id, instruction="READ")
+            if level and _facts_of(m).goals:
+                self._learn_goal_facts(motor_id, m)
+        delay = self._delay.get(motor_id)
+        if delay is not None and self.timeout is not None and delay >= self.timeout:
+            log.warning("motor %d waits %.0f us before each status, longer than this bus's "
+                        "timeout (%.0f us): every transaction with it will time out; lower "
+                        "its return_delay_time or the timeout", motor_id, delay * 1e6,
+                        self.timeout * 1e6)
+        return Contact(motor_id, m, level, delay)
+
+    def _who(self, motor_id: int) -> PingResult | None:
+        """The motor that answers at ``motor_id``, None when none does; something that
+        answers garbled (two motors at one ID) is refused."""
+        try:
+            return self.ping(motor_id)
+        except NoResponse:
+            return None
+        except CorruptResponse:
+            raise ConfigError(f"ID {motor_id}: something answers there, garbled (two motors "
+                              "with that ID?); nothing was written") from None
+
+    def change_id(self, motor_id: int, new_id: int) -> PingResult:
+        """Give the motor at ``motor_id`` the ID ``new_id``, and follow it there.
+
+        Refused with nothing written when a motor already answers at ``new_id`` (two motors
+        at one ID answer together and garble each other; pypot's ``change_id`` refuses it
+        too), and when none answers at ``motor_id``. A 2.0 motor must have its torque off
+        (the ID is in EEPROM). The motor sends the WRITE's status from its new ID, as
+        ROBOTIS's own device code does (Dynamixel2Arduino, src/utility/slave.cpp,
+        ``processInstWrite``: ``txStatusPacket(id_, ...)`` after the write). The bus then
+        PINGs the new ID and moves what it knows of the motor there (model, status return
+        level, mode and limits, alerts). Returns that PING."""
+        proto = self.proto
+        proto.check_id(motor_id)
+        proto.check_id(new_id)
+        with self._lock:
+            m = self.model_of(motor_id)
+            reg = register_of(m, "id")
+            reg.check(new_id, m)
+            here = self.ping(motor_id)             # it must answer where it is
+            if new_id == motor_id:
+                return here
+            m = self.motors.get(motor_id, m)
+            taken = self._who(new_id)
+            if taken is not None:
+                raise ConfigError(f"ID {new_id} is taken: motor {new_id} ({taken.model_name}) "
+                                  f"answers there at {self.baudrate} bps; nothing was written "
+                                  f"to motor {motor_id}. Pick a free ID (servolab scan lists "
+                                  "those in use)")
+            self._guard_eeprom(motor_id, m, [reg])
+            inst = proto.write(motor_id, reg.address, reg.encode(new_id))
+            level = self._srl.get(motor_id, 2)
+            moved = False
+            for _ in range(1 + self.retries):
+                try:
+                    self.transact(inst, {new_id: 0} if level >= 2 else None, retries=0)
+                    moved = level >= 2 or self._answers(new_id)
+                except CommError:
+                    moved = self._answers(new_id)
+                if moved:
+                    break
+                if not self._answers(motor_id):
+                    raise NoResponse(f"motor {motor_id}: after a WRITE of id {new_id} it answers "
+                                     f"at neither ID {motor_id} nor {new_id} at {self.baudrate} "
+                                     "bps; find it with servolab scan", motor_id=motor_id,
+                                     instruction="WRITE")
+            if not moved:
+                self._still_there(motor_id, m, inst, f"id {new_id}")
+            self._move(motor_id, new_id)
+            return self.ping(new_id)
+
+    def _still_there(self, motor_id: int, m: Model, inst: Instruction, what: str) -> None:
+        """A WRITE of ``what`` that left the motor where it was: its own status says why."""
+        reg = m.register("id") if what.startswith("id") else m.register("baud_rate")
+        try:
+            self.transact(inst, {motor_id: 0})
+        except MotorError as exc:
+            raise _hinted(m, [reg], exc) from None
+        except CommError:
+            pass
+        raise NoResponse(f"motor {motor_id}: the WRITE of {what} did not take: it still "
+                         f"answers as before at {self.baudrate} bps", motor_id=motor_id,
+                         instruction="WRITE")
+
+    def change_baud(self, motor_id: int, baudrate: int, *, follow: bool = True) -> PingResult:
+        """Set the baud rate of ``motor_id`` to ``baudrate`` bps (the register value from the
+        model's e-Manual table: :meth:`.Model.baud_register_for`, within UART tolerance, so
+        57600 sets an RX-28's 57142), then speak the new rate and PING the motor there.
+
+        The motor answers the WRITE at the old rate and then changes. ``follow`` (the
+        default): the bus stays at the new rate, as the motor has; motors it knew that stay
+        at the old rate are named in a warning and forgotten. Otherwise the bus goes back to
+        its rate and forgets the motor. A 2.0 motor must have its torque off (the baud rate
+        is in EEPROM). Returns the PING at the new rate."""
+        m = self.model_of(motor_id)
+        register_of(m, "baud_rate")
+        try:
+            value = m.baud_register_for(int(baudrate))
+        except ConfigError:
+            raise ConfigError(f"{m.name}: {baudrate} bps is not a baud rate it can use; it "
+                              f"can use {', '.join(map(str, usable_rates(m)))}") from None
+        exact = m.baud_from_register(value)
+        rate = int(baudrate) if baud_matches(int(baudrate), exact) else line_rate(exact)
+        return self._change_baud(motor_id, m, value, rate, follow=follow)
+
+    def _change_baud(self, motor_id: int, m: Model, value: int, rate: int, *,
+                     follow: bool = True) -> PingResult:
+        reg = m.register("baud_rate")
+        exact = m.baud_from_register(value)
+        with self._lock:
+            before = self.baudrate
+            if not self._answers(motor_id):
+                raise NoResponse(f"motor {motor_id}: no answer to PING at {before} bps (is it "
+                                 "powered, at this baud rate and ID?)", motor_id=motor_id,
+                                 instruction="PING")
+            self._guard_eeprom(motor_id, m, [reg])
+            inst = self.proto.write(motor_id, reg.address, reg.encode(value))
+            level = self._srl.get(motor_id, 2)
+            for _ in range(1 + self.retries):
+                try:   # answered at the old rate, then the motor changes
+                    self.transact(inst, {motor_id: 0} if level >= 2 else None, retries=0)
+                except MotorError as exc:
+                    raise _hinted(m, [reg], exc) from None
+                except CommError:
+                    pass  # the status may be lost: where the motor answers tells
+                self.port.set_baudrate(rate)
+                if self._answers(motor_id):
+                    break
+                self.port.set_baudrate(before)
+                if not self._answers(motor_id):
+                    raise NoResponse(f"motor {motor_id}: after a WRITE of baud_rate {value} "
+                                     f"({exact} bps) it answers neither at {rate} nor at "
+                                     f"{before} bps; find it with servolab scan",
+                                     motor_id=motor_id, instruction="WRITE")
+            else:
+                self._still_there(motor_id, m, inst, f"baud_rate {value}")
+            result = self.ping(motor_id)
+            if not follow:
+                self.port.set_baudrate(before)
+                self._forget(motor_id)
+                return result
+            left = sorted({*self.motors, *self._srl, *self._limits, *self._facts,
+                           *self._alerts} - {motor_id})
+            if left:
+                log.warning("motor(s) %s stay at %d bps; this bus now speaks %d bps and "
+                            "forgets them", ", ".join(map(str, left)), before, rate)
+                for i in left:
+                    self._forget(i)
+            return result
+
+    def _commission(self, motor_id: int, name: str, value: Value, *, raw: bool,
+                    registered: bool) -> None:
+        """A write of ``id`` or ``baud_rate`` by name: through :meth:`change_id` and
+        :meth:`change_baud`."""
+        if registered:
+            raise ConfigError(f"motor {motor_id}: {name} as a REG_WRITE would change at an "
+                              "ACTION the bus cannot follow; write it directly")
+        m = self.model_of(motor_id)
+        reg = register_of(m, name)
+        raw_value = self._raw_value(motor_id, m, reg, value, raw)
+        if name == "id":
+            self.change_id(motor_id, raw_value)
+            return
+        exact = m.baud_from_register(raw_value)
+        asked = float(value)
+        rate = int(asked) if not raw and baud_matches(asked, exact) else line_rate(exact)
+        self._change_baud(motor_id, m, raw_value, rate)
+
+    def _move(self, old: int, new: int) -> None:
+        """What the bus knows of the motor at ``old``, now at ``new``."""
+        caches: list[dict[int, Any]] = [self.motors, self._srl, self._alerts, self._limits,
+                                        self._registered, self._facts, self._delay,
+                                        self._torque]
+        for cache in caches:
+            if old in cache:
+                cache[new] = cache.pop(old)
+            else:
+                cache.pop(new, None)
+        if old in self._answered:
+            self._answered.discard(old)
+            self._answered.add(new)
+        else:
+            self._answered.discard(new)
+        self._plans.clear()
+
+    def _forget(self, motor_id: int) -> None:
+        """Everything the bus knows of ``motor_id`` (no longer on this bus as it speaks)."""
+        caches: list[dict[int, Any]] = [self.motors, self._srl, self._alerts, self._limits,
+                                        self._registered, self._facts, self._delay,
+                                        self._torque]
+        for cache in caches:
+            cache.pop(motor_id, None)
+        self._answered.discard(motor_id)
+        self._plans.clear()
+
+    # -- raw access by address ----------------------------------------------------------------
+    def _check_span(self, address: int, size: int, *, write: bool) -> None:
+        """Refuse an address or a size the protocol cannot carry (:func:`raw_access_limits`)."""
+        proto = self.proto
+        space, most_read, most_write = raw_access_limits(proto)
+        most = most_write if write else most_read
+        what = "WRITE" if write else "READ"
+        for label, number in (("address", address), ("size", size)):
+            if isinstance(number, bool) or not isinstance(number, int):
+                raise ConfigError(f"{label} {number!r} is not an integer")
+        if not 0 <= address < space:
+            raise ConfigError(f"address {address} is outside protocol {proto.version}.0's "
+                              f"0..{space - 1}")
+        if not 1 <= size <= most:
+            raise ConfigError(f"size {size}: one {what} of protocol {proto.version}.0 carries "
+                              f"1..{most} bytes")
+        if address + size > space:
+            raise ConfigError(f"address {address} and {size} bytes run past {space - 1}, the "
+                              f"last address of protocol {proto.version}.0")
+
+    def known_model(self, motor_id: int) -> Model | None:
+        """The model of ``motor_id`` when servolab has its table (declared, or learnt by a
+        PING now), None for a model it does not know (a motor that does not answer raises
+        :class:`NoResponse`)."""
+        self.proto.check_id(motor_id)
+        found = self.motors.get(motor_id)
+        if found is None:
+            found = self.ping(motor_id).model
+        return found
+
+    def read_address(self, motor_id: int, address: int, size: int) -> bytes:
+        """``size`` raw bytes of ``motor_id``'s control table from ``address`` (one READ),
+        whatever registers are there, or none servolab knows (a model it has no table for).
+        The address and size are checked against the protocol first
+        (:func:`raw_access_limits`); the motor answers for the rest."""
+        self._check_span(address, size, write=False)
+        self.proto.check_id(motor_id)
+        if 0 in self._srl.values():
+            self._check_reads_answered((motor_id,))
+        status = self.transact(self.proto.read(motor_id, address, size),
+                               {motor_id: size})[motor_id]
+        return bytes(status.params)
+
+    def write_address(self, motor_id: int, address: int, data: bytes) -> None:
+        """Write raw ``data`` at ``address`` of ``motor_id``'s control table (one WRITE;
+        ``motor_id`` may be the broadcast ID).
+
+        Where the bus knows the motor's model, the bytes are checked as a write by name is:
+        every register they touch they cover whole, each value writable and in range and
+        allowed by the motor's mode and limits, EEPROM with torque off; ``id`` and
+        ``baud_rate`` alone go through :meth:`change_id` and :meth:`change_baud`. Bytes where
+        servolab's table has no register, and every byte to a model it does not know, go as
+        they are: the motor answers for them."""
+        data = bytes(data)
+        self._check_span(address, len(data), write=True)
+        proto = self.proto
+        broadcast = motor_id == proto.broadcast_id
+        proto.check_id(motor_id, broadcast=True)
+        m = None if broadcast else self.known_model(motor_id)
+        try:
+            inst = proto.write(motor_id, address, data)
+            proto.encode_instruction(inst)
+        except PacketError as exc:
+            raise ConfigError(str(exc)) from None
+        if m is None:
+            level = 0 if broadcast else self._srl.get(motor_id, 2)
+            self.transact(inst, {motor_id: 0} if level >= 2 else None)
+            return
+        end = address + len(data)
+        regs = [r for r in m.registers if address < r.address + r.size and r.address < end]
+        for reg in regs:
+            if reg.address < address or reg.address + reg.size > end:
+                raise ConfigError(f"{m.name}: bytes {address}..{end - 1} cover part of "
+                                  f"{reg.name} ({reg.address}..{reg.address + reg.size - 1}): "
+                                  f"write its {reg.size} bytes from address {reg.address}")
+        special = [r for r in regs if r.name in ("id", "baud_rate")]
+        if special:
+            if len(regs) > 1:
+                _refuse_commissioning([r.name for r in regs], "a raw WRITE")
+            reg = special[0]
+            self._commission(motor_id, reg.name, reg.decode(data), raw=True, registered=False)
+            return
+        for reg in regs:
+            self._encode(motor_id, m, reg, reg.decode(data[reg.address - address:]), True)
+        self._write_checked(motor_id, m, address, data)

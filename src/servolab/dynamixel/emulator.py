@@ -77,11 +77,11 @@ _MULTI_MOTOR = frozenset({"SYNC_WRITE", "SYNC_READ", "BULK_READ", "BULK_WRITE",
 
 def _hardware_bit(model: Model, name: str) -> int:
     """The bit of hardware error ``name`` (as the e-Manual spells it) on ``model``."""
-    table = p1.ERROR_BITS if model.protocol == 1 else p2.HARDWARE_ERRORS
+    table = model.hardware_error_bits()
     for bit, bit_name in table.items():
         if bit_name == name:
             return bit
-    known = [n for n in table.values() if n not in ("range", "checksum", "instruction")]
+    known = list(table.values())
     raise ConfigError(f"{model.name}: unknown hardware error {name!r}; "
                       f"use one of {', '.join(known)}")
 
@@ -139,6 +139,9 @@ class VirtualMotor:
                  position: float = 0.0) -> None:
         self.model = model
         self.protocol: Protocol = protocol_for(model.protocol)
+        #: the AX-style control table (angle limits, moving speed, torque limit): every 1.0
+        #: model, and the XL-320 on 2.0; the X-series table (operating_mode) otherwise
+        self._dx = model.has("cw_angle_limit")
         self.table = bytearray(model.table_size)
         self._load_defaults(keep=())
         self._set_raw("id", _check_id(model, motor_id))
@@ -229,7 +232,7 @@ class VirtualMotor:
     def _table_changed(self) -> None:
         """Registers changed: refresh what the firmware keeps decoded and tell the plant."""
         m = self.model
-        v1 = m.protocol == 1
+        v1 = self._dx   # the AX-style table
         motor_id = self.get_raw("id")
         secondary_id = self._try_get("secondary_id", _SECONDARY_OFF)
         secondary = secondary_id if secondary_id < _SECONDARY_OFF else None
@@ -244,7 +247,10 @@ class VirtualMotor:
         self._return_delay = self._si("return_delay_time")
         self._status_level = self.get_raw("status_return_level")
         mode = -1 if v1 else self.get_raw("operating_mode")
-        if v1:
+        if v1 and m.has("control_mode"):
+            # XL-320: Control Mode(11) 1 is wheel mode, 2 joint mode (e-Manual XL-320)
+            wheel, self._multi_turn = self.get_raw("control_mode") == 1, False
+        elif v1:
             wheel, self._multi_turn = _angle_limit_modes(
                 m, self.get_raw("cw_angle_limit"), self.get_raw("ccw_angle_limit"))
         else:
@@ -454,7 +460,7 @@ class VirtualMotor:
     def _hardware_error(self, bit: int) -> None:
         self.hardware_error |= bit
         if self.get_raw("shutdown") & bit:
-            if self.model.protocol == 1:
+            if self._dx:
                 # 1.0: "the motor output becomes 0 % by resetting the value of Torque
                 # Limit(34) to 0"; torque enable stays, and writing a torque limit other than
                 # 0 lets the motor run again (e-Manual, Alarm Shutdown and Torque Limit).
@@ -467,8 +473,7 @@ class VirtualMotor:
 
     def _shut_down(self) -> bool:
         """An X-series motor stopped by a shutdown error, until a REBOOT."""
-        return self.model.protocol == 2 and bool(self.hardware_error
-                                                 & self.get_raw("shutdown"))
+        return not self._dx and bool(self.hardware_error & self.get_raw("shutdown"))
 
     def clear_hardware_error(self) -> None:
         self.hardware_error = 0
@@ -612,7 +617,7 @@ class VirtualMotor:
         m = self.model
         sign = self._sign
         torque = bool(self.get_raw("torque_enable"))
-        if m.protocol == 1:
+        if self._dx:
             limit = self._si("torque_limit")
             if self.wheel_mode:
                 if not m.wheel_output_ratio:
@@ -672,7 +677,7 @@ class VirtualMotor:
         velocity, load = self._sign * plant.velocity, self._sign * plant.effort
         ticks = round(self._present_ticks(plant.position))
         voltage = self._supply_voltage - 0.3 * abs(load)
-        if m.protocol == 1:
+        if self._dx:
             if self.wheel_mode:
                 present = wheel_position(m, ticks)
             elif self._multi_turn:
@@ -885,7 +890,7 @@ class VirtualMotor:
         eeprom = any(r.area == "EEPROM" for r in touched)
         if not v1 and eeprom and (secondary or self.torque_enabled):
             return p2.ACCESS
-        if v1 and self.get_raw("lock") and (eeprom or "lock" in names):
+        if m.has("lock") and self.get_raw("lock") and (eeprom or "lock" in names):
             # "If Lock is set to 1, the power must be turned off and then turned on again to
             # change into 0" (e-Manual, Lock); a locked address answers a range error (AX-12
             # manual, example 20).
@@ -944,15 +949,18 @@ class VirtualMotor:
 
         if not reg.raw_min <= value <= reg.raw_max:
             return p1.RANGE if v1 else p2.DATA_RANGE
-        if v1:
+        if self._dx:
             cw, ccw = other("cw_angle_limit"), other("ccw_angle_limit")
-            wheel, multi_turn = _angle_limit_modes(self.model, cw, ccw)
+            if self.model.has("control_mode"):
+                wheel, multi_turn = other("control_mode") == 1, False
+            else:
+                wheel, multi_turn = _angle_limit_modes(self.model, cw, ccw)
             # In multi-turn mode the register's own range (±28 672) is the limit.
             if reg.name == "goal_position" and not wheel and not multi_turn and not (
                     cw <= value <= ccw):
-                return p1.ANGLE_LIMIT
+                return p1.ANGLE_LIMIT if v1 else p2.DATA_LIMIT
             if reg.name == "moving_speed" and not wheel and value > 1023:
-                return p1.RANGE
+                return p1.RANGE if v1 else p2.DATA_RANGE
             return 0
         if reg.name == "operating_mode" and value not in ALLOWED_MODES.get(
                 self.model.name, (value,)):
@@ -1039,21 +1047,35 @@ class Reply:
 
 
 class Emulator:
-    """The device side of one bus: a set of virtual motors on one protocol.
+    """The device side of one bus: a set of virtual motors on one protocol, or on both.
 
     ``receive`` takes the bytes the host sent, finishing at time ``t``, at the host's baud rate,
     and returns the replies with their start times. Motors whose own baud rate differs from the
     host's hear noise and stay silent, like real ones.
 
+    ``protocol`` None makes a bus that mixes Protocol 1.0 and 2.0 motors, as DynamixelSDK's
+    ``protocol_combined`` example drives one: each motor's firmware parses the line in its own
+    protocol, so every byte reaches both and each protocol's motors answer only the packets of
+    theirs (a 2.0 packet, ``FF FF FD 00 ...``, is no 1.0 packet: ID 253 with LENGTH 0; a 1.0
+    packet lacks the 2.0 header). It is built of one emulator per protocol (:attr:`sides`),
+    which share the bus's faults and are stepped with it; :attr:`motors` lists them all.
+
     The emulator does not keep time. Its owner (a :class:`servolab.sim.Simulation`) calls
     :meth:`step` once per physics step and moves time to ``t`` before handing it bytes.
     """
 
-    def __init__(self, protocol: int | Protocol, motors: Iterable[VirtualMotor] = (), *,
+    def __init__(self, protocol: int | Protocol | None, motors: Iterable[VirtualMotor] = (), *,
                  faults: Faults | None = None) -> None:
-        self.protocol = protocol if isinstance(protocol, Protocol) else protocol_for(protocol)
-        self.motors: list[VirtualMotor] = []
         self.faults = faults or Faults()
+        #: a mixed bus (``protocol`` None): the emulator of each protocol's motors, by version
+        self.sides: dict[int, Emulator] = {}
+        if protocol is None:
+            self.sides = {v: Emulator(v, faults=self.faults) for v in (1, 2)}
+        #: the bus's protocol; on a mixed bus 2.0, which a host speaks to it first (its
+        #: broadcast PING finds the 2.0 motors at once)
+        self.protocol = (protocol if isinstance(protocol, Protocol)
+                         else protocol_for(2 if protocol is None else protocol))
+        self.motors: list[VirtualMotor] = []
         #: physics steps taken, and their length (s; nan before the first)
         self.steps = 0
         self.dt = math.nan
@@ -1068,7 +1090,16 @@ class Emulator:
         for motor in motors:
             self.add(motor)
 
+    @property
+    def mixed(self) -> bool:
+        """Whether this bus holds motors of both protocols (see :attr:`sides`)."""
+        return bool(self.sides)
+
     def add(self, motor: VirtualMotor) -> VirtualMotor:
+        if self.sides:
+            self.sides[motor.model.protocol].add(motor)   # (refuses a motor on a bus)
+            self.motors.append(motor)
+            return motor
         if motor.model.protocol != self.protocol.version:
             raise ConfigError(f"{motor.model.name} speaks protocol {motor.model.protocol}.0, "
                               f"this bus protocol {self.protocol.version}.0")
@@ -1087,6 +1118,12 @@ class Emulator:
         motor would leave it: from now on it hears and answers nothing. Returns it (its
         state is kept; :meth:`add` puts it back)."""
         motor = self.motor(motor_id)
+        if self.sides:
+            side = self.sides[motor.model.protocol]
+            side.motors.remove(motor)
+            if motor in side._eager:
+                side._eager.remove(motor)
+            side._by_id = None
         self.motors.remove(motor)
         if motor in self._eager:
             self._eager.remove(motor)
@@ -1105,6 +1142,12 @@ class Emulator:
         """One physics step of ``dt`` seconds has passed. The motors' own plants catch up when
         next looked at; the firmware of motors whose plant a world steps does its per-step
         duty now (the world has stepped their plants already)."""
+        for side in self.sides.values():
+            side.step(dt)
+        if self.sides:
+            self.dt = dt
+            self.steps += 1
+            return
         if dt != self.dt and self.steps and self.motors:
             for m in self.motors:
                 m.sync()  # a new step length: settle what the old one owes first
@@ -1144,10 +1187,20 @@ class Emulator:
         inside junk that had swallowed it is long stale. When the last byte completes a packet
         with a bad checksum/CRC, the motors were inside that one: its checksum error is the
         answer, whatever the parser then finds within it.
+
+        On a mixed bus each protocol's motors take the bytes in their own protocol (see the
+        class), and what both answer goes back in the order it starts.
         """
         data = bytes(data)
         if not data:
             return []
+        if self.sides:
+            heard: list[Reply] = []
+            for side in self.sides.values():
+                heard += side.receive(data, t, baudrate)
+            self._heard_until = t
+            self._count_sides()
+            return sorted(heard, key=lambda reply: reply.start)
         self.idle(t - len(data) * byte_time(baudrate))
         self._heard_until = t
         parser = self._parser
@@ -1171,6 +1224,11 @@ class Emulator:
         """The line has been silent from the last byte received until ``t``: if longer than
         :attr:`idle_timeout`, drop the packet the motors were partway through (the owner of a
         real-time line calls this when nothing comes; :meth:`receive` does it by itself)."""
+        if self.sides:
+            for side in self.sides.values():
+                side.idle(t)
+            self._count_sides()
+            return
         if self._parser.pending and t - self._heard_until > self.idle_timeout:
             self._parser.reset()
             self.partial_packets_dropped += 1
@@ -1179,7 +1237,17 @@ class Emulator:
     def idle_deadline(self) -> float | None:
         """When the packet the motors are partway through is dropped if no byte comes (the
         first time :meth:`idle` drops it is any time after this); None when there is none."""
+        if self.sides:
+            deadlines = [d for side in self.sides.values()
+                         if (d := side.idle_deadline) is not None]
+            return min(deadlines, default=None)
         return self._heard_until + self.idle_timeout if self._parser.pending else None
+
+    def _count_sides(self) -> None:
+        """A mixed bus's counters: the sum of its sides'."""
+        sides = self.sides.values()
+        self.instructions_seen = sum(side.instructions_seen for side in sides)
+        self.partial_packets_dropped = sum(side.partial_packets_dropped for side in sides)
 
     def _checksum_error(self, motor_id: int, t: float, baudrate: float) -> list[Reply]:
         """A unicast packet that arrived whole but with a bad checksum/CRC: the motor with
@@ -1280,6 +1348,12 @@ class Emulator:
         return [self._reply(statuses, t)]
 
     def _returns_status(self, motor: VirtualMotor, name: str) -> bool:
+        """Whether ``motor`` answers a unicast ``name`` by its Status Return Level: 0 "PING
+        Instruction only", 1 "PING and READ Instruction", 2 "all Instructions" (e-Manual,
+        Status Return Level, the one page for 1.0 and 2.0 models: ROBOTIS-GIT/emanual
+        _includes/en/dxl/control_table/status_return_level.md). SYNC_READ and BULK_READ,
+        reads too, follow READ (see :meth:`_answer`); a broadcast READ or WRITE is answered
+        by no level."""
         level = motor._status_level
         if name == "PING":
             return True

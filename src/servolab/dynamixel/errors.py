@@ -6,7 +6,25 @@ user reading a traceback knows what to fix without opening the code.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 from ..errors import ConfigFileError, ServolabError
+
+
+def did_you_mean(name: str, known: Iterable[str], *, what: str = "register") -> str:
+    """The end of a one-line "no such name" message: the closest of ``known`` (difflib, as
+    Python's own "Did you mean" does), else the names that contain ``name``, else how many
+    there are, never the whole list (an X-series table has some 170 registers)."""
+    names = sorted(set(known))
+    close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+    if not close:
+        word = name.lower()
+        close = [n for n in names if word and word in n][:5]
+    if close:
+        listed = close[0] if len(close) == 1 else ", ".join(close[:-1]) + " or " + close[-1]
+        return f"did you mean {listed}?"
+    return f"no {what} name is close to it (it has {len(names)}; see its e-Manual page)"
 
 
 class DynamixelError(ServolabError):
@@ -57,13 +75,16 @@ class MotorError(DynamixelError):
     """The motor answered with error bits set in its status packet.
 
     ``errors`` holds the bit names as the e-Manual spells them, e.g. ``("overload",)``.
+    ``hint``, when the driver knows the likely cause, says what to do; it ends the message.
     """
 
     def __init__(self, motor_id: int, instruction: str, errors: tuple[str, ...],
-                 raw: int) -> None:
+                 raw: int, hint: str | None = None) -> None:
         self.motor_id = motor_id
         self.instruction = instruction
         self.errors = errors
         self.raw = raw
+        self.hint = hint
         names = ", ".join(errors) if errors else f"0x{raw:02X}"
-        super().__init__(f"motor {motor_id}: {instruction} answered with error {names}")
+        super().__init__(f"motor {motor_id}: {instruction} answered with error {names}"
+                         + (f": {hint}" if hint else ""))

@@ -5,19 +5,50 @@ reports it, its protocol, its control table (address, size, EEPROM/RAM, access, 
 unit) and the physical figures the emulator and the unit conversions need. Driver, emulator and
 CLI all read these tables; none of them hard-codes an address.
 
-Figures come from the ROBOTIS e-Manual pages of each model. Defaults are the factory values.
+Each model is one YAML file: those servolab ships live in ``model_tables/`` beside this module
+(one per model, named after its e-Manual page, e.g. ``xm430-w210.yaml``), each citing the
+ROBOTIS e-Manual page its figures come from; :func:`register_model` adds a lab's own. The files
+are read by :mod:`servolab.configfile`, so a mistake in one is reported as ``path:line:
+message`` (:class:`ModelFileError`), and every value is checked before a :class:`Model` is made
+of it. docs/dynamixel.md ("Adding a model") describes the format.
+
+Reading a file costs tens of milliseconds, so the shipped ones are read when first asked for:
+:func:`model` and :func:`model_by_number` read only the file they need (an index of names and
+numbers is taken from the files' ``name:`` and ``number:`` lines), and :data:`MODELS` reads a
+file when one of its values is looked at.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
+import re
+import threading
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal, NoReturn
 
+from ..errors import ConfigFileError
 from .errors import ConfigError
+
+if TYPE_CHECKING:
+    from ..configfile import ConfigMapping, ConfigValue
 
 Area = Literal["EEPROM", "RAM"]
 Access = Literal["R", "RW"]
+WheelPosition = Literal["potentiometer", "encoder16", "turn"]
+
+#: Where the shipped model files live (package data: pyproject ships ``**/*.yaml``).
+TABLES_DIR = Path(__file__).resolve().parent / "model_tables"
+#: The version of the model file format this module reads (the files' ``servolab_model:``).
+FORMAT_VERSION = 1
+
+
+class ModelFileError(ConfigFileError, ConfigError):
+    """A model file that cannot be used; ``str()`` is one line, ``path:line: message``, and
+    ``path``, ``line`` and ``key`` are kept (a :class:`ConfigError` too, so callers catching
+    that keep working)."""
 
 
 @dataclass(frozen=True)
@@ -87,11 +118,27 @@ class Model:
     #: what present_position reads in 1.0 wheel mode: "potentiometer" (0..max over the
     #: angle range of each turn), "encoder16" (a count 0..65535 and round) or "turn" (the
     #: ticks of each turn)
-    wheel_position: Literal["potentiometer", "encoder16", "turn"] = "turn"
+    wheel_position: WheelPosition = "turn"
     acceleration_unit_rpm2: float = 214.577
     firmware: int = 0
     #: instruction names the model answers; others get an instruction error
     instruction_set: frozenset[str] = frozenset()
+    stall_torque_nm: float = 0.0    # at the nominal voltage (0: the e-Manual gives none)
+    #: the values of ``operating_mode`` the model takes (its register range is only their
+    #: hull); empty for models without that register
+    operating_modes: tuple[int, ...] = ()
+    #: the baud-rate register: values with a rate of their own, (value, bps) ...
+    baud_table: tuple[tuple[int, int], ...] = ()
+    #: ... and for the others (Protocol 1.0) ``baud_divisor // (value + 1)``; 0: none
+    baud_divisor: int = 0
+    #: the bits of hardware_error_status (2.0) as (mask, name), where a model numbers them
+    #: otherwise than its protocol does (the XL-320); empty: :meth:`hardware_error_bits`
+    #: gives the protocol's
+    hardware_errors: tuple[tuple[int, str], ...] = ()
+    #: the e-Manual page the figures come from (a path in ROBOTIS-GIT/emanual)
+    source: str = ""
+    #: the model file it was read from ("" for a model made in code)
+    path: str = field(default="", compare=False, repr=False)
     _by_name: dict[str, Register] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -142,19 +189,39 @@ class Model:
         """No-load speed in rad/s at the nominal voltage."""
         return self.no_load_speed_rpm * 2.0 * math.pi / 60.0
 
+    def hardware_error_bits(self) -> dict[int, str]:
+        """The hardware errors the model reports, mask -> name as the e-Manual spells it: on
+        1.0 the status error byte's (input voltage, overheating, overload), on 2.0 the bits of
+        hardware_error_status (the X-series' unless the model file lists its own)."""
+        if self.hardware_errors:
+            return dict(self.hardware_errors)
+        if self.protocol == 1:
+            from .protocol1 import ERROR_BITS
+            from .protocol1 import HARDWARE_ERRORS as P1_HARDWARE
+
+            return {bit: name for bit, name in ERROR_BITS.items() if bit & P1_HARDWARE}
+        from .protocol2 import HARDWARE_ERRORS
+
+        return dict(HARDWARE_ERRORS)
+
     # -- baud rate register --------------------------------------------------------------
     def baud_from_register(self, value: int) -> int:
         """Bits per second that a value of the baud-rate register selects."""
-        if self.protocol == 1:
-            special = {250: 2_250_000, 251: 2_500_000, 252: 3_000_000}
-            if self.name.startswith("MX") and value in special:
-                return special[value]
-            return 2_000_000 // (value + 1)  # ROBOTIS truncates: 34 -> 57142
-        try:
-            return X_SERIES_BAUDS[value]
-        except KeyError:
-            raise ConfigError(f"{self.name}: baud_rate register value {value} is not defined; "
-                              f"use one of {sorted(X_SERIES_BAUDS)}") from None
+        table, divisor = dict(self.baud_table), self.baud_divisor
+        if not table and not divisor:
+            # A model made in code without baud data: the rates of its protocol.
+            if self.protocol == 1:
+                divisor = 2_000_000
+                if self.name.startswith("MX"):
+                    table = dict(_MX_HIGH_BAUDS)
+            else:
+                table = X_SERIES_BAUDS
+        if value in table:
+            return table[value]
+        if divisor:
+            return divisor // (value + 1)  # ROBOTIS truncates: 34 -> 57142
+        raise ConfigError(f"{self.name}: baud_rate register value {value} is not defined; "
+                          f"use one of {sorted(table)}")
 
     def baud_register_for(self, bps: int) -> int:
         """The register value whose rate is within 3 % of ``bps`` (UART tolerance)."""
@@ -178,8 +245,6 @@ class Model:
         return sorted(rates - {-(10**9)})
 
 
-_V1_BASIC = frozenset({"PING", "READ", "WRITE", "REG_WRITE", "ACTION", "RESET", "SYNC_WRITE"})
-_V1_MX = _V1_BASIC | {"BULK_READ"}
 #: Fast Sync Read (0x8A) and Fast Bulk Read (0x9A): one status packet for all the motors read.
 #: ROBOTIS: "DYNAMIXEL X Series only", not the MX series in 2.0 firmware (ROBOTIS forum,
 #: "No response to fast sync read command with Dynamixel MX28-AR", forum.robotis.com/t/820).
@@ -192,15 +257,17 @@ _V1_MX = _V1_BASIC | {"BULK_READ"}
 #: X430 whose older firmware would answer, never send to one that stays silent.
 FAST_READS = frozenset({"FAST_SYNC_READ", "FAST_BULK_READ"})
 FAST_READ_FIRMWARE = 46
-_V2_X = frozenset({"PING", "READ", "WRITE", "REG_WRITE", "ACTION", "FACTORY_RESET", "REBOOT",
-                   "CLEAR", "SYNC_READ", "SYNC_WRITE", "BULK_READ", "BULK_WRITE"}) | FAST_READS
 
 X_SERIES_BAUDS: dict[int, int] = {
     0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,
     5: 3_000_000, 6: 4_000_000, 7: 4_500_000,
 }
+#: Protocol 1.0 MX: the register values above 249 with a rate of their own (e-Manual, MX
+#: Baud Rate, "For BPS over 250 values").
+_MX_HIGH_BAUDS = ((250, 2_250_000), (251, 2_500_000), (252, 3_000_000))
 
-#: Operating modes of the X-series (register ``operating_mode``).
+#: Operating modes of the X-series and MX(2.0) (register ``operating_mode``), by the names a
+#: model file lists them under.
 OPERATING_MODES: dict[str, int] = {
     "current": 0, "velocity": 1, "position": 3, "extended_position": 4,
     "current_based_position": 5, "pwm": 16,
@@ -213,248 +280,6 @@ def R(name: str, address: int, size: int, area: Area, access: Access, default: i
     return Register(name, address, size, area, access, default, minimum, maximum, unit, signed)
 
 
-def _protocol1_table(*, number: int, max_tick: int, model_regs: list[Register],
-                     extra: list[Register], temperature_limit: int = 80,
-                     max_voltage: int = 190, voltage_top: int = 250, punch: int = 32,
-                     punch_min: int = 32, speed_max: int = 2047,
-                     multi_turn: int = 0) -> tuple[Register, ...]:
-    """The control table shared by the 1.0 servos (AX/RX/EX/MX), plus model-specific rows.
-
-    ``voltage_top`` is the top of the voltage limits' range (RX/EX 250, MX 160); ``punch`` and
-    ``punch_min`` the punch default and lowest value (the e-Manual's range is 0x20..0x3FF, but
-    MX-28 and EX-106+ ship with punch 0, which therefore has to stay writable). A nonzero
-    ``multi_turn`` makes goal and present position signed, goals -multi_turn..multi_turn (the
-    hull of joint mode's 0..max_tick and multi-turn mode's range; the angle limits keep a joint
-    mode goal within 0..max_tick)."""
-    goal_min, goal_max = (-multi_turn, multi_turn) if multi_turn else (0, max_tick)
-    rows = [
-        R("model_number", 0, 2, "EEPROM", "R", number),
-        R("firmware_version", 2, 1, "EEPROM", "R", None),
-        R("id", 3, 1, "EEPROM", "RW", 1, 0, 253),
-        R("baud_rate", 4, 1, "EEPROM", "RW", 34, 0, 254, unit="baud"),
-        R("return_delay_time", 5, 1, "EEPROM", "RW", 250, 0, 254, unit="delay_2us"),
-        R("cw_angle_limit", 6, 2, "EEPROM", "RW", 0, 0, max_tick, unit="position"),
-        R("ccw_angle_limit", 8, 2, "EEPROM", "RW", max_tick, 0, max_tick, unit="position"),
-        R("temperature_limit", 11, 1, "EEPROM", "RW", temperature_limit, 0, 100,
-          unit="temperature"),
-        R("min_voltage_limit", 12, 1, "EEPROM", "RW", 60, 50, voltage_top, unit="voltage"),
-        R("max_voltage_limit", 13, 1, "EEPROM", "RW", max_voltage, 50, voltage_top,
-          unit="voltage"),
-        R("max_torque", 14, 2, "EEPROM", "RW", 1023, 0, 1023, unit="torque_ratio"),
-        R("status_return_level", 16, 1, "EEPROM", "RW", 2, 0, 2),
-        R("alarm_led", 17, 1, "EEPROM", "RW", 36, 0, 127),
-        R("shutdown", 18, 1, "EEPROM", "RW", 36, 0, 127),
-        R("torque_enable", 24, 1, "RAM", "RW", 0, 0, 1, unit="bool"),
-        R("led", 25, 1, "RAM", "RW", 0, 0, 1, unit="bool"),
-        R("goal_position", 30, 2, "RAM", "RW", None, goal_min, goal_max, unit="position",
-          signed=bool(multi_turn)),
-        R("moving_speed", 32, 2, "RAM", "RW", None, 0, speed_max, unit="speed_sign_bit"),
-        # Initial value "ADD 14&15" / "Max Torque": Max Torque's default, 1023.
-        R("torque_limit", 34, 2, "RAM", "RW", 1023, 0, 1023, unit="torque_ratio"),
-        R("present_position", 36, 2, "RAM", "R", None, unit="position",
-          signed=bool(multi_turn)),
-        R("present_speed", 38, 2, "RAM", "R", None, 0, 2047, unit="speed_sign_bit"),
-        R("present_load", 40, 2, "RAM", "R", None, 0, 2047, unit="load_sign_bit"),
-        R("present_voltage", 42, 1, "RAM", "R", None, unit="voltage"),
-        R("present_temperature", 43, 1, "RAM", "R", None, unit="temperature"),
-        R("registered", 44, 1, "RAM", "R", 0, 0, 1, unit="bool"),
-        R("moving", 46, 1, "RAM", "R", 0, 0, 1, unit="bool"),
-        R("lock", 47, 1, "RAM", "RW", 0, 0, 1, unit="bool"),
-        R("punch", 48, 2, "RAM", "RW", punch, punch_min, 1023),
-    ]
-    return tuple(sorted(rows + model_regs + extra, key=lambda r: r.address))
-
-
-#: RX-28 and EX-106+ control tables: compliance margin 1 and slope 32 in each direction; the
-#: margin takes 0..255, the slope 0..254 in seven steps (e-Manual, Compliance Margin/Slope).
-_COMPLIANCE = [
-    R("cw_compliance_margin", 26, 1, "RAM", "RW", 1, 0, 255),
-    R("ccw_compliance_margin", 27, 1, "RAM", "RW", 1, 0, 255),
-    R("cw_compliance_slope", 28, 1, "RAM", "RW", 32, 0, 254),
-    R("ccw_compliance_slope", 29, 1, "RAM", "RW", 32, 0, 254),
-]
-
-RX_28 = Model(
-    name="RX-28", number=28, protocol=1, firmware=30, instruction_set=_V1_BASIC,
-    registers=_protocol1_table(number=28, max_tick=1023, model_regs=_COMPLIANCE, extra=[]),
-    resolution=1024, angle_range_deg=300.0, position_center=512,
-    # e-Manual RX-28 Specifications: No Load Speed 85 rpm (at 18.5 V).
-    speed_unit_rpm=0.111, no_load_speed_rpm=85.0, nominal_voltage=18.5,
-    # e-Manual RX-28 Moving Speed (wheel mode: 0.1 % output) and Present Position (a
-    # potentiometer; "cannot be used to measure the moving distance" in wheel mode).
-    wheel_output_ratio=True, wheel_position="potentiometer",
-)
-
-EX_106P = Model(
-    name="EX-106+", number=107, protocol=1, firmware=30, instruction_set=_V1_BASIC,
-    registers=_protocol1_table(
-        number=107, max_tick=4095, model_regs=_COMPLIANCE,
-        extra=[R("drive_mode", 10, 1, "EEPROM", "RW", 0, 0, 3),
-               # 512 means 0 mA, 10 mA a unit either side; the e-Manual gives no initial value.
-               R("sensed_current", 56, 2, "RAM", "R", None, 0, 1023)],
-        max_voltage=240, punch=0, punch_min=0),
-    resolution=4096, angle_range_deg=250.92, position_center=2048,
-    speed_unit_rpm=0.111, no_load_speed_rpm=91.0, nominal_voltage=18.5,
-    # e-Manual EX-106+: Stall Torque 10.9 N*m at 18.5 V, 7 A; wheel mode Moving Speed is the
-    # output ratio, and Present Position the encoder count 0..65535.
-    stall_current_a=7.0, wheel_output_ratio=True, wheel_position="encoder16",
-)
-
-MX_28 = Model(
-    # Firmware 40: the first with Realtime Tick(50) (e-Manual MX-28, Realtime Tick).
-    name="MX-28", number=29, protocol=1, firmware=40, instruction_set=_V1_MX,
-    registers=_protocol1_table(
-        number=29, max_tick=4095,
-        model_regs=[R("d_gain", 26, 1, "RAM", "RW", 0, 0, 254),
-                    R("i_gain", 27, 1, "RAM", "RW", 0, 0, 254),
-                    R("p_gain", 28, 1, "RAM", "RW", 32, 0, 254)],
-        extra=[R("multi_turn_offset", 20, 2, "EEPROM", "RW", 0, -24576, 24576,
-                 unit="position_offset", signed=True),
-               R("resolution_divider", 22, 1, "EEPROM", "RW", 1, 1, 4),
-               # 1 ms a count, back to 0 after 32767.
-               R("realtime_tick", 50, 2, "RAM", "R", 0, 0, 32767),
-               R("goal_acceleration", 73, 1, "RAM", "RW", 0, 0, 254)],
-        # Multi-turn mode (both angle limits 4095): positions -28,672..28,672.
-        max_voltage=160, voltage_top=160, punch=0, punch_min=0, multi_turn=28672),
-    resolution=4096, angle_range_deg=360.0, position_center=2048,
-    speed_unit_rpm=0.114, no_load_speed_rpm=55.0, nominal_voltage=12.0,
-)
-
-
-def _indirect_rows() -> list[Register]:
-    """Indirect Address 1..56 (2 bytes, 64..661, by default pointing at their own Indirect
-    Data) and Indirect Data 1..56 (1 byte): 1..28 at 168/224, 29..56 at 578/634."""
-    rows = []
-    for n in range(1, 57):
-        k, address, data = (n - 1, 168, 224) if n <= 28 else (n - 29, 578, 634)
-        rows += [R(f"indirect_address_{n}", address + 2 * k, 2, "RAM", "RW", data + k, 64, 661),
-                 R(f"indirect_data_{n}", data + k, 1, "RAM", "RW", 0, 0, 255)]
-    return rows
-
-
-def _x_series_table(*, number: int, velocity_limit: int, has_current: bool,
-                    temperature_limit: int, max_voltage: int, min_voltage: int,
-                    position_p: int, position_d: int, velocity_i: int) -> tuple[Register, ...]:
-    rows = [
-        R("model_number", 0, 2, "EEPROM", "R", number),
-        R("model_information", 2, 4, "EEPROM", "R", None),
-        R("firmware_version", 6, 1, "EEPROM", "R", None),
-        R("id", 7, 1, "EEPROM", "RW", 1, 0, 252),
-        R("baud_rate", 8, 1, "EEPROM", "RW", 1, 0, 7, unit="baud"),
-        R("return_delay_time", 9, 1, "EEPROM", "RW", 250, 0, 254, unit="delay_2us"),
-        # Bits 0 (reverse), 2 (time-based profile) and 3 (torque on by goal update, V45).
-        R("drive_mode", 10, 1, "EEPROM", "RW", 0, 0, 13),
-        R("operating_mode", 11, 1, "EEPROM", "RW", 3, 0, 16),
-        # 0..252 a secondary ID, 253..255 none (the default, 255).
-        R("secondary_id", 12, 1, "EEPROM", "RW", 255, 0, 255),
-        R("protocol_type", 13, 1, "EEPROM", "RW", 2, 1, 2),
-        R("homing_offset", 20, 4, "EEPROM", "RW", 0, -1_044_479, 1_044_479,
-          unit="position_offset", signed=True),
-        R("moving_threshold", 24, 4, "EEPROM", "RW", 10, 0, 1023, unit="velocity"),
-        R("temperature_limit", 31, 1, "EEPROM", "RW", temperature_limit, 0, 100,
-          unit="temperature"),
-        R("max_voltage_limit", 32, 2, "EEPROM", "RW", max_voltage, min_voltage, max_voltage,
-          unit="voltage"),
-        R("min_voltage_limit", 34, 2, "EEPROM", "RW", min_voltage, min_voltage, max_voltage,
-          unit="voltage"),
-        R("pwm_limit", 36, 2, "EEPROM", "RW", 885, 0, 885, unit="pwm"),
-        R("velocity_limit", 44, 4, "EEPROM", "RW", velocity_limit, 0, 1023, unit="velocity"),
-        R("max_position_limit", 48, 4, "EEPROM", "RW", 4095, 0, 4095, unit="position"),
-        R("min_position_limit", 52, 4, "EEPROM", "RW", 0, 0, 4095, unit="position"),
-        # Bit 0 torque on at startup, bit 1 RAM restore (firmware V45).
-        R("startup_configuration", 60, 1, "EEPROM", "RW", 0, 0, 3),
-        R("shutdown", 63, 1, "EEPROM", "RW", 52, 0, 63),
-        R("torque_enable", 64, 1, "RAM", "RW", 0, 0, 1, unit="bool"),
-        R("led", 65, 1, "RAM", "RW", 0, 0, 1, unit="bool"),
-        R("status_return_level", 68, 1, "RAM", "RW", 2, 0, 2),
-        R("registered_instruction", 69, 1, "RAM", "R", 0, 0, 1, unit="bool"),
-        R("hardware_error_status", 70, 1, "RAM", "R", 0),
-        R("velocity_i_gain", 76, 2, "RAM", "RW", velocity_i, 0, 16383),
-        R("velocity_p_gain", 78, 2, "RAM", "RW", 100, 0, 16383),
-        R("position_d_gain", 80, 2, "RAM", "RW", position_d, 0, 16383),
-        R("position_i_gain", 82, 2, "RAM", "RW", 0, 0, 16383),
-        R("position_p_gain", 84, 2, "RAM", "RW", position_p, 0, 16383),
-        R("feedforward_2nd_gain", 88, 2, "RAM", "RW", 0, 0, 16383),
-        R("feedforward_1st_gain", 90, 2, "RAM", "RW", 0, 0, 16383),
-        # A host writes 0 (off, clears the error) or 1..127 (20 ms units); the motor itself
-        # sets -1 when the watchdog trips.
-        R("bus_watchdog", 98, 1, "RAM", "RW", 0, 0, 127, signed=True),
-        R("goal_pwm", 100, 2, "RAM", "RW", None, -885, 885, unit="pwm", signed=True),
-        # The e-Manual's range is +-velocity_limit, a register the user may raise to 1023;
-        # the motor (and the emulator) answers 'data limit' beyond the current limit.
-        R("goal_velocity", 104, 4, "RAM", "RW", None, -1023, 1023, unit="velocity",
-          signed=True),
-        R("profile_acceleration", 108, 4, "RAM", "RW", 0, 0, 32767, unit="acceleration"),
-        R("profile_velocity", 112, 4, "RAM", "RW", 0, 0, 32767, unit="velocity"),
-        R("goal_position", 116, 4, "RAM", "RW", None, -1_048_575, 1_048_575,
-          unit="position", signed=True),
-        # 1 ms a count, back to 0 after 32767.
-        R("realtime_tick", 120, 2, "RAM", "R", None, 0, 32767),
-        R("moving", 122, 1, "RAM", "R", 0, 0, 1, unit="bool"),
-        R("moving_status", 123, 1, "RAM", "R", 0),
-        R("present_pwm", 124, 2, "RAM", "R", None, unit="pwm", signed=True),
-        R("present_velocity", 128, 4, "RAM", "R", None, unit="velocity", signed=True),
-        R("present_position", 132, 4, "RAM", "R", None, unit="position", signed=True),
-        R("velocity_trajectory", 136, 4, "RAM", "R", None, unit="velocity", signed=True),
-        R("position_trajectory", 140, 4, "RAM", "R", None, unit="position", signed=True),
-        R("present_input_voltage", 144, 2, "RAM", "R", None, unit="voltage"),
-        R("present_temperature", 146, 1, "RAM", "R", None, unit="temperature"),
-        R("backup_ready", 147, 1, "RAM", "R", None, 0, 1, unit="bool"),
-        *_indirect_rows(),
-    ]
-    if has_current:
-        rows += [R("current_limit", 38, 2, "EEPROM", "RW", 1193, 0, 1193, unit="current"),
-                 R("goal_current", 102, 2, "RAM", "RW", None, -1193, 1193, unit="current",
-                   signed=True),
-                 R("present_current", 126, 2, "RAM", "R", None, unit="current", signed=True)]
-    else:
-        rows += [R("present_load", 126, 2, "RAM", "R", None, -1000, 1000, unit="load",
-                   signed=True)]
-    return tuple(sorted(rows, key=lambda r: r.address))
-
-
-#: The X models are emulated at firmware 46: every V45 feature (Drive Mode bit 3, Startup
-#: Configuration) and the Fast Sync/Bulk Read instructions (see FAST_READ_FIRMWARE).
-XM430_W210 = Model(
-    name="XM430-W210", number=1030, protocol=2, firmware=46, instruction_set=_V2_X,
-    registers=_x_series_table(number=1030, velocity_limit=330, has_current=True,
-                              temperature_limit=80, max_voltage=160, min_voltage=95,
-                              position_p=800, position_d=0, velocity_i=1920),
-    resolution=4096, angle_range_deg=360.0, position_center=2048, multi_turn=True,
-    speed_unit_rpm=0.229, no_load_speed_rpm=77.0, nominal_voltage=12.0, current_unit_a=0.00269,
-)
-
-XM430_W350 = Model(
-    name="XM430-W350", number=1020, protocol=2, firmware=46, instruction_set=_V2_X,
-    registers=_x_series_table(number=1020, velocity_limit=200, has_current=True,
-                              temperature_limit=80, max_voltage=160, min_voltage=95,
-                              position_p=800, position_d=0, velocity_i=1920),
-    resolution=4096, angle_range_deg=360.0, position_center=2048, multi_turn=True,
-    speed_unit_rpm=0.229, no_load_speed_rpm=46.0, nominal_voltage=12.0, current_unit_a=0.00269,
-)
-
-XL430_W250 = Model(
-    name="XL430-W250", number=1060, protocol=2, firmware=46, instruction_set=_V2_X,
-    registers=_x_series_table(number=1060, velocity_limit=265, has_current=False,
-                              temperature_limit=72, max_voltage=140, min_voltage=60,
-                              position_p=640, position_d=4000, velocity_i=1000),
-    resolution=4096, angle_range_deg=360.0, position_center=2048, multi_turn=True,
-    # e-Manual XL430-W250 Specifications: 57 rpm at the recommended 11.1 V (61 rpm at 12 V).
-    speed_unit_rpm=0.229, no_load_speed_rpm=57.0, nominal_voltage=11.1,
-)
-
-#: Operating modes each X model accepts (the register's range is only their hull).
-ALLOWED_MODES: dict[str, tuple[int, ...]] = {
-    "XM430-W210": (0, 1, 3, 4, 5, 16),
-    "XM430-W350": (0, 1, 3, 4, 5, 16),
-    "XL430-W250": (1, 3, 4, 16),
-}
-
-MODELS: dict[str, Model] = {
-    m.name: m for m in (RX_28, EX_106P, MX_28, XM430_W210, XM430_W350, XL430_W250)}
-BY_NUMBER: dict[int, Model] = {m.number: m for m in MODELS.values()}
-
-
 def supports(model: Model, instruction: str) -> bool:
     """Whether ``model`` (at its firmware) carries out ``instruction`` (a name of
     :data:`.protocol2.INSTRUCTIONS` or :data:`.protocol1.INSTRUCTIONS`)."""
@@ -464,20 +289,634 @@ def supports(model: Model, instruction: str) -> bool:
     return instruction in model.instruction_set
 
 
+# -- reading a model file -----------------------------------------------------------------------
+
+_TOP_KEYS = ("servolab_model", "name", "number", "protocol", "source", "firmware",
+             "instructions", "operating_modes", "hardware_errors", "physical", "baud_rate",
+             "eeprom", "ram", "indirect")
+#: The names a model file may give the bits of hardware_error_status (the e-Manual's).
+HARDWARE_ERROR_NAMES = ("input voltage", "overheating", "motor encoder", "electrical shock",
+                        "overload")
+_REQUIRED_TOP = ("servolab_model", "name", "number", "protocol", "instructions", "physical",
+                 "baud_rate", "eeprom", "ram")
+_PHYSICAL_KEYS = ("resolution", "angle_range_deg", "position_center", "multi_turn",
+                  "speed_unit_rpm", "no_load_speed_rpm", "nominal_voltage", "current_unit_a",
+                  "stall_torque_nm", "stall_current_a", "wheel_output_ratio", "wheel_position",
+                  "acceleration_unit_rpm2")
+_REQUIRED_PHYSICAL = ("resolution", "angle_range_deg", "position_center", "speed_unit_rpm",
+                      "no_load_speed_rpm", "nominal_voltage")
+_REGISTER_KEYS = ("address", "size", "access", "default", "range", "unit", "signed")
+_INDIRECT_KEYS = ("first", "count", "address", "data", "range")
+_WHEEL_POSITIONS = ("potentiometer", "encoder16", "turn")
+#: Registers the driver and the emulator rely on in every model.
+REQUIRED_REGISTERS = ("model_number", "firmware_version", "id", "baud_rate", "return_delay_time",
+                      "status_return_level", "torque_enable", "goal_position",
+                      "present_position", "present_temperature", "temperature_limit",
+                      "shutdown")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9+\-_.()]*\Z")
+_REGISTER_NAME = re.compile(r"[a-z][a-z0-9_]*\Z")
+
+
+def _fail(value: ConfigValue, message: str) -> NoReturn:
+    raise value.error(message)
+
+
+def _int(value: ConfigValue, what: str, low: int, high: int) -> int:
+    number = value.as_int(what)
+    if not low <= number <= high:
+        _fail(value, f"{what}: {number} is outside {low}..{high}")
+    return number
+
+
+def _positive(value: ConfigValue, what: str, *, zero: bool = False) -> float:
+    number = value.as_float(what)
+    if number < 0 or (number == 0 and not zero):
+        _fail(value, f"{what}: must be {'>= 0' if zero else '> 0'}, not {number:g}")
+    return number
+
+
+def _int_key(mapping: ConfigMapping, key: str, what: str, low: int, high: int) -> int:
+    """A mapping's key written as an integer (``250: 2250000``)."""
+    located = mapping.key_of(key)
+    try:
+        number = int(key, 10)
+    except ValueError:
+        _fail(located, f"{what}: {key!r} is not an integer")
+    if not low <= number <= high:
+        _fail(located, f"{what}: {number} is outside {low}..{high}")
+    return number
+
+
+def _range_of(value: ConfigValue, what: str, size: int, signed: bool) -> tuple[int, int]:
+    items = value.as_list(what)
+    if len(items) != 2:
+        _fail(value, f"{what}: must be [minimum, maximum], not {len(items)} values")
+    low, high = (item.as_int(what) for item in items)
+    if low > high:
+        _fail(value, f"{what}: minimum {low} is above maximum {high}")
+    bits = 8 * size
+    lowest, highest = ((-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed
+                       else (0, (1 << bits) - 1))
+    if low < lowest or high > highest:
+        kind = "signed" if signed else "unsigned"
+        _fail(value, f"{what}: [{low}, {high}] does not fit {size} {kind} "
+              f"byte{'s' if size > 1 else ''} ({lowest}..{highest})")
+    return low, high
+
+
+def _register(name: str, value: ConfigValue, area: Area, protocol: int,
+              units: Mapping[str, str]) -> Register:
+    what = f"register {name!r}"
+    if not _REGISTER_NAME.match(name):
+        _fail(value, f"{what}: a register name is lower case letters, digits and '_' "
+              "(the e-Manual's name in snake case, e.g. goal_position)")
+    row = value.as_mapping(what)
+    row.check_keys(_REGISTER_KEYS, required=("address", "size", "access"), what=what)
+    top = 255 if protocol == 1 else 65535
+    address = _int(row.require("address"), f"{what}: address", 0, top)
+    size_value = row.require("size")
+    size = size_value.as_int(f"{what}: size")
+    if size not in (1, 2, 4):
+        _fail(size_value, f"{what}: size must be 1, 2 or 4 bytes, not {size}")
+    if address + size > top + 1:
+        _fail(size_value, f"{what}: {size} bytes at {address} run past the last address "
+              f"of protocol {protocol}.0 ({top})")
+    access_value = row.require("access")
+    access: Access
+    text = access_value.as_str(f"{what}: access")
+    if text == "R":
+        access = "R"
+    elif text == "RW":
+        access = "RW"
+    else:
+        _fail(access_value, f"{what}: access must be R or RW, not {text!r}")
+    signed = False
+    if (signed_value := row.get("signed")) is not None:
+        signed = signed_value.as_bool(f"{what}: signed")
+    unit = "raw"
+    if (unit_value := row.get("unit")) is not None:
+        unit = unit_value.as_str(f"{what}: unit")
+        if unit not in units:
+            from ..configfile import suggest
+
+            close = suggest(unit, units)
+            _fail(unit_value, f"{what}: unknown unit {unit!r}"
+                  + (f" (did you mean {close!r}?)" if close else "")
+                  + f"; units: {', '.join(units)}")
+    minimum, maximum = 0, None
+    if (range_value := row.get("range")) is not None:
+        minimum, maximum = _range_of(range_value, f"{what}: range", size, signed)
+    reg = Register(name, address, size, area, access, None, minimum, maximum, unit, signed)
+    default_value = row.get("default")
+    if default_value is not None and default_value.plain() is not None:
+        default = default_value.as_int(f"{what}: default")
+        if not reg.raw_min <= default <= reg.raw_max:
+            _fail(default_value, f"{what}: default {default} is outside its range "
+                  f"{reg.raw_min}..{reg.raw_max} (the motor would refuse its own value)")
+        reg = Register(name, address, size, area, access, default, minimum, maximum, unit,
+                       signed)
+    return reg
+
+
+def _indirect_rows(value: ConfigValue) -> list[tuple[Register, ConfigValue]]:
+    """The rows an ``indirect:`` block stands for: Indirect Address n (2 bytes, initial the
+    address of Indirect Data n) and Indirect Data n (1 byte, 0..255, initial 0)."""
+    rows: list[tuple[Register, ConfigValue]] = []
+    for index, item in enumerate(value.as_list("indirect")):
+        what = f"indirect[{index}]"
+        block = item.as_mapping(what)
+        block.check_keys(_INDIRECT_KEYS, required=_INDIRECT_KEYS, what=what)
+        first = _int(block.require("first"), f"{what}: first", 1, 10_000)
+        count = _int(block.require("count"), f"{what}: count", 1, 10_000)
+        address = _int(block.require("address"), f"{what}: address", 0, 65535)
+        data = _int(block.require("data"), f"{what}: data", 0, 65535)
+        low, high = _range_of(block.require("range"), f"{what}: range", 2, False)
+        for k in range(count):
+            n = first + k
+            rows.append((Register(f"indirect_address_{n}", address + 2 * k, 2, "RAM", "RW",
+                                  data + k, low, high), item))
+            rows.append((Register(f"indirect_data_{n}", data + k, 1, "RAM", "RW", 0, 0, 255),
+                         item))
+    return rows
+
+
+def _baud(value: ConfigValue, protocol: int) -> tuple[tuple[tuple[int, int], ...], int]:
+    spec = value.as_mapping("baud_rate")
+    spec.check_keys(("divisor", "special", "table"), what="baud_rate")
+    if ("table" in spec) == ("divisor" in spec):
+        _fail(spec, "baud_rate: give either 'table' (register value: bps) or 'divisor' "
+              "(bps = divisor // (value + 1), Protocol 1.0), not both")
+    if "special" in spec and "divisor" not in spec:
+        _fail(spec.key_of("special"), "baud_rate: 'special' goes with 'divisor'")
+    divisor = 0
+    if (divisor_value := spec.get("divisor")) is not None:
+        divisor = _int(divisor_value, "baud_rate: divisor", 1, 100_000_000)
+    entries: list[tuple[int, int]] = []
+    for key in ("table", "special"):
+        if (table_value := spec.get(key)) is None:
+            continue
+        table = table_value.as_mapping(f"baud_rate: {key}")
+        for text, bps in table.items():
+            number = _int_key(table, text, f"baud_rate: {key}", 0, 255)
+            entries.append((number, _int(bps, f"baud_rate: {key}: {number}", 1, 100_000_000)))
+    if "table" in spec and not entries:
+        _fail(spec.require("table"), "baud_rate: the table is empty")
+    return tuple(sorted(entries)), divisor
+
+
+def _read(path: str | Path) -> tuple[Model, ConfigValue, ConfigValue]:
+    """Read and check one model file: (model, its ``name`` value, its ``number`` value)."""
+    from ..configfile import load
+    from . import protocol1, protocol2
+    from .units import KINDS
+
+    root = load(path, what="Dynamixel model file", error=ModelFileError)
+    top = root.as_mapping("a Dynamixel model file")
+    if "servolab_model" not in top:
+        _fail(top, "not a Dynamixel model file: it has no 'servolab_model: 1' "
+              "(docs/dynamixel.md, \"Adding a model\")")
+    top.check_keys(_TOP_KEYS, required=_REQUIRED_TOP)
+    version = top.require("servolab_model")
+    if version.as_int("servolab_model") != FORMAT_VERSION:
+        _fail(version, f"servolab_model: format {version.plain()!r} is not one this servolab "
+              f"reads ({FORMAT_VERSION})")
+    name_value = top.require("name")
+    name = name_value.as_str("name", nonempty=True)
+    if not _NAME.match(name):
+        _fail(name_value, f"name: {name!r} may hold letters, digits and + - _ . ( ) only "
+              "(it is typed on command lines: rx28:1-4)")
+    number_value = top.require("number")
+    number = _int(number_value, "number", 0, 65535)
+    protocol_value = top.require("protocol")
+    protocol = protocol_value.as_int("protocol")
+    if protocol not in (1, 2):
+        _fail(protocol_value, f"protocol: must be 1 or 2, not {protocol}")
+    source = ""
+    if (source_value := top.get("source")) is not None:
+        source = source_value.as_str("source")
+    firmware = 0
+    if (firmware_value := top.get("firmware")) is not None:
+        firmware = _int(firmware_value, "firmware", 0, 255)
+    known = protocol1.INSTRUCTIONS if protocol == 1 else protocol2.INSTRUCTIONS
+    instructions = set()
+    for item in top.require("instructions").as_list("instructions"):
+        instruction = item.as_str("instructions")
+        if instruction not in known:
+            _fail(item, f"instructions: {instruction!r} is no Protocol {protocol}.0 "
+                  f"instruction; they are: {', '.join(known)}")
+        instructions.add(instruction)
+    for needed in ("PING", "READ", "WRITE"):
+        if needed not in instructions:
+            _fail(top.require("instructions"), f"instructions: {needed} is missing (every "
+                  "Dynamixel answers PING, READ and WRITE)")
+
+    physical_value = top.require("physical")
+    physical = physical_value.as_mapping("physical")
+    physical.check_keys(_PHYSICAL_KEYS, required=_REQUIRED_PHYSICAL, what="physical")
+    figures: dict[str, object] = {}
+    for key, item in physical.items():
+        what = f"physical: {key}"
+        if key == "resolution":
+            figures[key] = _int(item, what, 2, 1 << 24)
+        elif key == "position_center":
+            figures[key] = item.as_int(what)
+        elif key in ("multi_turn", "wheel_output_ratio"):
+            figures[key] = item.as_bool(what)
+        elif key == "wheel_position":
+            text = item.as_str(what)
+            if text not in _WHEEL_POSITIONS:
+                _fail(item, f"{what}: must be one of {', '.join(_WHEEL_POSITIONS)}, not "
+                      f"{text!r}")
+            figures[key] = text
+        elif key == "angle_range_deg":
+            degrees = _positive(item, what)
+            if degrees > 360:
+                _fail(item, f"{what}: {degrees:g} is more than a turn")
+            figures[key] = degrees
+        else:
+            figures[key] = _positive(item, what, zero=key in (
+                "current_unit_a", "stall_torque_nm", "stall_current_a"))
+    resolution = figures["resolution"]
+    assert isinstance(resolution, int)
+    center = physical.require("position_center")
+    if not 0 <= center.as_int() < resolution:
+        _fail(center, f"physical: position_center: {center.as_int()} is not a tick of "
+              f"0..{resolution - 1}")
+
+    baud_table, baud_divisor = _baud(top.require("baud_rate"), protocol)
+
+    registers: list[tuple[Register, ConfigValue]] = []
+    areas: tuple[tuple[Area, str], ...] = (("EEPROM", "eeprom"), ("RAM", "ram"))
+    for area, key in areas:
+        table = top.require(key).as_mapping(key)
+        registers += [(_register(reg_name, item, area, protocol, KINDS),
+                       table.key_of(reg_name)) for reg_name, item in table.items()]
+    if (indirect := top.get("indirect")) is not None:
+        registers += _indirect_rows(indirect)
+    _check_table(registers, top, name, number, protocol)
+    by_name = {reg.name: reg for reg, _ in registers}
+
+    modes: tuple[int, ...] = ()
+    modes_value = top.get("operating_modes")
+    if modes_value is not None:
+        if "operating_mode" not in by_name:
+            _fail(modes_value, "operating_modes: the model has no operating_mode register")
+        values = []
+        for item in modes_value.as_list("operating_modes"):
+            mode = item.as_str("operating_modes")
+            if mode not in OPERATING_MODES:
+                _fail(item, f"operating_modes: unknown mode {mode!r}; the modes are "
+                      f"{', '.join(OPERATING_MODES)}")
+            values.append(OPERATING_MODES[mode])
+        reg = by_name["operating_mode"]
+        outside = [v for v in values if not reg.raw_min <= v <= reg.raw_max]
+        if outside:
+            _fail(modes_value, f"operating_modes: {outside[0]} is outside operating_mode's "
+                  f"range {reg.raw_min}..{reg.raw_max}")
+        modes = tuple(sorted(set(values)))
+    elif "operating_mode" in by_name:
+        _fail(top, "the model has an operating_mode register: list the modes it takes "
+              "(operating_modes: [velocity, position, ...])")
+
+    hardware: list[tuple[int, str]] = []
+    if (hardware_value := top.get("hardware_errors")) is not None:
+        if protocol != 2 or "hardware_error_status" not in by_name:
+            _fail(hardware_value, "hardware_errors: name the bits of a Protocol 2.0 model's "
+                  "hardware_error_status register")
+        bits = hardware_value.as_mapping("hardware_errors")
+        for text, item in bits.items():
+            bit = _int_key(bits, text, "hardware_errors", 0, 7)
+            error = item.as_str(f"hardware_errors: {bit}")
+            if error not in HARDWARE_ERROR_NAMES:
+                _fail(item, f"hardware_errors: {error!r} is not one of "
+                      f"{', '.join(HARDWARE_ERROR_NAMES)}")
+            hardware.append((1 << bit, error))
+
+    model = Model(
+        name=name, number=number, protocol=protocol,
+        registers=tuple(sorted((reg for reg, _ in registers), key=lambda r: r.address)),
+        firmware=firmware, instruction_set=frozenset(instructions), operating_modes=modes,
+        baud_table=baud_table, baud_divisor=baud_divisor, hardware_errors=tuple(sorted(hardware)),
+        source=source, path=str(path),
+        **figures)  # type: ignore[arg-type]
+    _check_baud(model, by_name["baud_rate"], registers, top)
+    return model, name_value, number_value
+
+
+def _check_table(registers: list[tuple[Register, ConfigValue]], top: ConfigMapping, name: str,
+                 number: int, protocol: int) -> None:
+    """Names once, no two registers sharing a byte, the registers servolab relies on there,
+    and the model number where PING finds it."""
+    seen: dict[str, ConfigValue] = {}
+    for reg, where in registers:
+        if reg.name in seen:
+            _fail(where, f"register {reg.name!r} is defined twice (first on line "
+                  f"{seen[reg.name].line})")
+        seen[reg.name] = where
+    ordered = sorted(registers, key=lambda pair: pair[0].address)
+    for (a, _), (b, where) in itertools.pairwise(ordered):
+        if a.address + a.size > b.address:
+            _fail(where, f"register {b.name!r} (address {b.address}) overlaps {a.name!r} "
+                  f"({a.size} bytes at {a.address}, line {seen[a.name].line})")
+    missing = [n for n in REQUIRED_REGISTERS if n not in seen]
+    if missing:
+        _fail(top, f"model {name!r} has no register {missing[0]!r} (servolab needs: "
+              f"{', '.join(REQUIRED_REGISTERS)})")
+    by_name = {reg.name: reg for reg, _ in registers}
+    mn = by_name["model_number"]
+    if (mn.address, mn.size, mn.default) != (0, 2, number):
+        _fail(seen["model_number"], f"model_number must be 2 bytes at address 0 with default "
+              f"{number} (the model number PING reports)")
+    ident = by_name["id"]
+    top_id = 253 if protocol == 1 else 252
+    if ident.raw_max > top_id:
+        _fail(seen["id"], f"register 'id': Protocol {protocol}.0 IDs end at {top_id}, not "
+              f"{ident.raw_max}")
+    for reg, where in registers:
+        if reg.name.startswith("indirect_data_"):
+            partner = "indirect_address_" + reg.name[len("indirect_data_"):]
+            if partner not in by_name:
+                _fail(where, f"register {reg.name!r} has no {partner!r}")
+
+
+def _check_baud(model: Model, reg: Register, registers: list[tuple[Register, ConfigValue]],
+                top: ConfigMapping) -> None:
+    where = next(w for r, w in registers if r is reg)
+    if reg.unit != "baud":
+        _fail(where, "register 'baud_rate': its unit must be baud")
+    for value in range(reg.raw_min, reg.raw_max + 1):
+        try:
+            model.baud_from_register(value)
+        except ConfigError:
+            _fail(top.key_of("baud_rate"), f"baud_rate: register value {value} (in the "
+                  f"register's range {reg.raw_min}..{reg.raw_max}) has no rate")
+
+
+# -- the registry ------------------------------------------------------------------------------
+
+_SECOND_FIRMWARE = re.compile(r"(\(2(\.0)?\)|[-_ ]2(\.0)?)\Z")
+
+
 def _key(name: str) -> str:
-    return name.upper().replace("_", "-").replace("PLUS", "+").replace(" ", "")
+    """A model name as lookups compare it: case, separators and the spelling of the 2.0
+    firmware forgiven (``rx28`` = ``RX-28``; ``ex106plus`` = ``EX-106+``; ``mx-28-2``,
+    ``mx28(2.0)`` and ``MX_28_2.0`` = ``MX-28(2.0)``)."""
+    text = name.strip().upper().replace("PLUS", "+")
+    text = _SECOND_FIRMWARE.sub("/2", text)
+    return re.sub(r"[-_ ().]", "", text)
+
+
+_HINT_NAME = re.compile(r"^name:[ \t]*([^\s#]+)[ \t]*(?:#.*)?$", re.MULTILINE)
+_HINT_NUMBER = re.compile(r"^number:[ \t]*(\d+)[ \t]*(?:#.*)?$", re.MULTILINE)
+
+
+@dataclass
+class _Entry:
+    """A model file: its name and number (from the index until it is read) and its model."""
+
+    path: Path
+    name: str
+    number: int
+    model: Model | None = None
+
+
+def _add(entries: list[_Entry], entry: _Entry, name_value: ConfigValue | None,
+         number_value: ConfigValue | None) -> None:
+    """Add ``entry`` unless its name or number is taken (the error at its ``name`` or
+    ``number`` line where the file was read, else naming the file)."""
+    for other in entries:
+        if _key(other.name) == _key(entry.name):
+            message = f"model name {entry.name!r} is taken: {other.path} defines {other.name!r}"
+            if name_value is not None:
+                _fail(name_value, message)
+            raise ModelFileError(entry.path, 0, "name", message)
+        if other.number == entry.number:
+            message = f"model number {entry.number} is {other.name}'s ({other.path})"
+            if number_value is not None:
+                _fail(number_value, message)
+            raise ModelFileError(entry.path, 0, "number", message)
+    entries.append(entry)
+
+
+#: Files or directories (of ``*.yaml``) of a lab's own models that every servolab command
+#: knows, separated as in PATH (``os.pathsep``).
+MODEL_PATH_VARIABLE = "SERVOLAB_MODEL_PATH"
+
+
+def _environment_files() -> list[Path]:
+    """The model files :data:`MODEL_PATH_VARIABLE` names."""
+    import os
+
+    files: list[Path] = []
+    for part in os.environ.get(MODEL_PATH_VARIABLE, "").split(os.pathsep):
+        if not part.strip():
+            continue
+        path = Path(part).expanduser().resolve()
+        if path.is_dir():
+            files += sorted(path.glob("*.yaml"))
+        elif path.is_file():
+            files.append(path)
+        else:
+            raise ModelFileError(path, 0, "", f"{MODEL_PATH_VARIABLE} names {part!r}, which "
+                                 "is no model file or directory")
+    return files
+
+
+class _Registry:
+    """The known models: the shipped files (indexed on first use, each read when first
+    needed) and those :func:`register_model` added."""
+
+    def __init__(self, directory: Path) -> None:
+        self._directory = directory
+        self._lock = threading.RLock()
+        self._entries: list[_Entry] | None = None
+
+    def entries(self) -> list[_Entry]:
+        with self._lock:
+            if self._entries is None:
+                entries: list[_Entry] = []
+                for path in sorted(self._directory.glob("*.yaml"), key=lambda p: _key(p.stem)):
+                    _add(entries, self._index(path), None, None)
+                for path in _environment_files():
+                    model, name_value, number_value = _read(path)
+                    _add(entries, _Entry(path, model.name, model.number, model), name_value,
+                         number_value)
+                self._entries = entries
+            return self._entries
+
+    @staticmethod
+    def _index(path: Path) -> _Entry:
+        """The name and number of a file, from its top-level ``name:`` and ``number:`` lines
+        (the whole file is read where they are not plain)."""
+        text = path.read_text(encoding="utf-8")
+        name, number = _HINT_NAME.search(text), _HINT_NUMBER.search(text)
+        if name and number:
+            return _Entry(path, name.group(1), int(number.group(1)))
+        model, _, _ = _read(path)
+        return _Entry(path, model.name, model.number, model)
+
+    def load(self, entry: _Entry) -> Model:
+        with self._lock:
+            if entry.model is None:
+                model, name_value, _ = _read(entry.path)
+                if model.name != entry.name or model.number != entry.number:
+                    _fail(name_value, f"the index took this file for {entry.name!r} (number "
+                          f"{entry.number}); it defines {model.name!r} ({model.number}): "
+                          "write 'name:' and 'number:' as plain top-level lines")
+                entry.model = model
+            return entry.model
+
+    def find(self, name: str) -> _Entry | None:
+        wanted = _key(name)
+        return next((e for e in self.entries() if _key(e.name) == wanted), None)
+
+    def exact(self, name: str) -> _Entry | None:
+        return next((e for e in self.entries() if e.name == name), None)
+
+    def numbered(self, number: int) -> _Entry | None:
+        return next((e for e in self.entries() if e.number == number), None)
+
+    def register(self, path: Path) -> Model:
+        model, name_value, number_value = _read(path)
+        with self._lock:
+            entries = self.entries()
+            same = next((e for e in entries if e.path == path), None)
+            if same is not None and self.load(same) == model:
+                return self.load(same)  # the same file again: nothing new
+            _add(entries, _Entry(path, model.name, model.number, model), name_value,
+                 number_value)
+            return model
+
+    def forget(self, name: str) -> None:
+        """Drop a model :func:`register_model` added (for tests)."""
+        with self._lock:
+            entry = self.exact(name)
+            if entry is None or entry.path.parent == self._directory:
+                raise ConfigError(f"{name!r} is no registered model file")
+            self.entries().remove(entry)
+
+
+_REGISTRY = _Registry(TABLES_DIR)
+
+
+class _Models(Mapping[str, Model]):
+    """Every known model by name; a shipped file is read when its value is first asked for."""
+
+    def __getitem__(self, name: str) -> Model:
+        entry = _REGISTRY.exact(name)
+        if entry is None:
+            raise KeyError(name)
+        return _REGISTRY.load(entry)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([e.name for e in _REGISTRY.entries()])
+
+    def __len__(self) -> int:
+        return len(_REGISTRY.entries())
+
+    def __repr__(self) -> str:
+        return f"<Dynamixel models: {', '.join(self)}>"
+
+
+class _ByNumber(Mapping[int, Model]):
+    """Every known model by the number PING reports."""
+
+    def __getitem__(self, number: int) -> Model:
+        entry = _REGISTRY.numbered(number)
+        if entry is None:
+            raise KeyError(number)
+        return _REGISTRY.load(entry)
+
+    def __iter__(self) -> Iterator[int]:
+        return iter([e.number for e in _REGISTRY.entries()])
+
+    def __len__(self) -> int:
+        return len(_REGISTRY.entries())
+
+
+class _AllowedModes(Mapping[str, tuple[int, ...]]):
+    """The operating modes each model takes, by model name (models without an
+    operating_mode register are not in it)."""
+
+    def __getitem__(self, name: str) -> tuple[int, ...]:
+        modes = MODELS[name].operating_modes
+        if not modes:
+            raise KeyError(name)
+        return modes
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([name for name, m in MODELS.items() if m.operating_modes])
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+
+#: Every model servolab knows, by name: the shipped ones and those :func:`register_model`
+#: added (a read-only mapping; a file is read when its model is first looked at).
+MODELS: Mapping[str, Model] = _Models()
+#: The same models by the number PING reports.
+BY_NUMBER: Mapping[int, Model] = _ByNumber()
+#: Operating modes each model accepts (the register's range is only their hull).
+ALLOWED_MODES: Mapping[str, tuple[int, ...]] = _AllowedModes()
 
 
 def model(name: str) -> Model:
     """Look a model up by name, forgiving case and separators: ``rx28``, ``RX-28``,
-    ``ex106+``, ``xm430-w210`` all work."""
-    wanted = _key(name).replace("-", "")
-    for m in MODELS.values():
-        if _key(m.name).replace("-", "") == wanted:
-            return m
-    raise ConfigError(f"unknown Dynamixel model {name!r}; known models: {', '.join(MODELS)}")
+    ``ex106+``, ``xm430-w210`` all work, and ``mx28-2`` or ``mx28(2.0)`` for the 2.0
+    firmware of an MX (``MX-28(2.0)``)."""
+    entry = _REGISTRY.find(name)
+    if entry is None:
+        from ..configfile import suggest
+
+        names = [e.name for e in _REGISTRY.entries()]
+        close = suggest(name, names) or suggest(_key(name), {_key(n): n for n in names})
+        hint = ""
+        if close:
+            hint = f" (did you mean {next((n for n in names if _key(n) == close), close)!r}?)"
+        raise ConfigError(f"unknown Dynamixel model {name!r}{hint}; known models: "
+                          f"{', '.join(names)}")
+    return _REGISTRY.load(entry)
 
 
 def model_by_number(number: int) -> Model | None:
     """The model whose PING reports ``number``, or None if servolab does not know it."""
-    return BY_NUMBER.get(number)
+    entry = _REGISTRY.numbered(number)
+    return _REGISTRY.load(entry) if entry is not None else None
+
+
+def load_model(path: str | Path) -> Model:
+    """Read and check a model file without adding it to the known models (to try one out);
+    a :class:`ModelFileError` (``path:line: message``) if anything in it is wrong."""
+    return _read(Path(path))[0]
+
+
+def register_model(path: str | Path) -> Model:
+    """Read a lab's own model file (the format of the shipped ones, docs/dynamixel.md "Adding a
+    model") and add it to the known models: :func:`model`, :func:`model_by_number`, the
+    emulator, ``servolab`` commands run in this process and the :class:`~.bus.Bus` know it from
+    now on. A :class:`ModelFileError` naming the file and line if a value is wrong, or if its
+    name or model number is already taken (registering the same file twice is no clash).
+
+    For every ``servolab`` command to know a lab's models, name their files (or directories
+    of them) in the environment variable ``SERVOLAB_MODEL_PATH`` instead."""
+    return _REGISTRY.register(Path(path).resolve())
+
+
+# The constants of the six models servolab started with, read on first use.
+_CONSTANTS = {"RX_28": "RX-28", "EX_106P": "EX-106+", "MX_28": "MX-28",
+              "XM430_W210": "XM430-W210", "XM430_W350": "XM430-W350",
+              "XL430_W250": "XL430-W250"}
+
+if TYPE_CHECKING:
+    RX_28: Model
+    EX_106P: Model
+    MX_28: Model
+    XM430_W210: Model
+    XM430_W350: Model
+    XL430_W250: Model
+
+
+def __getattr__(name: str) -> Model:
+    if name in _CONSTANTS:
+        return model(_CONSTANTS[name])
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

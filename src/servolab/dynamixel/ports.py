@@ -31,6 +31,7 @@ from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -58,6 +59,59 @@ class Device(Protocol):
     def receive(self, data: bytes, t: float, baudrate: float) -> list[Any]: ...
 
 
+#: What the echo of an adapter is learnt from when an instruction's own bytes cannot tell
+#: (see :meth:`Port._learn_echo`): no 0xFF, so no Dynamixel receiver takes any of it for the
+#: start of a packet (headers FF FF and FF FF FD 00), and nothing answers it.
+ECHO_PROBE = b"\x00\x5a\xa5\x00"
+#: The longest a motor waits before it answers: return delay 254 x 2 us (e-Manual).
+MAX_REPLY_DELAY = 254 * 2e-6
+
+
+def _may_be_a_status(data: bytes) -> bool:
+    """Whether ``data``, an instruction packet, could also be a motor's status packet byte
+    for byte: Protocol 1.0 to one ID (the status carries the error byte where the
+    instruction has its code). Not Protocol 2.0 (a status has instruction 0x55, which no
+    instruction has) nor a broadcast (no status answers one with those bytes)."""
+    if data[:4] == b"\xff\xff\xfd\x00":
+        return len(data) > 7 and data[7] == 0x55
+    return data[:2] == b"\xff\xff" and len(data) > 2 and data[2] != 0xFE
+
+
+def _overlap(buf: bytes, echo: bytes) -> int:
+    """The length of the longest end of ``buf`` that ``echo`` starts with (shorter than
+    ``echo``)."""
+    for k in range(min(len(buf), len(echo) - 1), 0, -1):
+        if echo.startswith(buf[-k:]):
+            return k
+    return 0
+
+
+@dataclass(frozen=True)
+class _Bytes:
+    """Bytes on the wire from ``start`` (a :class:`Reply`)."""
+
+    start: float
+    data: bytes
+
+
+class EchoingDevice:
+    """``device`` behind an adapter that echoes: what the host sends comes back to it first,
+    each byte as it goes out, then the device's own replies. For testing a driver against
+    such an adapter: ``MemoryPort(EchoingDevice(emulator), echo=None)``, or
+    ``PtyServer(EchoingDevice(emulator), ...)``. Everything else is the device's (its
+    motors, faults, idle timeout)."""
+
+    def __init__(self, device: Device) -> None:
+        self.device = device
+
+    def receive(self, data: bytes, t: float, baudrate: float) -> list[Any]:
+        echo = _Bytes(t - len(data) * byte_time(baudrate), bytes(data))
+        return [echo, *self.device.receive(data, t, baudrate)]
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.device, name)
+
+
 class Port(ABC):
     """A half-duplex byte pipe to a Dynamixel bus."""
 
@@ -68,6 +122,17 @@ class Port(ABC):
     latency: float = 0.0
     #: the protocol the port knows its bus speaks (an emulated bus does), else None
     protocol: int | None = None
+    #: Whether the adapter sends back every byte the host sends (an RS-485 adapter without
+    #: echo suppression, TX and RX tied for TTL): True drops the echo of each instruction
+    #: from what is read after it, None learns it from the first instruction sent
+    #: (:meth:`_learn_echo`), False (no echo) reads as it comes.
+    echo: bool | None = False
+    #: bytes read from the device and not yet returned (read ahead while learning the echo)
+    _held: bytes = b""
+    #: (echo True) the instruction whose echo is still to come in what is read next
+    _echo_of: bytes = b""
+    #: (echo True) instructions whose echo never came whole (a collision, a broken line)
+    echoes_missing: int = 0
 
     @abstractmethod
     def write(self, data: bytes) -> None: ...
@@ -86,6 +151,109 @@ class Port(ABC):
     def close(self) -> None:  # noqa: B027 - optional for ports without resources
         pass
 
+    # -- the echo of a half-duplex adapter ---------------------------------------------------
+    # Ports that can meet one implement the raw byte I/O below, read() through
+    # _read_echoed() while _held or _echo_of is set, and call _after_write() after a write.
+    def _read(self, size: int, timeout: float) -> bytes:
+        """Read as :meth:`read` does, without regard to any echo."""
+        raise NotImplementedError
+
+    def _write(self, data: bytes) -> None:
+        """Write as :meth:`write` does, without regard to any echo."""
+        raise NotImplementedError
+
+    def _after_write(self, data: bytes) -> None:
+        """``data`` went out: expect its echo (echo True), or learn whether one comes."""
+        if self.echo:
+            self._echo_of = bytes(data)
+        elif self.echo is None:
+            self._learn_echo(bytes(data))
+
+    def _echo_wait(self, size: int) -> float:
+        """How long the echo of ``size`` bytes may take to come back (s): their wire time,
+        twice the adapter's latency and 2 ms, as a reply's timeout counts."""
+        return size * byte_time(self.baudrate) + 2 * self.latency + 0.002
+
+    def _learn_echo(self, data: bytes) -> None:
+        """The first instruction sent tells whether the adapter echoes: its bytes come back
+        at once, byte for byte, or they do not.
+
+        Where those bytes could also be a motor's status (Protocol 1.0 to one ID: a PING
+        answered with the input voltage error is the very bytes of the PING), the echo is
+        told by what follows: a status right after it, else (a motor absent) bytes that no
+        motor answers or acts on (:data:`ECHO_PROBE`) sent once the line is quiet. Bytes read
+        on the way are kept for the next read. A partial echo decides nothing."""
+        got = self._read(len(data), self._echo_wait(len(data)))
+        if got != data:
+            if not (got and data.startswith(got)):  # a partial echo decides nothing
+                self._set_echo(False)
+            self._held += got
+            return
+        if not _may_be_a_status(data):
+            self._set_echo(True)
+            return
+        window = MAX_REPLY_DELAY + 2 * self.latency + 0.002 + 8 * byte_time(self.baudrate)
+        more = self._read(1, window)
+        if more:          # a status came after the echo
+            self._set_echo(True)
+            self._held += more
+        elif self._probe_echo():
+            self._set_echo(True)      # the bytes were the echo; no motor answered
+        else:
+            self._set_echo(False)     # they were a motor's status
+            self._held += got
+
+    def _probe_echo(self) -> bool:
+        """Send :data:`ECHO_PROBE` and say whether it came back (what else came is
+        dropped: nothing answers those bytes)."""
+        self._write(ECHO_PROBE)
+        clock = self.clock
+        deadline = clock.now() + self._echo_wait(len(ECHO_PROBE))
+        got = b""
+        while ECHO_PROBE not in got:
+            remaining = deadline - clock.now()
+            chunk = self._read(len(ECHO_PROBE), remaining) if remaining > 0 else b""
+            if not chunk:
+                return False
+            got += chunk
+        return True
+
+    def _set_echo(self, echo: bool) -> None:
+        self.echo = echo
+        if echo:
+            log.warning("%s: the adapter sends back every byte sent (an RS-485 adapter "
+                        "without echo suppression, or TX and RX tied): its echo is dropped "
+                        "from every reply", self.name)
+
+    def _read_echoed(self, size: int, timeout: float) -> bytes:
+        """:meth:`read` when bytes are held or an echo is to come: the held bytes first;
+        then, if an echo is to come, everything up to and including it is dropped (bytes
+        before the echo were on the line before the instruction went out), and the
+        ``size`` bytes after it are read."""
+        clock = self.clock
+        deadline = clock.now() + timeout
+        buf, self._held = self._held, b""
+        echo = self._echo_of
+        if echo:
+            while True:
+                at = buf.find(echo)
+                if at >= 0:
+                    buf = buf[at + len(echo):]
+                    self._echo_of = b""
+                    break
+                # Read no further than the earliest end the echo and size bytes can have.
+                want = len(echo) - _overlap(buf, echo) + size
+                chunk = self._read(want, max(0.0, deadline - clock.now()))
+                if not chunk:   # the echo never came whole
+                    self._echo_of = b""
+                    self.echoes_missing += 1
+                    break
+                buf += chunk
+        if len(buf) >= size:
+            self._held = buf[size:]
+            return buf[:size]
+        return buf + self._read(size - len(buf), max(0.0, deadline - clock.now()))
+
     def __enter__(self) -> Port:
         return self
 
@@ -101,11 +269,15 @@ class MemoryPort(Port):
     rate, motors answer after their return delay, and the port asks the clock's owner to move
     time on accordingly (so worlds step while bytes travel), which gives bus-time figures
     without sleeping. On the wall clock, answers are there at once (plus any injected delay).
+
+    ``echo``: False (an in-memory wire has no adapter), or, on a device that echoes (an
+    :class:`EchoingDevice`), True or None to strip the echo as a serial port does.
     """
 
     def __init__(self, device: Device, baudrate: int = 1_000_000, *, clock: Clock,
                  name: str = "memory", protocol: int | None = None,
-                 lock: AbstractContextManager[Any] | None = None) -> None:
+                 lock: AbstractContextManager[Any] | None = None,
+                 echo: bool | None = False) -> None:
         if baudrate <= 0:
             raise ConfigError(f"baud rate {baudrate} must be positive")
         self.device = device
@@ -120,6 +292,7 @@ class MemoryPort(Port):
         self._rx: deque[list[Any]] = deque()
         self.bytes_written = 0
         self.bytes_read = 0
+        self.echo = echo
 
     @property
     def emulator(self) -> Device:
@@ -127,6 +300,11 @@ class MemoryPort(Port):
         return self.device
 
     def write(self, data: bytes) -> None:
+        self._write(data)
+        if self.echo is not False:
+            self._after_write(data)
+
+    def _write(self, data: bytes) -> None:
         data = bytes(data)
         virtual = self.clock.virtual
         now = self.clock.now()
@@ -163,7 +341,7 @@ class MemoryPort(Port):
     def available(self) -> int:
         """Bytes received and not yet read (complete by now)."""
         now = self.clock.now()
-        total = 0
+        total = len(self._held)
         for chunk in self._rx:
             ready = self._ready(chunk, now) - chunk[3]
             if ready <= 0:
@@ -174,6 +352,11 @@ class MemoryPort(Port):
         return total
 
     def read(self, size: int, timeout: float) -> bytes:
+        if self._held or self._echo_of:
+            return self._read_echoed(size, timeout)
+        return self._read(size, timeout)
+
+    def _read(self, size: int, timeout: float) -> bytes:
         clock = self.clock
         deadline = clock.now() + timeout
         rx = self._rx
@@ -208,6 +391,7 @@ class MemoryPort(Port):
         return parts[0] if len(parts) == 1 else b"".join(parts)
 
     def reset_input(self) -> None:
+        self._held = self._echo_of = b""
         rx = self._rx
         if not rx:
             return
@@ -237,17 +421,56 @@ def _io_errors() -> tuple[type[Exception], ...]:
     return (OSError, termios.error)
 
 
+def _reason(exc: BaseException) -> str:
+    """The system's reason for an I/O error, as strerror says it."""
+    return (exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            or type(exc).__name__)
+
+
 def port_failed(port: str, what: str, exc: BaseException, advice: str) -> PortError:
     """One line for an I/O error of ``port``: what failed, the system's reason, what to do."""
-    reason = (exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-              or type(exc).__name__)
-    return PortError(f"{port}: {what} failed ({reason}); {advice}")
+    return PortError(f"{port}: {what} failed ({_reason(exc)}); {advice}")
+
+
+def in_use(port: str) -> PortError:
+    """The error for a port another program holds (pyserial's exclusive lock refused)."""
+    return PortError(f"{port} is in use by another program (close it: lsof {port})")
+
+
+def _is_in_use(exc: BaseException) -> bool:
+    """Whether opening failed because another program holds the port locked (pyserial's
+    ``exclusive``: flock fails with EWOULDBLOCK) or busy (EBUSY)."""
+    return getattr(exc, "errno", None) in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EBUSY)
+
+
+def _is_timeout(exc: BaseException) -> bool:
+    """pyserial's write timeout: the port is there, only slow to take the bytes."""
+    return type(exc).__name__ == "SerialTimeoutException"
 
 
 class DevicePort(Port):
     """A port whose I/O can fail under it (an adapter unplugged, a server gone): every read
     and write error becomes one :class:`PortError` line that names the port and what to do
-    (``_failed``), so the driver above sees one kind of error from any port."""
+    (``_failed``), so the driver above sees one kind of error from any port.
+
+    **Replug.** A port whose I/O fails (the adapter unplugged: EIO) is reopened by the same
+    name at once, once, and if that works the port says so in one line (a warning) and goes
+    on: a write is sent again (nothing went out on the old descriptor), a read returns what
+    it has (what was on its way went with the old descriptor: the bus's retry asks again).
+    If the port is not back, the error says so, and the next call tries to reopen it again,
+    once.
+
+    **Echo** (:attr:`Port.echo`): learnt from the first instruction unless given, and
+    learnt again after a reopen (another adapter may have been plugged in).
+    """
+
+    #: the I/O error the port was lost with, while it is not back; the next call reopens it
+    _lost: BaseException | None = None
+    #: the echo as given at open (None: learnt), which a reopened port starts from again
+    _echo_given: bool | None = None
+    #: whether a port lost under it is reopened (see above); a URL's is not: a server that
+    #: closed the connection may take another, which is not this one coming back
+    reopens: bool = True
 
     @abstractmethod
     def _failed(self, what: str, exc: BaseException) -> PortError: ...
@@ -258,17 +481,85 @@ class DevicePort(Port):
     @abstractmethod
     def _read(self, size: int, timeout: float) -> bytes: ...
 
+    @abstractmethod
+    def _reopen(self) -> None:
+        """Close the port and open it again by its name, set up as it was; raises an I/O
+        error or :class:`ConfigError` where it cannot."""
+
+    @property
+    def label(self) -> str:
+        """How messages name the port."""
+        return f"port {self.name}"
+
+    def _gone_detail(self, again: BaseException) -> str:
+        """Why the port is not back (``again``: what reopening it raised)."""
+        return f"reopening it failed ({_reason(again)})"
+
     def write(self, data: bytes) -> None:
+        if self._lost is not None:
+            self._come_back("writing")
         try:
             self._write(data)
         except _io_errors() as exc:
-            raise self._failed("writing", exc) from exc
+            self._recover("writing", exc)
+            try:
+                self._write(data)   # nothing went out on the old descriptor
+            except _io_errors() as again:
+                raise self._failed("writing", again) from again
+        if self.echo is not False:
+            try:
+                self._after_write(data)
+            except _io_errors() as exc:
+                raise self._failed("reading the echo", exc) from exc
 
     def read(self, size: int, timeout: float) -> bytes:
+        if self._lost is not None:
+            self._come_back("reading")
         try:
+            if self._held or self._echo_of:
+                return self._read_echoed(size, timeout)
             return self._read(size, timeout)
         except _io_errors() as exc:
-            raise self._failed("reading", exc) from exc
+            self._recover("reading", exc)
+            return b""  # what was on its way went with the old descriptor
+
+    def _redo(self, what: str, action: Callable[[], object]) -> None:
+        """``action`` (resetting input, setting the baud rate), once more on the reopened
+        port if the port was lost under it."""
+        if self._lost is not None:
+            self._come_back(what)
+        try:
+            action()
+        except _io_errors() as exc:
+            self._recover(what, exc)
+            try:
+                action()
+            except _io_errors() as again:
+                raise self._failed(what, again) from again
+
+    def _recover(self, what: str, exc: BaseException) -> None:
+        """``what`` failed with ``exc``: reopen the port (once) and return, or raise."""
+        if _is_timeout(exc) or not self.reopens:
+            raise self._failed(what, exc) from exc
+        self._lost = exc
+        self._come_back(what)
+
+    def _come_back(self, what: str) -> None:
+        """Reopen the port lost with :attr:`_lost`, saying so in one line; a
+        :class:`PortError` that says it is not back where it cannot."""
+        lost = self._lost
+        assert lost is not None
+        failures: tuple[type[Exception], ...] = (ConfigError, *_io_errors())
+        try:
+            self._reopen()
+        except failures as again:
+            raise PortError(f"{self.label}: {what} failed ({_reason(lost)}); the adapter is "
+                            f"gone (unplugged?) and not back: {self._gone_detail(again)}; "
+                            "plug it in again, the next call reopens it") from lost
+        self._lost = None
+        self.echo = self._echo_given
+        self._held = self._echo_of = b""
+        log.warning("%s went away (%s) and is back: reopened", self.label, _reason(lost))
 
 
 class SerialPort(DevicePort):
@@ -278,11 +569,19 @@ class SerialPort(DevicePort):
     pyserial applies its whole port configuration again (tcsetattr) each time its ``timeout``
     is set, which a read with a per-call deadline would otherwise do on every transaction.
     An I/O error of the device (EIO once the adapter is unplugged) raises :class:`PortError`,
-    one line naming the port and what to do.
+    one line naming the port and what to do, unless the port is back (see
+    :class:`DevicePort`).
+
+    The port is opened exclusively (pyserial's ``exclusive``, an advisory lock): a second
+    program that asks the same (servolab, pyserial with ``exclusive``) is refused with "PORT
+    is in use by another program" instead of both reading each other's replies. Where the OS
+    allows (Linux serial drivers), it asks for low latency (:attr:`low_latency`), which FTDI
+    adapters honour by lowering their latency timer to 1 ms; where it cannot and the timer is
+    higher, a warning says how to lower it.
     """
 
-    def __init__(self, device: str, baudrate: int = 57600, *, latency: float | None = None
-                 ) -> None:
+    def __init__(self, device: str, baudrate: int = 57600, *, latency: float | None = None,
+                 echo: bool | None = None) -> None:
         import serial  # pyserial
 
         if not device.startswith(("COM", "\\\\.\\")) and not os.path.exists(device):
@@ -291,30 +590,75 @@ class SerialPort(DevicePort):
                               "with 'servolab sim --pty'")
         try:
             self._serial = serial.Serial(device, baudrate=baudrate, timeout=0,
-                                         write_timeout=1.0)
+                                         write_timeout=1.0, exclusive=True)
         except (serial.SerialException, ValueError, OSError) as exc:
+            if _is_in_use(exc):
+                raise in_use(device) from None
             raise ConfigError(f"cannot open serial port {device!r} at {baudrate} bps: "
                               f"{exc}") from None
         self._timeout: float | None = 0.0  # what pyserial's timeout is set to
         #: the (non-blocking) descriptor pyserial opened, on POSIX; None elsewhere
-        self._fd: int | None = getattr(self._serial, "fd", None)
+        self._fd: int | None = None
         #: waits for it to be readable: poll, not select, which fails for descriptors from
         #: 1024 on (FD_SETSIZE), as a process with many files open has
         self._poll: Any = None
-        if self._fd is not None:
-            import select
-
-            self._poll = select.poll()
-            self._poll.register(self._fd, select.POLLIN)
+        self._watch()
         self.name = device
         self.baudrate = int(baudrate)
         self.clock = WallClock()
+        self.echo = self._echo_given = echo
+        #: whether the driver took the request for low latency (:meth:`_ask_low_latency`)
+        self.low_latency = self._ask_low_latency()
         timer = usb_latency_timer(device)
         warning = latency_warning(device, timer)
         if warning:
             log.warning(warning)
         self.latency = latency if latency is not None else (
             timer / 1000.0 if timer is not None else 0.016)
+
+    @property
+    def label(self) -> str:
+        return f"serial port {self.name}"
+
+    def _watch(self) -> None:
+        """Wait on the descriptor pyserial opened (POSIX)."""
+        self._fd = getattr(self._serial, "fd", None)
+        if self._fd is not None:
+            import select
+
+            self._poll = select.poll()
+            self._poll.register(self._fd, select.POLLIN)
+
+    def _unwatch(self) -> None:
+        if self._poll is not None and self._fd is not None:
+            with contextlib.suppress(KeyError, ValueError, OSError):
+                self._poll.unregister(self._fd)
+        self._poll = self._fd = None
+
+    def _ask_low_latency(self) -> bool:
+        """Ask the serial driver for low latency (pyserial's ``set_low_latency_mode``, the
+        ASYNC_LOW_LATENCY flag, Linux only), which FTDI adapters (U2D2, USB2Dynamixel) honour
+        by setting their latency timer to 1 ms. True where it took; a port that has no such
+        setting (a pty, another OS) refuses it, which changes nothing."""
+        return _ask_low_latency(self._serial, self.name)
+
+    def _reopen(self) -> None:
+        self._unwatch()
+        with contextlib.suppress(*_io_errors()):
+            self._serial.close()
+        try:
+            self._serial.open()   # by the same name, with the same settings and lock
+        except OSError as exc:
+            if _is_in_use(exc):
+                raise in_use(self.name) from None
+            raise
+        self._watch()
+        self.low_latency = self._ask_low_latency()
+
+    def _gone_detail(self, again: BaseException) -> str:
+        if not self.name.startswith(("COM", "\\\\.\\")) and not os.path.exists(self.name):
+            return f"{self.name} does not exist"
+        return super()._gone_detail(again)
 
     def _failed(self, what: str, exc: BaseException) -> PortError:
         """The error for an I/O error of the port (EIO once a USB adapter is unplugged): one
@@ -376,24 +720,19 @@ class SerialPort(DevicePort):
         return bytes(buf)
 
     def reset_input(self) -> None:
-        try:
-            self._serial.reset_input_buffer()
-        except _io_errors() as exc:
-            raise self._failed("discarding its input", exc) from exc
+        self._held = self._echo_of = b""
+        self._redo("discarding its input", self._serial.reset_input_buffer)
 
     def set_baudrate(self, baudrate: int) -> None:
-        try:
+        def set_rate() -> None:
             self._serial.baudrate = int(baudrate)
-        except _io_errors() as exc:
-            raise self._failed(f"setting {int(baudrate)} bps", exc) from exc
+
+        self._redo(f"setting {int(baudrate)} bps", set_rate)
         self.baudrate = int(baudrate)
 
     def close(self) -> None:
-        if self._poll is not None and self._fd is not None:
-            with contextlib.suppress(KeyError, ValueError, OSError):
-                self._poll.unregister(self._fd)
+        self._unwatch()
         self._serial.close()
-        self._fd = None
 
 
 class PyserialPort(DevicePort):
@@ -413,25 +752,34 @@ class PyserialPort(DevicePort):
     ``latency`` (s) defaults to the device's FTDI latency timer behind ``spy://`` or
     ``hwgrep://`` (as :class:`SerialPort`), 0 on ``loop://``, and 16 ms (an FTDI adapter's
     default) behind a network server, whose adapter this end cannot see.
+
+    As :class:`SerialPort`, it asks pyserial for an exclusive lock where the handler has one
+    (a serial device behind ``spy://`` or ``hwgrep://``) and for low latency on a serial
+    device, learns an echo from the first instruction (``echo``; not on ``loop://``, whose
+    reading back what is written is its point), and reopens a port lost under it.
     """
 
     #: pyserial's read timeout (s): the longest one pyserial read waits
     SLICE = 0.001
+    reopens = False
     #: a port's latency where it cannot be known (s)
     UNKNOWN_LATENCY = 0.016
 
-    def __init__(self, url: str, baudrate: int = 57600, *, latency: float | None = None
-                 ) -> None:
+    def __init__(self, url: str, baudrate: int = 57600, *, latency: float | None = None,
+                 echo: bool | None = None) -> None:
         import serial  # pyserial
 
         self.name = url
         self.baudrate = int(baudrate)
         self.clock = WallClock()
+        loop = url.lower().startswith("loop://")
+        self.echo = self._echo_given = False if loop and echo is None else echo
         ser: Any = None
         try:
             ser = serial.serial_for_url(url, do_not_open=True)
             ser.baudrate = self.baudrate
             ser.timeout = self.SLICE
+            ser.exclusive = True
             # rfc2217:// refuses a write timeout (NotImplementedError) after connecting
             ser.write_timeout = None if url.lower().startswith("rfc2217://") else 1.0
             try:
@@ -442,20 +790,38 @@ class PyserialPort(DevicePort):
         except (serial.SerialException, ValueError, OSError) as exc:
             if ser is not None:
                 _close_spy_log(ser)
+            if _is_in_use(exc):
+                raise in_use(url) from None
             raise ConfigError(f"cannot open port {url!r} at {baudrate} bps: {exc}") from None
         self._serial: Any = ser
-        device = ser.port if getattr(ser, "fd", None) is not None else None
+        #: the serial device behind the URL (spy://, hwgrep://), else None
+        self._device = ser.port if getattr(ser, "fd", None) is not None else None
+        #: whether the serial driver took the request for low latency (see SerialPort)
+        self.low_latency = (_ask_low_latency(ser, url) if self._device is not None
+                            else False)
         if latency is None:
-            if device is not None:  # a serial device after all (spy://, hwgrep://)
-                timer = usb_latency_timer(device)
-                warning = latency_warning(device, timer)
+            if self._device is not None:  # a serial device after all (spy://, hwgrep://)
+                timer = usb_latency_timer(self._device)
+                warning = latency_warning(self._device, timer)
                 if warning:
                     log.warning(warning)
                 latency = timer / 1000.0 if timer is not None else self.UNKNOWN_LATENCY
             else:
-                loop = url.lower().startswith("loop://")
                 latency = 0.0 if loop else self.UNKNOWN_LATENCY
         self.latency = latency
+
+    def _reopen(self) -> None:
+        ser = self._serial
+        with contextlib.suppress(*_io_errors()):
+            ser.close()
+        try:
+            ser.open()
+        except OSError as exc:
+            if _is_in_use(exc):
+                raise in_use(self.name) from None
+            raise
+        if self._device is not None:
+            self.low_latency = _ask_low_latency(ser, self.name)
 
     def _failed(self, what: str, exc: BaseException) -> PortError:
         return port_failed(f"port {self.name}", what, exc,
@@ -495,16 +861,15 @@ class PyserialPort(DevicePort):
         # What has come so far is read and dropped here, not by pyserial's
         # reset_input_buffer: on rfc2217:// that asks the server to purge, a network round
         # trip before every transaction, and a spy would log each call.
-        try:
-            self._drain(1 << 16)
-        except _io_errors() as exc:
-            raise self._failed("discarding its input", exc) from exc
+        self._held = self._echo_of = b""
+        self._redo("discarding its input", lambda: self._drain(1 << 16))
 
     def set_baudrate(self, baudrate: int) -> None:
-        try:
+        def set_rate() -> None:
             self._serial.baudrate = int(baudrate)
-        except _io_errors() as exc:
-            raise self._failed(f"setting {int(baudrate)} bps", exc) from exc
+
+        try:
+            self._redo(f"setting {int(baudrate)} bps", set_rate)
         except ValueError as exc:
             raise ConfigError(f"port {self.name}: {exc}") from None
         self.baudrate = int(baudrate)
@@ -514,6 +879,23 @@ class PyserialPort(DevicePort):
             self._serial.close()
         finally:
             _close_spy_log(self._serial)
+
+
+def _ask_low_latency(ser: Any, name: str) -> bool:
+    """Ask the serial driver of pyserial port ``ser`` for low latency
+    (``set_low_latency_mode``: the ASYNC_LOW_LATENCY flag, Linux only; FTDI adapters honour it
+    by setting their latency timer to 1 ms). True where it took; a port without that setting
+    (a pty, a USB CDC device, another OS) refuses it, which changes nothing."""
+    if not sys.platform.startswith("linux"):
+        return False
+    refusals: tuple[type[Exception], ...] = (ValueError, NotImplementedError, AttributeError,
+                                             *_io_errors())
+    try:
+        ser.set_low_latency_mode(True)
+    except refusals as exc:
+        log.debug("%s: no low-latency mode (%s)", name, exc)
+        return False
+    return True
 
 
 def _close_spy_log(ser: Any) -> None:
@@ -558,6 +940,66 @@ def latency_warning(device: str, timer_ms: int | None) -> str | None:
             f"echo 1 | sudo tee {latency_timer_path(device)}")
 
 
+#: replies whose lateness a :class:`PtyServer` keeps (the latest)
+LATENESS_KEPT = 100_000
+#: The SCHED_FIFO priority a :class:`PtyServer` asks for with ``realtime``: above every
+#: ordinary process, below the kernel's own real-time threads (50) and audio servers (20+).
+REALTIME_PRIORITY = 10
+
+
+def quantile(ordered: list[float], q: float) -> float:
+    """The ``q`` quantile of the sorted ``ordered`` (nearest rank, as a percentile is read
+    off a sorted list)."""
+    return ordered[min(len(ordered) - 1, max(0, math.ceil(q * len(ordered)) - 1))]
+
+
+def realtime_thread(native_id: int, priority: int = REALTIME_PRIORITY) -> bool:
+    """Put thread ``native_id`` (its ``threading.Thread.native_id``) at real-time priority
+    (SCHED_FIFO), where the OS allows; True where it did. Linux schedules each thread on its
+    own; elsewhere, or without the right, nothing changes."""
+    try:
+        os.sched_setscheduler(native_id, os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
+def _readable_waiter(*fds: int) -> Callable[[float | None], bool]:
+    """A function that waits up to ``timeout`` s (None: for ever) for one of ``fds`` to be
+    readable and says whether the first one is.
+
+    Timed to the microsecond: select() where every descriptor is below FD_SETSIZE (1024),
+    not poll() or epoll(), whose millisecond timeouts Python rounds up (a reply due in
+    0.3 ms would wait 1 ms). Above it (select fails there, as a process with many files open
+    has), poll() for the whole milliseconds and a sleep for the rest, during which bytes
+    that come are seen at its end."""
+    import select
+
+    first = fds[0]
+    if max(fds) < 1024:
+        watched = list(fds)
+
+        def wait_select(timeout: float | None) -> bool:
+            return first in select.select(watched, [], [], timeout)[0]
+
+        return wait_select
+    poller = select.poll()
+    for fd in fds:
+        poller.register(fd, select.POLLIN)
+
+    def wait_poll(timeout: float | None) -> bool:
+        if timeout is None:
+            return any(fd == first for fd, _ in poller.poll())
+        whole = math.floor(timeout * 1000.0)
+        ready = poller.poll(whole)
+        if not ready and timeout * 1000.0 > whole:
+            time.sleep(timeout - whole / 1000.0)
+            ready = poller.poll(0)
+        return any(fd == first for fd, _ in ready)
+
+    return wait_poll
+
+
 class PtyServer:
     """Serve a device (an emulated bus) on a pseudo-terminal, so any serial client can talk to
     it.
@@ -579,11 +1021,21 @@ class PtyServer:
     lost (:attr:`replies_lost`). Bytes the client leaves unread beyond the pty's buffer are
     dropped (:attr:`bytes_overflowed`), as by a UART whose FIFO is full; the server never
     blocks on the client, which may close the port and open it again at any time.
+
+    **On time.** One thread reads the client's bytes, answers as soon as they arrive (the
+    device's reply is computed then, under ``lock``) and hands each reply over when it is
+    due, waiting for that moment to the microsecond (:func:`_readable_waiter`).
+    :attr:`lateness` records how late each was handed over, :meth:`reply_lateness` sums it
+    up. What is left on a busy machine is the OS waking the thread late: ``realtime`` asks
+    for a real-time thread (SCHED_FIFO at :data:`REALTIME_PRIORITY`, granted to root, to
+    CAP_SYS_NICE and within RLIMIT_RTPRIO; :attr:`realtime` says whether it was), which no
+    ordinary process delays.
     """
 
     def __init__(self, emulator: Device, baudrate: int, *, link: str | Path | None = None,
                  clock: Clock | None = None,
-                 lock: AbstractContextManager[Any] | None = None) -> None:
+                 lock: AbstractContextManager[Any] | None = None,
+                 realtime: bool = False) -> None:
         import pty
         import termios
         import tty
@@ -606,15 +1058,40 @@ class PtyServer:
         self.replies_lost = 0
         #: reply bytes dropped because the client did not read them
         self.bytes_overflowed = 0
+        #: how late each reply was handed to the pty (s after its last byte crossed the
+        #: modelled wire), the latest :data:`LATENESS_KEPT`: what :meth:`reply_lateness`
+        #: sums up
+        self.lateness: deque[float] = deque(maxlen=LATENESS_KEPT)
         self._stop = threading.Event()
         self._wake_r, self._wake_w = os.pipe()  # close() wakes the server through it
         self._thread = threading.Thread(target=self._run, name="pty-emulator", daemon=True)
         self._fds_lock = threading.Lock()
         self._fds_closed = False
+        self._realtime_wanted = realtime
+        #: whether the serving thread runs at real-time priority (asked with ``realtime``)
+        self.realtime = False
 
     def start(self) -> PtyServer:
+        # What the first answer computes once and keeps, computed now rather than while a
+        # client waits for it (Protocol 2.0's CRC table: some 10 ms).
+        proto = getattr(self.emulator, "protocol", None)
+        if proto is not None and hasattr(proto, "encode_instruction"):
+            proto.encode_instruction(proto.ping(1))
         self._thread.start()
+        if self._realtime_wanted and self._thread.native_id is not None:
+            self.realtime = realtime_thread(self._thread.native_id)
         return self
+
+    def reply_lateness(self) -> dict[str, float | int | None]:
+        """How late the replies were handed to the pty, of the latest
+        :data:`LATENESS_KEPT`: their number, median, 99th percentile and maximum, in ms
+        (None before the first)."""
+        late = sorted(self.lateness.copy())
+        if not late:
+            return {"replies": 0, "p50_ms": None, "p99_ms": None, "max_ms": None}
+        return {"replies": len(late), "p50_ms": round(quantile(late, 0.5) * 1e3, 3),
+                "p99_ms": round(quantile(late, 0.99) * 1e3, 3),
+                "max_ms": round(late[-1] * 1e3, 3)}
 
     #: how long after a device's idle deadline the server tells it the line stayed silent
     _IDLE_MARGIN = 1e-3
@@ -629,20 +1106,17 @@ class PtyServer:
     def _serve(self) -> None:
         import heapq
         import itertools
-        import select
 
         master = self._master
-        # poll, not select, which fails for descriptors from 1024 on (FD_SETSIZE)
-        poller = select.poll()
-        poller.register(master, select.POLLIN)
-        poller.register(self._wake_r, select.POLLIN)
+        wait = _readable_waiter(master, self._wake_r)
         # (time the reply's last byte has crossed the wire, order, bytes)
         pending: list[tuple[float, int, bytes]] = []
         order = itertools.count()
         wire_end = -math.inf   # when the client's bytes so far have left the wire
         idle = getattr(self.emulator, "idle", None)
+        clock, late = self.clock, self.lateness
         while not self._stop.is_set():
-            now = self.clock.now()
+            now = clock.now()
             wake = pending[0][0] if pending else math.inf
             idle_at = getattr(self.emulator, "idle_deadline", None)
             if idle is not None and idle_at is not None:
@@ -652,17 +1126,18 @@ class PtyServer:
                     idle_at = getattr(self.emulator, "idle_deadline", None)
                 if idle_at is not None and idle_at + self._IDLE_MARGIN > now:
                     wake = min(wake, idle_at + self._IDLE_MARGIN)
-            timeout = None if wake == math.inf else max(0.0, wake - now) * 1000.0
             try:
-                ready = {fd for fd, _ in poller.poll(timeout)}
+                readable = wait(None if wake == math.inf else max(0.0, wake - now))
             except (OSError, ValueError):
                 return
             if self._stop.is_set():
                 return
-            arrival = self.clock.now()      # the best time the client's bytes are known by
+            arrival = clock.now()      # the best time the client's bytes are known by
             while pending and pending[0][0] <= arrival:
-                self._write(heapq.heappop(pending)[2])
-            if master not in ready:
+                due, _, payload = heapq.heappop(pending)
+                late.append(clock.now() - due)     # (counted before the client can read it)
+                self._write(payload)
+            if not readable:
                 continue
             try:
                 data = os.read(master, 4096)

@@ -17,6 +17,11 @@ def byte_time(baudrate: float) -> float:
     return BITS_PER_BYTE / baudrate
 
 
+def wire_time(size: int, baudrate: float) -> float:
+    """Seconds ``size`` bytes occupy the wire at ``baudrate`` (10 bits each)."""
+    return size * BITS_PER_BYTE / baudrate
+
+
 def baud_matches(a: float, b: float, tolerance: float = BAUD_TOLERANCE) -> bool:
     """Whether two UARTs at these rates understand each other (within ``tolerance``): an
     RX-28 at its factory 57142 bps answers a host at 57600 bps."""
