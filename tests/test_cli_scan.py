@@ -132,3 +132,30 @@ def test_write_to_id_254_points_at_broadcast(capsys: pytest.CaptureFixture[str])
     assert status == 2
     assert line.endswith("motor ID 254 is the broadcast ID: to write every motor at once, "
                          "give --broadcast instead of --id 254")
+
+
+@pytest.mark.slow
+def test_servolab_sim_serves_a_mixed_bus_that_scan_finds_at_wire_speed(tmp_path: Path) -> None:
+    """A motor spec of both protocols is one mixed bus (each motor parses the line in its own
+    protocol, as under DynamixelSDK's protocol_combined example); `servolab sim --pty` serves
+    it in real time and `servolab scan` with no options finds every motor, each in its own
+    protocol, in a separate process, through the pty."""
+    import subprocess
+    import sys
+
+    from tests.simproc import sim_process
+
+    spec = "xm430-w210:1-2;xl430-w250:3;rx28:11-12;ax12a:21"
+    with sim_process("--motors", spec, "--baud", "1000000", out_dir=tmp_path / "sim") as (
+            device, _):
+        done = subprocess.run([sys.executable, "-m", "servolab", "scan", "--port", device,
+                               "--out", str(tmp_path / "scan")], capture_output=True,
+                              text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert rows(done.stdout) == {(1, "XM430-W210", "2.0", 1_000_000),
+                                 (2, "XM430-W210", "2.0", 1_000_000),
+                                 (3, "XL430-W250", "2.0", 1_000_000),
+                                 (11, "RX-28", "1.0", 1_000_000),
+                                 (12, "RX-28", "1.0", 1_000_000),
+                                 (21, "AX-12A", "1.0", 1_000_000)}
+    assert "this takes about" in done.stderr  # said before it started

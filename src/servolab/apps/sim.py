@@ -96,7 +96,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         raised += ["replies from a real-time thread"] if server.realtime else []
         how = ", ".join(raised)
         print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
-              f"protocol {spec.protocol}.0 at {baud} bps on {server.device}"
+              f"{_protocols(spec.protocol)} at {baud} bps on {server.device}"
               f"{f' (link {link})' if link else ''}"
               f"{', echoing every byte sent' if echo else ''}"
               f"{f', at raised priority ({how})' if how else ''}; "
@@ -107,7 +107,8 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         except KeyboardInterrupt:
             pass
     simulation.stop_real_time()
-    figures = {"device": server.device, "protocol": spec.protocol, "baudrate": baud,
+    figures: dict[str, object] = {"device": server.device, "protocol": spec.protocol,
+                                  "baudrate": baud,
                "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
                "instructions_received": emulator.instructions_seen,
                "served_s": round(time.monotonic() - started, 3),
@@ -134,6 +135,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="echo every byte the client sends, as a half-duplex RS-485 adapter "
                    "without echo suppression (or TX and RX tied) does")
     add_out(p)
+
+
+def _protocols(version: int | None) -> str:
+    return "protocols 1.0 and 2.0 (a mixed bus)" if version is None else f"protocol {version}.0"
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -41,9 +41,10 @@ class MotorEntry:
 
 @dataclass(frozen=True)
 class MotorSpec:
-    """A bus of emulated motors: protocol, baud rate (None = factory default) and motors."""
+    """A bus of emulated motors: protocol (None: motors of both, each in its own, as a mixed
+    bus has them), baud rate (None = factory default) and motors."""
 
-    protocol: int
+    protocol: int | None
     baudrate: int | None
     motors: tuple[MotorEntry, ...]
 
@@ -89,19 +90,19 @@ def _finish(entries: list[MotorEntry], protocol: int | None, baudrate: int | Non
     if not entries:
         raise fail(None, "no motors")
     versions = {e.model.protocol for e in entries}
-    if protocol is None:
-        if len(versions) != 1:
-            raise fail(None, "mixes protocol 1.0 and 2.0 models; a bus speaks one")
+    if protocol is None and len(versions) == 1:
         protocol = versions.pop()
+    # protocol still None: a mixed bus, each motor on its own protocol (MixedBus drives it)
     for index, e in enumerate(entries):
-        if e.model.protocol != protocol:
+        if protocol is not None and e.model.protocol != protocol:
             raise fail(index, f"{e.model.name} speaks protocol {e.model.protocol}.0, "
                        f"the bus {protocol}.0")
     seen: set[int] = set()
     for index, e in enumerate(entries):
-        max_id = 253 if protocol == 1 else 252
+        version = e.model.protocol
+        max_id = 253 if version == 1 else 252
         if not 0 <= e.id <= max_id:
-            raise fail(index, f"motor ID {e.id} is outside protocol {protocol}.0's "
+            raise fail(index, f"motor ID {e.id} is outside protocol {version}.0's "
                        f"range 0..{max_id}")
         if e.id in seen:
             raise fail(index, f"motor ID {e.id} is listed twice; two motors with one ID "
