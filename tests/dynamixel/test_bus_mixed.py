@@ -110,3 +110,16 @@ def test_an_id_used_in_the_other_protocol_is_refused() -> None:
     assert (found.id, found.model_name, found.protocol) == (20, "RX-28", 1)
     assert bus.versions[20] == 1 and 11 not in bus.versions
     assert bus.read(20, "id", raw=True) == 20
+
+
+def test_two_motors_at_one_id_in_two_protocols_are_warned_of_and_the_2_0_one_kept(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """An XM430 and an RX-28 both at ID 5: the scan says so, and the bus speaks to the 2.0
+    motor as it says, its model and protocol both (the 1.0 pass comes second and must not
+    overwrite them)."""
+    mixed = mixed_bus((("XM430-W210", 5), ("RX-28", 5)))
+    bus = MixedBus(mixed.port(57600))
+    with caplog.at_level("WARNING"):
+        bus.scan(baudrates=[57600])
+    assert "ID 5 answers in protocol 2.0 and in 1.0" in caplog.text
+    assert bus.motors[5].name == "XM430-W210" and bus.version_of(5) == 2

@@ -78,9 +78,43 @@ def test_id_change_status_comes_from_the_new_id_and_is_taken() -> None:
     bus.ping(1)
     timeouts = bus.stats.timeouts
     bus.change_id(1, 13)
-    # the only timeout is the PING that found ID 13 free (1 + 2 retries)
-    assert bus.stats.timeouts - timeouts == 3
+    # the only timeouts are the PINGs that found ID 13 free, in both protocols (1 + 2
+    # retries each: one wire may carry both)
+    assert bus.stats.timeouts - timeouts == 6
     assert bus.stats.stale == 0
+
+
+def test_a_used_id_is_refused_across_protocols() -> None:
+    """One wire may carry both protocols (a mixed bus): an RX-28 (1.0) may not take the ID
+    an XM430 (2.0) answers at, through a bus that speaks 1.0, nor the other way round."""
+    from servolab.dynamixel.emulator import Emulator, VirtualMotor
+    from servolab.dynamixel.models import model
+    from servolab.dynamixel.ports import MemoryPort
+    from servolab.sim import Simulation
+
+    sim = Simulation()
+    emulator = sim.add_emulator(Emulator(None))
+    emulator.add(VirtualMotor(model("XM430-W210"), 1, baudrate=57600))
+    emulator.add(VirtualMotor(model("RX-28"), 11, baudrate=57600))
+    for protocol, old, new in ((1, 11, 1), (2, 1, 11)):
+        bus = Bus(MemoryPort(emulator, 57600, clock=sim, protocol=protocol, lock=sim.lock),
+                  protocol=protocol)
+        with pytest.raises(ConfigError, match=f"ID {new} is taken"):
+            bus.change_id(old, new)
+    assert sorted(m.id for m in emulator.motors) == [1, 11]
+
+
+def test_a_refused_id_write_is_said_at_once() -> None:
+    """An RX-28 whose EEPROM is locked (Lock(47) = 1, e-Manual RX-28) refuses the WRITE of
+    its ID from its old ID: the bus sends the WRITE once more, awaiting the status from the
+    old ID, and says why, instead of resending it and waiting for the new ID each time."""
+    bus = Bus.open("emu://rx28:11", baudrate=57142)
+    bus.write(11, "lock", 1)
+    packets = sent(bus)
+    with pytest.raises(MotorError):
+        bus.change_id(11, 12)
+    assert names(bus, packets).count("WRITE") == 2
+    assert bus.emulator.motor(11).get_raw("id") == 11
 
 
 def test_id_change_to_a_used_id_is_refused_and_nothing_is_written() -> None:
@@ -484,3 +518,17 @@ def test_a_protocol1_motor_at_level_0_is_told_to_be_declared() -> None:
     bus.declare(1, "rx28")
     bus.write(1, "led", 1)
     assert bus.emulator.motor(1).get_raw("led") == 1
+
+
+@pytest.mark.parametrize(("url", "address"), [("emu://xm430-w350:1-2", 7),
+                                              ("emu://xm430-w350:1-2", 8),
+                                              ("emu://rx28:1-2", 3), ("emu://rx28:1-2", 4)])
+def test_a_raw_broadcast_of_an_id_or_a_rate_is_refused(url: str, address: int) -> None:
+    """write_address(254, ...) over the ID (X: 7, 1.0: 3) or the baud rate (X: 8, 1.0: 4)
+    would give every motor one ID or one rate: refused, nothing sent."""
+    bus = Bus.open(url, baudrate=57600 if "xm" in url else 57142)
+    packets = sent(bus)
+    with pytest.raises(ConfigError, match="every motor would take it"):
+        bus.write_address(254, address, b"\x05")
+    assert packets == []
+    assert sorted(m.id for m in bus.emulator.motors) == [1, 2]

@@ -95,6 +95,9 @@ BROADCAST_PING_SLOT = 0.003
 #: it PINGs the next ID (:meth:`Bus.ping_window`): a USB adapter hands a request to its UART
 #: at the next USB frame (1 ms at full speed), and the host may be woken a little late.
 SCAN_MARGIN = 0.002
+#: s a motor is given to answer at its new ID or baud rate after the WRITE that set it: it may
+#: take a while to store the EEPROM write (the e-Manual states no time), longer than a PING
+SETTLE_WINDOW = 0.2
 #: The registers of a 1.0 motor that set its mode: both 0 is wheel mode (e-Manual, CW/CCW
 #: Angle Limit).
 _ANGLE_LIMITS = ("cw_angle_limit", "ccw_angle_limit")
@@ -889,14 +892,15 @@ class Bus:
         hardware-error bits are not the motors' state now (see :meth:`reboot`)."""
         port, stats, proto = self.port, self.stats, self.proto
         total = replies.total
-        # How long after sending the answers can take at most: the wire time of the bytes
-        # both ways, each answer's longest return delay (254 x 2 us), twice the adapter's
-        # latency, and 2 ms. The timeout unless one is set; the late-answer window always.
-        longest = ((len(data) + total) * 10.0 / port.baudrate + replies.delays
-                   + 2 * port.latency + 0.002)
-        timeout = longest if self.timeout is None else self.timeout
         attempts = 1 + (self.retries if retries is None else retries)
         with self._lock:
+            # How long after sending the answers can take at most: the wire time of the bytes
+            # both ways, each answer's longest return delay (254 x 2 us), twice the adapter's
+            # latency, and 2 ms. The timeout unless one is set; the late-answer window always.
+            # Under the lock: another thread's scan may have the port at another rate.
+            longest = ((len(data) + total) * 10.0 / port.baudrate + replies.delays
+                       + 2 * port.latency + 0.002)
+            timeout = longest if self.timeout is None else self.timeout
             for attempt in range(attempts):
                 if self._quiet_until is not None:
                     self._settle()
@@ -2484,15 +2488,35 @@ class Bus:
         return Contact(motor_id, m, level, delay)
 
     def _who(self, motor_id: int) -> PingResult | None:
-        """The motor that answers at ``motor_id``, None when none does; something that
-        answers garbled (two motors at one ID) is refused."""
-        try:
-            return self.ping(motor_id)
-        except NoResponse:
-            return None
-        except CorruptResponse:
-            raise ConfigError(f"ID {motor_id}: something answers there, garbled (two motors "
-                              "with that ID?); nothing was written") from None
+        """The motor that answers at ``motor_id`` in either protocol, None when none does;
+        something that answers garbled (two motors at one ID) is refused. Both protocols,
+        because one wire may carry both (a 1.0 and a 2.0 motor at one ID garble each other
+        as two of one protocol do)."""
+        other = 1 if self.proto.version == 2 else 2
+        for version in (self.proto.version, other):
+            if version == other and not 0 <= motor_id <= protocol_for(other).max_id:
+                continue
+            try:
+                with self._speaking(version):
+                    return self.ping(motor_id)
+            except NoResponse:
+                continue
+            except CorruptResponse:
+                raise ConfigError(f"ID {motor_id}: something answers there, garbled (two "
+                                  "motors with that ID?); nothing was written") from None
+        return None
+
+    def _settled(self, motor_id: int, window: float = SETTLE_WINDOW) -> bool:
+        """Whether ``motor_id`` answers a PING within ``window`` seconds: a motor may take a
+        while to store an EEPROM write and take up its new ID or rate, longer than one PING
+        waits (the e-Manual states no time), so absence is judged only after the window."""
+        clock = self.port.clock
+        deadline = clock.now() + window
+        while True:
+            if self._answers(motor_id, retries=0):
+                return True
+            if clock.now() >= deadline:
+                return False
 
     def change_id(self, motor_id: int, new_id: int) -> PingResult:
         """Give the motor at ``motor_id`` the ID ``new_id``, and follow it there.
@@ -2529,10 +2553,16 @@ class Bus:
             for _ in range(1 + self.retries):
                 try:
                     self.transact(inst, {new_id: 0} if level >= 2 else None, retries=0)
-                    moved = level >= 2 or self._answers(new_id)
+                    moved = level >= 2 or self._settled(new_id)
                 except CommError:
-                    moved = self._answers(new_id)
+                    moved = self._settled(new_id)
                 if moved:
+                    break
+                refusal = self._refusal(inst, motor_id, m, reg)  # from its old ID?
+                if refusal is not None:
+                    raise refusal
+                if self._settled(new_id):
+                    moved = True
                     break
                 if not self._answers(motor_id):
                     raise NoResponse(f"motor {motor_id}: after a WRITE of id {new_id} it answers "
@@ -2543,6 +2573,20 @@ class Bus:
                 self._still_there(motor_id, m, inst, f"id {new_id}")
             self._move(motor_id, new_id)
             return self.ping(new_id)
+
+    def _refusal(self, inst: Instruction, motor_id: int, m: Model,
+                 reg: Register) -> MotorError | None:
+        """Why a motor still at ``motor_id`` did not take the WRITE ``inst``: the WRITE once
+        more, its status awaited from the old ID, where a motor that refuses it answers (a
+        locked EEPROM, an access error); None when that status says nothing is wrong or does
+        not come (the motor may have moved this time)."""
+        try:
+            self.transact(inst, {motor_id: 0}, retries=0)
+        except MotorError as exc:
+            return _hinted(m, [reg], exc)
+        except CommError:
+            return None
+        return None
 
     def _still_there(self, motor_id: int, m: Model, inst: Instruction, what: str) -> None:
         """A WRITE of ``what`` that left the motor where it was: its own status says why."""
@@ -2599,7 +2643,7 @@ class Bus:
                 except CommError:
                     pass  # the status may be lost: where the motor answers tells
                 self.port.set_baudrate(rate)
-                if self._answers(motor_id):
+                if self._settled(motor_id):
                     break
                 self.port.set_baudrate(before)
                 if not self._answers(motor_id):
@@ -2732,11 +2776,23 @@ class Bus:
             proto.encode_instruction(inst)
         except PacketError as exc:
             raise ConfigError(str(exc)) from None
+        end = address + len(data)
+        if broadcast:  # every motor of the protocol: none may get one ID or a lost rate
+            for other in _models.MODELS.values():
+                if other.protocol != proto.version:
+                    continue
+                for name in ("id", "baud_rate"):
+                    reg = other.register(name)
+                    if address < reg.address + reg.size and reg.address < end:
+                        raise ConfigError(f"a raw broadcast WRITE of bytes {address}..{end - 1} "
+                                          f"covers {name} on the {other.name} (address "
+                                          f"{reg.address}): every motor would take it; set "
+                                          "IDs and rates one motor at a time (servolab id, "
+                                          "servolab baud)")
         if m is None:
             level = 0 if broadcast else self._srl.get(motor_id, 2)
             self.transact(inst, {motor_id: 0} if level >= 2 else None)
             return
-        end = address + len(data)
         regs = [r for r in m.registers if address < r.address + r.size and r.address < end]
         for reg in regs:
             if reg.address < address or reg.address + reg.size > end:

@@ -96,9 +96,13 @@ class MixedBus(Bus):
         found = super().scan(ids, baudrates, protocols=protocols, progress=progress,
                              broadcast=broadcast)
         seen: dict[int, int] = {}
+        first = {r.id: r for r in reversed(found)}  # each ID's first result: 2.0 goes first
         for result in found:
             version = result.protocol or self.proto.version
             if result.id in seen and seen[result.id] != version:
+                kept = first[result.id]
+                if kept.model is not None:  # the model the bus speaks to is the 2.0 one's
+                    self.motors[result.id] = kept.model
                 log.warning("ID %d answers in protocol 2.0 and in 1.0: two motors, which a "
                             "bus addresses by ID alone; this one speaks to the 2.0 motor: give "
                             "one of them another ID", result.id)
