@@ -15,7 +15,6 @@ a late answer does not fail a test about model data while a wrong one still does
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ import pytest
 from servolab.dynamixel import MODELS, model
 from servolab.dynamixel.models import Model, Register
 from tests.simproc import sim_process
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.slow
 
@@ -143,14 +143,16 @@ def check_bus(client: Client, bus: list[tuple[int, Model]], protocol: int) -> No
         reg = m.register("goal_position")
         goals[motor_id] = client.read(motor_id, m.register("present_position")) + 100
         client.write(motor_id, reg, goals[motor_id])
-    deadline = time.monotonic() + 10.0
     waiting = dict(bus)
-    while waiting and time.monotonic() < deadline:
+
+    def all_there() -> bool:
         for motor_id, m in list(waiting.items()):
             if abs(client.read(motor_id, m.register("present_position"))
                    - goals[motor_id]) <= 1:
                 del waiting[motor_id]
-        time.sleep(0.02)
+        return not waiting
+
+    wait_until(all_there, timeout=10.0)
     assert not waiting, f"never reached their goals: {[m.name for m in waiting.values()]}"
 
 

@@ -655,15 +655,10 @@ def _model_block(m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int,
     block = b""
     for reg in regs:
         value = values[reg.name]
-        if not reg.writable:
-            raise ConfigError(f"{m.name} {reg.name} is read-only")
         if raw:
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
-                    or not float(value).is_integer():
-                raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
-            raw_value = int(value)
-            reg.check(raw_value, m)
+            raw_value = _checked_raw(m, reg, value)
         else:
+            _writable(m, reg)
             _check_type(m, reg, value)
             raw_value = units.from_si(m, reg, value)
         allowed = _allowed_modes(m) if reg.name == "operating_mode" else None
@@ -672,6 +667,23 @@ def _model_block(m: Model, values: Mapping[str, Value], raw: bool) -> tuple[int,
                               f"{', '.join(map(str, allowed))}")
         block += reg.encode(raw_value)
     return regs[0].address, block
+
+
+def _writable(m: Model, reg: Register) -> None:
+    if not reg.writable:
+        raise ConfigError(f"{m.name} {reg.name} is read-only")
+
+
+def _checked_raw(m: Model, reg: Register, value: Value) -> int:
+    """``value`` as a raw value of ``reg`` to write: writable, an integer (``True`` is not
+    one), within the register's range."""
+    _writable(m, reg)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+            or not float(value).is_integer():
+        raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
+    raw_value = int(value)
+    reg.check(raw_value, m)
+    return raw_value
 
 
 def _allowed_modes(m: Model) -> tuple[int, ...] | None:
@@ -1541,15 +1553,9 @@ class Bus:
                    ) -> int:
         """The raw value of ``value`` for ``reg``, checked: writable, a number of the right
         type (``True`` is no angle) in the register's range."""
-        if not reg.writable:
-            raise ConfigError(f"{m.name} {reg.name} is read-only")
         if raw:
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
-                    or not float(value).is_integer():
-                raise ConfigError(f"{m.name} {reg.name}: raw value {value!r} is not an integer")
-            raw_value = int(value)
-            reg.check(raw_value, m)
-            return raw_value
+            return _checked_raw(m, reg, value)
+        _writable(m, reg)
         kind = type(value)
         if kind is not float and kind is not int:
             _check_type(m, reg, value)
