@@ -96,7 +96,7 @@ FIGURES: dict[str, Figure] = {
     "navigation.path_length_m": Figure(
         "docs/navigation.md", 0.04, lambda v, t: f"drove {v:.2f} ± {t:g} m", _NAVIGATE),
     "navigation.seconds": Figure(
-        "docs/navigation.md", 2.5, lambda v, t: f"in {v:.1f} ± {t:g} s of simulated time",
+        "docs/navigation.md", 4.0, lambda v, t: f"in {v:.1f} ± {t:g} s of simulated time",
         _NAVIGATE),
     "navigation.goal_distance_mm": Figure(
         "docs/navigation.md", 30.0, lambda v, t: f"stopped {v:.0f} ± {t:g} mm from the goal",
@@ -108,12 +108,12 @@ FIGURES: dict[str, Figure] = {
         "docs/navigation.md", 70.0, lambda v, t: f"at least {v:.0f} ± {t:g} mm clear",
         _NAVIGATE),
     "navigation.estimate_error_mm": Figure(
-        "docs/navigation.md", 1.0, lambda v, t: f"ended {v:.0f} ± {t:g} mm and", _NAVIGATE),
+        "docs/navigation.md", 1.5, lambda v, t: f"ended {v:.0f} ± {t:g} mm and", _NAVIGATE),
     "navigation.estimate_yaw_error_deg": Figure(
         "docs/navigation.md", 2.5, lambda v, t: f"and {v:.1f} ± {t:g}° from the truth",
         _NAVIGATE),
     "navigation.camera_frames": Figure(
-        "docs/navigation.md", 30.0, lambda v, t: f"in all {v:.0f} ± {t:g} frames", _NAVIGATE),
+        "docs/navigation.md", 40.0, lambda v, t: f"in all {v:.0f} ± {t:g} frames", _NAVIGATE),
     "navigation.repair_cells": Figure(
         "docs/navigation.md", 0.0, lambda v, t: f"The map changed in {v:.0f} cells", _NAVIGATE),
     "navigation.calibration_fx_px": Figure(
@@ -449,7 +449,7 @@ def navigation_figures(summary: dict[str, Any]) -> dict[str, float]:
 
 def navigation_loop(out: Path) -> dict[str, float]:
     """docs/navigation.md's runs of `servolab navigate`: the shipped scene, where an obstacle
-    appears on the plan at 6 s, and a box's corner that D.3's DWA does not get round; returns
+    appears on the plan at 6 s, and a box's corner that D.3's DWA once did not get round; returns
     the first run's numbers."""
     import contextlib
     import shutil
@@ -469,7 +469,7 @@ def navigation_loop(out: Path) -> dict[str, float]:
                          "  - {box: {x: 1.9, y: 0.0, width: 0.2, depth: 1.6}}\n")
         shutil.copy(SHIPPED_DIR / "base_seed000.yaml", Path(tmp) / "base_seed000.yaml")
         run = RunFolder.create("navigate", Path(tmp) / "corner")
-        with contextlib.suppress(GoalNotReached):  # the point: it gives up, oscillating
+        with contextlib.suppress(GoalNotReached):  # the plot is the point, reached or not
             run_navigate(run, prepare((3.3, 0.6), goal_yaw=0.0, scene=scene),
                          say=lambda _: None, show_progress=False)
         shutil.copy(run.file("navigate.png"), out / "navigation_corner.png")

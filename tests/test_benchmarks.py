@@ -399,8 +399,9 @@ PLANNING = BENCHMARK.parent / "planning.py"
 def test_planning_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """benchmarks/planning.py --quick: per grid the first plan and the repairs after k = 1, 10,
     50 changes, D* Lite against our A* and scipy's Dijkstra, every time and ratio finite and
-    positive, the three planners' costs equal (the benchmark checks them), a verdict per
-    grid and k."""
+    positive, the planners' costs equal (the benchmark checks them), a verdict per grid and k;
+    the first plan's ratios to the Dijkstra anchor of the same run (issue 30) and the
+    incremental first search's figures beside them, printed."""
     bench = _load(PLANNING, "planning_bench")
     out_json = tmp_path / "figures.json"
     assert bench.main(["--quick", "--json", str(out_json)]) == 0
@@ -414,17 +415,29 @@ def test_planning_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
         first = grid["first"]
         for name in ("dstar_s", "astar_s", "dijkstra_s", "dijkstra_with_build_s",
                      "ratio_dstar_astar", "ratio_dstar_dijkstra",
-                     "ratio_dstar_dijkstra_with_build", "cost"):
+                     "ratio_dstar_dijkstra_with_build", "cost", "dstar_incremental_s",
+                     "dijkstra_build_s", "fast_build_s", "dijkstra_with_fast_build_s",
+                     "ratio_dstar_dijkstra_with_fast_build",
+                     "ratio_incremental_dijkstra_with_build", "speedup_over_incremental"):
             assert _positive(first[name]), (grid["size"], name, first)
+        assert first["ratio_dstar_dijkstra_with_build"] == pytest.approx(
+            first["dstar_s"] / (first["dijkstra_s"] + first["dijkstra_build_s"]))
+        assert first["goal_met"] == (first["ratio_dstar_dijkstra_with_build"] <= 1.5)
+        assert (f"D* Lite / Dijkstra = {first['ratio_dstar_dijkstra']:.2f}, D* Lite / "
+                f"(Dijkstra+build) = {first['ratio_dstar_dijkstra_with_build']:.2f}") in out
         assert [r["k"] for r in grid["repairs"]] == [1, 10, 50]
         for r in grid["repairs"]:
             for name in ("cost", "repair_s", "astar_s", "dijkstra_s", "dijkstra_with_build_s",
                          "ratio_astar_repair", "ratio_dijkstra_repair",
-                         "ratio_dijkstra_with_build_repair", "ratio_fastest_repair"):
+                         "ratio_dijkstra_with_build_repair", "ratio_fastest_repair",
+                         "repair_incremental_init_s", "repair_first_s",
+                         "repair_incremental_init_first_s", "ratio_incremental_init_repair"):
                 assert _positive(r[name]), (grid["size"], r["k"], name, r)
             assert r["ratio_astar_repair"] == pytest.approx(r["astar_s"] / r["repair_s"])
             assert isinstance(r["goal_met"], bool)
             assert r["goal_met"] == (r["ratio_fastest_repair"] >= 10.0)
+    # The first plan's verdict is given on the goal's grid (1000²) only, not a --quick one.
+    assert figures["first_goal"] == 1.5 and figures["first_goal_size"] not in bench.QUICK_SIZES
     assert len(figures["goals"]) == 3 * len(grids)
     assert all(line.startswith(("met:", "NOT met:")) for line in figures["goals"])
     assert "Goals:" in out and all(line in out for line in figures["goals"])

@@ -17,6 +17,10 @@ class ServolabError(Exception):
     """Base of every error servolab raises on purpose."""
 
 
+class ServolabValueError(ServolabError, ValueError):
+    """A value a core module (a clock, a run folder) cannot use: bad input from a program."""
+
+
 class UsageError(ServolabError, ValueError):
     """A command-line argument that cannot be used (``--steps 0``), refused before anything
     moves; the message names the option and the value."""

@@ -126,7 +126,8 @@ def test_limit_refuses_bad_values() -> None:
 # -- encoders -----------------------------------------------------------------------------------
 
 def test_tick_delta_across_the_12_bit_wrap() -> None:
-    # seeds/README.md: the EX-106+ reports 0..4095, so a wrap is 4096 ticks, not 65535.
+    # A 12-bit count (an MX-28 in wheel mode, 0..4095) wraps at 4096; the EX-106+'s wheel-mode
+    # count wraps at 65536 (e-Manual), where seed 000's final.m adds 65535 (test_a2.py).
     assert tick_delta(4090, 5, ABS12) == 11
     assert tick_delta(5, 4090, ABS12) == -11
     assert tick_delta(100, 90, ABS12) == -10  # seed 000 would count +65525 here

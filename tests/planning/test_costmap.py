@@ -9,12 +9,20 @@ inflated while its distance in cells is at most ``cellDistance(inflation_radius)
 costmap_2d/src/costmap_2d.cpp rounds up: ``ceil(world_dist / resolution)``), the unknown-cell
 rule of ``InflationLayer::updateCosts``, and ``calculateMinAndMaxDistances``,
 ``makeFootprintFromRadius`` and ``padFootprint`` in costmap_2d/src/footprint.cpp.
+
+The footprint's outline is checked against two rasterisers that share no code with it:
+OpenCV's 8-connected ``cv2.line`` / ``cv2.polylines`` (Bresenham too; it breaks a tie, a line
+passing exactly between two cells, its own way, so it is the oracle only for lines without
+one), and a line-by-line port of base_local_planner's ``LineIterator``
+(base_local_planner/include/base_local_planner/line_iterator.h), ties included.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
+import cv2
 import numpy as np
 import pytest
 
@@ -28,7 +36,10 @@ from servolab.planning.costmap import (
     footprint_from_radius,
     inflate,
     inscribed_radius,
+    line_cells,
     occupancy_from_image,
+    orient_footprint,
+    outline_cells,
     pad_footprint,
 )
 
@@ -145,3 +156,82 @@ def test_large_grid_is_fast() -> None:
     occupied = rng.random((1000, 1000)) < 0.01
     costs = inflate(occupied, 0.05, 0.40, 12.0, 0.2)
     assert (costs[occupied] == LETHAL_OBSTACLE).all()
+
+
+def line_iterator(x0: int, y0: int, x1: int, y1: int) -> Iterator[tuple[int, int]]:
+    """base_local_planner's LineIterator, statement for statement (line_iterator.h)."""
+    deltax, deltay = abs(x1 - x0), abs(y1 - y0)
+    xinc1 = xinc2 = 1 if x1 >= x0 else -1
+    yinc1 = yinc2 = 1 if y1 >= y0 else -1
+    if deltax >= deltay:
+        xinc1, yinc2, den, num, numadd, numpixels = 0, 0, deltax, deltax // 2, deltay, deltax
+    else:
+        xinc2, yinc1, den, num, numadd, numpixels = 0, 0, deltay, deltay // 2, deltax, deltay
+    x, y = x0, y0
+    for _ in range(numpixels + 1):
+        yield x, y
+        num += numadd
+        if num >= den:
+            num -= den
+            x += xinc1
+            y += yinc1
+        x += xinc2
+        y += yinc2
+
+
+def has_tie(x0: int, y0: int, x1: int, y1: int) -> bool:
+    """A line passing exactly half-way between two cells somewhere (the minor offset
+    ``k * minor / major`` is a whole number and a half): rasterisers may round either way."""
+    major, minor = max(abs(x1 - x0), abs(y1 - y0)), min(abs(x1 - x0), abs(y1 - y0))
+    return major > 0 and any((2 * k * minor) % (2 * major) == major for k in range(major + 1))
+
+
+def cv2_cells(points: list[tuple[int, int]], closed: bool, shape: tuple[int, int] = (96, 96)
+              ) -> set[tuple[int, int]]:
+    image = np.zeros(shape, dtype=np.uint8)
+    cv2.polylines(image, [np.array(points, dtype=np.int32)], closed, 1, 1, cv2.LINE_8)
+    rows, cols = np.nonzero(image)
+    return set(zip(cols.tolist(), rows.tolist(), strict=True))
+
+
+def test_line_cells_are_line_iterators_bresenham_and_agree_with_opencv() -> None:
+    rng = np.random.default_rng(7)
+    ends = rng.integers(0, 40, (400, 4))
+    ends[:20, 2:] = ends[:20, :2]                       # single cells
+    ends[20:40, 3] = ends[20:40, 1]                     # horizontal and diagonal lines
+    ends[40:60, 2] = ends[40:60, 0] + np.abs(ends[40:60, 3] - ends[40:60, 1])
+    xs, ys = line_cells(ends[:, 0], ends[:, 1], ends[:, 2], ends[:, 3])  # all at once
+    assert xs.shape == ys.shape == (400, int(np.abs(ends[:, 2:] - ends[:, :2]).max()) + 1)
+    compared = 0
+    for (x0, y0, x1, y1), row_x, row_y in zip(ends.tolist(), xs, ys, strict=True):
+        ours = list(zip(row_x.tolist(), row_y.tolist(), strict=True))
+        expected = list(line_iterator(x0, y0, x1, y1))
+        # the same cells in the same order, then the end cell repeated to the common length
+        assert ours[:len(expected)] == expected
+        assert set(ours[len(expected):]) <= {(x1, y1)}
+        if not has_tie(x0, y0, x1, y1):
+            assert set(ours) == cv2_cells([(x0, y0), (x1, y1)], closed=False)
+            compared += 1
+    assert compared > 200
+
+
+def test_outline_cells_of_a_turned_rectangle_match_cv2_polylines() -> None:
+    """costmap_model.cpp's footprintCost: every edge, the last vertex back to the first too."""
+    rectangle = np.array([[-0.25, -0.15], [0.25, -0.15], [0.25, 0.15], [-0.25, 0.15]])
+    compared = 0
+    for theta in np.linspace(0.0, 2 * math.pi, 37):
+        xs, ys = orient_footprint(rectangle, (1.6, 1.5, theta))
+        assert xs.shape == ys.shape == (4,)   # (K,) + the poses' shape
+        np.testing.assert_allclose(np.hypot(xs - 1.6, ys - 1.5), math.hypot(0.25, 0.15))
+        vertices = np.floor(np.column_stack((xs, ys)) / 0.05).astype(int)   # worldToMap
+        pairs = list(zip(vertices.tolist(), np.roll(vertices, -1, axis=0).tolist(), strict=True))
+        if any(has_tie(*a, *b) for a, b in pairs):
+            continue
+        cells = outline_cells(vertices)
+        assert cells.shape[-1] == 2
+        points = [(int(x), int(y)) for x, y in vertices]
+        assert set(map(tuple, cells.tolist())) == cv2_cells(points, closed=True)
+        compared += 1
+    assert compared >= 10
+    with pytest.raises(ValueError, match="K >= 3"):
+        outline_cells([[0, 0], [1, 1]])

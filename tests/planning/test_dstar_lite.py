@@ -1,7 +1,13 @@
 """D* Lite (seed 000, D.1) against scipy's Dijkstra, an independent implementation: the property
 of issue 18 -- equal path costs after the first plan and after every step of randomised
 sequences of robot moves and cell changes -- plus the path's own validity, checked here without
-the planner's or grid.py's move costs."""
+the planner's or grid.py's move costs.
+
+Issue 30 made the first search a compiled backward Dijkstra (``first_search="compiled"``, the
+default, so the tests above run it). The tests at the end check what it must leave behind --
+every cell's ``g`` its distance to the goal, ``g == rhs`` everywhere, nothing left to expand --
+and that repairs from that state agree, step for step, with a planner whose first search was
+D* Lite's own (``first_search="incremental"``)."""
 
 from __future__ import annotations
 
@@ -13,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
-from servolab.planning.dstar_lite import DStarLite
+from servolab.planning.dstar_lite import DStarLite, FirstSearch
 from servolab.planning.errors import NoPath, PlanningError
 from servolab.planning.grid import adjacency, check_costs, move_cost, path_cost
 
@@ -242,3 +248,177 @@ def test_bad_costs_refused(bad: float) -> None:
         check_costs(costs)
     with pytest.raises(ValueError, match="cell costs must be >= 1"):
         DStarLite(costs, (0, 0), (2, 2))
+
+
+# -- issue 30: the compiled first search -------------------------------------------------------
+
+
+def goal_distances(costs: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+    """Every cell's distance *to* ``goal``: scipy's Dijkstra from the goal over the reversed
+    edges (the transpose of adjacency, the COO-built oracle, not the planner's graph)."""
+    height, width = costs.shape
+    dist = dijkstra(adjacency(costs).T.tocsr(), indices=goal[0] * width + goal[1])
+    return np.asarray(dist).reshape(height, width)
+
+
+def one_step_lookahead(costs: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """``min over moves s -> s' of c(s, s') + g(s')`` for every cell, written from the move
+    cost's definition (grid.py's docstring), without grid.py: D* Lite's ``rhs``."""
+    height, width = costs.shape
+    pc = np.full((height + 2, width + 2), np.inf)
+    pc[1:-1, 1:-1] = costs
+    pg = np.full((height + 2, width + 2), np.inf)
+    pg[1:-1, 1:-1] = g
+    best = np.full((height, width), np.inf)
+    here = pc[1:-1, 1:-1]
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if not (dr or dc):
+                continue
+            there = pc[1 + dr:1 + dr + height, 1 + dc:1 + dc + width]
+            step = SQRT2 if dr and dc else 1.0
+            value = step * (here + there) / 2.0 + pg[1 + dr:1 + dr + height, 1 + dc:1 + dc + width]
+            if dr and dc:  # no corner cutting
+                corners = (np.isinf(pc[1 + dr:1 + dr + height, 1:-1])
+                           | np.isinf(pc[1:-1, 1 + dc:1 + dc + width]))
+                value[corners] = np.inf
+            value[np.isinf(here) | np.isinf(there)] = np.inf
+            best = np.minimum(best, value)
+    return best
+
+
+def next_to(a: tuple[int, int], b: tuple[int, int]) -> bool:
+    """``a`` is ``b`` or one of its 8 neighbours (it would lie in ``b``'s enclosing ring)."""
+    return max(abs(a[0] - b[0]), abs(a[1] - b[1])) <= 1
+
+
+def enclose(costs: np.ndarray, cell: tuple[int, int]) -> None:
+    """Occupy the ring of 8 cells around ``cell`` (those inside the grid)."""
+    r, c = cell
+    ring = costs[max(0, r - 1):r + 2, max(0, c - 1):c + 2]
+    keep = costs[r, c]
+    ring[...] = np.inf
+    costs[r, c] = keep
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), height=st.integers(3, 20), width=st.integers(3, 20),
+       obstacles=st.sampled_from([0.0, 0.2, 0.45]), walled=st.booleans(),
+       goal_enclosed=st.booleans())
+def test_compiled_first_search_leaves_every_cell_at_its_goal_distance(
+        seed: int, height: int, width: int, obstacles: float, walled: bool,
+        goal_enclosed: bool) -> None:
+    """After construction every vertex is locally consistent, ``g == rhs``, and ``g`` is the
+    goal distance -- which local consistency everywhere implies (Koenig & Likhachev 2002,
+    D* Lite, the definitions it takes from Lifelong Planning A*) -- ``inf`` where the goal is
+    out of reach: behind a full wall, or everywhere when the goal is enclosed. The queue is
+    then empty, so plan() expands nothing: ``g`` is the same before and after it."""
+    rng = np.random.default_rng(seed)
+    costs = random_grid(rng, height, width, obstacles)
+    if walled:  # a full wall: the cells beyond it cannot reach the goal
+        costs[:, int(rng.integers(0, width))] = np.inf
+    pair = free_pair(rng, costs)
+    if pair is None:
+        return
+    start, goal = pair
+    goal_enclosed = goal_enclosed and not next_to(start, goal)
+    if goal_enclosed:
+        enclose(costs, goal)
+    planner = DStarLite(costs, start, goal)
+    expected = goal_distances(costs, goal)
+    g, rhs = planner.g, planner.rhs
+    np.testing.assert_array_equal(np.isinf(g), np.isinf(expected))
+    np.testing.assert_allclose(g[np.isfinite(g)], expected[np.isfinite(expected)],
+                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_array_equal(g, rhs)  # exactly: the queue's bookkeeping compares with ==
+    # ... and so must the rhs a repair would recompute (the planner's own {21}-{28} floats) and
+    # the one Dijkstra left, or the first update_cells would queue needless 1-ulp repairs.
+    ids = [(r + 1) * (width + 2) + c + 1 for r in range(height) for c in range(width)
+           if (r, c) != goal]
+    assert [planner._best_rhs(u) for u in ids] == [planner._rhs[u] for u in ids]
+    lookahead = one_step_lookahead(costs, g)
+    lookahead[goal] = 0.0  # rhs(goal) = 0 by definition
+    np.testing.assert_allclose(rhs, lookahead, rtol=1e-12, atol=1e-9)
+    if goal_enclosed:
+        assert np.isinf(g).sum() == g.size - 1  # only the goal itself reaches the goal
+    check_against_oracle(planner, costs)
+    np.testing.assert_array_equal(planner.g, g)  # plan() had nothing left to expand
+
+
+def run_lockstep(seed: int, height: int, width: int, steps: int,
+                 goal_enclosed: bool) -> None:
+    """The same sequence of moves and cell changes on a planner initialised by the compiled
+    search and one by D* Lite's own; after every step both agree with each other and with
+    Dijkstra (costs, NoPath alike), and both paths are valid and of that cost."""
+    rng = np.random.default_rng(seed)
+    costs = random_grid(rng, height, width)
+    pair = free_pair(rng, costs)
+    if pair is None:
+        return
+    start, goal = pair
+    if goal_enclosed and not next_to(start, goal):  # no path at first: repairs must open it
+        enclose(costs, goal)
+    kinds: tuple[FirstSearch, ...] = ("compiled", "incremental")
+    planners = [DStarLite(costs, start, goal, first_search=kind) for kind in kinds]
+    for step in range(steps + 1):
+        results = [check_against_oracle(p, costs) for p in planners]
+        assert results[0] == results[1] or math.isclose(*results, rel_tol=1e-12)
+        if step == steps:
+            break
+        robot = planners[0].start
+        if math.isfinite(results[0]) and robot != goal and rng.random() < 0.6:
+            path = planners[0].path()
+            cell = path[int(rng.integers(1, min(3, len(path) - 1) + 1))]
+            for p in planners:
+                p.move_to(cell)
+            robot = planners[0].start
+        k = int(rng.integers(1, 6))
+        cells = np.column_stack([rng.integers(0, height, k), rng.integers(0, width, k)])
+        if goal_enclosed and rng.random() < 0.5:  # reopen (or re-close) the goal's ring
+            r, c = goal
+            cells[0] = (min(max(r + int(rng.integers(-1, 2)), 0), height - 1),
+                        min(max(c + int(rng.integers(-1, 2)), 0), width - 1))
+        draw = rng.random(k)
+        values = np.where(draw < 0.35, np.inf, 1.0 + rng.integers(0, 17, k) / 4.0)
+        keep = ~(np.all(cells == robot, axis=1) | np.all(cells == goal, axis=1))
+        cells, values = cells[keep], values[keep]
+        costs[cells[:, 0], cells[:, 1]] = values
+        for p in planners:
+            p.update_cells(cells, values)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), height=st.integers(4, 16), width=st.integers(4, 16),
+       goal_enclosed=st.booleans())
+def test_repairs_after_compiled_init_equal_those_after_incremental_init(
+        seed: int, height: int, width: int, goal_enclosed: bool) -> None:
+    run_lockstep(seed, height, width, steps=12, goal_enclosed=goal_enclosed)
+
+
+def test_compiled_and_incremental_first_search_agree_on_a_maze_with_unreachable_rooms() -> None:
+    """A deterministic case: a walled-off room the goal cannot reach, the start inside it (no
+    path), then a door opened: the repair reaches into cells the compiled search left at
+    ``inf``."""
+    costs = np.ones((12, 14))
+    costs[:, 6] = np.inf  # the wall
+    costs[2:10, 9] = 2.5  # a costlier band on the goal's side
+    planners = [DStarLite(costs, (5, 2), (6, 12), first_search=kind)
+                for kind in ("compiled", "incremental")]
+    assert np.isinf(planners[0].g[:, :7]).all() and np.isfinite(planners[0].g[:, 7:]).all()
+    for p in planners:
+        with pytest.raises(NoPath):
+            p.plan()
+        p.update_cells([[11, 6]], 1.0)  # a door at the bottom of the wall
+    costs[11, 6] = 1.0
+    expected = oracle(costs, (5, 2), (6, 12))
+    assert math.isfinite(expected)
+    for p in planners:
+        assert check_against_oracle(p, costs) == expected
+        p.move_to((6, 3))
+    assert planners[0].plan() == pytest.approx(planners[1].plan(), rel=1e-12)
+    assert planners[0].plan() == pytest.approx(oracle(costs, (6, 3), (6, 12)), rel=1e-12)
+
+
+def test_first_search_must_be_named() -> None:
+    with pytest.raises(ValueError, match="first_search must be 'compiled' or 'incremental'"):
+        DStarLite(np.ones((3, 3)), (0, 0), (2, 2), first_search="dijkstra")  # type: ignore[arg-type]

@@ -7,20 +7,29 @@ import math
 import numpy as np
 import pytest
 
-from servolab.planning.costmap import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE
+from servolab.planning.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+    inflate,
+    inscribed_radius,
+)
 from servolab.planning.dwa import (
     DwaConfig,
     DwaStatus,
+    GoalLatch,
     compute_velocity,
     distance_map,
     dynamic_window,
     find_best_trajectory,
+    footprint_cost,
     goal_command,
     sample_window,
     score_samples,
     simulate,
     velocity_iterator,
 )
+from tests.planning.test_costmap import cv2_cells, has_tie, line_iterator
 
 RES = 0.05
 #: seed 000's D.3 values (the shipped dwa_params.yaml)
@@ -178,6 +187,46 @@ def test_at_the_goal_it_stops_then_rotates_to_the_goal_yaw() -> None:
     assert goal_command((0.5, 1.5, 0.0), (0.0, 0.0), (1.0, 1.5, 0.0), D3) is None
 
 
+def test_a_latched_final_turn_is_not_braked_when_it_turns_faster_than_rot_stopped_vel() -> None:
+    """ros-planning/navigation base_local_planner latched_stop_rotate_controller.cpp
+    (computeVelocityCommandsStopRotate): once ``rotating_to_goal_`` is set the robot is not
+    braked again; D.3's ``rot_stopped_vel`` equals ``min_rot_vel`` (0.4), so an odometry
+    reading a hair above 0.4 rad/s would otherwise be braked every other cycle (issue 30)."""
+    goal = (1.0, 1.5, math.pi)
+    pose = (0.95, 1.52, 0.0)
+    latch = GoalLatch()
+    first = goal_command(pose, (0.0, 0.0), goal, D3, latch)
+    assert first is not None and first.status is DwaStatus.ROTATING and latch.rotating_to_goal
+    turning = goal_command(pose, (0.0, 0.4004), goal, D3, latch)
+    assert turning is not None and turning.status is DwaStatus.ROTATING
+    assert turning.omega >= 0.4004  # kept turning (up to the acceleration limit), not braked
+    # without the latch the same reading is braked: the oscillation the issue found
+    unlatched = goal_command(pose, (0.0, 0.4004), goal, D3)
+    assert unlatched is not None and unlatched.status is DwaStatus.STOPPING
+    assert abs(unlatched.omega) < 0.4004 - D3.acc_lim_theta * D3.sim_period + 1e-9
+    # within yaw_goal_tolerance: zero command, reached once stopped (isGoalReached)
+    aligned = (0.95, 1.52, math.pi - 0.1)
+    slowing = goal_command(aligned, (0.0, 0.9), goal, D3, latch)
+    assert slowing is not None and slowing.status is DwaStatus.STOPPING
+    assert (slowing.v, slowing.omega) == (0.0, 0.0) and not latch.rotating_to_goal
+    done = goal_command(aligned, (0.0, 0.3), goal, D3, latch)
+    assert done is not None and done.status is DwaStatus.GOAL_REACHED
+
+
+def test_latch_xy_goal_tolerance_keeps_turning_after_drifting_out() -> None:
+    """DWAPlanner.cfg's latch_xy_goal_tolerance (default false): with it, a robot that has once
+    been within xy_goal_tolerance finishes its turn there even if it drifts out."""
+    goal = (1.0, 1.5, math.pi / 2)
+    latched = DwaConfig(**{**D3.__dict__, "latch_xy_goal_tolerance": True})
+    latch = GoalLatch()
+    assert goal_command((0.95, 1.5, 0.0), (0.0, 0.0), goal, latched, latch) is not None
+    drifted = (0.8, 1.5, 0.2)  # 0.2 m out, beyond the 0.15 m tolerance
+    assert goal_command(drifted, (0.0, 0.5), goal, latched, latch) is not None
+    assert goal_command(drifted, (0.0, 0.5), goal, D3, GoalLatch()) is None
+    latch.reset()
+    assert goal_command(drifted, (0.0, 0.5), goal, latched, latch) is None
+
+
 def test_boxed_in_robot_gets_no_valid_trajectory_and_stops() -> None:
     costmap = free_map()
     costmap[25:36, 5:16] = LETHAL_OBSTACLE
@@ -260,3 +309,197 @@ def test_a_forbidden_turn_is_not_chosen() -> None:
     held = compute_velocity((0.5, 1.5, -0.6), (0.0, 0.0), free_map(), plan, SLOW,
                             resolution=RES, oscillation=flags)
     assert held.status is DwaStatus.MOVING and held.omega <= 0
+
+
+# -- the footprint (issue 30) ------------------------------------------------------------------
+
+#: a rectangular robot 0.5 m long and 0.3 m wide, centred on its wheel axis
+RECTANGLE = np.array([[-0.25, -0.15], [0.25, -0.15], [0.25, 0.15], [-0.25, 0.15]])
+
+
+def costmap_model_footprint_cost(costmap: np.ndarray, pose: tuple[float, float, float],
+                                 footprint: np.ndarray, resolution: float,
+                                 origin: tuple[float, float]) -> float:
+    """base_local_planner's CostmapModel::footprintCost for a polygon (costmap_model.cpp), one
+    pose at a time, as a loop: the footprint turned and moved as WorldModel::footprintCost
+    does, worldToMap on each vertex (off the map: -1, here inf), lineCost over every edge and
+    the last back to the first; the largest cell cost (pointCost's -1 for 254 and 255 kept as
+    the cost itself, so that the caller sees which)."""
+    rows, cols = costmap.shape
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    cells = []
+    for px, py in footprint:
+        wx, wy = pose[0] + (px * c - py * s), pose[1] + (px * s + py * c)
+        if wx < origin[0] or wy < origin[1]:
+            return math.inf
+        mx, my = int((wx - origin[0]) / resolution), int((wy - origin[1]) / resolution)
+        if mx >= cols or my >= rows:
+            return math.inf
+        cells.append((mx, my))
+    worst = 0
+    for (x0, y0), (x1, y1) in zip(cells, cells[1:] + cells[:1], strict=True):
+        for x, y in line_iterator(x0, y0, x1, y1):
+            worst = max(worst, int(costmap[y, x]))
+    return float(worst)
+
+
+@pytest.mark.parametrize("full_table", [True, False])
+def test_footprint_cost_is_costmap_models_outline_maximum(full_table: bool,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """Against the loop above, poses partly off the map included; ``full_table=False`` takes
+    the path for footprints whose edges are too long for a table of every offset."""
+    if not full_table:
+        monkeypatch.setattr("servolab.planning.dwa._FULL_TABLE_ENTRIES", 0)
+    rng = np.random.default_rng(3)
+    costmap = rng.integers(0, 256, (37, 53)).astype(np.uint8)
+    origin = (-0.3, 0.2)
+    triangle = np.array([[0.4, 0.0], [-0.1, 0.23], [-0.13, -0.31]])
+    for footprint in (RECTANGLE, triangle):
+        poses = np.column_stack((rng.uniform(-0.6, 2.6, 600), rng.uniform(0.0, 2.2, 600),
+                                 rng.uniform(-7.0, 7.0, 600)))
+        got = footprint_cost(costmap, poses.reshape(20, 30, 3), footprint, resolution=RES,
+                             origin=origin)
+        assert got.shape == (20, 30)
+        expected = [costmap_model_footprint_cost(costmap, tuple(p), footprint, RES, origin)
+                    for p in poses]
+        np.testing.assert_array_equal(got.ravel(), expected)
+        assert 0.2 < np.mean(np.isinf(expected)) < 0.9   # some poses have a vertex off the map
+
+
+def test_footprint_cost_against_opencvs_polygon_outline() -> None:
+    """The cost is the maximum over the cells cv2.polylines draws for the vertices' cells (an
+    independent Bresenham; compared where no edge has a tie)."""
+    rng = np.random.default_rng(5)
+    costmap = rng.integers(0, 253, (60, 60)).astype(np.uint8)
+    compared = 0
+    for x, y, theta in zip(rng.uniform(0.5, 2.5, 100), rng.uniform(0.5, 2.5, 100),
+                           rng.uniform(-math.pi, math.pi, 100), strict=True):
+        c, s = math.cos(theta), math.sin(theta)
+        world = np.column_stack((x + (RECTANGLE[:, 0] * c - RECTANGLE[:, 1] * s),
+                                 y + (RECTANGLE[:, 0] * s + RECTANGLE[:, 1] * c)))
+        vertices = [(int(a), int(b)) for a, b in np.floor(world / RES)]
+        edges = zip(vertices, vertices[1:] + vertices[:1], strict=True)
+        if any(has_tie(*a, *b) for a, b in edges):
+            continue
+        cells = cv2_cells(vertices, closed=True, shape=costmap.shape)
+        expected = max(int(costmap[r, q]) for q, r in cells)
+        assert footprint_cost(costmap, (x, y, theta), RECTANGLE, resolution=RES) == expected
+        compared += 1
+    assert compared >= 20
+
+
+def test_only_lethal_and_unknown_outline_cells_count_and_only_the_outline_is_seen() -> None:
+    pose = (1.525, 1.525, 0.0)   # the rectangle covers cols 25..35, rows 27..33
+    costmap = free_map()
+    costmap[33, 28] = INSCRIBED_INFLATED_OBSTACLE
+    assert footprint_cost(costmap, pose, RECTANGLE, resolution=RES) == 253
+    costmap[27, 31] = NO_INFORMATION
+    assert footprint_cost(costmap, pose, RECTANGLE, resolution=RES) == 255
+    costmap[27, 31] = 0
+    costmap[30, 27] = LETHAL_OBSTACLE        # strictly inside: costmap_model.cpp does not look
+    assert footprint_cost(costmap, pose, RECTANGLE, resolution=RES) == 253
+    assert footprint_cost(costmap, (0.1, 1.5, 0.0), RECTANGLE, resolution=RES) == math.inf
+    with pytest.raises(ValueError, match="three"):
+        footprint_cost(costmap, pose, RECTANGLE[:2], resolution=RES)
+
+
+def post_costmap() -> np.ndarray:
+    """A post 0.15 m x 0.1 m whose nearest cells are 0.2 m to the left of a robot at
+    (1.525, 1.525): further than the rectangle's inscribed radius (0.15 m), so the inflation
+    leaves the centre's cell at 152, but nearer than its corners (0.29 m)."""
+    occupied = np.zeros((60, 60), dtype=bool)
+    occupied[34:36, 29:32] = True                            # x 1.45..1.60, y 1.70..1.80
+    return inflate(occupied, RES, 0.4, 10.0, inscribed_radius(RECTANGLE))
+
+
+def test_a_rectangles_corner_sweeps_a_post_that_its_centre_stays_clear_of() -> None:
+    """Turning on the spot, the rectangle's front or back corner sweeps through the post; the
+    centre's cell (the circular check) is never inflated to 253."""
+    costmap = post_costmap()
+    pose = (1.525, 1.525, 0.0)
+    assert costmap[30, 30] == 152                            # the centre's cell, 4 cells away
+    # standing still the post is outside; turned by 0.4 rad either way an edge is on it
+    for yaw, hit in ((0.0, False), (0.2, False), (-0.2, False), (0.4, True), (-0.4, True),
+                     (1.0, True)):
+        cost = footprint_cost(costmap, (*pose[:2], yaw), RECTANGLE, resolution=RES)
+        assert bool(cost == LETHAL_OBSTACLE) == hit, yaw
+    plan = straight_plan(y=1.525, x0=1.525, x1=2.8)
+    circle = score_samples(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES)
+    polygon = score_samples(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES,
+                            footprint=RECTANGLE)
+    spin = (circle.v == 0.0) & circle.feasible               # turning at 0.47 rad/s or more
+    assert spin.sum() >= 10
+    assert np.all(circle.valid[spin]) and np.all(circle.occ_cost[spin] == 152)
+    assert not np.any(polygon.valid[spin])
+    assert np.all(np.isinf(polygon.cost[spin])) and np.all(polygon.occ_cost[spin] == 254)
+    # a polygon only ever takes trajectories away from the circle's
+    assert np.all(polygon.valid <= circle.valid) and polygon.valid.any()
+    np.testing.assert_array_equal(polygon.trajectories, circle.trajectories)
+
+
+def test_the_footprints_outline_cost_enters_occ_cost() -> None:
+    """ObstacleCostFunction::footprintCost: a pose costs max(outline, centre cell)."""
+    costmap = free_map()
+    costmap[:, 37] = 120                  # x 1.85..1.90: under the front edge, not the centre
+    pose = (1.61, 1.5, 0.0)
+    plan = straight_plan(y=1.5, x0=1.61, x1=1.9)
+    circle = score_samples(pose, (0.1, 0.0), costmap, plan, D3, resolution=RES)
+    polygon = score_samples(pose, (0.1, 0.0), costmap, plan, D3, resolution=RES,
+                            footprint=RECTANGLE)
+    assert np.all(circle.occ_cost == 0)
+    np.testing.assert_array_equal(polygon.valid, circle.valid)
+    assert polygon.valid.sum() >= 60 and not polygon.valid.all()
+    assert np.all(polygon.occ_cost[polygon.valid] == 120)
+    # samples invalid anyway are spared the footprint: their occ_cost is their centre's
+    assert np.all(polygon.occ_cost[~polygon.valid] == 0)
+    np.testing.assert_allclose(polygon.cost[polygon.valid] - circle.cost[circle.valid],
+                               D3.occdist_scale * 120)
+
+
+#: Recorded from score_samples as it was before issue 30 (centre cells only), for the scene of
+#: test_a_circular_robot_scores_exactly_as_before: which samples were valid, how many had each
+#: occ_cost (and which one 253), the best sample and its cost, the sum of the valid costs.
+BEFORE_VALID = [*range(0, 6), *range(15, 27), *range(36, 48), *range(57, 69), *range(78, 107),
+                124, 125]
+BEFORE_OCC = {92: 42, 152: 42, 251: 41, 253: 1}
+BEFORE_BEST, BEFORE_BEST_COST, BEFORE_COST_SUM = 62, 266.0, 981616.0000000001
+
+
+def test_a_circular_robot_scores_exactly_as_before() -> None:
+    occupied = np.zeros((60, 60), dtype=bool)
+    occupied[26:34, 15:19] = True
+    costmap = inflate(occupied, RES, 0.4, 10.0, 0.15)
+    args = ((0.5, 1.5, 0.0), (0.1, 0.0), costmap, straight_plan(), SLOW)
+    today = score_samples(*args, resolution=RES)
+    none = score_samples(*args, resolution=RES, footprint=None)
+    for field in ("v", "omega", "feasible", "trajectories", "valid", "path_cost", "goal_cost",
+                  "alignment_cost", "goal_front_cost", "occ_cost", "cost"):
+        np.testing.assert_array_equal(getattr(none, field), getattr(today, field), field)
+    assert today.v.size == 126
+    assert np.flatnonzero(today.valid).tolist() == BEFORE_VALID
+    values, counts = np.unique(today.occ_cost, return_counts=True)
+    assert dict(zip(values.astype(int).tolist(), counts.tolist(), strict=True)) == BEFORE_OCC
+    assert np.flatnonzero(today.occ_cost == 253).tolist() == [115]
+    assert int(np.argmin(today.cost)) == BEFORE_BEST
+    assert float(today.cost[BEFORE_BEST]) == pytest.approx(BEFORE_BEST_COST, rel=1e-12)
+    assert float(np.sum(today.cost[today.valid])) == pytest.approx(BEFORE_COST_SUM, rel=1e-12)
+
+
+def test_compute_velocity_passes_the_footprint_to_the_scoring() -> None:
+    costmap = post_costmap()
+    pose, plan = (1.525, 1.525, 0.0), straight_plan(y=1.525, x0=1.525, x1=2.8)
+    result = compute_velocity(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES,
+                              footprint=RECTANGLE)
+    assert result.samples is not None
+    scored = score_samples(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES,
+                           footprint=RECTANGLE)
+    np.testing.assert_array_equal(result.samples.valid, scored.valid)
+    np.testing.assert_array_equal(result.samples.cost, scored.cost)
+    best = find_best_trajectory(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES,
+                                footprint=RECTANGLE)
+    assert (best.v, best.omega) == (result.v, result.omega)
+    assert np.all(footprint_cost(costmap, result.trajectory, RECTANGLE, resolution=RES)
+                  < LETHAL_OBSTACLE)
+    with pytest.raises(ValueError, match="finite"):
+        score_samples(pose, (0.0, 0.0), costmap, plan, SLOW, resolution=RES,
+                      footprint=[[0.1, 0.0], [0.0, math.nan], [-0.1, 0.0]])

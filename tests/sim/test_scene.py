@@ -164,3 +164,62 @@ def test_a_start_beside_an_obstacle_that_appears_later_is_allowed(tmp_path: Path
     (tmp_path / "mybase.yaml").write_text("base: {}\n")
     f.write_text(SCENE.read_text().replace("base_seed000.yaml", "mybase.yaml"))
     assert load_scene(f).base == tmp_path / "mybase.yaml"  # beside the scene file first
+
+
+# -- a scene whose walls come from a map_server map --------------------------------------------
+
+
+def _map_scene(tmp_path: Path, start: str = "  x: 0.4\n  y: 0.4") -> Path:
+    """The test scene with ``map: walls.yaml`` beside it: 0.1 m cells from the floor's corner,
+    an L of occupied cells (x 2.0..2.5 m, y 0.2..0.5 m, then x 2.0..2.2 m up to y 1.0 m) and
+    one unknown cell (x 0.5..0.6 m, y 1.5..1.6 m), written by map_saver's rules."""
+    from servolab.vision.map_file import save_map
+
+    grid = np.zeros((20, 30), np.int8)  # [row, col], row 0 at y = 0
+    grid[2:5, 20:25] = 100
+    grid[5:10, 20:22] = 100
+    grid[15, 5] = -1
+    save_map(tmp_path / "walls", grid, 0.1, (0.0, 0.0))
+    text = SCENE.read_text().replace("  x: 0.4\n  y: 0.4", start)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(text + "map: walls.yaml\n")
+    return scene
+
+
+def test_a_map_files_solid_cells_are_obstacles(tmp_path: Path) -> None:
+    """The map's occupied cells (and unknown ones: no floor to drive onto) are squares the
+    clearance measures exactly and the camera sees dark; few rectangles draw them."""
+    from servolab.vision.synthetic import OBSTACLE, render_floor
+
+    s = load_scene(_map_scene(tmp_path), BASES)
+    walls = s.static_map
+    assert walls is not None and walls.path == str(tmp_path / "walls.yaml")
+    assert walls in s.obstacles_at(0.0) and s.obstacles == load_scene(SCENE, BASES).obstacles
+    assert walls.clearance(2.25, 0.1) == pytest.approx(0.1)  # below the L's foot (y 0.2)
+    assert walls.clearance(2.7, 0.6) == pytest.approx(math.hypot(0.2, 0.1))  # its corner
+    assert walls.clearance(2.25, 0.35) == pytest.approx(-0.15)  # inside, 0.15 from free cells
+    assert walls.clearance(0.55, 1.55) == pytest.approx(-0.05)  # the unknown cell
+    assert walls.clearance(0.55, 1.8) == pytest.approx(0.2)
+    assert s.clearance(2.7, 0.6, 0.0) == pytest.approx(math.hypot(0.2, 0.1))
+    assert np.allclose(sorted(walls.rectangles()), [(0.5, 1.5, 0.1, 0.1), (2.0, 0.2, 0.5, 0.3),
+                                                    (2.0, 0.5, 0.2, 0.5)])
+    camera = s.camera.pinhole()
+    rvec, tvec = s.camera.floor_pose()
+    image = render_floor(camera, rvec, tvec, s.floor_scene(0.0))
+    points = np.array([[2.25, 0.35, 0.0], [2.1, 0.85, 0.0], [0.55, 1.55, 0.0],
+                       [2.35, 0.75, 0.0], [0.8, 0.8, 0.0]]) * 1000.0
+    u, v = np.round(camera.project(points, rvec, tvec)).astype(int).T
+    assert image[v, u].tolist()[:3] == [OBSTACLE] * 3  # the L (both arms), the unknown cell
+    assert min(image[v, u].tolist()[3:]) > 150  # free floor beside them
+
+
+def test_a_start_in_a_solid_map_cell_or_a_missing_map_is_refused(tmp_path: Path) -> None:
+    bad = _map_scene(tmp_path, "  x: 2.1\n  y: 0.7")
+    with pytest.raises(NavSceneError, match=r":\d+: key 'robot.x': the robot's start \(2.1, "
+                       r"0.7\) is -0.1 m from a solid cell of the map .*walls.yaml"):
+        load_scene(bad, BASES)
+    bad.write_text(bad.read_text().replace("map: walls.yaml", "map: nowhere.yaml"))
+    with pytest.raises(NavSceneError) as info:
+        load_scene(bad, BASES)
+    assert str(info.value) == (f"{bad}:{_line_of(bad, 'map:')}: key 'map': map file "
+                               f"'nowhere.yaml' not found (looked for {tmp_path / 'nowhere.yaml'})")

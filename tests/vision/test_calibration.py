@@ -11,12 +11,14 @@ import pytest
 
 from servolab.errors import ConfigFileError
 from servolab.vision.calibration import (
+    SPOIL_FLOOR_PX,
     SYMMETRIC_BOARD_REASON,
     CalibrationError,
     CameraCalibration,
     FloorExtrinsics,
     calibrate,
     check_board,
+    check_in_image,
     find_board,
     floor_extrinsics,
     floor_to_image,
@@ -25,7 +27,9 @@ from servolab.vision.calibration import (
     load,
     measure,
     save,
+    spoiling_views,
 )
+from servolab.vision.errors import VisionValueError
 from servolab.vision.synthetic import (
     Circle,
     FloorScene,
@@ -101,11 +105,16 @@ def test_hundred_mm_on_the_floor_within_one_mm(calibration: CameraCalibration) -
     true_ext = FloorExtrinsics(rotation, tvec)
     rng = np.random.default_rng(11)
     worst = 0.0
-    for _ in range(10):
+    seen = 0
+    width, height = TRUTH.image_size
+    while seen < 10:
         a = rng.uniform((-100.0, -100.0), (500.0, 350.0))
         angle = rng.uniform(0.0, 2 * np.pi)
         b = a + 100.0 * np.array([np.cos(angle), np.sin(angle)])
         uv = floor_to_image(truth, true_ext, np.stack([a, b]))  # what the camera sees
+        if np.any(uv < -0.5) or np.any(uv > (width - 0.5, height - 0.5)):
+            continue  # off the image: the camera does not see it (measure refuses it)
+        seen += 1
         worst = max(worst, abs(measure(calibration, ext, uv[0], uv[1]) - 100.0))
     assert worst < 1.0, worst
 
@@ -166,6 +175,35 @@ def test_image_that_spoils_the_fit_is_warned_about() -> None:
     calib = calibrate(views, BOARD, SQUARE)
     spoiled = [w for w in calib.warnings if "spoils the fit" in w]
     assert any(w.startswith("image 10:") for w in spoiled), calib.warnings
+    # still flagged with the absolute floor: the other lens misses by pixels, not tenths
+    assert calib.per_image_errors[10] > 2 * SPOIL_FLOOR_PX
+
+
+def test_a_view_well_under_a_pixel_is_never_an_outlier() -> None:
+    """Issue 30: 0.123 px against a median of 0.054 px is "twice the median" but fits to an
+    eighth of a pixel: not flagged. A view at 1.5 px among 0.05 px ones still is, and so is
+    0.6 px: over both the ratio and the SPOIL_FLOOR_PX (0.5 px) floor."""
+    good = [0.054, 0.050, 0.061, 0.047, 0.058, 0.123]
+    assert spoiling_views(good) == []
+    assert spoiling_views([0.05, 0.06, 0.05, 1.5, 0.04]) == [3]
+    assert spoiling_views([0.05, 0.06, 0.05, 0.6, 0.04]) == [3]
+    assert spoiling_views([1.0, 1.1, 0.9, 1.05, 1.6]) == []   # under 2x the median of 1.05
+    assert spoiling_views([]) == []
+
+
+def test_measure_refuses_a_pixel_off_the_calibrated_image() -> None:
+    """Issue 30: the lens model is fitted only on the image; 640x480 covers -0.5..639.5 and
+    -0.5..479.5 (pixel centres at whole numbers, OpenCV)."""
+    calib = _truth_calib()
+    r, t = _floor_pose()
+    ext = FloorExtrinsics(_rotation(r), t)
+    assert measure(calib, ext, (-0.5, -0.5), (639.5, 479.5)) > 0
+    for bad in ((5000.0, 340.0), (100.0, -0.6), (639.6, 10.0), (10.0, 480.0)):
+        with pytest.raises(VisionValueError, match=rf"^image point \({bad[0]:g}, {bad[1]:g}\) "
+                           r"is outside the calibrated 640x480 image"):
+            measure(calib, ext, (100.0, 100.0), bad)
+    with pytest.raises(VisionValueError, match="640x480"):
+        check_in_image(calib, [[10.0, 10.0], [700.0, 10.0]])
 
 
 def test_save_load_round_trip(tmp_path: Path) -> None:

@@ -132,3 +132,72 @@ def test_grid_refuses_bad_fields_by_name(field: str, value: float) -> None:
     sizes = {"width": 3.0, "depth": 2.0, "resolution": 0.05, field: value}
     with pytest.raises(ValueError, match=rf"^FloorGrid {field} "):
         FloorGrid(sizes["width"], sizes["depth"], sizes["resolution"])
+
+
+def _aligned_box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) * 1000.0
+
+
+def test_image_noise_20_flips_no_cell_but_a_real_obstacle_marks_its_cells() -> None:
+    """Noise 20 (grey levels) darkens single samples at random, on the robot's mid-grey disc
+    (120, 2.3 sigma above the threshold 75) most: with the old rule (any dark sample) cells
+    flip from frame to frame, with map_server's thresholds on the cell's dark share
+    (occupied_thresh 0.65, free_thresh 0.196; map_saver.cpp writes them, image_loader.cpp
+    applies them) none does, while every cell of a box still is occupied."""
+    sampler = FloorSampler(CALIB, EXTRINSICS, GRID)
+    # a box on cell borders (GRID's cells are 5 cm from x = -1.5 m): cells 40..45 x 10..15
+    scene = FloorScene(polygons=(_aligned_box(0.5, 0.5, 0.8, 0.8),),
+                       robot=RobotMarker(1500.0, 1000.0, 0.4, 180.0))
+    frames = [render_floor(CAMERA, RVEC, TVEC, scene, noise_std=20.0,
+                           rng=np.random.default_rng(seed)) for seed in range(12)]
+    grids = [sampler.occupancy(frame) for frame in frames]
+    assert all(np.array_equal(grid, grids[0]) for grid in grids)
+    assert grids[0][10:16, 40:46].all()  # the box's 36 cells
+    assert grids[0][9:17, 39:47].sum() == 36  # and not the cells round it
+    pts = _cell_points(GRID)
+    robot = (np.hypot(pts[..., 0] - 1500.0, pts[..., 1] - 1000.0) <= 180.0).any(axis=2)
+    assert robot.sum() > 30 and not grids[0][robot].any()
+    old = [sampler.dark_fraction(frame) > 0 for frame in frames]
+    assert sum(int((grid != old[0]).sum()) for grid in old) > 0, "the old rule flickered"
+
+
+def test_a_cell_between_the_thresholds_is_unknown_and_keeps_its_previous_state() -> None:
+    """A cell a third dark (3 of 9 samples: between free_thresh 0.196 and occupied_thresh
+    0.65) is unknown: occupied on its own (unknown is not free), as it was with ``previous``,
+    so an edge splitting a cell cannot flicker; clear evidence changes it either way."""
+    sampler = FloorSampler(CALIB, EXTRINSICS, GRID)
+    cell = (20, 50)  # x 1.0..1.05 m, y 1.0..1.05 m
+    full = _image(FloorScene(polygons=(_aligned_box(1.0, 1.0, 1.05, 1.05),)))
+    third = _image(FloorScene(polygons=(_aligned_box(1.0, 1.0, 1.0 + 0.05 / 3, 1.05),)))
+    empty = _image(FloorScene())
+    assert sampler.dark_fraction(third)[cell] == pytest.approx(3 / 9)
+    assert sampler.occupancy(full)[cell] and sampler.occupancy(third)[cell]
+    free = sampler.occupancy(empty)
+    assert not free[cell]
+    assert not sampler.occupancy(third, previous=free)[cell]
+    assert sampler.occupancy(third, previous=sampler.occupancy(full))[cell]
+    assert sampler.occupancy(full, previous=free)[cell]
+    assert not sampler.occupancy(empty, previous=sampler.occupancy(full))[cell]
+    with pytest.raises(ValueError, match=r"previous occupancy has shape \(2, 2\)"):
+        sampler.occupancy(empty, previous=np.zeros((2, 2), bool))
+
+
+def test_with_its_previous_map_no_obstacle_edge_flickers_at_noise_20() -> None:
+    """Round obstacles' edges split cells at every share: chained through ``previous`` (as the
+    tracker can pass its last map), twelve frames at noise 20 give one map, where the old
+    rule (any dark sample) changed cells between frames."""
+    sampler = FloorSampler(CALIB, EXTRINSICS, GRID)
+    scene = FloorScene(polygons=(BOX,), circles=CIRCLES, robot=ROBOT)
+    previous = None
+    changes = old_changes = 0
+    old_previous = None
+    for seed in range(12):
+        frame = render_floor(CAMERA, RVEC, TVEC, scene, noise_std=20.0,
+                             rng=np.random.default_rng(100 + seed))
+        grid = sampler.occupancy(frame, previous=previous)
+        old = sampler.dark_fraction(frame) > 0
+        if previous is not None and old_previous is not None:
+            changes += int((grid != previous).sum())
+            old_changes += int((old != old_previous).sum())
+        previous, old_previous = grid, old
+    assert changes == 0 and old_changes > 0

@@ -2,15 +2,32 @@
 
 The command only parses; :mod:`servolab.robots.base.run` runs the base. SI units: metres,
 metres a second, degrees for a rotation's angle (the seed's centimetres are converted, never
-assumed).
+assumed). Two options of ``line`` take seed 000 A.2's own units so that final.m can be run as
+written: ``--percent`` (its "Speed Percentage") and ``--counts-per-mm`` (its 5265/575); they
+are converted at the edge, in :mod:`servolab.robots.base`.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 
 from .arguments import PORT_HELP, add_out, finite_float, positive_float
 from .registry import Command
+
+
+def counts_per_mm(text: str) -> float:
+    """An argparse type: encoder counts a millimetre, > 0, as a number or as a ratio written
+    the way final.m writes it (``5265/575``)."""
+    top, slash, bottom = text.partition("/")
+    try:
+        value = float(top) / float(bottom) if slash else float(text)
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of counts a mm (a number "
+                                         "or a ratio such as 5265/575)") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a number of counts a mm > 0")
+    return value
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -38,7 +55,18 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     line = sub.add_parser("line", help="a straight line, stopping at the distance (encoders)")
     line.add_argument("--distance", type=finite_float, required=True, metavar="M",
                       help="metres (negative: backwards)")
-    line.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S")
+    pace = line.add_mutually_exclusive_group()
+    pace.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S",
+                      help="m/s (default 0.1)")
+    pace.add_argument("--percent", type=positive_float, metavar="S",
+                      help="seed 000 A.2's speed: S %% of a wheel-mode motor's full output "
+                      "(final.m's round(S/100*1023) to moving speed; EX-106+ bases only)")
+    line.add_argument("--counts-per-mm", type=counts_per_mm, metavar="C",
+                      help="stop as final.m does, when one motor's encoder has counted "
+                      "round(C x mm) counts (final.m: 5265/575); default: stop on odometry")
+    line.add_argument("--as-printed", action="store_true",
+                      help="with --counts-per-mm: count as final.m is printed, slips included "
+                      "(a wrap adds 65535, and so does a read equal to the one before)")
     circle = sub.add_parser("circle", help="a circle (000 Figure A3)")
     circle.add_argument("--radius", type=positive_float, required=True, metavar="M")
     circle.add_argument("--speed", type=positive_float, default=0.1, metavar="M_S")
@@ -60,20 +88,35 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..robots.base.run import prepare, run_drive
+    from ..errors import UsageError
+    from ..robots.base.run import check_move, prepare, run_drive
     from ..runs import RunFolder
 
+    distance: float = getattr(args, "distance", 1.0)
+    speed: float = getattr(args, "speed", 0.1)
+    radius: float = getattr(args, "radius", 0.5)
+    turns: float = getattr(args, "turns", 1.0)
+    angle_deg: float = getattr(args, "angle", 90.0)
+    percent: float | None = getattr(args, "percent", None)
+    cpm: float | None = getattr(args, "counts_per_mm", None)
+    as_printed: bool = getattr(args, "as_printed", False)
+    if as_printed and cpm is None:
+        raise UsageError("--as-printed counts as final.m does: give its --counts-per-mm "
+                         "(5265/575)")
     # the move, the floor and the base checked before a run folder is made
     base = prepare(args.move, args.base, slip=args.slip, slip_jitter=args.slip_jitter,
                    encoder_noise=args.encoder_noise)
+    # an absurd move (--angle 1e9): one line, no run folder made and nothing moved
+    check_move(base, args.move, distance=distance, speed=speed, percent=percent,
+               radius=radius, turns=turns, angle_deg=angle_deg, counts_per_mm=cpm)
     with RunFolder.create("drive", args.out) as run:
-        run_drive(run, args.move, distance=getattr(args, "distance", 1.0),
-                  speed=getattr(args, "speed", 0.1), radius=getattr(args, "radius", 0.5),
-                  clockwise=getattr(args, "clockwise", False),
-                  turns=getattr(args, "turns", 1.0), angle_deg=getattr(args, "angle", 90.0),
-                  base=base, port=args.port, show_progress=not args.no_progress,
-                  slip=args.slip, slip_jitter=args.slip_jitter,
-                  encoder_noise=args.encoder_noise, real_time=args.real_time)
+        run_drive(run, args.move, distance=distance, speed=speed, radius=radius,
+                  clockwise=getattr(args, "clockwise", False), turns=turns,
+                  angle_deg=angle_deg, base=base, port=args.port,
+                  show_progress=not args.no_progress, slip=args.slip,
+                  slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
+                  real_time=args.real_time, percent=percent, counts_per_mm=cpm,
+                  as_printed=as_printed)
     print(f"run folder: {run.path}")
     return 0
 
@@ -88,5 +131,7 @@ COMMAND = Command(
               "servolab drive circle --radius 0.5 --speed 0.2 --cw --turns 2",
               "servolab drive eight --radius 0.3 --speed 0.1",
               "servolab drive rotate --angle 90",
+              "servolab drive line --distance 1 --percent 30 --counts-per-mm 5265/575 "
+              "--base seed000_4motor",
               "servolab drive circle --radius 0.5 --base turtlebot3_waffle"),
     add_arguments=_add_arguments, run=_run)

@@ -1,5 +1,6 @@
 """``servolab measure``: the distance on the floor between two image points (seed 000's
-Figure C6), from a calibration written by ``servolab calibrate --floor``."""
+Figure C6), from a calibration written by ``servolab calibrate --floor``. A pixel off the
+calibrated image is refused, naming it and the image's size: the lens was never fitted there."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ def _add_measure(p: argparse.ArgumentParser) -> None:
                    help="a calibration written by servolab calibrate --floor")
     for name in ("U1", "V1", "U2", "V2"):
         p.add_argument(name.lower(), type=finite_float, metavar=name,
-                       help="image point, pixels" if name == "U1" else None)
+                       help="image point, pixels (on the calibrated image)" if name == "U1"
+                       else None)
 
 
 def _measure(args: argparse.Namespace) -> int:
@@ -25,7 +27,8 @@ def _measure(args: argparse.Namespace) -> int:
     if floor is None:
         raise UsageError(f"--calib {args.calib} has no floor plane; calibrate with --floor "
                          "IMAGE")
-    # a point above the horizon: VisionValueError, one line (exit 2)
+    # a pixel off the calibrated image, or above the horizon: VisionValueError, one line
+    # naming it (exit 2)
     distance = cal.measure(calib, floor, (args.u1, args.v1), (args.u2, args.v2))
     print(f"{distance:.2f} mm")
     return 0

@@ -30,6 +30,12 @@ once (the axes are independent, as the seed has them); the constant-velocity mod
 the usual next step when the motion, not only the sensors, is worth modelling. The seed does
 not state units or the sample period: the values are in its (overhead-camera floor)
 coordinates, per sample.
+
+D.4 stays here as the seed's algorithm (its tests and ``docs/mobile.md`` check it, and the
+fusion node runs it with ``filter: seed_000``). The node's default since issue 30 is the
+planar EKF of :mod:`.pose_filter`, which predicts from odometry's increments instead of
+taking odometry's position as a measurement: see that module, and the node's docstring for
+why.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
 """Differential-drive kinematics: body twist <-> wheel speeds, wheel-encoder odometry, and the
-moves of seed 000's two-wheel robot (Appendix A: circles, figure of eight, pure rotation).
+moves of seed 000's two-wheel robot (Appendix A: circles, figure of eight, pure rotation), with
+A.2's encoder-counting line (final.m: its counts per mm, its count as meant and as printed).
 
 Conventions (SI throughout): x forward, y to the robot's left, theta counter-clockwise seen
 from above, so a positive ``omega`` turns left. Wheel speeds are wheel angular speeds in rad/s,
@@ -323,3 +324,109 @@ def moves_pose(pose: Iterable[float], moves: Iterable[WheelMove], drive: DiffDri
         y += chord * math.sin(theta + dtheta / 2.0)
         theta += dtheta
     return np.array([x, y, theta])
+
+
+def line_time(distance: float, speed: float) -> float:
+    """Time (s) to drive ``distance`` m (either way) at ``speed`` m/s."""
+    if not math.isfinite(distance):
+        raise KinematicsValueError(f"distance must be finite, got {distance!r}")
+    return abs(distance) / _check_positive("speed", speed)
+
+
+# -- seed 000 A.2: final.m's encoder counting ---------------------------------------------------
+#
+# final.m drives a straight line by counting one motor's wheel-mode encoder (the EX-106+'s
+# present position, 0..65535, 0.06 degree a count: e-Manual, Present Position, Wheel Mode):
+#
+#     h = abs(round((5265/575)*d));        % d in mm: the counts to go
+#     while i < h
+#         q = dxl_read_word(m, 36);        % motor m's present position
+#         if q-p > 0  i = i+q-p;
+#         else        i = i+q-p+65535;     % "crossover maximum limit of motor encoder"
+#         end
+#         p = q;
+#     end
+#
+# The functions below keep the count pure (numbers in, numbers out) so that the robot's loop,
+# the tests and the documentation share one reading of it.
+
+#: final.m's counts per millimetre, ``5265/575`` (seed 000 A.2, its ``h`` line).
+A2_COUNTS_PER_MM = 5265 / 575
+#: What final.m adds on a difference that is not positive: 65535, the register's largest
+#: value, where a wrap of a 0..65535 count is 65536.
+A2_WRAP_AS_PRINTED = 65535
+
+
+def matlab_round(value: float) -> int:
+    """MATLAB's ``round``: halves away from zero (Python's ``round`` goes to the even
+    integer, so ``round(2.5) == 2`` where MATLAB gives 3)."""
+    if not math.isfinite(value):
+        raise KinematicsValueError(f"cannot round {value!r}")
+    return int(math.copysign(math.floor(abs(value) + 0.5), value))
+
+
+def a2_target_counts(distance: float, counts_per_mm: float) -> int:
+    """final.m's ``h = abs(round((5265/575)*d))`` for ``distance`` in metres (final.m asks for
+    millimetres): the encoder counts the loop runs until."""
+    cpm = _check_positive("counts_per_mm", counts_per_mm)
+    if not math.isfinite(distance):
+        raise KinematicsValueError(f"distance must be finite, got {distance!r}")
+    return abs(matlab_round(cpm * distance * 1000.0))
+
+
+def radius_from_counts_per_mm(counts_per_mm: float, encoder: Encoder) -> float:
+    """The wheel radius (m) that ``counts_per_mm`` encoder counts a millimetre of travel imply:
+    one wheel turn, ``ticks_per_rev`` counts, rolls ``2 pi r``. For final.m's 5265/575 on the
+    EX-106+ (250.92 degrees over 4095 counts, 5875.2 counts a turn) that is 0.1021 m."""
+    cpm = _check_positive("counts_per_mm", counts_per_mm)
+    return encoder.ticks_per_rev / (2.0 * math.pi * cpm * 1000.0)
+
+
+def a2_increment_as_printed(previous: int, current: int) -> int:
+    """One read of final.m's count, as printed: ``q - p`` when positive, else
+    ``q - p + 65535``. Two slips follow: a wrap (65530 -> 2) counts one short, since the
+    register holds 65536 values; and equal reads (``q == p``, the wheel did not move a count
+    between them) take the ``else`` and add 65535, which ends any line under 65535 counts."""
+    step = int(current) - int(previous)
+    return step if step > 0 else step + A2_WRAP_AS_PRINTED
+
+
+def a2_increment(previous: int, current: int, encoder: Encoder) -> int:
+    """One read of final.m's count as it is meant: the counts since the last read, the shorter
+    way round the register (:func:`tick_delta`), so a wrap counts in full and equal reads add
+    nothing."""
+    return int(tick_delta(previous, current, encoder))
+
+
+@dataclass(frozen=True)
+class A2Count:
+    """final.m's loop replayed over a series of reads of one motor's encoder."""
+
+    #: the counter ``i`` after each read
+    counts: tuple[int, ...]
+    #: the index of the read after which ``i >= h`` ends the loop, or None if it never did
+    stop: int | None
+    #: reads equal to the one before (``q == p``)
+    equal_reads: int
+    #: reads lower than the one before (``q < p``): wraps, for a motor counting up
+    wraps: int
+
+
+def replay_a2_count(start: int, reads: Iterable[int], target: int, encoder: Encoder, *,
+                    as_printed: bool) -> A2Count:
+    """Run final.m's ``while i < h`` over ``reads`` (``p`` starts at ``start``), counting as
+    printed or as meant (:func:`a2_increment_as_printed`, :func:`a2_increment`); reads after
+    the loop would have ended are ignored."""
+    i, p = 0, int(start)
+    counts: list[int] = []
+    equal = wraps = 0
+    for q in (int(r) for r in reads):
+        if i >= target:
+            break
+        equal += q == p
+        wraps += q < p
+        i += a2_increment_as_printed(p, q) if as_printed else a2_increment(p, q, encoder)
+        counts.append(i)
+        p = q
+    stop = next((k for k, c in enumerate(counts) if c >= target), None)
+    return A2Count(tuple(counts), stop, equal, wraps)

@@ -3,6 +3,11 @@
 It holds the transport, the message types, the clock, the executor and the parameter values
 given before start-up. Nothing of this is global: a test can open two contexts side by side
 (two "processes" on one Zenoh network), and closing a context releases all it opened.
+
+The clock is the one source of time for every node of the context: :meth:`Context.ros_time`
+(and :meth:`~servolab.middleware.node.Node.stamp`, which every stamp goes through) turns its
+readings into ROS time, the epoch's seconds on a wall clock and simulated seconds on a
+virtual one (:mod:`servolab.clock`).
 """
 
 from __future__ import annotations
@@ -62,6 +67,15 @@ class Context:
         types = types or MessageTypes()
         transport = open_transport(options or TransportOptions(), types)
         return cls(transport, clock=clock, parameter_overrides=parameter_overrides)
+
+    def ros_time(self, t: float | None = None) -> float:
+        """ROS time in seconds of the clock reading ``t`` (default: now), what a message's
+        ``header.stamp`` and a bag's receive times carry: as rclpy's ``ROSClock`` gives it,
+        the system time (seconds since the epoch) when the clock is a wall clock
+        (``use_sim_time`` false), the simulated time when it is virtual (``use_sim_time``
+        true, the time a virtual run publishes on ``/clock``). Durations and timers keep the
+        clock's own reading, :meth:`Node.now <servolab.middleware.node.Node.now>`."""
+        return self.clock.ros_time(t)
 
     def next_node_id(self) -> int:
         return next(self._node_ids)

@@ -25,7 +25,7 @@ from .client import Client
 from .errors import ParameterError
 from .executor import Timer
 from .logger import NodeLogger
-from .messages import ServiceType
+from .messages import ServiceType, time_of
 from .names import check_node_name, node_namespace
 from .names import fully_qualified_name as resolve_name
 from .parameters import (
@@ -156,7 +156,18 @@ class Node:
         return Rate(self, hz)
 
     def now(self) -> float:
+        """The context clock's reading in seconds: monotonic, for durations, timers and rates.
+        A message's stamp is :meth:`stamp`, not this (it is not ROS time on a wall clock)."""
         return self.context.clock.now()
+
+    def stamp(self, t: float | None = None) -> dict[str, int]:
+        """A ``builtin_interfaces/msg/Time`` value (``header={"stamp": node.stamp()}``) of the
+        clock reading ``t`` (default: now) in ROS time (:meth:`Context.ros_time
+        <servolab.middleware.context.Context.ros_time>`): the one way every node of a
+        context stamps, so two nodes' stamps compare, and rviz2, tf2 and ``ros2 bag`` date
+        them as ROS would (the epoch's time in real time, simulated time beside ``/clock``).
+        ``t`` is a reading of :meth:`now` taken earlier (a frame's capture time)."""
+        return time_of(self.context.ros_time(t))
 
     # -- services ----------------------------------------------------------------------------
 

@@ -6,12 +6,18 @@ unbounded queues, so a burst is recorded whole, not the last ``depth`` messages 
 that are not in the graph yet are picked up when their first publisher appears, as
 ``ros2 bag record`` does. The bag is flushed every ``flush_period`` seconds, so a recording cut
 off by a kill loses at most that much, and closed completely on Ctrl-C, SIGTERM or an error.
+Each message's receive and publish times are on the time base of the run's stamps, as
+rosbag2 records them (:meth:`Recorder._writer_for`): simulated time in a simulation, the
+epoch's in real time.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
 from typing import Any
+
+from servolab.clock import epoch_offset_ns
 
 from .bag import BagWriter, qos_profile
 from .context import Context
@@ -74,20 +80,35 @@ class Recorder(Node):
             self._say("recording %s [%s]", topic, kind)
 
     def _writer_for(self, topic: str) -> Any:
-        clock = self.context.clock
-        if clock.virtual:
-            # a simulated robot's bag is stamped in its simulated time, as ROS records with
-            # use_sim_time: the wall clock runs at another pace than the robot's
-            def write(data: bytes, info: MessageInfo) -> None:
-                stamp = round(clock.now() * 1e9)
-                self.writer.write(topic, data, stamp, stamp)
-                self.counts[topic] += 1
-            return write
+        """The subscription's callback: the message's bytes with its receive and publish times
+        in ns, as ``ros2 bag record`` takes them (rosbag2_transport/recorder.cpp,
+        ``create_subscription``), on the time base of the run's stamps
+        (:meth:`Context.ros_time <.context.Context.ros_time>`), decided per message since a
+        simulation may switch between virtual and real time:
 
-        def write_wall(data: bytes, info: MessageInfo) -> None:
-            self.writer.write(topic, data, info.received_timestamp_ns, info.source_timestamp_ns)
+        - virtual time (rosbag2 with ``use_sim_time``: ``node->now()``): the simulated time
+          when the message is taken, for both (the publisher's wall time says nothing of a
+          run that goes at another pace than the wall);
+        - real time (rosbag2 without it): the middleware's receive and source timestamps
+          (``time.time_ns()`` readings: the system clock, ns since the epoch), carried over to
+          ROS time (``time.monotonic_ns()`` + :func:`~servolab.clock.epoch_offset_ns`) by
+          the two clocks' difference now: the moments stay the transport's (not when the
+          recorder got round to the message) and the time base is the stamps', also when the
+          system clock was set during the run."""
+        context = self.context
+        clock = context.clock
+
+        def write(data: bytes, info: MessageInfo) -> None:
+            if clock.virtual:
+                stamp = round(context.ros_time() * 1e9)
+                self.writer.write(topic, data, stamp, stamp)
+            else:
+                skew = time.monotonic_ns() + epoch_offset_ns() - time.time_ns()
+                received = info.received_timestamp_ns + skew
+                sent = info.source_timestamp_ns
+                self.writer.write(topic, data, received, sent + skew if sent else received)
             self.counts[topic] += 1
-        return write_wall
+        return write
 
     @property
     def waiting_for(self) -> list[str]:

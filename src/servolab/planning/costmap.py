@@ -30,6 +30,15 @@ the least distance from the robot's centre to the footprint's vertices and edges
 that radius, which :func:`footprint_from_radius` repeats; Costmap2DROS pads the footprint by
 ``footprint_padding`` (:func:`pad_footprint`) before the layers see it.
 
+A polygon footprint is checked against a costmap along its outline, as base_local_planner's
+``CostmapModel::footprintCost`` (base_local_planner/src/costmap_model.cpp) lays it down: the
+polygon placed at a pose (:func:`orient_footprint`, the rotation ``WorldModel::footprintCost``
+and costmap_2d's ``transformFootprint`` apply), each vertex taken to its cell, and each edge
+rasterised from cell to cell by Bresenham's algorithm (:func:`line_cells`, base_local_planner's
+``LineIterator``, which visits the cells costmap_2d's ``raytraceLine`` / ``bresenham2D`` visit),
+the closing edge from the last vertex back to the first included (:func:`outline_cells`). All
+of it is vectorised over any leading axes (every sample and pose of a DWA window at once).
+
 Arrays are indexed ``[row, column]`` = ``[y, x]``, as the image the grid comes from.
 """
 
@@ -159,6 +168,78 @@ def footprint_distances(footprint: ArrayLike) -> tuple[float, float]:
 def inscribed_radius(footprint: ArrayLike) -> float:
     """The footprint's inscribed radius as costmap_2d computes it (:func:`footprint_distances`)."""
     return footprint_distances(footprint)[0]
+
+
+def check_footprint(footprint: ArrayLike) -> NDArray[np.float64]:
+    """A footprint as a (K, 2) float array of at least three finite [x, y] points; ValueError
+    otherwise."""
+    return _polygon(footprint)
+
+
+def orient_footprint(footprint: ArrayLike,
+                     poses: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The footprint (K, 2), in the robot's frame, placed at each pose ``(..., 3)`` = (x, y,
+    theta): the world vertices' ``(xs, ys)``, each ``(K, ...)``, ``x + (px cos(theta) - py
+    sin(theta))`` and ``y + (px sin(theta) + py cos(theta))`` (``WorldModel::footprintCost``'s
+    oriented footprint, costmap_2d's ``transformFootprint``, added up as they add them).
+
+    The vertex axis comes first, and x and y apart: numpy's loops then run along the long
+    pose axes (a trailing axis of K = 4 would make every operation ~4 element-long loops)."""
+    points = _polygon(footprint)
+    p = np.asarray(poses, dtype=np.float64)
+    if p.ndim < 1 or p.shape[-1] != 3:
+        raise PlanningValueError(f"poses must be (..., 3) = (x, y, theta), not shape {p.shape}")
+    cos, sin = np.cos(p[..., 2]), np.sin(p[..., 2])
+    px = points[:, 0].reshape((-1,) + (1,) * (p.ndim - 1))             # (K, 1, ...)
+    py = points[:, 1].reshape(px.shape)
+    xs = p[..., 0] + (px * cos - py * sin)
+    ys = p[..., 1] + (px * sin + py * cos)
+    return xs, ys
+
+
+def line_cells(x0: ArrayLike, y0: ArrayLike, x1: ArrayLike,
+               y1: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The cells ``(xs, ys)`` of the lines from cell ``(x0, y0)`` to cell ``(x1, y1)`` (integer
+    arrays of one broadcast shape ``S``), each ``S + (L,)``, as base_local_planner's
+    ``LineIterator`` (base_local_planner/include/base_local_planner/line_iterator.h) visits them.
+
+    Bresenham's algorithm: the axis with the larger change (x on a tie) steps every cell; the
+    other steps when its numerator, starting at ``den // 2`` and growing by the smaller change a
+    cell, reaches the larger change ``den``. In closed form, cell ``k`` (0 .. den, both ends
+    included) is offset ``k`` along the major axis and ``(den // 2 + k * minor) // den`` along
+    the other, each in the direction of the end (the direction counts as positive when the end
+    equals the start, as ``x1 >= x0`` does). Every line has ``L = max(den) + 1`` entries: a
+    shorter one repeats its end cell, which leaves a maximum or an any() over the cells as it
+    is."""
+    a0, b0, a1, b1 = np.broadcast_arrays(*(np.asarray(c, dtype=np.int64)
+                                           for c in (x0, y0, x1, y1)))
+    dx, dy = a1 - a0, b1 - b0
+    adx, ady = np.abs(dx), np.abs(dy)
+    sx, sy = np.where(dx >= 0, 1, -1), np.where(dy >= 0, 1, -1)
+    x_major = adx >= ady
+    den = np.where(x_major, adx, ady)
+    num_add = np.where(x_major, ady, adx)
+    length = int(den.max()) + 1 if den.size else 1
+    k = np.minimum(np.arange(length), den[..., None])                   # S + (L,)
+    minor = (den[..., None] // 2 + k * num_add[..., None]) // np.maximum(den, 1)[..., None]
+    xs = a0[..., None] + sx[..., None] * np.where(x_major[..., None], k, minor)
+    ys = b0[..., None] + sy[..., None] * np.where(x_major[..., None], minor, k)
+    return xs, ys
+
+
+def outline_cells(vertex_cells: ArrayLike) -> NDArray[np.int64]:
+    """The outline of closed polygons given by their vertices' cells ``(..., K, 2)`` (column,
+    row), ``(..., K * L, 2)``: each edge from vertex ``i`` to ``i + 1`` and the last back to the
+    first rasterised by :func:`line_cells`, as ``CostmapModel::footprintCost`` calls
+    ``lineCost`` on them (a cell may appear more than once)."""
+    cells = np.asarray(vertex_cells, dtype=np.int64)
+    if cells.ndim < 2 or cells.shape[-1] != 2 or cells.shape[-2] < 3:
+        raise PlanningValueError("vertex cells must be (..., K, 2) with K >= 3, not shape "
+                                 f"{cells.shape}")
+    ends = np.roll(cells, -1, axis=-2)
+    xs, ys = line_cells(cells[..., 0], cells[..., 1], ends[..., 0], ends[..., 1])
+    lead = cells.shape[:-1]
+    return np.stack((xs.reshape((*lead[:-1], -1)), ys.reshape((*lead[:-1], -1))), axis=-1)
 
 
 def _polygon(footprint: ArrayLike) -> NDArray[np.float64]:

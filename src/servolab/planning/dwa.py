@@ -35,22 +35,61 @@ What is reproduced, and from where (ros-planning/navigation, Noetic):
   destabilises). The resolution factor is ROS's: it makes the biases weights per metre.
 * **Invalid** (a negative critic score in ROS, here cost ``inf``): any trajectory point off the
   map, on a lethal (254), inscribed (253) or unknown (255) cell, or on a cell the path or goal
-  wavefront does not reach. The forward point is scored with ``stop_on_failure`` off, as ROS's
-  alignment and goal-front critics are: an unreachable forward point costs the grid's cell
-  count (``MapGrid::unreachableCellCosts``), it does not invalidate the trajectory; off the map
-  it costs the same (ROS would reject it, but ROS's local map rolls with the robot and ours is
-  the whole floor, whose edge the nose may overhang near a wall).
+  wavefront does not reach; with a polygon ``footprint``, also any pose whose footprint has a
+  vertex off the map or a lethal or unknown cell on its outline (below). The forward point is
+  scored with ``stop_on_failure`` off, as ROS's alignment and goal-front critics are: an
+  unreachable forward point costs the grid's cell count (``MapGrid::unreachableCellCosts``), it
+  does not invalidate the trajectory; off the map it costs the same (ROS would reject it, but
+  ROS's local map rolls with the robot and ours is the whole floor, whose edge the nose may
+  overhang near a wall).
 * **stop_time_buffer**: dwa_planner.cpp stores it but no critic of Noetic's DWA reads it.
   servolab applies what the parameter says: the arc is continued ``stop_time_buffer`` seconds
   past ``sim_time`` at the same velocity, and those extra points must be free too (they are
   collision-checked, not scored), so a chosen trajectory leaves the robot that long to stop.
+* **Footprint** (``ObstacleCostFunction::footprintCost``, base_local_planner/src/
+  obstacle_cost_function.cpp, through ``WorldModel::footprintCost(x, y, theta, footprint)`` to
+  ``CostmapModel::footprintCost``, costmap_model.cpp). ``footprint=None`` is a circular robot:
+  each pose's centre cell is checked, lethal, inscribed and unknown invalid (costmap_model.cpp's
+  branch for a footprint of fewer than three points), which is enough because the inflation
+  marks every cell within the inscribed radius of an obstacle 253. A polygon ``footprint`` (K,
+  2), in metres in the robot's frame, is laid down at every pose (the scored ones and the
+  stop_time_buffer ones) as costmap_model.cpp does it: turned and moved to the pose, each vertex
+  taken to its cell (a vertex off the map: invalid, ``worldToMap`` failing), each edge, and the
+  one from the last vertex back to the first, rasterised from cell to cell with Bresenham's
+  algorithm (``lineCost`` over ``LineIterator``, the cells costmap_2d's ``raytraceLine`` visits;
+  :func:`servolab.planning.costmap.line_cells`). A lethal (254) or unknown (255) cell on the
+  outline invalidates the trajectory (``pointCost``'s -1); an inscribed (253) one does not,
+  since the inscribed radius says where the robot's inscribed circle may not go, not its edges.
+  The footprint's cost is the largest cost on its outline (:func:`footprint_cost`), and the
+  pose's is the larger of that and its centre cell's (``occ_cost = max(footprint_cost, centre
+  cost)``); ``occ_cost`` is the largest over the scored poses. Only the outline is rasterised,
+  as in ROS: an obstacle wholly inside the polygon is not seen at that pose. A moving robot
+  usually meets an obstacle with an edge first, but the outline is drawn between its vertices'
+  cells, so it moves in jumps of whole cells and can pass over an obstacle one cell across
+  between two poses (ROS's can too; the centre test below still holds). The centre cell:
+  ``CostmapModel``'s polygon branch does not test it and the obstacle critic only takes its cost
+  into the maximum, but the path and goal critics (``MapGrid`` with ``stop_on_failure``) mark
+  lethal, inscribed and unknown cells as obstacles and reject a trajectory with a point on one
+  (-3), whatever the footprint. So here the centre test is the same for both (the
+  stop_time_buffer poses included), and a polygon only adds invalid trajectories to a circle's.
+  ROS's DWA is handed ``Costmap2DROS::getRobotFootprint()``, which for a ``robot_radius`` is the
+  16-gon of ``makeFootprintFromRadius``, so ROS lays down even a round robot's outline;
+  servolab's ``None`` leaves that out: the 16-gon's outline runs between its inscribed radius
+  (0.98 of the radius), within which the centre test already finds every obstacle, and the
+  radius, so the two differ only in that rim and the cells' rounding.
 * **Goal** (``LatchedStopRotateController``): within ``xy_goal_tolerance`` the robot first stops
   (decelerating within the acceleration limits while moving faster than ``trans_stopped_vel`` /
   ``rot_stopped_vel``), then turns in place to the goal yaw (``rotateToGoal``: at least
   ``min_rot_vel``, at most ``max_rot_vel``, within ``acc_lim_theta`` of the current rate and no
   faster than ``sqrt(2 acc_lim_theta |error|)`` so it can stop there), and is done within
-  ``yaw_goal_tolerance``. Latching is not implemented: the caller decides what "reached" means
-  once :attr:`DwaStatus.GOAL_REACHED` is returned.
+  ``yaw_goal_tolerance`` and stopped (``isGoalReached``). The controller's latches are
+  :class:`GoalLatch`, kept by the caller between cycles as the oscillation flags are: once the
+  robot has stopped and started turning (``rotating_to_goal_``) it is not braked again however
+  fast it turns, and with ``latch_xy_goal_tolerance`` it stays "at the goal" once it has been
+  within ``xy_goal_tolerance``. ``DWAPlannerROS::setPlan`` clears both (``resetLatching``)
+  whenever move_base hands over a new plan. Without the rotation latch, a turn at
+  ``min_rot_vel`` with ``rot_stopped_vel == min_rot_vel`` (D.3) reads as "not stopped" on the
+  next cycle and is braked, every other cycle.
 * **Oscillation** (``OscillationCostFunction``, base_local_planner/src/
   oscillation_cost_function.cpp): :class:`OscillationFlags`, the critic's state, which the
   caller keeps between cycles and passes in. After each chosen trajectory the flags note its
@@ -59,10 +98,15 @@ What is reproduced, and from where (ros-planning/navigation, Noetic):
   it has moved ``oscillation_reset_dist`` from where that happened. Noetic's reset nests its
   angle test inside the distance test, so only the distance counts; so here.
   ``DWAPlanner::setPlan`` clears the flags whenever move_base hands over a plan.
-* **Not implemented**: footprint scaling with speed (``scaling_speed``,
-  ``max_scaling_factor``; Noetic's obstacle critic applies it only to polygon footprints, and
-  servolab's costmap is already inflated for a circular robot, whose centre cell is what is
-  checked). ``twirling_scale`` is 0 in D.3.
+* **Not implemented**: footprint scaling with speed (``scaling_speed``, ``max_scaling_factor``).
+  ``ObstacleCostFunction::footprintCost`` multiplies the footprint's points by
+  ``getScalingFactor``'s ``1 + max_scaling_factor * (v - scaling_speed) / (max_trans_vel -
+  scaling_speed)`` for a trajectory faster than ``scaling_speed`` (lost in 2014 and restored by
+  ros-planning/navigation PR #886, so Noetic has it), the 16-gon of a ``robot_radius`` included.
+  servolab lays the footprint down as it is given (padded by the caller, as Costmap2DROS pads
+  it) at every speed, and ``None`` has nothing to scale. D.3 writes ``scaling_speed: 0.10`` and
+  ``max_scaling_factor: 0.2``, so at its 0.15 m/s ROS's footprint would be 20 % larger.
+  ``twirling_scale`` is 0 in D.3.
 
 Coordinates: world metres, ``costmap[row, col] = [y, x]``, cell ``(floor((x - ox) / res),
 floor((y - oy) / res))`` as ``Costmap2D::worldToMap``. Pure numpy/scipy; nothing of servolab's
@@ -73,16 +117,24 @@ them (``servolab.robots.navigation.params.DwaParams``).
 from __future__ import annotations
 
 import enum
+import functools
 import math
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.sparse import coo_matrix  # type: ignore[import-untyped]
 from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
-from servolab.planning.costmap import INSCRIBED_INFLATED_OBSTACLE
+from servolab.planning.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    check_footprint,
+    line_cells,
+)
 from servolab.planning.errors import PlanningValueError
 
 FloatArray = npt.NDArray[np.float64]
@@ -122,10 +174,16 @@ class DwaConfig:
     stop_time_buffer: float = 0.2
     oscillation_reset_dist: float = 0.05
     controller_frequency: float = 20.0
+    latch_xy_goal_tolerance: bool = False
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
+            if f.name == "latch_xy_goal_tolerance":
+                if not isinstance(value, bool | np.bool_):
+                    raise PlanningValueError(f"DwaConfig: {f.name} must be true or false, not "
+                                             f"{value!r}")
+                continue
             if f.name in ("vx_samples", "vtheta_samples"):
                 if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
                         or value < 1:
@@ -185,7 +243,11 @@ class DwaSamples:
     goal_cost: FloatArray     #: (N,) goal distance of the end, cells
     alignment_cost: FloatArray   #: (N,) path distance of the forward point, cells
     goal_front_cost: FloatArray  #: (N,) distance of the forward point to the goal's nose
-    occ_cost: FloatArray      #: (N,) largest costmap cost along the trajectory
+    #: (N,) largest costmap cost along the trajectory: its centre cells, and with a polygon
+    #: footprint also its outline's cells, laid down only for samples that every other test
+    #: leaves valid (the footprint cannot make an invalid sample valid, so the others are
+    #: spared the work, and their occ_cost is their centre cells')
+    occ_cost: FloatArray
     cost: FloatArray          #: (N,) total cost, inf where invalid
 
 
@@ -249,6 +311,20 @@ class OscillationFlags:
         if self.restricted and math.hypot(pose[0] - self.stationary[0],
                                           pose[1] - self.stationary[1]) > reset_dist:
             self.reset()
+
+
+@dataclass
+class GoalLatch:
+    """``LatchedStopRotateController``'s state, one per goal: ``rotating_to_goal`` once the
+    robot stopped within ``xy_goal_tolerance`` and began its final turn, ``xy_tolerance`` once
+    it has been within ``xy_goal_tolerance`` (kept only with ``latch_xy_goal_tolerance``)."""
+
+    rotating_to_goal: bool = False
+    xy_tolerance: bool = False
+
+    def reset(self) -> None:
+        """``resetLatching``: a new plan (``DWAPlannerROS::setPlan``) or a new goal."""
+        self.rotating_to_goal = self.xy_tolerance = False
 
 
 @dataclass(frozen=True)
@@ -429,21 +505,161 @@ def world_to_cells(xy: FloatArray, resolution: float,
     return np.asarray(cells, dtype=np.int64)
 
 
+def footprint_cost(costmap: npt.ArrayLike, poses: npt.ArrayLike, footprint: npt.ArrayLike, *,
+                   resolution: float, origin: Sequence[float] = (0.0, 0.0)) -> FloatArray:
+    """``CostmapModel::footprintCost`` of the polygon ``footprint`` (K, 2) at each pose
+    ``(..., 3)``: the largest cost of the cells on its outline (see the module docstring), an
+    array of the poses' leading shape; ``inf`` where a vertex falls off the map (ROS's -1).
+    254 (lethal) or 255 (unknown) means invalid, as ``pointCost``'s -1; 253 does not. The
+    centre cell is not looked at (the caller adds it, as ``ObstacleCostFunction`` does)."""
+    grid = _check_costmap(costmap)
+    res, ox, oy = _check_frame(resolution, origin)
+    p = _finite("poses", poses)
+    if p.ndim < 1 or p.shape[-1] != 3:
+        raise PlanningValueError(f"poses must be (..., 3) = (x, y, theta), not shape {p.shape}")
+    return _footprint_cost(grid, p, check_footprint(footprint), res, (ox, oy))
+
+
+#: The most entries (cells along an edge x edge offsets) of a table of every edge offset that
+#: :func:`_footprint_cost` keeps (2 MB; an edge of up to 38 cells). Longer edges get a table of
+#: the offsets that occur in the cycle instead.
+_FULL_TABLE_ENTRIES = 1 << 18
+
+
+def _offset_table(dx: npt.NDArray[np.intp], dy: npt.NDArray[np.intp],
+                  cols: int) -> npt.NDArray[np.intp]:
+    """The cells of the lines from (0, 0) to each ``(dx[i], dy[i])`` as flat offsets
+    ``y * cols + x`` in a grid ``cols`` wide, one row per cell along the lines: (L, len(dx))."""
+    xs, ys = line_cells(0, 0, dx, dy)
+    return np.ascontiguousarray((ys * cols + xs).T, dtype=np.intp)
+
+
+@functools.lru_cache(maxsize=4)
+def _full_offset_table(reach: int, cols: int) -> npt.NDArray[np.intp]:
+    """:func:`_offset_table` of every ``(dx, dy)`` with ``|dx|, |dy| <= reach``, column
+    ``(dx + reach) * (2 reach + 1) + dy + reach`` (read-only, kept between cycles)."""
+    span = np.arange(-reach, reach + 1)
+    ends_x, ends_y = np.meshgrid(span, span, indexing="ij")
+    table = _offset_table(ends_x.ravel(), ends_y.ravel(), cols)
+    table.flags.writeable = False
+    return table
+
+
+class _Scratch(threading.local):
+    """Arrays :func:`_footprint_cost` keeps between cycles, one set a thread. Its intermediate
+    arrays are hundreds of kilobytes each (vertices x ~5000 poses); allocated anew each cycle,
+    glibc maps them fresh from the system and every page faults on first touch, which took
+    longer than the arithmetic (measured: 1.4 ms instead of 0.75 for a rectangle, 4 ms
+    instead of 1.2 for a 16-gon). Reused, they cost nothing after the first cycle."""
+
+    def __init__(self) -> None:
+        self.buffers: dict[str, npt.NDArray[np.generic]] = {}
+
+    def array(self, name: str, shape: tuple[int, int], dtype: type[np.generic]
+              ) -> npt.NDArray[Any]:
+        """A buffer of ``shape`` (contents undefined), grown when a cycle needs more."""
+        size = shape[0] * shape[1]
+        buffer = self.buffers.get(name)
+        if buffer is None or buffer.dtype != dtype or buffer.size < size:
+            buffer = self.buffers[name] = np.empty(size, dtype=dtype)
+        return buffer[:size].reshape(shape)
+
+
+_SCRATCH = _Scratch()
+
+
+def _footprint_cost(grid: npt.NDArray[np.int64], poses: FloatArray, polygon: FloatArray,
+                    resolution: float, origin: tuple[float, float]) -> FloatArray:
+    """:func:`footprint_cost` on checked inputs, every pose and edge at once.
+
+    An edge's cells depend only on its start cell and its offset ``(dx, dy)`` to its end cell,
+    so :func:`servolab.planning.costmap.line_cells` rasterises every offset up to the longest
+    edge once (cached; for very long edges only the offsets that occur), into a table of
+    flat-index offsets ``dy * cols + dx``, one row for each cell along an edge. For each row,
+    every edge takes its entry, adds its start cell's flat index and gathers the costs from a
+    uint8 copy of the grid, and the largest is kept. The arrays are (vertex, pose), the poses
+    flattened and last so that numpy's loops run along them (a DWA cycle has ~120 samples x
+    ~40 poses), in buffers kept between cycles (:class:`_Scratch`). A polygon with a vertex off
+    the map costs ``inf``; its start cells are clipped and the grid padded by the longest edge
+    so that its lookups stay in bounds."""
+    rows, cols = grid.shape
+    # the longest edge in cells, from the polygon: |floor(a) - floor(b)| <= floor(|a - b|) + 1
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    reach = int(np.max(np.hypot(edges[:, 0], edges[:, 1])) / resolution + 1e-6) + 1
+    width = 2 * reach + 1
+
+    flat_poses = poses.reshape(-1, 3)
+    shape = (len(polygon), len(flat_poses))                    # (K, M)
+    scratch = _SCRATCH
+    wx, wy, tmp = (scratch.array(name, shape, np.float64) for name in ("wx", "wy", "tmp"))
+    cx, cy, code, offset_column, index = (scratch.array(name, shape, np.intp)
+                                          for name in ("cx", "cy", "code", "column", "index"))
+    costs, worst = (scratch.array(name, shape, np.uint8) for name in ("costs", "worst"))
+    # the vertices, as orient_footprint places them (x + (px cos - py sin), the same sums)
+    cos, sin = np.cos(flat_poses[:, 2]), np.sin(flat_poses[:, 2])
+    px, py = polygon[:, 0:1], polygon[:, 1:2]
+    np.multiply(px, cos, out=wx)
+    wx -= np.multiply(py, sin, out=tmp)
+    wx += flat_poses[:, 0]
+    np.multiply(px, sin, out=wy)
+    wy += np.multiply(py, cos, out=tmp)
+    wy += flat_poses[:, 1]
+    for w, o, c in ((wx, origin[0], cx), (wy, origin[1], cy)):  # worldToMap, as world_to_cells
+        w -= o
+        w /= resolution
+        np.floor(w, out=w)
+        c[...] = w
+    inside = np.all((cx.view(np.uintp) < cols) & (cy.view(np.uintp) < rows), axis=0)
+    np.multiply(cx, width, out=code)
+    code += cy
+    offset_column[:-1] = code[1:]                              # edge i: vertex i -> i + 1
+    offset_column[-1] = code[0]
+    offset_column -= code
+    offset_column += reach * width + reach
+    if (reach + 1) * width * width <= _FULL_TABLE_ENTRIES:
+        table = _full_offset_table(reach, cols)                # (L, width * width)
+    else:                                                      # long edges: what occurs
+        present, inverse = np.unique(offset_column, return_inverse=True)
+        table = _offset_table(present // width - reach, present % width - reach, cols)
+        offset_column[...] = inverse.reshape(shape)
+    pad = reach * (cols + 1)
+    start = cy                                                 # cy is done with: reuse it
+    start *= cols
+    start += cx
+    np.clip(start, 0, grid.size - 1, out=start)
+    start += pad
+    flat = np.zeros(grid.size + 2 * pad, dtype=np.uint8)
+    flat[pad:pad + grid.size] = grid.ravel()
+    worst[...] = 0
+    for offsets in table:                                      # one cell along every edge
+        np.take(offsets, offset_column, out=index)
+        index += start
+        np.take(flat, index, out=costs)
+        np.maximum(worst, costs, out=worst)
+    return np.where(inside, worst.max(axis=0).astype(np.float64), math.inf).reshape(
+        poses.shape[:-1])
+
+
 # -- scoring -----------------------------------------------------------------------------------
 
 
 def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
                   plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
                   origin: Sequence[float] = (0.0, 0.0),
-                  oscillation: OscillationFlags | None = None) -> DwaSamples:
+                  oscillation: OscillationFlags | None = None,
+                  footprint: npt.ArrayLike | None = None) -> DwaSamples:
     """Simulate and score every sample of the window (see the module docstring for the cost).
 
     ``pose`` is (x, y, theta), ``velocity`` (v, omega), ``plan`` the global path as world
-    points (M, 2), its last point on the map being the local goal."""
+    points (M, 2), its last point on the map being the local goal. ``footprint`` is the robot's
+    polygon (K, 2), metres in its own frame (x forward), laid down along every trajectory, or
+    None for a circular robot, whose centre cells alone are checked (module docstring,
+    "Footprint")."""
     p = _finite("pose", pose, (3,))
     vel = _finite("velocity", velocity, (2,))
     grid = _check_costmap(costmap)
     res, ox, oy = _check_frame(resolution, origin)
+    polygon = None if footprint is None else check_footprint(footprint)
     path = _finite("plan", plan)
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
         raise PlanningValueError("plan must be (M, 2) world points, M >= 1, not shape "
@@ -487,6 +703,14 @@ def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.Arr
     valid = feasible & collision_free & reachable
     if oscillation is not None:
         valid &= ~oscillation.forbidden(vs, ws)
+    if polygon is not None:
+        # the footprint can only take a sample away: lay it down on the ones still valid
+        rows_left = np.flatnonzero(valid)
+        outline = _footprint_cost(grid, poses if rows_left.size == valid.size
+                                  else poses[rows_left], polygon, res, (ox, oy))
+        valid[rows_left] = np.all(outline < LETHAL_OBSTACLE, axis=1)
+        occ[rows_left] = np.maximum(occ[rows_left], np.max(outline[:, :steps + 1], axis=1,
+                                                           initial=0.0))
 
     end = trajectories[:, -1]
     fwd = end[:, :2] + config.forward_point_distance * np.column_stack((np.cos(end[:, 2]),
@@ -515,12 +739,14 @@ def score_samples(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.Arr
 def find_best_trajectory(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.ArrayLike,
                          plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
                          origin: Sequence[float] = (0.0, 0.0),
-                         oscillation: OscillationFlags | None = None) -> DwaResult:
+                         oscillation: OscillationFlags | None = None,
+                         footprint: npt.ArrayLike | None = None) -> DwaResult:
     """The lowest-cost sample of the window (the first of equals, as ROS's strict ``<``), or
     zero velocity and :attr:`DwaStatus.NO_VALID_TRAJECTORY` when every sample is invalid.
-    ``oscillation``, if given, is consulted and then updated with the choice."""
+    ``oscillation``, if given, is consulted and then updated with the choice; ``footprint`` as
+    :func:`score_samples`."""
     samples = score_samples(pose, velocity, costmap, plan, config, resolution=resolution,
-                            origin=origin, oscillation=oscillation)
+                            origin=origin, oscillation=oscillation, footprint=footprint)
     if not np.any(samples.valid):
         return DwaResult(0.0, 0.0, DwaStatus.NO_VALID_TRAJECTORY, np.empty((0, 3)),
                          math.inf, samples)
@@ -544,28 +770,38 @@ def angle_diff(target: float, current: float) -> float:
 
 
 def goal_command(pose: npt.ArrayLike, velocity: npt.ArrayLike, goal: npt.ArrayLike,
-                 config: DwaConfig) -> DwaResult | None:
+                 config: DwaConfig, latch: GoalLatch | None = None) -> DwaResult | None:
     """What to do near the goal ``(x, y)`` or ``(x, y, yaw)``; None while the robot is farther
     than ``xy_goal_tolerance`` (then DWA drives). Without a goal yaw, reaching the position
-    and stopping is the goal."""
+    and stopping is the goal. ``latch`` (kept by the caller between cycles) is consulted and
+    updated as ``computeVelocityCommandsStopRotate`` does; without one nothing is latched."""
     p = _finite("pose", pose, (3,))
     vel = _finite("velocity", velocity, (2,))
     g = _finite("goal", goal)
     if g.shape not in ((2,), (3,)):
         raise PlanningValueError(f"goal must be (x, y) or (x, y, yaw), not shape {g.shape}")
-    if math.hypot(p[0] - g[0], p[1] - g[1]) > config.xy_goal_tolerance:
+    latch = latch if latch is not None else GoalLatch()
+    within = math.hypot(p[0] - g[0], p[1] - g[1]) <= config.xy_goal_tolerance
+    if not within and not (config.latch_xy_goal_tolerance and latch.xy_tolerance):
         return None
+    if config.latch_xy_goal_tolerance:
+        latch.xy_tolerance = True
     empty = np.empty((0, 3))
     v, w = float(vel[0]), float(vel[1])
     dt = config.sim_period
-    if abs(v) > config.trans_stopped_vel or abs(w) > config.rot_stopped_vel:
+    stopped = abs(v) <= config.trans_stopped_vel and abs(w) <= config.rot_stopped_vel
+    error = 0.0 if g.shape == (2,) else angle_diff(float(g[2]), float(p[2]))
+    if abs(error) <= config.yaw_goal_tolerance:
+        latch.rotating_to_goal = False
+        # the command is zero; isGoalReached also wants the robot stopped
+        return DwaResult(0.0, 0.0, DwaStatus.GOAL_REACHED if stopped else DwaStatus.STOPPING,
+                         empty, 0.0)
+    if not latch.rotating_to_goal and not stopped:
         # stopWithAccLimits: brake as hard as the limits allow
         v_new = math.copysign(max(0.0, abs(v) - config.acc_lim_x * dt), v)
         w_new = math.copysign(max(0.0, abs(w) - config.acc_lim_theta * dt), w)
         return DwaResult(v_new, w_new, DwaStatus.STOPPING, empty)
-    error = 0.0 if g.shape == (2,) else angle_diff(float(g[2]), float(p[2]))
-    if abs(error) <= config.yaw_goal_tolerance:
-        return DwaResult(0.0, 0.0, DwaStatus.GOAL_REACHED, empty, 0.0)
+    latch.rotating_to_goal = True
     # rotateToGoal
     rate = min(config.max_rot_vel, max(config.min_rot_vel, abs(error)))
     rate = min(max(rate, abs(w) - config.acc_lim_theta * dt), abs(w) + config.acc_lim_theta * dt)
@@ -578,16 +814,20 @@ def compute_velocity(pose: npt.ArrayLike, velocity: npt.ArrayLike, costmap: npt.
                      plan: npt.ArrayLike, config: DwaConfig, *, resolution: float,
                      origin: Sequence[float] = (0.0, 0.0),
                      goal_yaw: float | None = None,
-                     oscillation: OscillationFlags | None = None) -> DwaResult:
+                     oscillation: OscillationFlags | None = None,
+                     latch: GoalLatch | None = None,
+                     footprint: npt.ArrayLike | None = None) -> DwaResult:
     """One controller cycle, as DWAPlannerROS::computeVelocityCommands: goal handling within
-    ``xy_goal_tolerance`` of the plan's last point, else the best DWA trajectory."""
+    ``xy_goal_tolerance`` of the plan's last point (``latch`` kept by the caller, see
+    :class:`GoalLatch`), else the best DWA trajectory (``footprint`` as :func:`score_samples`:
+    the padded polygon, or None for a circular robot)."""
     path = _finite("plan", plan)
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] == 0:
         raise PlanningValueError("plan must be (M, 2) world points, M >= 1, not shape "
                                  f"{path.shape}")
     goal = path[-1] if goal_yaw is None else np.append(path[-1], goal_yaw)
-    near = goal_command(pose, velocity, goal, config)
+    near = goal_command(pose, velocity, goal, config, latch)
     if near is not None:
         return near
     return find_best_trajectory(pose, velocity, costmap, path, config, resolution=resolution,
-                                origin=origin, oscillation=oscillation)
+                                origin=origin, oscillation=oscillation, footprint=footprint)

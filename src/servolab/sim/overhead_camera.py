@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..middleware.context import Context
-from ..middleware.messages import time_of
 from ..middleware.node import Node
 from ..vision.synthetic import Image, render_floor
 from .world import World
@@ -56,10 +55,9 @@ class OverheadCameraNode(Node):
 
     def _publish(self) -> None:
         image = self.render()
-        now = self.now()
         height, width = image.shape
         self.publisher.publish(self.message(
-            IMAGE, header={"stamp": time_of(now), "frame_id": FRAME},
+            IMAGE, header={"stamp": self.stamp(), "frame_id": FRAME},
             height=height, width=width, encoding="mono8", step=width,
             data=np.ascontiguousarray(image).reshape(-1)))
         self.frames += 1

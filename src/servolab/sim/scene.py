@@ -12,6 +12,13 @@ OpenCV's calibration does; this module converts (:meth:`Scene.floor_scene`,
 Everything that would make a run meaningless is refused when the file is read, at the line of
 the key at fault, as a :class:`NavSceneError`: a camera that cannot see the whole floor (plus
 :data:`VIEW_MARGIN`), a robot starting in an obstacle or off the floor, a missing base file.
+
+A scene may also take its static obstacles from a ROS map_server map (``map: office.yaml``,
+relative to the scene file; read by :func:`servolab.vision.map_file.load_map`), so that a
+user's map can be driven on in simulation: its origin and resolution place it in the floor
+frame, and its solid cells (:class:`MapObstacle`) are walls the clearance and the camera see.
+A mistake inside the map file is that file's own one-line error (a
+:class:`~servolab.vision.map_file.MapFileError` at its ``file:line``).
 """
 
 from __future__ import annotations
@@ -19,11 +26,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from ..configfile import (
     ConfigMapping,
@@ -35,6 +44,7 @@ from ..configfile import (
 from ..configfile import load as load_config
 from ..errors import ConfigFileError
 from ..vision.errors import VisionValueError
+from ..vision.map_file import OccupancyMap, load_map
 from ..vision.synthetic import Circle, FloatArray, FloorScene, PinholeCamera, RobotMarker
 from .errors import SimulationError
 
@@ -136,7 +146,96 @@ class BoxObstacle:
         return np.array([[self.x, self.y], [x1, self.y], [x1, y1], [self.x, y1]])
 
 
+@dataclass(frozen=True, eq=False)
+class MapObstacle:
+    """The solid cells of a map_server map as one static obstacle.
+
+    A cell is solid when costmap_2d's static layer would make it lethal (100) **or** leave it
+    unknown (-1): a world must decide what is there, and a place the map does not know is no
+    floor to drive onto (the planner does not enter it either). The cells are squares of
+    ``resolution`` m, cell ``(col, row)`` covering ``x`` from ``origin[0] + col * resolution``;
+    row 0 at the origin's y (the map frame, as
+    :class:`~servolab.vision.map_file.OccupancyMap` has it)."""
+
+    solid: npt.NDArray[np.bool_]
+    resolution: float
+    origin: tuple[float, float]
+    path: str = ""
+    appear_at: None = None
+
+    @classmethod
+    def of(cls, occupancy_map: OccupancyMap) -> MapObstacle:
+        lethal, unknown = occupancy_map.lethal_and_unknown()
+        return cls(lethal | unknown, occupancy_map.resolution, occupancy_map.xy,
+                   occupancy_map.path)
+
+    @cached_property
+    def _trees(self) -> tuple[Any, Any]:
+        """KD-trees of the solid cells' centres and of the others' (with a ring of free cells
+        round the map: off the map is floor), built once, for :meth:`clearance`."""
+        from scipy.spatial import cKDTree  # type: ignore[import-untyped]
+
+        padded = np.pad(self.solid, 1, constant_values=False)
+        rows, cols = np.indices(padded.shape)
+        centres = np.column_stack([
+            self.origin[0] + (cols.ravel() - 1 + 0.5) * self.resolution,
+            self.origin[1] + (rows.ravel() - 1 + 0.5) * self.resolution])
+        solid = padded.ravel()
+        return (cKDTree(centres[solid]) if solid.any() else None,
+                cKDTree(centres[~solid]))
+
+    def clearance(self, x: float, y: float) -> float:
+        """Distance, m, from ``(x, y)`` to the nearest solid cell (a square), exact; inside
+        one, minus the distance to the nearest cell that is not solid (or the map's edge)."""
+        solid_tree, free_tree = self._trees
+        if solid_tree is None:
+            return math.inf
+        outside = _nearest_square(free_tree, x, y, self.resolution)
+        inside = _nearest_square(solid_tree, x, y, self.resolution)
+        return inside if inside > 0 else -outside
+
+    def rectangles(self) -> tuple[tuple[float, float, float, float], ...]:
+        """The solid cells as few axis-aligned rectangles ``(x, y, width, depth)`` m: runs along
+        each row, a run stacked onto the same run of the row below. Drawn as polygons, cells
+        one by one would cost the renderer thousands of polygons a frame."""
+        return _rectangles(self.solid, self.resolution, self.origin)
+
+
+def _nearest_square(tree: Any, x: float, y: float, resolution: float) -> float:
+    """The distance from ``(x, y)`` to the nearest of the squares centred on ``tree``'s
+    points: the nearest centre is at most half a diagonal further than the nearest square,
+    so the squares within that of it are all that can be nearest."""
+    half = resolution / 2
+    nearest, _ = tree.query((x, y))
+    candidates = tree.data[tree.query_ball_point((x, y), nearest + half * math.sqrt(2.0)
+                                                 + 1e-12)]
+    dx = np.maximum(np.abs(candidates[:, 0] - x) - half, 0.0)
+    dy = np.maximum(np.abs(candidates[:, 1] - y) - half, 0.0)
+    return float(np.min(np.hypot(dx, dy)))
+
+
+def _rectangles(solid: npt.NDArray[np.bool_], resolution: float, origin: tuple[float, float],
+                ) -> tuple[tuple[float, float, float, float], ...]:
+    done: list[tuple[int, int, int, int]] = []  # (col0, row0, col1, row1), ends exclusive
+    open_runs: dict[tuple[int, int], int] = {}  # (col0, col1) -> row0 of the run still growing
+    for row in range(solid.shape[0] + 1):
+        runs: set[tuple[int, int]] = set()
+        if row < solid.shape[0]:
+            line = np.concatenate([[False], solid[row], [False]]).astype(np.int8)
+            edges = np.flatnonzero(np.diff(line))
+            runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
+        for run in [r for r in open_runs if r not in runs]:
+            done.append((run[0], open_runs.pop(run), run[1], row))
+        for run in runs:
+            open_runs.setdefault(run, row)
+    x0, y0 = origin
+    return tuple((x0 + c0 * resolution, y0 + r0 * resolution, (c1 - c0) * resolution,
+                  (r1 - r0) * resolution) for c0, r0, c1, r1 in sorted(done))
+
+
 Obstacle: TypeAlias = CircleObstacle | BoxObstacle
+#: what :meth:`Scene.obstacles_at` gives: the listed obstacles, the walls and the map
+Present: TypeAlias = CircleObstacle | BoxObstacle | MapObstacle
 
 
 @dataclass(frozen=True)
@@ -155,6 +254,16 @@ class Scene:
     #: the arena's walls, :data:`WALL_THICKNESS` thick just outside the floor's edges (a robot
     #: on an open floor could leave the camera's view; a real arena has a border)
     walls: bool = True
+    #: the static obstacles of the scene's ``map:`` file, if it names one
+    static_map: MapObstacle | None = field(default=None, compare=False)
+
+    @cached_property
+    def _map_polygons(self) -> tuple[FloatArray, ...]:
+        """The map's solid cells as the renderer's polygons (mm), made once."""
+        if self.static_map is None:
+            return ()
+        return tuple(np.array([[x, y], [x + w, y], [x + w, y + d], [x, y + d]]) * 1000.0
+                     for x, y, w, d in self.static_map.rectangles())
 
     def wall_boxes(self) -> tuple[BoxObstacle, ...]:
         """The four walls, if the floor has them."""
@@ -164,9 +273,12 @@ class Scene:
         return (BoxObstacle(-t, -t, w + 2 * t, t), BoxObstacle(-t, d, w + 2 * t, t),
                 BoxObstacle(-t, 0.0, t, d), BoxObstacle(w, 0.0, t, d))
 
-    def obstacles_at(self, t: float) -> tuple[Obstacle, ...]:
-        """The obstacles present ``t`` s after the start, the walls included."""
-        return self.wall_boxes() + tuple(
+    def obstacles_at(self, t: float) -> tuple[Present, ...]:
+        """The obstacles present ``t`` s after the start, the walls and the map included."""
+        fixed: tuple[Present, ...] = self.wall_boxes()
+        if self.static_map is not None:
+            fixed += (self.static_map,)
+        return fixed + tuple(
             o for o in self.obstacles if o.appear_at is None or o.appear_at <= t)
 
     def clearance(self, x: float, y: float, t: float) -> float:
@@ -182,6 +294,7 @@ class Scene:
         circles = tuple(Circle(o.x * 1000.0, o.y * 1000.0, o.radius * 1000.0)
                         for o in present if isinstance(o, CircleObstacle))
         polygons = tuple(o.corners() * 1000.0 for o in present if isinstance(o, BoxObstacle))
+        polygons += self._map_polygons
         marker = None
         if robot is not None:
             marker = RobotMarker(robot[0] * 1000.0, robot[1] * 1000.0, robot[2],
@@ -204,7 +317,7 @@ def load_scene(path: str | Path, base_search: Sequence[Path] = ()) -> Scene:
     if top.plain() is None:
         raise top.error("empty file: expected a navigation scene")
     m = top.as_mapping("a navigation scene file")
-    m.check_keys(("floor", "camera", "robot", "obstacles"),
+    m.check_keys(("floor", "camera", "robot", "obstacles", "map"),
                  required=("floor", "camera", "robot"))
     floor = m.require("floor").as_mapping()
     floor.check_keys(("width", "depth", "walls"), required=("width", "depth"))
@@ -232,10 +345,16 @@ def load_scene(path: str | Path, base_search: Sequence[Path] = ()) -> Scene:
                               f"({number:g} m is outside [0, {size:g}] m)")
     yaw = yaw_value.as_float() if (yaw_value := robot.get("yaw")) is not None else 0.0
     radius = positive_float(robot.require("radius"))
+    static_map = None
+    if (map_value := m.get("map")) is not None:
+        static_map = MapObstacle.of(load_map(_beside(map_value, Path(path).parent, "map")))
     scene = Scene(width, depth, camera, base, (start_x, start_y, yaw), radius,
-                  tuple(obstacles), str(path), walls)
-    named = [(f"obstacles[{i}]", o) for i, o in enumerate(scene.obstacles)]
+                  tuple(obstacles), str(path), walls, static_map)
+    named: list[tuple[str, Present]] = [(f"obstacles[{i}]", o)
+                                         for i, o in enumerate(scene.obstacles)]
     named += [("the floor's wall", o) for o in scene.wall_boxes()]
+    if static_map is not None:
+        named.append((f"a solid cell of the map {static_map.path}", static_map))
     for name, obstacle in named:
         clearance = obstacle.clearance(start_x, start_y)
         if obstacle in scene.obstacles_at(0.0) and clearance <= radius:
@@ -357,6 +476,17 @@ def _obstacle(item: ConfigValue, width: float, depth: float) -> Obstacle:
             raise value.error(f"key {value.key!r}: the obstacle's {what} is off the floor "
                               f"({number:g} m is outside [0, {size:g}] m)")
     return obstacle
+
+
+def _beside(value: ConfigValue, directory: Path, what: str) -> Path:
+    """A file the scene names, relative to the scene's folder unless absolute."""
+    name = value.as_str(nonempty=True)
+    given = Path(name)
+    found = given if given.is_absolute() else directory / given
+    if not found.is_file():
+        raise value.error(f"key {value.key!r}: {what} file {name!r} not found (looked for "
+                          f"{found})")
+    return found
 
 
 def _base_file(value: ConfigValue, directories: Sequence[Path]) -> Path:

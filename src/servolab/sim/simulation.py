@@ -15,6 +15,16 @@ samples its registers.
 The same simulation runs in real time too (:meth:`Simulation.start_real_time`): a thread of
 its own steps the worlds as wall time passes, and a pseudo-terminal server answers from the
 same motors, holding :attr:`Simulation.lock` while it does.
+
+**ROS time** (:meth:`Simulation.ros_time`, what messages are stamped with; see
+:mod:`servolab.clock`) follows the mode. In virtual time it is the simulated seconds, as
+Gazebo stamps with ``use_sim_time``, and the run publishes them on ``/clock``
+(:mod:`servolab.middleware.clock_node`, driven by :meth:`Simulation.call_every`). In real time
+the simulation is a real-time run: it shares the wall with a live camera, a serial port,
+other processes on the wall clock, so it stamps as they do, in the epoch's seconds (the
+reading plus an offset fixed when real time starts), and publishes no ``/clock``. A
+simulation switched from one mode to the other jumps from one time base to the other, as a
+ROS node's time does when ``use_sim_time`` changes.
 """
 
 from __future__ import annotations
@@ -22,10 +32,11 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, TypeVar
 
+from ..clock import Tick, Ticks, epoch_offset
 from .errors import SimulationError
 
 if TYPE_CHECKING:
@@ -65,6 +76,7 @@ class Simulation:
         self._real_time: threading.Thread | None = None
         self._stop_real_time = threading.Event()
         self._wall_origin = 0.0
+        self._ticks = Ticks()
 
     # -- what it owns -----------------------------------------------------------------------
     def add(self, world: W) -> W:
@@ -100,6 +112,27 @@ class Simulation:
             return time.monotonic() - self._wall_origin
         return self._time
 
+    def ros_time(self, t: float | None = None) -> float:
+        """ROS time of the reading ``t`` (default now): simulated seconds in virtual time,
+        the epoch's in real time (see the module docstring)."""
+        if t is None:
+            t = self.now()
+        if self._real_time is None:
+            return t
+        return t + self._wall_origin + epoch_offset()
+
+    def call_every(self, period: float, callback: Callable[[float], None]) -> Tick:
+        """Call ``callback(t)`` as virtual time passes each ``period`` from now, with the time
+        reached (once per move, however many periods it passed:
+        :class:`~servolab.clock.Ticks`), after the move and outside :attr:`lock`. Not in real
+        time: a real-time run keeps the wall's time and needs no ``/clock``. No executor
+        timer is involved, so what the robots do is the same with or without it."""
+        return self._ticks.add(period, self.now(), callback)
+
+    def _fire_ticks(self) -> None:
+        if self._real_time is None and self._time >= self._ticks.next_due:
+            self._ticks.fire(self._time)
+
     def sleep(self, seconds: float) -> None:
         self.advance_to(self.now() + seconds)
 
@@ -113,6 +146,7 @@ class Simulation:
         (which, with worlds slower than real time, is later than the wall clock says)."""
         if self._real_time is None:
             self._advance(t)
+            self._fire_ticks()
             return
         boundary = self._boundary(t)
         with self._stepped:
@@ -126,6 +160,7 @@ class Simulation:
                                   "takes the steps (stop_real_time() first)")
         with self.lock:
             self._advance(self.start + (self._steps + count) * self.physics_step)
+        self._fire_ticks()
 
     def _boundary(self, t: float) -> int:
         """The number of the last step boundary at or before ``t``."""

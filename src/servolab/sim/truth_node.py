@@ -14,7 +14,6 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..middleware.context import Context
-from ..middleware.messages import time_of
 from ..middleware.node import Node
 from .errors import SimulationError
 from .world import World
@@ -39,11 +38,10 @@ class GroundTruthNode(Node):
 
     def _publish(self) -> None:
         truth = self.world.ground_truth()
-        now = self.now()
         yaw = truth.get("yaw", 0.0)
         self.publisher.publish(self.message(
             ODOMETRY,
-            header={"stamp": time_of(now), "frame_id": "world"},
+            header={"stamp": self.stamp(), "frame_id": "world"},
             child_frame_id="base_footprint",
             pose={"pose": {"position": {"x": truth.get("x", 0.0), "y": truth.get("y", 0.0)},
                            "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},

@@ -10,7 +10,8 @@ measure a distance on the floor (Figure C6). This module does the same with Open
   input (a symmetric board, a board not found, too few usable images);
 * :func:`floor_extrinsics`: ``solvePnP`` on one board lying on the floor. The floor frame is the
   board's: origin at its first inner corner, x along its columns, y along its rows, mm;
-* :func:`image_to_floor` / :func:`floor_to_image` / :func:`measure`;
+* :func:`image_to_floor` / :func:`floor_to_image` / :func:`measure` (which refuses a pixel off
+  the calibrated image, :func:`check_in_image`);
 * :func:`save` / :func:`load`: ROS's ``camera_info`` YAML (what ``camera_calibration`` writes
   and ``camera_info_manager`` reads) plus a ``floor_extrinsics`` section.
 
@@ -48,8 +49,15 @@ SYMMETRIC_BOARD_REASON = (
 MIN_IMAGES = 3
 #: Fewer usable views than this only warn: MATLAB's calibrator asks for 10 to 20.
 RECOMMENDED_IMAGES = 10
-#: An image whose reprojection error exceeds this multiple of the median spoils the fit.
+#: An image whose reprojection error exceeds this multiple of the median spoils the fit...
 SPOIL_FACTOR = 2.0
+#: ... and this many pixels too. A ratio alone flags good views of a good calibration: with a
+#: median of 0.054 px a view at 0.123 px is "twice the median" yet fits to an eighth of a
+#: pixel, within what sub-pixel corner refinement (cornerSubPix) can be trusted to. Half a
+#: pixel is several times that, and still well under one pixel: a view under it is never an
+#: outlier, whatever the others do, and a view that does spoil the fit (another lens, a
+#: board moved during the shot) misses by pixels.
+SPOIL_FLOOR_PX = 0.5
 
 _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
@@ -243,17 +251,31 @@ def _board_points(board: tuple[int, int], square_mm: float) -> npt.NDArray[np.fl
 # -- calibration ---------------------------------------------------------------------------
 
 
+def spoiling_views(errors: Sequence[float], spoil_factor: float = SPOIL_FACTOR,
+                   floor_px: float = SPOIL_FLOOR_PX) -> list[int]:
+    """The indices of the views that spoil the fit: a reprojection error (px) over
+    ``spoil_factor`` times the median of all *and* over ``floor_px``. The ratio finds the view
+    unlike the others; the floor keeps a view that fits within a fraction of a pixel from being
+    called bad only because the others fit even better (see :data:`SPOIL_FLOOR_PX`)."""
+    if not errors:
+        return []
+    median = float(np.median(errors))
+    limit = max(spoil_factor * median, floor_px)
+    return [k for k, err in enumerate(errors) if err > limit]
+
+
 def calibrate(images: Sequence[npt.ArrayLike], board: tuple[int, int], square_mm: float, *,
               names: Sequence[str] | None = None, min_images: int = MIN_IMAGES,
-              spoil_factor: float = SPOIL_FACTOR, camera_name: str = "camera"
-              ) -> CameraCalibration:
+              spoil_factor: float = SPOIL_FACTOR, spoil_floor_px: float = SPOIL_FLOOR_PX,
+              camera_name: str = "camera") -> CameraCalibration:
     """Intrinsics and distortion (``k1, k2, p1, p2, k3``) from images of a checkerboard of
     ``board = (cols, rows)`` squares of ``square_mm``.
 
     Images where the board is not found are skipped and named in ``warnings`` (MATLAB rejects
     them the same way); if fewer than ``min_images`` usable ones remain the calibration is
     refused, naming them. Images whose reprojection error exceeds ``spoil_factor`` times the
-    median are kept but named in ``warnings``: remove them and calibrate again.
+    median, and ``spoil_floor_px`` pixels, are kept but named in ``warnings``: remove them and
+    calibrate again (:func:`spoiling_views`).
     """
     cols, rows = check_board(board, square_mm)
     labels = [str(n) for n in names] if names is not None else [
@@ -300,11 +322,11 @@ def calibrate(images: Sequence[npt.ArrayLike], board: tuple[int, int], square_mm
         diff = np.asarray(uv, dtype=np.float64).reshape(-1, 2) - pts
         errors.append(float(np.sqrt(np.mean(np.sum(diff**2, axis=1)))))
     median = float(np.median(errors))
-    for label, err in zip(used, errors, strict=True):
-        if err > spoil_factor * median:
-            warnings.append(f"{label}: reprojection error {err:.3f} px is more than "
-                            f"{spoil_factor:g}x the median {median:.3f} px; it spoils the fit "
-                            "(remove it and calibrate again)")
+    for bad in spoiling_views(errors, spoil_factor, spoil_floor_px):
+        warnings.append(f"{used[bad]}: reprojection error {errors[bad]:.3f} px is more than "
+                        f"{spoil_factor:g}x the median {median:.3f} px and "
+                        f"{spoil_floor_px:g} px; it spoils the fit (remove it and calibrate "
+                        "again)")
     return CameraCalibration(
         camera_matrix=np.asarray(k, dtype=np.float64),
         distortion_coefficients=np.asarray(d, dtype=np.float64).ravel(),
@@ -418,11 +440,34 @@ def floor_to_image(calib: CameraCalibration, extrinsics: FloorExtrinsics,
     return out[0] if single else out
 
 
+def check_in_image(calib: CameraCalibration, uv: npt.ArrayLike) -> FloatArray:
+    """``uv`` ``(2,)`` or ``(N, 2)`` if every point lies on the calibrated image, else one line
+    naming the first that does not and the image's size.
+
+    Pixel centres are whole numbers (OpenCV's convention), so a ``W x H`` image covers
+    ``-0.5 <= u <= W - 0.5`` and ``-0.5 <= v <= H - 0.5``. Outside it the lens model was never
+    fitted (the distortion polynomial grows without bound there) and no camera could have
+    seen the point: a floor distance from it would be a number about nothing."""
+    pts, _ = _points2(uv, "uv")
+    width, height = calib.image_size
+    outside = ((pts[:, 0] < -0.5) | (pts[:, 0] > width - 0.5)
+               | (pts[:, 1] < -0.5) | (pts[:, 1] > height - 0.5))
+    if np.any(outside):
+        u, v = pts[int(np.argmax(outside))]
+        raise VisionValueError(f"image point ({u:g}, {v:g}) is outside the calibrated "
+                               f"{width}x{height} image (u -0.5..{width - 0.5:g}, "
+                               f"v -0.5..{height - 0.5:g} px)")
+    return np.asarray(uv, dtype=np.float64)
+
+
 def measure(calib: CameraCalibration, extrinsics: FloorExtrinsics, uv1: npt.ArrayLike,
             uv2: npt.ArrayLike) -> float:
-    """The distance (mm) on the floor between two image points: Figure C6 of the seed."""
-    a = image_to_floor(calib, extrinsics, np.asarray(uv1, dtype=np.float64).reshape(2))
-    b = image_to_floor(calib, extrinsics, np.asarray(uv2, dtype=np.float64).reshape(2))
+    """The distance (mm) on the floor between two image points: Figure C6 of the seed. Points
+    off the calibrated image are refused (:func:`check_in_image`)."""
+    a_uv = check_in_image(calib, np.asarray(uv1, dtype=np.float64).reshape(2))
+    b_uv = check_in_image(calib, np.asarray(uv2, dtype=np.float64).reshape(2))
+    a = image_to_floor(calib, extrinsics, a_uv)
+    b = image_to_floor(calib, extrinsics, b_uv)
     return float(np.hypot(*(b - a)))
 
 

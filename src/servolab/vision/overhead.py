@@ -24,6 +24,18 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 _MM = 1000.0  # mm per m: the calibration's unit per this module's
+
+#: A cell whose fraction of dark sub-points is above this is occupied, below
+#: :data:`FREE_FRACTION` free, and in between unknown: map_server's default
+#: ``occupied_thresh`` and ``free_thresh`` (map_saver writes them; image_loader.cpp applies them
+#: to a pixel's darkness), applied to the cell's share of dark samples, which is what the
+#: camera's occupancy probability of the cell is. With the default 3 x 3 samples one dark
+#: sample (1/9 = 0.11) is noise and leaves a cell free, two (0.22) make it unknown, six
+#: (0.67) occupied. Why not any dark sample: image noise 20 on the robot's mid-grey disc (120,
+#: 2.3 sigma above the threshold 75) or at an obstacle's blurred edge darkens single samples
+#: at random, so the map flickered and the navigator repaired its plan for nothing.
+OCCUPIED_FRACTION = 0.65
+FREE_FRACTION = 0.196
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
 
 
@@ -128,20 +140,48 @@ class FloorSampler:
         self._map1, self._map2 = cv2.convertMaps(map_u, map_v, cv2.CV_16SC2)
         self._unseen = ~seen.reshape(shape)
 
-    def occupancy(self, image: npt.NDArray[np.uint8], threshold: float = 75.0) -> BoolArray:
-        """Occupied cells ``[rows, cols]``: a cell is occupied if any of its sub-points is
-        darker than ``threshold`` or lies outside the camera's view (unknown is not free:
-        a planner must not drive where nobody looked)."""
+    def dark_fraction(self, image: npt.NDArray[np.uint8],
+                      threshold: float = 75.0) -> FloatArray:
+        """Each cell's share ``[rows, cols]`` (0..1) of sub-points darker than ``threshold``:
+        the evidence :meth:`occupancy` thresholds, for tools and tests to look at."""
         img = _check_image(image, self.calib)
         if not (math.isfinite(threshold) and 0 < threshold <= 255):
             raise VisionValueError(f"threshold must be a grey level in (0, 255], got {threshold}")
         grey = cv2.remap(img, self._map1, self._map2, cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        dark = (np.asarray(grey) < threshold) | self._unseen
         rows, cols = self.grid.shape
         s = self.samples
-        occupied: BoolArray = dark.reshape(rows, s, cols, s).any(axis=(1, 3))
-        return occupied
+        dark = (np.asarray(grey) < threshold).reshape(rows, s, cols, s)
+        return np.asarray(dark.mean(axis=(1, 3)), dtype=np.float64)
+
+    def occupancy(self, image: npt.NDArray[np.uint8], threshold: float = 75.0, *,
+                  previous: BoolArray | None = None) -> BoolArray:
+        """Occupied cells ``[rows, cols]`` by map_server's two thresholds on the share of each
+        cell's sub-points darker than ``threshold`` (:data:`OCCUPIED_FRACTION`,
+        :data:`FREE_FRACTION`): above the first occupied, below the second free, in between
+        unknown, which is not free (a planner must not drive where nobody looked), and
+        neither is a cell with any sub-point outside the camera's view.
+
+        ``previous``, the grid this gave for the frame before, keeps an unknown cell as it
+        was: a cell changes only on clear evidence, so an obstacle's edge that splits a cell
+        cannot flicker either (without it, an edge cell whose dark share sits at
+        :data:`FREE_FRACTION` may still toggle from frame to frame). The price: a cell that
+        an obstacle appearing later covers by less than :data:`OCCUPIED_FRACTION` stays free,
+        which the costmap's inflation (tens of cm) dwarfs."""
+        fraction = self.dark_fraction(image, threshold)
+        occupied = fraction > OCCUPIED_FRACTION
+        between = ~occupied & (fraction >= FREE_FRACTION)
+        if previous is not None:
+            known = np.asarray(previous, dtype=bool)
+            if known.shape != fraction.shape:
+                raise VisionValueError(f"previous occupancy has shape {known.shape}, the grid "
+                                       f"{fraction.shape}")
+            between &= known
+        rows, cols = self.grid.shape
+        s = self.samples
+        unseen = self._unseen.reshape(rows, s, cols, s).any(axis=(1, 3))
+        result: BoolArray = occupied | between | unseen
+        return result
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,8 @@
 
 Facts: seed 000 Appendix A (EX-106+, Protocol 1.0, 1 Mbps from dxl_initialize(16, 1), wheel
 radius 5.2 cm and wheel base 38 cm in Figure A3, IDs 0 and 1; A.2's four motors 1-4, 1 and 2
-clockwise and 3 and 4 counter-clockwise forwards); ROBOTIS OpenCR turtlebot3_waffle.h
+clockwise and 3 and 4 counter-clockwise forwards, on 0.1021 m wheels by final.m's 5265/575
+counts a mm); ROBOTIS OpenCR turtlebot3_waffle.h
 (WHEEL_RADIUS 0.033 m, WHEEL_SEPARATION 0.287 m) and turtlebot3_teleop (0.26 m/s, 1.82 rad/s)."""
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ def test_the_three_bases() -> None:
     assert [m.id for m in four.side("left")] == [1, 2] and [m.id for m in four.side("right")] \
         == [3, 4]
     assert {m.direction for m in four.side("left")} == {-1}  # clockwise forwards (A.2)
+    # A.2's wheel, from final.m's 5265/575 counts a mm (test_a2.py), not Figure A3's 5.2 cm
+    assert (four.wheel_radius, four.wheel_separation) == (0.1021, 0.38)
     waffle = load(CONFIGS / "base_turtlebot3_waffle.yaml")
     assert (waffle.model.name, waffle.protocol, waffle.wheel_radius, waffle.wheel_separation,
             waffle.max_linear_velocity, waffle.max_angular_velocity) == (

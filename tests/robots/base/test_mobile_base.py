@@ -157,8 +157,9 @@ def test_the_seeds_own_sync_write_moves_the_4_motor_base() -> None:
     base.bus.port.write(b"\xff\xff" + body + bytes([checksum(body)]))
     base.clock.sleep(2.0)
     truth = base.truth()
-    # forwards: 30 % of the EX-106+'s 91 rpm no-load speed on a 5.2 cm wheel, 2 s: 0.30 m
-    assert truth["x"] == pytest.approx(0.3 * 91 * 2 * math.pi / 60 * 0.052 * 2.0, rel=0.02)
+    # forwards: 30 % of the EX-106+'s 91 rpm no-load speed on A.2's 0.1021 m wheel (final.m's
+    # 5265/575 counts a mm, test_a2.py), 2 s: 0.58 m
+    assert truth["x"] == pytest.approx(0.3 * 91 * 2 * math.pi / 60 * 0.1021 * 2.0, rel=0.02)
     assert abs(truth["yaw"]) < 0.05 and abs(truth["y"]) < 0.02
     assert all(base.bus.read(i, "torque_enable") == 1 for i in (1, 2, 3, 4))
 

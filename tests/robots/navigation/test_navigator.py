@@ -22,11 +22,12 @@ POSE = "geometry_msgs/msg/PoseStamped"
 
 
 class Rig:
-    def __init__(self, occupied: tuple[slice, slice] | None = None) -> None:
+    def __init__(self, occupied: tuple[slice, slice] | list[tuple[slice, slice]] | None = None,
+                 goal: tuple[float, float] | None = (2.5, 1.0)) -> None:
         self.context = Context.open(clock=VirtualClock())
         dwa = DwaConfig.from_params(load_dwa(DEFAULT_DWA))
         dwa = DwaConfig(**{**dwa.__dict__, "controller_frequency": 5.0})
-        self.node = NavigatorNode(self.context, (2.5, 1.0), costmap=load_costmap(
+        self.node = NavigatorNode(self.context, goal, costmap=load_costmap(
             DEFAULT_COSTMAP), dwa=dwa, patience=Patience(controller=3.0),
             pose_timeout=0.25)
         self.probe = Node(self.context, "probe")
@@ -36,8 +37,8 @@ class Rig:
         grid = self.probe.create_publisher("nav_msgs/msg/OccupancyGrid", "/map", LATCHED)
         self.pose = self.probe.create_publisher(POSE, "/fused_pose", 10)
         cells = np.zeros((40, 60), dtype=np.int8)
-        if occupied is not None:
-            cells[occupied] = 100
+        for region in ([occupied] if isinstance(occupied, tuple) else occupied or []):
+            cells[region] = 100
         grid.publish(self.probe.message("nav_msgs/msg/OccupancyGrid", header={
             "frame_id": "map"}, info={"resolution": 0.05, "width": 60, "height": 40,
                                       "origin": {"orientation": {"w": 1.0}}},
@@ -91,3 +92,100 @@ def test_a_goal_the_first_map_shows_in_an_obstacle_is_refused_before_moving() ->
     assert rig.node.status is NavigationStatus.ABORTED
     assert "goal (2.5, 1) is inside an obstacle" in rig.node.reason
     assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
+
+
+def test_a_robot_the_camera_never_sees_is_refused_within_seconds() -> None:
+    """No pose at all after the goal: refused after start_timeout (controller_patience, 3 s
+    here), saying why, instead of waiting out the run's whole timeout."""
+    rig = Rig()
+    try:
+        rig.drive_for(4.0, poses=False)
+    finally:
+        rig.context.close()
+    assert rig.node.status is NavigationStatus.ABORTED and rig.node.refused
+    assert rig.node.reason == ("no pose of the robot (the camera does not see it) for 3 s "
+                               "after the goal")
+    assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
+
+
+def test_an_enclosed_goal_is_refused_from_the_first_map_before_moving() -> None:
+    """A ring of obstacles round the goal (2.5, 1.0): the first map has no path to it, so it
+    is refused at once, not after planner_patience and the recoveries."""
+    ring = [(slice(8, 10), slice(38, 60)), (slice(30, 32), slice(38, 60)),
+            (slice(8, 32), slice(38, 40))]
+    rig = Rig(occupied=ring)
+    try:
+        rig.drive_for(0.6, poses=True)
+    finally:
+        rig.context.close()
+    assert rig.node.status is NavigationStatus.ABORTED and rig.node.refused
+    assert "no path from the robot to goal (2.5, 1) on the first map" in rig.node.reason
+    assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
+
+
+def test_a_goal_dwa_cannot_settle_on_is_refused_with_its_cost() -> None:
+    """A wall from x = 2.85 m (cells 57..59) and the goal 0.275 m in front of it: the goal lies in
+    the inflated band, and with D.3's occdist_scale 0.8 DWA's dry run stalls short of
+    xy_goal_tolerance (the failure issue 30 found 0.25-0.3 m from every wall); the refusal names
+    the cost and what to change. A goal 0.65 m from the wall is driven to."""
+    wall = (slice(0, 40), slice(57, 60))
+    rig = Rig(occupied=wall, goal=(2.575, 1.0))
+    try:
+        rig.drive_for(0.6, poses=True)
+    finally:
+        rig.context.close()
+    assert rig.node.status is NavigationStatus.ABORTED and rig.node.refused
+    assert "lies in the inflated band" in rig.node.reason
+    assert "costmap cost" in rig.node.reason and "a dry run of DWA" in rig.node.reason
+    assert "lower occdist_scale" in rig.node.reason
+    assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
+    free = Rig(occupied=wall, goal=(2.2, 1.0))
+    try:
+        free.drive_for(0.6, poses=True)
+    finally:
+        free.context.close()
+    assert free.node.status is NavigationStatus.ACTIVE
+    assert free.commands[-1].linear.x > 0
+
+
+def test_goals_come_on_goal_pose_and_move_base_simple_goal() -> None:
+    """nav2's /goal_pose and move_base's /move_base_simple/goal (geometry_msgs/PoseStamped in
+    the map frame); a new goal preempts the one being driven to (action_msgs GoalStatus
+    CANCELED 5, then EXECUTING 2 for the new one); a goal in another frame is refused."""
+    from servolab.robots.navigation.navigator import NAV2_MSGS, STATUS_TOPIC
+    from servolab.robots.navigation.tracker_node import LATCHED as STATUS_QOS
+
+    rig = Rig(goal=None)
+    rig.context.types.register_msgs(NAV2_MSGS)
+    statuses: list[Any] = []
+    rig.probe.create_subscription("action_msgs/msg/GoalStatusArray", STATUS_TOPIC,
+                                  statuses.append, STATUS_QOS)
+    feedback: list[Any] = []
+    rig.probe.create_subscription("nav2_msgs/action/NavigateToPose_FeedbackMessage",
+                                  "/navigate_to_pose/_action/feedback", feedback.append, 0)
+    goal_pose = rig.probe.create_publisher(POSE, "/goal_pose", 10)
+    simple = rig.probe.create_publisher(POSE, "/move_base_simple/goal", 10)
+
+    def goal(publisher: Any, x: float, frame: str = "map") -> None:
+        publisher.publish(rig.probe.message(POSE, header={"frame_id": frame}, pose={
+            "position": {"x": x, "y": 1.0}, "orientation": {"w": 1.0}}))
+
+    try:
+        rig.drive_for(0.6, poses=True)
+        assert rig.node.goal is None and not rig.commands  # no goal: nothing driven
+        goal(goal_pose, 2.5, frame="odom")
+        rig.drive_for(0.4, poses=True)
+        assert rig.node.goal is None  # refused: goals are in the map frame
+        goal(goal_pose, 2.5)
+        rig.drive_for(1.0, poses=True)
+        assert rig.node.goal == (2.5, 1.0) and rig.node.status is NavigationStatus.ACTIVE
+        assert rig.commands[-1].linear.x > 0
+        goal(simple, 2.0)
+        rig.drive_for(1.0, poses=True)
+        assert rig.node.goal == (2.0, 1.0) and rig.node.status is NavigationStatus.ACTIVE
+    finally:
+        rig.context.close()
+    # the status array lists the preempted goal (CANCELED 5) and the new one (EXECUTING 2)
+    assert [int(s.status) for s in statuses[-1].status_list] == [5, 2]
+    assert len({bytes(s.goal_info.goal_id.uuid) for s in statuses[-1].status_list}) == 2
+    assert feedback and feedback[-1].feedback.distance_remaining == pytest.approx(1.5, abs=0.1)

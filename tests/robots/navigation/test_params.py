@@ -187,6 +187,63 @@ def test_move_base_bad_values_refused_at_their_line(tmp_path: Path) -> None:
         load_move_base(bad)
 
 
+def test_move_bases_default_recovery_behaviours() -> None:
+    """move_base.cpp loadDefaultRecoveryBehaviors: conservative_reset (ClearCostmapRecovery at
+    conservative_reset_dist, 3.0 m), rotate_recovery, aggressive_reset (at 4 x the
+    circumscribed radius), rotate_recovery; no rotations without clearing_rotation_allowed,
+    none at all without recovery_behavior_enabled."""
+    from servolab.robots.navigation.params import CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY
+
+    behaviors = MoveBaseParams().behaviors(0.25)
+    assert [(b.name, b.type) for b in behaviors] == [
+        ("conservative_reset", CLEAR_COSTMAP_RECOVERY), ("rotate_recovery", ROTATE_RECOVERY),
+        ("aggressive_reset", CLEAR_COSTMAP_RECOVERY), ("rotate_recovery", ROTATE_RECOVERY)]
+    assert (behaviors[0].reset_distance, behaviors[2].reset_distance) == (3.0, 1.0)
+    no_turns = MoveBaseParams(clearing_rotation_allowed=False).behaviors(0.25)
+    assert [b.name for b in no_turns] == ["conservative_reset", "aggressive_reset"]
+    assert MoveBaseParams(recovery_behavior_enabled=False).behaviors(0.25) == ()
+
+
+def test_recovery_behaviors_read_from_the_file_and_checked(tmp_path: Path) -> None:
+    """A move_base file's own recovery_behaviors list ({name, type}) with each one's
+    parameters under its name, as move_base's loadRecoveryBehaviors reads them."""
+    good = tmp_path / "move_base.yaml"
+    good.write_text("controller_frequency: 5.0\nrecovery_behaviors:\n"
+                    "  - {name: near, type: clear_costmap_recovery/ClearCostmapRecovery}\n"
+                    "  - {name: spin, type: rotate_recovery/RotateRecovery}\n"
+                    "near: {reset_distance: 1.5, layer_names: [obstacle_layer]}\n")
+    params = load_move_base(good)
+    assert [(b.name, b.reset_distance) for b in params.behaviors(0.2)] == [("near", 1.5),
+                                                                          ("spin", 3.0)]
+    assert params.ignored == ()
+    bad = tmp_path / "bad.yaml"
+    for text, message in (
+            ("recovery_behaviors:\n  - {name: x, type: move_slow_and_clear/MoveSlowAndClear}\n",
+             ":3: recovery type 'move_slow_and_clear/MoveSlowAndClear' is not one servolab "),
+            ("recovery_behaviors:\n  - {name: x, kind: rotate_recovery/RotateRecovery}\n",
+             ":3: a recovery behaviour: unknown key 'kind'"),
+            ("recovery_behaviors:\n  - {name: x, type: rotate_recovery/RotateRecovery}\n"
+             "  - {name: x, type: rotate_recovery/RotateRecovery}\n",
+             ":4: recovery behaviour 'x' is listed twice")):
+        bad.write_text("controller_frequency: 5.0\n" + text)
+        with pytest.raises(NavParamsError) as info:
+            load_move_base(bad)
+        assert str(info.value).startswith(str(bad)) and message in str(info.value)
+
+
+def test_a_dwa_file_that_could_never_drive_is_refused(tmp_path: Path) -> None:
+    """max_vel_x below min_trans_vel: dwa_local_planner's generateTrajectory drops every
+    sample slower than min_trans_vel that does not also turn at min_rot_vel, so the robot
+    would never drive forward (issue 30: such a file was accepted and never drove)."""
+    bad = tmp_path / "dwa.yaml"
+    bad.write_text(DWA.read_text().replace("max_vel_x: 0.15", "max_vel_x: 0.05"))
+    with pytest.raises(NavParamsError) as info:
+        load_dwa(bad)
+    line = _line_of(bad, "max_vel_x:")
+    assert str(info.value).startswith(f"{bad}:{line}: max_vel_x 0.05 is below min_trans_vel "
+                                      "0.1")
+
+
 @pytest.mark.parametrize(("loader", "path", "what"), [
     (load_dwa, "nav_scene.yaml", "dwa_local_planner's"),
     (load_costmap, "dwa_params.yaml", "costmap_2d's"),

@@ -160,10 +160,10 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path,
     message = _refused(capsys, refused, "--map", str(_image(tmp_path, narrow, "narrow.png")), *ends,
                        status=1)
     assert "no path" in message and "--no-inflation" in message
-    # argparse: a coordinate that is not an integer, exit 2
-    with pytest.raises(SystemExit) as exit_:
-        main(["plan", "--map", mapfile, "--start", "1.5", "2", "--goal", "3", "4"])
-    assert exit_.value.code == 2
+    # on an image the ends are cells: a coordinate that is not a whole number, exit 2
+    message = refuse("--start", "1.5", "2", "--goal", "3", "4")
+    assert message == ("servolab plan: error: --start 1.5 2: on a map image the ends are cells "
+                       "(whole numbers); metres need a map_server map.yaml")
 
 
 def test_the_command_line_exit_codes(tmp_path: Path) -> None:
@@ -218,3 +218,119 @@ def test_a_plan_stopped_while_it_writes_leaves_its_summary(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["interrupted"] == "SIGINT"
     assert summary["cost"] == pytest.approx(17 * SQRT2) and "plot" not in summary
+
+
+# -- map_server maps (map.yaml) ----------------------------------------------------------------
+
+MAPS = Path(__file__).resolve().parents[2] / "data" / "maps"
+
+
+def _map_yaml(tmp_path: Path, image: np.ndarray, *, origin: str = "[-1.5, 2.0, 0.0]",
+              resolution: float = 0.1) -> Path:
+    """A map.yaml as map_saver writes one (ROS wiki map_server), beside its PNG."""
+    assert cv2.imwrite(str(tmp_path / "room.png"), image)
+    path = tmp_path / "room.yaml"
+    path.write_text(f"image: room.png\nresolution: {resolution}\norigin: {origin}\n"
+                    "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    return path
+
+
+def _room() -> np.ndarray:
+    """30 x 20 free cells (map_saver's 254) with two blocks (0) at the image's bottom corners,
+    which a reader without map_server's row flip would put under the ends (both in its top
+    row 2); a wall across the middle (x 14..15) open in a gap near the bottom (image rows
+    13..18), and unknown (205) at its top (image rows 0..3), the straight way across."""
+    image = np.full((20, 30), 254, np.uint8)
+    image[14:20, 0:6] = 0
+    image[14:20, 24:30] = 0
+    image[:, 14:16] = 0
+    image[13:19, 14:16] = 254  # the gap
+    image[0:4, 14:16] = 205  # unknown: not to be crossed
+    return image
+
+
+def test_a_map_yaml_plans_in_metres_with_its_origin_and_resolution(tmp_path: Path) -> None:
+    """origin (-1.5, 2.0) and 0.1 m cells: the ends fall in Costmap2D::worldToMap's cells,
+    counted from the map's bottom row (image_loader.cpp flips the image; ROS wiki: the origin
+    is the lower-left pixel). Ignoring the origin puts the start off the map, ignoring the
+    resolution (0.05) the goal, and ignoring the flip puts both ends in the blocks."""
+    mapfile = _map_yaml(tmp_path, _room())
+    summary = _plan(tmp_path, mapfile, "--start", "-1.25", "3.75", "--goal", "1.15", "3.75",
+                    "--no-inflation")
+    assert summary["start_cell"] == [2, 17] and summary["goal_cell"] == [26, 17]
+    assert summary["start"] == [-1.25, 3.75] and summary["goal"] == [1.15, 3.75]
+    path = np.array(summary["path"])
+    assert path[0].tolist() == [2, 17] and path[-1].tolist() == [26, 17]
+    assert summary["path_m"][0] == pytest.approx([-1.25, 3.75])
+    assert summary["path_m"][-1] == pytest.approx([1.15, 3.75])
+    assert (summary["resolution_m"], summary["origin"]) == (0.1, [-1.5, 2.0, 0.0])
+    # only free cells: the image's pixel of map cell (x, y) is (x, 19 - y); unknown is not
+    # free, so the path goes down through the gap, not straight across the unknown cells
+    image = _room()
+    assert np.all(image[19 - path[:, 1], path[:, 0]] == 254)
+    crossing = path[(path[:, 0] >= 14) & (path[:, 0] <= 15)]
+    assert np.all((19 - crossing[:, 1] >= 13) & (19 - crossing[:, 1] <= 18))
+    assert summary["unknown_cells"] == 8
+    assert summary["cost"] > 30  # straight across the unknown cells: 24
+    assert summary["length_m"] == pytest.approx(summary["length_cells"] * 0.1)
+
+
+def test_a_map_yaml_inflates_at_the_maps_resolution(tmp_path: Path) -> None:
+    """costmap_2d's static layer gives the costmap the map's resolution: seed 000's file says
+    0.05 m, the map 0.1 m, so the robot's inscribed radius (0.21 m) is 2.1 cells here."""
+    from scipy import ndimage  # type: ignore[import-untyped]
+
+    from servolab.robots.navigation.plan import load_map_problem, plan
+
+    problem = load_map_problem(_map_yaml(tmp_path, _room()), (-1.25, 3.75), (1.15, 3.75))
+    assert problem.resolution == 0.1 and problem.params is not None
+    assert (problem.start, problem.goal) == ((2, 17), (26, 17))
+    _, path = plan(problem)
+    assert problem.unknown is not None
+    clearance = ndimage.distance_transform_edt(~problem.occupied)
+    assert clearance[path[:, 1], path[:, 0]].min() > 2.1
+    assert not (problem.occupied | problem.unknown)[path[:, 1], path[:, 0]].any()
+
+
+def test_the_hand_written_map_plans_between_the_right_cells() -> None:
+    """tests/data/maps/asymmetric.yaml (origin (-1.5, 2.0), 0.1 m): from its bottom-left free
+    cell round the obstacle to the free cell above it, without inflation."""
+    from servolab.robots.navigation.plan import load_map_problem, plan
+
+    problem = load_map_problem(MAPS / "asymmetric.yaml", (-1.35, 2.05), (-1.05, 2.35),
+                               inflation=False)
+    assert (problem.start, problem.goal) == ((1, 0), (4, 3))
+    cost, path = plan(problem)
+    assert path[0].tolist() == [1, 0] and path[-1].tolist() == [4, 3]
+    assert cost == pytest.approx(2 + 2 * SQRT2)  # (1,0) (2,0)... round the L at (2..3, 2..3)
+
+
+def test_map_yaml_ends_off_the_map_or_not_free_are_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    mapfile = str(_map_yaml(tmp_path, _room()))
+    refused = tmp_path / "refused"
+
+    def refuse(*args: str) -> str:
+        return _refused(capsys, refused, "--map", mapfile, *args)
+
+    message = refuse("--start", "-1.6", "3.75", "--goal", "1.15", "3.75")
+    assert message == (f"servolab plan: error: start (-1.6, 3.75) m is outside the map "
+                       f"'{mapfile}', which covers x -1.5..1.5 m, y 2..4 m (30 x 20 cells of "
+                       "0.1 m)")
+    message = refuse("--start", "-1.25", "3.75", "--goal", "1.15", "2.35")
+    assert message.startswith("servolab plan: error: goal (1.15, 2.35) m is in an occupied cell "
+                              "(cell (26, 3) from the origin, pixel (26, 16) of ")
+    message = refuse("--start", "-0.05", "3.75", "--goal", "1.15", "3.75", "--no-inflation")
+    assert message.startswith("servolab plan: error: start (-0.05, 3.75) m is in unknown space")
+    message = refuse("--start", "-0.25", "3.15", "--goal", "1.15", "3.75")
+    assert message.startswith("servolab plan: error: start (-0.25, 3.15) m is within the "
+                              "robot's inscribed radius")
+    message = refuse("--start", "-1.25", "3.75", "--goal", "1.15", "3.75", "--threshold", "100")
+    assert message == (f"servolab plan: error: --threshold is for a map image; {mapfile} gives "
+                       "occupied_thresh and free_thresh")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(Path(mapfile).read_text().replace("resolution: 0.1", "resolution: fine"))
+    message = _refused(capsys, refused, "--map", str(bad), "--start", "0", "3", "--goal", "1",
+                       "3")
+    assert message == (f"servolab plan: error: {bad}:2: key 'resolution': must be a finite "
+                       "number, not 'fine'")

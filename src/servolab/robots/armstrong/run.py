@@ -5,9 +5,12 @@ at 4.5 rows a second. The motion is the seed's gait generated now, or a motion f
 whole against the joints' limits *before* anything moves (a bad cell is an error naming its
 line and column, never 0 degrees). Every command, every joint state, the motors' states and
 ``/diagnostics`` go to the run folder's MCAP bag; a plot compares commanded and present
-angles of both legs. An alarm of the safety supervisor (:mod:`.supervisor`), Ctrl-C or
-SIGTERM end the gait at the next row and bring the robot to double support (the stand
-pose); ``summary.json`` lists each alarm and the errors each motor's reads met.
+angles of both legs. Stamps and the bag's times are ROS time: the epoch's on a real robot,
+the simulation's on the emulated one, which then publishes it on ``/clock``
+(:mod:`servolab.middleware.clock_node`). An alarm of the safety supervisor
+(:mod:`.supervisor`), Ctrl-C or SIGTERM end the gait at the next row and bring the robot to
+double support (the stand pose); ``summary.json`` lists each alarm and the errors each
+motor's reads met.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     from tqdm import tqdm
 
     from ...harness import RunEnding, interruption, stops_deferred
+    from ...middleware.clock_node import start_clock
     from ...middleware.recorder import Recorder
 
     bag = run_folder.file("walk_bag")
@@ -71,6 +75,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             f"{len(robot.manager.controllers)} controllers running"
             + (f" ({', '.join(robot.manager.failed)} could not start)"
                if robot.manager.failed else ""))
+        start_clock(robot.context)  # the emulated robot's simulated time on /clock
         topics = recorded_topics(robot)
         recorder = Recorder(robot.context, str(bag), list(topics), types=topics, quiet=True)
         started = robot.context.clock.now()

@@ -9,7 +9,13 @@ wrap-around.
 The moves of seed 000 (Appendix A) are closed loops on that odometry: a straight line stops at
 its distance, a circle after its turns (Figure A3's wheel speeds), a figure of eight after one
 circle each way (Figure A4), a rotation at its angle. Each ends with the wheels stopped, also
-on an error or Ctrl-C (``finally``).
+on an error or Ctrl-C (``finally``). A.2's own line (final.m) is there too,
+:meth:`MobileBase.count_line`: it counts one motor's encoder up to ``h`` counts, as final.m
+does, as meant or as printed (its slips included), at final.m's speed percentage
+(:func:`percent_speed`).
+
+Every move is refused before a wheel turns if it would take longer than
+:data:`MAX_MOVE_SECONDS`: a typing slip (``--angle 1e9``) must not plan a drive of years.
 
 With no port named the base is emulated: its motors roll on a simulated floor
 (:class:`~servolab.sim.floor.DiffDriveFloor`) whose ground truth the tests and plots compare
@@ -24,17 +30,26 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ...dynamixel.units import wheel_speed
 from ...kinematics.diffdrive import (
     DiffDrive,
     Encoder,
+    a2_increment,
+    a2_increment_as_printed,
+    a2_target_counts,
     circle,
+    circle_time,
     clamp_wheel_speeds,
     integrate_odometry,
     limit_wheel_speeds,
+    line_time,
+    matlab_round,
+    radius_from_counts_per_mm,
+    rotation,
     tick_delta,
 )
 from ..errors import RobotError, RobotValueError
-from .config import BaseConfig
+from .config import BaseConfig, WheelMotor
 
 if TYPE_CHECKING:
     from ...clock import Clock
@@ -45,6 +60,85 @@ if TYPE_CHECKING:
 
 #: How often the moves' closed loops read the encoders (s of the base's clock).
 LOOP_PERIOD = 0.01
+#: final.m's ``pause(0.0001)`` between two reads of its counting loop (s; seed 000 A.2).
+A2_PAUSE = 0.0001
+#: The wheels' speed of a rotation in place (rad/s) when none is given.
+ROTATE_WHEEL_SPEED = 1.0
+#: The longest a move may be planned to take (s): ten minutes. Seed 000's moves last seconds
+#: to a minute (Figure A4's eight as printed, 50 cm at 20 cm/s: 2 x 2t = 63 s; final.m's 1 m
+#: at 30 %: 3.4 s), so ten minutes is about ten times the longest, room for slow speeds; a real
+#: base meets a wall long before, and an emulated one takes about a minute of computing for
+#: ten minutes of driving (a 59.9 m line at 0.1 m/s: 55 s with its bag and plot). Anything
+#: longer is a slip of the keyboard (``--angle 1e9`` on seed 000's robot: two years).
+MAX_MOVE_SECONDS = 600.0
+
+
+def check_duration(what: str, seconds: float) -> float:
+    """``seconds`` if a move may take that long, else one line naming the move (``what``, with
+    its value) and :data:`MAX_MOVE_SECONDS`; checked before any wheel turns."""
+    if not (math.isfinite(seconds) and seconds <= MAX_MOVE_SECONDS):
+        raise RobotValueError(f"{what} would take {seconds:.3g} s, over the "
+                              f"{MAX_MOVE_SECONDS:g} s (10 min) a move may take: ask for "
+                              "less, or drive it as several moves")
+    return seconds
+
+
+def percent_speed(config: BaseConfig, percent: float) -> float:
+    """final.m's "Speed Percentage" as the base's speed (m/s).
+
+    final.m turns the percentage into ``s = abs(round((s/100)*1023))`` and writes it to moving
+    speed (address 32): in wheel mode a share of the motor's full *output*, 0.1 % a unit,
+    1023 = 100 % (EX-106+ e-Manual, Moving Speed, Wheel Mode). servolab reads that share as
+    the same share of the no-load speed (:func:`servolab.dynamixel.units.wheel_speed`), so the
+    speed returned encodes back to final.m's ``s`` on the wire (30 % -> 307). It is a unit of
+    the seed, converted here at the edge: the base itself runs in m/s. A motor whose speed
+    register is a velocity (Protocol 2.0, or a 1.0 model that regulates speed) has no such
+    percentage: refused."""
+    model = config.model
+    if config.protocol != 1 or not model.wheel_output_ratio:
+        raise RobotValueError(f"a speed percentage is final.m's share of a wheel-mode motor's "
+                              f"output (moving speed, 0.1 % a unit); the {model.name} is given "
+                              "a velocity: ask for a speed in m/s")
+    if not (math.isfinite(percent) and 0 < percent <= 100):
+        raise RobotValueError(f"a speed percentage must be in (0, 100], not {percent:g}")
+    raw = abs(matlab_round(percent / 100 * 1023))
+    if raw == 0:
+        raise RobotValueError(f"{percent:g} % rounds to a moving speed of 0 (final.m's "
+                              "round(s/100*1023)): the wheels would not turn")
+    return wheel_speed(model, raw) * config.wheel_radius
+
+
+def counting_motor(config: BaseConfig, forwards: bool) -> tuple[WheelMotor, int]:
+    """The motor whose encoder final.m's line counts, and the sign its count moves with.
+
+    final.m reads motor 4 forwards and motor 1 backwards (``m=4``, ``m=1``): on the 4-motor
+    base the motors turning counter-clockwise on that move, whose count goes up (e-Manual,
+    Present Position: "increased or decreased by 1 depending on the moving direction"). So:
+    forwards the last motor whose count rises, backwards the first; a base with none (both
+    sides mounted alike, backwards) counts a falling motor down (sign -1)."""
+    sign = 1 if forwards else -1
+    rising = [m for m in config.motors if m.direction * sign > 0]
+    if rising:
+        return (rising[-1] if forwards else rising[0]), 1
+    return config.motors[0], -1
+
+
+@dataclass(frozen=True)
+class CountedLine:
+    """What :meth:`MobileBase.count_line` did: final.m's numbers, and the slips it met."""
+
+    motor: int            # the motor read (final.m's m)
+    counts_per_mm: float
+    target: int           # h
+    counted: int          # i when the loop ended
+    reads: int            # reads of motor m in the loop
+    equal_reads: int      # reads equal to the one before (q == p)
+    wraps: int            # reads below the one before (q < p) on a rising count: wraps
+    as_printed: bool      # counted as final.m is printed (65535 wrap, q == p branch)
+    #: the wheel radius (m) counts_per_mm implies on this encoder; the base's is in config
+    implied_radius: float
+    #: the motor's count read after the stop (final.m's last read)
+    final_read: int
 
 
 def encoder_of(model: Model) -> Encoder:
@@ -293,6 +387,8 @@ class MobileBase:
         sign = 1.0 if distance >= 0 else -1.0
         wheel = sign * speed / self.drive.wheel_radius
         self._within_limits(f"a line at {speed:g} m/s", wheel, wheel)
+        check_duration(f"a line of {distance:g} m at {speed:g} m/s",
+                       line_time(distance, speed))
         start = (self.update_odometry().x, self.pose.y)
         if distance == 0:
             return 0.0  # nothing to drive: the wheels are not started
@@ -315,6 +411,8 @@ class MobileBase:
         move = circle(radius, speed, self.drive, clockwise=clockwise, turns=turns)
         self._within_limits(f"a circle of {radius:g} m at {speed:g} m/s", move.left,
                             move.right)
+        check_duration(f"{turns:g} turn(s) of a circle of {radius:g} m at {speed:g} m/s",
+                       move.duration)
         start = self.update_odometry().theta
         target = 2 * math.pi * turns
         with self.stopping():
@@ -328,11 +426,13 @@ class MobileBase:
         move = circle(radius, speed, self.drive)
         self._within_limits(f"an eight of {radius:g} m at {speed:g} m/s", move.left,
                             move.right)
+        check_duration(f"an eight of {radius:g} m at {speed:g} m/s",
+                       2 * circle_time(radius, speed))
         with self.stopping():
             self.circle(radius, speed)
             self.circle(radius, speed, clockwise=True)
 
-    def rotate(self, angle: float, wheel_speed: float = 1.0) -> None:
+    def rotate(self, angle: float, wheel_speed: float = ROTATE_WHEEL_SPEED) -> None:
         """Turn in place by ``angle`` rad (positive: counter-clockwise) with the wheels at
         ``wheel_speed`` rad/s."""
         if not math.isfinite(angle):
@@ -341,13 +441,76 @@ class MobileBase:
         if angle == 0:
             return  # nothing to turn: the wheels are not started
         self._within_limits(f"a rotation at {wheel_speed:g} rad/s", wheel_speed, wheel_speed)
+        duration = check_duration(
+            f"a rotation of {math.degrees(angle):g} deg at {wheel_speed:g} rad/s a wheel",
+            rotation(angle, wheel_speed, self.drive).duration)
         start = self.update_odometry().theta
         sign = 1.0 if angle >= 0 else -1.0
         with self.stopping():
             self.set_wheel_speeds(-sign * wheel_speed, sign * wheel_speed)
-            duration = abs(angle) * self.drive.wheel_separation / (2 * self.drive.wheel_radius
-                                                                   * wheel_speed)
             self._loop(lambda p: abs(p.theta - start) >= abs(angle), 10 * duration + 5)
+
+    def count_line(self, distance: float, speed: float, counts_per_mm: float, *,
+                   as_printed: bool = False) -> CountedLine:
+        """Seed 000 A.2's line (final.m): drive ``distance`` m at ``speed`` m/s until one
+        motor's encoder has counted ``h = abs(round(counts_per_mm * d_mm))``.
+
+        The loop is final.m's: read motor ``m``'s present position once before the wheels
+        start (``p``), then ``q`` again and again with ``pause(0.0001)`` between, adding each
+        read's counts to ``i`` until ``i >= h``; then stop, and read ``m`` once more. Counted as
+        meant by default (a wrap counts 65536, equal reads nothing); ``as_printed`` counts as
+        final.m is printed (``q - p + 65535`` whenever ``q - p`` is not positive), to show
+        what its slips do. How far the base gets depends on its real wheel:
+        ``counts_per_mm`` implies a radius (:attr:`CountedLine.implied_radius`), and a base of
+        another radius drives that much more or less. Odometry and the track are updated every
+        :data:`LOOP_PERIOD` beside the count, for the plot and the summary."""
+        if not math.isfinite(distance):
+            raise RobotValueError(f"distance must be a finite number of metres, not {distance!r}")
+        _check("speed", speed)
+        _check("counts_per_mm", counts_per_mm)
+        forwards = distance >= 0
+        wheel = (1.0 if forwards else -1.0) * speed / self.drive.wheel_radius
+        self._within_limits(f"a line at {speed:g} m/s", wheel, wheel)
+        target = a2_target_counts(distance, counts_per_mm)
+        implied = radius_from_counts_per_mm(counts_per_mm, self.encoder)
+        travel = target / self.encoder.ticks_per_rev * 2 * math.pi * self.drive.wheel_radius
+        duration = check_duration(
+            f"a line of {target} counts ({distance:g} m at {counts_per_mm:g} counts/mm) at "
+            f"{speed:g} m/s", travel / speed)
+        motor, count_sign = counting_motor(self.config, forwards)
+        self.update_odometry()
+
+        def read() -> int:
+            return int(self.bus.read(motor.id, "present_position", raw=True))
+
+        p = read()
+        i = reads = equal = wraps = 0
+        if target > 0:
+            with self.stopping():
+                self.set_wheel_speeds(wheel, wheel)
+                timeout = 10 * duration + 5
+                end = self.clock.now() + timeout
+                next_odometry = self.clock.now() + LOOP_PERIOD
+                while i < target:
+                    q = read()
+                    reads += 1
+                    equal += q == p
+                    wraps += (q - p) * count_sign < 0
+                    i += (a2_increment_as_printed(p, q) if as_printed
+                          else count_sign * a2_increment(p, q, self.encoder))
+                    p = q
+                    if self.clock.now() >= next_odometry:
+                        pose = self.update_odometry()
+                        if self.on_update is not None:
+                            self.on_update(pose)
+                        next_odometry += LOOP_PERIOD
+                    if self.clock.now() > end:
+                        raise RobotError(f"the line did not count {target} counts within "
+                                         f"{timeout:g} s (counted {i}): is a wheel blocked?")
+                    self.clock.sleep(A2_PAUSE)
+        self.update_odometry()
+        return CountedLine(motor.id, counts_per_mm, target, i, reads, equal, wraps,
+                           as_printed, implied, read())
 
     def truth(self) -> dict[str, float]:
         """The floor's ground truth (emulated bases only)."""

@@ -26,7 +26,6 @@ from typing import Any
 
 from ...kinematics.diffdrive import wheel_speeds
 from ...middleware.context import Context
-from ...middleware.messages import time_of
 from ...middleware.node import Node
 from ..bus_owner import BusOwner
 from ..errors import RobotValueError
@@ -134,7 +133,7 @@ class BaseNode(Node):
             v = -v
         omega = (theta - ptheta) / dt if dt > 0 else 0.0
         self._previous = (x, y, theta, now)
-        stamp = time_of(now)
+        stamp = self.stamp(now)  # the cycle's start, in ROS time
         quaternion = {"z": math.sin(theta / 2), "w": math.cos(theta / 2)}
         self.odom.publish(self.message(
             ODOMETRY, header={"stamp": stamp, "frame_id": ODOM_FRAME},

@@ -10,10 +10,19 @@ another base's configuration, or a real base on ``port``). Afterwards the run fo
 - ``summary.json``: the raw wheel commands sent (what each motor's register was given) and the
   path's measured figures (a line's truth length, a circle's truth radius, how far the path
   ended from where it started, odometry's final error against truth).
+
+A line may be seed 000 A.2's (final.m): at a speed percentage (``percent``, final.m's unit,
+turned into m/s by :func:`~.mobile_base.percent_speed`) and stopped by counting encoder counts
+(``counts_per_mm``, final.m's 5265/575), as meant or ``as_printed``; the summary's ``counted``
+holds final.m's numbers (``h``, ``i``, the reads, the equal reads and the wraps).
+
+Every move is checked before anything is opened: one that would take longer than
+:data:`~.mobile_base.MAX_MOVE_SECONDS` is refused in one line (:func:`check_move`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import shutil
 from collections.abc import Callable
@@ -23,12 +32,26 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...harness import RunEnding, stops_deferred
+from ...kinematics.diffdrive import (
+    DiffDrive,
+    a2_target_counts,
+    circle_time,
+    line_time,
+    rotation,
+)
 from ..errors import RobotValueError
 from . import ON_STOP
 from .config import BaseConfig
 from .config import load as load_base
 from .config import resolve as resolve_base
-from .mobile_base import MobileBase, open_base
+from .mobile_base import (
+    ROTATE_WHEEL_SPEED,
+    MobileBase,
+    check_duration,
+    encoder_of,
+    open_base,
+    percent_speed,
+)
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
@@ -51,17 +74,80 @@ def prepare(move: str, base: str | Path | None = None, *, slip: float = 0.0,
     return load_base(resolve_base(base))
 
 
+def line_speed(config: BaseConfig, speed: float, percent: float | None) -> float:
+    """A line's speed (m/s): ``speed``, or final.m's speed ``percent`` converted at the edge
+    (:func:`~.mobile_base.percent_speed`)."""
+    return speed if percent is None else percent_speed(config, percent)
+
+
+def planned_duration(config: BaseConfig, move: str, *, distance: float = 1.0,
+                     speed: float = 0.1, radius: float = 0.5, turns: float = 1.0,
+                     angle_deg: float = 90.0, counts_per_mm: float | None = None) -> float:
+    """How long the move should take (s) on ``config``'s base: a line its distance at its
+    speed (a counted line the distance its counts roll on this base's wheels), a circle its
+    turns (Figure A3's ``t``), an eight two laps, a rotation at
+    :data:`~.mobile_base.ROTATE_WHEEL_SPEED`; 0 for rpm and stop. Bad values are
+    ValueErrors naming them."""
+    drive = DiffDrive(config.wheel_radius, config.wheel_separation)
+    if move == "line":
+        if counts_per_mm is not None:
+            counts = a2_target_counts(distance, counts_per_mm)
+            turned = counts / encoder_of(config.model).ticks_per_rev
+            distance = turned * 2 * math.pi * config.wheel_radius
+        return line_time(distance, speed)
+    if move == "circle":
+        return circle_time(radius, speed, turns)
+    if move == "eight":
+        return 2 * circle_time(radius, speed)
+    if move == "rotate":
+        if not math.isfinite(angle_deg):
+            raise RobotValueError(f"angle must be a finite number of degrees, not {angle_deg!r}")
+        return rotation(math.radians(angle_deg), ROTATE_WHEEL_SPEED, drive).duration
+    return 0.0
+
+
+def check_move(config: BaseConfig, move: str, *, distance: float = 1.0, speed: float = 0.1,
+               percent: float | None = None, radius: float = 0.5, turns: float = 1.0,
+               angle_deg: float = 90.0, counts_per_mm: float | None = None) -> float:
+    """The move's planned duration (s), checked before a run folder is made or a port opened:
+    one that would take longer than :data:`~.mobile_base.MAX_MOVE_SECONDS` is refused in one
+    line naming the option's value (``drive rotate --angle 1e9`` would plan two years)."""
+    if move == "line":
+        speed = line_speed(config, speed, percent)
+    seconds = planned_duration(config, move, distance=distance, speed=speed, radius=radius,
+                               turns=turns, angle_deg=angle_deg, counts_per_mm=counts_per_mm)
+    pace = (f"--percent {percent:g} ({speed:.3g} m/s)" if percent is not None
+            else f"--speed {speed:g}")
+    what = {"line": f"drive line --distance {distance:g} {pace}"
+                    + (f" --counts-per-mm {counts_per_mm:g}" if counts_per_mm else ""),
+            "circle": f"drive circle --radius {radius:g} --turns {turns:g} {pace}",
+            "eight": f"drive eight --radius {radius:g} {pace}",
+            "rotate": f"drive rotate --angle {angle_deg:g} (degrees; the wheels at "
+                      f"{ROTATE_WHEEL_SPEED:g} rad/s)"}.get(move, move)
+    return check_duration(what, seconds)
+
+
 def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed: float = 0.1,
               radius: float = 0.5, clockwise: bool = False, turns: float = 1.0,
               angle_deg: float = 90.0, base: str | Path | BaseConfig | None = None,
               port: str | None = None, say: Say = print, show_progress: bool = True,
               slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
-              real_time: bool = False) -> dict[str, Any]:
+              real_time: bool = False, percent: float | None = None,
+              counts_per_mm: float | None = None, as_printed: bool = False
+              ) -> dict[str, Any]:
     """Run one move (see the module docstring); returns the summary. An emulated base runs
     in simulated time, as fast as the computer allows, unless ``real_time``. ``base`` is a
-    shipped base's name, a file, or what :func:`prepare` loaded."""
+    shipped base's name, a file, or what :func:`prepare` loaded. ``percent``,
+    ``counts_per_mm`` and ``as_printed`` make a line final.m's (seed 000 A.2)."""
     config = base if isinstance(base, BaseConfig) else prepare(
         move, base, slip=slip, slip_jitter=slip_jitter, encoder_noise=encoder_noise)
+    if as_printed and counts_per_mm is None:
+        raise RobotValueError("counting as final.m is printed needs its counts per mm "
+                              "(--counts-per-mm 5265/575)")
+    check_move(config, move, distance=distance, speed=speed, percent=percent, radius=radius,
+               turns=turns, angle_deg=angle_deg, counts_per_mm=counts_per_mm)
+    if move == "line":
+        speed = line_speed(config, speed, percent)
     robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter,
                       encoder_noise=encoder_noise)
     simulation = robot.clock if robot.floor is not None and real_time else None
@@ -84,7 +170,8 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
         else:
             _move(robot, move, summary, where, say, show_progress, distance=distance,
                   speed=speed, radius=radius, clockwise=clockwise, turns=turns,
-                  angle_deg=angle_deg)
+                  angle_deg=angle_deg, percent=percent, counts_per_mm=counts_per_mm,
+                  as_printed=as_printed)
     except BaseException as error:  # a stop signal or an error: the wheels stop below
         interrupted = error
     ending = RunEnding(interrupted)
@@ -115,14 +202,28 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
 
 def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say: Say,
           show_progress: bool, *, distance: float, speed: float, radius: float,
-          clockwise: bool, turns: float, angle_deg: float) -> None:
+          clockwise: bool, turns: float, angle_deg: float, percent: float | None = None,
+          counts_per_mm: float | None = None, as_printed: bool = False) -> None:
     """One of the moves that drive the wheels, with a progress bar."""
     say(f"{move} on {where}")
-    expected = _expected_duration(move, distance, speed, radius, turns, angle_deg, robot)
+    expected = planned_duration(robot.config, move, distance=distance, speed=speed,
+                                radius=radius, turns=turns, angle_deg=angle_deg,
+                                counts_per_mm=counts_per_mm)
     bar = _progress(expected, robot, show_progress, say)
     try:
-        if move == "line":
-            summary["asked"] = {"distance_m": distance, "speed_m_s": speed}
+        if move == "line" and counts_per_mm is not None:
+            summary["asked"] = {"distance_m": distance, "speed_m_s": speed,
+                                "speed_percent": percent, "counts_per_mm": counts_per_mm,
+                                "as_printed": as_printed}
+            _say_radius(robot, distance, counts_per_mm, say)
+            counted = robot.count_line(distance, speed, counts_per_mm, as_printed=as_printed)
+            summary["counted"] = dataclasses.asdict(counted)
+            say(f"final.m's count on motor {counted.motor}: i = {counted.counted} of "
+                f"h = {counted.target} in {counted.reads} reads ({counted.equal_reads} equal "
+                f"to the one before, {counted.wraps} wraps)")
+        elif move == "line":
+            summary["asked"] = {"distance_m": distance, "speed_m_s": speed,
+                                "speed_percent": percent}
             robot.line(distance, speed)
         elif move == "circle":
             summary["asked"] = {"radius_m": radius, "speed_m_s": speed, "turns": turns,
@@ -139,16 +240,18 @@ def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say
         bar.close()
 
 
-def _expected_duration(move: str, distance: float, speed: float, radius: float, turns: float,
-                       angle_deg: float, robot: MobileBase) -> float:
-    """How long the move should take (s), for the progress bar."""
-    if move == "line":
-        return abs(distance) / speed if speed > 0 else 0.0
-    if move in ("circle", "eight"):
-        laps = turns if move == "circle" else 2.0
-        return 2 * math.pi * radius * laps / speed if speed > 0 else 0.0
-    drive = robot.drive
-    return abs(math.radians(angle_deg)) * drive.wheel_separation / (2 * drive.wheel_radius)
+def _say_radius(robot: MobileBase, distance: float, counts_per_mm: float, say: Say) -> None:
+    """Warn when the counts per mm do not fit the base's wheels: the line then ends short or
+    long in proportion (final.m's 5265/575 on the two-wheel robot's 5.2 cm wheels: 509 mm of
+    1 000)."""
+    from ...kinematics.diffdrive import radius_from_counts_per_mm
+
+    implied = radius_from_counts_per_mm(counts_per_mm, robot.encoder)
+    radius = robot.config.wheel_radius
+    if abs(implied / radius - 1) > 0.01:
+        say(f"note: {counts_per_mm:g} counts/mm implies a {implied:.4f} m wheel, and the "
+            f"{robot.config.name} base's is {radius:g} m: the line will be about "
+            f"{abs(distance) * radius / implied:.3f} m, not {abs(distance):g} m")
 
 
 def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:

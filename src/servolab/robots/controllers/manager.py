@@ -37,7 +37,6 @@ allows instead; at 1 Mbps with return delay 0 the same reads take about 7 ms.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
@@ -286,10 +285,10 @@ class DynamixelManager(Node):
     # -- the update ------------------------------------------------------------------------
 
     def _now(self) -> float:
-        """Stamps as ROS has them: the simulation's time on a simulated robot, else the
-        epoch."""
-        clock = self.context.clock
-        return clock.now() if clock.virtual else time.time()
+        """Stamps as ROS has them (:meth:`Context.ros_time`): the simulation's time on a
+        simulated robot, else the epoch's, from the one source every node of the context
+        stamps with."""
+        return self.context.ros_time()
 
     def _read(self, motor_id: int) -> None:
         """One step of the sweep: one READ of ``motor_id``'s state, retried up to

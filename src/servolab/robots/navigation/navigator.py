@@ -1,25 +1,44 @@
-"""The navigator: seed 000's planning loop as one node, doing move_base's job for one goal.
+"""The navigator: seed 000's planning loop as one node, doing move_base's job.
 
 In: ``/map`` (``nav_msgs/msg/OccupancyGrid``, the overhead camera's), the robot's pose on
 ``pose_topic`` (``geometry_msgs/msg/PoseStamped`` in the map frame, ``/fused_pose`` by default:
-odometry and camera fused) and ``/odom`` for the robot's current velocity. Out: ``/cmd_vel``
-(``geometry_msgs/msg/Twist``) every controller period and ``/plan`` (``nav_msgs/msg/Path``)
-whenever the plan changes.
+odometry and camera fused), ``/odom`` for the robot's current velocity, and goals
+(``geometry_msgs/msg/PoseStamped`` in the map frame) on ``/goal_pose`` (nav2's) and
+``/move_base_simple/goal`` (move_base's), besides the one it may be built with. A new goal
+replaces the one being driven to, as move_base preempts. Out: ``/cmd_vel``
+(``geometry_msgs/msg/Twist``) every controller period, ``/plan`` (``nav_msgs/msg/Path``)
+whenever the plan changes, the goal's status as nav2's NavigateToPose action server publishes
+it (``action_msgs/msg/GoalStatusArray`` on ``/navigate_to_pose/_action/status``) and its
+feedback (``nav2_msgs/action/NavigateToPose_FeedbackMessage`` on
+``/navigate_to_pose/_action/feedback``: pose, time, recoveries, distance left).
 
 Each map is inflated as costmap_2d does (:func:`~servolab.planning.costmap.inflate`, the D.2
-parameters) and turned into navfn's traversal costs. The first map and pose start D* Lite
-(:class:`~servolab.planning.dstar_lite.DStarLite`) from the robot's cell to the goal's; later
-maps change only the cells that differ (``update_cells``), and the robot's new cell moves the
-planner's start (``move_to``), so each plan is a repair, not a new search. Each controller
-cycle (``controller_frequency``, move_base's) hands the plan to DWA
+parameters) and turned into navfn's traversal costs. The first map and pose after a goal start
+D* Lite (:class:`~servolab.planning.dstar_lite.DStarLite`) from the robot's cell to the goal's;
+later maps change only the cells that differ (``update_cells``), and the robot's new cell
+moves the planner's start (``move_to``), so each plan is a repair, not a new search. Each
+controller cycle (``controller_frequency``, move_base's) hands the plan to DWA
 (:func:`~servolab.planning.dwa.compute_velocity`, the D.3 parameters), which also stops the
-robot and turns it to the goal's heading within the goal tolerances. DWA's oscillation flags
-are kept here and cleared every ``1 / planner_frequency`` s, when move_base would hand DWA a
-new global plan (``DWAPlanner::setPlan`` clears them; 0: only at the start).
+robot and turns it to the goal's heading within the goal tolerances, latched as
+base_local_planner's ``LatchedStopRotateController`` latches. DWA's oscillation flags and the
+latches are kept here and cleared every ``1 / planner_frequency`` s, when move_base would hand
+DWA a new global plan (``DWAPlanner::setPlan``; 0: only at the start).
 
-It gives up (``ABORTED``, the wheels stopped, the reason in :attr:`NavigatorNode.reason`) as
-move_base does: the goal outside the map or inside an obstacle as soon as the first map shows
-it, no plan for ``planner_patience`` s, no valid trajectory for ``controller_patience`` s. While
+**Before driving**, from the first map and pose, a goal is refused (``ABORTED`` with
+:attr:`NavigatorNode.refused` set, the wheels never commanded) when it is outside the map, in
+an obstacle or within the robot's inscribed radius of one, when the robot itself stands there,
+when the first map shows no path to it (an enclosed goal), or when a goal in the inflated band
+of an obstacle is one DWA would not settle on (:func:`~servolab.planning.approach.dry_run`, the
+reason and the cost it has in the message). A goal in the band that DWA reaches is driven to
+with a warning giving its cost. A goal whose map or robot pose does not come within
+``start_timeout`` s is refused too: the camera does not see the robot.
+
+**While driving**, move_base's troubles -- no plan for ``planner_patience`` s, no valid
+trajectory for ``controller_patience`` s, no progress of ``oscillation_distance`` m in
+``oscillation_timeout`` s -- start its recovery behaviours in turn
+(:mod:`~servolab.robots.navigation.recovery`, each logged and kept in
+:attr:`NavigatorNode.recoveries`), and the goal is given up only when they have all run. A
+behaviour's trouble ends (and the list starts again from the first) as in move_base. While
 the robot's own cell is within the inscribed radius of an obstacle (the controller cut a
 corner), the plan keeps starting from the last cell it could stand in, as navfn clears the
 robot's cell. A pose older than ``pose_timeout`` (the camera lost the robot) stops the wheels
@@ -31,7 +50,8 @@ from __future__ import annotations
 import enum
 import math
 import time
-from collections.abc import Mapping
+import uuid
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,25 +61,48 @@ import numpy.typing as npt
 from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
+from ...planning.approach import dry_run
 from ...planning.costmap import inflate, traversal_costs
 from ...planning.dstar_lite import DStarLite
-from ...planning.dwa import DwaConfig, DwaStatus, OscillationFlags, compute_velocity
+from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, compute_velocity
 from ...planning.errors import NoPath
 from ..errors import RobotValueError
-from .params import CostmapParams
+from .params import CLEAR_COSTMAP_RECOVERY, CostmapParams, RecoveryBehavior
+from .recovery import RotateRecovery, can_rotate_in_place
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
 
 POSE = "geometry_msgs/msg/PoseStamped"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TWIST = "geometry_msgs/msg/Twist"
 PATH = "nav_msgs/msg/Path"
+GOAL_STATUS_ARRAY = "action_msgs/msg/GoalStatusArray"
+FEEDBACK = "nav2_msgs/action/NavigateToPose_FeedbackMessage"
+#: nav2_msgs' NavigateToPose feedback (nav2 Jazzy, nav2_msgs/action/NavigateToPose.action), as
+#: rosidl makes an action's feedback message: the goal's UUID and the feedback
+NAV2_MSGS = {
+    "nav2_msgs/action/NavigateToPose_Feedback": (
+        "geometry_msgs/PoseStamped current_pose\n"
+        "builtin_interfaces/Duration navigation_time\n"
+        "builtin_interfaces/Duration estimated_time_remaining\n"
+        "int16 number_of_recoveries\n"
+        "float32 distance_remaining\n"),
+    FEEDBACK: ("unique_identifier_msgs/UUID goal_id\n"
+               "nav2_msgs/action/NavigateToPose_Feedback feedback\n"),
+}
+#: the topics nav2's NavigateToPose action server publishes on
+STATUS_TOPIC = "/navigate_to_pose/_action/status"
+FEEDBACK_TOPIC = "/navigate_to_pose/_action/feedback"
+#: action_msgs/msg/GoalStatus codes
+STATUS_EXECUTING, STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 2, 4, 5, 6
+#: how many goals the status array lists, the newest last
+KEPT_GOALS = 10
 FloatArray = npt.NDArray[np.float64]
 
 
 class NavigationStatus(enum.Enum):
     """Where the goal stands, as move_base's action reports it."""
 
-    WAITING = "waiting for a map and a pose"
+    WAITING = "waiting for a goal, a map and a pose"
     ACTIVE = "driving"
     SUCCEEDED = "goal reached"
     ABORTED = "aborted"
@@ -79,8 +122,7 @@ class Repair:
 class Patience:
     """move_base's patience: ``planner`` s without a plan, ``controller`` s without a valid
     command, or ``oscillation_timeout`` s (0: never) without moving ``oscillation_distance``
-    m, before the goal is given up (move_base would first try its recovery behaviours;
-    turtlebot's configuration has none)."""
+    m, before the next recovery behaviour runs (and the goal is given up after the last)."""
 
     planner: float = 5.0
     controller: float = 15.0
@@ -88,43 +130,77 @@ class Patience:
     oscillation_distance: float = 0.5
 
 
+@dataclass(frozen=True)
+class Recovery:
+    """One recovery behaviour that ran: when (s), which, and why (move_base's trigger)."""
+
+    t: float
+    name: str
+    type: str
+    trigger: str
+
+
+#: move_base's recovery triggers, and what it says when every behaviour has run in vain
+_GIVEN_UP = {"planning": "no plan to the goal", "controlling": "no valid trajectory",
+             "oscillation": "oscillating"}
+
+
 class NavigatorNode(Node):
     """See the module docstring. ``goal`` is ``(x, y)`` in the map frame (m), ``goal_yaw``
-    the heading to end with (rad; None: any)."""
+    the heading to end with (rad; None: any); without a goal the node waits for one on its
+    goal topics. ``recovery``: the behaviours to run, in order (``MoveBaseParams.behaviors``;
+    none: give up at once, as before move_base had them). ``footprint``: the robot's polygon
+    in its own frame (m) for the local planner, None for a round robot."""
 
-    def __init__(self, context: Context, goal: tuple[float, float], *,
+    def __init__(self, context: Context, goal: tuple[float, float] | None = None, *,
                  costmap: CostmapParams, dwa: DwaConfig, goal_yaw: float | None = None,
-                 patience: Patience = Patience(), planner_frequency: float = 0.0,
-                 pose_timeout: float = 0.5, pose_topic: str = "/fused_pose",
+                 patience: Patience = Patience(),
+                 recovery: Sequence[RecoveryBehavior] = (),
+                 planner_frequency: float = 0.0, pose_timeout: float = 0.5,
+                 start_timeout: float | None = None, pose_topic: str = "/fused_pose",
                  name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
-        gx, gy = (float(v) for v in goal)
-        if not (math.isfinite(gx) and math.isfinite(gy)) or (
-                goal_yaw is not None and not math.isfinite(goal_yaw)):
-            raise RobotValueError(f"goal ({gx!r}, {gy!r}, yaw {goal_yaw!r}) must be finite numbers")
-        self.goal = (gx, gy)
-        self.goal_yaw = goal_yaw
         self.params, self.dwa, self.patience = costmap, dwa, patience
+        #: the polygon DWA checks each trajectory pose with (base_local_planner's
+        #: footprintCost); a round robot (robot_radius) has its centre cell checked instead,
+        #: which the inflation's inscribed band already makes exact
+        self.footprint = None if costmap.footprint is None else \
+            np.asarray(costmap.footprint_polygon, dtype=np.float64)
+        self.behaviors = tuple(recovery)
         if not (math.isfinite(planner_frequency) and planner_frequency >= 0):
             raise RobotValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
         self.planner_frequency = planner_frequency
         if not (math.isfinite(pose_timeout) and pose_timeout > 0):
             raise RobotValueError(f"pose_timeout {pose_timeout!r} must be > 0 s")
         self.pose_timeout = pose_timeout
+        self.start_timeout = patience.controller if start_timeout is None else start_timeout
+        if not (math.isfinite(self.start_timeout) and self.start_timeout > 0):
+            raise RobotValueError(f"start_timeout {start_timeout!r} must be > 0 s")
+        context.types.register_msgs(NAV2_MSGS)
+        #: goal id -> (accepted at, status code), oldest first
+        self._statuses: dict[bytes, tuple[dict[str, int], int]] = {}
         self._pose_at = -math.inf
         self._stale_since: float | None = None
         #: controller cycles skipped, the wheels stopped, because the pose was too old
         self.stale_cycles = 0
         #: DWA's oscillation critic; cleared whenever move_base would hand over a new plan
         self.oscillation = OscillationFlags()
-        self._handed_over: float | None = None
+        #: LatchedStopRotateController's latches; cleared with the oscillation flags
+        self.latch = GoalLatch()
+        self.goal: tuple[float, float] | None = None
+        self.goal_yaw: float | None = None
         self.status = NavigationStatus.WAITING
         self.reason = ""
+        #: the goal was refused before the wheels were ever commanded
+        self.refused = False
+        #: warnings about the goal given before driving (a goal in the inflated band)
+        self.warnings: list[str] = []
         self.pose: tuple[float, float, float] | None = None
         self.velocity = (0.0, 0.0)
+        self.occupied: npt.NDArray[np.bool_] | None = None
         self.costmap: npt.NDArray[np.uint8] | None = None
         self.costs: FloatArray | None = None
         self.resolution = 0.0
@@ -133,24 +209,83 @@ class NavigatorNode(Node):
         #: every plan (t, (N, 2) map points), the first and each one that differed
         self.plans: list[tuple[float, FloatArray]] = []
         self.repairs: list[Repair] = []
+        #: every recovery behaviour that ran
+        self.recoveries: list[Recovery] = []
         #: (t, x, y, yaw, v, omega, DWA status) of every controller cycle that drove
         self.cycles: list[tuple[float, float, float, float, float, float, str]] = []
         self._pending_change = 0
         self._pending_seconds = 0.0
-        self._stuck_since: float | None = None
-        self._no_plan_since: float | None = None
-        #: (t, x, y) where the robot last had moved oscillation_distance
-        self._moved: tuple[float, float, float] | None = None
+        self._reset_goal_state(self.now())
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.plan_publisher = self.create_publisher(PATH, "/plan", LATCHED)
+        self.status_publisher = self.create_publisher(GOAL_STATUS_ARRAY, STATUS_TOPIC, LATCHED)
+        self.feedback_publisher = self.create_publisher(FEEDBACK, FEEDBACK_TOPIC, 10)
         self.create_subscription(OCCUPANCY_GRID, "/map", self._on_map, LATCHED)
         self.create_subscription(POSE, pose_topic, self._on_pose, 10)
         self.create_subscription(ODOMETRY, "/odom", self._on_odom, 10)
+        self.create_subscription(POSE, "/goal_pose", self._on_goal, 10)
+        self.create_subscription(POSE, "/move_base_simple/goal", self._on_goal, 10)
         self.timer = self.create_timer(1.0 / dwa.controller_frequency, self._cycle)
+        if goal is not None:
+            self.set_goal(*goal, goal_yaw)
 
     @property
     def done(self) -> bool:
         return self.status in (NavigationStatus.SUCCEEDED, NavigationStatus.ABORTED)
+
+    # -- goals ---------------------------------------------------------------------------------
+
+    def _reset_goal_state(self, now: float) -> None:
+        self.planner = None
+        self.oscillation.reset()
+        self.latch.reset()
+        self._handed_over: float | None = None
+        self._stuck_since: float | None = None
+        self._no_plan_since: float | None = None
+        #: (t, x, y) where the robot last had moved oscillation_distance
+        self._moved: tuple[float, float, float] | None = None
+        self._goal_at = now
+        self._driven = False
+        self._recovery_index = 0
+        self._trigger = ""
+        self._rotation: RotateRecovery | None = None
+
+    def set_goal(self, x: float, y: float, yaw: float | None = None) -> None:
+        """Drive to ``(x, y)`` (map frame, m), ending at ``yaw`` (rad; None: any), replacing
+        the goal being driven to."""
+        gx, gy = float(x), float(y)
+        if not (math.isfinite(gx) and math.isfinite(gy)) or (
+                yaw is not None and not math.isfinite(yaw)):
+            raise RobotValueError(f"goal ({gx!r}, {gy!r}, yaw {yaw!r}) must be finite numbers")
+        if self.goal is not None and not self.done:
+            self._publish_status(STATUS_CANCELED)
+            self.get_logger().info("goal preempted by a new one")
+            self._stop()
+        self.goal, self.goal_yaw = (gx, gy), yaw
+        self.status, self.reason, self.refused = NavigationStatus.WAITING, "", False
+        self.warnings = []
+        self._goal_id = uuid.uuid5(uuid.NAMESPACE_OID, f"{self.fully_qualified_name}/"
+                                   f"{gx!r}/{gy!r}/{yaw!r}/{self.now()!r}").bytes
+        self._goal_stamp = self.stamp()
+        self._reset_goal_state(self.now())
+        self._publish_status(STATUS_EXECUTING)
+
+    def _on_goal(self, msg: Any) -> None:
+        frame = str(msg.header.frame_id)
+        if frame not in ("", MAP_FRAME):
+            self.get_logger().error(f"goal refused: frame {frame!r}; goals are in the "
+                                    f"{MAP_FRAME!r} frame")
+            return
+        p, q = msg.pose.position, msg.pose.orientation
+        norm = math.hypot(float(q.x), float(q.y), float(q.z), float(q.w))
+        yaw = None if norm == 0.0 else 2.0 * math.atan2(float(q.z), float(q.w))
+        try:
+            self.set_goal(float(p.x), float(p.y), yaw)
+        except RobotValueError as error:
+            self.get_logger().error(f"goal refused: {error}")
+            return
+        self.get_logger().info(f"new goal ({float(p.x):g}, {float(p.y):g}"
+                               + ("" if yaw is None else f", {math.degrees(yaw):.0f}°") + ")")
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -160,22 +295,27 @@ class NavigatorNode(Node):
         except RobotValueError as error:
             self.get_logger().error(str(error))
             return
+        if self.costs is not None and self.planner is not None and (
+                occupied.shape != self.costs.shape or resolution != self.resolution
+                or origin != self.origin):
+            self._abort("the map changed its size or frame mid-run")
+            return
+        self._take_map(occupied, resolution, origin)
+
+    def _take_map(self, occupied: npt.NDArray[np.bool_], resolution: float,
+                  origin: tuple[float, float]) -> None:
         p = self.params
         costmap = inflate(occupied, resolution, p.inflation_radius, p.cost_scaling_factor,
                           p.inscribed_radius)
         costs = traversal_costs(costmap)
         if self.costs is not None and self.planner is not None:
-            if costs.shape != self.costs.shape or resolution != self.resolution \
-                    or origin != self.origin:
-                self._abort("the map changed its size or frame mid-run")
-                return
             changed = np.argwhere(costs != self.costs)
             if len(changed):
                 started = time.perf_counter()
                 self.planner.update_cells(changed, costs[changed[:, 0], changed[:, 1]])
                 self._pending_seconds += time.perf_counter() - started
                 self._pending_change += len(changed)
-        self.costmap, self.costs = costmap, costs
+        self.occupied, self.costmap, self.costs = occupied, costmap, costs
         self.resolution, self.origin = resolution, origin
 
     def _on_pose(self, msg: Any) -> None:
@@ -192,7 +332,7 @@ class NavigatorNode(Node):
         if math.isfinite(v) and math.isfinite(omega):
             self.velocity = (v, omega)
 
-    # -- the loop ------------------------------------------------------------------------------
+    # -- where things are ----------------------------------------------------------------------
 
     def cell_of(self, x: float, y: float) -> tuple[int, int] | None:
         """The ``(row, col)`` of a map point, None outside the map."""
@@ -208,16 +348,60 @@ class NavigatorNode(Node):
         return np.asarray(np.asarray(self.origin) + (cells[:, ::-1] + 0.5) * self.resolution,
                           dtype=np.float64)
 
+    def obstacle_distance(self, cell: tuple[int, int]) -> float:
+        """The distance (m) from a cell's centre to the nearest occupied cell's centre."""
+        assert self.occupied is not None
+        occupied = np.argwhere(self.occupied)
+        if not len(occupied):
+            return math.inf
+        return float(np.min(np.hypot(*(occupied - np.asarray(cell)).T)) * self.resolution)
+
+    # -- endings -------------------------------------------------------------------------------
+
     def _stop(self) -> None:
         self.cmd_vel.publish(self.message(TWIST))
 
     def _abort(self, reason: str) -> None:
         self.status, self.reason = NavigationStatus.ABORTED, reason
-        self.get_logger().error(f"goal aborted: {reason}")
+        self.refused = not self._driven
+        self.get_logger().error(("goal refused before driving: " if self.refused
+                                 else "goal aborted: ") + reason)
         self._stop()
+        self._publish_status(STATUS_ABORTED)
 
-    def _start_planner(self, start: tuple[int, int]) -> bool:
-        assert self.costs is not None and self.costmap is not None
+    def _succeed(self) -> None:
+        self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
+        self._stop()
+        self._publish_status(STATUS_SUCCEEDED)
+
+    def _publish_status(self, code: int) -> None:
+        """The status of this goal and of the last :data:`KEPT_GOALS` before it, as an action
+        server's status array lists the goals it still knows."""
+        self._statuses[self._goal_id] = (self._goal_stamp, code)
+        while len(self._statuses) > KEPT_GOALS:
+            del self._statuses[next(iter(self._statuses))]
+        self.status_publisher.publish(self.message(GOAL_STATUS_ARRAY, status_list=[{
+            "goal_info": {"goal_id": {"uuid": np.frombuffer(goal_id, dtype=np.uint8)},
+                          "stamp": stamp}, "status": status}
+            for goal_id, (stamp, status) in self._statuses.items()]))
+
+    def _publish_feedback(self, now: float, x: float, y: float, yaw: float) -> None:
+        assert self.goal is not None
+        stamp = self.stamp(now)
+        elapsed = time_of(now - self._goal_at)  # a duration
+        self.feedback_publisher.publish(self.message(FEEDBACK, goal_id={
+            "uuid": np.frombuffer(self._goal_id, dtype=np.uint8)}, feedback={
+            "current_pose": {"header": {"stamp": stamp, "frame_id": MAP_FRAME}, "pose": {
+                "position": {"x": x, "y": y},
+                "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
+            "navigation_time": elapsed, "number_of_recoveries": len(self.recoveries),
+            "distance_remaining": math.hypot(self.goal[0] - x, self.goal[1] - y)}))
+
+    # -- before driving ------------------------------------------------------------------------
+
+    def _start_planner(self, start: tuple[int, int], pose: tuple[float, float, float]) -> bool:
+        """The checks of the module docstring's "before driving", then D* Lite's first plan."""
+        assert self.costs is not None and self.costmap is not None and self.goal is not None
         gx, gy = self.goal
         goal = self.cell_of(gx, gy)
         if goal is None:
@@ -229,18 +413,62 @@ class NavigatorNode(Node):
             return False
         if not math.isfinite(self.costs[goal]):
             self._abort(f"goal ({gx:g}, {gy:g}) is inside an obstacle or within the robot's "
-                        f"inscribed radius of one (costmap {int(self.costmap[goal])})")
+                        f"inscribed radius {self.params.inscribed_radius:.3g} m of one "
+                        f"(costmap {int(self.costmap[goal])})")
             return False
         if not math.isfinite(self.costs[start]):
             self._abort(f"the robot at cell {start} stands within its inscribed radius of an "
                         f"obstacle (costmap {int(self.costmap[start])}): it cannot start")
             return False
-        self.planner = DStarLite(self.costs, start, goal)
+        planner = DStarLite(self.costs, start, goal)
+        try:
+            cells = planner.path()
+        except NoPath:
+            self._abort(f"no path from the robot to goal ({gx:g}, {gy:g}) on the first map: "
+                        "obstacles enclose the goal or the robot")
+            return False
+        cost = int(self.costmap[goal])
+        if cost > 0:
+            clear = self.obstacle_distance(goal) - self.resolution / 2
+            band = (f"goal ({gx:g}, {gy:g}) lies in the inflated band of an obstacle about "
+                    f"{clear:.2f} m away: costmap cost {cost} of 252 (inflation_radius "
+                    f"{self.params.inflation_radius:g} m)")
+            plan = self.points_of(cells)
+            length = float(np.sum(np.hypot(*np.diff(plan, axis=0).T)))
+            check = dry_run(self.costmap, plan, self.dwa, resolution=self.resolution,
+                            origin=self.origin, goal_yaw=self.goal_yaw, start=pose,
+                            footprint=self.footprint,
+                            stall_time=self.patience.oscillation_timeout or 10.0,
+                            max_time=30.0 + 3.0 * length / max(self.dwa.max_vel_x, 0.01))
+            if not check.reached:
+                self._abort(
+                    f"{band}; a dry run of DWA on this map stops {check.distance:.3f} m from "
+                    f"it ({check.status}), beyond xy_goal_tolerance "
+                    f"{self.dwa.xy_goal_tolerance:g} m: occdist_scale "
+                    f"{self.dwa.occdist_scale:g} outweighs goal_distance_bias "
+                    f"{self.dwa.goal_distance_bias:g} there. Move the goal away from the "
+                    "obstacle or lower occdist_scale")
+                return False
+            self.warnings.append(band)
+            self.get_logger().warning(band + "; DWA's dry run reaches it")
+        self.planner = planner
         self.status = NavigationStatus.ACTIVE
         return True
 
+    def _waited_too_long(self, now: float) -> bool:
+        """A goal with no map or no pose of the robot for ``start_timeout`` s is refused."""
+        if now - self._goal_at < self.start_timeout:
+            return False
+        missing = "map" if self.costs is None else "pose of the robot (the camera does not " \
+            "see it)"
+        self._abort(f"no {missing} for {self.start_timeout:g} s after the goal")
+        return True
+
+    # -- move_base's troubles and recoveries ---------------------------------------------------
+
     def _plan(self, now: float) -> FloatArray | None:
-        """The plan from the robot's cell, repaired for what changed; None if there is none."""
+        """The plan from the robot's cell, repaired for what changed; None if there is none
+        (and after ``planner_patience`` the next recovery)."""
         assert self.planner is not None
         started = time.perf_counter()
         try:
@@ -249,9 +477,12 @@ class NavigatorNode(Node):
             self._no_plan_since = self._no_plan_since if self._no_plan_since is not None \
                 else now
             if now - self._no_plan_since >= self.patience.planner:
-                self._abort(f"no path to the goal for {self.patience.planner:g} s")
+                self._recover(now, "planning", f"no path to the goal for "
+                              f"{self.patience.planner:g} s")
             return None
         self._no_plan_since = None
+        if self._trigger == "planning":
+            self._recovery_index = 0
         if self._pending_change:
             self.repairs.append(Repair(now, self._pending_change, self._pending_seconds
                                        + time.perf_counter() - started))
@@ -259,7 +490,7 @@ class NavigatorNode(Node):
         plan = self.points_of(cells)
         if not self.plans or not np.array_equal(self.plans[-1][1], plan):
             self.plans.append((now, plan))
-            stamp = time_of(now)
+            stamp = self.stamp(now)
             self.plan_publisher.publish(self.message(
                 PATH, header={"stamp": stamp, "frame_id": MAP_FRAME},
                 poses=[{"header": {"stamp": stamp, "frame_id": MAP_FRAME},
@@ -268,17 +499,65 @@ class NavigatorNode(Node):
         return plan
 
     def _oscillating(self, now: float, x: float, y: float) -> bool:
-        """move_base's oscillation check; True (and aborted) when it fires."""
+        """move_base's oscillation check; True (and a recovery started) when it fires."""
         p = self.patience
         if self._moved is None or math.hypot(x - self._moved[1], y - self._moved[2]) \
                 >= p.oscillation_distance:
             self._moved = (now, x, y)
+            if self._trigger == "oscillation":
+                self._recovery_index = 0
             return False
         if p.oscillation_timeout > 0 and now - self._moved[0] >= p.oscillation_timeout:
-            self._abort(f"oscillating: moved less than {p.oscillation_distance:g} m in "
-                        f"{p.oscillation_timeout:g} s")
+            self._recover(now, "oscillation", f"moved less than {p.oscillation_distance:g} m "
+                          f"in {p.oscillation_timeout:g} s")
             return True
         return False
+
+    def _recover(self, now: float, trigger: str, why: str) -> None:
+        """move_base's CLEARING state: the next recovery behaviour, or give up."""
+        self._stop()
+        if self._recovery_index >= len(self.behaviors):
+            after = (f", even after {len(self.behaviors)} recovery behaviour(s)"
+                     if self.behaviors else "")
+            self._abort(f"{_GIVEN_UP[trigger]}: {why}{after}")
+            return
+        behavior = self.behaviors[self._recovery_index]
+        self._recovery_index += 1
+        self._trigger = trigger
+        self.recoveries.append(Recovery(now, behavior.name, behavior.type, trigger))
+        self.get_logger().warning(
+            f"recovery {self._recovery_index} of {len(self.behaviors)}: {behavior.name} "
+            f"({behavior.type}) because of {_GIVEN_UP[trigger]} ({why})")
+        assert self.pose is not None
+        x, y, yaw = self.pose
+        if behavior.type == CLEAR_COSTMAP_RECOVERY:
+            # what the clearing forgets, the camera re-marks at once (it sees the whole floor
+            # every frame): what is left of the behaviour is a search from scratch
+            self._restart_planner(x, y)
+        else:
+            cell = self.cell_of(x, y)
+            assert self.costmap is not None
+            if cell is not None and can_rotate_in_place(
+                    self.costmap, cell, (x, y), self.footprint, self.resolution, self.origin):
+                self._rotation = RotateRecovery(yaw)
+            else:
+                self.get_logger().error("rotate recovery can't rotate in place because there "
+                                        "is a potential collision")
+        # what move_base resets on leaving CLEARING: the oscillation timer only (a planner or
+        # controller still failing starts the next behaviour at once)
+        self._moved = (now, x, y)
+
+    def _restart_planner(self, x: float, y: float) -> None:
+        """A new D* Lite search from the robot's cell on the current map, its repairs'
+        history dropped (a clearing recovery)."""
+        assert self.costs is not None and self.goal is not None and self.planner is not None
+        cell = self.cell_of(x, y)
+        start = cell if cell is not None and math.isfinite(self.costs[cell]) \
+            else self.planner.start
+        goal = self.cell_of(*self.goal)
+        assert goal is not None
+        self.planner = DStarLite(self.costs, start, goal)
+        self._pending_change, self._pending_seconds = 0, 0.0
 
     def _stale(self, now: float) -> bool:
         """True (the wheels stopped) while the pose is older than ``pose_timeout``, as a ROS
@@ -295,10 +574,16 @@ class NavigatorNode(Node):
             self._stop()
         return True
 
+    # -- the loop ------------------------------------------------------------------------------
+
     def _cycle(self) -> None:
-        if self.done or self.pose is None or self.costs is None:
+        if self.done or self.goal is None:
             return
         now = self.now()
+        if self.pose is None or self.costs is None or (
+                self.planner is None and now - self._pose_at > self.pose_timeout):
+            self._waited_too_long(now)
+            return
         if self._stale(now):
             return
         x, y, yaw = self.pose
@@ -306,11 +591,20 @@ class NavigatorNode(Node):
         if cell is None:
             self._abort(f"the robot at ({x:.3f}, {y:.3f}) is outside the map")
             return
-        if self.planner is None and not self._start_planner(cell):
-            return
-        if self._oscillating(now, x, y):
+        if self.planner is None and not self._start_planner(cell, (x, y, yaw)):
             return
         assert self.planner is not None and self.costmap is not None and self.costs is not None
+        self._publish_feedback(now, x, y, yaw)
+        if self._rotation is not None:
+            rate = self._rotation.command(yaw)
+            if rate is not None:
+                self._driven = True
+                self.cmd_vel.publish(self.message(TWIST, angular={"z": rate}))
+                return
+            self._rotation = None
+            self._moved = (now, x, y)
+        if self._oscillating(now, x, y):
+            return
         if cell != self.planner.start and math.isfinite(self.costs[cell]):
             self.planner.move_to(cell)
         plan = self._plan(now)
@@ -321,22 +615,26 @@ class NavigatorNode(Node):
                 self.planner_frequency > 0
                 and now - self._handed_over >= 1.0 / self.planner_frequency - 1e-9):
             self.oscillation.reset()  # DWAPlanner::setPlan, at move_base's planner_frequency
+            self.latch.reset()
             self._handed_over = now
         result = compute_velocity((x, y, yaw), self.velocity, self.costmap, plan, self.dwa,
                                   resolution=self.resolution, origin=self.origin,
-                                  goal_yaw=self.goal_yaw, oscillation=self.oscillation)
+                                  goal_yaw=self.goal_yaw, oscillation=self.oscillation,
+                                  latch=self.latch, footprint=self.footprint)
         self.cycles.append((now, x, y, yaw, result.v, result.omega, result.status.name))
         if result.status is DwaStatus.GOAL_REACHED:
-            self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
-            self._stop()
+            self._succeed()
             return
         if result.status is DwaStatus.NO_VALID_TRAJECTORY:
             self._stuck_since = self._stuck_since if self._stuck_since is not None else now
             if now - self._stuck_since >= self.patience.controller:
-                self._abort(f"no valid trajectory for {self.patience.controller:g} s")
+                self._recover(now, "controlling", f"none for {self.patience.controller:g} s")
                 return
         else:
             self._stuck_since = None
+            if self._trigger == "controlling":
+                self._recovery_index = 0
+        self._driven = self._driven or result.v != 0.0 or result.omega != 0.0
         self.cmd_vel.publish(self.message(TWIST, linear={"x": result.v},
                                           angular={"z": result.omega}))
 

@@ -333,6 +333,13 @@ def parse_dwa(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ()) -> 
             where = m.get(low) or m.get(high) or m
             raise where.error(f"{low} {getattr(params, low):g} is above {high} "
                               f"{getattr(params, high):g}")
+    if params.max_vel_x < params.min_trans_vel:
+        where = m.get("max_vel_x") or m.get("min_trans_vel") or m
+        raise where.error(
+            f"max_vel_x {params.max_vel_x:g} is below min_trans_vel {params.min_trans_vel:g}: "
+            "dwa_local_planner drops every sample slower than min_trans_vel that does not turn "
+            "(generateTrajectory), so the robot would never drive forward; raise max_vel_x or "
+            "lower min_trans_vel")
     return params
 
 
@@ -343,6 +350,24 @@ def parse_dwa(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ()) -> 
 #: keeps its first reconfigure callback's values as defaults only (``if (!setup_) ... return``),
 #: so 15.0 is what runs.
 DEFAULT_CONTROLLER_FREQUENCY = 20.0
+
+
+@dataclass(frozen=True)
+class RecoveryBehavior:
+    """One of move_base's ``recovery_behaviors``: its ``name``, its plugin ``type`` and, for a
+    ClearCostmapRecovery, the ``reset_distance`` (m): the side of the square around the robot
+    whose cells are kept, everything outside cleared."""
+
+    name: str
+    type: str
+    reset_distance: float = 3.0
+
+
+#: the recovery plugins servolab runs (ros-planning/navigation clear_costmap_recovery,
+#: rotate_recovery)
+CLEAR_COSTMAP_RECOVERY = "clear_costmap_recovery/ClearCostmapRecovery"
+ROTATE_RECOVERY = "rotate_recovery/RotateRecovery"
+RECOVERY_TYPES = (CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY)
 
 
 @dataclass(frozen=True)
@@ -360,9 +385,32 @@ class MoveBaseParams:
     oscillation_distance: float = 0.5
     controller_patience: float = 15.0
     planner_patience: float = 5.0
+    #: move_base's recovery parameters, by its names and with its defaults
+    recovery_behavior_enabled: bool = True
+    clearing_rotation_allowed: bool = True
+    conservative_reset_dist: float = 3.0
+    #: ``recovery_behaviors`` as the file lists them; None: move_base's default four
+    recovery_behaviors: tuple[RecoveryBehavior, ...] | None = None
     path: str = field(default="", compare=False)
     ignored: tuple[str, ...] = field(default=(), compare=False)
     notes: tuple[str, ...] = field(default=(), compare=False)
+
+    def behaviors(self, circumscribed_radius: float) -> tuple[RecoveryBehavior, ...]:
+        """The recovery behaviours move_base runs, in order: the file's list, or
+        ``loadDefaultRecoveryBehaviors``'s: conservative_reset (clear the costmap beyond
+        ``conservative_reset_dist``), rotate_recovery (if ``clearing_rotation_allowed``),
+        aggressive_reset (clear beyond 4 x the circumscribed radius), rotate_recovery again.
+        None at all when ``recovery_behavior_enabled`` is false."""
+        if not self.recovery_behavior_enabled:
+            return ()
+        if self.recovery_behaviors is not None:
+            return self.recovery_behaviors
+        rotate = (RecoveryBehavior("rotate_recovery", ROTATE_RECOVERY),) \
+            if self.clearing_rotation_allowed else ()
+        return (RecoveryBehavior("conservative_reset", CLEAR_COSTMAP_RECOVERY,
+                                 self.conservative_reset_dist), *rotate,
+                RecoveryBehavior("aggressive_reset", CLEAR_COSTMAP_RECOVERY,
+                                 4.0 * circumscribed_radius), *rotate)
 
     @property
     def sim_period(self) -> float:
@@ -377,6 +425,9 @@ _MOVE_BASE_FIELDS: dict[str, _Reader] = {
     "oscillation_distance": nonnegative_float,
     "controller_patience": nonnegative_float,
     "planner_patience": nonnegative_float,
+    "recovery_behavior_enabled": lambda v: v.as_bool(),
+    "clearing_rotation_allowed": lambda v: v.as_bool(),
+    "conservative_reset_dist": nonnegative_float,
 }
 
 
@@ -394,15 +445,49 @@ def parse_move_base(top: ConfigValue, path: str = "",
     m = _top_mapping(top, "a move_base parameter file")
     values: dict[str, object] = {}
     ignored: list[str] = []
+    listed = m.get("recovery_behaviors")
+    behaviors = None if listed is None else _recovery_behaviors(m, listed)
+    named = set() if behaviors is None else {b.name for b in behaviors}
     for name, value in m.items():
         if name in _MOVE_BASE_FIELDS:
             values[name] = _MOVE_BASE_FIELDS[name](value)
-        else:
+        elif name not in named and name != "recovery_behaviors":
             ignored.append(value.key)
+    if behaviors is not None:
+        values["recovery_behaviors"] = behaviors
     _check_some_known(m, len(values) + sum(name.startswith("base_") for name in m),
                       "move_base's parameters")
     return MoveBaseParams(**values, path=path, ignored=tuple(ignored),  # type: ignore[arg-type]
                           notes=notes)
+
+
+def _recovery_behaviors(m: ConfigMapping, listed: ConfigValue) -> tuple[RecoveryBehavior, ...]:
+    """``recovery_behaviors: [{name: N, type: T}, ...]`` with each one's parameters under its
+    name (``N: {reset_distance: 3.0}``), as move_base's loadRecoveryBehaviors reads them."""
+    behaviors: list[RecoveryBehavior] = []
+    for item in listed.as_list("a list of {name, type}"):
+        entry = item.as_mapping("a recovery behaviour {name, type}")
+        entry.check_keys(("name", "type"), required=("name", "type"),
+                         what="a recovery behaviour")
+        name_value, type_value = entry.require("name"), entry.require("type")
+        name, kind = name_value.as_str(nonempty=True), type_value.as_str(nonempty=True)
+        if kind not in RECOVERY_TYPES:
+            raise type_value.error(f"recovery type {kind!r} is not one servolab runs "
+                                   f"({', '.join(RECOVERY_TYPES)})")
+        if any(b.name == name for b in behaviors):
+            raise name_value.error(f"recovery behaviour {name!r} is listed twice; move_base "
+                                   "refuses duplicate names")
+        reset_distance = 3.0
+        own = m.get(name)
+        if own is not None:
+            for key, value in own.as_mapping(f"{name}'s parameters").items():
+                if key == "reset_distance" and kind == CLEAR_COSTMAP_RECOVERY:
+                    reset_distance = nonnegative_float(value)
+                elif key != "layer_names":
+                    raise value.error(f"{name}: {key!r} is not a parameter servolab's "
+                                      f"{kind} reads (reset_distance, layer_names)")
+        behaviors.append(RecoveryBehavior(name, kind, reset_distance))
+    return tuple(behaviors)
 
 
 # -- shared ------------------------------------------------------------------------------------

@@ -6,8 +6,9 @@ The nodes, in one process, in the floor's simulated time (as fast as the compute
   draws the scene at the robot's true pose, obstacles appearing at their time;
 - the overhead tracker (:class:`~.tracker_node.OverheadTrackerNode`) turns each frame,
   through the camera's calibration, into ``/map`` and the robot's ``/tracker/pose``;
-- the fusion node (:class:`~.fusion_node.FusionNode`) fuses ``/odom`` and the tracker with
-  D.4's Kalman filter (odometry aligned to the map first) into ``/fused_pose``;
+- the localiser (:class:`~servolab.robots.base.fusion_node.FusionNode`) predicts from
+  ``/odom`` at a fixed rate and corrects with the tracker, as robot_localization's EKF does,
+  into ``/fused_pose``, ``/odometry/filtered`` (with covariance) and ``map -> odom`` on ``/tf``;
 - the navigator (:class:`~.navigator.NavigatorNode`) plans with D* Lite on the inflated map,
   repairs the plan when the map changes, and drives with DWA through ``/cmd_vel``;
 - the base node (:class:`~servolab.robots.base.node.BaseNode`) turns ``/cmd_vel`` into wheel
@@ -27,10 +28,15 @@ The scene's camera is the truth the calibration must recover; the run writes wha
 (``dwa_params.yaml``) and turtlebot's move_base (``move_base_params.yaml``, all three shipped here),
 whose ``controller_frequency`` sets DWA's period (DWAPlanner finds it by ``searchParam``).
 
-Afterwards the run folder holds ``navigate_bag/`` (MCAP: ``/odom``, ``/ground_truth``,
-``/cmd_vel``, ``/tracker/pose``, ``/fused_pose``, ``/plan``, ``/map``; the camera's frames are
-not recorded, 300 kB each), ``navigate.png`` (the map, every plan, the path driven and the
-truth) and ``summary.json``.
+The context publishes ``/clock`` in the floor's simulated time and every stamp is in that
+time, as under Gazebo with ``use_sim_time``.
+
+Afterwards the run folder holds ``navigate_bag/`` (MCAP: the topics of :data:`RECORDED`; the
+camera's frames are not recorded, 300 kB each), ``navigate.png`` (the map, every plan, the path
+driven and the truth), ``map.yaml`` + ``map.pgm`` (the last map the camera gave, as map_server's
+map_saver writes one: ``servolab plan --map`` and ROS's map_server read it) and
+``summary.json`` (with the goal refused before driving and why, warnings, the recovery
+behaviours that ran).
 """
 
 from __future__ import annotations
@@ -44,28 +50,23 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import cv2
 import numpy as np
 
-from ...estimation.kalman import Seed000Fusion
 from ...harness import RunEnding, interruption, stops_deferred
 from ...planning.dwa import DwaConfig
 from ...sim.scene import Scene
 from ...vision.calibration import (
     CameraCalibration,
     FloorExtrinsics,
-    calibrate,
-    floor_extrinsics,
     in_map,
 )
 from ...vision.calibration import load as load_calibration
 from ...vision.calibration import save as save_calibration
 from ...vision.overhead import FloorGrid
-from ...vision.synthetic import random_board_poses, render_checkerboard
 from ..base import ON_STOP as BASE_ON_STOP
 from ..base.config import load as load_base
 from ..base.mobile_base import MobileBase
-from ..errors import RobotError, RobotValueError
+from ..errors import RobotError
 from .navigator import NavigationStatus, NavigatorNode, Patience
 from .params import (
     DEFAULT_COSTMAP,
@@ -78,31 +79,24 @@ from .params import (
     load_move_base,
     load_nav_scene,
 )
+from .session import (
+    BOARD,
+    BOARD_AT,
+    MAP_MARGIN,
+    POSE_TIMEOUT_FRAMES,
+    VIEWS,
+    NavigationError,
+    calibrate_synthetic,
+    fusion_for,
+    map_grid,
+)
 
 if TYPE_CHECKING:
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
-#: the calibration board of the synthetic session: 10 x 7 squares of 80 mm (even x odd, as
-#: the seed requires), 15 views
-BOARD, SQUARE_MM, VIEWS = (10, 7), 80.0, 15
-#: the board laid on the floor for its plane: 10 x 7 squares of 150 mm, large enough for the
-#: corner detector from a camera 3 m up
-FLOOR_BOARD, FLOOR_SQUARE_MM = (10, 7), 150.0
-#: where the synthetic session's floor board lies (x m, y m, yaw rad): its first inner corner,
-#: its first row along x; face up, so its squares run towards -y, all on the floor
-BOARD_AT = (0.3, 1.4, 0.0)
-#: how far the map reaches beyond the floor on each side (m): the arena's walls are in it
-MAP_MARGIN = 0.2
-#: the navigator stops the wheels when the pose is older than this many camera frames
-POSE_TIMEOUT_FRAMES = 2.5
 RECORDED = ("/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose", "/plan",
-            "/map")
-
-
-class NavigationError(RobotValueError):
-    """A navigation that cannot start (a goal in an obstacle, a file that does not fit); the
-    message says why. Raised before anything moves."""
+            "/map", "/odometry/filtered", "/tf", "/clock", "/navigate_to_pose/_action/status")
 
 
 class GoalNotReached(RobotError):
@@ -112,50 +106,6 @@ class GoalNotReached(RobotError):
     def __init__(self, message: str, summary: dict[str, Any] | None = None) -> None:
         super().__init__(message)
         self.summary = summary
-
-
-def fusion_for(scene: Scene) -> Seed000Fusion:
-    """D.4's filter with noise in metres for this scene, since D.4's numbers are in the seed's
-    own units: the robot may move ``max_speed / rate`` between two frames (process), the
-    tracker sees it within about a pixel's footprint on the floor, odometry within 2 cm over
-    a short run. One sample is one camera frame."""
-    camera = scene.camera
-    pixel = scene.camera.position[2] / max(camera.fx, camera.fy)  # m per pixel below it
-    step = 0.15 / camera.rate
-    return Seed000Fusion(process_variance=(step**2, step**2),
-                         odometry_variance=(0.02**2, 0.02**2),
-                         tracker_variance=(pixel**2, pixel**2),
-                         initial_variance=pixel**2, sample_period=1.0 / camera.rate)
-
-
-def calibrate_synthetic(scene: Scene, rng: np.random.Generator
-                        ) -> tuple[CameraCalibration, FloorExtrinsics]:
-    """Calibrate the scene's camera from synthetic board images, and find the floor plane
-    from one image of the board lying at the floor's origin (see the module docstring)."""
-    camera = scene.camera.pinhole()
-    poses = random_board_poses(camera, BOARD, SQUARE_MM, VIEWS, rng)
-    images = [render_checkerboard(camera, BOARD, SQUARE_MM, r, t, noise_std=1.0, rng=rng)
-              for r, t in poses]
-    calib = calibrate(images, BOARD, SQUARE_MM, camera_name="overhead_camera")
-    # the board's pose in the camera: the floor's (map frame, z up) composed with the board's
-    # place on it (x along the map's x, y along its -y, z into the floor)
-    rvec, tvec = scene.camera.floor_pose()
-    floor_rotation, _ = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64))
-    axes = np.diag([1.0, -1.0, -1.0])
-    corner = np.array([BOARD_AT[0] * 1000.0, BOARD_AT[1] * 1000.0, 0.0])
-
-    board_rvec, _ = cv2.Rodrigues(np.asarray(floor_rotation) @ axes)
-    board_tvec = np.asarray(floor_rotation) @ corner + np.asarray(tvec, dtype=np.float64)
-    floor = render_checkerboard(camera, FLOOR_BOARD, FLOOR_SQUARE_MM, board_rvec, board_tvec,
-                                noise_std=1.0, rng=rng, background=200)
-    return calib, floor_extrinsics(calib, floor, FLOOR_BOARD, FLOOR_SQUARE_MM,
-                                   name="floor board image")
-
-
-def map_grid(scene: Scene, resolution: float) -> FloorGrid:
-    """The map's cells: the floor and :data:`MAP_MARGIN` around it."""
-    return FloorGrid(scene.width + 2 * MAP_MARGIN, scene.depth + 2 * MAP_MARGIN, resolution,
-                     origin=(-MAP_MARGIN, -MAP_MARGIN))
 
 
 @dataclass(frozen=True)
@@ -243,10 +193,12 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     error, the wheels stop, the bag closes, and the summary and plot are written with
     ``interrupted`` before the stop goes on to the caller. ``timeout`` is in the floor's
     simulated seconds."""
+    from ...middleware.clock_node import start_clock
     from ...middleware.context import Context
     from ...middleware.recorder import Recorder
     from ...sim.overhead_camera import OverheadCameraNode
     from ...sim.truth_node import GroundTruthNode
+    from ...vision.map_file import save_map
     from ..base.fusion_node import FusionNode
     from ..base.node import BaseNode
     from .tracker_node import OverheadTrackerNode
@@ -274,6 +226,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     if bag.exists():  # a run folder's files are replaced (servolab.runs)
         shutil.rmtree(bag)
     context = Context.open(clock=base.clock)
+    start_clock(context)  # /clock in the floor's simulated time, as Gazebo's use_sim_time
     wall = time.perf_counter()
     interrupted: BaseException | None = None
     try:
@@ -281,14 +234,14 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
         GroundTruthNode(context, base.floor)
         camera = OverheadCameraNode(context, world, base.floor, seed=seed)
         tracker = OverheadTrackerNode(context, calibration, extrinsics, grid)
-        FusionNode(context, config=fusion_for(world),
-                   parameter_overrides={"align_odometry": True})
+        FusionNode(context, pose_filter=fusion_for(world))
         navigator = NavigatorNode(
             context, (gx, gy), costmap=costmap_params, dwa=dwa_config, goal_yaw=goal_yaw,
             patience=Patience(move_base_params.planner_patience,
                               move_base_params.controller_patience,
                               move_base_params.oscillation_timeout,
                               move_base_params.oscillation_distance),
+            recovery=move_base_params.behaviors(costmap_params.circumscribed_radius),
             planner_frequency=move_base_params.planner_frequency,
             pose_timeout=POSE_TIMEOUT_FRAMES / world.camera.rate)
         Recorder(context, str(bag), list(RECORDED))
@@ -325,6 +278,11 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
         summary["bag"] = str(bag)
         summary["calibration_file"] = str(run_folder.file("calibration.yaml"))
         summary["board_at"] = list(board_at)
+        with ending.step("saving the map"):
+            if tracker.occupancy is not None:
+                yaml_path, _ = save_map(run_folder.file("map"), tracker.occupancy,
+                                        grid.resolution, grid.origin)
+                summary["map"] = str(yaml_path)
         with ending.step("plotting"):
             summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy,
                                                   grid, run_folder.file("navigate.png")))
@@ -354,7 +312,8 @@ def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: floa
 
     def remaining() -> float:
         truth = base.truth()
-        return math.hypot(navigator.goal[0] - truth["x"], navigator.goal[1] - truth["y"])
+        gx, gy = navigator.goal or (truth["x"], truth["y"])
+        return math.hypot(gx - truth["x"], gy - truth["y"])
 
     total = remaining()
     with tqdm(total=round(total, 2), unit="m", disable=not show_progress, leave=False,
@@ -402,6 +361,10 @@ def summarise(world: Scene, base: MobileBase, navigator: NavigatorNode, *,
         if len(track) > 1 else 0.0,
         "plans": len(navigator.plans),
         "repairs": [dataclasses.asdict(r) for r in navigator.repairs],
+        #: the goal was refused before the wheels were ever commanded (the reason says why)
+        "refused_before_driving": navigator.refused,
+        "warnings": list(navigator.warnings),
+        "recoveries": [dataclasses.asdict(r) for r in navigator.recoveries],
         "camera_frames": frames, "robot_sightings": sightings,
         "calibration": {"fx": calibration.fx, "fy": calibration.fy, "cx": calibration.cx,
                         "cy": calibration.cy, "rms_px": calibration.rms},
@@ -458,7 +421,8 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
         ax.plot(track[:, 4], track[:, 5], color="tab:green", linewidth=1, linestyle="--",
                 label="truth (simulated floor)")
     ax.plot(*world.start[:2], "o", color="black", label="start")
-    ax.plot(*navigator.goal, "*", color="tab:red", markersize=12, label="goal")
+    if navigator.goal is not None:
+        ax.plot(*navigator.goal, "*", color="tab:red", markersize=12, label="goal")
     ax.set_xlim(x0, x0 + world.width + 2 * MAP_MARGIN)
     ax.set_ylim(y0, y0 + world.depth + 2 * MAP_MARGIN)
     ax.set_aspect("equal")

@@ -94,7 +94,7 @@ class OverheadTrackerNode(Node):
                 "position": {"x": sighting.x, "y": sighting.y},
                 "orientation": {"z": math.sin(sighting.yaw / 2),
                                 "w": math.cos(sighting.yaw / 2)}}))
-        occupancy = self.sampler.occupancy(image, self.threshold)
+        occupancy = self.sampler.occupancy(image, self.threshold, previous=self.occupancy)
         if self.occupancy is not None and np.array_equal(occupancy, self.occupancy):
             return
         self.occupancy = occupancy

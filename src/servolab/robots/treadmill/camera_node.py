@@ -4,7 +4,8 @@ subscribes (and where a ROS camera driver, such as the thesis's ``pointgrey_came
 of Listing 3, would publish instead of this node).
 
 Each frame's stamp is its capture time, which the tracker's timing rests on
-(:mod:`.timing`):
+(:mod:`.timing`), in ROS time (:meth:`~servolab.middleware.node.Node.stamp`: the epoch's in
+real time, simulated time in a simulation):
 
 - a **recording** (a video, a folder of images, the thesis's ``Fly_Image.bin``) is read on a
   timer at its frame rate. A video with its own timestamps (``CAP_PROP_POS_MSEC``) is stamped
@@ -38,7 +39,6 @@ import numpy.typing as npt
 
 from ...middleware.context import Context
 from ...middleware.images import IMAGE, image_fields
-from ...middleware.messages import time_of
 from ...middleware.node import Node
 from ..errors import RobotValueError
 
@@ -175,7 +175,7 @@ class CameraNode(Node):
         if self._last_sequence is not None and sequence > self._last_sequence + 1:
             self.skipped += sequence - self._last_sequence - 1
         self._last_sequence = sequence
-        ros_stamp = time_of(stamp)
+        ros_stamp = self.stamp(stamp)  # the capture time, in ROS time
         with self._lock:
             self._sequences[ros_stamp["sec"] * 1_000_000_000 + ros_stamp["nanosec"]] = sequence
             if len(self._sequences) > KEPT_SEQUENCES:

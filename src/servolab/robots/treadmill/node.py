@@ -42,7 +42,7 @@ from ...dynamixel.bus import Bus
 from ...dynamixel.errors import CommError
 from ...middleware.context import Context
 from ...middleware.images import IMAGE, ImageMessageError, image_fields, mono8_of
-from ...middleware.messages import seconds_of, time_of
+from ...middleware.messages import seconds_of
 from ...middleware.node import Node
 from ...vision.fly_tracker import FlySighting, draw_overlay, track_fly
 from ..errors import RobotError
@@ -131,7 +131,7 @@ class TreadmillNode(Node):
     def __init__(self, context: Context, bus: Bus, *, rig: RigConfig | None = None,
                  log: FlyLogWriter | None = None, fictrac_log: FicTracWriter | None = None,
                  ids: tuple[int, int, int] = TREADMILL_IDS, image_topic: str = "/image_raw",
-                 camera: SequenceSource | None = None, epoch_offset: float = 0.0,
+                 camera: SequenceSource | None = None,
                  name: str = "image_converter", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -149,14 +149,12 @@ class TreadmillNode(Node):
         self.refused = 0
         self.last: tuple[FlySighting, FlyCommand] | None = None
         #: each handled frame's capture stamp, its number in the camera's sequence and the
-        #: time it was taken up (s)
+        #: time it was taken up (s, both ROS time: the camera may be another process)
         self.stamps: list[float] = []
         self.sequences: list[int] = []
         self.handled: list[float] = []
         #: the in-process camera that numbers its frames (None: numbers from the stamps)
         self.camera = camera
-        #: added to the node clock's stamps to make FicTrac's wall-clock columns (s)
-        self.epoch_offset = epoch_offset
         self._first_stamp: float | None = None
         self._sequence = -1  # the last frame's camera frame number
         self.missed_reads = 0
@@ -187,7 +185,8 @@ class TreadmillNode(Node):
             self.get_logger().error(f"frame refused ({self.refused} so far): {why}")
 
     def _on_image(self, msg: Any) -> None:
-        handled = self.now()
+        # on the stamps' time base (ROS time), which a camera in another process shares
+        handled = self.context.ros_time()
         try:
             image = mono8_of(msg)
         except ImageMessageError as error:
@@ -211,10 +210,10 @@ class TreadmillNode(Node):
         sequence = (told if told is not None
                     else sequence_of(stamp, self._first_stamp, self.frame_rate, self._sequence))
         self._sequence = sequence
-        self._frame(image, stamp, sequence, previous, handled)
+        self._frame(image, stamp, sequence, previous, handled, msg.header.stamp)
 
     def _frame(self, image: npt.NDArray[np.uint8], stamp: float, sequence: int,
-               previous: float | None, handled: float) -> None:
+               previous: float | None, handled: float, ros_stamp: Any) -> None:
         started = time.perf_counter()  # Listing 1's `begin`: once the frame is in hand
         # the time between the frames' captures (Listing 1 reads its clock as each arrives)
         sampling_us = 0.0 if previous is None else (stamp - previous) * 1e6
@@ -235,13 +234,14 @@ class TreadmillNode(Node):
         # record is written, after the bus
         record = [float(sequence), loop_us, sampling_us, sighting.cx, sighting.cy,
                   sighting.theta, command.dxm, command.dym, command.dthm,
-                  *command.wheel_speeds, sighting.area, *positions, self.now()]
+                  *command.wheel_speeds, sighting.area, *positions,
+                  self.context.ros_time()]  # ros::Time::now().toSec()
         if self.log is not None:
             self.log.write(record)
-        fictrac = self.fictrac.update(positions, stamp + self.epoch_offset, sequence)
+        # FicTrac's timestamp: the frame's capture time, the epoch's in real time
+        fictrac = self.fictrac.update(positions, stamp, sequence)
         if self.fictrac_log is not None:
             self.fictrac_log.write(fictrac)
-        ros_stamp = time_of(stamp)
         self.cmd_vel.publish(self.message(TWIST, linear={"x": command.linear},
                                           angular={"z": command.angular}))
         self.pose.publish(self.message(POSE2D, x=sighting.cx, y=sighting.cy,

@@ -21,14 +21,15 @@ The run folder then holds ``fly_data.bin``, ``robot_encoders.bin``, ``flyball_ba
 ``/cmd_vel``, ``/fly/pose``, ``/treadmill/joint_states``, ``/sensor_state``, ``/odom``), the
 analysis of :mod:`.analysis` and the frame timing of :mod:`.timing` in ``summary.json``,
 and the figures in ``flyball.png``. The rig (ball, camera, tracker, controller) is
-:mod:`.config`'s, the thesis's unless given.
+:mod:`.config`'s, the thesis's unless given. Stamps, the logs' times and the bag's are the
+simulated time, which the run publishes on ``/clock`` for ROS tools with ``use_sim_time``
+(:mod:`servolab.middleware.clock_node`).
 """
 
 from __future__ import annotations
 
 import math
 import shutil
-import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import replace
@@ -36,6 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ...harness import DeferredStop, RunEnding, stops_deferred
+from ...middleware.clock_node import start_clock
 from ...middleware.context import Context
 from ..errors import RobotError, RobotValueError
 from . import ON_STOP
@@ -119,6 +121,7 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 FicTracWriter(fictrac_path, overwrite=True) as fictrac_log, \
                 Context.open(clock=sim) as context:
             try:
+                start_clock(context)  # simulated time on /clock, as the stamps are
                 reader = CameraNode(context, camera, frame_rate=rig.camera.frame_rate,
                                     record=video)
                 node = TreadmillNode(context, aot, rig=rig, log=fly_log,
@@ -240,12 +243,12 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                         tqdm(total=len(source) or None, unit="frame",
                              disable=not show_progress, leave=False) as bar:
                     try:
-                        # FicTrac's timestamp is wall-clock ms (doc/data_header.txt) where the
-                        # run keeps the wall's time; simulated time otherwise
+                        # stamps (and FicTrac's timestamp, wall-clock ms in
+                        # doc/data_header.txt) are ROS time: the epoch's where the run keeps
+                        # the wall's time, simulated time (with /clock) otherwise
+                        start_clock(context)
                         node = TreadmillNode(context, bus, rig=rig, log=fly_log,
-                                             fictrac_log=fictrac_log,
-                                             epoch_offset=(time.time() - clock.now()
-                                                           if live or port else 0.0))
+                                             fictrac_log=fictrac_log)
                         reader = CameraNode(context, source, frame_rate=frame_rate, live=live,
                                             record=video, source_stamps=fps is None,
                                             pace=live and Path(str(camera)).is_file())
