@@ -38,8 +38,8 @@ FloatArray = npt.NDArray[np.float64]
 @dataclass(frozen=True)
 class DryRun:
     """How the dry run ended: ``status`` (``"reached"``, ``"stalled"``, ``"no valid
-    trajectory"``), the pose it ended at, the distance left to the goal (m), the costmap cost
-    of the cell it ended on, and the simulated seconds it took."""
+    trajectory"``, ``"timed out"``), the pose it ended at, the distance left to the goal (m),
+    the costmap cost of the cell it ended on, and the simulated seconds it took."""
 
     status: str
     pose: tuple[float, float, float]
@@ -114,4 +114,4 @@ def dry_run(costmap: npt.ArrayLike, plan: npt.ArrayLike, config: DwaConfig, *,
             best, best_at = min(best, distance), t
         elif t - best_at >= stall_time:
             return ended("stalled")
-    return ended("stalled")
+    return ended("timed out")

@@ -19,10 +19,10 @@ A* that D* Lite builds on), and ``U`` must hold exactly the inconsistent vertice
 start of that moment, as always.
 
 It labels every reachable cell instead of stopping once the start is settled. Pure Python
-could not afford that, but compiled code can: 0.28 s on ``benchmarks/planning.py``'s 1000²
-grid, less than scipy's Dijkstra with its graph built, against 1.3 s for D* Lite's own first
-search. It also spares the first repair that needs a detour the cells the focused search had
-left unexpanded (there 1 ms instead of 99 ms for 50 changes). ``first_search="incremental"``
+could not afford that, but compiled code can: it is about as fast as scipy's Dijkstra with its
+graph built, several times faster than D* Lite's own first search on large grids (the figures:
+``benchmarks/planning.py``, quoted in docs/navigation.md). It also spares the first repair
+that needs a detour the cells the focused search had left unexpanded. ``first_search="incremental"``
 keeps D* Lite's own first search, the faster one when start and goal are close on a large grid,
 because it expands only the cells around their path (on that grid 35 ms for a goal 20 cells
 away, where the compiled search takes 0.3 s whatever the distance).

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from ..planning.occupancy_grid import SAVER_FREE_THRESH, SAVER_OCCUPIED_THRESH
 from .calibration import CameraCalibration, FloorExtrinsics, floor_to_image, image_to_floor
 from .errors import VisionValueError
 
@@ -34,8 +35,8 @@ _MM = 1000.0  # mm per m: the calibration's unit per this module's
 #: (0.67) occupied. Why not any dark sample: image noise 20 on the robot's mid-grey disc (120,
 #: 2.3 sigma above the threshold 75) or at an obstacle's blurred edge darkens single samples
 #: at random, so the map flickered and the navigator repaired its plan for nothing.
-OCCUPIED_FRACTION = 0.65
-FREE_FRACTION = 0.196
+OCCUPIED_FRACTION = SAVER_OCCUPIED_THRESH
+FREE_FRACTION = SAVER_FREE_THRESH
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
 
 

@@ -127,7 +127,8 @@ def test_a_goal_dwa_cannot_settle_on_is_refused_with_its_cost() -> None:
     """A wall from x = 2.85 m (cells 57..59) and the goal 0.275 m in front of it: the goal lies in
     the inflated band, and with D.3's occdist_scale 0.8 DWA's dry run stalls short of
     xy_goal_tolerance (the failure issue 30 found 0.25-0.3 m from every wall); the refusal names
-    the cost and what to change. A goal 0.65 m from the wall is driven to."""
+    the cost and what to change. A goal 0.35 m from the wall, in the band too (cost 44), is one
+    the dry run reaches: it is driven to, with a warning; so is one 0.65 m away."""
     wall = (slice(0, 40), slice(57, 60))
     rig = Rig(occupied=wall, goal=(2.575, 1.0))
     try:
@@ -139,19 +140,25 @@ def test_a_goal_dwa_cannot_settle_on_is_refused_with_its_cost() -> None:
     assert "costmap cost" in rig.node.reason and "a dry run of DWA" in rig.node.reason
     assert "lower occdist_scale" in rig.node.reason
     assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
-    free = Rig(occupied=wall, goal=(2.2, 1.0))
-    try:
-        free.drive_for(0.6, poses=True)
-    finally:
-        free.context.close()
-    assert free.node.status is NavigationStatus.ACTIVE
-    assert free.commands[-1].linear.x > 0
+    for x, warned in ((2.5, True), (2.2, False)):
+        free = Rig(occupied=wall, goal=(x, 1.0))
+        try:
+            free.drive_for(0.6, poses=True)
+        finally:
+            free.context.close()
+        assert free.node.status is NavigationStatus.ACTIVE
+        assert free.commands[-1].linear.x > 0
+        assert bool(free.node.warnings) is warned
+        if warned:
+            assert "lies in the inflated band" in free.node.warnings[0]
 
 
 def test_goals_come_on_goal_pose_and_move_base_simple_goal() -> None:
     """nav2's /goal_pose and move_base's /move_base_simple/goal (geometry_msgs/PoseStamped in
-    the map frame); a new goal preempts the one being driven to (action_msgs GoalStatus
-    CANCELED 5, then EXECUTING 2 for the new one); a goal in another frame is refused."""
+    the map frame); a new goal preempts the one being driven to (ABORTED 6, as nav2's
+    SimpleActionServer::accept_pending_goal aborts it; then EXECUTING 2 for the new one); a
+    goal in another frame, or with an all-zero orientation (move_base's "Empty quaternion"),
+    is refused."""
     from servolab.robots.navigation.navigator import NAV2_MSGS, STATUS_TOPIC
     from servolab.robots.navigation.tracker_node import LATCHED as STATUS_QOS
 
@@ -166,16 +173,17 @@ def test_goals_come_on_goal_pose_and_move_base_simple_goal() -> None:
     goal_pose = rig.probe.create_publisher(POSE, "/goal_pose", 10)
     simple = rig.probe.create_publisher(POSE, "/move_base_simple/goal", 10)
 
-    def goal(publisher: Any, x: float, frame: str = "map") -> None:
+    def goal(publisher: Any, x: float, frame: str = "map", w: float = 1.0) -> None:
         publisher.publish(rig.probe.message(POSE, header={"frame_id": frame}, pose={
-            "position": {"x": x, "y": 1.0}, "orientation": {"w": 1.0}}))
+            "position": {"x": x, "y": 1.0}, "orientation": {"w": w}}))
 
     try:
         rig.drive_for(0.6, poses=True)
         assert rig.node.goal is None and not rig.commands  # no goal: nothing driven
         goal(goal_pose, 2.5, frame="odom")
+        goal(goal_pose, 2.5, w=0.0)
         rig.drive_for(0.4, poses=True)
-        assert rig.node.goal is None  # refused: goals are in the map frame
+        assert rig.node.goal is None  # refused: goals are in the map frame, with a heading
         goal(goal_pose, 2.5)
         rig.drive_for(1.0, poses=True)
         assert rig.node.goal == (2.5, 1.0) and rig.node.status is NavigationStatus.ACTIVE
@@ -185,7 +193,7 @@ def test_goals_come_on_goal_pose_and_move_base_simple_goal() -> None:
         assert rig.node.goal == (2.0, 1.0) and rig.node.status is NavigationStatus.ACTIVE
     finally:
         rig.context.close()
-    # the status array lists the preempted goal (CANCELED 5) and the new one (EXECUTING 2)
-    assert [int(s.status) for s in statuses[-1].status_list] == [5, 2]
+    # the status array lists the preempted goal (ABORTED 6) and the new one (EXECUTING 2)
+    assert [int(s.status) for s in statuses[-1].status_list] == [6, 2]
     assert len({bytes(s.goal_info.goal_id.uuid) for s in statuses[-1].status_list}) == 2
     assert feedback and feedback[-1].feedback.distance_remaining == pytest.approx(1.5, abs=0.1)

@@ -211,7 +211,8 @@ def test_recovery_behaviors_read_from_the_file_and_checked(tmp_path: Path) -> No
     good.write_text("controller_frequency: 5.0\nrecovery_behaviors:\n"
                     "  - {name: near, type: clear_costmap_recovery/ClearCostmapRecovery}\n"
                     "  - {name: spin, type: rotate_recovery/RotateRecovery}\n"
-                    "near: {reset_distance: 1.5, layer_names: [obstacle_layer]}\n")
+                    "near: {reset_distance: 1.5, layer_names: [obstacle_layer]}\n"
+                    "spin: {frequency: 20.0}\n")
     params = load_move_base(good)
     assert [(b.name, b.reset_distance) for b in params.behaviors(0.2)] == [("near", 1.5),
                                                                           ("spin", 3.0)]
@@ -222,6 +223,10 @@ def test_recovery_behaviors_read_from_the_file_and_checked(tmp_path: Path) -> No
              ":3: recovery type 'move_slow_and_clear/MoveSlowAndClear' is not one servolab "),
             ("recovery_behaviors:\n  - {name: x, kind: rotate_recovery/RotateRecovery}\n",
              ":3: a recovery behaviour: unknown key 'kind'"),
+            ("recovery_behaviors:\n  - {name: x, type: rotate_recovery/RotateRecovery}\n"
+             "x: {reset_distance: 1.0}\n",
+             ":4: x: 'reset_distance' is not a parameter of rotate_recovery/RotateRecovery "
+             "(frequency, sim_granularity)"),
             ("recovery_behaviors:\n  - {name: x, type: rotate_recovery/RotateRecovery}\n"
              "  - {name: x, type: rotate_recovery/RotateRecovery}\n",
              ":4: recovery behaviour 'x' is listed twice")):
@@ -234,7 +239,7 @@ def test_recovery_behaviors_read_from_the_file_and_checked(tmp_path: Path) -> No
 def test_a_dwa_file_that_could_never_drive_is_refused(tmp_path: Path) -> None:
     """max_vel_x below min_trans_vel: dwa_local_planner's generateTrajectory drops every
     sample slower than min_trans_vel that does not also turn at min_rot_vel, so the robot
-    would never drive forward (issue 30: such a file was accepted and never drove)."""
+    could never drive straight (issue 30: such a file was accepted and never drove)."""
     bad = tmp_path / "dwa.yaml"
     bad.write_text(DWA.read_text().replace("max_vel_x: 0.15", "max_vel_x: 0.05"))
     with pytest.raises(NavParamsError) as info:

@@ -142,7 +142,7 @@ class OverheadTracker(Node):
 class Navigator(Node):
     """The navigator, waiting for goals on ``/goal_pose`` and ``/move_base_simple/goal``, with
     the ``costmap``, ``dwa`` and ``move_base`` files (empty: seed 000's) and the pose timeout
-    of :data:`~.run.POSE_TIMEOUT_FRAMES` frames of a camera of ``camera_rate`` frames/s."""
+    of :data:`~.session.POSE_TIMEOUT_FRAMES` frames of a camera of ``camera_rate`` frames/s."""
 
     def __init__(self, context: Context, name: str = "navigator_launcher", namespace: str = "/",
                  *, parameter_overrides: Mapping[str, Any] | None = None,

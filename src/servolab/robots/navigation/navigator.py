@@ -41,8 +41,11 @@ trajectory for ``controller_patience`` s, no progress of ``oscillation_distance`
 behaviour's trouble ends (and the list starts again from the first) as in move_base. While
 the robot's own cell is within the inscribed radius of an obstacle (the controller cut a
 corner), the plan keeps starting from the last cell it could stand in, as navfn clears the
-robot's cell. A pose older than ``pose_timeout`` (the camera lost the robot) stops the wheels
-until a new one comes, and after ``controller_patience`` s gives the goal up.
+robot's cell. A pose older than ``pose_timeout`` (the localiser stopped) stops the wheels
+until a new one comes, and after ``controller_patience`` s gives the goal up. With
+robot_localization's EKF (the fusion node's default) the pose carries on from odometry while
+the camera has lost the robot, its covariance growing; with seed 000's D.4 filter it stops
+with the camera.
 """
 
 from __future__ import annotations
@@ -68,7 +71,7 @@ from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, c
 from ...planning.errors import NoPath
 from ..errors import RobotValueError
 from .params import CLEAR_COSTMAP_RECOVERY, CostmapParams, RecoveryBehavior
-from .recovery import RotateRecovery, can_rotate_in_place
+from .recovery import ROTATE_TIMEOUT, RotateRecovery, can_rotate_in_place
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
 
 POSE = "geometry_msgs/msg/PoseStamped"
@@ -149,8 +152,8 @@ class NavigatorNode(Node):
     """See the module docstring. ``goal`` is ``(x, y)`` in the map frame (m), ``goal_yaw``
     the heading to end with (rad; None: any); without a goal the node waits for one on its
     goal topics. ``recovery``: the behaviours to run, in order (``MoveBaseParams.behaviors``;
-    none: give up at once, as before move_base had them). ``footprint``: the robot's polygon
-    in its own frame (m) for the local planner, None for a round robot."""
+    none: give up at once, as before move_base had them). DWA checks each trajectory with the
+    costmap file's ``footprint`` polygon, or a round robot's centre cell."""
 
     def __init__(self, context: Context, goal: tuple[float, float] | None = None, *,
                  costmap: CostmapParams, dwa: DwaConfig, goal_yaw: float | None = None,
@@ -180,6 +183,7 @@ class NavigatorNode(Node):
         if not (math.isfinite(self.start_timeout) and self.start_timeout > 0):
             raise RobotValueError(f"start_timeout {start_timeout!r} must be > 0 s")
         context.types.register_msgs(NAV2_MSGS)
+        self._goals = 0
         #: goal id -> (accepted at, status code), oldest first
         self._statuses: dict[bytes, tuple[dict[str, int], int]] = {}
         self._pose_at = -math.inf
@@ -249,6 +253,11 @@ class NavigatorNode(Node):
         self._recovery_index = 0
         self._trigger = ""
         self._rotation: RotateRecovery | None = None
+        self._rotation_since = now
+        #: recoveries of earlier goals: this goal's are the ones after them
+        self._recoveries_before = len(self.recoveries)
+        self._pending_change, self._pending_seconds = 0, 0.0
+        self._last_plan: FloatArray | None = None
 
     def set_goal(self, x: float, y: float, yaw: float | None = None) -> None:
         """Drive to ``(x, y)`` (map frame, m), ending at ``yaw`` (rad; None: any), replacing
@@ -258,14 +267,16 @@ class NavigatorNode(Node):
                 yaw is not None and not math.isfinite(yaw)):
             raise RobotValueError(f"goal ({gx!r}, {gy!r}, yaw {yaw!r}) must be finite numbers")
         if self.goal is not None and not self.done:
-            self._publish_status(STATUS_CANCELED)
+            # nav2's SimpleActionServer::accept_pending_goal aborts the goal it preempts
+            self._publish_status(STATUS_ABORTED)
             self.get_logger().info("goal preempted by a new one")
             self._stop()
         self.goal, self.goal_yaw = (gx, gy), yaw
         self.status, self.reason, self.refused = NavigationStatus.WAITING, "", False
         self.warnings = []
+        self._goals += 1
         self._goal_id = uuid.uuid5(uuid.NAMESPACE_OID, f"{self.fully_qualified_name}/"
-                                   f"{gx!r}/{gy!r}/{yaw!r}/{self.now()!r}").bytes
+                                   f"{self._goals}").bytes
         self._goal_stamp = self.stamp()
         self._reset_goal_state(self.now())
         self._publish_status(STATUS_EXECUTING)
@@ -277,15 +288,19 @@ class NavigatorNode(Node):
                                     f"{MAP_FRAME!r} frame")
             return
         p, q = msg.pose.position, msg.pose.orientation
-        norm = math.hypot(float(q.x), float(q.y), float(q.z), float(q.w))
-        yaw = None if norm == 0.0 else 2.0 * math.atan2(float(q.z), float(q.w))
+        if math.hypot(float(q.x), float(q.y), float(q.z), float(q.w)) < 1e-9:
+            # move_base refuses it too ("Empty quaternion received, invalid goal")
+            self.get_logger().error("goal refused: its orientation is all zeros; give the "
+                                    "heading to end with, e.g. orientation: {w: 1.0} for 0°")
+            return
+        yaw = math.remainder(2.0 * math.atan2(float(q.z), float(q.w)), 2.0 * math.pi)
         try:
             self.set_goal(float(p.x), float(p.y), yaw)
         except RobotValueError as error:
             self.get_logger().error(f"goal refused: {error}")
             return
-        self.get_logger().info(f"new goal ({float(p.x):g}, {float(p.y):g}"
-                               + ("" if yaw is None else f", {math.degrees(yaw):.0f}°") + ")")
+        self.get_logger().info(f"new goal ({float(p.x):g}, {float(p.y):g}, "
+                               f"{math.degrees(yaw):.0f}°)")
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -295,7 +310,7 @@ class NavigatorNode(Node):
         except RobotValueError as error:
             self.get_logger().error(str(error))
             return
-        if self.costs is not None and self.planner is not None and (
+        if self.costs is not None and self.planner is not None and not self.done and (
                 occupied.shape != self.costs.shape or resolution != self.resolution
                 or origin != self.origin):
             self._abort("the map changed its size or frame mid-run")
@@ -363,6 +378,7 @@ class NavigatorNode(Node):
 
     def _abort(self, reason: str) -> None:
         self.status, self.reason = NavigationStatus.ABORTED, reason
+        self.planner = None
         self.refused = not self._driven
         self.get_logger().error(("goal refused before driving: " if self.refused
                                  else "goal aborted: ") + reason)
@@ -371,6 +387,7 @@ class NavigatorNode(Node):
 
     def _succeed(self) -> None:
         self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
+        self.planner = None
         self._stop()
         self._publish_status(STATUS_SUCCEEDED)
 
@@ -394,7 +411,8 @@ class NavigatorNode(Node):
             "current_pose": {"header": {"stamp": stamp, "frame_id": MAP_FRAME}, "pose": {
                 "position": {"x": x, "y": y},
                 "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
-            "navigation_time": elapsed, "number_of_recoveries": len(self.recoveries),
+            "navigation_time": elapsed,
+            "number_of_recoveries": len(self.recoveries) - self._recoveries_before,
             "distance_remaining": math.hypot(self.goal[0] - x, self.goal[1] - y)}))
 
     # -- before driving ------------------------------------------------------------------------
@@ -441,13 +459,19 @@ class NavigatorNode(Node):
                             stall_time=self.patience.oscillation_timeout or 10.0,
                             max_time=30.0 + 3.0 * length / max(self.dwa.max_vel_x, 0.01))
             if not check.reached:
+                x, y, _ = check.pose
+                where = (f"stops {check.distance:.3f} m from it, beyond xy_goal_tolerance "
+                         f"{self.dwa.xy_goal_tolerance:g} m"
+                         if check.distance <= self.params.inflation_radius
+                         + self.dwa.xy_goal_tolerance else
+                         f"stops on the way, at ({x:.2f}, {y:.2f}), {check.distance:.2f} m "
+                         f"before it (costmap cost {check.cost} there)")
                 self._abort(
-                    f"{band}; a dry run of DWA on this map stops {check.distance:.3f} m from "
-                    f"it ({check.status}), beyond xy_goal_tolerance "
-                    f"{self.dwa.xy_goal_tolerance:g} m: occdist_scale "
-                    f"{self.dwa.occdist_scale:g} outweighs goal_distance_bias "
-                    f"{self.dwa.goal_distance_bias:g} there. Move the goal away from the "
-                    "obstacle or lower occdist_scale")
+                    f"{band}; a dry run of DWA on this map {where} ({check.status}): "
+                    f"occdist_scale {self.dwa.occdist_scale:g} outweighs "
+                    f"goal_distance_bias {self.dwa.goal_distance_bias:g} and "
+                    f"path_distance_bias {self.dwa.path_distance_bias:g} near obstacles. Move "
+                    "the goal away from the obstacle or lower occdist_scale")
                 return False
             self.warnings.append(band)
             self.get_logger().warning(band + "; DWA's dry run reaches it")
@@ -488,7 +512,8 @@ class NavigatorNode(Node):
                                        + time.perf_counter() - started))
             self._pending_change, self._pending_seconds = 0, 0.0
         plan = self.points_of(cells)
-        if not self.plans or not np.array_equal(self.plans[-1][1], plan):
+        if self._last_plan is None or not np.array_equal(self._last_plan, plan):
+            self._last_plan = plan
             self.plans.append((now, plan))
             stamp = self.stamp(now)
             self.plan_publisher.publish(self.message(
@@ -540,6 +565,7 @@ class NavigatorNode(Node):
             if cell is not None and can_rotate_in_place(
                     self.costmap, cell, (x, y), self.footprint, self.resolution, self.origin):
                 self._rotation = RotateRecovery(yaw)
+                self._rotation_since = now
             else:
                 self.get_logger().error("rotate recovery can't rotate in place because there "
                                         "is a potential collision")
@@ -597,6 +623,10 @@ class NavigatorNode(Node):
         self._publish_feedback(now, x, y, yaw)
         if self._rotation is not None:
             rate = self._rotation.command(yaw)
+            if rate is not None and now - self._rotation_since > ROTATE_TIMEOUT:
+                self.get_logger().error(f"rotate recovery: the turn took over "
+                                        f"{ROTATE_TIMEOUT:g} s; ended")
+                rate = None
             if rate is not None:
                 self._driven = True
                 self.cmd_vel.publish(self.message(TWIST, angular={"z": rate}))

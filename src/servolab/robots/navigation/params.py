@@ -337,9 +337,9 @@ def parse_dwa(top: ConfigValue, path: str = "", notes: tuple[str, ...] = ()) -> 
         where = m.get("max_vel_x") or m.get("min_trans_vel") or m
         raise where.error(
             f"max_vel_x {params.max_vel_x:g} is below min_trans_vel {params.min_trans_vel:g}: "
-            "dwa_local_planner drops every sample slower than min_trans_vel that does not turn "
-            "(generateTrajectory), so the robot would never drive forward; raise max_vel_x or "
-            "lower min_trans_vel")
+            "dwa_local_planner drops every sample slower than min_trans_vel that does not also "
+            "turn at min_rot_vel (generateTrajectory), so the robot could never drive straight; "
+            "raise max_vel_x or lower min_trans_vel")
     return params
 
 
@@ -461,6 +461,15 @@ def parse_move_base(top: ConfigValue, path: str = "",
                           notes=notes)
 
 
+#: the parameters each recovery plugin reads in its own namespace (clear_costmap_recovery.cpp,
+#: rotate_recovery.cpp); servolab uses reset_distance, the others are accepted as ROS's
+_RECOVERY_KEYS = {
+    CLEAR_COSTMAP_RECOVERY: frozenset({"reset_distance", "layer_names", "force_updating",
+                                       "affected_maps", "invert_area_to_clear"}),
+    ROTATE_RECOVERY: frozenset({"frequency", "sim_granularity"}),
+}
+
+
 def _recovery_behaviors(m: ConfigMapping, listed: ConfigValue) -> tuple[RecoveryBehavior, ...]:
     """``recovery_behaviors: [{name: N, type: T}, ...]`` with each one's parameters under its
     name (``N: {reset_distance: 3.0}``), as move_base's loadRecoveryBehaviors reads them."""
@@ -477,15 +486,18 @@ def _recovery_behaviors(m: ConfigMapping, listed: ConfigValue) -> tuple[Recovery
         if any(b.name == name for b in behaviors):
             raise name_value.error(f"recovery behaviour {name!r} is listed twice; move_base "
                                    "refuses duplicate names")
+        # read and kept, though a map the camera redraws every frame makes it moot
+        # (servolab.robots.navigation.recovery)
         reset_distance = 3.0
         own = m.get(name)
         if own is not None:
+            known = _RECOVERY_KEYS[kind]
             for key, value in own.as_mapping(f"{name}'s parameters").items():
                 if key == "reset_distance" and kind == CLEAR_COSTMAP_RECOVERY:
                     reset_distance = nonnegative_float(value)
-                elif key != "layer_names":
-                    raise value.error(f"{name}: {key!r} is not a parameter servolab's "
-                                      f"{kind} reads (reset_distance, layer_names)")
+                elif key not in known:
+                    raise value.error(f"{name}: {key!r} is not a parameter of {kind} "
+                                      f"({', '.join(sorted(known))})")
         behaviors.append(RecoveryBehavior(name, kind, reset_distance))
     return tuple(behaviors)
 

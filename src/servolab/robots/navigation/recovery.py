@@ -14,10 +14,14 @@ its default list are here:
   marks only what it sees now: nothing in it is stale, and what a clearing forgot would be
   re-marked at once. What is left of the behaviour is the fresh start: the navigator plans
   from scratch (a new D* Lite search) on the camera's latest map.
-- :class:`RotateRecovery` turns the robot once in place (counter-clockwise, as
-  rotate_recovery.cpp does: half a turn, then back to the start heading), unless a pose of the
-  turn is in collision on the costmap. Its speed is ``sqrt(2 acc_lim_th dist_left)`` within
-  ``[min_in_place_rotational_vel, max_rotational_vel]``. rotate_recovery reads those from the
+- :class:`RotateRecovery` turns the robot once, a full turn counter-clockwise on the spot, as
+  rotate_recovery.cpp does (it counts half a turn, then the way back to the start heading),
+  unless a pose of the turn is in collision on the costmap. rotate_recovery checks that every
+  cycle; servolab checks it once, before the turn (the map does not change under a turn on
+  the spot unless an obstacle appears), and ends a turn that takes more than
+  :data:`ROTATE_TIMEOUT` s (a wheel that does not turn). Its speed is
+  ``sqrt(2 acc_lim_th dist_left)`` within ``[min_in_place_rotational_vel,
+  max_rotational_vel]``. rotate_recovery reads those from the
   ``TrajectoryPlannerROS`` namespace, which a DWA configuration does not write, so ROS runs it
   on their defaults: 3.2 rad/s², 0.4 and 1.0 rad/s, a tolerance of 0.10 rad.
 """
@@ -39,6 +43,8 @@ ROTATE_MIN_VEL = 0.4
 ROTATE_MAX_VEL = 1.0
 ROTATE_TOLERANCE = 0.10
 ROTATE_GRANULARITY = 0.017
+#: servolab's own limit on one turn (s): a full turn at the slowest rate takes 16 s
+ROTATE_TIMEOUT = 30.0
 
 
 def angle_between(target: float, current: float) -> float:
