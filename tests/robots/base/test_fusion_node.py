@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from servolab.clock import VirtualClock
-from servolab.estimation.kalman import Seed000Fusion, fuse_seed_000
+from servolab.estimation.kalman import fuse_seed_000
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.robots.base.fusion_node import FusionNode
@@ -389,17 +389,24 @@ def test_bad_parameters_are_refused() -> None:
         ctx.close()
 
 
-def test_the_navigation_runs_call_still_works() -> None:
-    """robots/navigation/run.py builds FusionNode(context, config=<D.4's noise for the scene>,
-    parameter_overrides={"align_odometry": True}): that is the EKF now (config is D.4's, used
-    with filter: seed_000)."""
-    ctx = Context.open(clock=VirtualClock())
+def test_after_max_dead_reckoning_without_the_tracker_nothing_is_published(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A tracker silent longer than max_dead_reckoning (1 s here): the node stops publishing,
+    so the navigator's pose timeout stops the wheels instead of driving on odometry alone;
+    the next sighting brings the pose back."""
+    d = Drive(max_dead_reckoning=1.0)
     try:
-        node = FusionNode(ctx, config=Seed000Fusion(sample_period=0.1),
-                          parameter_overrides={"align_odometry": True})
-        assert node.filter_kind == "ekf" and node.frequency == 30.0
+        d.run(1.0)
+        seen = len(d.fused)
+        d.run(2.0, tracker=False)
+        blind = len(d.fused) - seen
+        # about 1 s more at 30 Hz after the last sighting (at 0.9 or 1.0 s), then nothing
+        assert 25 <= blind <= 32
+        assert d.node.blind and "max_dead_reckoning" in caplog.text
+        d.run(0.5)
+        assert not d.node.blind and len(d.fused) > seen + blind
     finally:
-        ctx.close()
+        d.close()
 
 
 def test_with_the_base_node_the_fused_pose_is_the_truth_and_tf_closes_the_loop() -> None:

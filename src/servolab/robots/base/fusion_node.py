@@ -39,7 +39,11 @@ time out; its default, ``1 / frequency``, would call a 10 Hz camera timed out be
 two frames), so the timeout says so: a warning when the tracker has been silent that long
 (:attr:`FusionNode.dropouts` counts them, :attr:`FusionNode.tracker_silent` says whether one
 is on) and when the odometry has (the pose is then held where it was, its covariance still
-growing by the per-second terms); an info line when each comes back. ``tracker_position_variance``
+growing by the per-second terms); an info line when each comes back. ``max_dead_reckoning``
+(s, 10; 0: no limit): with the tracker silent that long the node stops publishing, so that a
+controller's pose timeout stops the robot rather than let it drive on odometry alone for
+ever (robot_localization has no such limit; servolab's choice, :attr:`FusionNode.blind`).
+``tracker_position_variance``
 (m²), ``tracker_yaw_variance`` (rad²), ``tracker_rejection_threshold`` (Mahalanobis distance,
 robot_localization's ``pose0_rejection_threshold``; infinite by default, as there), and
 ``process_noise.translation_per_metre``, ``.rotation_per_radian``, ``.rotation_per_metre``,
@@ -157,6 +161,9 @@ class FusionNode(Node):
             "tracker's heading error corrected at each later sighting (0: align once)").value)
         if not (math.isfinite(self.heading_gain) and 0.0 <= self.heading_gain <= 1.0):
             raise RobotValueError(f"fusion: heading_gain {self.heading_gain!r} must be in [0, 1]")
+        if self.align and self.filter_kind != "seed_000":
+            self.get_logger().warning("align_odometry is seed_000's: the EKF estimates "
+                                      "map -> odom itself, so it is not used")
         self.config = config
         # seed 000's D.4
         self.filter: KalmanFilter | None = None
@@ -188,6 +195,14 @@ class FusionNode(Node):
                 and math.isfinite(self.sensor_timeout) and self.sensor_timeout > 0):
             raise RobotValueError(f"fusion: frequency {self.frequency!r} Hz and sensor_timeout "
                                   f"{self.sensor_timeout!r} s must be numbers > 0")
+        self.max_dead_reckoning = float(self.declare_parameter(
+            "max_dead_reckoning", 10.0, description="s: with the tracker silent this long the "
+            "pose is no longer published (0: no limit)").value)
+        if not (math.isfinite(self.max_dead_reckoning) and self.max_dead_reckoning >= 0):
+            raise RobotValueError(f"fusion: max_dead_reckoning {self.max_dead_reckoning!r} s "
+                                  "must be a number >= 0")
+        #: the tracker has been silent longer than max_dead_reckoning: nothing is published
+        self.blind = False
         noise = {name: float(self.declare_parameter(
             f"process_noise.{name}", float(getattr(defaults, name)),
             description="odometry's noise (see PoseFilterConfig)").value)
@@ -340,6 +355,15 @@ class FusionNode(Node):
             self._odometry_silent = True
             self.get_logger().warning(f"no odometry for {timeout:g} s or more: the pose is held "
                                       "where it was")
+        limit = self.max_dead_reckoning
+        if limit > 0 and self._tracker_at is not None and now - self._tracker_at > limit:
+            if not self.blind:
+                self.get_logger().error(
+                    f"no tracker pose for {limit:g} s (max_dead_reckoning): the pose is no "
+                    "longer published until the tracker sees the robot again")
+            self.blind = True
+            return
+        self.blind = False
         self._publish()
 
     @property

@@ -44,8 +44,8 @@ corner), the plan keeps starting from the last cell it could stand in, as navfn 
 robot's cell. A pose older than ``pose_timeout`` (the localiser stopped) stops the wheels
 until a new one comes, and after ``controller_patience`` s gives the goal up. With
 robot_localization's EKF (the fusion node's default) the pose carries on from odometry while
-the camera has lost the robot, its covariance growing; with seed 000's D.4 filter it stops
-with the camera.
+the camera has lost the robot, its covariance growing, for up to the localiser's
+``max_dead_reckoning``; with seed 000's D.4 filter it stops with the camera.
 """
 
 from __future__ import annotations
