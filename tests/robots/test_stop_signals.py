@@ -32,14 +32,12 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from servolab.configfile import shipped
 from servolab.dynamixel.bus import Bus
 from servolab.robots.armstrong.hardware import load_config
 from servolab.robots.armstrong.poses import STAND_POSE
+from tests.robots.armstrong.configs import ping_once_config
 from tests.simproc import sim_process
 from tests.waiting import wait_for_line, wait_until
-
-SHIPPED_CONFIG = shipped("servolab.robots.armstrong", "armstrong.yaml")
 
 pytestmark = pytest.mark.slow
 
@@ -150,11 +148,7 @@ def test_walk_finishes_in_double_support(tmp_path: Path, sig: signal.Signals,
     misses its deadline through the pty is counted and survived, as dynamixel_motor does."""
     run = tmp_path / "run"
     motors = [*range(11, 17), *range(21, 27), 31, 32, 33, 41, 42, 43, 51, 61]
-    # the seed's configuration, each absent ID pinged once rather than five times (the 45
-    # absent IDs' start-up is not what this test is about: 8 s of its 17 on a busy CPU)
-    config = tmp_path / "armstrong.yaml"
-    config.write_text(SHIPPED_CONFIG.read_text().replace(
-        "      max_motor_id: 65\n", "      max_motor_id: 65\n      ping_retries: 1\n", 1))
+    config = ping_once_config(tmp_path)
     with sim_process("--motors", "rx28:11-16,21-26,31-33,41-43,51,61", "--baud", "57142",
                      out_dir=tmp_path / "sim") as (pty, _), \
             servolab(["walk", "--steps", "100", "--port", pty, "--config", str(config),

@@ -25,6 +25,7 @@ import pytest
 
 from servolab.robots.armstrong.hardware import load_config
 from servolab.robots.armstrong.poses import MOTORS
+from tests.robots.armstrong.configs import ping_once_config
 from tests.robots.armstrong.delivery import goal_deliveries, row_end_errors
 from tests.simproc import sim_process
 
@@ -34,9 +35,10 @@ ROWS = slice(STAND_ROWS, STAND_ROWS + GAIT_ROWS)
 ROW_PERIOD = 1 / 4.5
 
 
-def _walk(out: Path, *port: str) -> dict[str, object]:
+def _walk(out: Path, config: Path, *port: str) -> dict[str, object]:
     result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--steps", "1",
-                             "--no-progress", "--out", str(out), *port],
+                             "--no-progress", "--config", str(config), "--out", str(out),
+                             *port],
                             capture_output=True, text=True, timeout=180)
     assert result.returncode == 0, result.stderr[-2000:]
     return json.loads((out / "summary.json").read_text())  # type: ignore[no-any-return]
@@ -48,10 +50,11 @@ def test_every_gait_row_reaches_every_motor_within_a_row_period(tmp_path: Path) 
     # every motor on the robot's bus (motor 62 is not: 001 Figure 3.4); the legs tracked
     everyone = {c.motor.id: c.motor.init for m, c in controllers.items() if m != "m62"}
     inits = {controllers[m].motor.id: controllers[m].motor.init for m in MOTORS[:12]}
+    config = ping_once_config(tmp_path)  # the same walk, its start not what is tested
     with sim_process("--motors", "rx28:11-16,21-26,31-33,41-43,51,61", "--baud", "57142",
                      out_dir=tmp_path / "sim") as (pty, _):
-        real = _walk(tmp_path / "real", "--port", pty)
-    virtual = _walk(tmp_path / "virtual")
+        real = _walk(tmp_path / "real", config, "--port", pty)
+    virtual = _walk(tmp_path / "virtual", config)
     assert real["rows_played"] == virtual["rows_played"] == GAIT_ROWS
 
     deliveries = goal_deliveries(Path(str(real["bag"])), everyone, rows=ROWS)
