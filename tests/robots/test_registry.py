@@ -50,6 +50,22 @@ def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[s
     assert printed == shipped_files()[name].read_text()
 
 
+@pytest.mark.parametrize(("name", "root"), [("armstrong.urdf", "robot"),
+                                            ("armstrong.mjcf", "mujoco")])
+def test_show_prints_the_biped_description(name: str, root: str,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """The URDF and the MJCF, written from the one description (robots/armstrong/
+    description.py): the text the module writes, an XML document of the right kind."""
+    import xml.etree.ElementTree as ET
+
+    from servolab.robots.armstrong.description import model_file
+
+    assert main(["robots", "show", name]) == 0
+    printed = capsys.readouterr().out
+    assert printed == model_file(name.split(".")[1])
+    assert ET.fromstring(printed).tag == root
+
+
 def test_show_of_something_not_shipped_is_one_line_and_exit_2(
         capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["robots", "show", "treadmill"]) == 2

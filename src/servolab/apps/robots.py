@@ -18,20 +18,26 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                           "(armstrong, seed000, seed000_4motor, turtlebot3_waffle) or one of "
                           "the navigation's (costmap_params, dwa_params, move_base_params, "
                           "nav_scene). Redirect it to a file, edit it, and give the file to "
-                          "the command's option (--config, --base, --costmap, ...).")
+                          "the command's option (--config, --base, --costmap, ...). "
+                          "armstrong.urdf and armstrong.mjcf print the biped's robot "
+                          "description for viewers and for MuJoCo.")
     show.add_argument("name", metavar="NAME", help="a robot or a shipped file's name")
 
 
 def _run(args: argparse.Namespace) -> int:
     from ..errors import UsageError
-    from ..robots.registry import ROBOTS, shipped_files
+    from ..robots.registry import ROBOTS, robot_models, shipped_files
 
     files = shipped_files()
     if args.action == "show":
+        models = robot_models()
+        if args.name in models:
+            print(models[args.name](), end="")
+            return 0
         if args.name not in files:
             hint = (f"{args.name} has no configuration file: its parameters are in code"
                     if args.name in ROBOTS else f"no shipped file {args.name!r}")
-            raise UsageError(f"{hint}; there are {', '.join(files)}")
+            raise UsageError(f"{hint}; there are {', '.join([*files, *models])}")
         print(files[args.name].read_text(), end="")
         return 0
     for name, entry in ROBOTS.items():
@@ -50,5 +56,6 @@ COMMAND = Command(
     description="List the robots servolab ships with their motors, bus and default "
     "configuration file (installed with servolab), or print one of those files.",
     examples=("servolab robots", "servolab robots show armstrong > my_armstrong.yaml",
+              "servolab robots show armstrong.urdf > armstrong.urdf",
               "servolab walk --config my_armstrong.yaml"),
     add_arguments=_add_arguments, run=_run)

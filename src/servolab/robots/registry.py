@@ -162,6 +162,15 @@ def load(name: str, port: str | None = None) -> Any:
     return entry(name).load(port)
 
 
+def robot_models() -> dict[str, Callable[[], str]]:
+    """The robot descriptions ``servolab robots show`` prints, by name: written from the
+    robot's one model each time (:mod:`.armstrong.description`), not shipped as files."""
+    from .armstrong.description import model_file
+
+    return {"armstrong.urdf": lambda: model_file("urdf"),
+            "armstrong.mjcf": lambda: model_file("mjcf")}
+
+
 def shipped_files() -> dict[str, Path]:
     """Every configuration file servolab ships, by the name ``servolab robots show`` takes:
     each robot's default file, and the navigation's parameter files and scene."""
