@@ -299,7 +299,9 @@ def test_stand_pose_holds_under_gravity(mj_model: mujoco.MjModel) -> None:
     assert abs(data.qpos[2] - height) < 0.002
     tilt = 2 * math.acos(min(1.0, abs(data.qpos[3])))
     assert tilt < math.radians(3)
-    assert np.all(np.abs(data.actuator_force) <= 3.7 + 1e-9)
+    # standing, no joint is near its motor's stall torque (MuJoCo would clip at 3.7 N m
+    # silently): the pose holds with torque to spare
+    assert np.all(np.abs(data.actuator_force) < 0.5 * 3.7)
 
 
 # -- (e) masses and assumptions ---------------------------------------------------------------

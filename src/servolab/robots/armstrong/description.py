@@ -65,6 +65,7 @@ from ...kinematics.leg import (
     leg_motor_angles,
     leg_transform,
 )
+from ...sim.simulation import DEFAULT_PHYSICS_STEP
 from ..controllers.config import RobotConfig
 from ..errors import RobotValueError
 from .hardware import ABSENT, MODEL, joint_limits, load_config
@@ -612,8 +613,9 @@ def urdf(description: Description) -> str:
 #: no other pair of the robot's boxes meets (their shapes are rough guesses that overlap).
 _CONTACT_BITS: dict[Contact, tuple[int, int]] = {"none": (0, 0), "floor": (2, 0), "all": (1, 1)}
 _FLOOR_BITS = (1, 3)
-#: MuJoCo's default step is 2 ms; the seed's probe of issue 31 stepped at 1 ms.
-TIMESTEP = 0.001
+#: the physics step: the Simulation's (servolab.sim.simulation), which the MuJoCo world will
+#: step at; MuJoCo's own default is 2 ms
+TIMESTEP = DEFAULT_PHYSICS_STEP
 
 
 def mjcf(description: Description) -> str:
@@ -626,8 +628,8 @@ def mjcf(description: Description) -> str:
     root = ET.Element("mujoco", model=d.name)
     root.append(ET.Comment(" " + _HEADER + " "))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
-    # implicitfast: the joints' damping (and the actuators' stiffness) integrated implicitly,
-    # which light links on geared motors need at a millisecond step
+    # implicitfast: velocity-dependent forces (the joints' damping) integrated implicitly; the
+    # actuators' stiffness stays explicit, stable at 1 ms (kp dt^2 / I is about 0.006)
     ET.SubElement(root, "option", timestep=_num(TIMESTEP), integrator="implicitfast")
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "joint", damping=_num(d.drive.damping),
