@@ -9,6 +9,7 @@ import argparse
 import math
 import sys
 import warnings
+from pathlib import Path
 
 from .arguments import PORT_HELP, add_log_level, add_out, log_level
 from .registry import Command
@@ -26,6 +27,16 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", metavar="YAML", help="controller configuration "
                    "(default: the seed's, armstrong.yaml; 'servolab robots show armstrong' "
                    "prints it)")
+    p.add_argument("--world", choices=("kinematic", "mujoco"), default="kinematic",
+                   help="what the emulated robot stands in: 'kinematic' (default: joints go "
+                   "where they are sent, nothing falls; the quick check of a motion file) or "
+                   "'mujoco' (gravity, contacts, the RX-28 firmware's torque: does it fall?)")
+    p.add_argument("--assume", action="append", default=[], metavar="NAME=VALUE",
+                   help="with --world mujoco: change one of the description's assumptions "
+                   "(SI units, e.g. --assume hip_width=0.12 --assume chest_mass=0.3; "
+                   "'servolab robots show armstrong.assumptions' lists them)")
+    p.add_argument("--video", metavar="FILE", help="with --world mujoco: render the run to "
+                   "FILE (.mp4 or .avi), headless (needs EGL)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_log_level(p)
     add_out(p)
@@ -41,6 +52,23 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.steps < 1:
         raise UsageError(f"--steps {args.steps}: must be 1 or more")
+    if (args.assume or args.video) and args.world != "mujoco":
+        raise UsageError(("--assume" if args.assume else "--video") + " needs --world mujoco "
+                         "(the kinematic world has no bodies)")
+    values: dict[str, float] = {}
+    for item in args.assume:
+        name, sep, text = item.partition("=")
+        try:
+            values[name.strip()] = float(text)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--assume {item!r}: give NAME=NUMBER, e.g. hip_width=0.12")
+    assumptions = None
+    if values:
+        from ..robots.armstrong.description import Assumptions
+
+        assumptions = Assumptions.with_values(values)
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
     with warnings.catch_warnings(record=True) as caught:  # one line each, not Python's two
@@ -51,7 +79,9 @@ def _run(args: argparse.Namespace) -> int:
     log_level(args)
     with console_log(), RunFolder.create("walk", args.out) as run:
         run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
-                 config=args.config, show_progress=not args.no_progress)
+                 config=args.config, show_progress=not args.no_progress, world=args.world,
+                 assumptions=assumptions,
+                 video=Path(args.video) if args.video else None)
     print(f"run folder: {run.path}")
     return 0
 
@@ -66,5 +96,6 @@ COMMAND = Command(
     "with torque on (a biped that went limp would fall); the bag is closed and summary.json "
     "says what ended the run and lists the alarms.",
     examples=("servolab walk --steps 2", "servolab walk --file gait.csv --steps 4",
+              "servolab walk --world mujoco --steps 4 --video walk.mp4",
               "servolab walk --port /dev/ttyUSB0 --steps 1"),
     add_arguments=_add_arguments, run=_run)

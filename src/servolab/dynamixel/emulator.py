@@ -27,7 +27,7 @@ from .errors import ConfigError
 from .models import ALLOWED_MODES, Model, Register, supports
 from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
-from .plant import KinematicServo, ServoCommand, ServoPlant
+from .plant import Compliance, KinematicServo, ServoCommand, ServoPlant
 from .protocol import protocol as protocol_for
 from .wire import baud_matches, byte_time
 
@@ -39,7 +39,8 @@ _SETTINGS = frozenset({
     "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm",
     "goal_current", "profile_velocity", "pwm_limit", "current_limit", "drive_mode",
     "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
-    "multi_turn_offset", "resolution_divider"})
+    "multi_turn_offset", "resolution_divider", "cw_compliance_margin", "ccw_compliance_margin",
+    "cw_compliance_slope", "ccw_compliance_slope", "punch"})
 
 #: Protocol 1.0: writing either of these switches torque on (the seeds' programs rely on it:
 #: seed 000 drives its EX-106+ wheels with a SYNC_WRITE of moving_speed alone, and ROS
@@ -167,6 +168,7 @@ class VirtualMotor:
         self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._layout = _layout(model)
+        self._has_watchdog = model.has("bus_watchdog")
         self._overheating_bit = _hardware_bit(model, "overheating")
         self._overload_bit = _hardware_bit(model, "overload")
         self._table_changed()       # (in mode 3 at power-up: the count within one turn)
@@ -599,18 +601,22 @@ class VirtualMotor:
         """A world stepped this motor's plant: the firmware's per-step duty."""
         self._steps_done = steps
         self._stale = True
-        deadline = self._watchdog_deadline()
-        if deadline is not None and steps >= deadline:
-            self._watchdog_trip()
+        if self._has_watchdog:  # (a world may step twenty motors a millisecond: the checks
+            deadline = self._watchdog_deadline()  # that cannot apply are skipped)
+            if deadline is not None and steps >= deadline:
+                self._watchdog_trip()
         overheating = self._overheating_bit
-        if (self._plant.temperature > self._temperature_limit
+        plant = self._plant
+        if (plant.temperature > self._temperature_limit
                 and not self.hardware_error & overheating):
             self._hardware_error(overheating)
             self._too_hot = True
-        if self._overload_due():
+        if getattr(plant, "stalled", False) and self._overload_due():
             self._overload()
-        self._cooled_down(overheating)
-        self._unloaded()
+        if self._too_hot:
+            self._cooled_down(overheating)
+        if self._overloaded:
+            self._unloaded()
 
     def _command(self) -> ServoCommand:
         """The registers as the joint sees them: torque, the goal and the limits, in SI."""
@@ -630,7 +636,7 @@ class VirtualMotor:
                 return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
             return ServoCommand(torque, False, goal_position=self._goal_angle(),
                                 profile_velocity=abs(self._si("moving_speed")),
-                                torque_limit=limit)
+                                torque_limit=limit, compliance=self._compliance())
         mode = self.get_raw("operating_mode")
         # Effort: PWM Limit(36) caps the output, and on current-sensing models Current Limit(38)
         # the current (as a share of its factory maximum); in Current-based Position mode
@@ -657,6 +663,20 @@ class VirtualMotor:
                                 torque_limit=limit)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=self._si("profile_velocity"), torque_limit=limit)
+
+    def _compliance(self) -> Compliance | None:
+        """Compliance Margin, Slope and Punch in SI, on the models that have them (e-Manual,
+        RX-28: margins and slopes in position ticks, punch on the torque limit's scale)."""
+        m = self.model
+        if not m.has("cw_compliance_slope"):
+            return None
+        return Compliance(
+            cw_margin=units.tick_span(m, self.get_raw("cw_compliance_margin")),
+            ccw_margin=units.tick_span(m, self.get_raw("ccw_compliance_margin")),
+            cw_slope=units.tick_span(m, self.get_raw("cw_compliance_slope")),
+            ccw_slope=units.tick_span(m, self.get_raw("ccw_compliance_slope")),
+            punch=self._si("punch") if m.register("punch").unit == "torque_ratio"
+            else self.get_raw("punch") / 1023.0)
 
     def _goal_angle(self) -> float:
         """goal_position as an angle of the joint (in Position Control Mode the count was

@@ -45,6 +45,24 @@ MECHANICAL_TIME_CONSTANT_S = 0.020
 
 
 @dataclass(frozen=True)
+class Compliance:
+    """The AX/RX/EX firmware's position control law, in SI (e-Manual, RX-28 Compliance
+    Margin(26, 27), Compliance Slope(28, 29), Punch(48)): within ``margin`` of the goal the
+    motor gives no output; beyond it the output grows across ``slope`` to the torque limit,
+    and is never less than ``punch`` while it gives any. The clockwise (``cw_*``) values act
+    when the goal lies clockwise of the horn (a negative error), the counter-clockwise ones
+    when it lies counter-clockwise. A plant that models only where the horn goes (the
+    :class:`KinematicServo`) ignores it; one whose joint a physics engine moves
+    (:mod:`servolab.sim.mujoco_world`) turns the error into torque with it."""
+
+    cw_margin: float = 0.0      # rad
+    ccw_margin: float = 0.0     # rad
+    cw_slope: float = 0.0       # rad (0: full output as soon as the margin is passed)
+    ccw_slope: float = 0.0      # rad
+    punch: float = 0.0          # fraction of stall torque
+
+
+@dataclass(frozen=True)
 class ServoCommand:
     """What the firmware asks of the joint, in SI units.
 
@@ -60,6 +78,9 @@ class ServoCommand:
     profile_velocity: float = 0.0   # rad/s, magnitude; 0 = the motor's top speed
     goal_velocity: float = 0.0      # rad/s, signed
     torque_limit: float = 1.0       # fraction of stall torque the firmware allows
+    #: the position control law of a compliance-controlled model (AX, RX, EX); None where the
+    #: firmware has another (X-series PID) or the joint is in velocity control
+    compliance: Compliance | None = None
 
 
 class ServoPlant(Protocol):

@@ -130,6 +130,12 @@ def ticks_position(model: Model, ticks: float) -> float:
     return (ticks - model.position_center) * model.rad_per_tick
 
 
+def tick_span(model: Model, ticks: float) -> float:
+    """An angle of ``ticks`` encoder counts, in rad (a width, not a position: compliance
+    margins and slopes)."""
+    return ticks * model.rad_per_tick
+
+
 def velocity_unit(model: Model) -> float:
     """rad/s per unit of the model's speed registers (moving speed, goal/present velocity)."""
     return model.speed_unit_rpm * RPM

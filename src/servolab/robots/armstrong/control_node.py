@@ -43,6 +43,8 @@ from .supervisor import FINISH_DURATION, SafetySupervisor
 if TYPE_CHECKING:
     from ...dynamixel.emulator import Faults
     from ...sim.simulation import Simulation
+    from .description import Assumptions
+    from .physics import Physics
 
 FLOAT64 = "std_msgs/msg/Float64"
 JOINT_STATE = "dynamixel_msgs/msg/JointState"
@@ -162,15 +164,34 @@ class Armstrong:
 
     def __init__(self, *, port: str | None = None, config: str | Path | None = None,
                  baudrate: int | None = None, history: bool = False,
-                 require_legs: bool = True, faults: Faults | None = None) -> None:
+                 require_legs: bool = True, faults: Faults | None = None,
+                 world: str = "kinematic", assumptions: Assumptions | None = None) -> None:
         from ...clock import WallClock
-        from ...sim.simulation import Simulation
+        from ...sim.simulation import DEFAULT_PHYSICS_STEP, Simulation
+        from .description import TIMESTEP as PHYSICS_STEP
+        from .physics import WORLDS, armstrong_world
 
+        if world not in WORLDS:
+            raise RobotValueError(f"no world {world!r} for Armstrong: one of "
+                                  f"{', '.join(WORLDS)}")
+        if port and world != "kinematic":
+            raise RobotValueError(f"world {world!r}: a real robot on {port} stands in the real "
+                                  "world; worlds are for the emulated robot (leave out the port)")
         self.config = armstrong.load_config(config)
-        self.simulation: Simulation | None = None if port else Simulation()
+        self.simulation: Simulation | None = None if port else Simulation(
+            PHYSICS_STEP if world == "mujoco" else DEFAULT_PHYSICS_STEP)
         self.bus, self.port = armstrong.open_bus(self.config, port_name=port,
                                                  simulation=self.simulation, baudrate=baudrate,
                                                  faults=faults)
+        #: the MuJoCo world the emulated robot stands in (``world="mujoco"``), else None
+        self.physics: Physics | None = None
+        try:
+            if world == "mujoco" and self.simulation is not None:
+                self.physics = armstrong_world(self.simulation, self.bus.emulator, self.config,
+                                               assumptions)
+        except BaseException:
+            self.bus.close()
+            raise
         try:
             self.context = Context.open(clock=self.simulation or WallClock())
         except BaseException:
@@ -213,8 +234,14 @@ class Armstrong:
         return self.context.ok()
 
     def should_stop(self) -> bool:
-        """The context ended or the supervisor raised an alarm."""
-        return not self.context.ok() or self.supervisor.tripped
+        """The context ended, the supervisor raised an alarm, or (in the MuJoCo world) the
+        robot fell: a fallen biped playing on kicks about on the floor."""
+        return not self.context.ok() or self.supervisor.tripped or self.fallen
+
+    @property
+    def fallen(self) -> bool:
+        """The emulated robot fell in its MuJoCo world (never, in the kinematic one)."""
+        return self.physics is not None and self.physics.world.fell_at is not None
 
     def finish(self, error: BaseException | None = None) -> str:
         """End a walk safely (see :mod:`.supervisor`): "stand", the joints brought to the

@@ -65,7 +65,6 @@ from ...kinematics.leg import (
     leg_motor_angles,
     leg_transform,
 )
-from ...sim.simulation import DEFAULT_PHYSICS_STEP
 from ..controllers.config import RobotConfig
 from ..errors import RobotValueError
 from .hardware import ABSENT, MODEL, joint_limits, load_config
@@ -197,6 +196,17 @@ class Assumptions:
             raise RobotValueError(
                 f"Armstrong's description: foot_thickness {self.foot_thickness:g} m does not "
                 f"fit under the ankle axis, L4 = {sole_to_ankle:g} m above the sole (Table 5.2)")
+
+    @classmethod
+    def with_values(cls, values: Mapping[str, float]) -> Assumptions:
+        """The stated assumptions with ``values`` (name -> number, in the field's unit) put
+        in their place: an unknown name is refused with the names it may have meant."""
+        names = [f.name for f in fields(cls)]
+        for name in values:
+            if name not in names:
+                raise RobotValueError(_unknown("assumption", name, names).replace(
+                    "Armstrong has no", "Armstrong's description has no"))
+        return cls(**dict(values))
 
     def table(self) -> Iterator[tuple[str, float, str, str]]:
         """(name, value, unit, source) of every assumption, in order."""
@@ -613,18 +623,35 @@ def urdf(description: Description) -> str:
 #: no other pair of the robot's boxes meets (their shapes are rough guesses that overlap).
 _CONTACT_BITS: dict[Contact, tuple[int, int]] = {"none": (0, 0), "floor": (2, 0), "all": (1, 1)}
 _FLOOR_BITS = (1, 3)
-#: the physics step: the Simulation's (servolab.sim.simulation), which the MuJoCo world will
-#: step at; MuJoCo's own default is 2 ms
-TIMESTEP = DEFAULT_PHYSICS_STEP
+#: the physics step (s): MuJoCo's default, 2 ms, and the step the emulated robot's
+#: Simulation takes in the MuJoCo world (:mod:`.physics`): the firmware's law runs once a
+#: step, 500 times a second; at 1 ms the run costs twice as much for no visible difference
+#: in the gaits (the joints' fastest dynamics, armature against the compliance slope, has a
+#: period of about 80 ms)
+TIMESTEP = 0.002
 
 
-def mjcf(description: Description) -> str:
+#: How the MJCF's joints are driven: by MuJoCo's position actuators (a model to look at and
+#: play with on its own), or by nothing inside the model, the emulated servos' firmware
+#: giving each joint its torque (:mod:`servolab.sim.mujoco_world`).
+Drives = Literal["position", "firmware"]
+
+
+def mjcf(description: Description, drive: Drives = "position") -> str:
     """The MJCF for MuJoCo: angles in radians (MJCF's default is degrees), a floor, the
-    pelvis free above it on straight legs, a position actuator per motor joint named by its
-    column whose control is the motor's angle (``gear`` = direction) within the motor's range
-    and whose force is limited to the RX-28's stall torque, and a ``stand`` keyframe: Table
-    4.2's pose with its soles on the floor."""
+    pelvis free above it on straight legs, and a ``stand`` keyframe: Table 4.2's pose with its
+    soles on the floor.
+
+    ``drive="position"``: a position actuator per motor joint named by its column whose
+    control is the motor's angle (``gear`` = direction) within the motor's range and whose
+    force is limited to the RX-28's stall torque, the back-EMF as the joints' damping.
+    ``drive="firmware"``: no actuators and no damping — the world's firmware law gives the
+    torque, back-EMF included — and a joint whose motor is not on the bus (m62) welded, as a
+    joint nothing turns holds by its gears' friction on the real robot."""
+    if drive not in ("position", "firmware"):
+        raise RobotValueError(f"no MJCF drive {drive!r}: one of position, firmware")
     d = description
+    firmware = drive == "firmware"
     root = ET.Element("mujoco", model=d.name)
     root.append(ET.Comment(" " + _HEADER + " "))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
@@ -632,10 +659,11 @@ def mjcf(description: Description) -> str:
     # actuators' stiffness stays explicit, stable at 1 ms (kp dt^2 / I is about 0.006)
     ET.SubElement(root, "option", timestep=_num(TIMESTEP), integrator="implicitfast")
     default = ET.SubElement(root, "default")
-    ET.SubElement(default, "joint", damping=_num(d.drive.damping),
+    ET.SubElement(default, "joint", damping=_num(0.0 if firmware else d.drive.damping),
                   armature=_num(d.drive.armature))
-    ET.SubElement(default, "position", kp=_num(d.drive.kp),
-                  forcerange=_nums((-d.drive.stall_torque, d.drive.stall_torque)))
+    if not firmware:
+        ET.SubElement(default, "position", kp=_num(d.drive.kp),
+                      forcerange=_nums((-d.drive.stall_torque, d.drive.stall_torque)))
     ET.SubElement(default, "site", size="0.005", rgba="1 0 0 1")
     asset = ET.SubElement(root, "asset")
     ET.SubElement(asset, "texture", name="grid", type="2d", builtin="checker", width="512",
@@ -652,22 +680,26 @@ def mjcf(description: Description) -> str:
                            pos=_nums((0.0, 0.0, d.standing_height({}))))
     ET.SubElement(pelvis, "freejoint", name="root")
     order: list[str] = []
-    _mjcf_body(d, pelvis, d.link(d.root), order)
-    actuators = ET.SubElement(root, "actuator")
-    for joint, motor in d.motors:
-        lo, hi = sorted((motor.direction * joint.lower, motor.direction * joint.upper))
-        ET.SubElement(actuators, "position", name=motor.column, joint=joint.name,
-                      gear=str(motor.direction), ctrlrange=_nums((lo, hi)))
+    welded = frozenset(j.name for j, motor in d.motors if firmware and not motor.on_bus)
+    _mjcf_body(d, pelvis, d.link(d.root), order, welded)
+    if not firmware:
+        actuators = ET.SubElement(root, "actuator")
+        for joint, motor in d.motors:
+            lo, hi = sorted((motor.direction * joint.lower, motor.direction * joint.upper))
+            ET.SubElement(actuators, "position", name=motor.column, joint=joint.name,
+                          gear=str(motor.direction), ctrlrange=_nums((lo, hi)))
     stand = d.joint_positions(STAND_POSE)
     keyframe = ET.SubElement(root, "keyframe")
     qpos = [0.0, 0.0, d.standing_height(STAND_POSE), 1.0, 0.0, 0.0, 0.0]
-    ctrl = [math.radians(STAND_POSE[motor.column]) for _, motor in d.motors]
-    ET.SubElement(keyframe, "key", name="stand", qpos=_nums(qpos + [stand[n] for n in order]),
-                  ctrl=_nums(ctrl))
+    key = {"name": "stand", "qpos": _nums(qpos + [stand[n] for n in order])}
+    if not firmware:
+        key["ctrl"] = _nums([math.radians(STAND_POSE[motor.column]) for _, motor in d.motors])
+    ET.SubElement(keyframe, "key", key)
     return _xml(root)
 
 
-def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str]) -> None:
+def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str],
+               welded: frozenset[str] = frozenset()) -> None:
     """``link``'s inertial and boxes into ``body``, then its children: a frame-only link on a
     fixed joint becomes a site, anything else a body (with a hinge if it has a motor)."""
     if link.boxes:
@@ -686,11 +718,11 @@ def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str]) -
             ET.SubElement(body, "site", name=child.name, pos=_nums(joint.origin))
             continue
         element = ET.SubElement(body, "body", name=child.name, pos=_nums(joint.origin))
-        if joint.kind == "revolute":
+        if joint.kind == "revolute" and joint.name not in welded:
             ET.SubElement(element, "joint", name=joint.name, type="hinge",
                           axis=_nums(joint.axis), range=_nums((joint.lower, joint.upper)))
             order.append(joint.name)
-        _mjcf_body(d, element, child, order)
+        _mjcf_body(d, element, child, order, welded)
 
 
 #: What :func:`model_file` writes.

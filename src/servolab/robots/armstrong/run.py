@@ -23,13 +23,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...gait.motionfile import MotionFile
+from ..errors import RobotValueError
 from . import ON_STOP
 from .control_node import PLAY_RATE, Armstrong, controller_of
+from .physics_report import physics_summary, plot_physics, render_walk
 from .poses import MOTORS
 
 if TYPE_CHECKING:
     from ...dynamixel.emulator import Faults
     from ...runs import RunFolder
+    from .description import Assumptions
 
 Say = Callable[[str], None]
 
@@ -49,14 +52,21 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
              rate: float = PLAY_RATE, port: str | None = None,
              config: str | Path | None = None, say: Say = print,
              show_progress: bool = True, faults: Faults | None = None,
-             on_row: Callable[[Armstrong, int], None] | None = None) -> dict[str, Any]:
+             on_row: Callable[[Armstrong, int], None] | None = None,
+             world: str = "kinematic", assumptions: Assumptions | None = None,
+             video: Path | None = None) -> dict[str, Any]:
     """Stand, play ``motion`` ``steps`` times at ``rate``, record; write the summary and
     return it. Ended by an alarm, a signal or an error, the robot finishes to double support
     (or holds, when its bus is gone: :meth:`Armstrong.finish`), the bag is closed and the
     summary written with ``interrupted``, the alarms and the rows played so far, and a
     signal or error goes on to the caller. ``faults`` go to the emulated robot's bus;
     ``on_row(robot, rows_played)`` is called after each row is sent, for scripted
-    experiments (a fault made to happen at a given row of the emulated robot)."""
+    experiments (a fault made to happen at a given row of the emulated robot).
+
+    ``world="mujoco"`` stands the emulated robot in MuJoCo (:mod:`.physics`, under
+    ``assumptions``): the ground truth goes into the bag, and the summary says whether and
+    when it fell and why (:mod:`.physics_report`), with a plot of its balance and, given
+    ``video``, the run rendered to that file."""
     from tqdm import tqdm
 
     from ...harness import RunEnding, interruption, stops_deferred
@@ -69,21 +79,38 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     total = steps * motion.poses
     played = 0
     interrupted: BaseException | None = None
-    with Armstrong(port=port, config=config, history=True, faults=faults) as robot:
-        where = port or "the emulated robot"
+    if video is not None and world != "mujoco":
+        raise RobotValueError(f"a video of the walk needs the MuJoCo world (--world mujoco), "
+                              f"not {world!r}: the {world} world has no bodies to draw")
+    with Armstrong(port=port, config=config, history=True, faults=faults, world=world,
+                   assumptions=assumptions) as robot:
+        where = port or ("the emulated robot" + (" in MuJoCo" if robot.physics else ""))
         say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
             f"{len(robot.manager.controllers)} controllers running"
             + (f" ({', '.join(robot.manager.failed)} could not start)"
                if robot.manager.failed else ""))
         start_clock(robot.context)  # the emulated robot's simulated time on /clock
         topics = recorded_topics(robot)
+        truth = None
+        if robot.physics is not None:
+            from ...sim.mujoco_truth import SampledTruthNode, truth_topics
+
+            if video is not None:  # a video that cannot be made is said before the walk
+                from ...sim.mujoco_video import check_video
+
+                check_video(robot.physics.world.model, video)
+
+            truth = SampledTruthNode(robot.context, robot.physics.world)
+            topics.update(truth_topics(robot.physics.world))
         recorder = Recorder(robot.context, str(bag), list(topics), types=topics, quiet=True)
         started = robot.context.clock.now()
+        gait_start = gait_end = started
         try:
             say("standing up (Table 4.2, over 2 s)")
             robot.stand()
             say(f"playing {motion.poses} rows x {steps} step(s) at {rate:g} Hz "
                 f"({motion.poses / rate:.2f} s a step)")
+            gait_start = robot.context.clock.now()
             with tqdm(total=total, unit="row", disable=not show_progress,
                       leave=False) as bar:
                 def progress(done: int, _total: int) -> None:
@@ -95,6 +122,10 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                     if not show_progress and done % motion.poses == 0:
                         say(f"step {done // motion.poses} of {steps} played")
                 played = robot.play(motion, steps, rate, progress=progress)
+            gait_end = robot.context.clock.now()
+            if robot.fallen:
+                say(f"fell at {robot.physics.world.fell_at:.2f} s: the gait is stopped"
+                    if robot.physics else "fell")
             if robot.supervisor.tripped:
                 say("alarm: " + "; ".join(str(a) for a in robot.supervisor.alarms))
         except BaseException as error:  # a stop signal or an error: finish, record, report
@@ -109,7 +140,12 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                 if robot.supervisor.tripped and robot.ending is None:  # an alarm just now
                     robot.finish()
                     robot.context.spin_for(0.5)
+            if played < total or interrupted is not None:
+                gait_end = robot.context.clock.now()
             with ending.step("closing the bag"):
+                if truth is not None:
+                    truth.publish_new()
+                    robot.context.spin_for(0.05)
                 recorder.destroy()
             manager = robot.manager
             summary: dict[str, Any] = {
@@ -133,6 +169,20 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                                                             run_folder.file("alarms.png")))
             with ending.step("measuring"):
                 summary["max_tracking_error_deg"] = tracking_errors(robot)
+            if robot.physics is not None:
+                physics = robot.physics
+                with ending.step("judging the physics"):
+                    summary["physics"] = physics_summary(physics.world, physics.description,
+                                                         gait_start, gait_end)
+                    summary["fell"] = summary["physics"]["fell"]
+                    summary["fell_at_s"] = summary["physics"]["fell_at_s"]
+                    summary["physics_plot"] = str(plot_physics(
+                        physics.world, run_folder.file("physics.png"), gait_start))
+                    if physics.world.fell_at is not None:
+                        say(summary["physics"].get("fall_cause", "it fell"))
+                if video is not None:
+                    with ending.step("rendering the video"):
+                        summary["video"] = str(render_walk(physics.world, video))
             say(("stopped after " if played < total else "played ") + f"{played} of {total} "
                 f"rows; recorded to {bag}; plot {summary.get('plot')}")
             run_folder.write_summary(summary, interrupted=ending.settle(late, summary))

@@ -1,0 +1,70 @@
+"""Armstrong in MuJoCo: the robot description's bodies, moved by its 20 emulated RX-28.
+
+:func:`armstrong_world` puts a :class:`~servolab.sim.mujoco_world.MujocoWorld` under the
+emulated bus of :mod:`.hardware`: the MJCF is the description's (``drive="firmware"``: no
+actuators, each joint's torque comes from its motor's firmware), and each motor turns its
+joint as the controllers see it — horn angle = the motor's ``init`` angle + the joint's sign
+x the joint angle, the sign being the motor's direction (Table 4.2's signs, the
+description's :attr:`~.description.Motor.direction`) and the controller's flip. The robot
+starts as the emulated motors do: at their ``init`` positions, which is every joint at 0,
+legs straight, soles on the floor.
+
+Which world is the default, and why: ``servolab walk`` runs ``--world kinematic`` unless
+told otherwise: the joints go where the firmware sends them, nothing can fall, and a walk
+costs a fraction of a second — the right first check of a motion file (its limits, its
+speeds, the bus's timing). ``--world mujoco`` adds gravity: a student runs it to see
+whether the motion stands up, at about a tenth of the kinematic world's speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...dynamixel import units
+from ...dynamixel.emulator import Emulator
+from ...sim.mujoco_world import MujocoWorld, ServoJoint
+from ...sim.simulation import Simulation
+from ..controllers.config import RobotConfig
+from ..errors import RobotValueError
+from .description import Assumptions, Description, describe, mjcf
+
+#: The worlds ``servolab walk`` can put the emulated robot in (the first is the default).
+WORLDS = ("kinematic", "mujoco")
+#: The bodies whose floor contacts are support, not a fall.
+FEET = ("left_foot", "right_foot")
+
+
+@dataclass(frozen=True)
+class Physics:
+    """The MuJoCo world an emulated Armstrong stands in, with the description it came from."""
+
+    world: MujocoWorld
+    description: Description
+
+
+def armstrong_world(simulation: Simulation, emulator: Emulator, config: RobotConfig,
+                    assumptions: Assumptions | None = None) -> Physics:
+    """The MuJoCo world under ``emulator``'s motors (see the module docstring), added to
+    ``simulation``."""
+    description = describe(assumptions, config)
+    init = {c.motor.id: c.motor for c in config.controllers}
+    joints = []
+    for joint, motor in description.motors:
+        if not motor.on_bus:
+            continue
+        if motor.id not in init:
+            raise RobotValueError(f"no controller for motor {motor.id} in "
+                                  f"{config.path or 'the configuration'}")
+        try:
+            servo = emulator.motor(motor.id)
+        except Exception:
+            raise RobotValueError(f"motor {motor.id} ({joint.name}) is not on the emulated "
+                                  "bus") from None
+        raw = init[motor.id]
+        offset = units.to_si(servo.model, servo.model.register("goal_position"), raw.init)
+        flip = -1 if raw.flipped else 1
+        joints.append(ServoJoint(joint.name, servo, offset, flip * motor.direction))
+    world = MujocoWorld(mjcf(description, drive="firmware"), joints, base=description.root,
+                        feet=FEET, start=simulation.now())
+    simulation.add(world)
+    return Physics(world, description)

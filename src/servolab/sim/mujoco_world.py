@@ -1,0 +1,565 @@
+"""A MuJoCo world: a robot of Dynamixel joints whose bodies a physics engine moves, each joint
+driven through its emulated servo's firmware.
+
+Where the floor and the ball own a few wheels, this world owns a whole robot (an MJCF: the
+biped of seed 001 is written by :mod:`servolab.robots.armstrong.description`) and the state
+of its joints. Each emulated motor keeps its firmware (control table, instructions, errors,
+alarms) and gets a :class:`JointPlant` in place of its own plant: the firmware's
+:class:`~servolab.dynamixel.plant.ServoCommand` goes in, and present position, speed, load
+and temperature come out of the physics. Nothing else drives the joints: an MJCF actuator on
+a servo's joint is refused, so that no second controller hides inside the model file.
+
+**The firmware's control law** (one step, every joint at once, vectorised). ROBOTIS publish
+the AX/RX/EX law only in words (e-Manual, RX-28 Compliance and Punch; Moving Speed), so
+this is that law made concrete, and stated so it can be changed:
+
+1. a reference moves from where the horn was when torque came on toward ``goal_position``
+   at no more than ``moving_speed`` (0: at once) — the firmware's speed control;
+2. the error (reference - horn) gives the output share ``u``: 0 within the compliance
+   margin, then growing linearly across the compliance slope to the torque limit, never
+   below punch while non-zero (the ``cw_*`` values for a negative error);
+3. the motor is a DC motor behind its gears: torque = stall torque x (``u`` - speed /
+   no-load speed), the back-EMF line of the datasheet's two figures (RX-28: 3.7 N m, 85 rpm),
+   limited to the torque limit; with torque off it gives none (the H-bridge is open).
+
+In velocity control (wheel mode) ``u`` is the goal speed's share of the no-load speed, the
+output the e-Manual says wheel mode sets. A model without compliance registers (the
+X-series, whose PID this does not model) is driven with full output beyond one tick of
+error.
+
+**Load and heat.** Present load is the motor's torque over its stall torque, as the firmware
+infers it (e-Manual, Present Load). The winding temperature follows it as the default plant's
+does (:mod:`servolab.dynamixel.plant`: a first-order lag toward ambient + 7 °C + 60 °C x
+load²), so a joint pushed against its limit heats, and the supervisor of a walk trips on it
+as on hardware. The firmware's overload error needs the joint *stalled*: the torque at its
+limit while the horn stands still for :data:`OVERLOAD_TIME_S` (ROBOTIS give no time; a
+joint saturating for a moment while it accelerates is not overloaded).
+
+**Time.** The simulation steps the world at its physics step (MuJoCo's timestep is set to
+it); the same inputs give the same run, bit for bit: MuJoCo's step is deterministic on one
+thread.
+
+**Ground truth.** :meth:`MujocoWorld.ground_truth` gives the base body's pose, the centre of
+mass, each foot's normal force and whether the robot has fallen (something other than its
+feet touched the floor, or its base tilted past ``max_tilt``). Every ``record_period`` the
+world also keeps a :class:`Sample` (:attr:`MujocoWorld.samples`) with the zero-moment point,
+the centre of pressure and the support polygon's margin — what a biped's balance is judged
+by — and the joints' loads and temperatures, for the run's summary, plot, video and bag.
+
+The zero-moment point is computed from the robot's momentum (the contact wrench that changed
+it between two samples, Sardain & Bessonnet 2004's definition): unlike the centre of pressure
+it can leave the support polygon, and it does as the robot starts to tip, so its margin says
+how near the robot came to falling. The centre of pressure is the contact forces' own: on
+the floor it never leaves the polygon.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..dynamixel.emulator import VirtualMotor
+from ..dynamixel.plant import (
+    AMBIENT_C,
+    IDLE_RISE_C,
+    STALL_HEATING_C,
+    THERMAL_TIME_CONSTANT_S,
+    ServoCommand,
+)
+from .errors import SimulationError
+from .simulation import Simulation
+from .world import World
+
+if TYPE_CHECKING:
+    pass
+
+#: How long a joint must give its whole torque limit without moving before the firmware
+#: calls it overloaded (a guess: ROBOTIS give no figure).
+OVERLOAD_TIME_S = 1.0
+#: Below this share of the no-load speed a joint at its torque limit counts as not moving.
+_STILL_SHARE = 0.01
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class ServoJoint:
+    """An emulated motor and the MJCF hinge it turns: horn angle (rad from the model's centre
+    tick, what the firmware counts) = ``offset`` + ``direction`` x joint angle."""
+
+    joint: str
+    motor: VirtualMotor
+    offset: float = 0.0
+    direction: int = 1
+
+
+@dataclass(frozen=True)
+class Sample:
+    """The world every ``record_period``: SI, world frame (z up), ``nan`` where undefined
+    (no zero-moment point before the second sample or in the air)."""
+
+    t: float
+    base: tuple[float, float, float, float, float, float]   # x y z roll pitch yaw
+    com: tuple[float, float, float]
+    zmp: tuple[float, float]
+    cop: tuple[float, float]
+    #: the centre of the support points (nan with no foot on the floor): the middle the
+    #: zero-moment point leaves from
+    support: tuple[float, float]
+    #: signed distance (m) of the zero-moment point from the support polygon's edge: > 0
+    #: inside; nan with no foot on the floor
+    margin: float
+    feet: tuple[float, ...]          # normal force on each foot (N), in the order given
+    fallen: bool
+    load: tuple[float, ...]          # each joint's present load (fraction of stall torque)
+    temperature: tuple[float, ...]   # each joint's winding temperature (°C)
+    qpos: tuple[float, ...]          # MuJoCo's qpos: for rendering the run
+
+
+class JointPlant:
+    """One joint of a :class:`MujocoWorld` as its motor's
+    :class:`~servolab.dynamixel.plant.ServoPlant`: it forwards the firmware's command to the
+    world and reads the joint's state from it. The world steps all its joints at once, so
+    :meth:`step` does nothing."""
+
+    def __init__(self, world: MujocoWorld, index: int) -> None:
+        self._world = world
+        self._index = index
+        self._command = ServoCommand()
+
+    @property
+    def command(self) -> ServoCommand:
+        return self._command
+
+    @command.setter
+    def command(self, command: ServoCommand) -> None:
+        if command != self._command:
+            self._command = command
+            self._world._commanded(self._index, command)
+
+    @property
+    def position(self) -> float:
+        return self._world._horn(self._index)
+
+    @property
+    def velocity(self) -> float:
+        return self._world._horn_velocity(self._index)
+
+    @property
+    def effort(self) -> float:
+        return float(self._world._effort[self._index])
+
+    @property
+    def temperature(self) -> float:
+        """Winding temperature, °C; settable (the windings are that warm from now on), as the
+        default plant's (:class:`~servolab.dynamixel.plant.KinematicServo`)."""
+        return float(self._world._temperature[self._index])
+
+    @temperature.setter
+    def temperature(self, celsius: float) -> None:
+        if not math.isfinite(celsius):
+            raise SimulationError(f"temperature {celsius!r} °C is not a finite number")
+        self._world._temperature[self._index] = float(celsius)
+
+    @property
+    def thermal_time_constant(self) -> float:
+        return float(self._world._thermal_tau[self._index])
+
+    @thermal_time_constant.setter
+    def thermal_time_constant(self, seconds: float) -> None:
+        if not (math.isfinite(seconds) and seconds > 0):
+            raise SimulationError(f"thermal_time_constant {seconds!r} s must be a positive "
+                                  "number")
+        world = self._world
+        world._thermal_tau[self._index] = float(seconds)
+        world._decay = np.exp(-world._decay_dt / world._thermal_tau)
+
+    @property
+    def stalled(self) -> bool:
+        """At the torque limit and not moving for :data:`OVERLOAD_TIME_S`: the firmware's
+        overload condition."""
+        return bool(self._world._stalled_for[self._index] >= OVERLOAD_TIME_S)
+
+    def step(self, dt: float) -> None:
+        """Nothing: :meth:`MujocoWorld.step` steps every joint together."""
+
+
+class MujocoWorld(World):
+    """A robot in MuJoCo, its joints driven by emulated servos (see the module docstring).
+
+    ``mjcf`` is the model's XML text; ``joints`` name the hinges the motors turn. ``base`` is
+    the body whose pose :meth:`ground_truth` reports (default: the first body with a free
+    joint, else the first body); ``feet`` the bodies whose floor contacts are support (the
+    rest are falls); ``floor`` the floor geom's name. ``qpos`` (MuJoCo's) sets the start,
+    else the model's own ``qpos0``; ``start`` is the simulation's time when the world joins
+    it (the samples' times are the simulation's)."""
+
+    name = "mujoco"
+
+    def __init__(self, mjcf: str, joints: Sequence[ServoJoint], *, base: str | None = None,
+                 feet: Sequence[str] = (), floor: str = "floor",
+                 max_tilt: float = math.radians(45.0), record_period: float = 0.01,
+                 qpos: Sequence[float] | None = None, start: float = 0.0) -> None:
+        import mujoco
+
+        try:
+            self.model = mujoco.MjModel.from_xml_string(mjcf)
+        except ValueError as error:
+            raise SimulationError(f"the MuJoCo model does not load: {error}") from None
+        m = self.model
+        self.data = mujoco.MjData(m)
+        self._mujoco = mujoco
+        if not joints:
+            raise SimulationError("a MuJoCo world needs at least one servo joint")
+        if not (math.isfinite(record_period) and record_period > 0):
+            raise SimulationError(f"record_period {record_period!r} s must be a number > 0")
+        self.joints = tuple(joints)
+        ids = [self._id(mujoco.mjtObj.mjOBJ_JOINT, j.joint, "joint") for j in self.joints]
+        if len(set(ids)) != len(ids):
+            raise SimulationError("two motors turn the same joint: "
+                                  + ", ".join(j.joint for j in self.joints))
+        for j, jid in zip(self.joints, ids, strict=True):
+            if m.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
+                raise SimulationError(f"joint {j.joint!r} is not a hinge: a servo turns one")
+            if j.direction not in (-1, 1):
+                raise SimulationError(f"joint {j.joint!r}: direction {j.direction!r} must be "
+                                      "+1 or -1")
+        for a in range(m.nu):
+            if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and \
+                    int(m.actuator_trnid[a, 0]) in ids:
+                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
+                joint = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, m.actuator_trnid[a, 0])
+                raise SimulationError(
+                    f"the model's actuator {name!r} drives joint {joint!r}, which a servo's "
+                    "firmware drives: write the model without actuators on servo joints")
+        self._qadr = np.array([m.jnt_qposadr[i] for i in ids])
+        self._dadr = np.array([m.jnt_dofadr[i] for i in ids])
+        self._offset = np.array([j.offset for j in self.joints], dtype=np.float64)
+        self._dir = np.array([j.direction for j in self.joints], dtype=np.float64)
+        models = [j.motor.model for j in self.joints]
+        self._stall = np.array([mm.stall_torque_nm for mm in models], dtype=np.float64)
+        self._w0 = np.array([mm.no_load_speed for mm in models], dtype=np.float64)
+        one_tick = np.array([mm.rad_per_tick for mm in models], dtype=np.float64)
+        n = len(self.joints)
+        # the command, as arrays (refreshed by _commanded)
+        self._torque_on = np.zeros(n, dtype=bool)
+        self._velocity_mode = np.zeros(n, dtype=bool)
+        self._goal = np.zeros(n)
+        self._speed = np.zeros(n)
+        self._goal_velocity = np.zeros(n)
+        self._limit = np.ones(n)
+        self._margin = np.zeros((2, n))       # [cw, ccw]
+        self._slope = np.vstack([one_tick, one_tick])   # no compliance: full at one tick
+        self._punch = np.zeros(n)
+        # the state
+        self._reference = np.zeros(n)
+        self._effort = np.zeros(n)
+        self._temperature = np.array([AMBIENT_C + IDLE_RISE_C] * n)
+        self._thermal_tau = np.full(n, THERMAL_TIME_CONSTANT_S)
+        self._decay_dt = math.nan
+        self._decay = np.ones(n)
+        self._stalled_for = np.zeros(n)
+        self._laws_changed = True
+        if qpos is not None:
+            pose = np.asarray(qpos, dtype=np.float64)
+            if pose.shape != (m.nq,) or not np.all(np.isfinite(pose)):
+                raise SimulationError(f"qpos: {m.nq} finite numbers wanted, got shape "
+                                      f"{pose.shape}")
+            self.data.qpos[:] = pose
+        mujoco.mj_forward(m, self.data)
+        # the robot's bodies and the floor
+        self.base = self._base_body(base)
+        self.floor = self._id(mujoco.mjtObj.mjOBJ_GEOM, floor, "geom")
+        self.feet = tuple(feet)
+        foot_ids = [self._id(mujoco.mjtObj.mjOBJ_BODY, f, "body") for f in self.feet]
+        self._foot_of_geom = {g: k for k, body in enumerate(foot_ids)
+                              for g in range(m.ngeom) if m.geom_bodyid[g] == body}
+        self.max_tilt = float(max_tilt)
+        self._root = int(m.body_rootid[self.base])
+        self._mass = float(m.body_subtreemass[self._root])
+        self.record_period = float(record_period)
+        self.samples: list[Sample] = []
+        self.fell_at: float | None = None
+        self._time = float(start)
+        self._next_record = float(start)
+        self._momentum: tuple[float, ...] | None = None
+        self.plants = tuple(self.attach(j.motor, JointPlant(self, k))
+                            for k, j in enumerate(self.joints))
+        self._reference[:] = self._horns()
+
+    def _id(self, kind: Any, name: str, what: str) -> int:
+        index = int(self._mujoco.mj_name2id(self.model, kind, name))
+        if index < 0:
+            raise SimulationError(f"the MuJoCo model has no {what} {name!r}")
+        return index
+
+    def _base_body(self, name: str | None) -> int:
+        m = self.model
+        if name is not None:
+            return self._id(self._mujoco.mjtObj.mjOBJ_BODY, name, "body")
+        for j in range(m.njnt):
+            if m.jnt_type[j] == self._mujoco.mjtJoint.mjJNT_FREE:
+                return int(m.jnt_bodyid[j])
+        return 1 if m.nbody > 1 else 0
+
+    # -- the plants' side ---------------------------------------------------------------------
+    def _commanded(self, k: int, command: ServoCommand) -> None:
+        was_on = bool(self._torque_on[k])
+        self._torque_on[k] = command.torque_enabled
+        self._velocity_mode[k] = command.velocity_control
+        self._goal[k] = command.goal_position
+        self._speed[k] = command.profile_velocity
+        self._goal_velocity[k] = command.goal_velocity
+        self._limit[k] = max(0.0, min(1.0, command.torque_limit))
+        c = command.compliance
+        if c is not None:
+            self._margin[:, k] = (c.cw_margin, c.ccw_margin)
+            tick = self.joints[k].motor.model.rad_per_tick
+            # a slope of 0 means full output past the margin: one tick is as steep as the
+            # encoder can tell
+            self._slope[:, k] = (max(c.cw_slope, tick), max(c.ccw_slope, tick))
+            self._punch[k] = c.punch
+        if command.torque_enabled and not was_on:
+            self._reference[k] = self._horn(k)  # the move starts where the horn is
+        self._laws_changed = True
+
+    def _horns(self) -> np.ndarray:
+        horns: np.ndarray = self._offset + self._dir * self.data.qpos[self._qadr]
+        return horns
+
+    def _horn(self, k: int) -> float:
+        return float(self._offset[k] + self._dir[k] * self.data.qpos[self._qadr[k]])
+
+    def _horn_velocity(self, k: int) -> float:
+        return float(self._dir[k] * self.data.qvel[self._dadr[k]])
+
+    # -- stepping ---------------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        m, d = self.model, self.data
+        if dt != self._decay_dt:
+            m.opt.timestep = dt
+            self._decay = np.exp(-dt / self._thermal_tau)
+            self._decay_dt = dt
+            self._laws_changed = True
+        if self._laws_changed:
+            self._prepare(dt)
+        horn = self._offset + self._dir * d.qpos[self._qadr]
+        speed = self._dir * d.qvel[self._dadr]
+        # 1. the reference, moving toward the goal at the moving speed (0: at once)
+        ref = self._reference
+        move = self._goal - ref
+        np.minimum(move, self._travel, out=move)
+        np.maximum(move, -self._travel, out=move)
+        ref += move
+        np.copyto(ref, horn, where=self._off)
+        # 2. the output share from the error, by margin, slope and punch
+        error = ref - horn
+        ccw = error >= 0
+        beyond = np.abs(error) - np.where(ccw, self._margin[1], self._margin[0])
+        share = beyond * np.where(ccw, self._gain[1], self._gain[0])
+        np.maximum(share, self._punch, out=share)
+        np.minimum(share, self._limit, out=share)
+        u = np.where(beyond > 0, np.copysign(share, error), 0.0)
+        if self._any_velocity_mode:
+            np.copyto(u, self._wheel_share, where=self._velocity_mode)
+        # 3. the DC motor behind its gears: its back-EMF line, within the torque limit
+        effort = u - speed * self._inverse_w0
+        np.minimum(effort, self._limit, out=effort)
+        np.maximum(effort, -self._limit, out=effort)
+        effort *= self._on
+        self._effort = effort
+        d.qfrc_applied[self._dadr] = effort * self._dir_stall
+        self._mujoco.mj_step(m, d)
+        # heat, and how long each joint has pushed at its limit without moving
+        steady = effort * effort
+        steady *= STALL_HEATING_C
+        steady += AMBIENT_C + IDLE_RISE_C
+        temperature = self._temperature
+        temperature -= steady
+        temperature *= self._decay
+        temperature += steady
+        pushing = (np.abs(effort) >= self._saturated) & (np.abs(speed) < self._still)
+        if pushing.any() or self._stalled_for.any():
+            self._stalled_for = np.where(pushing, self._stalled_for + dt, 0.0)
+        self._time += dt
+        if self._time >= self._next_record - 1e-12:
+            self._record()
+            self._next_record += self.record_period
+
+    def _prepare(self, dt: float) -> None:
+        """The per-step figures of the current commands (recomputed when one changes)."""
+        self._laws_changed = False
+        self._travel = np.where(self._speed > 0, self._speed * dt, np.inf)
+        self._off = ~self._torque_on
+        self._on = self._torque_on.astype(np.float64)
+        self._gain = 1.0 / self._slope
+        self._inverse_w0 = 1.0 / self._w0
+        self._dir_stall = self._dir * self._stall
+        self._any_velocity_mode = bool(self._velocity_mode.any())
+        self._wheel_share = np.clip(self._goal_velocity / self._w0, -self._limit, self._limit)
+        # a joint at its limit (and torque on, with a limit above 0) pushes as hard as it may
+        self._saturated = np.where(self._torque_on & (self._limit > 0), self._limit - 1e-9,
+                                   np.inf)
+        self._still = _STILL_SHARE * self._w0
+
+    # -- what happened ------------------------------------------------------------------------
+    def _contacts(self) -> tuple[list[float], list[tuple[float, float, float]], bool]:
+        """Each foot's normal force, the support points (x, y, normal force) and whether
+        something else touches the floor."""
+        m, d = self.model, self.data
+        forces = [0.0] * len(self.feet)
+        points: list[tuple[float, float, float]] = []
+        other = False
+        wrench = np.zeros(6)
+        for i in range(d.ncon):
+            contact = d.contact[i]
+            g1, g2 = int(contact.geom1), int(contact.geom2)
+            if self.floor not in (g1, g2):
+                continue
+            geom = g2 if g1 == self.floor else g1
+            foot = self._foot_of_geom.get(geom)
+            if foot is None:
+                if m.geom_bodyid[geom] != 0:
+                    other = True
+                continue
+            self._mujoco.mj_contactForce(m, d, i, wrench)
+            normal = float(wrench[0])
+            forces[foot] += normal
+            points.append((float(contact.pos[0]), float(contact.pos[1]), normal))
+        return forces, points, other
+
+    def _tilt(self) -> float:
+        """The base's tilt from upright (rad): the angle of its z axis from the world's."""
+        zz = float(self.data.xmat[self.base][8])
+        return math.acos(max(-1.0, min(1.0, zz)))
+
+    def _zmp(self) -> tuple[float, float]:
+        """The zero-moment point from the momentum's change since the last sample."""
+        mujoco, m, d = self._mujoco, self.model, self.data
+        mujoco.mj_subtreeVel(m, d)
+        root, mass = self._root, self._mass
+        cx, cy, cz = (float(v) for v in d.subtree_com[root])
+        px, py, pz = (mass * float(v) for v in d.subtree_linvel[root])
+        lx, ly, _ = (float(v) for v in d.subtree_angmom[root])
+        # angular momentum about the origin: com x linear momentum + about the com
+        now = (self._time, cx, cy, pz, cy * pz - cz * py + lx, cz * px - cx * pz + ly)
+        before, self._momentum = self._momentum, now
+        if before is None:
+            return (math.nan, math.nan)
+        t0, cx0, cy0, pz0, hx0, hy0 = before
+        span = self._time - t0
+        weight = mass * GRAVITY
+        # the floor's force on the robot: what changed its momentum, less gravity's part
+        fz = (pz - pz0) / span + weight
+        if fz <= 1e-6 * weight:
+            return (math.nan, math.nan)     # in the air: no point on the floor
+        # its moment about the origin, less gravity's (at the mean centre of mass)
+        mx = (now[4] - hx0) / span + weight * (cy + cy0) / 2
+        my = (now[5] - hy0) / span - weight * (cx + cx0) / 2
+        return (-my / fz, mx / fz)
+
+    def _record(self) -> None:
+        d = self.data
+        forces, points, other = self._contacts()
+        zmp = self._zmp()
+        total = sum(p[2] for p in points)
+        cop = ((sum(p[0] * p[2] for p in points) / total,
+                sum(p[1] * p[2] for p in points) / total) if total > 0 else (math.nan, math.nan))
+        margin = support_margin(zmp, [(p[0], p[1]) for p in points])
+        support = ((sum(p[0] for p in points) / len(points),
+                    sum(p[1] for p in points) / len(points)) if points
+                   else (math.nan, math.nan))
+        fallen = other or self._tilt() > self.max_tilt
+        if fallen and self.fell_at is None:
+            self.fell_at = self._time
+        pos = d.xpos[self.base]
+        self.samples.append(Sample(
+            t=self._time, base=(*_triple(pos), *_euler(d.xquat[self.base])),
+            com=_triple(d.subtree_com[self._root]), zmp=zmp, cop=cop, support=support,
+            margin=margin,
+            feet=tuple(forces), fallen=fallen,
+            load=tuple(float(v) for v in self._effort),
+            temperature=tuple(float(v) for v in self._temperature),
+            qpos=tuple(float(v) for v in d.qpos)))
+
+    def ground_truth(self) -> dict[str, float]:
+        d = self.data
+        x, y, z = (float(v) for v in d.xpos[self.base])
+        roll, pitch, yaw = _euler(d.xquat[self.base])
+        self._mujoco.mj_subtreeVel(self.model, d)
+        cx, cy, cz = _triple(d.subtree_com[self._root])
+        truth = {"x": x, "y": y, "z": z, "roll": roll, "pitch": pitch, "yaw": yaw,
+                 "com_x": cx, "com_y": cy, "com_z": cz,
+                 "fallen": 1.0 if self.fell_at is not None else 0.0}
+        forces, _, _ = self._contacts()
+        for foot, force in zip(self.feet, forces, strict=True):
+            truth[f"{foot}_force"] = force
+        return truth
+
+    @classmethod
+    def example(cls, simulation: Simulation) -> MujocoWorld:
+        """An arm of two RX-28 (IDs 1 and 2, 57142 bps) on a post, told to lift."""
+        from ..dynamixel.bus import Bus
+
+        bus = Bus.open("emu://rx28:1-2", baudrate=57142, simulation=simulation)
+        world = simulation.add(cls(EXAMPLE_ARM, [
+            ServoJoint("shoulder", bus.emulator.motor(1)),
+            ServoJoint("elbow", bus.emulator.motor(2), direction=-1)], start=simulation.now()))
+        for motor_id, goal in ((1, 0.8), (2, -0.6)):
+            bus.write(motor_id, "torque_enable", 1)
+            bus.write(motor_id, "goal_position", goal)
+        return world
+
+
+def support_margin(point: tuple[float, float], support: Sequence[tuple[float, float]]
+                   ) -> float:
+    """Signed distance (m) from ``point`` to the edge of the convex hull of the ``support``
+    points: positive inside, negative outside, nan without support or point. OpenCV's
+    convex hull and point-polygon test do the geometry."""
+    import cv2
+
+    if not support or not all(math.isfinite(v) for v in point):
+        return math.nan
+    pts = np.asarray(support, dtype=np.float32)
+    if len(np.unique(pts, axis=0)) == 1:
+        return -float(np.hypot(*(np.asarray(point) - pts[0])))
+    hull = cv2.convexHull(pts)
+    return float(cv2.pointPolygonTest(hull, (float(point[0]), float(point[1])), True))
+
+
+def _triple(values: Any) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
+def _euler(quat: Any) -> tuple[float, float, float]:
+    """Roll, pitch, yaw (rad, z-y-x) of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(v) for v in quat)
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+#: The contract test's scene (:meth:`MujocoWorld.example`): a shoulder and an elbow, each an
+#: RX-28's horn, carrying 100 g links.
+EXAMPLE_ARM = """
+<mujoco model="arm">
+  <compiler angle="radian"/>
+  <option timestep="0.001" integrator="implicitfast"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.05"/>
+    <body name="upper" pos="0 0 0.3">
+      <joint name="shoulder" type="hinge" axis="0 1 0" armature="0.0037"/>
+      <geom type="box" size="0.015 0.015 0.05" pos="0 0 -0.05" mass="0.1"/>
+      <body name="lower" pos="0 0 -0.1">
+        <joint name="elbow" type="hinge" axis="0 1 0" armature="0.0037"/>
+        <geom type="box" size="0.015 0.015 0.05" pos="0 0 -0.05" mass="0.1"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""

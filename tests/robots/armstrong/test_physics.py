@@ -1,0 +1,156 @@
+"""Armstrong in the MuJoCo world: the same robot code on the same emulated bus, with gravity.
+
+Facts checked against sources other than this code:
+
+- a body at rest on the floor: the floor carries its weight (the model's masses x g) and the
+  zero-moment point lies under its centre of mass (static equilibrium; Vukobratović &
+  Borovac 2004);
+- the joints stand where the controllers sent them, less the compliance slope's sag
+  (e-Manual, RX-28 Compliance): read over the bus, and in MuJoCo's own joint angles through
+  the description's directions (Table 4.2's signs);
+- a robot whose servos let go falls (the RX-28 with Torque Enable 0 gives no torque);
+- the recording is read back by an independent decoder (``mcap`` + ``mcap-ros2-support``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap_ros2.reader import read_ros2_messages
+
+from servolab.robots.armstrong.control_node import Armstrong
+from servolab.robots.armstrong.description import Assumptions
+from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
+from servolab.robots.errors import RobotValueError
+
+from .configs import ping_once_config
+
+LEGS = MOTORS[:12]
+RX28_TICK_DEG = 300.0 / 1023
+
+
+@pytest.fixture(scope="module")
+def standing(tmp_path_factory: pytest.TempPathFactory) -> Armstrong:
+    config = ping_once_config(tmp_path_factory.mktemp("config"))
+    robot = Armstrong(world="mujoco", config=config)
+    robot.stand()
+    robot.context.spin_for(1.0)
+    yield robot
+    robot.close()
+
+
+def test_it_stands_on_its_feet_with_its_weight_over_them(standing: Armstrong) -> None:
+    physics = standing.physics
+    assert physics is not None and not standing.fallen
+    world = physics.world
+    last = world.samples[-20:]                      # the last 0.2 s, at rest
+    weight = float(world.model.body_subtreemass[1]) * 9.81
+    assert weight == pytest.approx(physics.description.total_mass * 9.81)
+    assert np.mean([sum(s.feet) for s in last]) == pytest.approx(weight, rel=0.02)
+    assert all(f > 0.2 * weight for s in last for f in s.feet)   # both feet bear it
+    zmp = np.array([s.zmp for s in last])
+    com = np.array([s.com[:2] for s in last])
+    np.testing.assert_allclose(zmp.mean(axis=0), com.mean(axis=0), atol=0.003)
+    assert min(s.margin for s in last) > 0.02       # well inside the feet
+
+
+def test_the_joints_stand_where_they_were_sent_less_the_slopes_sag(standing: Armstrong
+                                                                   ) -> None:
+    physics = standing.physics
+    assert physics is not None
+    world = physics.world
+    present = standing.node.present                 # degrees, from /controller_mXX/state
+    for joint, motor in physics.description.motors:
+        if not motor.on_bus:
+            continue
+        sent = STAND_POSE[motor.column]
+        # loaded leg joints sag by up to the slope's share of their load: at most 32 ticks
+        assert present[motor.column] == pytest.approx(sent, abs=32 * RX28_TICK_DEG)
+        # MuJoCo's joint angle, through the description's direction, is the motor's
+        qpos = world.data.qpos[world.model.joint(joint.name).qposadr[0]]
+        assert motor.direction * math.degrees(qpos) == pytest.approx(
+            present[motor.column], abs=RX28_TICK_DEG)
+
+
+def test_the_ground_truth_says_where_it_stands(standing: Armstrong) -> None:
+    physics = standing.physics
+    assert physics is not None
+    truth = physics.world.ground_truth()
+    assert truth["z"] == pytest.approx(
+        physics.description.standing_height(STAND_POSE), abs=0.01)
+    assert truth["fallen"] == 0.0
+    assert abs(truth["roll"]) < 0.05 and abs(truth["pitch"]) < 0.1
+
+
+def test_a_robot_whose_servos_let_go_falls(tmp_path: Path) -> None:
+    with Armstrong(world="mujoco", config=ping_once_config(tmp_path)) as robot:
+        robot.bus.broadcast_write("torque_enable", 0)   # every motor lets go
+        assert robot.context.spin_until(lambda: robot.fallen, timeout=3.0)
+        physics = robot.physics
+        assert physics is not None and physics.world.fell_at is not None
+        robot.context.spin_for(1.0)
+        assert physics.world.ground_truth()["z"] < 0.15       # lying on the floor
+        assert robot.should_stop()
+
+
+def test_worlds_and_assumptions_are_checked_before_anything_moves() -> None:
+    with pytest.raises(RobotValueError, match="no world 'gazebo'"):
+        Armstrong(world="gazebo")
+    with pytest.raises(RobotValueError, match="worlds are for the emulated robot"):
+        Armstrong(world="mujoco", port="/dev/ttyUSB0")
+    with pytest.raises(RobotValueError, match="did you mean 'hip_width'"):
+        Assumptions.with_values({"hip_widht": 0.1})
+
+
+def _walk(tmp_path: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    config = ping_once_config(tmp_path)
+    return subprocess.run(
+        [sys.executable, "-m", "servolab", "walk", "--world", "mujoco", "--config",
+         str(config), "--no-progress", "--out", str(tmp_path / "run"), *args],
+        capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.slow
+def test_servolab_walk_in_mujoco_says_whether_and_when_the_seeds_gait_falls(
+        tmp_path: Path) -> None:
+    done = _walk(tmp_path, "--steps", "4")
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert isinstance(summary["fell"], bool)
+    physics = summary["physics"]
+    if summary["fell"]:
+        assert summary["fell_at_s"] > 0
+        assert physics["fall_cause"] and physics["feet_down_before_fall"] is not None
+        assert f"fell at {summary['fell_at_s']:.2f} s" in done.stdout
+        assert summary["stopped"]                    # the gait ends at the fall
+    else:
+        assert summary["fell_at_s"] is None
+    assert set(physics["joints"]) == {f"m{i}" for i in
+                                      (11, 12, 13, 14, 15, 16, 21, 22, 23, 24, 25, 26,
+                                       31, 32, 33, 41, 42, 43, 51, 61)}
+    assert all(0 <= j["peak_load"] <= 1 for j in physics["joints"].values())
+    assert Path(summary["physics_plot"]).stat().st_size > 10_000
+    # the ground truth is in the bag, read by an independent decoder
+    (mcap,) = Path(summary["bag"]).glob("*.mcap")
+    heights = [m.ros_msg.pose.pose.position.z
+               for m in read_ros2_messages(str(mcap), topics=["/ground_truth"])]
+    assert len(heights) > 100 and heights[0] == pytest.approx(0.31, abs=0.01)
+    forces = [m.ros_msg.wrench.force.z for m in read_ros2_messages(
+        str(mcap), topics=["/ground_truth/left_foot/wrench"])]
+    assert len(forces) == len(heights) and max(forces) > 5.0
+
+
+def test_the_walk_refuses_options_that_need_the_mujoco_world(tmp_path: Path) -> None:
+    done = subprocess.run([sys.executable, "-m", "servolab", "walk", "--video", "x.mp4"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "--video needs --world mujoco" in done.stderr
+    done = _walk(tmp_path, "--assume", "hip_width")
+    assert done.returncode == 2 and "give NAME=NUMBER" in done.stderr
+    done = _walk(tmp_path, "--video", str(tmp_path / "walk.gif"))
+    assert done.returncode == 2 and "walk.gif" in done.stderr and ".mp4" in done.stderr
