@@ -14,7 +14,16 @@ the OS allows), in virtual time, with 1 ms physics steps:
 (c) the two-wheel floor world: two XM430-W210 at 1 Mbps in velocity mode on a
     ``DiffDriveFloor``, a 50 Hz loop of SYNC_WRITE goal_velocity and SYNC_READ
     present_position + present_velocity;
-(d) the floor world alone, nobody on the bus: the cost of the physics steps themselves.
+(d) the floor world alone, nobody on the bus: the cost of the physics steps themselves;
+(e) Armstrong in MuJoCo (issue 31): the 20 RX-28 of (a), at 57142 bps, each driving its joint
+    of the robot description through the firmware's compliance law, the robot standing on
+    the floor, with (a)'s bus traffic — the state read back to back, the goals (the stand
+    pose, the arms swinging a little) written at 4.5 Hz; the MuJoCo world steps at 2 ms,
+    MuJoCo's default and the description's timestep;
+(f) the same robot, nobody on the bus: MuJoCo and the firmware's law alone.
+
+The MuJoCo scenarios split their physics time further: MuJoCo's own step (``mj_step``) and
+the rest, the firmware's law and the emulators' per-step duty.
 
 Where the time goes: a second run of each scenario times, with ``time.perf_counter``
 accumulators, the physics steps (worlds and the emulators' per-step work), the emulated
@@ -61,6 +70,9 @@ class Result:
     transactions: int
     state_reads: int = 0
     shares: dict[str, float] | None = None
+    #: MuJoCo's own step's share of the host time (inside "physics"); 0 for other worlds
+    mj_step_share: float = 0.0
+    physics_step_s: float = 0.001
 
     @property
     def rtf(self) -> float:
@@ -71,7 +83,8 @@ class Result:
                 "host_s": self.host_s, "real_time_factor": self.rtf,
                 "physics_steps": self.physics_steps, "transactions": self.transactions,
                 "state_rate_hz": self.state_reads / self.simulated_s,
-                "shares": self.shares or {}}
+                "shares": self.shares or {}, "mj_step_share": self.mj_step_share,
+                "physics_step_s": self.physics_step_s}
 
 
 # -- scenarios: each returns a function that runs `seconds` of simulated time ----------------
@@ -146,6 +159,52 @@ def floor_alone() -> tuple[Simulation, Callable[[float], int], Bus | None]:
     return sim, run, None
 
 
+def mujoco_biped(traffic: bool) -> Scenario:
+    def build() -> tuple[Simulation, Callable[[float], int], Bus | None]:
+        from servolab.robots.armstrong.description import TIMESTEP
+        from servolab.robots.armstrong.hardware import load_config, open_bus
+        from servolab.robots.armstrong.physics import armstrong_world
+
+        sim = Simulation(TIMESTEP)
+        config = load_config()
+        bus, _ = open_bus(config, simulation=sim)
+        world = armstrong_world(sim, bus.emulator, config).world
+        ids = [j.motor.id for j in world.joints]
+        standing = {j.motor.id: j.offset for j in world.joints}   # joints at 0: init
+        arms = {31, 32, 33, 41, 42, 43}
+        for i in ids:
+            bus.declare(i, "RX-28")
+        bus.sync_write("torque_enable", dict.fromkeys(ids, 1))
+        state = {"k": 0, "next_read": sim.now(), "next_write": sim.now()}
+
+        def run(seconds: float) -> int:
+            end, reads = sim.now() + seconds, 0
+            while sim.now() < end:
+                if traffic and sim.now() >= state["next_write"]:
+                    state["k"] += 1
+                    swing = 0.1 if state["k"] % 2 else -0.1
+                    bus.sync_write(["goal_position", "moving_speed"], {
+                        i: (standing[i] + (swing if i in arms else 0.0), 1.0) for i in ids})
+                    state["next_write"] += 1 / GOAL_RATE_HZ
+                if traffic and sim.now() >= state["next_read"]:
+                    for i in ids:
+                        bus.read(i, STATE)
+                    reads += 1
+                    state["next_read"] = max(state["next_read"] + 1 / STATE_RATE_HZ,
+                                             sim.now())
+                if not traffic:
+                    sim.advance(seconds)
+                    break
+                sim.advance_to(min(state["next_read"], state["next_write"], end))
+            if world.fell_at is not None:
+                raise SystemExit(f"(e)/(f): the standing robot fell at {world.fell_at:.2f} s; "
+                                 "the scenario measures a robot that stands")
+            return reads
+
+        return sim, run, bus if traffic else None
+    return build
+
+
 SCENARIOS: dict[str, tuple[str, Scenario]] = {
     "a": ("20 RX-28, protocol 1.0, 57142 bps: 20 Hz state read, 4.5 Hz goals",
           biped_bus(57142)),
@@ -153,7 +212,12 @@ SCENARIOS: dict[str, tuple[str, Scenario]] = {
           biped_bus(1_000_000)),
     "c": ("floor world, 2 XM430-W210 at 1 Mbps: 50 Hz SYNC_WRITE + SYNC_READ", floor_loop),
     "d": ("floor world alone, no bus traffic", floor_alone),
+    "e": ("Armstrong in MuJoCo, 20 RX-28 at 57142 bps: (a)'s traffic, 2 ms steps",
+          mujoco_biped(True)),
+    "f": ("Armstrong in MuJoCo alone, no bus traffic, 2 ms steps", mujoco_biped(False)),
 }
+#: The MuJoCo biped's goal (issue 31): 20x real time with its bus, on one core.
+TARGET_MUJOCO_RTF = 20.0
 
 
 # -- timing ------------------------------------------------------------------------------------
@@ -187,9 +251,17 @@ def measure(key: str, seconds: float, *, breakdown: bool) -> Result:
     sim, run, bus = build()
     run(min(0.5, seconds))  # warm up: first PINGs, caches
     acc = Accumulator()
+    engine = Accumulator()
     if breakdown:
         for world in sim.worlds:
             acc.wrap(world, "step", "physics")
+            if hasattr(world, "_mujoco"):  # MuJoCo's own step, inside the world's
+                module = world._mujoco
+                proxy = type("MujocoTimed", (), {})()
+                for name in ("mj_step", "mj_contactForce", "mj_subtreeVel"):
+                    setattr(proxy, name, getattr(module, name))
+                engine.wrap(proxy, "mj_step", "mj_step")
+                world._mujoco = proxy
         for emulator in sim.emulators:
             acc.wrap(emulator, "step", "physics")
             acc.wrap(emulator, "receive", "firmware")
@@ -205,6 +277,8 @@ def measure(key: str, seconds: float, *, breakdown: bool) -> Result:
         shares = {k: v / host for k, v in acc.seconds.items()}
         shares["driver_and_port"] = max(0.0, 1.0 - sum(shares.values()))
         result.shares = shares
+        result.mj_step_share = engine.seconds.get("mj_step", 0.0) / host
+    result.physics_step_s = sim.physics_step
     return result
 
 
@@ -226,12 +300,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seconds must be positive")
     pinned = pin_to_one_core()
     print(f"servolab simulation speed: {args.seconds:g} simulated s per scenario, 1 ms physics "
-          f"steps, one core ({pinned}); Python {platform.python_version()} on "
+          f"steps (2 ms in MuJoCo), one core ({pinned}); Python {platform.python_version()} on "
           f"{platform.machine()}")
     results = []
     for key in SCENARIOS:
         result = measure(key, args.seconds, breakdown=False)
-        result.shares = measure(key, min(args.seconds, 5.0), breakdown=True).shares
+        timed = measure(key, min(args.seconds, 5.0), breakdown=True)
+        result.shares, result.mj_step_share = timed.shares, timed.mj_step_share
         results.append(result)
     print()
     print(f"{'':4}{'real-time factor':>17}  {'steps':>7}  {'bus tx/s':>9}  {'state Hz':>8}  "
@@ -249,6 +324,13 @@ def main(argv: list[str] | None = None) -> int:
     biped = results[0]
     verdict = "meets" if biped.rtf >= TARGET_RTF else "misses"
     print(f"\nThe biped's bus (a) {verdict} the {TARGET_RTF:.0f}x goal: {biped.rtf:.1f}x.")
+    physical = next(r for r in results if r.key == "e")
+    engine = physical.mj_step_share
+    verdict = "meets" if physical.rtf >= TARGET_MUJOCO_RTF else "misses"
+    print(f"Armstrong in MuJoCo with its bus (e) {verdict} the {TARGET_MUJOCO_RTF:.0f}x goal: "
+          f"{physical.rtf:.1f}x; MuJoCo's own step takes {engine:.0%} of its time, the "
+          f"firmware's law and the emulators' duty "
+          f"{(physical.shares or {}).get('physics', 0) - engine:.0%}.")
     if args.json:
         args.json.write_text(json.dumps({
             "seconds": args.seconds, "physics_step_s": 0.001, "target_rtf": TARGET_RTF,

@@ -227,23 +227,27 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
     out_json = tmp_path / "sim.json"
     assert bench.main(["--seconds", "0.5", "--json", str(out_json)]) == 0
     printed = capsys.readouterr().out
-    assert "real-time factor" in printed and "50x goal" in printed
+    assert "real-time factor" in printed and "50x goal" in printed and "20x goal" in printed
 
     figures = json.loads(out_json.read_text())
     scenarios = figures["scenarios"]
-    assert sorted(scenarios) == ["a", "b", "c", "d"]
+    assert sorted(scenarios) == ["a", "b", "c", "d", "e", "f"]
     assert "57142 bps" in scenarios["a"]["title"] and "1000000 bps" in scenarios["b"]["title"]
     for key, s in scenarios.items():
         assert s["simulated_s"] == pytest.approx(0.5, abs=0.06), key
         assert math.isfinite(s["real_time_factor"]) and s["real_time_factor"] > 0, key
-        # 1 ms physics steps: as many steps as simulated milliseconds
-        assert s["physics_steps"] == pytest.approx(s["simulated_s"] * 1000, abs=1), key
+        # 1 ms physics steps (2 ms in MuJoCo, e and f): a step a simulated step length
+        step = 0.002 if key in "ef" else 0.001
+        assert s["physics_step_s"] == step, key
+        assert s["physics_steps"] == pytest.approx(s["simulated_s"] / step, abs=1), key
         shares = s["shares"]
         assert set(shares) >= {"physics", "driver_and_port"}, key
         assert all(0.0 <= v <= 1.0 for v in shares.values()), (key, shares)
         assert sum(shares.values()) == pytest.approx(1.0, abs=1e-6), (key, shares)
     assert scenarios["d"]["transactions"] == 0          # the world alone: nobody on the bus
-    for key in "abc":
+    assert scenarios["f"]["transactions"] == 0
+    assert 0 < scenarios["e"]["mj_step_share"] < scenarios["e"]["shares"]["physics"]
+    for key in "abce":
         assert scenarios[key]["transactions"] > 0 and scenarios[key]["state_rate_hz"] > 0
     # 20 Hz asked for; at 57142 bps the twenty READs do not fit in 50 ms, at 1 Mbps they do
     assert scenarios["a"]["state_rate_hz"] < 20.0

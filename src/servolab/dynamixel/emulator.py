@@ -337,9 +337,22 @@ class VirtualMotor:
         plant.command = self._plant.command
         self._plant = plant
         self._stale = True
-        if self._lazy and self._emulator is not None:
+        was_lazy, self._lazy = self._lazy, False
+        if was_lazy and self._emulator is not None and self._needs_duty():
             self._emulator._eager.append(self)
-        self._lazy = False
+
+    def _needs_duty(self) -> bool:
+        """Whether the firmware must look at its world's plant every step: yes, unless the
+        plant says when its temperature or stall changes (``reports_changes``: it calls
+        :meth:`plant_changed`) and the motor has no bus watchdog to count steps for."""
+        return not self._lazy and (self._has_watchdog
+                                   or not getattr(self._plant, "reports_changes", False))
+
+    def plant_changed(self) -> None:
+        """A world's plant whose temperature or stall changed says so (a plant with
+        ``reports_changes``): the firmware's alarm checks run now, as they would on the step
+        it happened."""
+        self._check_alarms()
 
     @property
     def position(self) -> float:
@@ -605,6 +618,10 @@ class VirtualMotor:
             deadline = self._watchdog_deadline()  # that cannot apply are skipped)
             if deadline is not None and steps >= deadline:
                 self._watchdog_trip()
+        self._check_alarms()
+
+    def _check_alarms(self) -> None:
+        """Overheating and overload, found (or over) on the plant as it is now."""
         overheating = self._overheating_bit
         plant = self._plant
         if (plant.temperature > self._temperature_limit
@@ -1129,7 +1146,7 @@ class Emulator:
         motor._steps_done = self.steps
         self.motors.append(motor)
         self._by_id = None
-        if not motor._lazy:
+        if motor._needs_duty():
             self._eager.append(motor)
         return motor
 

@@ -167,6 +167,10 @@ class PreviewController:
             np.asarray(initial, dtype=np.float64), ref2.shape[1:])
         if not np.isfinite(start).all():
             raise GaitValueError(f"initial must be finite, got {initial!r}")
+        # about the start: a constant reference at the start is then kept exactly (a preview
+        # cut off after NL samples makes sum(Gd) only nearly -Gx[0], which moves a CoM far
+        # from the origin by a little), and where the origin lies does not matter
+        ref2 = ref2 - start
         n, steps = ref2.shape[0], self.preview_steps
         padded = np.concatenate([ref2, np.repeat(ref2[-1:], steps, axis=0)])
         # f[k] = sum_j Gd[j] p_ref[k + j], j = 1..NL, for every k at once
@@ -176,12 +180,13 @@ class PreviewController:
         states = np.empty((n, 3, ref2.shape[1]))
         for axis in range(ref2.shape[1]):
             inputs = np.stack([ref2[:, axis], preview[:, axis]], axis=1)
-            x0 = np.array([start[axis], 0.0, 0.0, 0.0])
+            x0 = np.zeros(4)
             if n == 1:
-                states[0, :, axis] = x0[:3]
+                states[0, :, axis] = 0.0
                 continue
             _, out, _ = dlsim(system, inputs, x0=x0)
             states[:, :, axis] = out
+        states[:, 0] += start
         zmp = np.einsum("j,kja->ka", self.c[0], states)
         if single:
             return states[:, :, 0], zmp[:, 0]

@@ -2,7 +2,7 @@
 what its motors reported.
 
 :class:`SampledTruthNode` publishes every :class:`~.mujoco_world.Sample` the world keeps
-(100 a second by default), each stamped with its own time, so nothing between two timer
+(50 a second by default), each stamped with its own time, so nothing between two timer
 ticks is lost:
 
 - ``/ground_truth`` (``nav_msgs/msg/Odometry``, frame ``world``): the base body's pose;

@@ -80,6 +80,9 @@ if TYPE_CHECKING:
 #: How long a joint must give its whole torque limit without moving before the firmware
 #: calls it overloaded (a guess: ROBOTIS give no figure).
 OVERLOAD_TIME_S = 1.0
+#: How often (s) the world updates the windings' temperatures and the joints' stall timers:
+#: slow quantities, kept off the per-step path (see MujocoWorld._book).
+BOOKKEEPING_S = 0.02
 #: Below this share of the no-load speed a joint at its torque limit counts as not moving.
 _STILL_SHARE = 0.01
 GRAVITY = 9.81
@@ -125,10 +128,18 @@ class JointPlant:
     world and reads the joint's state from it. The world steps all its joints at once, so
     :meth:`step` does nothing."""
 
+    #: the world calls the firmware's ``plant_changed`` when temperature or stall change
+    #: (MujocoWorld._book), rather than the firmware looking every step
+    reports_changes = True
+
     def __init__(self, world: MujocoWorld, index: int) -> None:
         self._world = world
         self._index = index
         self._command = ServoCommand()
+        # the firmware looks at these every step: plain Python values, which the world
+        # refreshes whenever it does its bookkeeping (MujocoWorld._book)
+        self._temperature = AMBIENT_C + IDLE_RISE_C
+        self._stalled = False
 
     @property
     def command(self) -> ServoCommand:
@@ -156,13 +167,13 @@ class JointPlant:
     def temperature(self) -> float:
         """Winding temperature, °C; settable (the windings are that warm from now on), as the
         default plant's (:class:`~servolab.dynamixel.plant.KinematicServo`)."""
-        return float(self._world._temperature[self._index])
+        return self._temperature
 
     @temperature.setter
     def temperature(self, celsius: float) -> None:
         if not math.isfinite(celsius):
             raise SimulationError(f"temperature {celsius!r} °C is not a finite number")
-        self._world._temperature[self._index] = float(celsius)
+        self._world._temperature[self._index] = self._temperature = float(celsius)
 
     @property
     def thermal_time_constant(self) -> float:
@@ -173,15 +184,13 @@ class JointPlant:
         if not (math.isfinite(seconds) and seconds > 0):
             raise SimulationError(f"thermal_time_constant {seconds!r} s must be a positive "
                                   "number")
-        world = self._world
-        world._thermal_tau[self._index] = float(seconds)
-        world._decay = np.exp(-world._decay_dt / world._thermal_tau)
+        self._world._thermal_tau[self._index] = float(seconds)
 
     @property
     def stalled(self) -> bool:
         """At the torque limit and not moving for :data:`OVERLOAD_TIME_S`: the firmware's
         overload condition."""
-        return bool(self._world._stalled_for[self._index] >= OVERLOAD_TIME_S)
+        return self._stalled
 
     def step(self, dt: float) -> None:
         """Nothing: :meth:`MujocoWorld.step` steps every joint together."""
@@ -201,7 +210,7 @@ class MujocoWorld(World):
 
     def __init__(self, mjcf: str, joints: Sequence[ServoJoint], *, base: str | None = None,
                  feet: Sequence[str] = (), floor: str = "floor",
-                 max_tilt: float = math.radians(45.0), record_period: float = 0.01,
+                 max_tilt: float = math.radians(45.0), record_period: float = 0.02,
                  qpos: Sequence[float] | None = None, start: float = 0.0) -> None:
         import mujoco
 
@@ -259,8 +268,10 @@ class MujocoWorld(World):
         self._effort = np.zeros(n)
         self._temperature = np.array([AMBIENT_C + IDLE_RISE_C] * n)
         self._thermal_tau = np.full(n, THERMAL_TIME_CONSTANT_S)
-        self._decay_dt = math.nan
-        self._decay = np.ones(n)
+        self._decay_dt = math.nan                # the step's length
+        self._square = np.zeros(n)
+        self._heat = np.zeros(n)                 # sum of the squared loads since _book
+        self._heat_steps = 0
         self._stalled_for = np.zeros(n)
         self._laws_changed = True
         if qpos is not None:
@@ -285,9 +296,11 @@ class MujocoWorld(World):
         self.fell_at: float | None = None
         self._time = float(start)
         self._next_record = float(start)
+        self._next_book = float(start) + BOOKKEEPING_S
         self._momentum: tuple[float, ...] | None = None
-        self.plants = tuple(self.attach(j.motor, JointPlant(self, k))
-                            for k, j in enumerate(self.joints))
+        self.plants = tuple(JointPlant(self, k) for k in range(len(self.joints)))
+        for joint, plant in zip(self.joints, self.plants, strict=True):
+            self.attach(joint.motor, plant)
         self._reference[:] = self._horns()
 
     def _id(self, kind: Any, name: str, what: str) -> int:
@@ -341,13 +354,11 @@ class MujocoWorld(World):
         m, d = self.model, self.data
         if dt != self._decay_dt:
             m.opt.timestep = dt
-            self._decay = np.exp(-dt / self._thermal_tau)
             self._decay_dt = dt
             self._laws_changed = True
         if self._laws_changed:
             self._prepare(dt)
         horn = self._offset + self._dir * d.qpos[self._qadr]
-        speed = self._dir * d.qvel[self._dadr]
         # 1. the reference, moving toward the goal at the moving speed (0: at once)
         ref = self._reference
         move = self._goal - ref
@@ -357,37 +368,58 @@ class MujocoWorld(World):
         np.copyto(ref, horn, where=self._off)
         # 2. the output share from the error, by margin, slope and punch
         error = ref - horn
-        ccw = error >= 0
-        beyond = np.abs(error) - np.where(ccw, self._margin[1], self._margin[0])
-        share = beyond * np.where(ccw, self._gain[1], self._gain[0])
+        if self._symmetric:     # the usual case: the same margin and slope either way
+            beyond = np.abs(error) - self._margin[1]
+            share = beyond * self._gain[1]
+        else:
+            ccw = error >= 0
+            beyond = np.abs(error) - np.where(ccw, self._margin[1], self._margin[0])
+            share = beyond * np.where(ccw, self._gain[1], self._gain[0])
         np.maximum(share, self._punch, out=share)
         np.minimum(share, self._limit, out=share)
         u = np.where(beyond > 0, np.copysign(share, error), 0.0)
         if self._any_velocity_mode:
             np.copyto(u, self._wheel_share, where=self._velocity_mode)
         # 3. the DC motor behind its gears: its back-EMF line, within the torque limit
-        effort = u - speed * self._inverse_w0
+        effort = u - d.qvel[self._dadr] * self._dir_over_w0
         np.minimum(effort, self._limit, out=effort)
         np.maximum(effort, -self._limit, out=effort)
         effort *= self._on
         self._effort = effort
         d.qfrc_applied[self._dadr] = effort * self._dir_stall
         self._mujoco.mj_step(m, d)
-        # heat, and how long each joint has pushed at its limit without moving
-        steady = effort * effort
-        steady *= STALL_HEATING_C
-        steady += AMBIENT_C + IDLE_RISE_C
-        temperature = self._temperature
-        temperature -= steady
-        temperature *= self._decay
-        temperature += steady
-        pushing = (np.abs(effort) >= self._saturated) & (np.abs(speed) < self._still)
-        if pushing.any() or self._stalled_for.any():
-            self._stalled_for = np.where(pushing, self._stalled_for + dt, 0.0)
+        np.multiply(effort, effort, out=self._square)
+        self._heat += self._square              # for the windings' temperature
+        self._heat_steps += 1
         self._time += dt
+        if self._time >= self._next_book - 1e-12:
+            self._book(effort, self._dir * d.qvel[self._dadr])
+            self._next_book += BOOKKEEPING_S
         if self._time >= self._next_record - 1e-12:
             self._record()
             self._next_record += self.record_period
+
+    def _book(self, effort: np.ndarray, speed: np.ndarray) -> None:
+        """Every :data:`BOOKKEEPING_S`: the windings' temperature, by the first-order lag
+        over the interval toward the steady temperature of its mean squared load (exact for
+        a constant load; the load's changes within 20 ms are nothing to a lag of minutes),
+        and how long each joint has pushed at its limit without moving (sampled: the
+        overload takes a second)."""
+        span = self._heat_steps * self._decay_dt
+        steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * (self._heat / self._heat_steps)
+        decay = np.exp(-span / self._thermal_tau)
+        self._temperature = steady + (self._temperature - steady) * decay
+        self._heat[:] = 0.0
+        self._heat_steps = 0
+        pushing = (np.abs(effort) >= self._saturated) & (np.abs(speed) < self._still)
+        self._stalled_for = np.where(pushing, self._stalled_for + span, 0.0)
+        stalled = (self._stalled_for >= OVERLOAD_TIME_S - 1e-9).tolist()
+        for plant, joint, celsius, stuck in zip(self.plants, self.joints,
+                                                self._temperature.tolist(), stalled,
+                                                strict=True):
+            plant._temperature = celsius
+            plant._stalled = stuck
+            joint.motor.plant_changed()
 
     def _prepare(self, dt: float) -> None:
         """The per-step figures of the current commands (recomputed when one changes)."""
@@ -396,7 +428,9 @@ class MujocoWorld(World):
         self._off = ~self._torque_on
         self._on = self._torque_on.astype(np.float64)
         self._gain = 1.0 / self._slope
-        self._inverse_w0 = 1.0 / self._w0
+        self._dir_over_w0 = self._dir / self._w0
+        self._symmetric = bool(np.array_equal(self._margin[0], self._margin[1])
+                               and np.array_equal(self._slope[0], self._slope[1]))
         self._dir_stall = self._dir * self._stall
         self._any_velocity_mode = bool(self._velocity_mode.any())
         self._wheel_share = np.clip(self._goal_velocity / self._w0, -self._limit, self._limit)
@@ -481,9 +515,8 @@ class MujocoWorld(World):
             com=_triple(d.subtree_com[self._root]), zmp=zmp, cop=cop, support=support,
             margin=margin,
             feet=tuple(forces), fallen=fallen,
-            load=tuple(float(v) for v in self._effort),
-            temperature=tuple(float(v) for v in self._temperature),
-            qpos=tuple(float(v) for v in d.qpos)))
+            load=tuple(self._effort.tolist()), temperature=tuple(self._temperature.tolist()),
+            qpos=tuple(d.qpos.tolist())))
 
     def ground_truth(self) -> dict[str, float]:
         d = self.data
@@ -523,10 +556,10 @@ def support_margin(point: tuple[float, float], support: Sequence[tuple[float, fl
 
     if not support or not all(math.isfinite(v) for v in point):
         return math.nan
-    pts = np.asarray(support, dtype=np.float32)
-    if len(np.unique(pts, axis=0)) == 1:
-        return -float(np.hypot(*(np.asarray(point) - pts[0])))
-    hull = cv2.convexHull(pts)
+    if len(set(support)) == 1:
+        (x, y), = set(support)
+        return -math.hypot(point[0] - x, point[1] - y)
+    hull = cv2.convexHull(np.asarray(support, dtype=np.float32))
     return float(cv2.pointPolygonTest(hull, (float(point[0]), float(point[1])), True))
 
 

@@ -3,7 +3,7 @@ feet, how far its torso went, how hard each joint worked — for ``summary.json`
 video.
 
 Everything here is read from the world's samples (:attr:`MujocoWorld.samples
-<servolab.sim.mujoco_world.MujocoWorld.samples>`, 100 a second): the ground truth, not the
+<servolab.sim.mujoco_world.MujocoWorld.samples>`, 50 a second): the ground truth, not the
 motors' readings over the bus.
 """
 
@@ -26,7 +26,7 @@ FOOT_DOWN_N = 1.0
 CAUSE_WINDOW_S = 1.0
 #: A zero-moment point this near the support polygon's edge (m) is on it: the foot is
 #: pivoting on that edge (the point cannot be outside while the foot is flat, only on the
-#: edge while it tips; the momentum's 10 ms differences scatter it by about a millimetre).
+#: edge while it tips; the momentum's 20 ms differences scatter it by about a millimetre).
 EDGE_M = 0.002
 
 
@@ -165,8 +165,8 @@ def plot_physics(world: MujocoWorld, path: Path, gait_start: float) -> Path:
     return path
 
 
-#: Frames a second of a run's video (a sample every 30 ms at 100 samples a second: 33.3).
-VIDEO_FPS = 30.0
+#: Frames a second of a run's video (every other sample at 50 samples a second).
+VIDEO_FPS = 25.0
 
 
 def video_frames(world: MujocoWorld, fps: float = VIDEO_FPS) -> tuple[np.ndarray, float]:
