@@ -35,7 +35,7 @@ from servolab.gait.zmp_walk import (
     stance_load,
     stand_geometry,
 )
-from servolab.kinematics.leg import HIP_ROLL, foot_position, leg_motor_angles
+from servolab.kinematics.leg import HIP_ROLL, foot_position, leg_inverse, leg_motor_angles
 from servolab.robots.armstrong.description import Assumptions, describe, mjcf
 from servolab.robots.armstrong.hardware import joint_limits, load_config
 from servolab.robots.armstrong.poses import STAND_POSE
@@ -80,7 +80,7 @@ def test_hip_width_and_com_offset_are_the_descriptions() -> None:
     mujoco.mj_forward(model, data)
     pelvis = model.body("pelvis").id
     offset = data.subtree_com[pelvis] - data.xpos[pelvis]
-    assert COM_OFFSET == pytest.approx(offset[:2], abs=1e-4)
+    assert pytest.approx(offset[:2], abs=1e-4) == COM_OFFSET
 
 
 def test_the_joint_speed_is_the_configurations() -> None:
@@ -244,25 +244,22 @@ def test_the_planned_com_keeps_the_zmp_on_the_stance_foot(walk: ZmpWalkPlan) -> 
     assert walk.com[0] == pytest.approx(COM_OFFSET, abs=1e-6)
 
 
+def pose_with_soles(left: list[float], right: list[float]) -> dict[str, float]:
+    """The stand pose with its legs solved for other soles (mm from each hip)."""
+    pose = dict(STAND_POSE)
+    for side, sole, columns in (("left", left, MOTOR_COLUMNS[:6]),
+                                ("right", right, MOTOR_COLUMNS[6:12])):
+        angles = leg_motor_angles(leg_inverse(np.array([sole])), side)  # type: ignore[arg-type]
+        pose.update(zip(columns, (float(v) for v in angles[0]), strict=True))
+    return pose
+
+
 def test_a_stand_pose_with_the_left_foot_behind_steps_off_with_the_left() -> None:
-    mirrored = dict(STAND_POSE)
-    for left, right in zip(MOTOR_COLUMNS[:6], MOTOR_COLUMNS[6:12], strict=True):
-        mirrored[left], mirrored[right] = -STAND_POSE[right], -STAND_POSE[left]
-    # mirrored about the sagittal plane: the pitch columns' signs (m?2, m?4, m?5) differ
-    # between the legs, the roll columns' do not, so swap and rebuild through the joints
-    for side, other in (("left", "right"), ("right", "left")):
-        joints = joints_of(np.array([[STAND_POSE[c] for c in MOTOR_COLUMNS]]), other)
-        joints[:, [1, 5]] *= -1                          # rolls mirror
-        joints[:, [2, 3, 4]] = joints_of(
-            np.array([[STAND_POSE[c] for c in MOTOR_COLUMNS]]), side)[:, [2, 3, 4]]
-        columns = leg_motor_angles(joints, side)  # type: ignore[arg-type]
-        for k, column in enumerate(MOTOR_COLUMNS[:6] if side == "left" else MOTOR_COLUMNS[6:12]):
-            mirrored[column] = float(columns[0, k])
-    stand = stand_geometry(mirrored)
-    plan = plan_zmp_walk(ZmpWalkParameters(stand_pose=mirrored, steps=2))
-    assert stand.left[0] < stand.right[0]
+    pose = pose_with_soles([-20.0, 2.0, -295.0], [20.0, 17.0, -295.0])
+    plan = plan_zmp_walk(ZmpWalkParameters(stand_pose=pose, steps=2))
     moved = np.abs(np.diff(plan.footsteps, axis=0)).sum(axis=2) > 0
     assert list(np.argmax(moved, axis=1)) == [0, 1]
+    assert plan.motors[0] == pytest.approx([pose[c] for c in MOTOR_COLUMNS], abs=0.01)
 
 
 def test_a_walking_width_of_its_own_returns_to_the_stand_poses() -> None:
@@ -302,10 +299,13 @@ def test_bad_parameters_are_refused_by_name(changes: dict[str, Any], name: str) 
     assert "\n" not in str(error.value)
 
 
-def test_a_stand_pose_without_flat_feet_is_refused() -> None:
+def test_a_stand_pose_without_flat_feet_or_on_two_levels_is_refused() -> None:
     bent = {**STAND_POSE, "m15": STAND_POSE["m15"] + 5.0}
     with pytest.raises(GaitValueError, match="stand_pose: the left foot is not flat"):
         plan_zmp_walk(ZmpWalkParameters(stand_pose=bent))
+    uneven = pose_with_soles([20.0, 2.0, -290.0], [-20.0, 17.0, -295.0])
+    with pytest.raises(GaitValueError, match="stand_pose: the soles are not on one level"):
+        plan_zmp_walk(ZmpWalkParameters(stand_pose=uneven))
 
 
 def test_a_step_too_fast_for_the_servos_names_step_time() -> None:
