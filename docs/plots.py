@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -76,6 +77,9 @@ FIGURES: dict[str, Figure] = {
     "biped.update_rate_hz": Figure(
         "docs/biped.md", 0.0, lambda v, t: f"updates at {v:.1f} Hz",
         "Armstrong(): the rate its controller manager updates at"),
+    "biped.seed_fell_after_s": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"falls {v:.2f} s after its first row",
+        "servolab walk --world mujoco --steps 4"),
     "biped.fault_rows": Figure(
         "docs/biped.md", 0.0, lambda v, t: f"after {v:.0f} of its 17 rows",
         "docs/plots.py's biped(): the knee made to overheat from row 5"),
@@ -284,6 +288,75 @@ def biped(out: Path) -> dict[str, float]:
         return {"biped.update_ms": robot.manager.update_time * 1000,
                 "biped.update_rate_hz": robot.manager.rate,
                 "biped.fault_rows": float(fault["rows_played"])}
+
+
+def biped_physics(out: Path, *, quick: bool) -> dict[str, float]:
+    """docs/biped.md's physics: the seed's gait as printed in the MuJoCo world (its balance
+    plot, and a frame as it starts to tip), and — not with ``--quick``, 27 walks — the sweep
+    of the assumptions the seed leaves open (biped_sweep.json, biped_sweep.png)."""
+    import shutil
+    import tempfile
+
+    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.run import run_walk
+    from servolab.runs import RunFolder
+    from servolab.sim.mujoco_video import render_frame
+
+    with tempfile.TemporaryDirectory() as tmp:
+        captured: dict[str, Any] = {}
+
+        def keep(robot: Any, row: int) -> None:
+            captured["robot"] = robot
+
+        summary = run_walk(RunFolder.create("walk", tmp), load_motion(None), steps=4,
+                           world="mujoco", say=lambda text: None, show_progress=False,
+                           on_row=keep)
+        shutil.copy(str(summary["physics_plot"]), out / "biped_physics_seed.png")
+    physics = summary["physics"]
+    world = captured["robot"].physics.world
+    tipping = physics.get("tipping_from_s", physics["fell_at_s"])
+    frame = min(world.samples, key=lambda s: abs(s.t - (tipping + 0.25)))
+    render_frame(world.model, np.array(frame.qpos), out / "biped_fall_frame.png",
+                 track_body="pelvis")
+    if not quick:
+        sweep_figure(out)
+    return {"biped.seed_fell_after_s": physics["fell_after_gait_start_s"]}
+
+
+def sweep_figure(out: Path) -> None:
+    """The seed's gait under every case of ``servolab.robots.armstrong.sweep.cases()``: when
+    each fell after its first row, coloured by the way it fell; the results as
+    biped_sweep.json (docs/biped.md's table is written from it)."""
+    import logging
+
+    import matplotlib.pyplot as plt
+
+    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.sweep import cases, sweep
+
+    logging.disable(logging.WARNING)   # 27 robots' start-up: motor 62 is absent in each
+    try:
+        results = sweep(load_motion(None), cases(), steps=4)
+    finally:
+        logging.disable(logging.NOTSET)
+    (out / "biped_sweep.json").write_text(json.dumps(results, indent=1) + "\n")
+    colours = {"forwards": "C0", "backwards": "C1", "to its left": "C2", "to its right": "C3"}
+    figure, ax = plt.subplots(figsize=(10, 7))
+    labels = [r["label"] for r in results]
+    times = [r.get("fell_after_gait_start_s") or 0.0 for r in results]
+    ax.barh(range(len(results)), times,
+            color=[colours.get(str(r.get("tipped")), "grey") for r in results])
+    ax.set_yticks(range(len(results)), labels, fontsize="small")
+    ax.invert_yaxis()
+    ax.set_xlabel("fell this long after the gait's first row [s] (4 steps take 15.1 s)")
+    ax.set_title("The seed's gait in MuJoCo under 27 sets of the unknowns: every one falls")
+    for way, colour in colours.items():
+        ax.barh([0], [0], color=colour, label=f"fell {way}")
+    ax.legend(loc="lower right")
+    ax.grid(True, axis="x", alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(out / "biped_sweep.png", dpi=100)
+    plt.close(figure)
 
 
 def mobile(out: Path) -> dict[str, float]:
@@ -630,6 +703,7 @@ def main(argv: list[str]) -> None:
     values.update(cycle_time(out / "bus_cycle_time.png"))
     floor_world(out / "floor_world.png")
     values.update(biped(out))
+    values.update(biped_physics(out, quick=quick))
     values.update(mobile(out))
     navigation(out)
     values.update(navigation_loop(out))

@@ -28,7 +28,8 @@ IMAGES = ("rx28_joint_moves.png", "bus_cycle_time.png", "floor_world.png", "gait
           "gait_joint_angles.png", "biped_walk.png", "mobile_eight.png", "mobile_slip.png",
           "mobile_fusion.png", "navigation_calibration.png", "navigation_plan.png",
           "navigation_plan_no_inflation.png", "navigation_loop.png", "navigation_corner.png",
-          "treadmill_frame.png", "treadmill_overlay.png", "treadmill_run.png")
+          "treadmill_frame.png", "treadmill_overlay.png", "treadmill_run.png",
+          "biped_physics_seed.png", "biped_fall_frame.png")
 
 
 def _figures(path: Path) -> dict[str, dict[str, Any]]:

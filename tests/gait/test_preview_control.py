@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.signal import cont2discrete
+from scipy.signal import cont2discrete  # type: ignore[import-untyped]
 
 from servolab.gait.errors import GaitValueError
 from servolab.gait.preview_control import (

@@ -153,7 +153,8 @@ def test_footsteps_alternate_from_the_foot_behind(walk: ZmpWalkPlan) -> None:
     steps = walk.footsteps
     assert steps.shape == (params.steps + 1, 2, 2)
     half = HIP_WIDTH / 2
-    assert steps[0] == pytest.approx([[0.02, half + 0.002], [-0.02, -half + 0.017]], abs=1e-5)
+    assert steps[0] == pytest.approx(np.array([[0.02, half + 0.002], [-0.02, -half + 0.017]]),
+                                     abs=1e-5)
     moved = np.abs(np.diff(steps, axis=0)).sum(axis=2) > 0
     swing = np.argmax(moved, axis=1)
     assert np.all(moved.sum(axis=1) == 1)                 # one foot a step
@@ -265,7 +266,7 @@ def test_a_stand_pose_with_the_left_foot_behind_steps_off_with_the_left() -> Non
 def test_a_walking_width_of_its_own_returns_to_the_stand_poses() -> None:
     plan = plan_zmp_walk(ZmpWalkParameters(step_width=0.07, steps=4))
     widths = plan.footsteps[:, 0, 1] - plan.footsteps[:, 1, 1]
-    assert widths == pytest.approx([0.085, 0.0775, 0.07, 0.0775, 0.085])
+    assert widths == pytest.approx([0.085, 0.0775, 0.07, 0.0775, 0.085], abs=1e-5)
 
 
 # -- refusals --------------------------------------------------------------------------------
@@ -334,7 +335,7 @@ def test_a_row_beyond_the_limits_names_the_motor_and_the_limit(
         generate_zmp_walk(limits=tight)
     # a changed parameter whose default would keep it within is the one named
     with pytest.raises(GaitValueError, match=r"^foot_lift 0\.03 m: .* m24"):
-        generate_zmp_walk(ZmpWalkParameters(foot_lift=0.03, step_time=3.0), limits={
+        generate_zmp_walk(ZmpWalkParameters(foot_lift=0.03), limits={
             **limits, "m24": (-150.0, float(generate_zmp_walk().angles[:, 9].max()) + 0.1)})
 
 

@@ -39,7 +39,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 from scipy.linalg import solve_discrete_are  # type: ignore[import-untyped]
-from scipy.signal import dlsim  # type: ignore[import-untyped]
 
 from servolab.gait.errors import GaitValueError
 
@@ -176,27 +175,26 @@ class PreviewController:
         # f[k] = sum_j Gd[j] p_ref[k + j], j = 1..NL, for every k at once
         windows = np.lib.stride_tricks.sliding_window_view(padded[1:], steps, axis=0)[:n]
         preview = windows @ self.gd
-        system = self._closed_loop_system()
+        # the controlled model, every axis at once: state (x[k], s[k-1]) with s the summed
+        # ZMP error, inputs (p_ref[k], f[k]) (_closed_loop_system)
+        system_a, system_b = self._closed_loop_system()
+        inputs = np.stack([ref2, preview], axis=1)           # (N, 2 inputs, axes)
+        drive = np.einsum("ij,kja->kia", system_b, inputs)   # (N, 4, axes)
+        state = np.zeros((4, ref2.shape[1]))
         states = np.empty((n, 3, ref2.shape[1]))
-        for axis in range(ref2.shape[1]):
-            inputs = np.stack([ref2[:, axis], preview[:, axis]], axis=1)
-            x0 = np.zeros(4)
-            if n == 1:
-                states[0, :, axis] = 0.0
-                continue
-            _, out, _ = dlsim(system, inputs, x0=x0)
-            states[:, :, axis] = out
+        for k in range(n):
+            states[k] = state[:3]
+            state = system_a @ state + drive[k]
         states[:, 0] += start
         zmp = np.einsum("j,kja->ka", self.c[0], states)
         if single:
             return states[:, :, 0], zmp[:, 0]
         return states, zmp
 
-    def _closed_loop_system(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
-                                           float]:
-        """The controlled model as one linear system for :func:`scipy.signal.dlsim`: state
-        ``(x[k], s[k-1])`` with ``s`` the summed ZMP error, inputs ``(p_ref[k], f[k])`` (``f``
-        the preview sum), output ``x[k]``. From ``s[k] = s[k-1] + C x[k] - p_ref[k]`` and the
+    def _closed_loop_system(self) -> tuple[FloatArray, FloatArray]:
+        """The controlled model as one linear system ``z[k+1] = A z[k] + B w[k]``: state
+        ``z = (x[k], s[k-1])`` with ``s`` the summed ZMP error, inputs ``w = (p_ref[k],
+        f[k])`` (``f`` the preview sum). From ``s[k] = s[k-1] + C x[k] - p_ref[k]`` and the
         control law of the module docstring."""
         a, b, c = self.a, self.b, self.c
         feedback = self.gi * c + self.gx[None, :]
@@ -209,8 +207,7 @@ class PreviewController:
         system_b[:3, 0] = self.gi * b[:, 0]
         system_b[:3, 1] = -b[:, 0]
         system_b[3, 0] = -1.0
-        output = np.hstack([np.eye(3), np.zeros((3, 1))])
-        return system_a, system_b, output, np.zeros((3, 2)), self.dt
+        return system_a, system_b
 
 
 def com_from_zmp(zmp_ref: npt.ArrayLike, dt: float, z_c: float, preview_s: float = PREVIEW_S,

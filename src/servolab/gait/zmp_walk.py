@@ -8,9 +8,9 @@ legs' inverse kinematics, written as the motion file the seed's generator writes
 
 Why a second generator: the seed's gait (:mod:`servolab.gait.walking`, Appendix D/E) moves
 the hip sideways by a fixed amount in four rows a step, without a model of the robot's
-dynamics; played on a physical robot its ZMP leaves the feet and it falls. Here the CoM is
-planned so that the cart-table model's ZMP stays on the stance foot's centre in single
-support and moves from foot to foot in double support.
+dynamics; played in a physics simulation of the robot with its servos emulated, it falls
+within two seconds. Here the CoM is planned so that the cart-table model's ZMP stays on the
+stance foot's centre in single support and moves from foot to foot in double support.
 
 The pipeline (:func:`plan_zmp_walk`), in metres in the *walk frame*: the pelvis frame of the
 stand pose at the start (x forward, y to the robot's left, z up, the floor at z = 0):
@@ -73,10 +73,10 @@ from servolab.kinematics.leg import (
     unreachable_reason,
 )
 
-__all__ = ["COM_OFFSET", "HIP_ROLL_COMPENSATION", "HIP_WIDTH",
-           "JOINT_SPEED", "SET_DOWN", "TABLE_4_2_STAND_POSE", "StandGeometry",
-           "ZmpWalkParameters", "ZmpWalkPlan", "footstep_plan", "generate_zmp_walk",
-           "plan_zmp_walk", "stance_load", "stand_geometry"]
+__all__ = ["COM_OFFSET", "HIP_ROLL_COMPENSATION", "HIP_WIDTH", "JOINT_SPEED", "SET_DOWN",
+           "TABLE_4_2_STAND_POSE", "StandGeometry", "ZmpWalkParameters", "ZmpWalkPlan",
+           "footstep_plan", "generate_zmp_walk", "joint_speeds", "plan_zmp_walk",
+           "stance_load", "stand_geometry"]
 
 #: Table 4.2 of seed 001, the stand pose (degrees by motor column, as printed): where the
 #: robot stands before it plays a motion. The values of
@@ -94,15 +94,17 @@ TABLE_4_2_STAND_POSE: Mapping[str, float] = MappingProxyType({
 HIP_WIDTH = 0.100
 #: Where the CoM sits relative to the pelvis frame (m, x forward, y left): Armstrong's
 #: description (its stated masses) in the stand pose, whose trunk leans 25 degrees forward
-#: (m51); the test checks it against ``describe()``. With 0 the pelvis would sit where the
-#: CoM must be and the real ZMP would run 18 mm ahead of the planned one.
+#: (m51); tests/gait/test_zmp_walk.py checks it against ``describe()``. With 0 the pelvis
+#: would be put where the CoM must be, and the real ZMP would run 18 mm ahead of the plan.
 COM_OFFSET = (0.0185, 0.0024)
 #: Degrees the stance hip roll is turned against the servo's sag (:func:`stance_load`).
 #: The RX-28 holds a goal only to within the error at which its torque (3.7 N m at the
 #: compliance slope's 32 ticks, 9.4 degrees) balances the load; in single support the stance
-#: hip and ankle roll carry the rest of the robot beside them, about 1 N m each, some
-#: 2.5 degrees each. Tuned on a simulation of the robot with its firmware emulated: 3 and 7
-#: degrees still walk, 5 goes furthest with the masses +-20 %.
+#: hip roll carries the rest of the robot beside it (about 1 N m: some 3 degrees) and the
+#: ankle roll sags too. Tuned on a simulation of the robot with its firmware emulated
+#: (:class:`ZmpWalkParameters`): from 3 to 7 degrees it walks, 5 furthest and most
+#: evenly with the masses +-20 %; without it the pelvis rolls 6 degrees towards the swing
+#: foot, which then rises 8 mm instead of 20 and drags.
 HIP_ROLL_COMPENSATION = 5.0
 #: The firmware's moving speed (rad/s): ``joint_speed: 1.0`` of every controller in
 #: ``armstrong.yaml`` (Appendix A); a row that asks a joint to go faster is reached late.
@@ -131,9 +133,9 @@ def _number(name: str, value: object, *, low: float = 0.0, strict: bool = True,
             unit: str = "") -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) \
             or not math.isfinite(value) or not (value > low if strict else value >= low):
-        relation = ">" if strict else ">="
-        raise GaitValueError(f"{name} must be a finite number {relation} {low:g}{unit}, "
-                             f"got {value!r}")
+        bound = (f" of{unit}" if unit else "") if low == -math.inf else \
+            f" {'>' if strict else '>='} {low:g}{unit}"
+        raise GaitValueError(f"{name} must be a finite number{bound}, got {value!r}")
     return float(value)
 
 
@@ -149,8 +151,8 @@ class ZmpWalkParameters:
     * ``step_width`` (m): the lateral distance of the feet's centres while walking; ``None``
       keeps the stand pose's (``hip_width`` + the soles' offsets from their hips, 85 mm).
     * ``step_time`` 2.5 s a step, ``double_support`` 0.2 of it with both feet down: the
-      RX-28 moves at 1 rad/s (``max_joint_speed``) and the swing knee needs 0.87 rad/s at
-      2.5 s; the servo cannot follow a shorter step (at 2.0 s a heavier robot falls).
+      RX-28 moves at 1 rad/s (``max_joint_speed``), and the swing knee needs 0.87 rad/s at
+      2.5 s (1.0 at 2.1 s), which leaves room to change the other parameters a little.
     * ``foot_lift`` 0.02 m: Table 5.1's ``h_step`` (20 mm).
     * ``hip_roll_compensation`` :data:`HIP_ROLL_COMPENSATION` degrees.
     * ``com_height`` (m): the cart-table's z_c; ``None`` takes the stand pose's hip height
@@ -163,8 +165,11 @@ class ZmpWalkParameters:
     * ``max_joint_speed`` :data:`JOINT_SPEED`.
 
     With these, a MuJoCo simulation of Armstrong's description with every servo's firmware
-    emulated (a 1 rad/s moving goal, compliance margin 1, slope 32, punch 32, back-EMF)
-    walks the ten steps, 0.37-0.38 m, also with the description's masses at 80 % and 120 %.
+    emulated (a goal approached at 1 rad/s, compliance margin 1 and slope 32 ticks, punch
+    32, the motor's back-EMF), standing up from all joints at 0 and playing the rows at 10
+    Hz, walks the ten steps 0.37-0.38 m (the plan: 0.40), also with the description's
+    masses at 80 % and 120 %. Without ``com_offset`` and ``hip_roll_compensation`` it
+    stays up but walks 0.12-0.34 m, its swing feet dragging.
     """
 
     steps: int = 10

@@ -165,10 +165,11 @@ def load(name: str, port: str | None = None) -> Any:
 def robot_models() -> dict[str, Callable[[], str]]:
     """The robot descriptions ``servolab robots show`` prints, by name: written from the
     robot's one model each time (:mod:`.armstrong.description`), not shipped as files."""
-    from .armstrong.description import model_file
+    from .armstrong.description import assumptions_table, model_file
 
     return {"armstrong.urdf": lambda: model_file("urdf"),
-            "armstrong.mjcf": lambda: model_file("mjcf")}
+            "armstrong.mjcf": lambda: model_file("mjcf"),
+            "armstrong.assumptions": assumptions_table}
 
 
 def shipped_files() -> dict[str, Path]:

@@ -481,3 +481,17 @@ def test_model_file_writes_either_format_and_refuses_others() -> None:
     assert '<compiler angle="radian"' in model_file("mjcf")
     with pytest.raises(RobotValueError, match=r"no model format 'mjfc'.*did you mean 'mjcf'"):
         model_file("mjfc")
+
+
+def test_robots_show_lists_every_assumption_walk_assume_takes() -> None:
+    import dataclasses
+
+    from servolab.robots.armstrong.description import Assumptions, assumptions_table
+    from servolab.robots.registry import robot_models
+
+    text = robot_models()["armstrong.assumptions"]()
+    assert text == assumptions_table()
+    for f in dataclasses.fields(Assumptions):
+        assert f"\n{f.name} = " in text
+    changed = Assumptions.with_values({"hip_width": 0.12})
+    assert "hip_width = 0.12 m" in assumptions_table(changed)

@@ -154,3 +154,25 @@ def test_the_walk_refuses_options_that_need_the_mujoco_world(tmp_path: Path) -> 
     assert done.returncode == 2 and "give NAME=NUMBER" in done.stderr
     done = _walk(tmp_path, "--video", str(tmp_path / "walk.gif"))
     assert done.returncode == 2 and "walk.gif" in done.stderr and ".mp4" in done.stderr
+
+
+def test_the_docs_sweep_table_is_what_the_sweep_gives() -> None:
+    """docs/biped.md's sweep (docs/img/biped_sweep.json, written by docs/plots.py) against a
+    new walk of two of its cases; a case that makes no robot is refused, not walked."""
+    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.sweep import Case, cases, sweep
+
+    committed = json.loads((Path(__file__).resolve().parents[3] / "docs" / "img"
+                            / "biped_sweep.json").read_text())
+    assert [r["label"] for r in committed] == [c.label for c in cases()]
+    assert len(committed) == 27
+    picked = [Case(1.0, 0.10, 1.0), Case(0.5, 0.12, 1.2)]
+    # the shipped configuration, as docs/plots.py walks: the start-up's length is part of
+    # the run (the robot stands on straight legs meanwhile)
+    again = sweep(load_motion(None), [*picked, Case(1.0, 0.07, 1.2)], steps=4)
+    for result in again[:2]:
+        (before,) = [r for r in committed if r["label"] == result["label"]]
+        assert result["fell"] == before["fell"]
+        assert result["fell_after_gait_start_s"] == before["fell_after_gait_start_s"]
+        assert result["tipped"] == before["tipped"]
+    assert "foot_width" in again[2]["refused"] and "hip_width" in again[2]["refused"]

@@ -725,6 +725,18 @@ def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str],
         _mjcf_body(d, element, child, order, welded)
 
 
+def assumptions_table(assumptions: Assumptions | None = None) -> str:
+    """Every assumption with its value, unit and source, as ``servolab robots show
+    armstrong.assumptions`` prints it: the names ``servolab walk --assume NAME=VALUE``
+    takes."""
+    a = assumptions if assumptions is not None else Assumptions()
+    rows = [f"# Armstrong's description: what seed 001 does not give, and the values taken "
+            f"(SI units; servolab walk --world mujoco --assume NAME=VALUE changes one)"]
+    for name, value, unit, source in a.table():
+        rows.append(f"{name} = {value:g} {unit}  # {source}")
+    return "\n".join(rows) + "\n"
+
+
 #: What :func:`model_file` writes.
 FORMATS = ("urdf", "mjcf")
 

@@ -99,17 +99,25 @@ def _fall(world: MujocoWorld, samples: list[Sample], fell_at: float) -> dict[str
         out["fall_cause"] = ("the zero-moment point stayed inside the support polygon: the "
                              "robot was pushed over (a foot caught, or slid)")
         return out
-    dx, dy = tipping.zmp[0] - tipping.support[0], tipping.zmp[1] - tipping.support[1]
-    edge, way = (("front", "forwards") if dx > 0 else ("back", "backwards")) \
-        if abs(dx) >= abs(dy) else (("left", "to its left") if dy > 0
-                                    else ("right", "to its right"))
-    feet = [f for f, force in zip(world.feet, tipping.feet, strict=True) if force > FOOT_DOWN_N]
+    # which way it went: the centre of mass from where the tipping began to the fall
+    dx, dy = last.com[0] - tipping.com[0], last.com[1] - tipping.com[1]
+    way = ("forwards" if dx > 0 else "backwards") if abs(dx) >= abs(dy) else \
+        ("to its left" if dy > 0 else "to its right")
+    # over which edge: where the zero-moment point sat, last, from the support's middle
+    edge_sample = next((s for s in reversed(window) if math.isfinite(s.margin)), tipping)
+    ex, ey = (edge_sample.zmp[0] - edge_sample.support[0],
+              edge_sample.zmp[1] - edge_sample.support[1])
+    edge = ("front" if ex > 0 else "back") if abs(ex) >= abs(ey) else \
+        ("left" if ey > 0 else "right")
+    feet = [f for f, force in zip(world.feet, edge_sample.feet, strict=True)
+            if force > FOOT_DOWN_N]
     out["tipping_from_s"] = round(tipping.t, 3)
     out["tipped"] = way
     out["fall_cause"] = (
-        f"from {tipping.t:.2f} s the zero-moment point was on the {edge} edge of the support "
-        f"polygon ({' and '.join(feet) if feet else 'no foot'} down) until the fall at "
-        f"{fell_at:.2f} s: the robot pivoted over that edge and tipped {way}")
+        f"from {tipping.t:.2f} s the zero-moment point was on the edge of the support "
+        f"polygon until the fall at {fell_at:.2f} s, last on its {edge} edge "
+        f"({' and '.join(feet) if feet else 'no foot'} down): the robot pivoted over the "
+        f"edge of its feet and fell {way}")
     return out
 
 
