@@ -730,8 +730,8 @@ def assumptions_table(assumptions: Assumptions | None = None) -> str:
     armstrong.assumptions`` prints it: the names ``servolab walk --assume NAME=VALUE``
     takes."""
     a = assumptions if assumptions is not None else Assumptions()
-    rows = [f"# Armstrong's description: what seed 001 does not give, and the values taken "
-            f"(SI units; servolab walk --world mujoco --assume NAME=VALUE changes one)"]
+    rows = ["# Armstrong's description: what seed 001 does not give, and the values taken "
+            "(SI units; servolab walk --world mujoco --assume NAME=VALUE changes one)"]
     for name, value, unit, source in a.table():
         rows.append(f"{name} = {value:g} {unit}  # {source}")
     return "\n".join(rows) + "\n"
