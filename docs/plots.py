@@ -80,6 +80,12 @@ FIGURES: dict[str, Figure] = {
     "biped.seed_fell_after_s": Figure(
         "docs/biped.md", 0.0, lambda v, t: f"falls {v:.2f} s after its first row",
         "servolab walk --world mujoco --steps 4"),
+    "biped.zmp_forward_m": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"{v:.3f} m forward",
+        "servolab walk --world mujoco --gait zmp --steps 10"),
+    "biped.zmp_margin_mm": Figure(
+        "docs/biped.md", 0.0, lambda v, t: f"never nearer than {v:.1f} mm to the edge",
+        "servolab walk --world mujoco --gait zmp --steps 10"),
     "biped.fault_rows": Figure(
         "docs/biped.md", 0.0, lambda v, t: f"after {v:.0f} of its 17 rows",
         "docs/plots.py's biped(): the knee made to overheat from row 5"),
@@ -290,70 +296,118 @@ def biped(out: Path) -> dict[str, float]:
                 "biped.fault_rows": float(fault["rows_played"])}
 
 
-def biped_physics(out: Path, *, quick: bool) -> dict[str, float]:
-    """docs/biped.md's physics: the seed's gait as printed in the MuJoCo world (its balance
-    plot, and a frame as it starts to tip), and — not with ``--quick``, 27 walks — the sweep
-    of the assumptions the seed leaves open (biped_sweep.json, biped_sweep.png)."""
+def walk_in_mujoco(out: Path, plot: str, motion: Any, **walk: Any) -> tuple[dict[str, Any],
+                                                                             Any]:
+    """``servolab walk --world mujoco`` with ``motion``: its balance plot copied to
+    ``out/plot``; returns the summary and the MuJoCo world (for frames to render)."""
     import shutil
     import tempfile
 
-    from servolab.robots.armstrong.hardware import load_motion
     from servolab.robots.armstrong.run import run_walk
     from servolab.runs import RunFolder
-    from servolab.sim.mujoco_video import render_frame
+
+    captured: dict[str, Any] = {}
+
+    def keep(robot: Any, row: int) -> None:
+        captured["world"] = robot.physics.world
 
     with tempfile.TemporaryDirectory() as tmp:
-        captured: dict[str, Any] = {}
+        summary = run_walk(RunFolder.create("walk", tmp), motion, world="mujoco",
+                           say=lambda text: None, show_progress=False, on_row=keep, **walk)
+        shutil.copy(str(summary["physics_plot"]), out / plot)
+    return summary, captured["world"]
 
-        def keep(robot: Any, row: int) -> None:
-            captured["robot"] = robot
 
-        summary = run_walk(RunFolder.create("walk", tmp), load_motion(None), steps=4,
-                           world="mujoco", say=lambda text: None, show_progress=False,
-                           on_row=keep)
-        shutil.copy(str(summary["physics_plot"]), out / "biped_physics_seed.png")
+def frame_at(world: Any, sample: Any, path: Path) -> None:
+    """One sample of a MuJoCo walk drawn as the video draws it."""
+    from servolab.sim.mujoco_video import render_frame
+
+    render_frame(world.model, np.array(sample.qpos), path, track_body="pelvis")
+
+
+def biped_physics(out: Path, *, quick: bool) -> dict[str, float]:
+    """docs/biped.md's physics: the seed's gait as printed in the MuJoCo world (its balance
+    plot, and a frame as it starts to tip), servolab's own gait (:func:`zmp_walk`), and — not
+    with ``--quick``, 54 walks — the sweep of the assumptions the seed leaves open."""
+    from servolab.robots.armstrong.hardware import load_motion
+
+    summary, world = walk_in_mujoco(out, "biped_physics_seed.png", load_motion(None),
+                                    steps=4)
     physics = summary["physics"]
-    world = captured["robot"].physics.world
     tipping = physics.get("tipping_from_s", physics["fell_at_s"])
-    frame = min(world.samples, key=lambda s: abs(s.t - (tipping + 0.25)))
-    render_frame(world.model, np.array(frame.qpos), out / "biped_fall_frame.png",
-                 track_body="pelvis")
+    frame_at(world, min(world.samples, key=lambda s: abs(s.t - (tipping + 0.25))),
+             out / "biped_fall_frame.png")
     if not quick:
         sweep_figure(out)
-    return {"biped.seed_fell_after_s": physics["fell_after_gait_start_s"]}
+    return {"biped.seed_fell_after_s": physics["fell_after_gait_start_s"], **zmp_walk(out)}
+
+
+def zmp_walk(out: Path) -> dict[str, float]:
+    """docs/biped.md's own gait: its plan (footsteps, ZMP reference, centre of mass), the
+    walk of 10 steps in MuJoCo (its balance plot) and a frame in mid-stride."""
+    from servolab.gait.plots import plot_zmp_walk
+    from servolab.gait.zmp_walk import plan_zmp_walk
+    from servolab.robots.armstrong.hardware import zmp_motion
+
+    plot_zmp_walk(plan_zmp_walk(), out / "biped_zmp_plan.png")
+    motion, rate = zmp_motion(10)
+    summary, world = walk_in_mujoco(out, "biped_physics_zmp.png", motion, rate=rate,
+                                    gait="zmp")
+    # mid-stride: the sample where one foot carries the least, halfway through the walk
+    middle = [s for s in world.samples if abs(s.t - world.samples[-1].t / 2) < 1.5]
+    frame_at(world, min(middle, key=lambda s: min(s.feet)), out / "biped_zmp_frame.png")
+    physics = summary["physics"]
+    return {"biped.zmp_forward_m": physics["torso_forward_m"],
+            "biped.zmp_margin_mm": physics["zmp_margin_min_m"] * 1000}
 
 
 def sweep_figure(out: Path) -> None:
-    """The seed's gait under every case of ``servolab.robots.armstrong.sweep.cases()``: when
-    each fell after its first row, coloured by the way it fell; the results as
-    biped_sweep.json (docs/biped.md's table is written from it)."""
+    """The seed's gait and servolab's own under every case of
+    ``servolab.robots.armstrong.sweep.cases()``: how long each walked before it fell (or the
+    whole gait), coloured by the way it fell; the results as biped_sweep.json and
+    biped_sweep_zmp.json (docs/biped.md's text is written from them)."""
     import logging
 
     import matplotlib.pyplot as plt
 
-    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.hardware import load_motion, zmp_motion
     from servolab.robots.armstrong.sweep import cases, sweep
 
-    logging.disable(logging.WARNING)   # 27 robots' start-up: motor 62 is absent in each
+    logging.disable(logging.WARNING)   # 54 robots' start-up: motor 62 is absent in each
     try:
-        results = sweep(load_motion(None), cases(), steps=4)
+        seed = sweep(load_motion(None), cases(), steps=4)
+        own = sweep(lambda case: zmp_motion(10, assumptions=case.assumptions()), cases())
     finally:
         logging.disable(logging.NOTSET)
-    (out / "biped_sweep.json").write_text(json.dumps(results, indent=1) + "\n")
+    (out / "biped_sweep.json").write_text(json.dumps(seed, indent=1) + "\n")
+    (out / "biped_sweep_zmp.json").write_text(json.dumps(own, indent=1) + "\n")
     colours = {"forwards": "C0", "backwards": "C1", "to its left": "C2", "to its right": "C3"}
-    figure, ax = plt.subplots(figsize=(10, 7))
-    labels = [r["label"] for r in results]
-    times = [r.get("fell_after_gait_start_s") or 0.0 for r in results]
-    ax.barh(range(len(results)), times,
-            color=[colours.get(str(r.get("tipped")), "grey") for r in results])
-    ax.set_yticks(range(len(results)), labels, fontsize="small")
-    ax.invert_yaxis()
-    ax.set_xlabel("fell this long after the gait's first row [s] (4 steps take 15.1 s)")
-    ax.set_title("The seed's gait in MuJoCo under 27 sets of the unknowns: every one falls")
+    figure, axes = plt.subplots(1, 2, figsize=(13, 7.5), sharey=True)
+    labels = [r["label"] for r in seed]
+    for ax, results, title in ((axes[0], seed, "the seed's gait, 4 steps (15.1 s)"),
+                               (axes[1], own, "servolab's own (--gait zmp), 10 steps")):
+        for k, r in enumerate(results):
+            if "refused" in r:
+                ax.text(0.1, k, "not made: " + r["refused"].split(":")[0] + " (joint speed)",
+                        va="center", fontsize="x-small", color="grey")
+                continue
+            walked = r.get("fell_after_gait_start_s")
+            if walked is None:
+                ax.barh(k, r["torso_forward_m"] * 100, color="C7")
+                ax.text(r["torso_forward_m"] * 100 + 0.3, k, "walked, did not fall",
+                        va="center", fontsize="x-small")
+            else:
+                ax.barh(k, walked, color=colours.get(str(r.get("tipped")), "grey"))
+        ax.set_title(title)
+        ax.grid(True, axis="x", alpha=0.3)
+    axes[0].set_yticks(range(len(labels)), labels, fontsize="small")
+    axes[0].invert_yaxis()
+    axes[0].set_xlabel("fell this long after the gait's first row [s]")
+    axes[1].set_xlabel("torso forward [cm] (grey bars)")
     for way, colour in colours.items():
-        ax.barh([0], [0], color=colour, label=f"fell {way}")
-    ax.legend(loc="lower right")
-    ax.grid(True, axis="x", alpha=0.3)
+        axes[0].barh([0], [0], color=colour, label=f"fell {way}")
+    axes[0].legend(loc="lower right", fontsize="small")
+    figure.suptitle("In MuJoCo under 27 sets of the unknowns (masses, hip width, feet)")
     figure.tight_layout()
     figure.savefig(out / "biped_sweep.png", dpi=100)
     plt.close(figure)

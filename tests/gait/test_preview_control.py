@@ -6,7 +6,7 @@ The oracles are not the module's own arithmetic: the model's discretisation is c
 against scipy's zero-order hold of the continuous triple integrator, the gains against the
 Riccati equation itself and the closed loop's eigenvalues, and the CoM against its ZMP
 recomputed here by finite differences (p = x - z_c/g * x''), on the paper's own setting
-(z_c = 0.814 m, dt = 5 ms, Qe = 1, R = 1e-6, a 1.6 s preview: Figs. 5 and 6).
+(z_c = 0.814 m, dt = 5 ms, Qe = 1, R = 1e-6, a 1.6 s preview; its Fig. 6).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from servolab.gait.preview_control import (
     com_from_zmp,
 )
 
-#: Kajita 2003, section IV (Figs. 5 and 6): the HRP-2 sized cart-table and its weights.
+#: Kajita 2003's example (Fig. 6): its cart-table and weights.
 Z_C = 0.814
 DT = 0.005
 
@@ -95,9 +95,9 @@ def test_the_closed_loop_is_stable(kajita: PreviewController) -> None:
     assert np.abs(np.linalg.eigvals(loop)).max() < 1.0
 
 
-def test_fig5_the_preview_gain_fades_within_the_window(kajita: PreviewController) -> None:
-    """Fig. 5 of the paper: the preview gain Gd starts at -Gi and falls off toward 0 within
-    the 1.6 s window (the far future hardly matters, which is why 1.6 s is enough)."""
+def test_the_preview_gain_fades_within_the_window(kajita: PreviewController) -> None:
+    """As the paper plots it: the preview gain Gd starts at -Gi and falls off toward 0
+    within the 1.6 s window (the far future hardly matters, which is why 1.6 s is enough)."""
     gd = kajita.gd
     assert kajita.preview_steps == 320
     assert gd[0] == pytest.approx(-kajita.gi)
@@ -122,7 +122,7 @@ def test_fig6_the_com_tracks_the_zmp_staircase(kajita: PreviewController) -> Non
     assert zmp[calm] == pytest.approx(recomputed[calm], abs=3e-4)
     assert zmp == pytest.approx(recomputed, abs=5e-3)
     error = np.abs(recomputed - reference)[calm]
-    assert error.max() < 3e-3          # the dip before each step (in Fig. 6 too)
+    assert error.max() < 3e-3          # the ZMP's small dip before each step
     assert np.sqrt(np.mean(error**2)) < 1e-3
     first = np.flatnonzero(np.abs(com[:, 0]) > 1e-3)[0]
     assert 0.4 < time[first] < 2.0            # the CoM starts before the first step

@@ -45,7 +45,7 @@ def hardware_priority() -> int | None:
 def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr,
         duration: float | None = None, raise_priority: bool = False,
-        echo: bool = False) -> dict[str, object]:
+        echo: bool = False, world: str | None = None) -> dict[str, object]:
     """Serve emulated motors on a pseudo-terminal until Ctrl-C / SIGTERM (or ``duration`` s).
 
     The motors live in a :class:`~servolab.sim.Simulation` that runs in real time on its own
@@ -56,7 +56,11 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     ``realtime``): on a busy machine the OS then wakes it on time to hand each reply over.
     ``echo`` serves the motors as an adapter that echoes would
     (:class:`~servolab.dynamixel.ports.EchoingDevice`). The summary says how late the
-    replies were handed over (``reply_lateness``, after their modelled wire time)."""
+    replies were handed over (``reply_lateness``, after their modelled wire time).
+
+    ``world="armstrong-mujoco"``: the motors (Armstrong's, ``spec``) drive the biped in
+    MuJoCo (:mod:`servolab.robots.armstrong.physics`), stepped in real time beside the bus;
+    the summary says whether and when it fell (``"physics"``)."""
     from ..dynamixel.emulator import build_emulator
     from ..dynamixel.ports import (
         REALTIME_PRIORITY,
@@ -68,8 +72,18 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     from ..signals import on_stop_signals, raise_keyboard_interrupt
     from ..sim import Simulation
 
-    simulation = Simulation()
-    emulator = simulation.add_emulator(build_emulator(spec))
+    physics = None
+    if world == "armstrong-mujoco":
+        from ..robots.armstrong.description import TIMESTEP
+        from ..robots.armstrong.hardware import load_config
+        from ..robots.armstrong.physics import armstrong_world
+
+        simulation = Simulation(TIMESTEP)
+        emulator = simulation.add_emulator(build_emulator(spec))
+        physics = armstrong_world(simulation, emulator, load_config())
+    else:
+        simulation = Simulation()
+        emulator = simulation.add_emulator(build_emulator(spec))
     baud = spec.motor_baudrate
     niceness = hardware_priority() if raise_priority else None
     # The simulation's thread takes the scheduling of the thread that starts it: real time
@@ -99,6 +113,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
               f"{_protocols(spec.protocol)} at {baud} bps on {server.device}"
               f"{f' (link {link})' if link else ''}"
               f"{', echoing every byte sent' if echo else ''}"
+              f"{', driving Armstrong in MuJoCo' if physics else ''}"
               f"{f', at raised priority ({how})' if how else ''}; "
               "Ctrl-C stops", file=stderr, flush=True)
         try:
@@ -117,15 +132,32 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
                "reply_lateness": server.reply_lateness(),
                "replies_lost": server.replies_lost,
                "reply_bytes_unread": server.bytes_overflowed}
+    if physics is not None:
+        from ..robots.armstrong.physics_report import physics_summary, plot_physics
+
+        figures["physics"] = physics_summary(physics.world, physics.description, 0.0,
+                                             simulation.now())
+        figures["fell"] = physics.world.fell_at is not None
+        figures["physics_plot"] = str(plot_physics(physics.world, run.file("physics.png"),
+                                                   0.0))
     run.write_summary(figures)
     print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
           f"summary in {run.path}", file=stderr, flush=True)
     return figures
 
 
+#: What ``--robot`` serves, by name: its emulated bus, and the world it stands in.
+ROBOT_WORLDS = {"armstrong": "armstrong-mujoco"}
+
+
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--motors", required=True, metavar="SPEC",
-                   help="'rx28:11-16,21-26', 'xm430-w210:100-102', or a YAML file")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--motors", metavar="SPEC",
+                       help="'rx28:11-16,21-26', 'xm430-w210:100-102', or a YAML file")
+    which.add_argument("--robot", choices=sorted(ROBOT_WORLDS),
+                       help="a robot's motors in its physics world: 'armstrong', the biped's "
+                       "20 RX-28 at 57142 bps driving it in MuJoCo (servolab walk --port "
+                       "PTY walks it; the summary says whether it fell)")
     p.add_argument("--pty", action="store_true", required=True,
                    help="serve on a pseudo-terminal (prints its path on the first line)")
     p.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the pty")
@@ -145,9 +177,16 @@ def _run(args: argparse.Namespace) -> int:
     from ..dynamixel import motorspec
     from ..runs import RunFolder
 
-    spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
+    world = None
+    if args.robot:
+        from ..robots.armstrong.hardware import emulated_spec, load_config
+
+        spec = emulated_spec(load_config(), baudrate=args.baud)
+        world = ROBOT_WORLDS[args.robot]
+    else:
+        spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
     sim(spec, run=RunFolder.create("sim", args.out), link=args.link, raise_priority=True,
-        echo=args.echo)
+        echo=args.echo, world=world)
     return 0
 
 
@@ -157,5 +196,6 @@ COMMAND = Command(
     "the first line printed; give it to --port of scan, read and write, or to any program "
     "that opens a serial port.",
     examples=("servolab sim --pty --motors rx28:11-16 --link /tmp/dxl",
+              "servolab sim --pty --robot armstrong   # the biped in MuJoCo, in real time",
               "servolab scan --port /tmp/dxl --protocol 1   # in another terminal"),
     add_arguments=_add_arguments, run=_run)

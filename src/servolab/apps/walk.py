@@ -18,10 +18,16 @@ from .registry import Command
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--file", metavar="CSV", help="motion file to play (columns m11..m62, "
                    "degrees, as 001 Table 4.3); default: the seed's gait, generated now")
-    p.add_argument("--steps", type=int, default=1, metavar="N",
-                   help="how many times the sequence is played (default 1)")
-    p.add_argument("--rate", type=float, default=4.5, metavar="HZ",
-                   help="rows a second (default 4.5: 17 rows, 3.78 s a step, as the seed)")
+    p.add_argument("--gait", choices=("seed", "zmp"), default="seed",
+                   help="without --file: 'seed' (default), seed 001's gait (Appendix D/E), "
+                   "played --steps times; 'zmp', servolab's own (Kajita's preview control of "
+                   "the zero-moment point), --steps footsteps (even; default 10) played once")
+    p.add_argument("--steps", type=int, metavar="N",
+                   help="how many times the sequence is played (default 1); with --gait zmp "
+                   "the number of footsteps")
+    p.add_argument("--rate", type=float, metavar="HZ",
+                   help="rows a second (default 4.5: 17 rows, 3.78 s a step, as the seed; "
+                   "10 for --gait zmp, the rate it is made for)")
     p.add_argument("--port", metavar="PORT", help="the robot's port: " + PORT_HELP +
                    "; default: the emulated robot (20 RX-28, motor 62 absent, as in the seed)")
     p.add_argument("--config", metavar="YAML", help="controller configuration "
@@ -46,12 +52,16 @@ def _run(args: argparse.Namespace) -> int:
     from ..errors import UsageError
     from ..gait.motionfile import MotionFileWarning
     from ..middleware.logger import console_log
-    from ..robots.armstrong.hardware import load_motion
+    from ..robots.armstrong.control_node import PLAY_RATE
+    from ..robots.armstrong.hardware import load_motion, zmp_motion
     from ..robots.armstrong.run import run_walk
     from ..runs import RunFolder
 
-    if args.steps < 1:
-        raise UsageError(f"--steps {args.steps}: must be 1 or more")
+    if args.file and args.gait != "seed":
+        raise UsageError("--file plays a motion file; --gait generates one: give one of them")
+    steps = args.steps if args.steps is not None else (10 if args.gait == "zmp" else 1)
+    if steps < 1:
+        raise UsageError(f"--steps {steps}: must be 1 or more")
     if (args.assume or args.video) and args.world != "mujoco":
         raise UsageError(("--assume" if args.assume else "--video") + " needs --world mujoco "
                          "(the kinematic world has no bodies)")
@@ -69,19 +79,28 @@ def _run(args: argparse.Namespace) -> int:
         from ..robots.armstrong.description import Assumptions
 
         assumptions = Assumptions.with_values(values)
-    if not (math.isfinite(args.rate) and args.rate > 0):
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
+    rate = args.rate if args.rate is not None else PLAY_RATE
     with warnings.catch_warnings(record=True) as caught:  # one line each, not Python's two
         warnings.simplefilter("always", MotionFileWarning)
-        motion = load_motion(args.file, args.config)  # checked whole before anything moves
+        if args.gait == "zmp":   # generated for this robot, checked before anything moves
+            from ..gait.zmp_walk import ZmpWalkParameters
+
+            asked = ZmpWalkParameters() if args.rate is None else ZmpWalkParameters(
+                rate=args.rate)    # planned for the rate it will be played at
+            motion, rate = zmp_motion(steps, args.config, assumptions, asked)
+            steps = 1            # the footsteps are in the motion: it is played once
+        else:
+            motion = load_motion(args.file, args.config)  # checked whole before it moves
     for warning in caught:
         print(f"servolab walk: warning: {warning.message}", file=sys.stderr)
     log_level(args)
     with console_log(), RunFolder.create("walk", args.out) as run:
-        run_walk(run, motion, steps=args.steps, rate=args.rate, port=args.port,
+        run_walk(run, motion, steps=steps, rate=rate, port=args.port,
                  config=args.config, show_progress=not args.no_progress, world=args.world,
-                 assumptions=assumptions,
-                 video=Path(args.video) if args.video else None)
+                 assumptions=assumptions, video=Path(args.video) if args.video else None,
+                 gait=args.file or args.gait)
     print(f"run folder: {run.path}")
     return 0
 
@@ -97,5 +116,6 @@ COMMAND = Command(
     "says what ended the run and lists the alarms.",
     examples=("servolab walk --steps 2", "servolab walk --file gait.csv --steps 4",
               "servolab walk --world mujoco --steps 4 --video walk.mp4",
+              "servolab walk --world mujoco --gait zmp --steps 10",
               "servolab walk --port /dev/ttyUSB0 --steps 1"),
     add_arguments=_add_arguments, run=_run)

@@ -1,5 +1,6 @@
 """Plots of a generated walk like seed 001's Figure 5.6 (foot positions over time, Appendix D's
-``figure(5)``) and Figure 5.8 (the legs' motor angles over time, Appendix E's ``figure(12)``).
+``figure(5)``) and Figure 5.8 (the legs' motor angles over time, Appendix E's ``figure(12)``),
+and of a planned ZMP walk (footsteps, zero-moment point, centre of mass).
 
 Pure except for writing the PNG file they are given. Matplotlib is imported inside the
 functions (importing servolab.gait must stay cheap and must not need a display) and drawn on
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from servolab.gait.walking import WalkingSequence
+from servolab.gait.zmp_walk import ZmpWalkPlan
 from servolab.kinematics.dh import FloatArray
 
 if TYPE_CHECKING:
@@ -67,4 +69,36 @@ def plot_joint_angles(walk: WalkingSequence, path: str | os.PathLike[str]) -> Pa
     for axes, first, name in ((top, 0, "Left"), (bottom, 6, "Right")):
         _panel(axes, walk.time_ms, np.asarray(walk.motors[:, first:first + 6]),
                walk.columns[first:first + 6], f"{name} Leg - motor angles", "Angle [deg]")
+    return _save(figure, path)
+
+
+def plot_zmp_walk(plan: ZmpWalkPlan, path: str | os.PathLike[str]) -> Path:
+    """A planned ZMP walk (:mod:`servolab.gait.zmp_walk`): seen from above, the soles' places,
+    the zero-moment point's reference and the centre of mass preview control makes of it;
+    below, the sideways coordinate over time: the centre of mass sets off before the
+    reference moves (the controller previews it: the mass must move before the point on
+    the floor can) and follows it smoothed."""
+    figure = _figure(2)
+    top, bottom = figure.subplots(2, 1)
+    mm = 1000.0
+    for k, (name, marker) in enumerate((("left sole", "s"), ("right sole", "D"))):
+        soles = plan.footsteps[:, k, :]
+        top.plot(soles[:, 0] * mm, soles[:, 1] * mm, linestyle="none", marker=marker,
+                 markersize=7, label=name)
+    top.plot(plan.zmp_ref[:, 0] * mm, plan.zmp_ref[:, 1] * mm, label="ZMP reference")
+    top.plot(plan.com[:, 0] * mm, plan.com[:, 1] * mm, label="centre of mass (planned)")
+    top.set_title(f"Planned from above: {len(plan.footsteps) - 1} steps")
+    top.set_xlabel("forward [mm]")
+    top.set_ylabel("left [mm]")
+    top.set_aspect("equal", adjustable="datalim")
+    top.grid(True)
+    top.legend(loc="upper left", fontsize="small", ncol=2)
+    bottom.plot(plan.time, plan.zmp_ref[:, 1] * mm, label="ZMP reference")
+    bottom.plot(plan.time, plan.zmp[:, 1] * mm, linestyle="--", label="ZMP of the plan")
+    bottom.plot(plan.time, plan.com[:, 1] * mm, label="centre of mass")
+    bottom.set_title("Sideways over time (preview control, Kajita et al. 2003)")
+    bottom.set_xlabel("time [s]")
+    bottom.set_ylabel("left [mm]")
+    bottom.grid(True)
+    bottom.legend(loc="upper right", fontsize="small")
     return _save(figure, path)

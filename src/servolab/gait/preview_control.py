@@ -8,24 +8,24 @@ polygon, and the ZMP is set by the CoM's *acceleration* (the cart-table model be
 the CoM must start moving *before* the ZMP has to move; a controller that sees the
 reference ahead (the preview) can do that, a controller on the present error cannot.
 
-The model (section III of the paper), per horizontal axis, sampled every ``dt`` seconds: a
-cart of the robot's mass on a massless table at the CoM's constant height ``z_c``, state
-``x = (position, velocity, acceleration)`` of the CoM, input the jerk ``u``::
+The model, per horizontal axis, sampled every ``dt`` seconds: a cart of the robot's mass on
+a massless table at the CoM's constant height ``z_c``, state ``x = (position, velocity,
+acceleration)`` of the CoM, input the jerk ``u``::
 
     x[k+1] = A x[k] + B u[k],  A = [[1, dt, dt²/2], [0, 1, dt], [0, 0, 1]],
                                B = [dt³/6, dt²/2, dt]
     p[k]   = C x[k],           C = [1, 0, -z_c / g]     (the ZMP: p = x - z_c/g · ẍ)
 
-The controller (the paper's eq. 11, after Katayama et al. 1985) minimises
-``sum(Qe e² + R u²)`` with ``e = p - p_ref``, on the state augmented by the integral of
-the ZMP error (``e`` summed), which removes a steady offset::
+The controller (the paper's, after Katayama et al. 1985) minimises ``sum(Qe e² + R u²)``
+with ``e = p - p_ref``, on the state augmented by the integral of the ZMP error (``e``
+summed), which removes a steady offset; the reference is known ``NL`` samples ahead::
 
     u[k] = -Gi · sum(e[0..k]) - Gx · x[k] - sum_{j=1..NL} Gd[j] · p_ref[k + j]
 
 The gains come from the discrete algebraic Riccati equation of the augmented system, solved
 by :func:`scipy.linalg.solve_discrete_are` (not iterated here). Units: SI (m, s, m/s²); the
-paper's Fig. 6 used ``z_c = 0.814 m``, ``dt = 5 ms``, ``Qe = 1``, ``R = 1e-6`` and a 1.6 s
-preview, the defaults here but ``z_c``.
+paper's example (Fig. 6) used ``z_c = 0.814 m``, ``dt = 5 ms``, ``Qe = 1``, ``R = 1e-6`` and a
+1.6 s preview: the defaults here but ``z_c``.
 
 Pure: arrays in, arrays out. Every bad argument is a
 :class:`~servolab.gait.errors.GaitValueError` naming it.
@@ -46,15 +46,18 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Standard gravity (m/s²), the cart-table model's g.
 GRAVITY = 9.80665
-#: Kajita 2003's weights (section IV, Fig. 6): the ZMP error's and the jerk's.
+#: Kajita 2003's weights (its Fig. 6): the ZMP error's and the jerk's.
 Q_ERROR = 1.0
 R_JERK = 1e-6
-#: Kajita 2003's preview window (s): the preview gain is negligible beyond it (Fig. 5).
+#: Kajita 2003's preview window (s): the preview gain has faded by then.
 PREVIEW_S = 1.6
 
 
 def _positive(name: str, value: float, unit: str) -> float:
-    number = float(value)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
     if not (math.isfinite(number) and number > 0):
         raise GaitValueError(f"{name} must be a positive, finite number{unit}, got {value!r}")
     return number
@@ -74,7 +77,7 @@ def cart_table(dt: float, z_c: float, gravity: float = GRAVITY
     return a, b, c
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PreviewController:
     """Kajita 2003's preview controller for one cart-table model; make one with
     :meth:`design`. Every axis uses the same gains (the model is the same along x and y).

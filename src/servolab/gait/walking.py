@@ -46,6 +46,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -66,6 +67,17 @@ from servolab.kinematics.leg import (
 
 #: The 21 motor columns in the seed's order (:data:`~servolab.gait.motionfile.SEED_COLUMNS`).
 MOTOR_COLUMNS = SEED_COLUMNS
+
+#: Table 4.2 of seed 001, the stand pose (degrees by motor column, as printed): the initial
+#: position of the walking algorithm, where the robot stands before it plays a motion
+#: (``servolab.robots.armstrong.poses.STAND_POSE`` is this table).
+TABLE_4_2_STAND_POSE: Mapping[str, float] = MappingProxyType({
+    **dict.fromkeys(MOTOR_COLUMNS, 0.0),
+    "m51": 25.0,
+    "m12": -27.666, "m13": 0.619, "m11": 0.0, "m14": -42.992, "m15": 15.326, "m16": -0.619,
+    "m22": -14.746, "m23": 5.2503, "m21": 0.0, "m24": 41.781, "m25": -27.035, "m26": -5.250,
+})
+
 PHASES_PER_HALF_CYCLE = 4
 #: Rows a second the seed's control node plays a sequence at (001 section 4.2.4.4).
 PLAY_RATE = 4.5

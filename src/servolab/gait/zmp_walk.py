@@ -51,14 +51,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from types import MappingProxyType
 
 import numpy as np
 
 from servolab.gait.errors import GaitValueError
 from servolab.gait.motionfile import MotionFile
 from servolab.gait.preview_control import PREVIEW_S, com_from_zmp
-from servolab.gait.walking import MOTOR_COLUMNS, motor_angles, motor_joint
+from servolab.gait.walking import (
+    MOTOR_COLUMNS,
+    TABLE_4_2_STAND_POSE,
+    motor_angles,
+    motor_joint,
+)
 from servolab.kinematics.dh import FloatArray
 from servolab.kinematics.leg import (
     ARMSTRONG_LEG,
@@ -78,17 +82,6 @@ __all__ = ["COM_OFFSET", "HIP_ROLL_COMPENSATION", "HIP_WIDTH", "JOINT_SPEED", "S
            "footstep_plan", "generate_zmp_walk", "joint_speeds", "plan_zmp_walk",
            "stance_load", "stand_geometry"]
 
-#: Table 4.2 of seed 001, the stand pose (degrees by motor column, as printed): where the
-#: robot stands before it plays a motion. The values of
-#: ``servolab.robots.armstrong.poses.STAND_POSE``, which this layer may not import
-#: (docs/layout.md: the algorithms know no robot); tests/gait/test_zmp_walk.py checks that
-#: the two agree.
-TABLE_4_2_STAND_POSE: Mapping[str, float] = MappingProxyType({
-    **dict.fromkeys(MOTOR_COLUMNS, 0.0),
-    "m51": 25.0,
-    "m12": -27.666, "m13": 0.619, "m11": 0.0, "m14": -42.992, "m15": 15.326, "m16": -0.619,
-    "m22": -14.746, "m23": 5.2503, "m21": 0.0, "m24": 41.781, "m25": -27.035, "m26": -5.250,
-})
 #: The hip-yaw axes' distance (m): Armstrong's description's assumption ``hip_width`` (a
 #: guess; the seed gives none).
 HIP_WIDTH = 0.100
@@ -256,7 +249,7 @@ class ZmpWalkParameters:
         return self.settle + (k - 1) * self.step_time
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StandGeometry:
     """The stand pose's feet: each sole's centre relative to its hip (mm, the leg frame of
     :mod:`servolab.kinematics.leg`) and the hips' height above the floor (m)."""
@@ -295,7 +288,7 @@ def stand_geometry(pose: Mapping[str, float], leg: LegGeometry = ARMSTRONG_LEG
     return StandGeometry(feet["left"], feet["right"], height)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ZmpWalkPlan:
     """A planned walk, one entry per row (``time`` s, ``1 / rate`` apart), walk frame (m).
 

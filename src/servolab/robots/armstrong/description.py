@@ -177,6 +177,10 @@ class Assumptions:
         1.0e-7, "kg m²", "guess: the order of a small coreless motor's rotor (the e-Manual "
                          "gives none); times the gear ratio (193) squared it is the joint's "
                          "armature")
+    gear_friction: float = _assumed(
+        0.1, "N m", "guess: the torque that turns an RX-28's 193:1 metal gear train from its "
+                    "horn with the motor off (ROBOTIS give none): what holds a joint whose "
+                    "torque is off; about 3 % of the stall torque, as the firmware's punch")
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -320,6 +324,7 @@ class Drive:
     #: no-load speed, so its back-EMF damps the joint by stall torque / no-load speed
     damping: float
     armature: float         # kg m²: rotor inertia x gear ratio²
+    friction: float = 0.0   # N m: the gear train's dry friction, torque on or off
 
 
 @dataclass(frozen=True)
@@ -460,7 +465,8 @@ def describe(assumptions: Assumptions | None = None,
         no_load_speed=rx28.no_load_speed,
         kp=rx28.stall_torque_nm / (slope * rx28.rad_per_tick),
         damping=rx28.stall_torque_nm / rx28.no_load_speed,
-        armature=a.rotor_inertia * RX28_GEAR_RATIO**2)
+        armature=a.rotor_inertia * RX28_GEAR_RATIO**2,
+        friction=a.gear_friction)
     functions = _functions()
     boxes: dict[str, list[Box]] = {}
     joints: list[Joint] = []
@@ -608,7 +614,8 @@ def urdf(description: Description) -> str:
             ET.SubElement(element, "limit", lower=_num(joint.lower), upper=_num(joint.upper),
                           effort=_num(d.drive.stall_torque),
                           velocity=_num(d.drive.no_load_speed))
-            ET.SubElement(element, "dynamics", damping=_num(d.drive.damping), friction="0")
+            ET.SubElement(element, "dynamics", damping=_num(d.drive.damping),
+                          friction=_num(d.drive.friction))
     for joint, motor in d.motors:
         transmission = ET.SubElement(robot, "transmission", name=f"{motor.column}_transmission")
         ET.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
@@ -660,7 +667,7 @@ def mjcf(description: Description, drive: Drives = "position") -> str:
     ET.SubElement(root, "option", timestep=_num(TIMESTEP), integrator="implicitfast")
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "joint", damping=_num(0.0 if firmware else d.drive.damping),
-                  armature=_num(d.drive.armature))
+                  armature=_num(d.drive.armature), frictionloss=_num(d.drive.friction))
     if not firmware:
         ET.SubElement(default, "position", kp=_num(d.drive.kp),
                       forcerange=_nums((-d.drive.stall_torque, d.drive.stall_torque)))
@@ -723,6 +730,22 @@ def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str],
                           axis=_nums(joint.axis), range=_nums((joint.lower, joint.upper)))
             order.append(joint.name)
         _mjcf_body(d, element, child, order, welded)
+
+
+def stand_com_offset(description: Description) -> tuple[float, float]:
+    """Where the whole robot's centre of mass sits ahead of and to the left of the pelvis
+    frame (m) in Table 4.2's stand pose (the trunk leans 25 degrees forwards): what a
+    walking-pattern generator that plans the centre of mass must add to place the pelvis.
+    MuJoCo computes it from the MJCF's ``stand`` keyframe."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(mjcf(description))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
+    mujoco.mj_forward(model, data)
+    pelvis = model.body(description.root).id
+    x, y, _ = (float(v) for v in data.subtree_com[pelvis] - data.xpos[pelvis])
+    return x, y
 
 
 def assumptions_table(assumptions: Assumptions | None = None) -> str:

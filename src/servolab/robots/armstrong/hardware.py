@@ -13,6 +13,7 @@ import math
 from collections.abc import Collection
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ...configfile import shipped
 from ...dynamixel import units
@@ -22,9 +23,13 @@ from ...dynamixel.models import model
 from ...dynamixel.motorspec import MotorEntry, MotorSpec
 from ...gait.motionfile import MotionFile, read_motion_file
 from ...gait.walking import GaitParameters, generate_walk
+from ...gait.zmp_walk import ZmpWalkParameters, generate_zmp_walk
 from ...sim.emulated import emulated_port
 from ...sim.simulation import Simulation
 from ..controllers.config import ControllerConfigError, RobotConfig, SerialPortConfig, load
+
+if TYPE_CHECKING:
+    from .description import Assumptions
 from .poses import MOTORS
 
 #: armstrong.yaml beside this module (Listing 3.3 + Appendix A): the default configuration
@@ -114,3 +119,20 @@ def load_motion(path: str | Path | None, config: str | Path | None = None,
         return read_motion_file(path, limits=limits, required=MOTORS)
     # checked against the same limits as a file, at generation (gait.walking)
     return generate_walk(parameters or GaitParameters(), limits=limits).motion()
+
+
+def zmp_motion(steps: int = 10, config: str | Path | None = None,
+               assumptions: Assumptions | None = None,
+               parameters: ZmpWalkParameters | None = None) -> tuple[MotionFile, float]:
+    """servolab's own gait (:mod:`servolab.gait.zmp_walk`, Kajita's preview control) for
+    this robot: ``steps`` footsteps, with the hip width and the centre of mass's offset of
+    the robot's description (under ``assumptions``), within the configured joints' limits.
+    Returns the motion and the rate (rows a second) it must be played at."""
+    from .description import Assumptions, describe, stand_com_offset
+
+    a = assumptions if assumptions is not None else Assumptions()
+    robot_config = load_config(config)
+    base = parameters if parameters is not None else ZmpWalkParameters()
+    fitted = replace(base, steps=steps, hip_width=a.hip_width,
+                     com_offset=stand_com_offset(describe(a, robot_config)))
+    return generate_zmp_walk(fitted, joint_limits(robot_config)), fitted.rate

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
-from ...gait.walking import MOTOR_COLUMNS
+from ...gait.walking import MOTOR_COLUMNS, TABLE_4_2_STAND_POSE
 from ..errors import RobotValueError
 
 #: Table 4.1: joint function -> {axis: motor column}.
@@ -44,13 +44,9 @@ Pose = Mapping[str, float]
 #: All joints at 0: every motor at its configured ``init`` (001 section 4.2.3).
 ZERO_POSE: dict[str, float] = dict.fromkeys(MOTORS, 0.0)
 
-#: Table 4.2, the initial position of the walking algorithm, degrees as printed.
-STAND_POSE: dict[str, float] = {
-    **ZERO_POSE,
-    "m51": 25.0,
-    "m12": -27.666, "m13": 0.619, "m11": 0.0, "m14": -42.992, "m15": 15.326, "m16": -0.619,
-    "m22": -14.746, "m23": 5.2503, "m21": 0.0, "m24": 41.781, "m25": -27.035, "m26": -5.250,
-}
+#: Table 4.2, the initial position of the walking algorithm, degrees as printed (the gait
+#: layer's table: the generators start from it).
+STAND_POSE: dict[str, float] = {**ZERO_POSE, **TABLE_4_2_STAND_POSE}
 
 #: The named poses a student can ask for by name.
 POSES: dict[str, dict[str, float]] = {"zero": ZERO_POSE, "stand": STAND_POSE}

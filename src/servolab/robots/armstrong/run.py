@@ -54,7 +54,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
              show_progress: bool = True, faults: Faults | None = None,
              on_row: Callable[[Armstrong, int], None] | None = None,
              world: str = "kinematic", assumptions: Assumptions | None = None,
-             video: Path | None = None) -> dict[str, Any]:
+             video: Path | None = None, gait: str | None = None) -> dict[str, Any]:
     """Stand, play ``motion`` ``steps`` times at ``rate``, record; write the summary and
     return it. Ended by an alarm, a signal or an error, the robot finishes to double support
     (or holds, when its bus is gone: :meth:`Armstrong.finish`), the bag is closed and the
@@ -108,8 +108,10 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
         try:
             say("standing up (Table 4.2, over 2 s)")
             robot.stand()
-            say(f"playing {motion.poses} rows x {steps} step(s) at {rate:g} Hz "
-                f"({motion.poses / rate:.2f} s a step)")
+            say(f"playing {motion.poses} rows "
+                + (f"x {steps} step(s)" if steps > 1 or gait in (None, "seed") else "once")
+                + f" at {rate:g} Hz ({motion.poses / rate:.2f} s"
+                + (" a step)" if steps > 1 or gait in (None, "seed") else ")"))
             gait_start = robot.context.clock.now()
             with tqdm(total=total, unit="row", disable=not show_progress,
                       leave=False) as bar:
@@ -149,7 +151,8 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                 recorder.destroy()
             manager = robot.manager
             summary: dict[str, Any] = {
-                "rows_played": played, "rows_asked": total, "steps": steps, "rate_hz": rate,
+                "gait": gait, "rows_played": played, "rows_asked": total, "steps": steps,
+                "rate_hz": rate,
                 "stopped": played < total, "ending": robot.ending or "walked",
                 "alarms": [a.as_dict() for a in robot.supervisor.alarms],
                 "motor_errors": {str(i): e for i, e in manager.error_counts().items()},

@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from ...gait.errors import GaitValueError
 from ...gait.motionfile import MotionFile
 from ..errors import RobotValueError
 from .control_node import PLAY_RATE, Armstrong
@@ -88,16 +89,26 @@ def walk_once(motion: MotionFile, case: Case = Case(), *, steps: int = 1,
     return {"case": asdict(case), "label": case.label, **summary}
 
 
-def sweep(motion: MotionFile, sweep_cases: Sequence[Case], *, steps: int = 1,
+#: A gait made for the robot a case describes: (motion, rows a second to play it at).
+MakeGait = Callable[[Case], tuple[MotionFile, float]]
+
+
+def sweep(motion: MotionFile | MakeGait, sweep_cases: Sequence[Case], *, steps: int = 1,
           rate: float = PLAY_RATE, config: str | Path | None = None,
           progress: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
-    """:func:`walk_once` for each case, in order; a case that makes no robot is reported as
-    such (``"refused"``) rather than walked."""
+    """:func:`walk_once` for each case, in order. ``motion`` is one motion for every case
+    (the seed's, which knows no robot), or a function making one for each case's robot
+    (servolab's own gait, planned with the case's hip width and centre of mass); a case
+    that makes no robot, or for which no gait can be made, is reported as such
+    (``"refused"``, the one-line reason) rather than walked."""
     results = []
     for k, case in enumerate(sweep_cases):
         try:
-            results.append(walk_once(motion, case, steps=steps, rate=rate, config=config))
-        except RobotValueError as error:
+            played, played_rate = (motion, rate) if isinstance(motion, MotionFile) \
+                else motion(case)
+            results.append(walk_once(played, case, steps=steps, rate=played_rate,
+                                     config=config))
+        except (RobotValueError, GaitValueError) as error:
             results.append({"case": asdict(case), "label": case.label,
                             "refused": str(error)})
         if progress is not None:
