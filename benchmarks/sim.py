@@ -333,7 +333,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{(physical.shares or {}).get('physics', 0) - engine:.0%}.")
     if args.json:
         args.json.write_text(json.dumps({
-            "seconds": args.seconds, "physics_step_s": 0.001, "target_rtf": TARGET_RTF,
+            "seconds": args.seconds, "target_rtf": TARGET_RTF,
             "python": platform.python_version(), "pinned": pinned,
             "scenarios": {r.key: r.as_dict() for r in results}}, indent=2) + "\n")
     return 0

@@ -55,6 +55,8 @@ def _arm(**world: object) -> tuple[Simulation, Bus, MujocoWorld]:
 
 
 def test_the_compliance_slope_holds_the_arm_where_its_output_balances_gravity() -> None:
+    # the oracle is gravity's torque, m g l; the sag it gives follows the law the world
+    # states for the e-Manual's words (no output within the margin, rising across the slope)
     sim, bus, _ = _arm()
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 0.0)
@@ -130,8 +132,32 @@ def test_the_default_alarm_shutdown_ends_an_overload_with_torque_off() -> None:
     sim.advance(1.0)
     assert bus.read(1, "torque_limit") == 0.0       # 0x24: overload shuts the output off
     sim.advance(0.5)
-    assert bus.read(1, "present_load") == 0.0
+    assert bus.read(1, "present_load") == 0.0       # output 0 %
     assert bus.read(1, "present_position") < 0.0    # the bar falls
+    # the load it could not hold still cannot be: the alarm stays until a host acts
+    assert "overload" in bus.hardware_errors(1)
+
+
+def test_the_torque_limit_caps_the_output_and_the_back_emf_still_brakes() -> None:
+    # a limit below what holding the bar level takes (0.08 of stall): it sinks, pushing
+    # with exactly its limit; present load is the output, not the torque (e-Manual)
+    sim, bus, _ = _arm()
+    bus.write(1, "torque_limit", 0.05)
+    bus.write(1, {"goal_position": 0.0, "moving_speed": 0.0})
+    bus.write(1, "torque_enable", 1)
+    sim.advance(2.0)
+    assert bus.read(1, "present_position") < -0.3       # sinking (to 0.89 rad, where it holds)
+    assert bus.read(1, "present_load") == pytest.approx(0.05, abs=0.002)
+    # at an output of 0 the motor still brakes the falling bar; with torque off nothing does
+    drops = []
+    for torque in (1, 0):
+        sim, bus, arm = _arm()
+        bus.write(1, "torque_limit", 0.0)
+        bus.write(1, "torque_enable", torque)
+        sim.advance(0.3)
+        drops.append(-arm.plants[0].position)
+    braked, free = drops
+    assert 0 < braked < 0.5 * free
 
 
 def test_the_zero_moment_point_is_the_centre_of_pressure_on_a_flat_foot() -> None:

@@ -74,13 +74,9 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
 
     physics = None
     if world == "armstrong-mujoco":
-        from ..robots.armstrong.description import TIMESTEP
-        from ..robots.armstrong.hardware import load_config
-        from ..robots.armstrong.physics import armstrong_world
+        from ..robots.armstrong.physics import in_mujoco
 
-        simulation = Simulation(TIMESTEP)
-        emulator = simulation.add_emulator(build_emulator(spec))
-        physics = armstrong_world(simulation, emulator, load_config())
+        simulation, emulator, physics = in_mujoco(build_emulator(spec))
     else:
         simulation = Simulation()
         emulator = simulation.add_emulator(build_emulator(spec))
@@ -133,13 +129,9 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
                "replies_lost": server.replies_lost,
                "reply_bytes_unread": server.bytes_overflowed}
     if physics is not None:
-        from ..robots.armstrong.physics_report import physics_summary, plot_physics
+        from ..robots.armstrong.physics_report import served_figures
 
-        figures["physics"] = physics_summary(physics.world, physics.description, 0.0,
-                                             simulation.now())
-        figures["fell"] = physics.world.fell_at is not None
-        figures["physics_plot"] = str(plot_physics(physics.world, run.file("physics.png"),
-                                                   0.0))
+        figures.update(served_figures(physics, run.file("physics.png"), simulation.now()))
     run.write_summary(figures)
     print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
           f"summary in {run.path}", file=stderr, flush=True)
@@ -178,6 +170,10 @@ def _run(args: argparse.Namespace) -> int:
     from ..runs import RunFolder
 
     world = None
+    if args.robot and args.protocol:
+        from ..errors import UsageError
+
+        raise UsageError(f"--protocol: --robot {args.robot} brings its own bus (protocol 1.0)")
     if args.robot:
         from ..robots.armstrong.hardware import emulated_spec, load_config
 

@@ -65,15 +65,30 @@ def _run(args: argparse.Namespace) -> int:
     if (args.assume or args.video) and args.world != "mujoco":
         raise UsageError(("--assume" if args.assume else "--video") + " needs --world mujoco "
                          "(the kinematic world has no bodies)")
+    if args.port and args.world != "kinematic":
+        raise UsageError(f"--world {args.world}: a robot on --port {args.port} walks in the "
+                         "real world; worlds are for the emulated robot (leave out --port)")
+    if args.video:
+        from ..sim.mujoco_video import FOURCC
+
+        video = Path(args.video)
+        if video.suffix.lower() not in FOURCC:
+            raise UsageError(f"--video {video}: name it .mp4 or .avi (the suffix says which "
+                             "video OpenCV writes)")
+        if not video.parent.is_dir():
+            raise UsageError(f"--video {video}: the folder {video.parent} does not exist")
     values: dict[str, float] = {}
     for item in args.assume:
         name, sep, text = item.partition("=")
         try:
-            values[name.strip()] = float(text)
+            number = float(text)
         except ValueError:
             sep = ""
         if not sep:
             raise UsageError(f"--assume {item!r}: give NAME=NUMBER, e.g. hip_width=0.12")
+        if name.strip() in values:
+            raise UsageError(f"--assume {name.strip()} is given twice")
+        values[name.strip()] = number
     assumptions = None
     if values:
         from ..robots.armstrong.description import Assumptions

@@ -692,8 +692,7 @@ class VirtualMotor:
             ccw_margin=units.tick_span(m, self.get_raw("ccw_compliance_margin")),
             cw_slope=units.tick_span(m, self.get_raw("cw_compliance_slope")),
             ccw_slope=units.tick_span(m, self.get_raw("ccw_compliance_slope")),
-            punch=self._si("punch") if m.register("punch").unit == "torque_ratio"
-            else self.get_raw("punch") / 1023.0)
+            punch=self.get_raw("punch") / 1023.0)   # Torque Limit's scale: 1023 = 100 %
 
     def _goal_angle(self) -> float:
         """goal_position as an angle of the joint (in Position Control Mode the count was

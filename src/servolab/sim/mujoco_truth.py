@@ -23,6 +23,7 @@ from typing import Any
 
 from ..middleware.context import Context
 from ..middleware.node import Node
+from .errors import SimulationError
 from .mujoco_world import MujocoWorld, Sample
 
 ODOMETRY = "nav_msgs/msg/Odometry"
@@ -51,17 +52,20 @@ class SampledTruthNode(Node):
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides)
         self.world = world
         rate = float(self.declare_parameter("rate", 20.0, description="Hz").value)
+        if not (math.isfinite(rate) and rate > 0):
+            raise SimulationError(f"ground truth: rate {rate!r} must be a number > 0 Hz")
         self._publishers = {topic: self.create_publisher(kind, topic, 100)
                             for topic, kind in truth_topics(world).items()}
         self._sent = 0
         self.create_timer(1.0 / rate, self.publish_new)
 
     def publish_new(self) -> None:
-        """Publish the samples kept since the last call."""
-        samples = self.world.samples
-        for sample in samples[self._sent:]:
+        """Publish the samples taken since the last call (those the world still keeps)."""
+        world = self.world
+        new = min(world.samples_taken - self._sent, len(world.samples))
+        for sample in world.samples[len(world.samples) - new:]:
             self._publish(sample)
-        self._sent = len(samples)
+        self._sent = world.samples_taken
 
     def _publish(self, s: Sample) -> None:
         header = {"stamp": self.stamp(s.t), "frame_id": "world"}

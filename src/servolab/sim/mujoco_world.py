@@ -16,24 +16,30 @@ this is that law made concrete, and stated so it can be changed:
 1. a reference moves from where the horn was when torque came on toward ``goal_position``
    at no more than ``moving_speed`` (0: at once) — the firmware's speed control;
 2. the error (reference - horn) gives the output share ``u``: 0 within the compliance
-   margin, then growing linearly across the compliance slope to the torque limit, never
-   below punch while non-zero (the ``cw_*`` values for a negative error);
+   margin, then growing linearly across the compliance slope toward full output, capped at
+   the torque limit (the e-Manual's Torque Limit caps the output), and never below punch
+   while non-zero (the ``cw_*`` values for a negative error);
 3. the motor is a DC motor behind its gears: torque = stall torque x (``u`` - speed /
-   no-load speed), the back-EMF line of the datasheet's two figures (RX-28: 3.7 N m, 85 rpm),
-   limited to the torque limit; with torque off it gives none (the H-bridge is open).
+   no-load speed), the back-EMF line of the datasheet's two figures (RX-28: 3.7 N m, 85 rpm):
+   the back-EMF brakes on top of the capped drive (never past the stall torque), also at an
+   output of 0; with torque off the motor gives nothing (the H-bridge is open).
 
 In velocity control (wheel mode) ``u`` is the goal speed's share of the no-load speed, the
-output the e-Manual says wheel mode sets. A model without compliance registers (the
-X-series, whose PID this does not model) is driven with full output beyond one tick of
-error.
+output the e-Manual says wheel mode sets; back in position control the reference starts
+from the horn again. A model without compliance registers (the X-series, whose PID this
+does not model) is driven with full output beyond one tick of error.
 
-**Load and heat.** Present load is the motor's torque over its stall torque, as the firmware
-infers it (e-Manual, Present Load). The winding temperature follows it as the default plant's
-does (:mod:`servolab.dynamixel.plant`: a first-order lag toward ambient + 7 °C + 60 °C x
-load²), so a joint pushed against its limit heats, and the supervisor of a walk trips on it
-as on hardware. The firmware's overload error needs the joint *stalled*: the torque at its
-limit while the horn stands still for :data:`OVERLOAD_TIME_S` (ROBOTIS give no time; a
-joint saturating for a moment while it accelerates is not overloaded).
+**Load and heat.** Present load is the drive ``u``: "an inferred value based on the internal
+output value" (e-Manual, RX-28 Present Load), so a joint held against something reads its
+torque limit, and a joint back-driven at output 0 reads 0 while it brakes. The winding
+temperature follows the torque (the current that heats the windings goes with it) as the
+default plant's does (:mod:`servolab.dynamixel.plant`: a first-order lag toward ambient +
+7 °C + 60 °C x (torque / stall torque)²), so a joint pushed against its limit heats, and the
+firmware's alarm shutdown and a walk's supervisor act on it as on hardware. The firmware's
+overload error needs the joint *stalled*: the drive at its limit while the horn stands still
+for :data:`OVERLOAD_TIME_S` (ROBOTIS give no time; a joint saturating for a moment while it
+accelerates is not overloaded); after the alarm shut the output off it lasts, as the default
+plant's does, until a host gives the torque back.
 
 **Time.** The simulation steps the world at its physics step (MuJoCo's timestep is set to
 it); the same inputs give the same run, bit for bit: MuJoCo's step is deterministic on one
@@ -58,7 +64,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -74,9 +80,6 @@ from .errors import SimulationError
 from .simulation import Simulation
 from .world import World
 
-if TYPE_CHECKING:
-    pass
-
 #: How long a joint must give its whole torque limit without moving before the firmware
 #: calls it overloaded (a guess: ROBOTIS give no figure).
 OVERLOAD_TIME_S = 1.0
@@ -85,7 +88,9 @@ OVERLOAD_TIME_S = 1.0
 BOOKKEEPING_S = 0.02
 #: Below this share of the no-load speed a joint at its torque limit counts as not moving.
 _STILL_SHARE = 0.01
-GRAVITY = 9.81
+#: A contact carrying less than this (N) is not support: MuJoCo keeps contacts a little
+#: before they press, and a corner about to lift would widen the support polygon.
+SUPPORT_N = 0.05
 
 
 @dataclass(frozen=True)
@@ -211,7 +216,8 @@ class MujocoWorld(World):
     def __init__(self, mjcf: str, joints: Sequence[ServoJoint], *, base: str | None = None,
                  feet: Sequence[str] = (), floor: str = "floor",
                  max_tilt: float = math.radians(45.0), record_period: float = 0.02,
-                 qpos: Sequence[float] | None = None, start: float = 0.0) -> None:
+                 qpos: Sequence[float] | None = None, start: float = 0.0,
+                 max_samples: int = 180_000) -> None:
         import mujoco
 
         try:
@@ -284,6 +290,15 @@ class MujocoWorld(World):
         # the robot's bodies and the floor
         self.base = self._base_body(base)
         self.floor = self._id(mujoco.mjtObj.mjOBJ_GEOM, floor, "geom")
+        gx, gy, gz = (float(v) for v in m.opt.gravity)
+        level = (m.geom_type[self.floor] == mujoco.mjtGeom.mjGEOM_PLANE
+                 and abs(float(self.data.geom_xpos[self.floor][2])) < 1e-9
+                 and float(self.data.geom_xmat[self.floor][8]) > 1 - 1e-9)
+        if not level or gx or gy or not gz < 0:
+            raise SimulationError(
+                f"floor {floor!r}: the zero-moment point is computed for a level plane at "
+                "z = 0 under gravity along -z; this model's floor or gravity is not that")
+        self._gravity = -gz
         self.feet = tuple(feet)
         foot_ids = [self._id(mujoco.mjtObj.mjOBJ_BODY, f, "body") for f in self.feet]
         self._foot_of_geom = {g: k for k, body in enumerate(foot_ids)
@@ -292,7 +307,15 @@ class MujocoWorld(World):
         self._root = int(m.body_rootid[self.base])
         self._mass = float(m.body_subtreemass[self._root])
         self.record_period = float(record_period)
+        if isinstance(max_samples, bool) or not isinstance(max_samples, int) \
+                or max_samples < 1:
+            raise SimulationError(f"max_samples {max_samples!r} must be a whole number >= 1")
+        #: the latest samples, at least ``max_samples`` of them (an hour at 50 a second by
+        #: default: a long-running ``servolab sim`` keeps the last hour, not everything)
         self.samples: list[Sample] = []
+        self._max_samples = max_samples
+        #: every sample taken since the start, kept or not
+        self.samples_taken = 0
         self.fell_at: float | None = None
         self._time = float(start)
         self._next_record = float(start)
@@ -366,6 +389,8 @@ class MujocoWorld(World):
         np.maximum(move, -self._travel, out=move)
         ref += move
         np.copyto(ref, horn, where=self._off)
+        if self._any_velocity_mode:     # back in position control, a move starts here too
+            np.copyto(ref, horn, where=self._velocity_mode)
         # 2. the output share from the error, by margin, slope and punch
         error = ref - horn
         if self._symmetric:     # the usual case: the same margin and slope either way
@@ -380,23 +405,29 @@ class MujocoWorld(World):
         u = np.where(beyond > 0, np.copysign(share, error), 0.0)
         if self._any_velocity_mode:
             np.copyto(u, self._wheel_share, where=self._velocity_mode)
-        # 3. the DC motor behind its gears: its back-EMF line, within the torque limit
-        effort = u - d.qvel[self._dadr] * self._dir_over_w0
-        np.minimum(effort, self._limit, out=effort)
-        np.maximum(effort, -self._limit, out=effort)
-        effort *= self._on
-        self._effort = effort
-        d.qfrc_applied[self._dadr] = effort * self._dir_stall
-        self._mujoco.mj_step(m, d)
-        np.multiply(effort, effort, out=self._square)
+        # 3. the DC motor behind its gears: the torque limit caps the drive (u, above); the
+        #    back-EMF brakes on top of it, never beyond the stall torque. Present load is
+        #    the drive ("inferred ... based on the internal output value", e-Manual RX-28
+        #    Present Load); the torque, and the current that heats the windings, are this:
+        u *= self._on
+        self._effort = u
+        torque = u - d.qvel[self._dadr] * self._dir_over_w0
+        np.minimum(torque, 1.0, out=torque)
+        np.maximum(torque, -1.0, out=torque)
+        torque *= self._on
+        d.qfrc_applied[self._dadr] = torque * self._dir_stall
+        recording = self._time + dt >= self._next_record - 1e-12
+        before = (self._time, tuple(d.qpos.tolist())) if recording else None
+        self._mujoco.mj_step(m, d)   # (its forward pass: contacts and bodies of `before`)
+        np.multiply(torque, torque, out=self._square)
         self._heat += self._square              # for the windings' temperature
         self._heat_steps += 1
         self._time += dt
         if self._time >= self._next_book - 1e-12:
-            self._book(effort, self._dir * d.qvel[self._dadr])
+            self._book(u, self._dir * d.qvel[self._dadr])
             self._next_book += BOOKKEEPING_S
-        if self._time >= self._next_record - 1e-12:
-            self._record()
+        if before is not None:
+            self._record(*before)
             self._next_record += self.record_period
 
     def _book(self, effort: np.ndarray, speed: np.ndarray) -> None:
@@ -412,7 +443,13 @@ class MujocoWorld(World):
         self._heat[:] = 0.0
         self._heat_steps = 0
         pushing = (np.abs(effort) >= self._saturated) & (np.abs(speed) < self._still)
-        self._stalled_for = np.where(pushing, self._stalled_for + span, 0.0)
+        # after the overload shut the output off (limit 0), the load it could not hold
+        # still cannot be: the condition lasts until a host gives the torque back (as the
+        # default plant's, where any load beats a limit of 0)
+        shut_off = self._torque_on & (self._limit == 0) & \
+            (self._stalled_for >= OVERLOAD_TIME_S - 1e-9)
+        self._stalled_for = np.where(shut_off, self._stalled_for,
+                                     np.where(pushing, self._stalled_for + span, 0.0))
         stalled = (self._stalled_for >= OVERLOAD_TIME_S - 1e-9).tolist()
         for plant, joint, celsius, stuck in zip(self.plants, self.joints,
                                                 self._temperature.tolist(), stalled,
@@ -462,7 +499,8 @@ class MujocoWorld(World):
             self._mujoco.mj_contactForce(m, d, i, wrench)
             normal = float(wrench[0])
             forces[foot] += normal
-            points.append((float(contact.pos[0]), float(contact.pos[1]), normal))
+            if normal > SUPPORT_N:
+                points.append((float(contact.pos[0]), float(contact.pos[1]), normal))
         return forces, points, other
 
     def _tilt(self) -> float:
@@ -470,8 +508,9 @@ class MujocoWorld(World):
         zz = float(self.data.xmat[self.base][8])
         return math.acos(max(-1.0, min(1.0, zz)))
 
-    def _zmp(self) -> tuple[float, float]:
-        """The zero-moment point from the momentum's change since the last sample."""
+    def _zmp(self, t: float) -> tuple[float, float]:
+        """The zero-moment point at ``t`` from the momentum's change since the last sample:
+        the mean over that interval (the contact impulses of one step would scatter it)."""
         mujoco, m, d = self._mujoco, self.model, self.data
         mujoco.mj_subtreeVel(m, d)
         root, mass = self._root, self._mass
@@ -479,13 +518,13 @@ class MujocoWorld(World):
         px, py, pz = (mass * float(v) for v in d.subtree_linvel[root])
         lx, ly, _ = (float(v) for v in d.subtree_angmom[root])
         # angular momentum about the origin: com x linear momentum + about the com
-        now = (self._time, cx, cy, pz, cy * pz - cz * py + lx, cz * px - cx * pz + ly)
+        now = (t, cx, cy, pz, cy * pz - cz * py + lx, cz * px - cx * pz + ly)
         before, self._momentum = self._momentum, now
         if before is None:
             return (math.nan, math.nan)
         t0, cx0, cy0, pz0, hx0, hy0 = before
-        span = self._time - t0
-        weight = mass * GRAVITY
+        span = t - t0
+        weight = mass * self._gravity
         # the floor's force on the robot: what changed its momentum, less gravity's part
         fz = (pz - pz0) / span + weight
         if fz <= 1e-6 * weight:
@@ -495,10 +534,12 @@ class MujocoWorld(World):
         my = (now[5] - hy0) / span - weight * (cx + cx0) / 2
         return (-my / fz, mx / fz)
 
-    def _record(self) -> None:
+    def _record(self, t: float, qpos: tuple[float, ...]) -> None:
+        """A :class:`Sample` of the state at ``t`` (the step's start: MuJoCo's forward pass
+        of that state is what ``data`` holds, but for ``qpos``, which mj_step moved on)."""
         d = self.data
         forces, points, other = self._contacts()
-        zmp = self._zmp()
+        zmp = self._zmp(t)
         total = sum(p[2] for p in points)
         cop = ((sum(p[0] * p[2] for p in points) / total,
                 sum(p[1] * p[2] for p in points) / total) if total > 0 else (math.nan, math.nan))
@@ -508,21 +549,23 @@ class MujocoWorld(World):
                    else (math.nan, math.nan))
         fallen = other or self._tilt() > self.max_tilt
         if fallen and self.fell_at is None:
-            self.fell_at = self._time
+            self.fell_at = t
         pos = d.xpos[self.base]
+        self.samples_taken += 1
+        if len(self.samples) >= self._max_samples + self._max_samples // 10:
+            del self.samples[:len(self.samples) - self._max_samples]   # the oldest, in chunks
         self.samples.append(Sample(
-            t=self._time, base=(*_triple(pos), *_euler(d.xquat[self.base])),
+            t=t, base=(*_triple(pos), *_euler(d.xquat[self.base])),
             com=_triple(d.subtree_com[self._root]), zmp=zmp, cop=cop, support=support,
             margin=margin,
             feet=tuple(forces), fallen=fallen,
             load=tuple(self._effort.tolist()), temperature=tuple(self._temperature.tolist()),
-            qpos=tuple(d.qpos.tolist())))
+            qpos=qpos))
 
     def ground_truth(self) -> dict[str, float]:
         d = self.data
         x, y, z = (float(v) for v in d.xpos[self.base])
         roll, pitch, yaw = _euler(d.xquat[self.base])
-        self._mujoco.mj_subtreeVel(self.model, d)
         cx, cy, cz = _triple(d.subtree_com[self._root])
         truth = {"x": x, "y": y, "z": z, "roll": roll, "pitch": pitch, "yaw": yaw,
                  "com_x": cx, "com_y": cy, "com_z": cz,

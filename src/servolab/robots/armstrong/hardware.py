@@ -133,6 +133,9 @@ def zmp_motion(steps: int = 10, config: str | Path | None = None,
     a = assumptions if assumptions is not None else Assumptions()
     robot_config = load_config(config)
     base = parameters if parameters is not None else ZmpWalkParameters()
+    # the legs' servos move at their controllers' joint_speed: the plan must not ask more
+    legs = [c.joint_speed for c in robot_config.controllers if f"m{c.motor.id}" in MOTORS[:12]]
     fitted = replace(base, steps=steps, hip_width=a.hip_width,
-                     com_offset=stand_com_offset(describe(a, robot_config)))
+                     com_offset=stand_com_offset(describe(a, robot_config)),
+                     max_joint_speed=min([base.max_joint_speed, *legs]))
     return generate_zmp_walk(fitted, joint_limits(robot_config)), fitted.rate

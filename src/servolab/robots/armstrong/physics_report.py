@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ...sim.mujoco_world import MujocoWorld, Sample
 from .description import Description
+
+if TYPE_CHECKING:
+    from .physics import Physics
 
 #: A foot carries weight when the floor pushes it with more than this (N): the robot's weight
 #: is about 20 N, so 1 N is a toe touching.
@@ -71,6 +74,14 @@ def physics_summary(world: MujocoWorld, description: Description, gait_start: fl
                            "peak_temperature_c": round(float(temps[:, k].max()), 2)}
         for k, j in enumerate(world.joints)}
     return summary
+
+
+def served_figures(physics: Physics, plot: Path, now: float) -> dict[str, Any]:
+    """What ``servolab sim --robot armstrong`` adds to its summary when it stops: the
+    physics since it started (whatever walked the robot over the pty), and its plot."""
+    return {"physics": physics_summary(physics.world, physics.description, 0.0, now),
+            "fell": physics.world.fell_at is not None,
+            "physics_plot": str(plot_physics(physics.world, plot, 0.0))}
 
 
 def _at(samples: list[Sample], t: float) -> Sample:

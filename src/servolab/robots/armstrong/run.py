@@ -132,6 +132,7 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                 say("alarm: " + "; ".join(str(a) for a in robot.supervisor.alarms))
         except BaseException as error:  # a stop signal or an error: finish, record, report
             interrupted = error
+            gait_end = robot.context.clock.now()   # the gait ended here, before the finish
         ending = RunEnding(interrupted)
         with stops_deferred() as late:  # the way out is not cut short by a signal
             if played < total or interrupted is not None:
@@ -142,8 +143,6 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                 if robot.supervisor.tripped and robot.ending is None:  # an alarm just now
                     robot.finish()
                     robot.context.spin_for(0.5)
-            if played < total or interrupted is not None:
-                gait_end = robot.context.clock.now()
             with ending.step("closing the bag"):
                 if truth is not None:
                     truth.publish_new()
