@@ -18,10 +18,13 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/servolab demo
 
+# Two workers, each test file on one (its module fixtures made once): many tests wait on
+# real time (a pty at 57142 bps, a subprocess, a stop signal), and every test already keeps
+# to its own temporary folder and free ports, and survives a busy CPU.
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
