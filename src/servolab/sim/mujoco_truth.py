@@ -10,7 +10,8 @@ ticks is lost:
   (``geometry_msgs/msg/PointStamped``): the centre of mass, the zero-moment point and the
   centre of pressure on the floor (a point that is undefined, in the air, is not published);
 - ``/ground_truth/support_margin`` (``std_msgs/msg/Float64``): the zero-moment point's
-  distance inside the support polygon (m, negative outside);
+  distance inside the support polygon (m, negative outside); ROS has no stamped float, so
+  the bag dates it when it is published, within a timer period (50 ms) of its sample;
 - ``/ground_truth/<foot>/wrench`` (``geometry_msgs/msg/WrenchStamped``): the floor's normal
   force on each foot.
 """
