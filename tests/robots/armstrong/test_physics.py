@@ -282,3 +282,31 @@ def test_the_docs_say_what_the_sweeps_found() -> None:
     assert len(refused) == 27 - len(walked) and f"for the {len(refused)}" in doc
     assert all(r["case"]["hip_width"] == 0.12 and "max_joint_speed" in r["refused"]
                for r in refused)
+
+
+@pytest.mark.slow
+def test_a_walk_in_mujoco_stopped_by_sigterm_finishes_and_keeps_its_physics(
+        tmp_path: Path) -> None:
+    """SIGTERM while servolab's gait plays in MuJoCo: the robot finishes to double support,
+    the exit status is 128 + 15, and nothing recorded is lost: the summary has the physics,
+    the bag the ground truth up to the end."""
+    import signal
+
+    from tests.robots.test_stop_signals import servolab, stop, summary_of
+
+    run = tmp_path / "run"
+    with servolab(["walk", "--world", "mujoco", "--gait", "zmp", "--config",
+                   str(ping_once_config(tmp_path)), "--no-progress", "--out", str(run)],
+                  signal.SIGTERM) as walk:
+        stop(walk, signal.SIGTERM, "playing 276 rows once")
+    summary = summary_of(run, signal.SIGTERM)
+    assert summary["ending"] == "stand" and summary["stopped"] is True
+    physics = summary["physics"]  # type: ignore[index]
+    assert summary["fell"] is False and physics["zmp_margin_min_m"] > 0
+    (mcap,) = Path(str(summary["bag"])).glob("*.mcap")
+    truth = [m.log_time_ns / 1e9 for m in read_ros2_messages(str(mcap),
+                                                             topics=["/ground_truth"])]
+    commands = [m.log_time_ns / 1e9 for m in read_ros2_messages(
+        str(mcap), topics=["/controller_m14/command"])]
+    # the finish's last command (the stand pose) is in the bag, and the truth after it
+    assert commands and truth and truth[-1] >= commands[-1]
