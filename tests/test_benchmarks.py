@@ -17,6 +17,9 @@ from types import ModuleType
 
 import pytest
 
+#: holds the wall clock to deadlines: never beside another such test (tests/conftest.py)
+pytestmark = pytest.mark.realtime
+
 pytest.importorskip("dynamixel_sdk")
 
 BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "bus_cycle.py"

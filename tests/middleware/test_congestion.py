@@ -22,6 +22,9 @@ from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for_line, wait_for_subscriber
 
+#: holds the wall clock to deadlines: never beside another such test (tests/conftest.py)
+pytestmark = pytest.mark.realtime
+
 IMAGE = "sensor_msgs/msg/Image"
 MESSAGES = 2000
 PAYLOAD = 64 * 1024

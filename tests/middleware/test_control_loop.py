@@ -18,6 +18,9 @@ from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
 from tests.waiting import wait_for
 
+#: holds the wall clock to deadlines: never beside another such test (tests/conftest.py)
+pytestmark = pytest.mark.realtime
+
 TYPES = MessageTypes()
 TWIST = "geometry_msgs/msg/Twist"
 

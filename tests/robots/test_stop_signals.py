@@ -39,7 +39,7 @@ from tests.robots.armstrong.configs import ping_once_config
 from tests.simproc import sim_process
 from tests.waiting import wait_for_line, wait_until
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 #: Armstrong's leg motors (001 Table 2.2): the ones the stand pose moves
 LEG_MOTORS = (*range(11, 17), *range(21, 27))

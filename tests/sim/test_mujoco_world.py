@@ -215,3 +215,40 @@ def test_bad_models_are_refused_naming_the_fault() -> None:
         MujocoWorld(actuated, [ServoJoint("hinge", motor)])
     with pytest.raises(SimulationError, match="direction"):
         MujocoWorld(ARM, [ServoJoint("hinge", motor, direction=2)])
+
+
+def test_a_floor_that_is_not_level_at_zero_is_refused() -> None:
+    sim = Simulation()
+    bus = Bus.open("emu://rx28:1", baudrate=57142, simulation=sim)
+    raised = ARM.replace('<geom name="floor" type="plane" size="1 1 0.05"/>',
+                         '<geom name="floor" type="plane" size="1 1 0.05" pos="0 0 0.1"/>')
+    with pytest.raises(SimulationError, match="level plane at z = 0"):
+        MujocoWorld(raised, [ServoJoint("hinge", bus.emulator.motor(1))])
+
+
+def test_samples_come_every_period_and_the_oldest_go_when_there_are_too_many() -> None:
+    from servolab.middleware.context import Context
+    from servolab.middleware.node import Node
+    from servolab.sim.mujoco_truth import SampledTruthNode
+
+    sim, bus, arm = _arm(record_period=0.02, max_samples=10)
+    bus.write(1, "torque_enable", 1)
+    context = Context.open(clock=sim)
+    try:
+        truth = SampledTruthNode(context, arm)
+        heard: list[float] = []
+        node = Node(context, "listener")
+        node.create_subscription("geometry_msgs/msg/PointStamped", "/ground_truth/com",
+                                 lambda m: heard.append(m.header.stamp.sec
+                                                        + m.header.stamp.nanosec * 1e-9), 100)
+        context.spin_for(0.5)
+        truth.publish_new()
+        context.spin_for(0.01)
+    finally:
+        context.close()
+    assert arm.samples_taken >= 25
+    assert 10 <= len(arm.samples) <= 11                     # trimmed to the newest
+    times = [s.t for s in arm.samples]
+    assert times == pytest.approx([round(t / 0.02) * 0.02 for t in times], abs=1e-9)
+    assert heard == pytest.approx([k * 0.02 for k in range(len(heard))], abs=1e-9)
+    assert len(heard) == arm.samples_taken                  # every sample published once

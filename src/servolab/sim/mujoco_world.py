@@ -217,7 +217,7 @@ class MujocoWorld(World):
                  feet: Sequence[str] = (), floor: str = "floor",
                  max_tilt: float = math.radians(45.0), record_period: float = 0.02,
                  qpos: Sequence[float] | None = None, start: float = 0.0,
-                 max_samples: int = 180_000) -> None:
+                 max_samples: int = 30_000) -> None:
         import mujoco
 
         try:
@@ -310,8 +310,9 @@ class MujocoWorld(World):
         if isinstance(max_samples, bool) or not isinstance(max_samples, int) \
                 or max_samples < 1:
             raise SimulationError(f"max_samples {max_samples!r} must be a whole number >= 1")
-        #: the latest samples, at least ``max_samples`` of them (an hour at 50 a second by
-        #: default: a long-running ``servolab sim`` keeps the last hour, not everything)
+        #: the latest samples, at least ``max_samples`` of them (ten minutes at 50 a second by
+        #: default, about 100 MB for the biped: a long-running ``servolab sim`` keeps the
+        #: last ten minutes, not everything)
         self.samples: list[Sample] = []
         self._max_samples = max_samples
         #: every sample taken since the start, kept or not
@@ -416,7 +417,7 @@ class MujocoWorld(World):
         np.maximum(torque, -1.0, out=torque)
         torque *= self._on
         d.qfrc_applied[self._dadr] = torque * self._dir_stall
-        recording = self._time + dt >= self._next_record - 1e-12
+        recording = self._time >= self._next_record - 1e-12   # a sample every period
         before = (self._time, tuple(d.qpos.tolist())) if recording else None
         self._mujoco.mj_step(m, d)   # (its forward pass: contacts and bodies of `before`)
         np.multiply(torque, torque, out=self._square)

@@ -134,7 +134,10 @@ def test_servolab_walk_in_mujoco_says_whether_and_when_the_seeds_gait_falls(
     figures = json.loads((Path(__file__).resolve().parents[3] / "docs" / "img"
                           / "figures.json").read_text())["figures"]
     assert figures["biped.seed_fell_after_s"]["run"] == "servolab walk --world mujoco --steps 4"
-    assert physics["fell_after_gait_start_s"] == figures["biped.seed_fell_after_s"]["value"]
+    # (a fall's time is chaotic: another CPU's rounding may move it; test_docs holds the
+    # docs to the exact figure on the machine that made them)
+    assert physics["fell_after_gait_start_s"] == pytest.approx(
+        figures["biped.seed_fell_after_s"]["value"], abs=0.5)
     assert summary["fell"] is True and summary["fell_at_s"] > physics["fell_after_gait_start_s"]
     assert 0 < physics["fell_after_gait_start_s"] < 4 * 17 / 4.5
     assert physics["tipping_from_s"] < summary["fell_at_s"]
@@ -200,6 +203,7 @@ def test_the_docs_sweep_table_is_what_the_sweep_gives() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 @pytest.mark.usefixtures("busy_cpu")
 def test_the_biped_in_mujoco_on_a_real_time_bus_with_the_cpu_busy(tmp_path: Path) -> None:
     """``servolab sim --pty --robot armstrong``: the 20 RX-28 at 57142 bps drive the MuJoCo
@@ -310,3 +314,28 @@ def test_a_walk_in_mujoco_stopped_by_sigterm_finishes_and_keeps_its_physics(
         str(mcap), topics=["/controller_m14/command"])]
     # the finish's last command (the stand pose) is in the bag, and the truth after it
     assert commands and truth and truth[-1] >= commands[-1]
+
+
+def test_the_zmp_gait_keeps_to_the_legs_configured_joint_speed(tmp_path: Path) -> None:
+    """A configuration whose leg controllers move at 0.5 rad/s (joint_speed, or a
+    joint_max_speed below it): the plan that needs 0.87 rad/s is refused before anything
+    moves, naming max_joint_speed (the servos could not follow it)."""
+    from servolab.gait.errors import GaitValueError
+    from servolab.robots.armstrong.hardware import zmp_motion
+
+    slow = tmp_path / "slow.yaml"
+    slow.write_text(ping_once_config(tmp_path).read_text().replace(
+        "  joint_speed: 1.0\n  motor: {id: 14,", "  joint_speed: 1.0\n  joint_max_speed: 0.5\n"
+        "  motor: {id: 14,"))
+    assert "joint_max_speed: 0.5" in slow.read_text()
+    with pytest.raises(GaitValueError, match=r"max_joint_speed 0\.5 rad/s"):
+        zmp_motion(10, slow)
+
+
+def test_sim_refuses_a_protocol_for_a_robot_that_brings_its_bus(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from servolab.cli import main
+
+    assert main(["sim", "--pty", "--robot", "armstrong", "--protocol", "2",
+                 "--out", str(tmp_path)]) == 2
+    assert "--robot armstrong brings its own bus" in capsys.readouterr().err

@@ -29,6 +29,9 @@ from tests.robots.armstrong.configs import ping_once_config
 from tests.robots.armstrong.delivery import goal_deliveries, row_end_errors
 from tests.simproc import sim_process
 
+#: holds the wall clock to deadlines: never beside another such test (tests/conftest.py)
+pytestmark = pytest.mark.realtime
+
 #: The stand is 40 poses at 20 Hz; the gait's 17 rows come after them.
 STAND_ROWS, GAIT_ROWS = 40, 17
 ROWS = slice(STAND_ROWS, STAND_ROWS + GAIT_ROWS)

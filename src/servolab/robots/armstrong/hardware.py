@@ -134,7 +134,8 @@ def zmp_motion(steps: int = 10, config: str | Path | None = None,
     robot_config = load_config(config)
     base = parameters if parameters is not None else ZmpWalkParameters()
     # the legs' servos move at their controllers' joint_speed: the plan must not ask more
-    legs = [c.joint_speed for c in robot_config.controllers if f"m{c.motor.id}" in MOTORS[:12]]
+    legs = [min(c.joint_speed, c.joint_max_speed or math.inf)   # as the controller clamps
+            for c in robot_config.controllers if f"m{c.motor.id}" in MOTORS[:12]]
     fitted = replace(base, steps=steps, hip_width=a.hip_width,
                      com_offset=stand_com_offset(describe(a, robot_config)),
                      max_joint_speed=min([base.max_joint_speed, *legs]))
