@@ -249,3 +249,47 @@ def test_call_right_after_wait_for_service_is_answered(zenoh_pair) -> None:
     a.shutdown()
     spinner.join(5.0)
     assert wait_until(lambda: not spinner.is_alive(), 5.0)
+
+
+def test_an_answer_over_zenoh_ends_rclpys_waits_for_it(zenoh_pair) -> None:
+    """ros2/examples' async client (issue 32, D1): ``call_async``, then
+    ``rclpy.spin_until_future_complete(node, future)`` with no timeout, or ``spin_once``
+    with a long one. The answer completes the future on Zenoh's thread; it must end the
+    wait, as a response does in rclpy (the executor takes it as work). Before, the first
+    waited forever and the second its whole timeout."""
+    import threading
+
+    from servolab import rclpy
+
+    a, b, _ = zenoh_pair
+    server = Node(a, "adder")
+    server.create_service(ADD, "/add", lambda request, response: setattr(
+        response, "sum", request.a + request.b) or response)
+    serving = threading.Thread(target=a.spin, daemon=True)
+    serving.start()
+    try:
+        caller = Node(b, "caller")
+        client = caller.create_client(ADD, "/add")
+        assert client.wait_for_service(timeout_sec=10.0)
+        results: list[int] = []
+
+        def until_complete() -> None:
+            future = client.call_async(client.request(a=2, b=3))
+            rclpy.spin_until_future_complete(caller, future)      # no timeout, as upstream
+            results.append(future.result().sum)
+
+        def one_spin() -> None:
+            future = client.call_async(client.request(a=4, b=5))
+            while not future.done():
+                rclpy.spin_once(caller, timeout_sec=60.0)           # returns on the answer
+            results.append(future.result().sum)
+
+        for body in (until_complete, one_spin):
+            worker = threading.Thread(target=body, daemon=True)
+            worker.start()
+            worker.join(timeout=20.0)
+            assert not worker.is_alive(), f"{body.__name__} still waits for the answer"
+        assert results == [5, 9]
+    finally:
+        a.executor.shutdown()
+        serving.join(timeout=5.0)

@@ -39,8 +39,6 @@ class Client:
         future = self.call_async(request, timeout)
         executor = self.node.context.executor
         if not executor.spinning_elsewhere:
-            if not future.done():  # an answer from the transport's thread ends the wait now
-                future.add_done_callback(lambda _: _wake(executor))
             executor.spin_until(future.done, timeout)
         try:
             return future.result(timeout=0 if future.done() else timeout)
@@ -53,7 +51,14 @@ class Client:
         if getattr(request, "__msgtype__", None) != self.srv.request:
             raise MessageError(f"{self.name} takes a {self.srv.request}, not "
                                f"{getattr(request, '__msgtype__', type(request).__name__)}")
-        return self.node.context.transport.call(self.name, self.srv, request, timeout)
+        future = self.node.context.transport.call(self.name, self.srv, request, timeout)
+        # The answer completes the future on the transport's thread (Zenoh's): it is also
+        # work for the executor, as a response is in rclpy, so a spin_once or a
+        # spin_until_future_complete waiting on it returns then (issue 32, D1), not at its
+        # timeout, or never
+        executor = self.node.context.executor
+        future.add_done_callback(lambda _: _wake(executor))
+        return future
 
     def wait_for_service(self, timeout_sec: float | None = None) -> bool:
         """True once a server of this service is in the graph; False after ``timeout_sec``
