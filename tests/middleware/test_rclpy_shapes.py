@@ -316,3 +316,28 @@ def test_logger_throttle_once_and_skip_first(ctx: Context,
     assert wait_until(lambda: passed.append(logger.info("tick", throttle_duration_sec=0.05))
                       or passed.count(True) >= 2, timeout=5.0)
     assert caplog.records[-1].filename == Path(__file__).name  # the caller, not logger.py
+
+
+def test_rclpy_init_joins_the_domain_ros_domain_id_names(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 32, D3: rclpy reads ``ROS_DOMAIN_ID`` (docs.ros.org, "The ROS_DOMAIN_ID"), and
+    so must ``servolab.rclpy.init``; over Zenoh the domain is the first part of every
+    liveliness token (rmw_zenoh's ``@ros2_lv/<domain>/...``)."""
+    from servolab import rclpy
+    from servolab.middleware.default_context import options_from_environment
+    from servolab.middleware.errors import TransportError
+    from tests.middleware.conftest import free_port
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", "7")
+    assert options_from_environment().domain_id == 7
+    monkeypatch.setenv("SERVOLAB_TRANSPORT", "zenoh")
+    monkeypatch.setenv("SERVOLAB_LISTEN", f"tcp/127.0.0.1:{free_port()}")
+    with rclpy.init():
+        node = rclpy.create_node("in_domain_seven")
+        tokens = [str(r.ok.key_expr) for r in node.context.transport.session.liveliness()
+                  .get("@ros2_lv/**", timeout=1.0) if r.ok is not None]
+        assert tokens and all(t.startswith("@ros2_lv/7/") for t in tokens), tokens
+    for bad in ("seven", "233", "-1"):
+        monkeypatch.setenv("ROS_DOMAIN_ID", bad)
+        with pytest.raises(TransportError, match=f"ROS_DOMAIN_ID='{bad}': a ROS domain"):
+            options_from_environment()

@@ -177,14 +177,9 @@ def add_transport(p: argparse.ArgumentParser, default: str = "zenoh") -> None:
 
 def transport_options(args: argparse.Namespace, default: str = "zenoh") -> TransportOptions:
     """The options :func:`add_transport` added, checked, as the middleware takes them."""
-    from servolab.middleware.transport import TransportOptions
+    from servolab.middleware.transport import TransportOptions, environment_domain_id
 
-    domain = args.domain_id
-    if domain is None:
-        text = os.environ.get("ROS_DOMAIN_ID", "0") or "0"
-        if not text.isdigit():
-            raise TransportError(f"ROS_DOMAIN_ID={text!r} is not a number")
-        domain = int(text)
+    domain = environment_domain_id() if args.domain_id is None else args.domain_id
     if not 0 <= domain <= 232:
         raise TransportError(f"--domain-id {domain} is outside 0..232")
     kind = args.transport or default

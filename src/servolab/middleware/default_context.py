@@ -21,7 +21,7 @@ import threading
 from .context import Context
 from .errors import TransportError
 from .messages import MessageTypes
-from .transport import TransportOptions
+from .transport import TransportOptions, environment_domain_id
 
 
 class _Holder:
@@ -37,7 +37,8 @@ _HOLDER = _Holder()
 
 
 def options_from_environment() -> TransportOptions:
-    """The transport ``SERVOLAB_TRANSPORT`` / ``_LISTEN`` / ``_CONNECT`` ask for."""
+    """The transport ``SERVOLAB_TRANSPORT`` / ``_LISTEN`` / ``_CONNECT`` ask for, in the ROS
+    domain ``ROS_DOMAIN_ID`` names (issue 32, D3: rclpy reads it; so must its stand-in)."""
     def endpoints(name: str) -> list[str]:
         return [e.strip() for e in os.environ.get(name, "").split(",") if e.strip()]
 
@@ -45,7 +46,8 @@ def options_from_environment() -> TransportOptions:
     if kind not in ("local", "zenoh"):
         raise TransportError(f"SERVOLAB_TRANSPORT={kind!r}: use local or zenoh")
     return TransportOptions(kind=kind, listen=endpoints("SERVOLAB_LISTEN"),
-                            connect=endpoints("SERVOLAB_CONNECT"))
+                            connect=endpoints("SERVOLAB_CONNECT"),
+                            domain_id=environment_domain_id())
 
 
 def init(options: TransportOptions | None = None) -> Context:

@@ -39,7 +39,7 @@ from servolab.harness import signal_status
 from servolab.signals import on_stop_signals
 
 from .context import Context
-from .errors import LaunchError, MiddlewareError, ParameterError
+from .errors import LaunchError, MiddlewareError, ParameterError, TransportError
 from .launch_file import (
     DEFAULT_PROCESS,
     STOP_TIMEOUT,
@@ -55,7 +55,7 @@ from .launch_file import (
 )
 from .node import LOGGER_PREFIX
 from .parameters import ParameterOverrides
-from .transport import TransportOptions
+from .transport import TransportOptions, environment_domain_id
 
 __all__ = ["DEFAULT_PROCESS", "STOP_TIMEOUT", "ZENOH_ENDPOINT", "LaunchFile", "Machine",
            "NodeEntry", "check_entries", "child_command", "child_transports", "exec_command",
@@ -124,10 +124,10 @@ def launch_main(file: str | Path, *, machine: str | None = None, process: str | 
     or 0, resolved here once so that every child is given the same one."""
     launch = load_launch(file)
     if domain_id is None:
-        text = os.environ.get("ROS_DOMAIN_ID", "") or "0"
-        if not text.isdigit():
-            raise LaunchError(f"ROS_DOMAIN_ID={text!r} is not a number")
-        domain_id = int(text)
+        try:
+            domain_id = environment_domain_id()
+        except TransportError as error:
+            raise LaunchError(str(error)) from None
     override = TransportOptions(transport or launch.transport, list(listen), list(connect),
                                 domain_id)
     if process is not None:

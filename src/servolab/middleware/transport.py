@@ -10,12 +10,14 @@ moves onto the thread that spins.
 
 from __future__ import annotations
 
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+from .errors import TransportError
 from .messages import MessageTypes, ServiceType
 from .qos import QoSProfile
 
@@ -89,6 +91,20 @@ class TransportPublisher(ABC):
 
 #: ``handler(request, reply)``: the transport's request; ``reply(response)`` answers it.
 Handler = Callable[[Any, Callable[[Any], None]], None]
+
+
+#: The ROS domains (``ROS_DOMAIN_ID``): 0..232, as DDS's port mapping allows and ROS 2
+#: documents ("The ROS_DOMAIN_ID", docs.ros.org); rmw_zenoh takes the same variable.
+DOMAIN_IDS = range(0, 233)
+
+
+def environment_domain_id() -> int:
+    """``$ROS_DOMAIN_ID`` (0 when unset or empty), as every ROS 2 program on the machine
+    reads it: the one place servolab does."""
+    text = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
+    if not text.isdigit() or int(text) not in DOMAIN_IDS:
+        raise TransportError(f"ROS_DOMAIN_ID={text!r}: a ROS domain is a number 0..232")
+    return int(text)
 
 
 @dataclass
