@@ -12,8 +12,9 @@ Four setups, each with the same two roles, a *main* side that measures and an *e
   Zenoh transport over loopback TCP;
 - ``zenoh, two processes``: the same with bare Zenoh sessions, opened with servolab's own
   session configuration (peer mode, no scouting, ``CongestionControl.BLOCK``) so that the
-  only difference is servolab: CDR serialization through ``rosbags``, rmw_zenoh's key
-  expressions and attachment, the subscription queue and the executor.
+  only difference is servolab: CDR serialization (servolab's generated codec,
+  ``servolab.middleware.fast_cdr``), rmw_zenoh's key expressions and attachment, the
+  subscription queue and the executor.
 
 **Latency** is half the round trip of one message echoed back (ping-pong, one message in
 flight), from before ``publish`` to the moment the main side's callback has the answer, given
@@ -31,7 +32,8 @@ The end of the report gives, for a Twist between two processes, issue 15's two t
 latency at most x1.5 of bare Zenoh's, messages per second at least x0.5) as met or NOT met,
 then the Python work per message timed alone (CDR serialization, deserialization, and the
 copy each in-process publish makes for value semantics, with its share of the one-process
-figures), and, when the rate target is not met, what remains and why.
+figures), with the generated CDR codec beside rosbags' (the oracle it replaced, issue 32) timed
+in the same run as a ratio, and, when the rate target is not met, what remains and why.
 
 Child processes listen on nothing and connect to the main side's free loopback port; each is
 stopped when its setup ends (its stdin closes; it is killed if it does not leave).
@@ -127,13 +129,18 @@ def python_costs(types: MessageTypes, type_name: str) -> dict[str, float]:
     """Microseconds per message of the Python work servolab adds, each timed alone: CDR
     serialization (every publish over Zenoh), deserialization (every message received over
     Zenoh, from a memoryview as the transport hands it over) and the copy each in-process
-    publish makes for value semantics (``messages.copy_message``)."""
+    publish makes for value semantics (``messages.copy_message``); and, for comparison, the
+    same CDR work through rosbags' ``Typestore`` (what servolab used before its generated
+    codec, and still the oracle it is tested against)."""
     msg = sample_message(types, type_name)
     cdr = memoryview(types.serialize(msg, type_name))
     number = 2000 if type_name == TWIST else 200
+    store = types.store
     work = {"serialize_us": lambda: types.serialize(msg, type_name),
             "deserialize_us": lambda: types.deserialize(cdr, type_name),
-            "copy_us": lambda: copy_message(msg)}
+            "copy_us": lambda: copy_message(msg),
+            "rosbags_serialize_us": lambda: bytes(store.serialize_cdr(msg, type_name)),
+            "rosbags_deserialize_us": lambda: store.deserialize_cdr(cdr, type_name)}
     return {name: min(timeit.repeat(f, number=number, repeat=5)) / number * 1e6
             for name, f in work.items()}
 
@@ -486,6 +493,12 @@ def ratios(rows: list[Figures]) -> list[dict[str, Any]]:
     return out
 
 
+def ratio(costs: dict[str, float], work: str) -> float:
+    """The generated codec's time over rosbags' for ``serialize`` or ``deserialize``
+    (< 1: the codec is faster)."""
+    return costs[f"{work}_us"] / costs[f"rosbags_{work}_us"]
+
+
 def _version(dist: str) -> str:
     try:
         return metadata.version(dist)
@@ -554,8 +567,12 @@ def main(argv: Sequence[str] | None = None,
                    == (message, "servolab", 2))
         bare = next(r for r in rows if (r.message, r.engine, r.processes)
                     == (message, "zenoh", 2))
-        print(f"{message}: serialize {c['serialize_us']:.1f}, deserialize "
-              f"{c['deserialize_us']:.1f}, copy_message {c['copy_us']:.1f}")
+        print(f"{message}: serialize {c['serialize_us']:.2f}, deserialize "
+              f"{c['deserialize_us']:.2f}, copy_message {c['copy_us']:.1f}")
+        print(f"  CDR codec {message}: serialize {c['serialize_us']:.2f} us vs rosbags "
+              f"{c['rosbags_serialize_us']:.2f} us (x{ratio(c, 'serialize'):.2f}), deserialize "
+              f"{c['deserialize_us']:.2f} us vs rosbags {c['rosbags_deserialize_us']:.2f} us "
+              f"(x{ratio(c, 'deserialize'):.2f})")
         print(f"  value semantics, one process: the copy per publish is "
               f"{c['copy_us'] / (1e6 / one.throughput_msg_s):.0%} of servolab's time per "
               f"message ({1e6 / one.throughput_msg_s:.1f} us) and "
@@ -569,16 +586,16 @@ def main(argv: Sequence[str] | None = None,
                     == (SHORT_NAMES[TWIST], "zenoh", 2))
         bare_us = 1e6 / bare.throughput_msg_s
         cdr_us = c["serialize_us"] + c["deserialize_us"]
-        print(f"what remains (Twist rate): Zenoh's thread no longer takes the GIL per message "
-              f"(the executor drains Zenoh's channel), but each message is still Python work "
-              f"on both sides: CDR alone (serialize {c['serialize_us']:.1f} + deserialize "
-              f"{c['deserialize_us']:.1f} us, rosbags) is x{cdr_us / bare_us:.1f} of bare "
-              f"zenoh's whole time per message ({bare_us:.1f} us), before the executor and "
-              "the callback; x0.5 needs a compiled CDR codec")
+        print(f"what remains (Twist rate): CDR is no longer the main cost (serialize "
+              f"{c['serialize_us']:.2f} + deserialize {c['deserialize_us']:.2f} us, generated "
+              f"codec, x{cdr_us / bare_us:.2f} of bare zenoh's whole time per message, "
+              f"{bare_us:.1f} us); the rest is per-message Python and Zenoh work on each side: "
+              "the rmw_zenoh attachment on every put, taking each sample from Zenoh's channel, "
+              "the executor's dispatch and the callback (docs/middleware.md, \"How fast\")")
         # a bound, not a measurement: each side needs at least bare zenoh's time per message
         # plus its own CDR work, whatever else the middleware costs
         best = bare_us / (bare_us + max(c["serialize_us"], c["deserialize_us"]))
-        print(f"best Twist rate rosbags' CDR allows: x{best:.2f} of bare zenoh (each side "
+        print(f"best Twist rate the CDR codec allows: x{best:.2f} of bare zenoh (each side "
               f"at least bare zenoh's {bare_us:.1f} us plus its CDR; everything else free)")
     if args.json:
         args.json.write_text(json.dumps({"rows": [asdict(r) for r in rows], "ratios": found,

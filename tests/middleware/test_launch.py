@@ -29,6 +29,7 @@ from servolab.middleware.launch import (
     ZENOH_ENDPOINT,
     LaunchFile,
     child_command,
+    child_environment,
     child_transports,
     exec_command,
     launch_main,
@@ -599,3 +600,162 @@ def test_shipped_launch_files_load() -> None:
     for path in files:
         launch = load_launch(path)
         assert launch.nodes, path
+
+
+# -- rclpy-shaped node classes and exec entries (issue 32, D5) -------------------------------
+
+#: Node classes written as for rclpy, on servolab.rclpy: one takes rclpy's Node signature
+#: (node_name, *, namespace, parameter_overrides), one names itself, as rclpy's tutorials do.
+RCLPY_NODES = """\
+    from servolab.rclpy.node import Node
+
+
+    class Talker(Node):
+        def __init__(self, node_name="minimal_publisher", *, namespace=None,
+                     parameter_overrides=None):
+            super().__init__(node_name, namespace=namespace,
+                             parameter_overrides=parameter_overrides)
+            self.count = self.declare_parameter("count", 0).value
+            self.sent = 0
+            self.publisher = self.create_publisher("std_msgs/msg/String", "chatter", 10)
+            self.create_timer(0.02, self.tick)
+
+        def tick(self):
+            if self.sent >= self.count:
+                return
+            self.sent += 1
+            self.publisher.publish(self.message("std_msgs/msg/String", data=f"hi {self.sent}"))
+            self.get_logger().info(f"said hi {self.sent}")
+            if self.sent == self.count:
+                self.context.shutdown()
+
+
+    class MinimalSubscriber(Node):
+        def __init__(self):
+            super().__init__("minimal_subscriber")
+            self.create_subscription("std_msgs/msg/String", "chatter", self.heard, 10)
+
+        def heard(self, msg):
+            self.get_logger().info(f"heard {msg.data}")
+
+
+    class NeedsARobot(Node):
+        def __init__(self, robot, node_name):
+            super().__init__(node_name)
+"""
+
+
+@pytest.fixture
+def rclpy_nodes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
+    (tmp_path / "rclpy_nodes.py").write_text(textwrap.dedent(RCLPY_NODES))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return "rclpy_nodes"
+
+
+def test_rclpy_shaped_node_classes_run_with_the_entrys_name_namespace_and_parameters(
+        tmp_path: Path, rclpy_nodes: str) -> None:
+    """D5: a class taking rclpy's ``Node.__init__(node_name, *, namespace=...,
+    parameter_overrides=...)`` runs, and so does one that names itself; the launch file's
+    name, namespace and parameters win, as ros2 launch's do."""
+    path = write(tmp_path, f"""\
+        nodes:
+          - name: talker
+            node: {rclpy_nodes}:Talker
+            namespace: /robot
+            parameters: {{count: 3}}
+            required: true
+          - {{name: listener, node: {rclpy_nodes}:MinimalSubscriber, namespace: /robot}}
+        """)
+    lines: list[str] = []
+    assert run_launch(load_launch(path), out=lines.append) == 0
+    assert [line for line in lines if line.startswith("[/robot/talker]")] == [
+        f"[/robot/talker] INFO said hi {k}" for k in (1, 2, 3)]
+    heard = [line for line in lines if line.startswith("[/robot/listener]")]
+    assert heard and heard == [f"[/robot/listener] INFO heard hi {k}"
+                               for k in range(1, len(heard) + 1)]
+
+
+def test_a_node_class_a_launch_cannot_build_is_refused_before_anything_starts(
+        tmp_path: Path, rclpy_nodes: str) -> None:
+    path = write(tmp_path, f"""\
+        nodes:
+          - name: a
+            node: {rclpy_nodes}:NeedsARobot
+        """)
+    with pytest.raises(LaunchError) as caught:
+        run_launch(load_launch(path), out=lambda _: None)
+    message = str(caught.value)
+    assert message.startswith(f"{path}:3: node 'a': key 'node': {rclpy_nodes}:NeedsARobot "
+                              "cannot be built by a launch file: missing a required argument: "
+                              "'node_name' (a node class takes (context, name, namespace, "
+                              "...) as servolab's, or (node_name, *, namespace=...) as "
+                              "rclpy's)")
+    assert "\n" not in message
+
+
+#: rclpy-shaped programs on servolab.rclpy's default context, which opens the transport the
+#: environment names: what an exec entry of a Zenoh launch must be given to meet the others.
+EXEC_TALKER = """\
+    from servolab import rclpy
+    from servolab.rclpy.node import Node
+    rclpy.init()
+    node = Node("exec_talker")
+    pub = node.create_publisher("std_msgs/msg/String", "/chatter", 10)
+    node.create_timer(0.05, lambda: pub.publish(node.message("std_msgs/msg/String", data="hi")))
+    rclpy.spin(node)
+"""
+EXEC_LISTENER = """\
+    import sys, time
+    from servolab import rclpy
+    from servolab.rclpy.node import Node
+    rclpy.init()
+    node = Node("exec_listener")
+    heard = []
+    node.create_subscription("std_msgs/msg/String", "/chatter", heard.append, 10)
+    deadline = time.monotonic() + 30
+    while len(heard) < 9 and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    print(f"heard {len(heard)}", flush=True)
+    rclpy.shutdown()
+    sys.exit(0 if len(heard) >= 9 else 3)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("transport", "talker"),
+                         [("zenoh", "exec"), ("zenoh", "node"), ("dds", "exec"), ("dds", "node")])
+def test_exec_entries_of_a_launch_meet_its_other_processes(
+        tmp_path: Path, transport: str, talker: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """D5: an exec entry inherits the launch's transport (SERVOLAB_TRANSPORT, its endpoints,
+    ROS_DOMAIN_ID), so an rclpy-shaped listener hears a talker that is another exec entry
+    (no node group: the first exec entry is where the others meet) or a node group. Over DDS
+    in the domain ROS_DOMAIN_ID names (a free one here)."""
+    from tests.rosoracle import free_domain_id
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(free_domain_id()))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    entry = (f"{{name: talker, exec: {script(EXEC_TALKER)}}}" if talker == "exec" else
+             f"{{name: talker, node: {DEMO}:Talker, parameters: {{rate: 20.0}}}}")
+    topic = "/chatter" if talker == "exec" else "/cmd_vel"
+    listener = EXEC_LISTENER.replace("std_msgs/msg/String", "geometry_msgs/msg/Twist") \
+        .replace("/chatter", topic) if talker == "node" else EXEC_LISTENER
+    path = write(tmp_path, f"""\
+        transport: {transport}
+        nodes:
+          - {entry}
+          - name: listener
+            exec: {script(listener)}
+            required: true
+        """)
+    lines: list[str] = []
+    assert run_launch(load_launch(path), out=lines.append, stop_timeout=10) == 0, lines
+    assert "[listener] heard 9" in lines
+    assert not any(alive(pid) for pid in started_pids(lines).values())
+
+
+def test_exec_children_are_given_the_launchs_transport_in_their_environment() -> None:
+    options = TransportOptions("zenoh", ["tcp/127.0.0.1:0"], ["tcp/127.0.0.1:7000"], 7)
+    assert child_environment(options) == {
+        "SERVOLAB_TRANSPORT": "zenoh", "SERVOLAB_LISTEN": "tcp/127.0.0.1:0",
+        "SERVOLAB_CONNECT": "tcp/127.0.0.1:7000", "ROS_DOMAIN_ID": "7"}
+    assert child_environment(TransportOptions())["SERVOLAB_TRANSPORT"] == "local"

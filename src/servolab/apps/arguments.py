@@ -164,13 +164,15 @@ def add_transport(p: argparse.ArgumentParser, default: str = "zenoh") -> None:
     """``--transport``, ``--listen``, ``--connect`` and ``--domain-id`` of a command that joins
     the graph; ``default`` "" leaves the choice to the command (a launch file has its own)."""
     shown = default or "the launch file's"
-    p.add_argument("--transport", choices=["local", "zenoh"], default=default,
+    p.add_argument("--transport", choices=["local", "zenoh", "dds"], default=default,
                    help="local: this process only; zenoh: other processes and machines "
-                   f"(default: {shown})")
+                   "(rmw_zenoh's layout); dds: a ROS 2 system on DDS, as Fast DDS and Cyclone "
+                   f"DDS lay it out (default: {shown})")
     p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
                    help="Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
     p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                   help="Zenoh endpoint to connect to, e.g. tcp/robot.local:7447")
+                   help="Zenoh endpoint to connect to, e.g. tcp/robot.local:7447; over DDS a "
+                   "peer's host or address (as ROS_STATIC_PEERS)")
     p.add_argument("--domain-id", type=int, default=None, metavar="N",
                    help="ROS domain id (default: $ROS_DOMAIN_ID or 0)")
 

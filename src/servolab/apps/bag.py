@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import time
 from collections.abc import Callable, Mapping
 from datetime import datetime
 from typing import TYPE_CHECKING
 
+from servolab.errors import UsageError
 from servolab.middleware.errors import MessageError
 
 from .arguments import add_transport, transport_options
@@ -43,13 +45,36 @@ def parse_topic_types(pairs: list[str]) -> dict[str, str]:
     return types
 
 
+def compile_regex(option: str, text: str | None) -> re.Pattern[str] | None:
+    """``--regex`` / ``--exclude-regex`` compiled, or a one-line error naming it."""
+    if text is None:
+        return None
+    try:
+        return re.compile(text)
+    except re.error as exc:
+        raise UsageError(f"{option} {text!r} is not a regular expression ({exc}); e.g. "
+                         "'/robot/.*'") from None
+
+
 def record(ctx: Context, output: str, topics: list[str], say: Say, *,
-           types: dict[str, str] | None = None) -> dict[str, int]:
-    """Record until Ctrl-C or SIGTERM; the bag is complete either way. Returns the counts."""
+           types: dict[str, str] | None = None, all_topics: bool = False,
+           regex: str | None = None, exclude: str | None = None) -> dict[str, int]:
+    """Record until Ctrl-C or SIGTERM; the bag is complete either way. Returns the counts.
+    ``all_topics`` and ``regex`` add the topics publishers appear on while recording (all,
+    or those the expression matches), as ``ros2 bag record -a`` and ``-e``."""
     from servolab.middleware.recorder import Recorder
 
-    recorder = Recorder(ctx, output, topics, types=types)
+    pattern = compile_regex("--regex", regex)
+    excluded = compile_regex("--exclude-regex", exclude)
+    if not (topics or all_topics or pattern):
+        raise UsageError("nothing to record: name topics, or give -a (all topics) or "
+                         "-e REGEX (topics matching it)")
+    recorder = Recorder(ctx, output, topics, types=types, all_topics=all_topics,
+                        regex=pattern, exclude=excluded)
     say(f"recording to {recorder.writer.path} (Ctrl-C to stop)")
+    if all_topics or pattern:
+        which = "every topic" if all_topics else f"the topics matching {regex!r}"
+        say(f"recording {which} a publisher appears on")
     if recorder.waiting_for:
         say(f"waiting for publishers of {', '.join(recorder.waiting_for)}")
     try:
@@ -170,7 +195,15 @@ def reindex_bag(path: str, say: Say) -> None:
 def _add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     p = actions.add_parser("record", help="record topics to an MCAP bag (rosbag2 layout)")
-    p.add_argument("topics", nargs="+", metavar="TOPIC")
+    p.add_argument("topics", nargs="*", metavar="TOPIC")
+    p.add_argument("-a", "--all", "--all-topics", dest="all_topics", action="store_true",
+                   help="every topic, also those that appear while recording (hidden ones "
+                   "left out; servolab records no services)")
+    p.add_argument("-e", "--regex", metavar="REGEX",
+                   help="the topics whose name this regular expression matches (searched, "
+                   "as rosbag2 does), also those that appear while recording")
+    p.add_argument("-x", "--exclude-regex", metavar="REGEX",
+                   help="leave out the topics -a or -e found whose name this matches")
     p.add_argument("-o", "--output", required=True, metavar="PATH", help="bag folder to create")
     p.add_argument("--type", dest="types", action="append", default=[], metavar="TOPIC:TYPE",
                    help="type of a topic not yet in the graph, e.g. /cmd_vel:geometry_msgs/"
@@ -206,9 +239,16 @@ def _run(args: argparse.Namespace) -> int:
         reindex_bag(args.path, say)
         return 0
     types = parse_topic_types(args.types) if args.action == "record" else None
+    if args.action == "record":  # what the user typed is checked before joining the graph
+        compile_regex("--regex", args.regex)
+        compile_regex("--exclude-regex", args.exclude_regex)
+        if not (args.topics or args.all_topics or args.regex):
+            raise UsageError("nothing to record: name topics, or give -a (all topics) or "
+                             "-e REGEX (topics matching it)")
     with Context.open(transport_options(args)) as ctx:
         if args.action == "record":
-            record(ctx, args.output, args.topics, say, types=types)
+            record(ctx, args.output, args.topics, say, types=types, all_topics=args.all_topics,
+                   regex=args.regex, exclude=args.exclude_regex)
         elif args.action == "play":
             play_bag(ctx, args.path, say, rate=args.rate, topics=args.topics,
                      wait_matching=args.wait_matching)
@@ -221,6 +261,8 @@ COMMAND = Command(
     "open it), play one back, show what is in one, or make a killed recording a complete "
     "file again.",
     examples=("servolab bag record /cmd_vel /odom -o runs/drive1",
+              "servolab bag record -a -o runs/everything",
+              "servolab bag record -e '/robot/.*' -o runs/robot",
               "servolab bag info runs/drive1",
               "servolab bag play runs/drive1 --rate 2",
               "servolab bag reindex runs/drive1"),

@@ -41,29 +41,49 @@ _LISTED = 12
 _TRANSPORT_GRACE_S = 1.0
 
 
-def services(ctx: Context, timeout: float = DISCOVERY_S, *,
-             servers_only: bool = False) -> dict[str, set[str]]:
+def services(ctx: Context, timeout: float = DISCOVERY_S, *, servers_only: bool = False,
+             include_hidden: bool = False) -> dict[str, set[str]]:
     """Service name -> the types its servers (and, unless ``servers_only``, clients) use,
-    tools' hidden nodes left out. ``ros2 service list`` counts a name a client uses as a
-    service too (rmw_zenoh's graph cache files servers and clients under one map,
+    tools' hidden nodes and hidden names (a part starting with ``_``, as ros2cli hides them)
+    left out unless ``include_hidden``. ``ros2 service list`` counts a name a client uses
+    as a service too (rmw_zenoh's graph cache files servers and clients under one map,
     ``graph_cache.cpp``, ``update_topic_maps_for_put``), so the listing does."""
-    from ._graph import hidden
+    from ._graph import hidden, hidden_name
 
     kinds = ("SS",) if servers_only else ("SS", "SC")
     found: dict[str, set[str]] = {}
     for e in ctx.transport.graph(timeout):
-        if e.kind in kinds and not hidden(e.node):
+        if e.kind in kinds and (include_hidden or not (hidden(e.node) or hidden_name(e.name))):
             found.setdefault(e.name, set()).add(e.type_name)
     return found
 
 
-def service_list(ctx: Context, say: Say, *, show_types: bool = False) -> list[str]:
+def service_list(ctx: Context, say: Say, *, show_types: bool = False,
+                 count_only: bool = False, include_hidden: bool = False) -> list[str]:
     """Every service in the graph, sorted; ``show_types`` adds ``[type]`` as ``ros2 service
-    list -t`` does."""
-    found = services(ctx)
+    list -t`` does, ``count_only`` prints only how many (``-c``)."""
+    found = services(ctx, include_hidden=include_hidden)
+    if count_only:
+        say(str(len(found)))
+        return sorted(found)
     for name in sorted(found):
         say(name + (f" [{', '.join(sorted(found[name]))}]" if show_types else ""))
     return sorted(found)
+
+
+def service_type(ctx: Context, name: str, say: Say) -> list[str]:
+    """The service's type(s), one a line, as ``ros2 service type`` prints them; a name not in
+    the graph is a one-line error listing those that are (ros2 exits 1 silently)."""
+    from ._graph import topic_name
+
+    name = topic_name(name, is_service=True)
+    found = services(ctx, include_hidden=True)
+    if name not in found:
+        raise _unknown_service(name, services(ctx, 0.0))
+    kinds = sorted(found[name])
+    for kind in kinds:
+        say(kind)
+    return kinds
 
 
 def parse_request(types: MessageTypes, type_name: str, values: str) -> tuple[ServiceType, Any]:
@@ -163,6 +183,17 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     p = actions.add_parser("list", help="services in the graph")
     p.add_argument("-t", "--show-types", action="store_true", help="show each service's type")
+    p.add_argument("-c", "--count-services", action="store_true",
+                   help="only how many services there are")
+    p.add_argument("--include-hidden-services", action="store_true",
+                   help="hidden services too (a part of the name starting with _)")
+    add_transport(p)
+    p = actions.add_parser(
+        "type", help="a service's type, as ros2 service type",
+        description="Print a service's type, as 'ros2 service type' does. Where servolab "
+        "differs: a name not in the graph is an error naming the services there are (exit "
+        "status 2; ros2 prints nothing and exits 1).")
+    p.add_argument("service_name", metavar="NAME", help="e.g. /controller_m14/set_speed")
     add_transport(p)
     p = actions.add_parser("call", help="call a service with YAML values, as ros2 service call")
     p.add_argument("service_name", metavar="NAME", help="e.g. /controller_m14/set_speed")
@@ -187,7 +218,10 @@ def _run(args: argparse.Namespace) -> int:
     with Context.open(transport_options(args), types=types) as ctx:
         ctx.transport.check_reachable()  # not an empty graph from an endpoint gone wrong
         if args.action == "list":
-            service_list(ctx, say, show_types=args.show_types)
+            service_list(ctx, say, show_types=args.show_types, count_only=args.count_services,
+                         include_hidden=args.include_hidden_services)
+        elif args.action == "type":
+            service_type(ctx, args.service_name, say)
         elif args.action == "call":
             service_call(ctx, args.service_name, args.type_name, args.values, say,
                          timeout=args.timeout)
@@ -195,9 +229,10 @@ def _run(args: argparse.Namespace) -> int:
 
 
 COMMAND = Command(
-    name="service", group="graph", help="list and call services",
+    name="service", group="graph", help="list, type and call services",
     description="List the services of a running graph and call them, as 'ros2 service' does.",
     examples=("servolab service list -t",
+              "servolab service type /controller_m14/set_speed",
               "servolab service call /controller_m14/set_speed "
               "dynamixel_controllers/srv/SetSpeed \"{speed: 0.5}\"",
               "servolab service call /controller_m14/torque_enable "

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import contextlib
-from concurrent.futures import Future
+from concurrent.futures import Future, InvalidStateError
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import TYPE_CHECKING, Any
 
@@ -13,6 +13,10 @@ from .messages import ServiceType
 if TYPE_CHECKING:
     from .node import Node
     from .transport import Closeable
+
+#: What :meth:`Client.call_async` asks the transport for as a timeout: none in effect (a
+#: year), since a transport's call takes a number (Zenoh's query does).
+_NO_TIMEOUT = 365 * 24 * 3600.0
 
 
 class Client:
@@ -29,35 +33,65 @@ class Client:
         self.name = name
         self._declared: Closeable | None = node.context.transport.declare_client(
             node.info, name, srv)
+        self._pending: set[Future[Any]] = set()
 
     def request(self, **fields: Any) -> Any:
         return self.node.context.types.from_value(self.srv.request, fields)
 
-    def call(self, request: Any | None = None, timeout: float = 5.0) -> Any:
-        """The response, waiting up to ``timeout`` s. When no other thread spins the
-        executor, this one does while it waits, so a server in this process can answer."""
-        future = self.call_async(request, timeout)
+    def call(self, request: Any | None = None, timeout: float | None = 5.0) -> Any:
+        """The response, waiting up to ``timeout`` s (None: as long as it takes). When no
+        other thread spins the executor, this one does while it waits, so a server in this
+        process can answer."""
+        future = self._send(request, timeout)
         executor = self.node.context.executor
         if not executor.spinning_elsewhere:
             executor.spin_until(future.done, timeout)
         try:
             return future.result(timeout=0 if future.done() else timeout)
         except FutureTimeout:
+            future.cancel()
             raise ServiceError(f"service {self.name} did not answer within "
                                f"{timeout:g} s") from None
 
-    def call_async(self, request: Any | None = None, timeout: float = 5.0) -> Future[Any]:
+    def call_async(self, request: Any | None = None,
+                   timeout: float | None = None) -> Future[Any]:
+        """Send ``request``; the future holds the response when it comes. As in rclpy
+        (``rclpy/client.py``), it has no timeout unless given one (issue 32, D4): it stays
+        pending until the server answers, or is cancelled when the client is destroyed.
+        Where no server exists at all (Zenoh finds no queryable), it holds a
+        :class:`ServiceError` at once, where rclpy's would stay pending. ``timeout`` (s)
+        bounds the transport's wait (servolab's ``service call`` command gives one)."""
+        return self._send(request, timeout)
+
+    def _send(self, request: Any | None, timeout: float | None) -> Future[Any]:
         request = self.request() if request is None else request
         if getattr(request, "__msgtype__", None) != self.srv.request:
             raise MessageError(f"{self.name} takes a {self.srv.request}, not "
                                f"{getattr(request, '__msgtype__', type(request).__name__)}")
-        future = self.node.context.transport.call(self.name, self.srv, request, timeout)
-        # The answer completes the future on the transport's thread (Zenoh's): it is also
-        # work for the executor, as a response is in rclpy, so a spin_once or a
-        # spin_until_future_complete waiting on it returns then (issue 32, D1), not at its
-        # timeout, or never
+        sent = self.node.context.transport.call(
+            self.name, self.srv, request, _NO_TIMEOUT if timeout is None else timeout)
+        # The caller's future is its own: cancelling it (destroy(), a call() that gave up)
+        # never races the transport completing the one it holds
+        future: Future[Any] = Future()
+        self._pending.add(future)
         executor = self.node.context.executor
-        future.add_done_callback(lambda _: _wake(executor))
+
+        def done(answer: Future[Any]) -> None:
+            self._pending.discard(future)
+            if not future.done():
+                with contextlib.suppress(InvalidStateError):  # cancelled meanwhile
+                    error = answer.exception()
+                    if error is None:
+                        future.set_result(answer.result())
+                    else:
+                        future.set_exception(error)
+            # The answer completes the future on the transport's thread (Zenoh's): it is
+            # also work for the executor, as a response is in rclpy, so a spin_once or a
+            # spin_until_future_complete waiting on it returns then (issue 32, D1), not at
+            # its timeout, or never
+            _wake(executor)
+
+        sent.add_done_callback(done)
         return future
 
     def wait_for_service(self, timeout_sec: float | None = None) -> bool:
@@ -77,7 +111,11 @@ class Client:
                    for e in self.node.context.transport.graph(0.2))
 
     def destroy(self) -> None:
-        """Leave the graph (the SC token is undeclared); a second call does nothing."""
+        """Leave the graph (the SC token is undeclared) and cancel the calls still waiting
+        for an answer; a second call does nothing."""
+        for future in list(self._pending):
+            future.cancel()
+        self._pending.clear()
         declared, self._declared = self._declared, None
         if declared is not None:
             declared.close()

@@ -33,15 +33,18 @@ if TYPE_CHECKING:
 
 
 def open_transport(options: TransportOptions, types: MessageTypes) -> Transport:
-    """The transport the options name: ``local`` or ``zenoh``."""
+    """The transport the options name: ``local``, ``zenoh`` or ``dds``."""
     if options.kind == "local":
         if options.listen or options.connect:
-            raise TransportError("--listen and --connect need --transport zenoh")
+            raise TransportError("--listen and --connect need --transport zenoh or dds")
         return LocalTransport(types)
     if options.kind == "zenoh":
         from .zenoh_transport import ZenohTransport  # zenoh loads only when asked for
         return ZenohTransport(types, options)
-    raise TransportError(f"unknown transport {options.kind!r} (local or zenoh)")
+    if options.kind == "dds":
+        from .dds_transport import DdsTransport  # cyclonedds loads only when asked for
+        return DdsTransport(types, options)
+    raise TransportError(f"unknown transport {options.kind!r} (local, zenoh or dds)")
 
 
 class Context:

@@ -7,8 +7,8 @@ the single exception, so that code written for rclpy runs with only its imports 
 made without one, and closes on :func:`shutdown` or at interpreter exit.
 
 Which transport it opens comes from :func:`init`'s arguments, else from the environment:
-``SERVOLAB_TRANSPORT`` (``local``, the default, or ``zenoh``), ``SERVOLAB_LISTEN`` and
-``SERVOLAB_CONNECT`` (comma-separated Zenoh endpoints), as the CLI's ``--transport``,
+``SERVOLAB_TRANSPORT`` (``local``, the default, ``zenoh`` or ``dds``), ``SERVOLAB_LISTEN`` and
+``SERVOLAB_CONNECT`` (comma-separated Zenoh endpoints, or DDS peers), as the CLI's ``--transport``,
 ``--listen`` and ``--connect`` would give them.
 """
 
@@ -21,7 +21,7 @@ import threading
 from .context import Context
 from .errors import TransportError
 from .messages import MessageTypes
-from .transport import TransportOptions, environment_domain_id
+from .transport import TRANSPORTS, TransportOptions, environment_domain_id
 
 
 class _Holder:
@@ -43,8 +43,8 @@ def options_from_environment() -> TransportOptions:
         return [e.strip() for e in os.environ.get(name, "").split(",") if e.strip()]
 
     kind = os.environ.get("SERVOLAB_TRANSPORT", "local").strip() or "local"
-    if kind not in ("local", "zenoh"):
-        raise TransportError(f"SERVOLAB_TRANSPORT={kind!r}: use local or zenoh")
+    if kind not in TRANSPORTS:
+        raise TransportError(f"SERVOLAB_TRANSPORT={kind!r}: use {', '.join(TRANSPORTS)}")
     return TransportOptions(kind=kind, listen=endpoints("SERVOLAB_LISTEN"),
                             connect=endpoints("SERVOLAB_CONNECT"),
                             domain_id=environment_domain_id())
@@ -107,4 +107,9 @@ def shutdown() -> None:
         context.close()
 
 
-atexit.register(shutdown)
+# Closed when the main thread ends, before Python waits for the other threads (issue 32, D2):
+# a program that never called shutdown() would otherwise wait for ever on the threads that
+# the open context keeps running, since ``atexit`` handlers run only after that wait.
+# ``threading._register_atexit`` is how concurrent.futures hooks the same moment.
+threading._register_atexit(shutdown)  # type: ignore[attr-defined]
+atexit.register(shutdown)  # and for an interpreter that ends some other way

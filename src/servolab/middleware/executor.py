@@ -28,12 +28,13 @@ and the thread keeps spinning.
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import itertools
 import logging
 import threading
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, Literal, Protocol
 
 from servolab.clock import Clock
@@ -61,20 +62,46 @@ class BackgroundWork(Protocol):
 
 
 class Timer:
-    """Calls ``callback()`` every ``period`` seconds of the executor's clock."""
+    """Calls ``callback()`` every ``period`` seconds of the executor's clock.
 
-    def __init__(self, executor: Executor, period: float, callback: Callable[[], Any]) -> None:
+    As rclpy's ``Timer`` (``rclpy/timer.py``): :meth:`cancel` stops it, :meth:`reset`
+    starts it again a whole period from now (cancelled or not), :meth:`is_canceled` says
+    which; ``autostart=False`` makes it cancelled until its first :meth:`reset`."""
+
+    def __init__(self, executor: Executor, period: float, callback: Callable[[], Any], *,
+                 autostart: bool = True) -> None:
         if not period > 0:
             raise MiddlewareValueError(f"timer period must be > 0 s, got {period!r}")
         self.period = float(period)
         self.callback = callback
         self.next_due = executor.clock.now() + self.period
-        self.cancelled = False
+        self.cancelled = not autostart
+        self._entry = -1  # the executor's heap entry that is this timer's current one
         self._executor = executor
-        executor._add_timer(self)
+        if autostart:
+            executor._add_timer(self)
 
     def cancel(self) -> None:
         self.cancelled = True
+
+    def is_canceled(self) -> bool:
+        return self.cancelled
+
+    def reset(self) -> None:
+        """Due again a whole period from now, and running if it was cancelled."""
+        self.next_due = self._executor.clock.now() + self.period
+        self.cancelled = False
+        self._executor._add_timer(self)  # the entry it had, if any, is stale from now on
+
+    @property
+    def timer_period_ns(self) -> int:
+        return round(self.period * 1e9)
+
+    def time_until_next_call(self) -> float | None:
+        """Seconds until the next call (None when cancelled), as rclpy's (in ns there)."""
+        if self.cancelled:
+            return None
+        return self.next_due - self._executor.clock.now()
 
 
 class SpinThread(threading.Thread):
@@ -90,7 +117,7 @@ class SpinThread(threading.Thread):
 
     def run(self) -> None:
         executor = self.executor
-        executor._spinning = threading.get_ident()
+        executor._enter()
         try:
             while not executor.is_shutdown:
                 try:
@@ -103,7 +130,7 @@ class SpinThread(threading.Thread):
                     executor._failed(exc)
                     return
         finally:
-            executor._spinning = None
+            executor._leave()
 
     def join(self, timeout: float | None = None) -> None:
         super().join(timeout)
@@ -123,7 +150,8 @@ class Executor:
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
         self._thread: SpinThread | None = None
-        self._spinning: int | None = None
+        #: threads spinning now (several with rclpy's MultiThreadedExecutor): ident -> depth
+        self._spinning: dict[int, int] = {}
         self._shutdown = False
         self._last_was_timer = False
         self._error: BaseException | None = None  # from the spin thread, not yet raised
@@ -176,19 +204,46 @@ class Executor:
 
     def _add_timer(self, timer: Timer) -> None:
         with self._cond:
-            heapq.heappush(self._timers, (timer.next_due, next(self._order), timer))
-            self._cond.notify()
+            timer._entry = next(self._order)
+            heapq.heappush(self._timers, (timer.next_due, timer._entry, timer))
+            self._cond.notify_all()
 
     # -- spinning ---------------------------------------------------------------------------
 
+    @contextlib.contextmanager
+    def spinning(self) -> Iterator[None]:
+        """Count the calling thread as spinning this executor while inside, for a loop that
+        spins it (rclpy's executors on their threads): from another thread, a ``Client.call``
+        or a ``Rate`` then waits for this one rather than spinning too."""
+        self._enter()
+        try:
+            yield
+        finally:
+            self._leave()
+
+    def _enter(self) -> None:
+        ident = threading.get_ident()
+        with self._lock:
+            self._spinning[ident] = self._spinning.get(ident, 0) + 1
+
+    def _leave(self) -> None:
+        ident = threading.get_ident()
+        with self._lock:
+            depth = self._spinning.get(ident, 0) - 1
+            if depth > 0:
+                self._spinning[ident] = depth
+            else:
+                self._spinning.pop(ident, None)
+
     @property
     def in_executor_thread(self) -> bool:
-        return self._spinning == threading.get_ident()
+        return threading.get_ident() in self._spinning
 
     @property
     def spinning_elsewhere(self) -> bool:
         """True when another thread spins this executor (so a ``Rate`` may just sleep)."""
-        return self._spinning is not None and not self.in_executor_thread
+        ident = threading.get_ident()
+        return any(other != ident for other in list(self._spinning))
 
     @property
     def exception(self) -> BaseException | None:
@@ -217,11 +272,11 @@ class Executor:
         work = self._next_work(timeout)
         if work is None:
             return False
-        previous, self._spinning = self._spinning, threading.get_ident()
+        self._enter()
         try:
             work()
         finally:
-            self._spinning = previous
+            self._leave()
         return True
 
     def _next_work(self, timeout: float | None) -> Callable[[], None] | None:
@@ -238,8 +293,9 @@ class Executor:
             while True:
                 if self._shutdown:
                     return None
-                while self._timers and self._timers[0][2].cancelled:
-                    heapq.heappop(self._timers)
+                while self._timers and (self._timers[0][2].cancelled
+                                        or self._timers[0][1] != self._timers[0][2]._entry):
+                    heapq.heappop(self._timers)  # cancelled, or reset since: stale
                 now = clock.now()
                 due = self._timers[0][0] if self._timers else None
                 if self._ready and (self._last_was_timer or due is None or due > now):
@@ -251,7 +307,8 @@ class Executor:
                     timer.next_due = due + timer.period
                     if timer.next_due <= now:  # far behind: skip ticks rather than burst
                         timer.next_due = now + timer.period
-                    heapq.heappush(self._timers, (timer.next_due, next(self._order), timer))
+                    timer._entry = next(self._order)
+                    heapq.heappush(self._timers, (timer.next_due, timer._entry, timer))
                     return timer.callback
                 background_due, background = self._background_due()
                 if background is not None and background_due is not None:
@@ -284,7 +341,13 @@ class Executor:
             left = None if end is None else end - self.clock.now()
             if left is not None and left <= 0:
                 break
-            self.spin_once(left if left is None else min(left, 0.1))
+            # on a wall clock a bounded wait: done() may turn true on another thread with no
+            # work for this one (another spinner took the wake-up), and is looked at again
+            # then; a virtual clock must not be moved by a wait with nothing due
+            if left is None:
+                self.spin_once(None if self.clock.virtual else 0.1)
+            else:
+                self.spin_once(min(left, 0.1))
         return done()
 
     def spin_for(self, seconds: float) -> None:

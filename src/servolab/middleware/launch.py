@@ -50,17 +50,19 @@ from .launch_file import (
     check_entries,
     import_node_class,
     is_local_address,
+    launched_class,
     load_launch,
+    node_call,
     one_line,
 )
-from .node import LOGGER_PREFIX
+from .node import LOGGER_PREFIX, Node
 from .parameters import ParameterOverrides
 from .transport import TransportOptions, environment_domain_id
 
 __all__ = ["DEFAULT_PROCESS", "STOP_TIMEOUT", "ZENOH_ENDPOINT", "LaunchFile", "Machine",
-           "NodeEntry", "check_entries", "child_command", "child_transports", "exec_command",
-           "free_loopback_port", "import_node_class", "is_local_address", "launch_main",
-           "load_launch", "run_launch", "run_process_group"]
+           "NodeEntry", "build_node", "check_entries", "child_command", "child_environment",
+           "child_transports", "exec_command", "free_loopback_port", "import_node_class",
+           "is_local_address", "launch_main", "load_launch", "run_launch", "run_process_group"]
 
 
 # -- running ---------------------------------------------------------------------------------
@@ -199,8 +201,7 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
                     if not context.ok():
                         break
                     try:
-                        cls(context, entry.name, entry.namespace,
-                            parameter_overrides=entry.parameters, remappings=entry.remappings)
+                        build_node(launch, entry, cls, context)
                     except MiddlewareError as exc:
                         key = "parameters" if isinstance(exc, ParameterError) else None
                         raise launch.error(entry, key, str(exc)) from None
@@ -219,6 +220,18 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
                 out(f"[launch] stopped {entry.name}")
     # stopped by a signal: 128 + its number, as every servolab command (servolab.harness)
     return 0 if context.stopped_by is None else signal_status(context.stopped_by)
+
+
+def build_node(launch: LaunchFile, entry: NodeEntry, cls: type[Node], context: Context) -> Node:
+    """Build ``entry``'s node on ``context``: a servolab node class as ``cls(context, name,
+    namespace, parameter_overrides=..., remappings=...)``, an rclpy-shaped one (whose
+    ``__init__`` takes a node name, as rclpy's ``Node(node_name, *, namespace=...,
+    parameter_overrides=...)``) through :func:`~.launch_file.launched_class`, which gives
+    it the launch's context and the entry's name, namespace, parameters and remappings."""
+    call = node_call(launch, entry, cls)
+    if not call.rclpy:
+        return cls(context, *call.args, **call.kwargs)
+    return launched_class(cls, context, entry)(*call.args, **call.kwargs)
 
 
 # -- child processes -------------------------------------------------------------------------
@@ -268,6 +281,37 @@ def child_command(launch: LaunchFile, group: str, options: TransportOptions) -> 
     return [*argv, "--domain-id", str(options.domain_id)]
 
 
+def child_environment(options: TransportOptions) -> dict[str, str]:
+    """What a child finds in its environment of the launch's transport: the variables
+    servolab's default context reads (``SERVOLAB_TRANSPORT``, ``SERVOLAB_LISTEN``,
+    ``SERVOLAB_CONNECT``, as :func:`~.default_context.options_from_environment`) and
+    ``ROS_DOMAIN_ID``. An ``exec`` entry's program that opens the default context (rclpy-shaped
+    code on :mod:`servolab.rclpy`) so meets the launch's nodes."""
+    return {"SERVOLAB_TRANSPORT": options.kind, "SERVOLAB_LISTEN": ",".join(options.listen),
+            "SERVOLAB_CONNECT": ",".join(options.connect),
+            "ROS_DOMAIN_ID": str(options.domain_id)}
+
+
+def _joining(options: TransportOptions, endpoint: str | None) -> TransportOptions:
+    """The transport a second session in a node group's process (its code opening the
+    default context) joins the launch with: connected to where the processes meet, listening
+    on nothing, since the group's own session may already listen on that port."""
+    if options.kind != "zenoh":
+        return options
+    connect = list(dict.fromkeys(([endpoint] if endpoint else []) + list(options.connect)))
+    return TransportOptions("zenoh", [], connect, options.domain_id)
+
+
+def _deaf_servolab_command(entry: NodeEntry) -> bool:
+    """Whether an ``exec`` entry runs a ``servolab`` command given no endpoint: the CLI takes
+    its transport from its options, not from the environment, so it would not meet the
+    launch's processes."""
+    return entry.command[0] == "servolab" and not any(
+        ZENOH_ENDPOINT in arg or arg in ("--connect", "--listen", "--transport")
+        or arg.startswith(("--connect=", "--listen=", "--transport="))
+        for arg in entry.command[1:])
+
+
 def exec_command(entry: NodeEntry, endpoint: str | None) -> list[str]:
     """An ``exec`` entry's command; ``servolab`` runs as this interpreter's ``-m servolab``,
     so the child uses the same installation as the launch."""
@@ -295,6 +339,7 @@ class _Child:
     label: str
     argv: list[str]
     required: bool
+    env: dict[str, str]
     proc: subprocess.Popen[str] | None = None
     reader: threading.Thread | None = None
     reported: bool = False
@@ -321,22 +366,31 @@ class _Supervisor:
 
     def run(self, groups: dict[str, list[NodeEntry]], commands: Sequence[NodeEntry],
             options: TransportOptions) -> int:
-        transports: list[TransportOptions] = []
+        # every child, node group or exec entry, gets its transport: a group on its command
+        # line, and each (exec entries too, issue 32 D5) in its environment
+        count = len(groups) + len(commands)
+        transports = [options] * count
         endpoint = None
         if options.kind == "zenoh":
-            transports, endpoint = child_transports(options, len(groups))
-        if groups and endpoint and not (options.listen or options.connect):
+            transports, endpoint = child_transports(options, count)
+        if endpoint and not (options.listen or options.connect):
             self.emit(f"[launch] zenoh: the processes meet on {endpoint} (other tools: "
                       f"--connect {endpoint})")
         labels: set[str] = set()
-        for (group, members), transport in zip(groups.items(), transports, strict=True):
+        for (group, members), transport in zip(groups.items(), transports, strict=False):
             label = members[0].name if len(members) == 1 else group
             self.children.append(_Child(_unique(label, labels),
                                         child_command(self.launch, group, transport),
-                                        any(m.required for m in members)))
-        for entry in commands:
+                                        any(m.required for m in members),
+                                        child_environment(_joining(transport, endpoint))))
+        for entry, transport in zip(commands, transports[len(groups):], strict=True):
+            if options.kind == "zenoh" and _deaf_servolab_command(entry):
+                self.emit(f"[launch] warning: {entry.name} runs a servolab command with no "
+                          f"endpoint; give it --connect {ZENOH_ENDPOINT} to reach the "
+                          "launch's processes")
             self.children.append(_Child(_unique(entry.name, labels),
-                                        exec_command(entry, endpoint), entry.required))
+                                        exec_command(entry, endpoint), entry.required,
+                                        child_environment(transport)))
         with on_stop_signals(self._on_signal):
             try:
                 for child in self.children:
@@ -356,7 +410,7 @@ class _Supervisor:
             child.proc = subprocess.Popen(
                 child.argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                 stderr=subprocess.STDOUT, text=True, errors="replace", bufsize=1,
-                env=dict(os.environ, PYTHONUNBUFFERED="1"), process_group=0)
+                env={**os.environ, "PYTHONUNBUFFERED": "1", **child.env}, process_group=0)
         except OSError as exc:
             raise LaunchError(f"cannot start {child.label}: {exc}") from None
         self.emit(f"[launch] started {child.label} (pid {child.proc.pid})")

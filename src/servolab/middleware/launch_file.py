@@ -29,11 +29,12 @@ imported and the commands looked up before anything starts.
 from __future__ import annotations
 
 import importlib
+import inspect
 import re
 import shlex
 import shutil
 import socket
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -51,7 +52,7 @@ from .names import check_node_name, node_namespace
 from .names import fully_qualified_name as resolve_name
 from .node import Node
 from .parameters import ParameterOverrides, type_of
-from .transport import TransportOptions
+from .transport import TransportOptions, environment_domain_id
 
 #: The process group of a node entry that names none.
 DEFAULT_PROCESS = "main"
@@ -176,14 +177,19 @@ class LaunchFile:
     def transport_options(self, override: TransportOptions | None = None) -> TransportOptions:
         """The transport the nodes use: the file's, or the command line's ``override``
         (whose endpoints, when it has any, replace the file's)."""
-        if override is None:
-            return TransportOptions(self.transport, list(self.listen), list(self.connect))
+        if override is None:  # the domain, as every ROS 2 program takes it, from ROS_DOMAIN_ID
+            return TransportOptions(self.transport, list(self.listen), list(self.connect),
+                                    environment_domain_id())
         if override.kind == "local":
             if override.listen or override.connect:
                 raise LaunchError("--listen and --connect need --transport zenoh")
             return TransportOptions("local", domain_id=override.domain_id)
+        if override.kind == "dds":
+            # DDS needs no meeting point: the domain (ROS_DOMAIN_ID) and discovery range do
+            return TransportOptions("dds", list(override.listen), list(override.connect),
+                                    override.domain_id)
         if override.kind != "zenoh":
-            raise LaunchError(f"unknown transport {override.kind!r} (local or zenoh)")
+            raise LaunchError(f"unknown transport {override.kind!r} (local, zenoh or dds)")
         if override.listen or override.connect:
             return TransportOptions("zenoh", list(override.listen), list(override.connect),
                                     override.domain_id)
@@ -253,9 +259,9 @@ class _Parser:
         launch = LaunchFile(self.path, lines={k: fields.key_of(k).line for k in fields})
         if (value := fields.get("transport")) is not None:
             launch.transport = self.text(value, "", "transport")
-            if launch.transport not in ("local", "zenoh"):
+            if launch.transport not in ("local", "zenoh", "dds"):
                 raise self.error(value, "", f"key 'transport': {launch.transport!r} is not "
-                                 "local or zenoh")
+                                 "local, zenoh or dds")
         if "zenoh" in fields:
             self.zenoh(fields, launch)
         if (value := fields.get("machines")) is not None:
@@ -504,12 +510,108 @@ def import_node_class(launch: LaunchFile, entry: NodeEntry) -> type[Node]:
     return found
 
 
+@dataclass(frozen=True)
+class NodeCall:
+    """How a launch builds an entry's node class: ``args`` and ``kwargs`` for the class, and
+    whether the class has rclpy's shape (``rclpy``: its ``__init__`` takes a node name, not
+    a context, and it reaches servolab's :class:`Node` through ``super().__init__(name,
+    namespace=..., parameter_overrides=...)``)."""
+
+    args: tuple[Any, ...]
+    kwargs: dict[str, Any]
+    rclpy: bool
+
+
+def _takes_context(cls: type[Node]) -> bool:
+    """Whether the class's ``__init__`` takes a context first, as servolab's nodes do (the
+    base :class:`Node` takes a context or, rclpy's shape, a name: it counts as servolab's)."""
+    if cls.__init__ is Node.__init__:
+        return True
+    params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    first = params[0] if params else None
+    if first is None or first.kind not in (inspect.Parameter.POSITIONAL_ONLY,
+                                           inspect.Parameter.POSITIONAL_OR_KEYWORD):
+        return False
+    annotation = first.annotation if isinstance(first.annotation, str) else \
+        getattr(first.annotation, "__name__", "")
+    return first.name in ("context", "ctx") or "Context" in str(annotation)
+
+
+def node_call(launch: LaunchFile, entry: NodeEntry, cls: type[Node]) -> NodeCall:
+    """The arguments a launch builds ``entry``'s node with, or a one-line error at its
+    ``node`` key if the class cannot be built from a launch file.
+
+    A servolab node class takes ``(context, name, namespace, *, parameter_overrides,
+    remappings)``. An rclpy-shaped one (``__init__(self)``, or ``__init__(self, node_name,
+    *, namespace=None, ...)`` as rclpy's ``Node``) is given the entry's name as its first
+    positional argument if it needs one and ``namespace`` if it takes it; the context, the
+    entry's name, namespace, parameters and remappings reach the node through
+    :func:`launched_class` whatever the class passes on (as ``ros2 launch``'s ``__node``,
+    ``__ns`` remappings and parameter files do)."""
+    if _takes_context(cls):
+        return NodeCall((entry.name, entry.namespace),
+                        {"parameter_overrides": entry.parameters,
+                         "remappings": entry.remappings}, rclpy=False)
+    signature = inspect.signature(cls)
+    params = list(signature.parameters.values())
+    positional = [p for p in params if p.kind in (inspect.Parameter.POSITIONAL_ONLY,
+                                                  inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    required = [p for p in positional if p.default is inspect.Parameter.empty]
+    args: tuple[Any, ...] = (entry.name,) if required or (
+        positional and positional[0].name in ("node_name", "name")) else ()
+    kwargs: dict[str, Any] = {}
+    if "namespace" in signature.parameters and (not positional or
+                                                positional[0].name != "namespace"):
+        kwargs["namespace"] = entry.namespace
+    try:
+        signature.bind(*args, **kwargs)
+    except TypeError as exc:
+        raise launch.error(entry, "node", f"{entry.node} cannot be built by a launch file: "
+                           f"{exc} (a node class takes (context, name, namespace, ...) as "
+                           "servolab's, or (node_name, *, namespace=...) as rclpy's)") from None
+    return NodeCall(args, kwargs, rclpy=True)
+
+
+def launched_class(cls: type[Node], context: Any, entry: NodeEntry) -> type[Node]:
+    """``cls`` with the launch's context, and the entry's name, namespace, parameters and
+    remappings, put under it: a subclass whose method resolution order reaches servolab's
+    :class:`Node` through one more class, which replaces what the node class passes on
+    (``super().__init__("talker")``, rclpy's shape, or a context and a name) with the
+    launch's, as ``ros2 launch`` renames a node whatever name its code gives. Parameter
+    values the class itself passes (a mapping, or rclpy ``Parameter`` objects) win over the
+    launch file's, as rclpy's ``parameter_overrides`` win over its command line's."""
+
+    def init(self: Node, *args: Any, **kwargs: Any) -> None:
+        del args  # the class's name, namespace (or context): the launch's replace them
+        params = dict(entry.parameters)
+        params.update(_as_values(kwargs.get("parameter_overrides")))
+        remaps = dict(entry.remappings)
+        remaps.update(kwargs.get("remappings") or {})
+        Node.__init__(self, context, entry.name, entry.namespace, parameter_overrides=params,
+                      remappings=remaps)
+
+    under = type("LaunchEntry", (Node,), {"__init__": init, "__module__": __name__})
+    return type(cls.__name__, (cls, under), {"__module__": cls.__module__,
+                                            "__qualname__": cls.__qualname__})
+
+
+def _as_values(overrides: Any) -> dict[str, Any]:
+    """Parameter values from a mapping, or from rclpy ``Parameter`` objects (``.name``,
+    ``.value``)."""
+    if not overrides:
+        return {}
+    if isinstance(overrides, Mapping):
+        return dict(overrides)
+    return {p.name: p.value for p in overrides}
+
+
 def check_entries(launch: LaunchFile, entries: Sequence[NodeEntry]) -> None:
-    """Import every node class and look up every command of ``entries``, so that a typo
-    stops the launch before any process starts rather than after some did."""
+    """Import every node class (and check that a launch can build it) and look up every
+    command of ``entries``, so that a typo stops the launch before any process starts rather
+    than after some did."""
     for entry in entries:
         if not entry.is_exec:
-            import_node_class(launch, entry)
+            node_call(launch, entry, import_node_class(launch, entry))
         elif entry.command[0] != "servolab" and shutil.which(entry.command[0]) is None:
             raise launch.error(entry, "exec", f"command {entry.command[0]!r} not found")
 

@@ -4,7 +4,8 @@ servolab speaks ROS 2's own types so that its topics, bags and Zenoh payloads ar
 tools expect. The types come from the ``rosbags`` type store of ROS 2 Jazzy (std_msgs,
 geometry_msgs, sensor_msgs, nav_msgs, tf2_msgs, diagnostic_msgs, rcl_interfaces, ...), plus
 the types of the seeds' ROS 1 ``dynamixel_motor`` stack and a few services, registered here
-from their ``.msg`` / ``.srv`` text. CDR serialization is ``rosbags``'s, never hand-written.
+from their ``.msg`` / ``.srv`` text. CDR serialization is code generated per type from rosbags'
+type descriptions (:mod:`.fast_cdr`), checked byte for byte against rosbags' own.
 
 A :class:`MessageTypes` is the one place that knows a type by name. It also turns the YAML
 values a user types (``"{linear: {x: 0.1}, angular: {z: 0.5}}"``, as ``rostopic pub`` takes
@@ -26,6 +27,7 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from .errors import MessageError
+from .fast_cdr import FastCdr
 
 if TYPE_CHECKING:
     from rosbags.interfaces.typing import BaseDesc, FieldDesc, NameDesc
@@ -213,6 +215,8 @@ class MessageTypes:
 
     def __init__(self, extra_msgs: Mapping[str, str] | None = None) -> None:
         self.store = get_typestore(Stores.ROS2_JAZZY)
+        #: the store's CDR code, generated per type on first use (rosbags stays the oracle)
+        self.cdr = FastCdr(self.store)
         self._fix_service_event_info()
         self.register_msgs(DYNAMIXEL_MSGS)
         self.register_msgs(TURTLEBOT3_MSGS)
@@ -329,12 +333,16 @@ class MessageTypes:
     # -- bytes ------------------------------------------------------------------------------
 
     def serialize(self, msg: Any, name: str | None = None) -> bytes:
-        """CDR (little-endian, with its 4-byte encapsulation header), as rmw and rosbag2 use."""
-        return bytes(self.store.serialize_cdr(msg, name or self.type_of(msg)))
+        """CDR (little-endian, with its 4-byte encapsulation header), as rmw and rosbag2 use:
+        :mod:`.fast_cdr`'s code generated for the type, which writes rosbags' bytes (and
+        leaves to rosbags whatever it does not take) several times faster."""
+        return self.cdr.serialize(msg, name or self.type_of(msg))
 
     def deserialize(self, data: bytes | memoryview, name: str) -> Any:
+        """The message of CDR bytes of either byte order, as rosbags builds it (through
+        :mod:`.fast_cdr`), or a one-line :class:`MessageError`."""
         try:
-            return self.store.deserialize_cdr(data, name)
+            return self.cdr.deserialize(data, name)
         except Exception as exc:
             raise MessageError(f"{len(data)} bytes are not a CDR {name}: {exc}") from None
 

@@ -280,6 +280,17 @@ class Node:
             raise ParameterError(f"{self.fully_qualified_name} has no parameter {name!r} "
                                  f"(it has {known})") from None
 
+    def _parameter_names(self) -> list[str]:
+        """The names ``~/list_parameters`` answers, in its order (servolab's: sorted)."""
+        return sorted(self._parameters)
+
+    def _descriptor(self, name: str) -> Any:
+        """What ``~/describe_parameters`` answers for a declared parameter: an
+        ``rcl_interfaces/msg/ParameterDescriptor`` or its fields."""
+        p = self._parameters[name]
+        return {"name": p.name, "type": p.type, "description": p.description,
+                "read_only": p.read_only, "dynamic_typing": False}
+
     def _parameter_services(self) -> None:
         """The rcl_interfaces services every ROS 2 node offers, so ``servolab param`` (and
         ``ros2 param`` over rmw_zenoh) can reach this node's parameters from anywhere."""
@@ -296,9 +307,7 @@ class Node:
             if not known(request.names):
                 return response
             return types.from_value(response.__msgtype__, {"descriptors": [
-                {"name": p.name, "type": p.type, "description": p.description,
-                 "read_only": p.read_only, "dynamic_typing": False}
-                for p in (self._parameters[n] for n in request.names)]})
+                self._descriptor(n) for n in request.names]})
 
         def get_parameter_types(request: Any, response: Any) -> Any:
             if not known(request.names):
@@ -314,7 +323,7 @@ class Node:
             return response
 
         def list_parameters(request: Any, response: Any) -> Any:
-            names, prefixes = list_names(sorted(self._parameters), list(request.prefixes),
+            names, prefixes = list_names(self._parameter_names(), list(request.prefixes),
                                          int(request.depth))
             return types.from_value(response.__msgtype__,
                                     {"result": {"names": names, "prefixes": prefixes}})

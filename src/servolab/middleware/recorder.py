@@ -13,6 +13,7 @@ epoch's in real time.
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -32,33 +33,64 @@ class Recorder(Node):
 
     ``types`` gives the type of a topic that may not be in the graph when recording starts
     (``{"/cmd_vel": "geometry_msgs/msg/Twist"}``); other topics take the type the graph shows.
+
+    ``all_topics`` also records every topic a publisher appears on while recording, and
+    ``regex`` every such topic whose name it matches (``re.search``, as rosbag2's
+    ``std::regex_search``), as ``ros2 bag record -a`` and ``-e`` do; ``exclude`` leaves out
+    those it matches. Hidden topics (a part of the name starting with ``_``) are left out
+    of both, as rosbag2 leaves them out without ``--include-hidden-topics``.
     """
 
     def __init__(self, context: Context, output: str, topics: list[str], *,
                  types: Mapping[str, str] | None = None, name: str = "_servolab_recorder",
                  namespace: str = "/", flush_period: float = 1.0,
-                 discovery_period: float = 0.2, quiet: bool = False) -> None:
+                 discovery_period: float = 0.2, quiet: bool = False,
+                 all_topics: bool = False, regex: str | re.Pattern[str] | None = None,
+                 exclude: str | re.Pattern[str] | None = None) -> None:
         super().__init__(context, name, namespace)
         #: a robot's run records dozens of topics: ``quiet`` says each at debug level only
         self._say = self.get_logger().debug if quiet else self.get_logger().info
         self.topics = [self.resolve(t) for t in topics]
         given = {self.resolve(t): context.types.check(k) for t, k in (types or {}).items()}
+        self._all = all_topics
+        self._regex = re.compile(regex) if isinstance(regex, str) else regex
+        self._exclude = re.compile(exclude) if isinstance(exclude, str) else exclude
         self.writer = BagWriter(output, context.types)
         self._pending = {t: given.get(t) for t in self.topics}
         self.counts: dict[str, int] = dict.fromkeys(self.topics, 0)
         self._subscriptions: list[Subscription] = []
         self._discover()
-        if self._pending:
+        if self._pending or self.discovers:
             self._discovery = self.create_timer(discovery_period, self._discover)
         self.create_timer(flush_period, self.writer.flush)
 
+    @property
+    def discovers(self) -> bool:
+        """Whether topics are found while recording (``-a`` or ``--regex``)."""
+        return self._all or self._regex is not None
+
+    def _wanted(self, topic: str) -> bool:
+        """Whether ``-a`` / ``--regex`` asks for a topic a publisher has appeared on."""
+        if topic in self.counts or any(p.startswith("_") for p in topic.split("/")):
+            return False
+        if self._exclude is not None and self._exclude.search(topic):
+            return False
+        return self._all or (self._regex is not None and bool(self._regex.search(topic)))
+
     def _discover(self) -> None:
-        """Subscribe to every wanted topic whose type is now known."""
-        if not self._pending:
+        """Subscribe to every wanted topic whose type is now known (and, with ``-a`` or
+        ``--regex``, first add the topics publishers have appeared on)."""
+        if not self._pending and not self.discovers:
             return
+        graph = self.context.transport.graph(0.2)
+        if self.discovers:
+            for e in graph:
+                if e.kind == "MP" and self._wanted(e.name):
+                    self._pending[e.name] = None
+                    self.counts[e.name] = 0
         seen: dict[str, set[str]] = {}
         offered: dict[str, list[QoSProfile]] = {}
-        for e in self.context.transport.graph(0.2):
+        for e in graph:
             if e.kind == "MP" and e.name in self._pending:
                 seen.setdefault(e.name, set()).add(e.type_name)
                 if e.qos is not None:  # one profile per publisher, as rosbag2 records them

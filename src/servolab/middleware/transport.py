@@ -1,7 +1,8 @@
 """What a node needs of a transport, so that node code never knows which one carries it.
 
-Two transports implement this: :mod:`.local` (one process, messages passed as objects) and
-:mod:`.zenoh_transport` (processes and machines, CDR bytes over Zenoh in rmw_zenoh's layout).
+Three transports implement this: :mod:`.local` (one process, messages passed as objects),
+:mod:`.zenoh_transport` (processes and machines, CDR bytes over Zenoh in rmw_zenoh's layout)
+and :mod:`.dds_transport` (the same bytes over DDS, as ROS 2's DDS middlewares lay them out).
 A transport hands messages upward through each subscription's :mod:`.inbox`, filled on the
 transport's thread and emptied on the executor's; services and other answers go through
 callbacks that may run on any thread, which the :class:`~servolab.middleware.executor.Executor`
@@ -107,11 +108,16 @@ def environment_domain_id() -> int:
     return int(text)
 
 
+#: The transports a context can open: in-process, Zenoh (rmw_zenoh's layout), DDS (rmw_fastrtps'
+#: and rmw_cyclonedds' layout).
+TRANSPORTS = ("local", "zenoh", "dds")
+
+
 @dataclass
 class TransportOptions:
     """How to open a transport: the CLI's ``--transport``, ``--listen``, ``--connect``."""
 
-    kind: str = "local"                       # local | zenoh
+    kind: str = "local"                       # one of TRANSPORTS
     listen: list[str] = field(default_factory=list)
     connect: list[str] = field(default_factory=list)
     domain_id: int = 0

@@ -17,6 +17,7 @@ Everything here works on the default context (:mod:`servolab.middleware.default_
 from __future__ import annotations
 
 import logging
+import sys
 from concurrent.futures import Future
 from dataclasses import replace
 from typing import Any
@@ -31,12 +32,18 @@ from servolab.middleware.default_context import (
 from servolab.middleware.default_context import init as _init
 from servolab.middleware.default_context import shutdown as _shutdown
 from servolab.middleware.errors import MiddlewareValueError
-from servolab.middleware.node import LOGGER_PREFIX, Node
+from servolab.middleware.node import LOGGER_PREFIX
 from servolab.middleware.transport import TransportOptions
 
-__all__ = ["InitContextManager", "create_node", "get_default_context", "init", "ok", "shutdown",
+from . import utilities
+from ._arguments import Global
+from ._arguments import parse as _parse_arguments
+from .node import Node
+
+__all__ = ["InitContextManager", "create_node", "get_default_context", "get_global_executor",
+           "init", "ok", "shutdown",
            "spin", "spin_once",
-           "spin_until_future_complete", "try_shutdown"]
+           "spin_until_future_complete", "try_shutdown", "utilities"]
 
 
 class InitContextManager:
@@ -52,17 +59,20 @@ class InitContextManager:
 
 def init(*, args: list[str] | None = None, context: Any = None, domain_id: int | None = None,
          options: TransportOptions | None = None, **_: Any) -> InitContextManager:
-    """Open the default context. ``args`` (ROS's ``--ros-args``) is accepted for rclpy's
-    signature and not used; ``domain_id`` is the ROS domain, as in rclpy. The transport is
-    ``options``, else the environment's (``SERVOLAB_TRANSPORT`` etc., see
-    :mod:`servolab.middleware.default_context`)."""
+    """Open the default context. ``args``' ROS arguments (``--ros-args -p name:=value -r
+    old:=new ...``, see :mod:`servolab.rclpy._arguments`) apply to every node made until
+    :func:`shutdown`, as rcl's global arguments; ``domain_id`` is the ROS domain, as in
+    rclpy. The transport is ``options``, else the environment's (``SERVOLAB_TRANSPORT``
+    etc., see :mod:`servolab.middleware.default_context`)."""
     if context is not None:
         raise MiddlewareValueError("servolab.rclpy.init uses the default context; for another one, "
                                    "open a servolab.middleware.Context and pass it to "
                                    "Node(context, name)")
+    arguments = _parse_arguments(sys.argv if args is None else args)  # as rclpy: sys.argv
     if domain_id is not None:
         options = replace(options or options_from_environment(), domain_id=domain_id)
     _init(options)
+    Global.arguments = arguments
     _console_logging()
     return InitContextManager()
 
@@ -126,12 +136,14 @@ def shutdown(context: Any = None) -> None:
                            "(was rclpy.init() called, or shutdown() twice?)")
     _shutdown()
     _console_logging_off()
+    Global.arguments = type(Global.arguments)()
 
 
 def try_shutdown(context: Any = None) -> None:
     """:func:`shutdown`, silent if the context is not open."""
     _shutdown()
     _console_logging_off()
+    Global.arguments = type(Global.arguments)()
 
 
 def create_node(node_name: str, *, namespace: str | None = None, **kwargs: Any) -> Node:
@@ -140,16 +152,36 @@ def create_node(node_name: str, *, namespace: str | None = None, **kwargs: Any) 
     return Node(node_name, namespace=namespace, **kwargs)
 
 
+def get_global_executor() -> Any:
+    """The executor :func:`spin` uses when given none (one per process, as rclpy's)."""
+    from .executors import _global_executor
+    return _global_executor()
+
+
 def spin(node: Node, executor: Any = None) -> None:
     """Run the node's callbacks until Ctrl-C or :func:`shutdown` (all nodes of its context
-    spin: servolab has one executor per context)."""
-    node.context.spin()
+    spin: servolab has one queue of work per context), on ``executor`` if given (a
+    :class:`~servolab.rclpy.executors.MultiThreadedExecutor` runs them on several threads)."""
+    if executor is not None:
+        executor.add_node(node)
+        executor.spin()
+        return
+    with node.context.executor.spinning():  # a call() on another thread waits for this one
+        node.context.spin()
 
 
 def spin_once(node: Node, *, executor: Any = None, timeout_sec: float | None = None) -> None:
+    if executor is not None:
+        executor.add_node(node)
+        executor.spin_once(timeout_sec=timeout_sec)
+        return
     node.context.spin_once(timeout_sec)
 
 
-def spin_until_future_complete(node: Node, future: Future[Any], executor: Any = None,
+def spin_until_future_complete(node: Node, future: Future[Any] | Any, executor: Any = None,
                                timeout_sec: float | None = None) -> None:
+    if executor is not None:
+        executor.add_node(node)
+        executor.spin_until_future_complete(future, timeout_sec)
+        return
     node.context.spin_until(future.done, timeout_sec)

@@ -1,0 +1,790 @@
+"""The DDS transport: servolab's topics, services and graph on DDS, laid out as ROS 2's DDS
+middlewares lay them out (:mod:`.rmw_dds`), so that a stock ROS 2 system on its default
+middleware sees servolab's nodes and servolab sees its.
+
+It runs on Eclipse Cyclone DDS (the ``cyclonedds`` binding, one domain participant per
+transport). Messages travel as the CDR servolab already writes (rosbags' codec), written and
+taken as bytes through the binding's C layer (``ddspy_write`` / ``ddspy_take``), so no message
+is converted twice; the topic's DDS type (:mod:`.dds_types`) only names and describes it.
+
+What interoperates with Fast DDS (``rmw_fastrtps_cpp``, Jazzy's default), as the tests show
+(``tests/middleware/test_dds_rclpy.py``): topics both ways with their QoS, the graph both ways
+(nodes, topics, services, through ``ros_discovery_info``), and a servolab client calling a
+Fast DDS service. What does not: a Fast DDS *client* calling a servolab service. rmw_fastrtps
+matches a reply to its request by the RTPS inline QoS ``related_sample_identity``
+(``rmw_fastrtps_shared_cpp/src/rmw_response.cpp``: a reply whose related writer GUID is not
+the client's own is dropped), and the Cyclone DDS API can neither read nor write inline QoS.
+So a servolab server does not answer a Fast DDS client (it logs why, once); between Cyclone
+DDS peers (servolab, rmw_cyclonedds) requests carry rmw_cyclonedds' 16-byte header, the client
+id and sequence number, which the reply echoes. A servolab client calling a Fast DDS server
+sends the bare request (the server takes the request's own sample identity as its id) and, as
+it cannot tell one client's reply from another's, has one call in flight per service: another
+client of the same Fast DDS service calling at the same moment could have its reply taken for
+ours.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import struct
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future
+from typing import Any
+
+import numpy as np
+from cyclonedds import _clayer
+from cyclonedds.builtin import (
+    BuiltinDataReader,
+    BuiltinTopicDcpsParticipant,
+    BuiltinTopicDcpsPublication,
+    BuiltinTopicDcpsSubscription,
+)
+from cyclonedds.core import (
+    GuardCondition,
+    InstanceState,
+    Policy,
+    Qos,
+    ReadCondition,
+    SampleState,
+    ViewState,
+    WaitSet,
+)
+from cyclonedds.domain import Domain, DomainParticipant
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from .dds_types import DdsTypes
+from .errors import ServiceError, TransportError
+from .inbox import QueueInbox, Wake
+from .messages import MessageTypes, ServiceType
+from .qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from .rmw_dds import (
+    DISCOVERY_TOPIC,
+    DISCOVERY_TYPE,
+    VENDOR_EPROSIMA,
+    cyclone_config,
+    discovery_from_environment,
+    reply_topic,
+    request_topic,
+    ros_name,
+    topic_name,
+    type_hash_user_data,
+)
+from .transport import (
+    Closeable,
+    Endpoint,
+    Handler,
+    MessageInfo,
+    NodeInfo,
+    Transport,
+    TransportOptions,
+    TransportPublisher,
+)
+
+log = logging.getLogger(__name__)
+
+_ANY = SampleState.Any | ViewState.Any | InstanceState.Any
+#: rmw_cyclonedds' request header: client id (uint64), sequence number (int64), little-endian
+#: after the encapsulation header, as the CDR stream it is part of.
+_REQUEST_HEADER = struct.Struct("<Qq")
+_ENCAPSULATION = 4
+#: rmw's default profile for services (rmw_qos_profile_services_default)
+SERVICE_QOS = QoSProfile(depth=10)
+#: How long a Fast DDS server must have been matched before a bare request goes to it. Its
+#: reply writer answers only the reply readers it has matched itself, which a Cyclone DDS
+#: client cannot observe (rmw_fastrtps waits for that match only when the request's inline
+#: QoS names the client's reader: rmw_response.cpp, check_for_subscription); discovery's two
+#: halves come milliseconds apart on one machine, so half a second covers a busy one.
+FAST_DDS_SETTLE_S = 0.5
+#: How often the dispatch thread looks for what no condition signals (Fast DDS clients).
+DISPATCH_CHECK_S = 0.5
+#: how long a reliable writer may block when a reader's queue is full (rmw_cyclonedds: 100 ms)
+MAX_BLOCKING_S = 0.1
+
+
+def dds_qos(qos: QoSProfile, rihs01: str | None = None) -> Qos:
+    """A ROS profile as DDS QoS, with the type hash in USER_DATA (as a Jazzy rmw announces)."""
+    history = Policy.History.KeepAll if qos.keep_all else Policy.History.KeepLast(qos.depth)
+    policies: list[Any] = [
+        Policy.Reliability.Reliable(duration(seconds=MAX_BLOCKING_S)) if qos.reliable
+        else Policy.Reliability.BestEffort,
+        Policy.Durability.TransientLocal if qos.transient_local else Policy.Durability.Volatile,
+        history,
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    ]
+    if qos.transient_local:
+        # what a late reader gets is the durability service's history, not the writer's
+        # (rmw_cyclonedds sets both alike, rmw_node.cpp create_readwrite_qos)
+        policies.append(Policy.DurabilityService(
+            0, Policy.History.KeepLast(qos.history_depth), -1, -1, -1))
+    if rihs01:
+        policies.append(Policy.Userdata(type_hash_user_data(rihs01)))
+    return Qos(*policies)
+
+
+def ros_qos(qos: Qos | None) -> QoSProfile | None:
+    """What a discovered endpoint offers or requests, as a ROS profile."""
+    if qos is None:
+        return None
+    reliability = qos[Policy.Reliability]
+    durability = qos[Policy.Durability]
+    history = qos[Policy.History]
+    keep_all = isinstance(history, type(Policy.History.KeepAll)) and history is not None \
+        and not hasattr(history, "depth")
+    depth = getattr(history, "depth", 0) if history is not None else 1
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_ALL if keep_all else HistoryPolicy.KEEP_LAST,
+        depth=max(int(depth), 1) if not keep_all else 0,
+        reliability=(ReliabilityPolicy.RELIABLE
+                     if reliability is not None and hasattr(reliability, "max_blocking_time")
+                     else ReliabilityPolicy.BEST_EFFORT),
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL
+                    if durability is Policy.Durability.TransientLocal
+                    else DurabilityPolicy.VOLATILE))
+
+
+class _Domains:
+    """Cyclone DDS configures a domain once per process (a second ``Domain`` of the same id
+    fails): the transports of one process that share a domain share its configuration, and
+    the domain is deleted with the last of them, so that a later one may configure it anew.
+    Process-wide, as the library's domains are."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._open: dict[int, tuple[Domain, str, int]] = {}
+
+    def acquire(self, domain_id: int, config: str) -> Domain:
+        with self._lock:
+            held = self._open.get(domain_id)
+            if held is None:
+                domain = Domain(domain_id, config)
+                self._open[domain_id] = (domain, config, 1)
+                return domain
+            domain, current, users = held
+            if current != config:
+                raise TransportError(
+                    f"ROS domain {domain_id} is already open in this process with other "
+                    "discovery settings (ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_STATIC_PEERS, "
+                    "--connect): one process has one DDS configuration per domain")
+            self._open[domain_id] = (domain, current, users + 1)
+            return domain
+
+    def release(self, domain_id: int) -> None:
+        with self._lock:
+            domain, config, users = self._open[domain_id]
+            if users > 1:
+                self._open[domain_id] = (domain, config, users - 1)
+                return
+            del self._open[domain_id]
+        domain.__del__()
+
+
+_DOMAINS = _Domains()
+
+
+def _write(writer: DataWriter[Any], data: bytes) -> None:
+    ret = _clayer.ddspy_write(writer._ref, data)
+    if ret < 0:
+        raise TransportError(f"DDS write on {writer.topic.name} failed (code {ret})")
+
+
+def _take(reader: DataReader[Any], batch: int = 256) -> list[tuple[bytes, Any]]:
+    """Everything the reader holds, oldest first (valid samples only)."""
+    samples: list[tuple[bytes, Any]] = []
+    while True:
+        taken = _clayer.ddspy_take(reader._ref, _ANY, batch)
+        if isinstance(taken, int):
+            return samples  # the reader is gone (closed while its data was queued)
+        samples.extend((data, info) for data, info in taken if info.valid_data)
+        if len(taken) < batch:
+            return samples
+
+
+class DdsPublisher(TransportPublisher):
+    def __init__(self, transport: DdsTransport, writer: DataWriter[Any], type_name: str,
+                 done: Callable[[], None]) -> None:
+        self._types = transport.types
+        self._type_name = type_name
+        self._writer = writer
+        self._done = done
+
+    def publish(self, msg: Any) -> None:
+        self.publish_serialized(self._types.serialize(msg, self._type_name))
+
+    def publish_serialized(self, cdr: bytes) -> None:
+        _write(self._writer, bytes(cdr))
+
+    def wait_for_subscription(self, timeout: float) -> bool:
+        """DDS's publication-matched status: a reader of the topic, here or in another
+        participant, whose QoS the writer's offer satisfies."""
+        end = time.monotonic() + timeout
+        while True:
+            if self._writer.get_publication_matched_status().current_count > 0:
+                return True
+            if time.monotonic() >= end:
+                return False
+            time.sleep(0.005)
+
+    def close(self) -> None:
+        self._done()
+
+
+class _Declared:
+    def __init__(self, close: Callable[[], None]) -> None:
+        self._close: Callable[[], None] | None = close
+
+    def close(self) -> None:
+        close, self._close = self._close, None
+        if close is not None:
+            close()
+
+
+class _Client:
+    """One service's request writer and reply reader, shared by the calls made through it.
+
+    Towards Cyclone DDS servers (servolab, rmw_cyclonedds) each request carries the client id
+    and a sequence number, and any number of calls may be in flight. Towards a Fast DDS server
+    the request goes bare from a second participant (:meth:`DdsTransport.bare_participant`)
+    and one call is in flight at a time (see the module docstring)."""
+
+    def __init__(self, transport: DdsTransport, name: str, srv: ServiceType) -> None:
+        self.transport = transport
+        self.name = name
+        self.srv = srv
+        self.writer = transport._writer(request_topic(name), srv.request, SERVICE_QOS,
+                                        request_header=True)
+        self.reader = transport._reader(reply_topic(name), srv.response, SERVICE_QOS,
+                                        self._on_reply, request_header=True)
+        self.client_id = self.writer.get_instance_handle() & 0xFFFF_FFFF_FFFF_FFFF  # uint64
+        self._sequence = itertools.count(1)
+        self._pending: dict[int, Future[Any]] = {}
+        self._lock = threading.Lock()
+        self._bare_writer: DataWriter[Any] | None = None
+        self._bare_reader: DataReader[Any] | None = None
+        self._bare: Future[Any] | None = None
+        self._bare_lock = threading.Lock()  # one call in flight to a Fast DDS server
+        self._bare_since: float | None = None
+
+    @staticmethod
+    def _matched(writer: DataWriter[Any] | None, reader: DataReader[Any] | None) -> bool:
+        """rmw's service_is_available: the request writer and the reply reader both match."""
+        return (writer is not None and reader is not None
+                and writer.get_publication_matched_status().current_count > 0
+                and reader.get_subscription_matched_status().current_count > 0)
+
+    def available(self) -> bool:
+        """Whether a call can go now: to a Fast DDS server bare, once its endpoints have
+        matched and settled; else to a Cyclone DDS server with the header. (Never the
+        header to Fast DDS: its reader would take the header for the request.)"""
+        if self.transport.fast_dds_serves(self.name):
+            self._open_bare()
+            if not self._matched(self._bare_writer, self._bare_reader):
+                self._bare_since = None
+                return False
+            now = time.monotonic()
+            if self._bare_since is None:
+                self._bare_since = now
+            return now - self._bare_since >= FAST_DDS_SETTLE_S
+        return self._matched(self.writer, self.reader)
+
+    def _open_bare(self) -> None:
+        with self._lock:
+            if self._bare_writer is None:
+                participant = self.transport.bare_participant()
+                self._bare_reader = self.transport._reader(
+                    reply_topic(self.name), self.srv.response, SERVICE_QOS, self._on_bare_reply,
+                    participant=participant)
+                self._bare_writer = self.transport._writer(
+                    request_topic(self.name), self.srv.request, SERVICE_QOS,
+                    participant=participant)
+
+    def _on_reply(self, reader: DataReader[Any]) -> None:
+        for data, _info in _take(reader):
+            if len(data) < _ENCAPSULATION + _REQUEST_HEADER.size:
+                continue
+            client_id, sequence = _REQUEST_HEADER.unpack_from(data, _ENCAPSULATION)
+            if client_id != self.client_id:
+                continue  # another client's answer
+            with self._lock:
+                pending = self._pending.pop(sequence, None)
+            if pending is not None and not pending.done():
+                self._resolve(pending, data[:_ENCAPSULATION]
+                              + data[_ENCAPSULATION + _REQUEST_HEADER.size:])
+
+    def _on_bare_reply(self, reader: DataReader[Any]) -> None:
+        for data, _info in _take(reader):
+            future, self._bare = self._bare, None
+            if future is not None and not future.done():
+                self._resolve(future, data)
+
+    def _resolve(self, future: Future[Any], cdr: bytes) -> None:
+        try:
+            future.set_result(self.transport.types.deserialize(cdr, self.srv.response))
+        except Exception as exc:
+            future.set_exception(ServiceError(f"service {self.name}: bad response ({exc})"))
+
+    def call(self, request: Any, timeout: float) -> Future[Any]:
+        future: Future[Any] = Future()
+        cdr = self.transport.types.serialize(request, self.srv.request)
+
+        def run() -> None:
+            try:
+                end = time.monotonic() + timeout
+                while not self.available():
+                    if time.monotonic() >= end:
+                        raise ServiceError(
+                            f"no service {self.name} answered within {timeout:g} s (is its "
+                            "node running, in the same ROS_DOMAIN_ID and discovery range?)")
+                    time.sleep(0.005)
+                if self._bare_since is not None and self.transport.fast_dds_serves(self.name):
+                    self._call_bare(future, cdr, end)
+                else:
+                    self._call_with_header(future, cdr, end)
+            except Exception as exc:  # never leave the caller waiting
+                if not future.done():
+                    future.set_exception(exc if isinstance(exc, ServiceError)
+                                         else ServiceError(f"service {self.name}: {exc}"))
+
+        threading.Thread(target=run, daemon=True, name=f"call {self.name}").start()
+        return future
+
+    def _call_with_header(self, future: Future[Any], cdr: bytes, end: float) -> None:
+        sequence = next(self._sequence)
+        with self._lock:
+            self._pending[sequence] = future
+        try:
+            _write(self.writer, cdr[:_ENCAPSULATION]
+                   + _REQUEST_HEADER.pack(self.client_id, sequence) + cdr[_ENCAPSULATION:])
+            self._wait(future, end)
+        finally:
+            with self._lock:
+                self._pending.pop(sequence, None)
+
+    def _call_bare(self, future: Future[Any], cdr: bytes, end: float) -> None:
+        assert self._bare_writer is not None
+        if not self._bare_lock.acquire(timeout=max(0.0, end - time.monotonic())):
+            raise ServiceError(f"service {self.name} did not answer within the timeout "
+                               "(an earlier call to its Fast DDS server is still waiting)")
+        try:
+            self._bare = future
+            _write(self._bare_writer, cdr)
+            self._wait(future, end)
+        finally:
+            self._bare = None
+            self._bare_lock.release()
+
+    def _wait(self, future: Future[Any], end: float) -> None:
+        try:
+            future.exception(timeout=max(0.0, end - time.monotonic()))
+        except TimeoutError:
+            if not future.done():
+                future.set_exception(ServiceError(
+                    f"service {self.name} did not answer within the timeout"))
+
+
+class DdsTransport(Transport):
+    """See the module docstring."""
+
+    carries_bytes = True
+
+    def __init__(self, types: MessageTypes, options: TransportOptions | None = None) -> None:
+        super().__init__(types)
+        self.options = options or TransportOptions(kind="dds")
+        self.domain_id = self.options.domain_id
+        if self.options.listen:
+            raise TransportError("--listen is Zenoh's: a DDS participant listens on the ports "
+                                 "its domain (ROS_DOMAIN_ID) gives it")
+        range_, peers = discovery_from_environment(self.options.connect)
+        domain = _DOMAINS.acquire(self.domain_id, cyclone_config(range_, peers))
+        try:
+            self.participant = DomainParticipant(self.domain_id)
+        except BaseException:
+            _DOMAINS.release(self.domain_id)
+            raise
+        self.gid = self.participant.get_guid().bytes
+        self._dds_types = DdsTypes(types)
+        self._lock = threading.RLock()
+        self._closed = False
+        self._topics: dict[tuple[int, str], Topic[Any]] = {}
+        self._watched: dict[int, tuple[DataReader[Any], ReadCondition, Callable[
+            [DataReader[Any]], None]]] = {}
+        self._checks: list[Callable[[], None]] = []
+        # owned by the domain, so that both participants' readers may be attached
+        self._waitset = WaitSet(domain)  # type: ignore[arg-type]
+        self._guard = GuardCondition(domain)  # type: ignore[arg-type]
+        self._waitset.attach(self._guard)
+        self._dispatcher = threading.Thread(target=self._dispatch, daemon=True,
+                                            name=f"dds dispatch {self.domain_id}")
+        self._dispatcher.start()
+        self._bare_participant: DomainParticipant | None = None
+        self._nodes: dict[int, NodeInfo] = {}
+        self._readers: dict[int, set[bytes]] = {}
+        self._writers: dict[int, set[bytes]] = {}
+        self._clients: dict[str, _Client] = {}
+        self._warned: set[str] = set()
+        # the graph: every participant's nodes (ros_discovery_info), and DDS's own discovery
+        self._peers: dict[bytes, Any] = {}
+        self._discovery_writer = self._writer(DISCOVERY_TOPIC, DISCOVERY_TYPE, QoSProfile(
+            depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL), ros=False)
+        self._discovery_reader = self._reader(
+            DISCOVERY_TOPIC, DISCOVERY_TYPE,
+            QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+            self._on_discovery, ros=False)
+        self._builtin = {
+            "participant": BuiltinDataReader(self.participant, BuiltinTopicDcpsParticipant),
+            "publication": BuiltinDataReader(self.participant, BuiltinTopicDcpsPublication),
+            "subscription": BuiltinDataReader(self.participant, BuiltinTopicDcpsSubscription),
+        }
+        self._alive = {key: ReadCondition(reader, SampleState.Any | ViewState.Any
+                                          | InstanceState.Alive)
+                       for key, reader in self._builtin.items()}
+        self._publish_graph()
+
+    # -- entities ----------------------------------------------------------------------------
+
+    def _topic(self, participant: DomainParticipant, name: str, type_name: str,
+               request_header: bool) -> Topic[Any]:
+        key = (participant.get_instance_handle(), name)
+        with self._lock:
+            topic = self._topics.get(key)
+            if topic is None:
+                topic = Topic(participant, name,
+                              self._dds_types.get(type_name, request_header=request_header))
+                self._topics[key] = topic
+            return topic
+
+    def _writer(self, name: str, type_name: str, qos: QoSProfile, *, ros: bool = True,
+                request_header: bool = False,
+                participant: DomainParticipant | None = None) -> DataWriter[Any]:
+        rihs01 = self.types.rihs01(type_name) if ros else None
+        participant = participant or self.participant
+        return DataWriter(participant, self._topic(participant, name, type_name, request_header),
+                          dds_qos(qos, rihs01))
+
+    def _reader(self, name: str, type_name: str, qos: QoSProfile,
+                on_data: Callable[[DataReader[Any]], None], *, ros: bool = True,
+                request_header: bool = False, participant: DomainParticipant | None = None,
+                ) -> DataReader[Any]:
+        """A reader whose data ``on_data`` takes on the transport's dispatch thread.
+
+        No listener: Cyclone DDS would call it on its own receive thread, which would then
+        wait for Python's GIL while holding the reader's lock, and the binding's write and
+        take hold the GIL while they wait for that lock (a deadlock, seen here). Instead the
+        dispatch thread waits on a wait set (which lets go of the GIL) for any reader's
+        condition, and takes."""
+        rihs01 = self.types.rihs01(type_name) if ros else None
+        participant = participant or self.participant
+        reader = DataReader(participant,
+                            self._topic(participant, name, type_name, request_header),
+                            dds_qos(qos, rihs01))
+        condition = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
+        with self._lock:
+            self._watched[id(reader)] = (reader, condition, on_data)
+        self._waitset.attach(condition)
+        self._guard.set(True)  # wake the dispatch thread: it takes what is there already
+        return reader
+
+    def _unwatch(self, reader: DataReader[Any]) -> None:
+        with self._lock:
+            watched = self._watched.pop(id(reader), None)
+        if watched is not None and not self._closed:
+            self._waitset.detach(watched[1])
+
+    def _dispatch(self) -> None:
+        """The dispatch thread: every reader's data, and the periodic checks."""
+        next_check = 0.0
+        while not self._closed:
+            self._waitset.wait(duration(seconds=DISPATCH_CHECK_S))
+            if self._closed:
+                return
+            self._guard.set(False)
+            with self._lock:
+                watched = list(self._watched.values())
+            for reader, condition, on_data in watched:
+                try:
+                    if condition.triggered:
+                        on_data(reader)
+                except Exception:  # one bad sample or handler must not stop every reader
+                    log.exception("DDS transport: handling data on %s failed",
+                                  reader.topic.name)
+            if time.monotonic() >= next_check:
+                next_check = time.monotonic() + DISPATCH_CHECK_S
+                for check in list(self._checks):
+                    check()
+
+    def bare_participant(self) -> DomainParticipant:
+        """A second participant for calling Fast DDS servers: their request and reply topics
+        carry the bare request and response, which this participant's types describe (the
+        first one's service topics carry rmw_cyclonedds' header; a participant has one type
+        per topic)."""
+        with self._lock:
+            if self._bare_participant is None:
+                self._bare_participant = DomainParticipant(self.domain_id)
+            return self._bare_participant
+
+    def fast_dds_serves(self, name: str) -> bool:
+        """Whether a Fast DDS participant has a reader of the service's requests."""
+        wanted = request_topic(name)
+        return any(ep.topic_name == wanted and ep.participant_key.bytes[:2] == VENDOR_EPROSIMA
+                   for ep in self._builtin["subscription"].read(
+                       N=100_000, condition=self._alive["subscription"]))
+
+    def _own(self, node: NodeInfo, *, readers: tuple[Any, ...] = (),
+             writers: tuple[Any, ...] = ()) -> Callable[[], None]:
+        """Count the entities as the node's in ``ros_discovery_info``; the function undoes it
+        and deletes them."""
+        reader_gids = {r.get_guid().bytes for r in readers}
+        writer_gids = {w.get_guid().bytes for w in writers}
+        with self._lock:
+            self._readers.setdefault(node.node_id, set()).update(reader_gids)
+            self._writers.setdefault(node.node_id, set()).update(writer_gids)
+        self._publish_graph()
+
+        def undo() -> None:
+            with self._lock:
+                self._readers.get(node.node_id, set()).difference_update(reader_gids)
+                self._writers.get(node.node_id, set()).difference_update(writer_gids)
+            for reader in readers:
+                self._unwatch(reader)
+            self._delete(*readers, *writers)
+            self._publish_graph()
+        return undo
+
+    def _delete(self, *entities: Any) -> None:
+        if self._closed:
+            return
+        for entity in entities:
+            entity.__del__()  # dds_delete now, not when the garbage collector gets to it
+
+    # -- topics ------------------------------------------------------------------------------
+
+    def advertise(self, node: NodeInfo, topic: str, type_name: str,
+                  qos: QoSProfile) -> DdsPublisher:
+        writer = self._writer(topic_name(topic), type_name, qos)
+        return DdsPublisher(self, writer, type_name, self._own(node, writers=(writer,)))
+
+    def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
+                  wake: Wake, *, raw: bool = False) -> QueueInbox:
+        inbox = QueueInbox(qos.queue_depth, wake)
+
+        def on_data(reader: DataReader[Any]) -> None:
+            now = time.time_ns()
+            for data, info in _take(reader):
+                inbox.put(data, MessageInfo(info.source_timestamp, now))
+
+        reader = self._reader(topic_name(topic), type_name, qos, on_data)
+        inbox.on_close(self._own(node, readers=(reader,)))
+        return inbox
+
+    # -- services ----------------------------------------------------------------------------
+
+    def serve(self, node: NodeInfo, name: str, srv: ServiceType, handler: Handler) -> Closeable:
+        """The request reader and reply writer of rmw's service. A request from a Cyclone
+        DDS client has rmw_cyclonedds' header, which the reply echoes; one from a Fast DDS
+        client cannot be answered (see the module docstring) and is logged once."""
+        writer = self._writer(reply_topic(name), srv.response, SERVICE_QOS, request_header=True)
+
+        def on_request(reader: DataReader[Any]) -> None:
+            for data, info in _take(reader):
+                if self._vendor_of_publication(reader, info.publication_handle) \
+                        == VENDOR_EPROSIMA:
+                    continue  # never run a request read with a layout it was not written in
+                if len(data) < _ENCAPSULATION + _REQUEST_HEADER.size:
+                    continue
+                header = data[_ENCAPSULATION:_ENCAPSULATION + _REQUEST_HEADER.size]
+                request = data[:_ENCAPSULATION] + data[_ENCAPSULATION + _REQUEST_HEADER.size:]
+                self._handle(name, srv, handler, writer, header, request)
+
+        def fast_dds_clients() -> None:
+            for handle in reader.get_matched_publications():
+                if self._vendor_of_publication(reader, handle) == VENDOR_EPROSIMA:
+                    self._warn_once(name, f"a Fast DDS (rmw_fastrtps) client of {name} appeared: "
+                                    "servolab on Cyclone DDS cannot answer it (Fast DDS matches "
+                                    "a reply to its request by RTPS inline QoS, which Cyclone "
+                                    "DDS's API cannot write); call the service from a servolab, "
+                                    "rmw_cyclonedds or Zenoh node")
+
+        reader = self._reader(request_topic(name), srv.request, SERVICE_QOS, on_request,
+                              request_header=True)
+        self._checks.append(fast_dds_clients)
+        undo = self._own(node, readers=(reader,), writers=(writer,))
+
+        def close() -> None:
+            self._checks.remove(fast_dds_clients)
+            undo()
+        return _Declared(close)
+
+    def _handle(self, name: str, srv: ServiceType, handler: Handler, writer: DataWriter[Any],
+                header: bytes, request: bytes) -> None:
+        def reply(response: Any) -> None:
+            if isinstance(response, Exception):
+                # DDS has no error reply: the client's wait ends at its timeout
+                log.error("service %s failed: %s", name, response)
+                return
+            cdr = self.types.serialize(response, srv.response)
+            if not self._closed:
+                _write(writer, cdr[:_ENCAPSULATION] + header + cdr[_ENCAPSULATION:])
+
+        try:
+            handler(request, reply)
+        except Exception as exc:
+            reply(exc)
+
+    def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
+        with self._lock:
+            client = self._clients.get(name)
+            if client is None or client.srv.name != srv.name:
+                client = self._clients[name] = _Client(self, name, srv)
+        return client.call(request, timeout)
+
+    def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:
+        """A client in the graph: its request writer and reply reader, owned by the node."""
+        with self._lock:
+            client = self._clients.get(name)
+            if client is None or client.srv.name != srv.name:
+                client = self._clients[name] = _Client(self, name, srv)
+        gids_node = self._own_gids(node, client)
+        return _Declared(gids_node)
+
+    def _own_gids(self, node: NodeInfo, client: _Client) -> Callable[[], None]:
+        reader_gid = client.reader.get_guid().bytes
+        writer_gid = client.writer.get_guid().bytes
+        with self._lock:
+            self._readers.setdefault(node.node_id, set()).add(reader_gid)
+            self._writers.setdefault(node.node_id, set()).add(writer_gid)
+        self._publish_graph()
+
+        def undo() -> None:
+            with self._lock:
+                self._readers.get(node.node_id, set()).discard(reader_gid)
+                self._writers.get(node.node_id, set()).discard(writer_gid)
+            self._publish_graph()
+        return undo
+
+    def _warn_once(self, key: str, text: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            log.warning(text)
+
+    def _vendor_of_publication(self, reader: DataReader[Any], handle: int) -> bytes:
+        try:
+            data = reader.get_matched_publication_data(handle)
+        except Exception:
+            return b""
+        return data.participant_key.bytes[:2] if data is not None else b""
+
+    # -- graph -------------------------------------------------------------------------------
+
+    def announce_node(self, node: NodeInfo) -> Closeable:
+        with self._lock:
+            self._nodes[node.node_id] = node
+        self._publish_graph()
+
+        def forget() -> None:
+            with self._lock:
+                self._nodes.pop(node.node_id, None)
+                self._readers.pop(node.node_id, None)
+                self._writers.pop(node.node_id, None)
+            self._publish_graph()
+        return _Declared(forget)
+
+    def _publish_graph(self) -> None:
+        """This participant's ``ParticipantEntitiesInfo``: its nodes and their endpoints'
+        GIDs, written whenever they change (rmw_dds_common's ``GraphCache``)."""
+        if self._closed:
+            return
+        types = self.types
+        gid_type = types.get("rmw_dds_common/msg/Gid")
+        node_type = types.get("rmw_dds_common/msg/NodeEntitiesInfo")
+
+        def gid(raw: bytes) -> Any:
+            return gid_type(data=np.frombuffer(raw.ljust(16, b"\0")[:16], dtype=np.uint8).copy())
+
+        with self._lock:
+            nodes = [node_type(node_namespace=node.namespace, node_name=node.name,
+                               reader_gid_seq=[gid(g) for g in sorted(
+                                   self._readers.get(node_id, ()))],
+                               writer_gid_seq=[gid(g) for g in sorted(
+                                   self._writers.get(node_id, ()))])
+                     for node_id, node in sorted(self._nodes.items())]
+            info = types.get(DISCOVERY_TYPE)(gid=gid(self.gid), node_entities_info_seq=nodes)
+            _write(self._discovery_writer, types.serialize(info, DISCOVERY_TYPE))
+
+    def _on_discovery(self, reader: DataReader[Any]) -> None:
+        for data, _info in _take(reader):
+            try:
+                info = self.types.deserialize(data, DISCOVERY_TYPE)
+            except Exception:
+                continue  # not ours to judge another rmw's malformed announcement
+            key = bytes(info.gid.data[:16])
+            with self._lock:
+                self._peers[key] = info
+
+    def graph(self, timeout: float = 0.5) -> list[Endpoint]:
+        """Nodes from ``ros_discovery_info``; their topics, services and clients from DDS's
+        built-in publication and subscription topics, each endpoint attributed to the node
+        whose GIDs list it (as ``rmw_dds_common``'s graph cache does)."""
+        alive = {p.key.bytes for p in self._builtin["participant"].read(
+            N=100_000, condition=self._alive["participant"])}
+        owner: dict[bytes, str] = {}
+        endpoints: list[Endpoint] = []
+        with self._lock:
+            peers = [info for key, info in self._peers.items() if key in alive or key == self.gid]
+        for info in peers:
+            for node in info.node_entities_info_seq:
+                fqn = f"{node.node_namespace.rstrip('/')}/{node.node_name}"
+                endpoints.append(Endpoint("NN", fqn))
+                for gid in (*node.reader_gid_seq, *node.writer_gid_seq):
+                    owner[bytes(gid.data[:16])] = fqn
+        for kind in ("publication", "subscription"):
+            for ep in self._builtin[kind].read(N=100_000, condition=self._alive[kind]):
+                owned_by = owner.get(ep.key.bytes)
+                name = ros_name(ep.topic_name, ep.type_name)
+                if owned_by is None or name is None:
+                    continue
+                if name.role == "topic":
+                    entity = "MP" if kind == "publication" else "MS"
+                elif name.role == "request":
+                    entity = "SC" if kind == "publication" else "SS"
+                else:
+                    continue  # the reply half names the same service again
+                endpoints.append(Endpoint(entity, owned_by, name.name, name.type_name,
+                                          ros_qos(ep.qos) if name.role == "topic" else None))
+        return endpoints
+
+    def check_reachable(self, timeout: float = 2.0) -> None:
+        """With ``--connect`` peers named: some other participant must appear."""
+        if not self.options.connect:
+            return
+        end = time.monotonic() + timeout
+        while True:
+            others = [p for p in self._builtin["participant"].read(
+                N=100_000, condition=self._alive["participant"]) if p.key.bytes != self.gid]
+            if others:
+                return
+            if time.monotonic() >= end:
+                raise TransportError(
+                    f"no DDS participant answers at {', '.join(self.options.connect)} (waited "
+                    f"{timeout:g} s, domain {self.domain_id}): is it running, in this "
+                    "ROS_DOMAIN_ID?")
+            time.sleep(0.05)
+
+    def close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self._guard.set(True)
+        if threading.current_thread() is not self._dispatcher:
+            self._dispatcher.join(5.0)
+        if self._bare_participant is not None:
+            self._bare_participant.__del__()
+        self._waitset.__del__()
+        self._guard.__del__()
+        self.participant.__del__()  # deletes every entity of the participant
+        _DOMAINS.release(self.domain_id)
