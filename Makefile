@@ -37,7 +37,7 @@ test: $(STAMP) ros-oracle
 
 $(ROS_STAMP):
 	$(PYTHON) -m venv $(ROS_VENV)
-	$(ROS_VENV)/bin/python -m pip install --quiet $(ROS_PACKAGES) > $(ROS_VENV)/install.log 2>&1 \
+	$(ROS_VENV)/bin/python -m pip install --quiet --retries 1 --timeout 30 $(ROS_PACKAGES) > $(ROS_VENV)/install.log 2>&1 \
 		&& touch $(ROS_STAMP) \
 		|| echo "make ros-oracle: the real rclpy did not install (see $(ROS_VENV)/install.log);" \
 			"the tests that need it will skip"
@@ -47,6 +47,7 @@ ros-oracle: $(ROS_STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
 	$(BIN)/python benchmarks/middleware.py
+	$(BIN)/python benchmarks/dds.py
 	$(BIN)/python benchmarks/sim.py
 
 lint: $(STAMP)

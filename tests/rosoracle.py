@@ -63,8 +63,8 @@ def _ports_free(domain: int) -> bool:
 
 
 def free_domain_id() -> int:
-    """A ROS domain (1..232) none of whose first ports is taken on this machine now."""
-    domains = list(range(1, 233))
+    """A ROS domain (1..101) none of whose first ports is taken on this machine now."""
+    domains = list(range(1, 102))  # ROS 2 docs: above 101 ports fall in the ephemeral range
     random.shuffle(domains)
     for domain in domains:
         if _ports_free(domain):

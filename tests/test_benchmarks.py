@@ -502,3 +502,18 @@ def test_flytracker_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert loop["log_bytes"] == looped * 17 * 8
     assert "ratio tracker/bare = " in out and "frame period" in out
     assert "host time only" in out and "virtual clock" in out
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(180)
+def test_dds_quick_run(capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/dds.py --quick: servolab's DDS transport and bare Cyclone DDS, each between
+    two processes, every ping echoed and every flood counted (a lost message ends the run
+    with its reason), and the ratio printed."""
+    bench = _load(BENCHMARK.with_name("dds.py"), "dds_bench")
+    assert bench.main(["--quick"]) == 0
+    out = capsys.readouterr().out
+    for engine in ("bare", "servolab"):
+        line = next(x for x in out.splitlines() if x.strip().startswith(engine))
+        assert "msg/s" in line and " us" in line
+    assert "ratio servolab/bare: latency p50 x" in out

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import subprocess
+import sys
 from collections.abc import Iterator
 
 import pytest
@@ -186,6 +188,18 @@ def test_servolab_lists_and_calls_a_real_rclpy_node(ctx: Context, domain: int) -
         # (Fast DDS does not announce the history depth: ``ros2 topic info -v`` prints
         # "History (Depth): UNKNOWN" for it; reliability and durability it does)
         assert scan.qos is not None and not scan.qos.reliable and not scan.qos.transient_local
+        # and the command line a user types, as its own process
+        env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+        cli = [sys.executable, "-m", "servolab"]
+        options = ["--transport", "dds", "--domain-id", str(domain)]
+        nodes = subprocess.run([*cli, "node", "list", *options], env=env, capture_output=True,
+                               text=True, timeout=60, check=True).stdout.splitlines()
+        topics = subprocess.run([*cli, "topic", "list", "-t", *options], env=env,
+                                capture_output=True, text=True, timeout=60,
+                                check=True).stdout.splitlines()
+        assert "/lab/ros_robot" in nodes
+        assert "/lab/chatter [std_msgs/msg/String]" in topics
+        assert "/lab/scan [sensor_msgs/msg/LaserScan]" in topics
         client = Node(ctx, "servolab_caller").create_client("std_srvs/srv/SetBool",
                                                              "/lab/set_flag")
         assert client.wait_for_service(15.0)

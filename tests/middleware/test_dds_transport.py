@@ -1,5 +1,6 @@
-"""The DDS transport between two participants on loopback (as two processes would have them),
-its names and types on DDS, and what it refuses.
+"""The DDS transport between two participants on loopback (two in one process: Cyclone DDS
+delivers between them locally; across processes, ``tests/rclpy/test_programs.py[dds]`` and
+``test_dds_rclpy.py``), its names and types on DDS, and what it refuses.
 
 The layout checked here is ROS 2's (``rt/``, ``rq/…Request``, ``rr/…Reply``,
 ``pkg::msg::dds_::Type_``, ``ros_discovery_info``: the ROS 2 design article "Topic and Service
@@ -171,10 +172,15 @@ def test_discovery_settings_are_checked_and_configured() -> None:
     with pytest.raises(TransportError, match="ROS_AUTOMATIC_DISCOVERY_RANGE='LAN'"):
         discovery_range("LAN")
     assert static_peers("10.0.0.2; robot.local;") == ["10.0.0.2", "robot.local"]
-    local = cyclone_config("LOCALHOST", ["10.0.0.2"])
+    local = cyclone_config("LOCALHOST", [])
     assert '<NetworkInterface address="127.0.0.1"/>' in local
     assert "<AllowMulticast>false</AllowMulticast>" in local
-    assert '<Peer address="127.0.0.1"/><Peer address="10.0.0.2"/>' in local
+    assert '<Peer address="127.0.0.1"/>' in local
+    # a static peer on another machine: not bound to loopback, still no multicast
+    with_peer = cyclone_config("LOCALHOST", ["10.0.0.2"])
+    assert "NetworkInterface" not in with_peer
+    assert "<AllowMulticast>false</AllowMulticast>" in with_peer
+    assert '<Peer address="127.0.0.1"/><Peer address="10.0.0.2"/>' in with_peer
     assert "Interfaces" not in cyclone_config("SUBNET", [])
 
 

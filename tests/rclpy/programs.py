@@ -87,7 +87,7 @@ def servolab_env(transport: str, index: int, port: int, domain: int) -> dict[str
     return env
 
 
-def run(programs: tuple[str, ...], transport: str, tmp: Path,
+def run(programs: tuple[str, ...], transport: str | tuple[str, ...], tmp: Path,
         timeout: float = 60.0) -> dict[str, list[str]]:
     """Start ``programs`` together (the first first) on ``transport``; what each said.
     Every process is stopped when this returns, and one that fails or does not end within
@@ -97,14 +97,15 @@ def run(programs: tuple[str, ...], transport: str, tmp: Path,
     commands = []
     for index, name in enumerate(programs):
         source = (PROGRAMS / f"{name}.py").read_text()
-        if transport == "ros":
+        kind = transport[index] if isinstance(transport, tuple) else transport
+        if kind == "ros":
             commands.append(([str(ros_python()), str(PROGRAMS / f"{name}.py")],
                              ros_env(domain)))
         else:
             path = tmp / f"{name}.py"
             path.write_text(servolabify(source))
             commands.append(([sys.executable, str(path)],
-                             servolab_env(transport, index, port, domain)))
+                             servolab_env(kind, index, port, domain)))
     return _run_all(programs, commands, timeout)
 
 

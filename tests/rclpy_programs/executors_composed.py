@@ -16,7 +16,7 @@ class Talker(Node):
         super().__init__('talker')
         self.i = 0
         self.pub = self.create_publisher(String, 'chatter', 10)
-        self.timer = self.create_timer(0.05, self.timer_callback)
+        self.timer = self.create_timer(0.5, self.timer_callback)
 
     def timer_callback(self):
         if self.i >= COUNT or self.pub.get_subscription_count() == 0:

@@ -43,6 +43,7 @@ from cyclonedds.builtin import (
     BuiltinTopicDcpsSubscription,
 )
 from cyclonedds.core import (
+    DDSException,
     GuardCondition,
     InstanceState,
     Policy,
@@ -101,9 +102,13 @@ SERVICE_QOS = QoSProfile(depth=10)
 #: QoS names the client's reader: rmw_response.cpp, check_for_subscription); discovery's two
 #: halves come milliseconds apart on one machine, so half a second covers a busy one.
 FAST_DDS_SETTLE_S = 0.5
+#: How long after opening a first graph may wait for the participants it met to say what
+#: nodes they hold (see :meth:`DdsTransport.graph`).
+FIRST_GRAPH_S = 5.0
 #: How often the dispatch thread looks for what no condition signals (Fast DDS clients).
 DISPATCH_CHECK_S = 0.5
-#: how long a reliable writer may block when a reader's queue is full (rmw_cyclonedds: 100 ms)
+#: How long a reliable writer may block when a reader's queue is full: Fast DDS's default
+#: (rmw_cyclonedds waits without bound). The binding's write holds Python's GIL meanwhile.
 MAX_BLOCKING_S = 0.1
 
 
@@ -162,7 +167,11 @@ class _Domains:
         with self._lock:
             held = self._open.get(domain_id)
             if held is None:
-                domain = Domain(domain_id, config)
+                try:
+                    domain = Domain(domain_id, config)
+                except DDSException as exc:
+                    raise TransportError(f"DDS domain {domain_id} could not be opened: "
+                                         f"{exc}") from None
                 self._open[domain_id] = (domain, config, 1)
                 return domain
             domain, current, users = held
@@ -175,13 +184,13 @@ class _Domains:
             return domain
 
     def release(self, domain_id: int) -> None:
-        with self._lock:
+        with self._lock:  # deleted under the lock: a new one of the same id must wait for it
             domain, config, users = self._open[domain_id]
             if users > 1:
                 self._open[domain_id] = (domain, config, users - 1)
                 return
             del self._open[domain_id]
-        domain.__del__()
+            domain.__del__()
 
 
 _DOMAINS = _Domains()
@@ -269,6 +278,7 @@ class _Client:
         self._bare: Future[Any] | None = None
         self._bare_lock = threading.Lock()  # one call in flight to a Fast DDS server
         self._bare_since: float | None = None
+        self._bare_sent_ns = 0
 
     @staticmethod
     def _matched(writer: DataWriter[Any] | None, reader: DataReader[Any] | None) -> bool:
@@ -317,7 +327,9 @@ class _Client:
                               + data[_ENCAPSULATION + _REQUEST_HEADER.size:])
 
     def _on_bare_reply(self, reader: DataReader[Any]) -> None:
-        for data, _info in _take(reader):
+        for data, info in _take(reader):
+            if info.source_timestamp < self._bare_sent_ns:
+                continue  # the late answer to a call that timed out, not to this one
             future, self._bare = self._bare, None
             if future is not None and not future.done():
                 self._resolve(future, data)
@@ -335,12 +347,14 @@ class _Client:
         def run() -> None:
             try:
                 end = time.monotonic() + timeout
+                pause = 0.005  # discovery takes milliseconds; a missing server, maybe hours
                 while not self.available():
                     if time.monotonic() >= end:
                         raise ServiceError(
                             f"no service {self.name} answered within {timeout:g} s (is its "
                             "node running, in the same ROS_DOMAIN_ID and discovery range?)")
-                    time.sleep(0.005)
+                    time.sleep(pause)
+                    pause = min(pause * 1.5, 0.1)
                 if self._bare_since is not None and self.transport.fast_dds_serves(self.name):
                     self._call_bare(future, cdr, end)
                 else:
@@ -372,6 +386,7 @@ class _Client:
                                "(an earlier call to its Fast DDS server is still waiting)")
         try:
             self._bare = future
+            self._bare_sent_ns = time.time_ns()
             _write(self._bare_writer, cdr)
             self._wait(future, end)
         finally:
@@ -406,7 +421,21 @@ class DdsTransport(Transport):
         except BaseException:
             _DOMAINS.release(self.domain_id)
             raise
+        try:
+            self._open(types, domain)
+        except BaseException:  # leave nothing running: the thread, the participant, the domain
+            self._closed = True
+            if hasattr(self, "_guard"):
+                self._guard.set(True)
+            if hasattr(self, "_dispatcher") and self._dispatcher.is_alive():
+                self._dispatcher.join(5.0)
+            self.participant.__del__()
+            _DOMAINS.release(self.domain_id)
+            raise
+
+    def _open(self, types: MessageTypes, domain: Domain) -> None:
         self.gid = self.participant.get_guid().bytes
+        self._opened = time.monotonic()
         self._dds_types = DdsTypes(types)
         self._lock = threading.RLock()
         self._closed = False
@@ -510,8 +539,11 @@ class DdsTransport(Transport):
                     if condition.triggered:
                         on_data(reader)
                 except Exception:  # one bad sample or handler must not stop every reader
-                    log.exception("DDS transport: handling data on %s failed",
-                                  reader.topic.name)
+                    with self._lock:
+                        gone = self._closed or id(reader) not in self._watched
+                    if not gone:  # (a reader deleted meanwhile has nothing more to say)
+                        log.exception("DDS transport: handling data on %s failed",
+                                      reader.topic.name)
             if time.monotonic() >= next_check:
                 next_check = time.monotonic() + DISPATCH_CHECK_S
                 for check in list(self._checks):
@@ -728,7 +760,26 @@ class DdsTransport(Transport):
     def graph(self, timeout: float = 0.5) -> list[Endpoint]:
         """Nodes from ``ros_discovery_info``; their topics, services and clients from DDS's
         built-in publication and subscription topics, each endpoint attributed to the node
-        whose GIDs list it (as ``rmw_dds_common``'s graph cache does)."""
+        whose GIDs list it (as ``rmw_dds_common``'s graph cache does).
+
+        Soon after the transport opened (a command that lists the graph at once), it first
+        lets discovery run for ``timeout`` s, and then until every participant it has met
+        has told it its nodes, up to :data:`FIRST_GRAPH_S` after opening: a Fast DDS peer
+        resends its transient-local ``ros_discovery_info`` to a new reader only at its next
+        heartbeat (every 3 s by default)."""
+        while True:
+            now = time.monotonic()
+            if now >= self._opened + FIRST_GRAPH_S:
+                break
+            if now >= self._opened + timeout:
+                own = {self.gid} | ({self._bare_participant.get_guid().bytes}
+                                    if self._bare_participant is not None else set())
+                met = {p.key.bytes for p in self._builtin["participant"].read(
+                    N=100_000, condition=self._alive["participant"])} - own
+                with self._lock:
+                    if met <= set(self._peers):
+                        break
+            time.sleep(0.02)
         alive = {p.key.bytes for p in self._builtin["participant"].read(
             N=100_000, condition=self._alive["participant"])}
         owner: dict[bytes, str] = {}

@@ -107,9 +107,4 @@ def shutdown() -> None:
         context.close()
 
 
-# Closed when the main thread ends, before Python waits for the other threads (issue 32, D2):
-# a program that never called shutdown() would otherwise wait for ever on the threads that
-# the open context keeps running, since ``atexit`` handlers run only after that wait.
-# ``threading._register_atexit`` is how concurrent.futures hooks the same moment.
-threading._register_atexit(shutdown)  # type: ignore[attr-defined]
-atexit.register(shutdown)  # and for an interpreter that ends some other way
+atexit.register(shutdown)

@@ -384,6 +384,11 @@ class _Supervisor:
                                         any(m.required for m in members),
                                         child_environment(_joining(transport, endpoint))))
         for entry, transport in zip(commands, transports[len(groups):], strict=True):
+            if (options.kind == "dds" and entry.command[0] == "servolab"
+                    and "--transport" not in entry.command):
+                self.emit(f"[launch] warning: {entry.name} runs a servolab command without "
+                          "--transport dds; it would use its own default (zenoh), not the "
+                          "launch's DDS")
             if options.kind == "zenoh" and _deaf_servolab_command(entry):
                 self.emit(f"[launch] warning: {entry.name} runs a servolab command with no "
                           f"endpoint; give it --connect {ZENOH_ENDPOINT} to reach the "

@@ -137,6 +137,10 @@ def discovery_from_environment(connect: list[str]) -> tuple[str, list[str]]:
     return range_, peers
 
 
+def is_loopback(host: str) -> bool:
+    return host in ("localhost", "::1") or host.startswith("127.")
+
+
 def cyclone_config(range_: str, peers: list[str], *, max_participants: int = 32) -> str:
     """Cyclone DDS's XML configuration for the discovery range and static peers.
 
@@ -148,8 +152,12 @@ def cyclone_config(range_: str, peers: list[str], *, max_participants: int = 32)
     general = ""
     peer_list = list(peers)
     if range_ == "LOCALHOST":
-        general = ("<General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
-                   "<AllowMulticast>false</AllowMulticast></General>")
+        # bound to loopback only while every peer is on this machine: a remote static peer
+        # must be told an address it can answer (ROS 2: static peers extend LOCALHOST)
+        local = all(is_loopback(peer) for peer in peer_list)
+        interfaces = ("<Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
+                      if local else "")
+        general = f"<General>{interfaces}<AllowMulticast>false</AllowMulticast></General>"
         peer_list = ["127.0.0.1", *peer_list]
     elif range_ == "OFF":
         general = "<General><AllowMulticast>false</AllowMulticast></General>"

@@ -137,6 +137,29 @@ class _Declared:
         self._items.clear()
 
 
+#: Every open Zenoh transport of this process, for :func:`_close_sessions_at_exit`.
+_OPEN: weakref.WeakSet[ZenohTransport] = weakref.WeakSet()
+
+
+def _close_sessions_at_exit() -> None:
+    """Close the sessions a program left open, once its own threads have ended (issue 32,
+    D2). zenoh-python runs its callbacks on non-daemon threads ("pyo3-closure") that end only
+    when their session closes (zenoh-python #434), and Python waits for such threads before
+    it runs ``atexit`` handlers: a program that never closed its context would never exit.
+    This runs when the main thread ends (``threading._register_atexit``, the hook
+    concurrent.futures uses), waits for the program's other non-daemon threads as Python
+    would, then closes the sessions, which ends Zenoh's."""
+    me = threading.current_thread()
+    for thread in threading.enumerate():
+        if thread is not me and not thread.daemon and "pyo3" not in thread.name:
+            thread.join()
+    for transport in list(_OPEN):
+        transport.close()
+
+
+threading._register_atexit(_close_sessions_at_exit)  # type: ignore[attr-defined]
+
+
 def congestion_control(reliable: bool, depth: int) -> zenoh.CongestionControl:
     """rmw_zenoh's choice (``rmw_publisher_data.cpp``): BLOCK only for RELIABLE + KEEP_ALL
     (``depth`` 0), DROP otherwise, so that a stalled subscriber never stalls a KEEP_LAST
@@ -222,6 +245,7 @@ class ZenohTransport(Transport):
         self._lock = threading.Lock()
         self._closed = False
         self._inboxes: weakref.WeakSet[ChannelInbox] = weakref.WeakSet()
+        _OPEN.add(self)
 
     # -- helpers -----------------------------------------------------------------------------
 
