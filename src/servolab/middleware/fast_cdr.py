@@ -37,6 +37,7 @@ against it. Serializing is little-endian (header ``00 01 00 00``); both byte ord
 from __future__ import annotations
 
 import struct
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -148,7 +149,7 @@ class _Source:
         return func
 
 
-class _Gen:
+class _Gen(ABC):
     """What the serializer's and deserializer's generators share: the type descriptions,
     what is known of the position, and the run of fixed-size fields being gathered into one
     ``Struct``: (struct code, value expression or target name, or None for padding)."""
@@ -171,14 +172,14 @@ class _Gen:
     def emit(self, line: str, extra: int = 0) -> None:
         self.src.lines.append("    " * (self.indent + extra) + line)
 
-    def flush(self) -> None:
-        raise NotImplementedError
+    @abstractmethod
+    def flush(self) -> None: ...
 
-    def runtime_align(self, a: int) -> str:
-        raise NotImplementedError
+    @abstractmethod
+    def runtime_align(self, a: int) -> str: ...
 
-    def skip(self, pad: int) -> str:
-        raise NotImplementedError
+    @abstractmethod
+    def skip(self, pad: int) -> str: ...
 
     def align(self, a: int) -> None:
         """Pad to a multiple of ``a``: pad bytes in the run when the position's remainder is
