@@ -30,7 +30,9 @@ from tests.processes import started
 from tests.rosoracle import free_domain_id, ros_env, ros_python
 from tests.waiting import wait_for_line, wait_until
 
-pytestmark = pytest.mark.slow
+#: realtime too: each test runs a second interpreter (and the real rclpy's DDS threads) beside
+#: this one, which keeps both cores busy; the wall-clock tests must not run beside that
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 TWIST = "geometry_msgs/msg/Twist"
 

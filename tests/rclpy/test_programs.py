@@ -22,6 +22,10 @@ import pytest
 
 from tests.rclpy.programs import EXPECTED, RUNS, expected, run, run_id, servolabify
 
+#: Every test here runs two or three interpreters at once, which keeps both cores busy: the
+#: wall-clock tests must not run beside them (tests/conftest.py)
+pytestmark = pytest.mark.realtime
+
 #: servolab's transports between processes
 TRANSPORTS = ["zenoh", "dds"]
 
