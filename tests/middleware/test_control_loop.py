@@ -262,6 +262,29 @@ def test_owner_gets_the_error_at_shutdown_or_its_next_spin_call(wctx: Context,
             wctx.spin_once(0.0)
 
 
+def test_owner_spinning_beside_the_spin_thread_gets_its_error_within_the_call(
+        wctx: Context) -> None:
+    """spin_until counts its thread as spinning once for the whole loop (issue 32: no lock
+    per message), yet the owner still gets the spin thread's error while it spins, not only
+    at its next call."""
+    node = Node(wctx, "listener")
+    node.create_subscription(TWIST, "/cmd", _raise_on_negative([]))
+    pub = node.create_publisher(TWIST, "/cmd")
+    thread = wctx.executor.spin_in_thread()
+    sent: list[bool] = []
+
+    def not_yet() -> bool:
+        if not sent:  # from inside the owner's loop, which waits here for the spin thread
+            sent.append(True)
+            pub.publish(node.message(TWIST, linear={"x": -1.0}))
+            wait_for(lambda: not thread.is_alive(), "the spin thread to stop")
+        return False
+
+    with pytest.raises(Boom):
+        wctx.executor.spin_until(not_yet, 30.0)
+    assert wctx.executor.exception is None  # given once, to the owner
+
+
 def test_on_error_log_keeps_spinning(wctx: Context, caplog: pytest.LogCaptureFixture) -> None:
     node = Node(wctx, "listener")
     got: list[float] = []

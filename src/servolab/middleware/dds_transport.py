@@ -217,13 +217,13 @@ def _take(reader: DataReader[Any], batch: int = 256) -> list[tuple[bytes, Any]]:
 class DdsPublisher(TransportPublisher):
     def __init__(self, transport: DdsTransport, writer: DataWriter[Any], type_name: str,
                  done: Callable[[], None]) -> None:
-        self._types = transport.types
         self._type_name = type_name
+        self._write = transport.types.writer(type_name)  # CDR per message, looked up once
         self._writer = writer
         self._done = done
 
     def publish(self, msg: Any) -> None:
-        self.publish_serialized(self._types.serialize(msg, self._type_name))
+        self.publish_serialized(self._write(msg))
 
     def publish_serialized(self, cdr: bytes) -> None:
         _write(self._writer, bytes(cdr))

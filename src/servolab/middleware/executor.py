@@ -269,9 +269,21 @@ class Executor:
         (None: until there is some). Returns whether anything ran. Due timers go first."""
         if self._error is not None and not self.in_executor_thread:
             self.raise_if_failed()
-        work = self._next_work(timeout)
+        ready = self._ready
+        if ready and not self._timers and not self._shutdown:
+            # no timer to put first: work waiting needs neither the lock nor the clock
+            # (a flood's cost per message); a timer added meanwhile is seen next time
+            try:
+                work: Callable[[], None] | None = ready.popleft()
+            except IndexError:  # another spinner took it
+                work = self._next_work(timeout)
+        else:
+            work = self._next_work(timeout)
         if work is None:
             return False
+        if threading.get_ident() in self._spinning:
+            work()  # inside spin()/spin_until()/spinning(): counted once for the whole loop
+            return True
         self._enter()
         try:
             work()
@@ -280,13 +292,6 @@ class Executor:
         return True
 
     def _next_work(self, timeout: float | None) -> Callable[[], None] | None:
-        if self._ready and not self._timers and not self._shutdown:
-            # no timer to put first: work waiting needs neither the lock nor the clock
-            # (a flood's cost per message); a timer added meanwhile is seen next time
-            try:
-                return self._ready.popleft()
-            except IndexError:
-                pass  # another spinner took it
         clock = self.clock
         deadline = None if timeout is None else clock.now() + timeout
         with self._lock:
@@ -336,30 +341,44 @@ class Executor:
     def spin_until(self, done: Callable[[], bool], timeout: float | None = None) -> bool:
         """Spin until ``done()`` is true (checked after each callback) or ``timeout`` passes;
         returns ``done()``."""
-        end = None if timeout is None else self.clock.now() + timeout
-        while not done() and not self._shutdown:
-            left = None if end is None else end - self.clock.now()
-            if left is not None and left <= 0:
-                break
-            # on a wall clock a bounded wait: done() may turn true on another thread with no
-            # work for this one (another spinner took the wake-up), and is looked at again
-            # then; a virtual clock must not be moved by a wait with nothing due
-            if left is None:
-                self.spin_once(None if self.clock.virtual else 0.1)
-            else:
-                self.spin_once(min(left, 0.1))
+        now, spin_once = self.clock.now, self.spin_once  # looked up once: a flood's loop
+        end = None if timeout is None else now() + timeout
+        # on a wall clock a bounded wait: done() may turn true on another thread with no work
+        # for this one (another spinner took the wake-up), and is looked at again then; a
+        # virtual clock must not be moved by a wait with nothing due
+        idle = None if self.clock.virtual else 0.1
+        outer = not self.in_executor_thread  # the owner: given a spin thread's error
+        with self.spinning():
+            while not done() and not self._shutdown:
+                if outer and self._error is not None:
+                    self.raise_if_failed()
+                if end is None:
+                    spin_once(idle)
+                    continue
+                left = end - now()
+                if left <= 0:
+                    break
+                spin_once(left if left < 0.1 else 0.1)
         return done()
 
     def spin_for(self, seconds: float) -> None:
         """Run callbacks for ``seconds`` of the executor's clock."""
         end = self.clock.now() + seconds
-        while not self._shutdown and (left := end - self.clock.now()) > 0:
-            self.spin_once(left)
+        outer = not self.in_executor_thread  # the owner: given a spin thread's error
+        with self.spinning():
+            while not self._shutdown and (left := end - self.clock.now()) > 0:
+                if outer and self._error is not None:
+                    self.raise_if_failed()
+                self.spin_once(left)
 
     def spin(self) -> None:
         """Run callbacks until :meth:`shutdown` (from a callback, a signal or another thread)."""
-        while not self._shutdown:
-            self.spin_once(0.1)
+        outer = not self.in_executor_thread  # the owner: given a spin thread's error
+        with self.spinning():
+            while not self._shutdown:
+                if outer and self._error is not None:
+                    self.raise_if_failed()
+                self.spin_once(0.1)
 
     def spin_in_thread(self, *, on_error: OnError = "raise") -> SpinThread:
         """Spin on a daemon thread, for scripts whose main thread runs a ``Rate`` loop.

@@ -495,6 +495,7 @@ class FastCdr:
     def __init__(self, store: Typestore) -> None:
         self.store = store
         self._serializers: dict[str, Serializer] = {}
+        self._writers: dict[str, Serializer] = {}
         self._deserializers: dict[str, tuple[Deserializer, Deserializer]] = {}
         self._fields: dict[str, list[tuple[str, FieldDesc]]] = {}
         self._flat: dict[str, tuple[str, int, list[str], int] | None] = {}
@@ -504,11 +505,21 @@ class FastCdr:
     def serialize(self, msg: Any, typename: str) -> bytes:
         """Little-endian CDR bytes of ``msg``, header included (rosbags' for what the
         generated code does not take, so rosbags' error for what neither does)."""
-        func = self._serializers.get(typename) or self.serializer(typename)
-        try:
-            return func(msg)
-        except Exception:
-            return bytes(self.store.serialize_cdr(msg, typename, little_endian=True))
+        return (self._writers.get(typename) or self.writer(typename))(msg)
+
+    def writer(self, typename: str) -> Serializer:
+        """What :meth:`serialize` does for one type, as one function a publisher keeps."""
+        write = self._writers.get(typename)
+        if write is None:
+            func, store = self.serializer(typename), self.store
+
+            def write(msg: Any) -> bytes:
+                try:
+                    return func(msg)
+                except Exception:
+                    return bytes(store.serialize_cdr(msg, typename, little_endian=True))
+            self._writers[typename] = write
+        return write
 
     def deserialize(self, data: bytes | memoryview, typename: str) -> Any:
         """The message of CDR bytes of either byte order (rosbags reads what the generated
@@ -540,6 +551,30 @@ class FastCdr:
         does not generate); it checks the header's byte order no more."""
         funcs = self._deserializers.get(typename) or self._build_deserializers(typename)
         return funcs[little_endian]
+
+    def reader(self, typename: str) -> Deserializer:
+        """What :meth:`deserialize` does for one type, as one function a subscription keeps:
+        the header's byte order picks the generated code, rosbags reads what it refuses, and
+        bytes neither reads raise a one-line :class:`CdrError` (a message's cost per receipt
+        is this one call and the generated one)."""
+        big, little = self._deserializers.get(typename) or self._build_deserializers(typename)
+        store = self.store
+
+        def read(data: bytes | memoryview) -> Any:
+            if len(data) >= 4 and data[0] == 0:
+                kind = data[1]
+                try:
+                    if kind == 1:
+                        return little(data)
+                    if kind == 0:
+                        return big(data)
+                except Exception:
+                    pass
+            try:
+                return store.deserialize_cdr(data, typename)
+            except Exception as exc:
+                raise CdrError(f"{len(data)} bytes are not a CDR {typename}: {exc}") from None
+        return read
 
     def source(self, typename: str) -> str | None:
         """The generated Python of a type's serializer and little-endian deserializer, or

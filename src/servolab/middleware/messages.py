@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import difflib
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
@@ -217,6 +217,7 @@ class MessageTypes:
         self.store = get_typestore(Stores.ROS2_JAZZY)
         #: the store's CDR code, generated per type on first use (rosbags stays the oracle)
         self.cdr = FastCdr(self.store)
+        self._readers: dict[str, Callable[[bytes | memoryview], Any]] = {}
         self._fix_service_event_info()
         self.register_msgs(DYNAMIXEL_MSGS)
         self.register_msgs(TURTLEBOT3_MSGS)
@@ -338,13 +339,23 @@ class MessageTypes:
         leaves to rosbags whatever it does not take) several times faster."""
         return self.cdr.serialize(msg, name or self.type_of(msg))
 
+    def writer(self, name: str) -> Callable[[Any], bytes]:
+        """:meth:`serialize` for one type, as one function (what a publisher calls for every
+        message it publishes)."""
+        return self.cdr.writer(self.check(name))
+
     def deserialize(self, data: bytes | memoryview, name: str) -> Any:
         """The message of CDR bytes of either byte order, as rosbags builds it (through
         :mod:`.fast_cdr`), or a one-line :class:`MessageError`."""
-        try:
-            return self.cdr.deserialize(data, name)
-        except Exception as exc:
-            raise MessageError(f"{len(data)} bytes are not a CDR {name}: {exc}") from None
+        return self.reader(name)(data)
+
+    def reader(self, name: str) -> Callable[[bytes | memoryview], Any]:
+        """:meth:`deserialize` for one type, as one function (what a subscription calls for
+        every message it receives)."""
+        read = self._readers.get(name)
+        if read is None:
+            read = self._readers[name] = self.cdr.reader(self.check(name))
+        return read
 
     def msgdef(self, name: str) -> str:
         """The ``ros2msg`` schema text (the type and every type it uses) that rosbag2 writes."""

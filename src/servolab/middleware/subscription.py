@@ -8,11 +8,14 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from .inbox import Taken
 from .qos import QoSProfile
-from .transport import MessageInfo
 
 if TYPE_CHECKING:
     from .node import Node
+
+#: what a transport that carries bytes hands over (the in-process one hands over objects)
+_CDR = (bytes, memoryview)
 
 
 class Subscription:
@@ -46,7 +49,8 @@ class Subscription:
         self._callback = callback
         self._with_info = with_info
         self._submit = node.context.executor.submit
-        self._deserialize = node.context.types.deserialize
+        self._deserialize = node.context.types.reader(type_name)
+        self._take_turn = self._take  # bound once: queued again after every message
         self._destroyed = False
         # The transport may wake us before subscribe() returns (a TRANSIENT_LOCAL replay, a
         # publisher on another thread, Zenoh's watcher): such a wake-up is kept until the
@@ -95,14 +99,15 @@ class Subscription:
         if taken is None:
             return  # the inbox wakes us when the next message comes
         try:
-            self._run(*taken)
+            self._run(taken)
         finally:  # more may wait (also after a callback that raised): look again after
-            self._submit(self._take)  # the others' turn
+            self._submit(self._take_turn)  # the others' turn
 
-    def _run(self, data: Any, info: MessageInfo) -> None:
+    def _run(self, taken: Taken) -> None:
+        data, info = taken
         self.received += 1
-        if not self.raw and isinstance(data, bytes | memoryview):
-            data = self._deserialize(data, self.type_name)
+        if not self.raw and isinstance(data, _CDR):
+            data = self._deserialize(data)
         if self._with_info:
             self._callback(data, info)
         else:
@@ -114,7 +119,7 @@ class Subscription:
         recorder does, it is the only one taking: the executor no longer does."""
         n = 0
         while (taken := self._inbox.take(self._with_info)) is not None:
-            self._run(*taken)
+            self._run(taken)
             n += 1
         return n
 

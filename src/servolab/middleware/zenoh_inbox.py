@@ -71,9 +71,9 @@ def message_info(attachment: zenoh.ZBytes | None, received_ns: int) -> MessageIn
 class ChannelInbox:
     """The inbox of one Zenoh subscriber declared with :func:`channel_for`'s channel.
 
-    Messages are handed over as CDR bytes (``raw``) or as a memoryview of them, which lets
-    rosbags read an image's pixels without copying them again: one copy out of Zenoh per
-    message (Zenoh's buffers do not expose Python's buffer protocol). A message's
+    Messages are handed over as CDR bytes: one copy out of Zenoh per message (Zenoh's
+    buffers do not expose Python's buffer protocol), and none after it (the generated codec
+    reads an image's pixels with ``numpy.frombuffer`` at their offset in those bytes). A message's
     ``received_timestamp_ns`` is when the executor takes it; its attachment is decoded only
     for a consumer that asks for the :class:`MessageInfo`.
 
@@ -86,13 +86,12 @@ class ChannelInbox:
     dropped = 0  # Zenoh's ring channel drops without counting
     pending = 0  # nor does it say how many wait
 
-    def __init__(self, subscriber: Any, wake: Wake, *, raw: bool, name: str, depth: int,
+    def __init__(self, subscriber: Any, wake: Wake, *, name: str, depth: int,
                  token: Any = None) -> None:
         self._subscriber = subscriber
         self._token = token  # the subscription's liveliness token, undeclared first
         self._channel = subscriber.handler
         self._wake = wake
-        self._raw = raw
         self._depth = depth  # 0: KEEP_ALL
         self._lock = threading.Lock()
         self._held: zenoh.Sample | None = None  # what the watcher received
@@ -122,12 +121,16 @@ class ChannelInbox:
             self._wake()
 
     def take(self, info: bool = True) -> Taken | None:
-        with self._lock:
-            sample = self._next()
+        try:
+            # the backlog is the taker's alone (the watcher holds a sample only after it ran
+            # dry): no lock for what waits there, most of a burst
+            sample: zenoh.Sample | None = self._backlog.popleft()
+        except IndexError:
+            with self._lock:
+                sample = self._next()
         if sample is None:
             return None
-        payload = sample.payload.to_bytes()
-        return ((payload if self._raw else memoryview(payload)),
+        return (sample.payload.to_bytes(),
                 message_info(sample.attachment, time.time_ns()) if info else NO_INFO)
 
     def _next(self) -> zenoh.Sample | None:

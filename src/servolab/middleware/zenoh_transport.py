@@ -173,14 +173,16 @@ def congestion_control(reliable: bool, depth: int) -> zenoh.CongestionControl:
 class ZenohPublisher(TransportPublisher):
     def __init__(self, transport: ZenohTransport, key: str, type_name: str, gid: bytes,
                  qos: QoSProfile) -> None:
-        self._types = transport.types
         self._type_name = type_name
+        self._write = transport.types.writer(type_name)  # CDR per message, looked up once
         self._session = transport.session
         self._key = key
         self._gid = gid
         # the attachment's last 17 bytes (GID length, GID) never change: checked once here
         self._gid_tail = encode_attachment(0, 0, gid)[ATTACHMENT_SEQUENCE_AND_TIME.size:]
-        self._sequence = itertools.count(1)
+        # sequence number and time: the part of the attachment that changes, packed per put
+        self._next = itertools.count(1).__next__
+        self._pack = ATTACHMENT_SEQUENCE_AND_TIME.pack
         options: dict[str, Any] = {
             "congestion_control": congestion_control(qos.reliable, qos.queue_depth),
             "reliability": (zenoh.Reliability.RELIABLE if qos.reliable
@@ -201,11 +203,11 @@ class ZenohPublisher(TransportPublisher):
         self._declared = _Declared(self._publisher, token)
 
     def publish(self, msg: Any) -> None:
-        self.publish_serialized(self._types.serialize(msg, self._type_name))
+        self.publish_serialized(self._write(msg))
 
     def publish_serialized(self, cdr: bytes) -> None:
-        attachment = ATTACHMENT_SEQUENCE_AND_TIME.pack(next(self._sequence), time.time_ns())
-        self._publisher.put(cdr, attachment=attachment + self._gid_tail)
+        self._publisher.put(cdr, attachment=self._pack(self._next(), time.time_ns())
+                            + self._gid_tail)
 
     def wait_for_subscription(self, timeout: float) -> bool:
         """Zenoh's matching status of a publisher on the key: true once this session routes
@@ -289,7 +291,7 @@ class ZenohTransport(Transport):
             subscriber = self.session.declare_subscriber(key, channel_for(qos))
         token = self._token(node, EntityKind.SUBSCRIPTION, topic, type_name, qos,
                             next(self._entity_ids))
-        inbox = ChannelInbox(subscriber, wake, raw=raw, name=topic, depth=qos.queue_depth,
+        inbox = ChannelInbox(subscriber, wake, name=topic, depth=qos.queue_depth,
                              token=token)
         self._inboxes.add(inbox)
         return inbox
