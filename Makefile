@@ -14,7 +14,7 @@ ROS_PACKAGES := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-rmw-dds-com
 	ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-geometry-msgs ros-jazzy-sensor-msgs \
 	ros-jazzy-nav-msgs ros-jazzy-rosgraph-msgs
 
-.PHONY: demo test lint bench clean ros-oracle
+.PHONY: demo test lint bench clean ros-oracle view-oracle
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -30,7 +30,7 @@ demo: $(STAMP)
 # Two workers, each test file on one (its module fixtures made once): many tests wait on
 # real time (a pty at 57142 bps, a subprocess, a stop signal), and every test already keeps
 # to its own temporary folder and free ports, and survives a busy CPU.
-test: $(STAMP) ros-oracle
+test: $(STAMP) ros-oracle view-oracle
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile
@@ -44,6 +44,21 @@ $(ROS_STAMP):
 
 ros-oracle: $(ROS_STAMP)
 
+# Foxglove's own WebSocket client (@foxglove/ws-protocol) and ROS 2 CDR decoder
+# (@foxglove/rosmsg2-serialization), run by Node: the tests' oracle for `servolab view`
+# (tests/viewclient.py). npm installs them from the lock file; where Node or the registry is
+# missing the install fails, the log says why, and the tests that need them skip saying so.
+VIEW_CLIENT := tests/view_client
+VIEW_STAMP := $(VIEW_CLIENT)/node_modules/.installed
+
+$(VIEW_STAMP): $(VIEW_CLIENT)/package-lock.json
+	(cd $(VIEW_CLIENT) && npm ci --no-audit --no-fund > install.log 2>&1) \
+		&& touch $(VIEW_STAMP) \
+		|| echo "make view-oracle: the Foxglove client's npm packages did not install" \
+			"(see $(VIEW_CLIENT)/install.log); the tests that need them will skip"
+
+view-oracle: $(VIEW_STAMP)
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
 	$(BIN)/python benchmarks/middleware.py
@@ -55,4 +70,4 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 clean:
-	rm -rf $(VENV) $(ROS_VENV) build *.egg-info src/*.egg-info .pytest_cache .mypy_cache
+	rm -rf $(VENV) $(ROS_VENV) tests/view_client/node_modules build *.egg-info src/*.egg-info .pytest_cache .mypy_cache

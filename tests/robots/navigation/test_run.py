@@ -110,7 +110,8 @@ def test_the_run_is_recorded_and_plotted(appearing: dict[str, Any]) -> None:
     topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
     assert topics == {"/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose",
                       "/plan", "/map", "/odometry/filtered", "/tf", "/clock",
-                      "/navigate_to_pose/_action/status"}
+                      "/navigate_to_pose/_action/status", "/global_costmap/costmap",
+                      "/local_plan", "/path", "/goal_pose"}
     # simulated time, as under Gazebo with use_sim_time: /clock and the stamps agree
     clock = _messages(appearing, "/clock")
     assert clock and all(m.ros_msg.clock.sec < 1000 for m in clock)

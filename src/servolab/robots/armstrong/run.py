@@ -4,9 +4,11 @@ As 001's control node: move to the stand pose (Table 4.2), then play a motion se
 at 4.5 rows a second. The motion is the seed's gait generated now, or a motion file checked
 whole against the joints' limits *before* anything moves (a bad cell is an error naming its
 line and column, never 0 degrees). Every command, every joint state, the motors' states and
-``/diagnostics`` go to the run folder's MCAP bag; a plot compares commanded and present
-angles of both legs. Stamps and the bag's times are ROS time: the epoch's on a real robot,
-the simulation's on the emulated one, which then publishes it on ``/clock``
+``/diagnostics`` go to the run folder's MCAP bag, with what a 3D viewer draws the robot from
+(``/robot_description``, ``/joint_states``, ``/tf``, ``/tf_static``: :mod:`.state_publisher`);
+a plot compares commanded and present angles of both legs. Stamps and the bag's times are
+ROS time: the epoch's on a real robot, the simulation's on the emulated one, which then
+publishes it on ``/clock``
 (:mod:`servolab.middleware.clock_node`). An alarm of the safety supervisor
 (:mod:`.supervisor`), Ctrl-C or SIGTERM end the gait at the next row and bring the robot to
 double support (the stand pose); ``summary.json`` lists each alarm and the errors each
@@ -28,6 +30,7 @@ from . import ON_STOP
 from .control_node import PLAY_RATE, Armstrong, controller_of
 from .physics_report import physics_summary, plot_physics, render_walk
 from .poses import MOTORS
+from .state_publisher import ArmstrongStatePublisher, StatePublisherConfig
 
 if TYPE_CHECKING:
     from ...dynamixel.emulator import Faults
@@ -90,7 +93,12 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             + (f" ({', '.join(robot.manager.failed)} could not start)"
                if robot.manager.failed else ""))
         start_clock(robot.context)  # the emulated robot's simulated time on /clock
+        # the robot for a 3D viewer: /robot_description, /joint_states, /tf, /tf_static;
+        # made before the recorder, which then hears the latched topics' publishers
+        shown = ArmstrongStatePublisher(robot.context, StatePublisherConfig.armstrong(
+            robot.manager.controllers, assumptions, robot.config))
         topics = recorded_topics(robot)
+        topics.update(shown.topics)
         truth = None
         if robot.physics is not None:
             from ...sim.mujoco_truth import SampledTruthNode, truth_topics

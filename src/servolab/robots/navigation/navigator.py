@@ -12,6 +12,26 @@ it (``action_msgs/msg/GoalStatusArray`` on ``/navigate_to_pose/_action/status``)
 feedback (``nav2_msgs/action/NavigateToPose_FeedbackMessage`` on
 ``/navigate_to_pose/_action/feedback``: pose, time, recoveries, distance left).
 
+**What it thinks**, in the types and on the topics Nav2 uses, so rviz2 or Foxglove draw it
+(conversions in :mod:`~.display`, frame ``map``, metres and radians):
+
+- ``/global_costmap/costmap`` (``nav_msgs/msg/OccupancyGrid``, TRANSIENT_LOCAL depth 1): the
+  inflated grid D* Lite plans on, costmap_2d's costs written 0..100 / -1 as Nav2's
+  Costmap2DPublisher writes them (:func:`~.display.costmap_occupancy`), with the map's
+  resolution, size and origin; published with the first map and again whenever it changes;
+- ``/local_plan`` (``nav_msgs/msg/Path``, depth 10): every controller cycle DWA runs, the poses
+  of the chosen (v, w) over DWA's ``sim_time`` from DWA's own rollout
+  (:attr:`~servolab.planning.dwa.DwaResult.trajectory`), its first pose the robot's pose of
+  that cycle, stamped with that pose's stamp (as DWB stamps its local plan); when DWA chose
+  no trajectory (goal handling: braking, turning to the goal's heading, the goal reached; or
+  no valid one) the path is that one pose, where the robot stays;
+- ``/path`` (``nav_msgs/msg/Path``, depth 10): the robot's poses so far (the pose it drives
+  on, each with its own stamp), a new one kept once it is
+  :data:`~.display.PATH_SPACING` m from the last, the whole path published each time;
+- ``/goal_pose`` (``geometry_msgs/msg/PoseStamped``, TRANSIENT_LOCAL depth 1): the goal being
+  driven to, published whenever one is set (its own echo is not taken as a new goal; without
+  a goal heading its orientation is the identity).
+
 Each map is inflated as costmap_2d does (:func:`~servolab.planning.costmap.inflate`, the D.2
 parameters) and turned into navfn's traversal costs. The first map and pose after a goal start
 D* Lite (:class:`~servolab.planning.dstar_lite.DStarLite`) from the robot's cell to the goal's;
@@ -70,6 +90,16 @@ from ...planning.dstar_lite import DStarLite
 from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, compute_velocity
 from ...planning.errors import NoPath
 from ..errors import RobotValueError
+from .display import (
+    COSTMAP_TOPIC,
+    DRIVEN_PATH_TOPIC,
+    GOAL_TOPIC,
+    LOCAL_PLAN_TOPIC,
+    PATH_SPACING,
+    costmap_occupancy,
+    path_fields,
+    pose_fields,
+)
 from .params import CLEAR_COSTMAP_RECOVERY, CostmapParams, RecoveryBehavior
 from .recovery import ROTATE_TIMEOUT, RotateRecovery, can_rotate_in_place
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
@@ -219,11 +249,22 @@ class NavigatorNode(Node):
         self.cycles: list[tuple[float, float, float, float, float, float, str]] = []
         self._pending_change = 0
         self._pending_seconds = 0.0
+        #: the stamp of the pose last taken (builtin_interfaces/Time fields)
+        self._pose_stamp: Any = None
+        #: the driven path: (x, y, yaw) poses and their stamps, as published on /path
+        self.driven: list[tuple[float, float, float]] = []
+        self._driven_stamps: list[Any] = []
+        #: the goal message this node published last, to know its echo on /goal_pose
+        self._goal_echo: tuple[Any, ...] | None = None
         self._reset_goal_state(self.now())
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.plan_publisher = self.create_publisher(PATH, "/plan", LATCHED)
         self.status_publisher = self.create_publisher(GOAL_STATUS_ARRAY, STATUS_TOPIC, LATCHED)
         self.feedback_publisher = self.create_publisher(FEEDBACK, FEEDBACK_TOPIC, 10)
+        self.costmap_publisher = self.create_publisher(OCCUPANCY_GRID, COSTMAP_TOPIC, LATCHED)
+        self.local_plan_publisher = self.create_publisher(PATH, LOCAL_PLAN_TOPIC, 10)
+        self.driven_path_publisher = self.create_publisher(PATH, DRIVEN_PATH_TOPIC, 10)
+        self.goal_publisher = self.create_publisher(POSE, GOAL_TOPIC, LATCHED)
         self.create_subscription(OCCUPANCY_GRID, "/map", self._on_map, LATCHED)
         self.create_subscription(POSE, pose_topic, self._on_pose, 10)
         self.create_subscription(ODOMETRY, "/odom", self._on_odom, 10)
@@ -280,8 +321,26 @@ class NavigatorNode(Node):
         self._goal_stamp = self.stamp()
         self._reset_goal_state(self.now())
         self._publish_status(STATUS_EXECUTING)
+        self._publish_goal()
+
+    def _publish_goal(self) -> None:
+        assert self.goal is not None
+        pose = pose_fields(*self.goal, self.goal_yaw or 0.0)
+        stamp = self._goal_stamp
+        q = pose["orientation"]
+        self._goal_echo = (stamp["sec"], stamp["nanosec"], *self.goal, q["z"], q["w"])
+        self.goal_publisher.publish(self.message(
+            POSE, header={"stamp": stamp, "frame_id": MAP_FRAME}, pose=pose))
+
+    def _is_echo(self, msg: Any) -> bool:
+        """Whether ``msg`` is the goal this node published itself on ``/goal_pose``."""
+        p, q, stamp = msg.pose.position, msg.pose.orientation, msg.header.stamp
+        return self._goal_echo == (int(stamp.sec), int(stamp.nanosec), float(p.x), float(p.y),
+                                   float(q.z), float(q.w))
 
     def _on_goal(self, msg: Any) -> None:
+        if self._is_echo(msg):
+            return
         frame = str(msg.header.frame_id)
         if frame not in ("", MAP_FRAME):
             self.get_logger().error(f"goal refused: frame {frame!r}; goals are in the "
@@ -315,13 +374,17 @@ class NavigatorNode(Node):
                 or origin != self.origin):
             self._abort("the map changed its size or frame mid-run")
             return
-        self._take_map(occupied, resolution, origin)
+        self._take_map(occupied, resolution, origin, stamp=msg.header.stamp)
 
     def _take_map(self, occupied: npt.NDArray[np.bool_], resolution: float,
-                  origin: tuple[float, float]) -> None:
+                  origin: tuple[float, float], *, stamp: Any = None) -> None:
         p = self.params
         costmap = inflate(occupied, resolution, p.inflation_radius, p.cost_scaling_factor,
                           p.inscribed_radius)
+        if self.costmap is None or not np.array_equal(costmap, self.costmap) or (
+                resolution, origin) != (self.resolution, self.origin):
+            self._publish_costmap(costmap, resolution, origin,
+                                  self.stamp() if stamp is None else stamp)
         costs = traversal_costs(costmap)
         if self.costs is not None and self.planner is not None:
             changed = np.argwhere(costs != self.costs)
@@ -333,6 +396,15 @@ class NavigatorNode(Node):
         self.occupied, self.costmap, self.costs = occupied, costmap, costs
         self.resolution, self.origin = resolution, origin
 
+    def _publish_costmap(self, costmap: npt.NDArray[np.uint8], resolution: float,
+                         origin: tuple[float, float], stamp: Any) -> None:
+        rows, cols = costmap.shape
+        self.costmap_publisher.publish(self.message(
+            OCCUPANCY_GRID, header={"stamp": stamp, "frame_id": MAP_FRAME},
+            info={"map_load_time": stamp, "resolution": float(resolution), "width": cols,
+                  "height": rows, "origin": pose_fields(*origin)},
+            data=costmap_occupancy(costmap)))
+
     def _on_pose(self, msg: Any) -> None:
         p, q = msg.pose.position, msg.pose.orientation
         pose = (float(p.x), float(p.y), 2.0 * math.atan2(float(q.z), float(q.w)))
@@ -341,6 +413,13 @@ class NavigatorNode(Node):
             return
         self.pose = pose
         self._pose_at = self.now()
+        self._pose_stamp = msg.header.stamp
+        if not self.driven or math.hypot(pose[0] - self.driven[-1][0],
+                                         pose[1] - self.driven[-1][1]) >= PATH_SPACING:
+            self.driven.append(pose)
+            self._driven_stamps.append(msg.header.stamp)
+            self.driven_path_publisher.publish(self.message(PATH, **path_fields(
+                self.driven, msg.header.stamp, MAP_FRAME, self._driven_stamps)))
 
     def _on_odom(self, msg: Any) -> None:
         v, omega = float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z)
@@ -652,6 +731,8 @@ class NavigatorNode(Node):
                                   goal_yaw=self.goal_yaw, oscillation=self.oscillation,
                                   latch=self.latch, footprint=self.footprint)
         self.cycles.append((now, x, y, yaw, result.v, result.omega, result.status.name))
+        self._publish_local_plan(result.trajectory if len(result.trajectory)
+                                 else np.array([(x, y, yaw)]), now)
         if result.status is DwaStatus.GOAL_REACHED:
             self._succeed()
             return
@@ -667,6 +748,12 @@ class NavigatorNode(Node):
         self._driven = self._driven or result.v != 0.0 or result.omega != 0.0
         self.cmd_vel.publish(self.message(TWIST, linear={"x": result.v},
                                           angular={"z": result.omega}))
+
+    def _publish_local_plan(self, poses: FloatArray, now: float) -> None:
+        """DWA's chosen trajectory, stamped as the pose it starts from (module docstring)."""
+        stamp = self.stamp(now) if self._pose_stamp is None else self._pose_stamp
+        self.local_plan_publisher.publish(self.message(PATH, **path_fields(
+            poses, stamp, MAP_FRAME)))
 
     def destroy(self) -> None:
         try:

@@ -31,7 +31,10 @@ whose ``controller_frequency`` sets DWA's period (DWAPlanner finds it by ``searc
 The context publishes ``/clock`` in the floor's simulated time and every stamp is in that
 time, as under Gazebo with ``use_sim_time``.
 
-Afterwards the run folder holds ``navigate_bag/`` (MCAP: the topics of :data:`RECORDED`; the
+Afterwards the run folder holds ``navigate_bag/`` (MCAP: the topics of :data:`RECORDED`, among
+them what the navigator thinks as Nav2 publishes it -- ``/global_costmap/costmap``,
+``/local_plan``, ``/path``, ``/goal_pose``, see :mod:`~.navigator` -- beside ``/plan``; the
+TF tree is ``map -> odom`` (the localiser) and ``odom -> base_footprint`` (the base); the
 camera's frames are not recorded, 300 kB each), ``navigate.png`` (the map, every plan, the path
 driven and the truth), ``map.yaml`` + ``map.pgm`` (the last map the camera gave, as map_server's
 map_saver writes one: ``servolab plan --map`` and ROS's map_server read it) and
@@ -96,7 +99,9 @@ if TYPE_CHECKING:
 
 Say = Callable[[str], None]
 RECORDED = ("/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose", "/plan",
-            "/map", "/odometry/filtered", "/tf", "/clock", "/navigate_to_pose/_action/status")
+            "/map", "/odometry/filtered", "/tf", "/clock", "/navigate_to_pose/_action/status",
+            # what the navigator thinks, as Nav2 publishes it (navigator.py, display.py)
+            "/global_costmap/costmap", "/local_plan", "/path", "/goal_pose")
 
 
 class GoalNotReached(RobotError):

@@ -1,0 +1,102 @@
+"""``servolab view``: a running graph served to Foxglove or Lichtblick.
+
+The command only parses: :mod:`servolab.middleware.view` serves, and
+:mod:`servolab.robots.view_layouts` holds the robots' layouts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from servolab.errors import UsageError
+
+from .arguments import add_transport, transport_options
+from .registry import Command
+
+#: Foxglove's and foxglove_bridge's port
+DEFAULT_PORT = 8765
+
+
+def add_view_arguments(p: argparse.ArgumentParser) -> None:
+    """``--ws-port`` and ``--ws-host`` of a command that serves the view (``--port`` is a
+    serial port in every servolab command)."""
+    p.add_argument("--ws-port", type=int, default=DEFAULT_PORT, metavar="PORT",
+                   help=f"TCP port to serve on (default {DEFAULT_PORT}, Foxglove's; 0: any free "
+                   "one, printed)")
+    p.add_argument("--ws-host", default="127.0.0.1", metavar="ADDRESS",
+                   help="address to listen on (default 127.0.0.1: this computer only; "
+                   "0.0.0.0 lets other computers watch)")
+
+
+def add_view_flag(p: argparse.ArgumentParser) -> None:
+    """``--view [PORT]`` of a robot command: serve the run to Foxglove while it runs."""
+    p.add_argument("--view", nargs="?", type=int, const=DEFAULT_PORT, default=None,
+                   metavar="PORT", help="serve the run to Foxglove or Lichtblick on "
+                   f"ws://127.0.0.1:PORT (default {DEFAULT_PORT}) while it runs; a simulated "
+                   "run keeps to real time while a viewer is connected")
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    add_view_arguments(p)
+    p.add_argument("--layout", metavar="NAME",
+                   help="write a robot's Foxglove/Lichtblick layout (armstrong, navigation, "
+                   "base, treadmill) and exit; import it in the app's Layouts menu")
+    p.add_argument("-o", "--output", metavar="FILE",
+                   help="with --layout: the file to write (default: standard output)")
+    add_transport(p)
+
+
+def write_layout(name: str, output: str | None) -> int:
+    from servolab.robots.view_layouts import layout_named
+
+    text = json.dumps(layout_named(name).to_json(), indent=2) + "\n"
+    if output is None:
+        sys.stdout.write(text)
+    else:
+        try:
+            Path(output).write_text(text)
+        except OSError as exc:
+            raise UsageError(f"cannot write the layout to {output}: {exc.strerror}") from None
+        print(f"wrote the {name} layout to {output}: in Foxglove or Lichtblick, "
+              "Layouts > Import from file")
+    return 0
+
+
+def serve_graph(args: argparse.Namespace) -> int:
+    """Serve the running graph (Zenoh by default) until a stop signal."""
+    from servolab.middleware.context import Context
+    from servolab.middleware.view import ViewConfig, ViewServer
+
+    with Context.open(transport_options(args)) as ctx, \
+            ViewServer(ctx, ViewConfig(host=args.ws_host, port=args.ws_port)) as view:
+        print(f"serving the graph on {view.url}: open it in Foxglove or Lichtblick "
+              "(Open connection > Foxglove WebSocket); Ctrl-C stops", flush=True)
+        with ctx.stop_on_signals():
+            ctx.spin()
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.layout is not None:
+        return write_layout(args.layout, args.output)
+    if args.output is not None:
+        raise UsageError("-o/--output goes with --layout")
+    if not 0 <= args.ws_port <= 65535:
+        raise UsageError(f"--ws-port {args.ws_port} is not a TCP port (0..65535)")
+    return serve_graph(args)
+
+
+COMMAND = Command(
+    name="view", group="graph", help="watch a running graph or a recorded run in Foxglove",
+    description="Serve a running graph over the Foxglove "
+    "WebSocket protocol, so Foxglove or Lichtblick can show it: every topic with its ROS 2 "
+    "message definition, the nodes' parameters and services. Both the app's protocol names "
+    "are accepted (foxglove.sdk.v1 and foxglove.websocket.v1). A robot command's --view does "
+    "the same for its own run. docs/view.md shows how.",
+    examples=("servolab view",
+              "servolab view --layout armstrong -o armstrong.json",
+              "servolab walk --view"),
+    add_arguments=_add_arguments, run=_run)
