@@ -517,3 +517,36 @@ def test_dds_quick_run(capsys: pytest.CaptureFixture[str]) -> None:
         line = next(x for x in out.splitlines() if x.strip().startswith(engine))
         assert "msg/s" in line and " us" in line
     assert "ratio servolab/bare: latency p50 x" in out
+
+
+@pytest.mark.timeout(90)
+def test_view_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/view.py --quick: /joint_states (Armstrong's 21 joints) and a 640x376 mono8
+    image, through servolab view and through foxglove-sdk's server alone, to one client; every
+    latency and rate finite and positive, the same CDR bytes for both setups, the ratios
+    servolab/sdk measured and printed. Both servers are stopped afterwards."""
+    pytest.importorskip("foxglove")
+    bench = _load(BENCHMARK.with_name("view.py"), "view_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)], progress=lambda s: None) == 0
+    out = capsys.readouterr().out
+    figures = json.loads(out_json.read_text())
+    assert figures["quick"] is True
+    rows = figures["rows"]
+    assert [(r["message"], r["setup"]) for r in rows] == [
+        (m, s) for m in ("JointState", "Image") for s in ("servolab", "sdk")], rows
+    sizes = {(r["message"], r["setup"]): r["cdr_bytes"] for r in rows}
+    assert sizes[("Image", "servolab")] == sizes[("Image", "sdk")] == 640 * 376 + 52
+    assert sizes[("JointState", "servolab")] == sizes[("JointState", "sdk")] > 21 * 16
+    for r in rows:
+        for name in ("latency_p50_us", "latency_p99_us", "throughput_msg_s", "throughput_mb_s"):
+            assert _positive(r[name]), (name, r)
+        assert r["latency_p99_us"] >= r["latency_p50_us"], r
+        assert 0 < r["delivered"] <= r["flood"], r
+    ratios = figures["ratios"]
+    assert [q["message"] for q in ratios] == ["JointState", "Image"]
+    for q in ratios:
+        for name in ("latency_p50", "latency_p99", "time_per_message", "rate"):
+            assert _positive(q[name]), (name, q)
+        assert f"ratio {q['message']}: latency p50 x{q['latency_p50']:.2f}" in out, out
+    assert "foxglove-sdk" in out.splitlines()[0]

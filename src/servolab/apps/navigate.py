@@ -13,6 +13,7 @@ import math
 
 from .arguments import add_out, finite_float, nonnegative_int, positive_float
 from .registry import Command
+from .view import add_view_flag, view_request
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -41,6 +42,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the camera's "
                    "image noise and the calibration views (default 0)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_view_flag(p)
     add_out(p)
 
 
@@ -66,7 +68,7 @@ def _run(args: argparse.Namespace) -> int:
                          move_base=args.move_base)
     with RunFolder.create("navigate", args.out) as run:
         run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
-                     show_progress=not args.no_progress)
+                     show_progress=not args.no_progress, view=view_request(args))
     print(f"run folder: {run.path}")
     return 0
 

@@ -10,11 +10,15 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from servolab.errors import UsageError
 
-from .arguments import add_transport, transport_options
+from .arguments import add_transport, positive_float, transport_options
 from .registry import Command
+
+if TYPE_CHECKING:
+    from servolab.middleware.view.run_view import ViewRequest
 
 #: Foxglove's and foxglove_bridge's port
 DEFAULT_PORT = 8765
@@ -23,7 +27,7 @@ DEFAULT_PORT = 8765
 def add_view_arguments(p: argparse.ArgumentParser) -> None:
     """``--ws-port`` and ``--ws-host`` of a command that serves the view (``--port`` is a
     serial port in every servolab command)."""
-    p.add_argument("--ws-port", type=int, default=DEFAULT_PORT, metavar="PORT",
+    p.add_argument("--ws-port", type=tcp_port, default=DEFAULT_PORT, metavar="PORT",
                    help=f"TCP port to serve on (default {DEFAULT_PORT}, Foxglove's; 0: any free "
                    "one, printed)")
     p.add_argument("--ws-host", default="127.0.0.1", metavar="ADDRESS",
@@ -31,12 +35,34 @@ def add_view_arguments(p: argparse.ArgumentParser) -> None:
                    "0.0.0.0 lets other computers watch)")
 
 
+def tcp_port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        port = -1
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a TCP port (0..65535)")
+    return port
+
+
 def add_view_flag(p: argparse.ArgumentParser) -> None:
-    """``--view [PORT]`` of a robot command: serve the run to Foxglove while it runs."""
-    p.add_argument("--view", nargs="?", type=int, const=DEFAULT_PORT, default=None,
+    """``--view [PORT]`` and ``--view-speed X`` of a robot command: serve the run to
+    Foxglove while it runs."""
+    p.add_argument("--view", nargs="?", type=tcp_port, const=DEFAULT_PORT, default=None,
                    metavar="PORT", help="serve the run to Foxglove or Lichtblick on "
                    f"ws://127.0.0.1:PORT (default {DEFAULT_PORT}) while it runs; a simulated "
-                   "run keeps to real time while a viewer is connected")
+                   "run waits for the first viewer, then keeps to real time")
+    p.add_argument("--view-speed", type=positive_float, default=1.0, metavar="X",
+                   help="with --view, a simulated run: X times real time (default 1)")
+
+
+def view_request(args: argparse.Namespace) -> ViewRequest | None:
+    """What ``--view`` asked for, or None."""
+    if args.view is None:
+        return None
+    from servolab.middleware.view.run_view import ViewRequest
+
+    return ViewRequest(port=args.view, speed=args.view_speed)
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -84,8 +110,6 @@ def _run(args: argparse.Namespace) -> int:
         return write_layout(args.layout, args.output)
     if args.output is not None:
         raise UsageError("-o/--output goes with --layout")
-    if not 0 <= args.ws_port <= 65535:
-        raise UsageError(f"--ws-port {args.ws_port} is not a TCP port (0..65535)")
     return serve_graph(args)
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from .arguments import PORT_HELP, add_log_level, add_out, log_level
 from .registry import Command
+from .view import add_view_flag, view_request
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -44,6 +45,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--video", metavar="FILE", help="with --world mujoco: render the run to "
                    "FILE (.mp4 or .avi), headless (needs EGL)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_view_flag(p)
     add_log_level(p)
     add_out(p)
 
@@ -115,7 +117,7 @@ def _run(args: argparse.Namespace) -> int:
         run_walk(run, motion, steps=steps, rate=rate, port=args.port,
                  config=args.config, show_progress=not args.no_progress, world=args.world,
                  assumptions=assumptions, video=Path(args.video) if args.video else None,
-                 gait=args.file or args.gait)
+                 gait=args.file or args.gait, view=view_request(args))
     print(f"run folder: {run.path}")
     return 0
 

@@ -39,7 +39,8 @@ class PacedClock(Protocol):
     """What a pacer needs of a clock: whether it is virtual, its reading, and a callback
     as its time passes (only virtual clocks have one)."""
 
-    virtual: bool
+    @property
+    def virtual(self) -> bool: ...
 
     def now(self) -> float: ...
 

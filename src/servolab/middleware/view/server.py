@@ -44,6 +44,7 @@ from ..node import Node
 from ..parameters import from_parameter_value, to_parameter_value
 from ..qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from . import protocol as p
+from .pacing import Pacer
 
 if TYPE_CHECKING:
     from ..client import Client
@@ -137,9 +138,12 @@ class ViewServer:
     :meth:`close` (or leaving a ``with`` block) stops it. Callbacks reach it only while the
     context is spun, as any node's do."""
 
-    def __init__(self, context: Context, config: ViewConfig | None = None) -> None:
+    def __init__(self, context: Context, config: ViewConfig | None = None, *,
+                 pacer: Pacer | None = None) -> None:
         self.context = context
         self.config = config or ViewConfig()
+        #: held while a viewer is connected: a virtual run then keeps to the wall clock
+        self.pacer = pacer
         self.node = Node(context, self.config.node_name)
         self.session_id = str(time.time_ns())
         self._virtual = bool(context.clock.virtual)
@@ -165,6 +169,7 @@ class ViewServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._ready = threading.Event()
+        self._connected = threading.Event()  # set once the first viewer has connected
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name="servolab-view", daemon=True)
         self._thread.start()
@@ -194,6 +199,15 @@ class ViewServer:
     def viewers(self) -> int:
         """How many clients are connected."""
         return self._viewer_count
+
+    def wait_for_viewer(self, timeout: float | None = None) -> bool:
+        """Wait until a viewer has connected (at any time since the server started), in
+        short waits so that a stop signal is handled meanwhile; whether one has."""
+        end = None if timeout is None else time.monotonic() + timeout
+        while not self._connected.wait(0.1):
+            if end is not None and time.monotonic() >= end:
+                return False
+        return True
 
     @property
     def capabilities(self) -> list[str]:
@@ -267,6 +281,9 @@ class ViewServer:
         viewer = _Viewer(ws, self.config.send_queue)
         self._viewers.add(viewer)
         self._viewer_count = len(self._viewers)
+        if self.pacer is not None:
+            self.pacer.hold()
+        self._connected.set()
         viewer.send(p.server_info(self.config.name, self.capabilities,
                                   metadata={"ROS_DISTRO": "jazzy",
                                             "transport": type(self.context.transport).__name__},
@@ -283,6 +300,8 @@ class ViewServer:
         finally:
             self._viewers.discard(viewer)
             self._viewer_count = len(self._viewers)
+            if self.pacer is not None:
+                self.pacer.release()
             for subscription_id in list(viewer.subscriptions):
                 self._unsubscribe(viewer, subscription_id)
             writer.cancel()

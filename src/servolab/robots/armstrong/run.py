@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...gait.motionfile import MotionFile
+from ...middleware.view.run_view import ViewRequest, serve_run
 from ..errors import RobotValueError
 from . import ON_STOP
 from .control_node import PLAY_RATE, Armstrong, controller_of
@@ -57,7 +58,8 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
              show_progress: bool = True, faults: Faults | None = None,
              on_row: Callable[[Armstrong, int], None] | None = None,
              world: str = "kinematic", assumptions: Assumptions | None = None,
-             video: Path | None = None, gait: str | None = None) -> dict[str, Any]:
+             video: Path | None = None, gait: str | None = None,
+             view: ViewRequest | None = None) -> dict[str, Any]:
     """Stand, play ``motion`` ``steps`` times at ``rate``, record; write the summary and
     return it. Ended by an alarm, a signal or an error, the robot finishes to double support
     (or holds, when its bus is gone: :meth:`Armstrong.finish`), the bag is closed and the
@@ -111,9 +113,13 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
             truth = SampledTruthNode(robot.context, robot.physics.world)
             topics.update(truth_topics(robot.physics.world))
         recorder = Recorder(robot.context, str(bag), list(topics), types=topics, quiet=True)
+        viewer = None
         started = robot.context.clock.now()
         gait_start = gait_end = started
         try:
+            if view is not None:  # served from here on, waiting for a viewer if simulated
+                viewer = serve_run(robot.context, view, say, name="servolab walk")
+                started = gait_start = gait_end = robot.context.clock.now()
             say("standing up (Table 4.2, over 2 s)")
             robot.stand()
             say(f"playing {motion.poses} rows "
@@ -156,6 +162,9 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
                     truth.publish_new()
                     robot.context.spin_for(0.05)
                 recorder.destroy()
+            if viewer is not None:
+                with ending.step("closing the view"):
+                    viewer.close()
             manager = robot.manager
             summary: dict[str, Any] = {
                 "gait": gait, "rows_played": played, "rows_asked": total, "steps": steps,

@@ -95,6 +95,8 @@ from .session import (
 )
 
 if TYPE_CHECKING:
+    from ...middleware.view.run_view import ViewRequest
+    from ...middleware.view.server import ViewServer
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
@@ -192,7 +194,8 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
 
 
 def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: float = 180.0,
-                 seed: int = 0, say: Say = print, show_progress: bool = True) -> dict[str, Any]:
+                 seed: int = 0, say: Say = print, show_progress: bool = True,
+                 view: ViewRequest | None = None) -> dict[str, Any]:
     """Drive to the goal (see the module docstring); writes the summary and returns it, or
     raises :class:`GoalNotReached` when the goal is not reached. Stopped by a signal or an
     error, the wheels stop, the bag closes, and the summary and plot are written with
@@ -201,6 +204,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     from ...middleware.clock_node import start_clock
     from ...middleware.context import Context
     from ...middleware.recorder import Recorder
+    from ...middleware.view.run_view import serve_run
     from ...sim.overhead_camera import OverheadCameraNode
     from ...sim.truth_node import GroundTruthNode
     from ...vision.map_file import save_map
@@ -234,6 +238,7 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     start_clock(context)  # /clock in the floor's simulated time, as Gazebo's use_sim_time
     wall = time.perf_counter()
     interrupted: BaseException | None = None
+    viewer: ViewServer | None = None
     try:
         BaseNode(context, base)
         GroundTruthNode(context, base.floor)
@@ -250,6 +255,8 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
             planner_frequency=move_base_params.planner_frequency,
             pose_timeout=POSE_TIMEOUT_FRAMES / world.camera.rate)
         Recorder(context, str(bag), list(RECORDED))
+        if view is not None:  # served from here on, waiting for a viewer if simulated
+            viewer = serve_run(context, view, say, name="servolab navigate")
         start = base.clock.now()
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
             f"on {world.path}")
@@ -265,6 +272,8 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
                 summary["wheels_after_stop"] = base.wheel_commands()
             finally:
                 try:
+                    if viewer is not None:
+                        viewer.close()
                     context.close()  # the recorder finishes the bag
                 finally:
                     base.bus.close()
