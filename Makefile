@@ -63,6 +63,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
 	$(BIN)/python benchmarks/middleware.py
 	$(BIN)/python benchmarks/dds.py
+	$(BIN)/python benchmarks/view.py
 	$(BIN)/python benchmarks/sim.py
 
 lint: $(STAMP)

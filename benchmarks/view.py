@@ -232,6 +232,7 @@ class ServolabSender:
         self.node = Node(context, "bench_talker")
         self.publisher = self.node.create_publisher(type_name, TOPICS[type_name], 10)
         self.msg, self.type_name, self.types = msg, type_name, context.types
+        self.view = view
         self.url = view.url
 
     def prepare(self, seq: int) -> Any:
@@ -329,6 +330,7 @@ class Figures:
     throughput_mb_s: float
     flood: int           # messages sent back to back per round
     delivered: int       # the fewest of them the client got in a round
+    server_dropped: int  # of those lost, dropped by the view server's per-viewer queue
 
 
 class Measure:
@@ -423,12 +425,13 @@ def run_setup(setup: str, type_name: str, sizes: Sizes, types: MessageTypes) -> 
             latencies, rates, delivered = Measure(sender, client, label).run(sizes)
         finally:
             client.close()
+        server_dropped = sender.view.dropped if isinstance(sender, ServolabSender) else 0
     rate = statistics.median(rates)
     return Figures(message=SHORT_NAMES[type_name], setup=setup, cdr_bytes=len(cdr),
                    latency_p50_us=percentile(latencies, 50) / 1e3,
                    latency_p99_us=percentile(latencies, 99) / 1e3,
                    throughput_msg_s=rate, throughput_mb_s=rate * len(cdr) / 1e6,
-                   flood=sizes.flood, delivered=delivered)
+                   flood=sizes.flood, delivered=delivered, server_dropped=server_dropped)
 
 
 # -- report ----------------------------------------------------------------------------------
@@ -493,6 +496,14 @@ def main(argv: Sequence[str] | None = None,
         print(f"{r.message:10} {r.setup:9} {r.cdr_bytes:7d} {r.latency_p50_us:9.1f} "
               f"{r.latency_p99_us:9.1f} {r.throughput_msg_s:9.0f} {r.throughput_mb_s:8.1f} "
               f"{f'{r.delivered}/{r.flood}':>11}")
+    for r in rows:
+        if r.delivered < r.flood:
+            lost = r.flood - r.delivered
+            why = (f"{r.server_dropped} by the server's per-viewer queue, the rest by the "
+                   "KEEP_LAST 10 subscription it reads the topic with" if r.setup == "servolab"
+                   else "by the SDK's per-client backlog")
+            print(f"  dropped, {r.message} {r.setup}: {lost} of {r.flood} sent back to back "
+                  f"({why}); msg/s counts those delivered")
     print()
     print("servolab view / foxglove-sdk (> 1: servolab costs more):")
     found = ratios(rows)

@@ -524,7 +524,10 @@ def test_view_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     """benchmarks/view.py --quick: /joint_states (Armstrong's 21 joints) and a 640x376 mono8
     image, through servolab view and through foxglove-sdk's server alone, to one client; every
     latency and rate finite and positive, the same CDR bytes for both setups, the ratios
-    servolab/sdk measured and printed. Both servers are stopped afterwards."""
+    servolab/sdk measured and printed. servolab view's and the client's threads are gone
+    afterwards."""
+    import threading
+
     pytest.importorskip("foxglove")
     bench = _load(BENCHMARK.with_name("view.py"), "view_bench")
     out_json = tmp_path / "figures.json"
@@ -550,3 +553,5 @@ def test_view_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
             assert _positive(q[name]), (name, q)
         assert f"ratio {q['message']}: latency p50 x{q['latency_p50']:.2f}" in out, out
     assert "foxglove-sdk" in out.splitlines()[0]
+    assert not [t.name for t in threading.enumerate()
+                if t.name in ("servolab-view", "view-bench-client") and t.is_alive()]

@@ -235,7 +235,9 @@ class ViewServer:
         self._stop = asyncio.Event()
         async with serve(self._handle, self.config.host, self.config.port,
                          subprotocols=[Subprotocol(s) for s in p.SUBPROTOCOLS],
-                         max_size=64 * 2**20,
+                         # no permessage-deflate: a camera frame compressed per viewer
+                         # costs the robot's process more than loopback saves
+                         compression=None, max_size=64 * 2**20,
                          close_timeout=self.config.close_timeout) as server:
             self._port = _port_of(server)
             if self._closed:
