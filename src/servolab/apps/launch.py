@@ -12,6 +12,7 @@ import argparse
 
 from .arguments import add_log_level, add_transport, log_level
 from .registry import Command
+from .view import DEFAULT_PORT, tcp_port
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -19,6 +20,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
     p.add_argument("--process", help=argparse.SUPPRESS)
     add_transport(p, default="")
+    p.add_argument("--view", nargs="?", type=tcp_port, const=DEFAULT_PORT, default=None,
+                   metavar="PORT", help="serve the launch's graph to Foxglove or Lichtblick on "
+                   f"ws://127.0.0.1:PORT (default {DEFAULT_PORT})")
     add_log_level(p)
 
 
@@ -30,7 +34,8 @@ def _run(args: argparse.Namespace) -> int:
     log_level(args)  # the children inherit it through the environment
     return launch_main(args.file, machine=args.machine, process=args.process,
                        transport=args.transport or None, listen=args.listen,
-                       connect=args.connect, domain_id=args.domain_id, out=say)
+                       connect=args.connect, domain_id=args.domain_id, out=say,
+                       view=args.view)
 
 
 COMMAND = Command(

@@ -75,8 +75,13 @@ def _echo(line: str) -> None:
 
 def run_launch(launch: LaunchFile, *, machine: str | None = None,
                transport_override: TransportOptions | None = None,
-               out: Callable[[str], None] = _echo, stop_timeout: float = STOP_TIMEOUT) -> int:
+               out: Callable[[str], None] = _echo, stop_timeout: float = STOP_TIMEOUT,
+               view: int | None = None) -> int:
     """Run the entries of ``launch`` that belong here; returns the exit code.
+
+    ``view`` (a TCP port) serves the launch's graph to Foxglove (:mod:`.view`): in this
+    process beside the nodes, or, when the nodes run in child processes, as one more
+    supervised child, ``servolab view`` on the launch's transport.
 
     With the local transport and a single process group, the nodes are built in this process
     and spun until Ctrl-C or until one of them shuts the context down; otherwise each
@@ -98,8 +103,8 @@ def run_launch(launch: LaunchFile, *, machine: str | None = None,
     groups = launch.process_groups(entries)
     commands = [e for e in entries if e.is_exec]
     if options.kind == "local" and not commands:
-        return _run_nodes(launch, entries, options, out)
-    return _Supervisor(launch, out, stop_timeout).run(groups, commands, options)
+        return _run_nodes(launch, entries, options, out, view=view)
+    return _Supervisor(launch, out, stop_timeout).run(groups, commands, options, view=view)
 
 
 def run_process_group(launch: LaunchFile, group: str, options: TransportOptions, *,
@@ -118,7 +123,7 @@ def run_process_group(launch: LaunchFile, group: str, options: TransportOptions,
 def launch_main(file: str | Path, *, machine: str | None = None, process: str | None = None,
                 transport: str | None = None, listen: Sequence[str] = (),
                 connect: Sequence[str] = (), domain_id: int | None = None,
-                out: Callable[[str], None] = _echo) -> int:
+                out: Callable[[str], None] = _echo, view: int | None = None) -> int:
     """``servolab launch FILE [--machine M] [--process G] [--transport T] [--listen E]...
     [--connect E]... [--domain-id N]``: what the CLI calls with its parsed arguments.
 
@@ -137,7 +142,7 @@ def launch_main(file: str | Path, *, machine: str | None = None, process: str | 
             raise LaunchError("--machine and --process cannot be combined (a process group "
                               "runs wherever it is started)")
         return run_process_group(launch, process, launch.transport_options(override), out=out)
-    return run_launch(launch, machine=machine, transport_override=override, out=out)
+    return run_launch(launch, machine=machine, transport_override=override, out=out, view=view)
 
 
 # -- in this process -------------------------------------------------------------------------
@@ -186,13 +191,14 @@ def _node_logging(entries: Sequence[NodeEntry], out: Callable[[str], None]) -> I
 
 
 def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: TransportOptions,
-               out: Callable[[str], None]) -> int:
+               out: Callable[[str], None], *, view: int | None = None) -> int:
     """Build ``entries`` in one context and spin until Ctrl-C, SIGTERM or a node shuts the
     context down (all of them share it, so any node ending it ends them all)."""
     classes = [(entry, import_node_class(launch, entry)) for entry in entries]
     overrides = ParameterOverrides()
     overrides.merge(launch.parameters)
     started: list[NodeEntry] = []
+    viewer = None
     with _node_logging(entries, out):
         context = Context.open(options, parameter_overrides=overrides)
         try:
@@ -207,6 +213,11 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
                         raise launch.error(entry, key, str(exc)) from None
                     started.append(entry)
                     out(f"[launch] started {entry.name} (in process {os.getpid()})")
+                if view is not None and context.ok():
+                    from .view.server import ViewConfig, ViewServer
+
+                    viewer = ViewServer(context, ViewConfig(port=view, name="servolab launch"))
+                    out(f"[launch] serving the graph on {viewer.url} (Foxglove, Lichtblick)")
                 try:
                     context.spin()
                 except Exception as exc:  # a node's callback failed: stop the rest cleanly
@@ -215,6 +226,8 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
                         out(f"[launch] {line}")
                     return 1
         finally:
+            if viewer is not None:
+                viewer.close()
             context.close()
             for entry in started:
                 out(f"[launch] stopped {entry.name}")
@@ -279,6 +292,16 @@ def child_command(launch: LaunchFile, group: str, options: TransportOptions) -> 
     for endpoint in options.connect:
         argv += ["--connect", endpoint]
     return [*argv, "--domain-id", str(options.domain_id)]
+
+
+def view_command(options: TransportOptions, endpoint: str | None, port: int) -> list[str]:
+    """``servolab view`` on the launch's transport, joined where its processes meet."""
+    joined = _joining(options, endpoint)
+    argv = [sys.executable, "-m", "servolab", "view", "--ws-port", str(port),
+            "--transport", joined.kind, "--domain-id", str(joined.domain_id)]
+    for connect in joined.connect:
+        argv += ["--connect", connect]
+    return argv
 
 
 def child_environment(options: TransportOptions) -> dict[str, str]:
@@ -365,7 +388,7 @@ class _Supervisor:
             self._out(line)
 
     def run(self, groups: dict[str, list[NodeEntry]], commands: Sequence[NodeEntry],
-            options: TransportOptions) -> int:
+            options: TransportOptions, *, view: int | None = None) -> int:
         # every child, node group or exec entry, gets its transport: a group on its command
         # line, and each (exec entries too, issue 32 D5) in its environment
         count = len(groups) + len(commands)
@@ -396,6 +419,9 @@ class _Supervisor:
             self.children.append(_Child(_unique(entry.name, labels),
                                         exec_command(entry, endpoint), entry.required,
                                         child_environment(transport)))
+        if view is not None:  # the graph served to Foxglove by a child of its own
+            self.children.append(_Child("view", view_command(options, endpoint, view), False,
+                                        child_environment(_joining(options, endpoint))))
         with on_stop_signals(self._on_signal):
             try:
                 for child in self.children:
