@@ -15,6 +15,7 @@ Facts checked against sources other than this code:
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -241,11 +242,26 @@ def test_samples_come_every_period_and_the_oldest_go_when_there_are_too_many() -
         node.create_subscription("geometry_msgs/msg/PointStamped", "/ground_truth/com",
                                  lambda m: heard.append(m.header.stamp.sec
                                                         + m.header.stamp.nanosec * 1e-9), 100)
+        poses: list[Any] = []
+        placed: list[Any] = []
+        node.create_subscription("nav_msgs/msg/Odometry", "/ground_truth", poses.append, 100)
+        node.create_subscription("tf2_msgs/msg/TFMessage", "/tf", placed.append, 100)
         context.spin_for(0.5)
         truth.publish_new()
         context.spin_for(0.01)
     finally:
         context.close()
+    # the base on /tf (world -> base) is the ground truth's pose, sample for sample
+    assert len(placed) == len(poses) > 0
+    for tf, pose in zip(placed, poses, strict=True):
+        (t,) = tf.transforms
+        assert (t.header.frame_id, t.child_frame_id) == ("world", pose.child_frame_id)
+        assert t.header.stamp == pose.header.stamp
+        p, q = pose.pose.pose.position, pose.pose.pose.orientation
+        assert (t.transform.translation.x, t.transform.translation.y,
+                t.transform.translation.z) == (p.x, p.y, p.z)
+        assert (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                t.transform.rotation.w) == (q.x, q.y, q.z, q.w)
     assert arm.samples_taken >= 25
     assert 10 <= len(arm.samples) <= 11                     # trimmed to the newest
     times = [s.t for s in arm.samples]

@@ -31,11 +31,14 @@ ODOMETRY = "nav_msgs/msg/Odometry"
 POINT = "geometry_msgs/msg/PointStamped"
 WRENCH = "geometry_msgs/msg/WrenchStamped"
 FLOAT64 = "std_msgs/msg/Float64"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+#: the fixed frame the truth is given in (the MuJoCo world's), parent of the base's /tf
+WORLD_FRAME = "world"
 
 
 def truth_topics(world: MujocoWorld) -> dict[str, str]:
     """Topic -> type of everything :class:`SampledTruthNode` publishes for ``world``."""
-    topics = {"/ground_truth": ODOMETRY, "/ground_truth/com": POINT,
+    topics = {"/ground_truth": ODOMETRY, "/tf": TF_MESSAGE, "/ground_truth/com": POINT,
               "/ground_truth/zmp": POINT, "/ground_truth/cop": POINT,
               "/ground_truth/support_margin": FLOAT64}
     for foot in world.feet:
@@ -69,12 +72,18 @@ class SampledTruthNode(Node):
         self._sent = world.samples_taken
 
     def _publish(self, s: Sample) -> None:
-        header = {"stamp": self.stamp(s.t), "frame_id": "world"}
+        header = {"stamp": self.stamp(s.t), "frame_id": WORLD_FRAME}
         x, y, z, roll, pitch, yaw = s.base
+        base = self.world.model.body(self.world.base).name
+        rotation = _quaternion(roll, pitch, yaw)
         self._publishers["/ground_truth"].publish(self.message(
-            ODOMETRY, header=header, child_frame_id=self.world.model.body(self.world.base).name,
-            pose={"pose": {"position": {"x": x, "y": y, "z": z},
-                           "orientation": _quaternion(roll, pitch, yaw)}}))
+            ODOMETRY, header=header, child_frame_id=base,
+            pose={"pose": {"position": {"x": x, "y": y, "z": z}, "orientation": rotation}}))
+        # the base placed in the world on /tf, as Gazebo's ground-truth plugins do: a 3D
+        # viewer then shows the robot walking over the floor, not pinned at its base
+        self._publishers["/tf"].publish(self.message(TF_MESSAGE, transforms=[{
+            "header": header, "child_frame_id": base,
+            "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": rotation}}]))
         points = {"/ground_truth/com": s.com, "/ground_truth/zmp": (*s.zmp, 0.0),
                   "/ground_truth/cop": (*s.cop, 0.0)}
         for topic, (px, py, pz) in points.items():

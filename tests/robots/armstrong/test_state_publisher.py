@@ -360,7 +360,12 @@ def test_a_walks_joint_states_are_what_the_controllers_reported(
 
 def test_a_walks_tf_places_the_feet_where_its_joint_states_put_them(
         walked: dict[str, list[tuple[int, Any]]], robot: Any) -> None:
-    joint_states, tf = walked["/joint_states"], walked["/tf"]
+    joint_states = walked["/joint_states"]
+    # the joints' transforms; in MuJoCo the ground truth also places the pelvis in the world
+    # on /tf (sim/mujoco_truth.py), one transform world -> pelvis a sample
+    tf = [(t, m) for t, m in walked["/tf"] if m.transforms[0].header.frame_id != "world"]
+    placed = [m for _, m in walked["/tf"] if m.transforms[0].header.frame_id == "world"]
+    assert all([t.child_frame_id for t in m.transforms] == ["pelvis"] for m in placed)
     assert len(tf) == len(joint_states)
     ((_, static),) = walked["/tf_static"]
     for (_, state), (_, transforms) in zip(joint_states[::7], tf[::7], strict=True):
