@@ -87,6 +87,14 @@ def positive_float(text: str) -> float:
     return value
 
 
+def nonnegative_float(text: str) -> float:
+    """An argparse type: a finite number >= 0 (a rate where 0 means as fast as possible)."""
+    value = _number(text)
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a number >= 0")
+    return value
+
+
 def nonnegative_int(text: str) -> int:
     """An argparse type: a whole number >= 0 (a seed, a count)."""
     try:

@@ -1,7 +1,7 @@
-"""``servolab view``: a running graph served to Foxglove or Lichtblick.
+"""``servolab view``: a running graph, or a recorded run, served to Foxglove or Lichtblick.
 
-The command only parses: :mod:`servolab.middleware.view` serves, and
-:mod:`servolab.robots.view_layouts` holds the robots' layouts.
+The command only parses: :mod:`servolab.middleware.view` serves (its :mod:`.player` plays a
+bag), and :mod:`servolab.robots.view_layouts` holds the robots' layouts.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from servolab.errors import UsageError
 
-from .arguments import add_transport, positive_float, transport_options
+from .arguments import add_transport, nonnegative_float, positive_float, transport_options
 from .registry import Command
 
 if TYPE_CHECKING:
@@ -66,7 +66,15 @@ def view_request(args: argparse.Namespace) -> ViewRequest | None:
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("bag", nargs="?", metavar="BAG",
+                   help="a recorded run (a run folder's *_bag directory or an .mcap file), "
+                   "played to the app as the live run was shown, with its play, pause, seek "
+                   "and speed controls; without it, the running graph is served")
     add_view_arguments(p)
+    p.add_argument("--rate", type=nonnegative_float, default=1.0, metavar="X",
+                   help="with BAG: playback speed (default 1: as recorded; 0: as fast as "
+                   "possible)")
+    p.add_argument("--loop", action="store_true", help="with BAG: play it again at the end")
     p.add_argument("--layout", metavar="NAME",
                    help="write a robot's Foxglove/Lichtblick layout (armstrong, navigation, "
                    "base, treadmill) and exit; import it in the app's Layouts menu")
@@ -110,17 +118,27 @@ def _run(args: argparse.Namespace) -> int:
         return write_layout(args.layout, args.output)
     if args.output is not None:
         raise UsageError("-o/--output goes with --layout")
+    if args.bag is not None:
+        if args.listen or args.connect:
+            raise UsageError("a bag is played in this process: --listen and --connect go "
+                             "without BAG")
+        from servolab.middleware.view.player import serve_bag
+
+        serve_bag(args.bag, host=args.ws_host, port=args.ws_port, rate=args.rate,
+                  loop=args.loop, keep_serving=True)
+        return 0
     return serve_graph(args)
 
 
 COMMAND = Command(
     name="view", group="graph", help="watch a running graph or a recorded run in Foxglove",
-    description="Serve a running graph over the Foxglove "
+    description="Serve a running graph (or, given BAG, a recorded run) over the Foxglove "
     "WebSocket protocol, so Foxglove or Lichtblick can show it: every topic with its ROS 2 "
     "message definition, the nodes' parameters and services. Both the app's protocol names "
     "are accepted (foxglove.sdk.v1 and foxglove.websocket.v1). A robot command's --view does "
     "the same for its own run. docs/view.md shows how.",
     examples=("servolab view",
+              "servolab view runs/walk/walk_bag",
               "servolab view --layout armstrong -o armstrong.json",
               "servolab walk --view"),
     add_arguments=_add_arguments, run=_run)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,6 +39,9 @@ PARAMETERS = "parameters"
 PARAMETERS_SUBSCRIBE = "parametersSubscribe"
 TIME = "time"
 SERVICES = "services"
+#: the server plays recorded data that the app may pause, seek and speed up (foxglove-sdk's
+#: ``Capability.PlaybackControl``; its serverInfo then gives dataStartTime / dataEndTime)
+PLAYBACK_CONTROL = "playbackControl"
 
 # Status levels (spec, "Status").
 INFO, WARNING, ERROR = 0, 1, 2
@@ -46,9 +50,17 @@ INFO, WARNING, ERROR = 0, 1, 2
 OP_MESSAGE_DATA = 0x01
 OP_TIME = 0x02
 OP_SERVICE_CALL_RESPONSE = 0x03
+OP_PLAYBACK_STATE = 0x05
 # Binary opcodes, client to server.
 OP_CLIENT_MESSAGE_DATA = 0x01
 OP_SERVICE_CALL_REQUEST = 0x02
+OP_PLAYBACK_CONTROL_REQUEST = 0x03
+
+# Playback commands (client) and statuses (server), as foxglove-sdk numbers them.
+PLAY, PAUSE = 0, 1
+PLAYING, PAUSED, BUFFERING, ENDED = 0, 1, 2, 3
+_PLAYBACK_REQUEST = struct.Struct("<BBfBQI")  # op, command, speed, had seek, seek ns, id len
+_PLAYBACK_STATE = struct.Struct("<BBQfBI")    # op, status, time ns, speed, did seek, id len
 
 _U32_MAX = 0xFFFF_FFFF
 _U64_MAX = 0xFFFF_FFFF_FFFF_FFFF
@@ -122,13 +134,19 @@ def _text(op: str, **fields: Any) -> str:
 
 def server_info(name: str, capabilities: Sequence[str], *,
                 supported_encodings: Sequence[str] = (ENCODING,),
-                metadata: Mapping[str, str] | None = None, session_id: str = "") -> str:
-    """``serverInfo``: sent first on every connection (spec, "Server Info")."""
+                metadata: Mapping[str, str] | None = None, session_id: str = "",
+                data_range_ns: tuple[int, int] | None = None) -> str:
+    """``serverInfo``: sent first on every connection (spec, "Server Info"); a server that
+    plays recorded data says its time range (``dataStartTime``, ``dataEndTime``)."""
     fields: dict[str, Any] = {"name": name, "capabilities": list(capabilities),
                               "supportedEncodings": list(supported_encodings),
                               "metadata": dict(metadata or {})}
     if session_id:
         fields["sessionId"] = session_id
+    if data_range_ns is not None:
+        start, end = data_range_ns
+        fields["dataStartTime"] = {"sec": start // 1_000_000_000, "nsec": start % 1_000_000_000}
+        fields["dataEndTime"] = {"sec": end // 1_000_000_000, "nsec": end % 1_000_000_000}
     return _text("serverInfo", **fields)
 
 
@@ -226,6 +244,17 @@ def service_call_response(service_id: int, call_id: int, encoding: str, payload:
                         _u32(call_id, "call id"), len(enc)) + enc + payload)
 
 
+def playback_state(status: int, current_ns: int, speed: float, did_seek: bool,
+                   request_id: str = "") -> bytes:
+    """Playback State (0x05): u8 status, u64 current time (ns), f32 speed, u8 did seek, u32
+    request id length, the id (empty: not an answer to a request)."""
+    if status not in (PLAYING, PAUSED, BUFFERING, ENDED):
+        raise MiddlewareValueError(f"playback status {status!r} is not 0..3")
+    rid = request_id.encode()
+    return _PLAYBACK_STATE.pack(OP_PLAYBACK_STATE, status, min(max(current_ns, 0), _U64_MAX),
+                                speed, int(did_seek), len(rid)) + rid
+
+
 # -- what a client sends ---------------------------------------------------------------------
 
 
@@ -270,8 +299,17 @@ class ServiceCallRequest:
     payload: bytes = field(repr=False)
 
 
+@dataclass(frozen=True)
+class PlaybackControlRequest:
+    command: int                      # PLAY or PAUSE
+    speed: float
+    seek_ns: int | None               # None: no seek
+    request_id: str
+
+
 ClientOp = (Subscribe | Unsubscribe | GetParameters | SetParameters
-            | SubscribeParameterUpdates | UnsubscribeParameterUpdates | ServiceCallRequest)
+            | SubscribeParameterUpdates | UnsubscribeParameterUpdates | ServiceCallRequest
+            | PlaybackControlRequest)
 
 #: Ops of the spec that need a capability this server does not offer: said as such.
 _NOT_OFFERED = {"advertise": "clientPublish", "unadvertise": "clientPublish",
@@ -387,7 +425,8 @@ def parse_text(text: str) -> ClientOp:
 
 
 def parse_binary(data: bytes) -> ClientOp:
-    """The op a client's binary message asks for (only Service Call Request, 0x02, here)."""
+    """The op a client's binary message asks for: Service Call Request (0x02) or Playback
+    Control Request (0x03)."""
     if not data:
         raise ClientMessageError("empty binary message: no opcode")
     opcode = data[0]
@@ -404,10 +443,35 @@ def parse_binary(data: bytes) -> ClientOp:
         except UnicodeDecodeError:
             raise ClientMessageError("serviceCallRequest.encoding is not UTF-8") from None
         return ServiceCallRequest(service_id, call_id, encoding, bytes(data[13 + length:]))
+    if opcode == OP_PLAYBACK_CONTROL_REQUEST:
+        return _playback_request(data)
     if opcode == OP_CLIENT_MESSAGE_DATA:
         raise ClientMessageError("binary op 0x01 (client message data) needs capability "
                                  "'clientPublish', which this server does not offer")
     raise ClientMessageError(f"binary opcode 0x{opcode:02x} is unknown")
+
+
+def _playback_request(data: bytes) -> PlaybackControlRequest:
+    where = "playbackControlRequest"
+    if len(data) < _PLAYBACK_REQUEST.size:
+        raise ClientMessageError(f"{where}: {len(data)} bytes, shorter than its "
+                                 f"{_PLAYBACK_REQUEST.size}-byte header")
+    _, command, speed, had_seek, seek_ns, length = _PLAYBACK_REQUEST.unpack_from(data)
+    if command not in (PLAY, PAUSE):
+        raise ClientMessageError(f"{where}.playbackCommand {command} is not 0 (play) or 1 "
+                                 "(pause)")
+    if not (math.isfinite(speed) and speed > 0):
+        raise ClientMessageError(f"{where}.playbackSpeed {speed!r} is not a number > 0")
+    if had_seek not in (0, 1):
+        raise ClientMessageError(f"{where}.hadSeek {had_seek} is not 0 or 1")
+    if _PLAYBACK_REQUEST.size + length != len(data):
+        raise ClientMessageError(f"{where}.requestId length {length} does not fit the "
+                                 f"message's {len(data)} bytes")
+    try:
+        request_id = data[_PLAYBACK_REQUEST.size:].decode()
+    except UnicodeDecodeError:
+        raise ClientMessageError(f"{where}.requestId is not UTF-8") from None
+    return PlaybackControlRequest(command, speed, seek_ns if had_seek else None, request_id)
 
 
 # -- parameter names -------------------------------------------------------------------------

@@ -26,6 +26,7 @@ import asyncio
 import contextlib
 import itertools
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -33,7 +34,7 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
@@ -53,6 +54,37 @@ if TYPE_CHECKING:
     from ..transport import Endpoint
 
 _log = logging.getLogger("servolab.view")
+
+
+class PlaybackState(Protocol):
+    @property
+    def status(self) -> str: ...      # "playing", "paused" or "ended"
+    @property
+    def current_ns(self) -> int: ...
+    @property
+    def start_ns(self) -> int: ...
+    @property
+    def end_ns(self) -> int: ...
+    @property
+    def rate(self) -> float: ...
+
+
+class Playback(Protocol):
+    """What the server needs of a player of recorded data for the app's playback controls
+    (:class:`.player.BagPlayer` is one)."""
+
+    def state(self) -> PlaybackState: ...
+    def pause(self) -> None: ...
+    def resume(self) -> None: ...
+    def seek(self, t_ns: int) -> None: ...
+    def set_rate(self, rate: float) -> None: ...
+    def sync(self, timeout: float = ...) -> bool: ...
+
+
+#: A player's status as the protocol numbers it.
+_STATUS = {"playing": p.PLAYING, "paused": p.PAUSED, "ended": p.ENDED}
+#: The speeds the app may ask for, as foxglove-sdk clamps them.
+MIN_SPEED, MAX_SPEED = 0.01, 100.0
 
 
 @dataclass(frozen=True)
@@ -139,11 +171,14 @@ class ViewServer:
     context is spun, as any node's do."""
 
     def __init__(self, context: Context, config: ViewConfig | None = None, *,
-                 pacer: Pacer | None = None) -> None:
+                 pacer: Pacer | None = None, playback: Playback | None = None) -> None:
         self.context = context
         self.config = config or ViewConfig()
         #: held while a viewer is connected: a virtual run then keeps to the wall clock
         self.pacer = pacer
+        #: the player of recorded data the app's play, pause and seek controls drive
+        self.playback = playback
+        self._last_status: str | None = None
         self.node = Node(context, self.config.node_name)
         self.session_id = str(time.time_ns())
         self._virtual = bool(context.clock.virtual)
@@ -212,7 +247,11 @@ class ViewServer:
     @property
     def capabilities(self) -> list[str]:
         caps = [p.PARAMETERS, p.PARAMETERS_SUBSCRIBE, p.SERVICES]
-        return [*caps, p.TIME] if self._virtual else caps
+        if self._virtual:
+            caps.append(p.TIME)
+        if self.playback is not None:
+            caps.append(p.PLAYBACK_CONTROL)
+        return caps
 
     # -- life --------------------------------------------------------------------------------
 
@@ -289,7 +328,8 @@ class ViewServer:
         viewer.send(p.server_info(self.config.name, self.capabilities,
                                   metadata={"ROS_DISTRO": "jazzy",
                                             "transport": type(self.context.transport).__name__},
-                                  session_id=self.session_id))
+                                  session_id=self.session_id,
+                                  data_range_ns=self._data_range()))
         viewer.send(p.advertise(list(self._channels.values())))
         if self._services:
             viewer.send(p.advertise_services(list(self._services.values())))
@@ -346,8 +386,47 @@ class ViewServer:
                     self._unsubscribe(viewer, subscription_id)
         elif isinstance(op, p.ServiceCallRequest):
             self._spawn(self._call_service(viewer, op))
+        elif isinstance(op, p.PlaybackControlRequest):
+            self._spawn(self._guarded(viewer, self._playback_control(op)))
         else:
             self._spawn(self._guarded(viewer, self._parameter_op(viewer, op)))
+
+    def _data_range(self) -> tuple[int, int] | None:
+        if self.playback is None:
+            return None
+        state = self.playback.state()
+        return state.start_ns, state.end_ns
+
+    async def _playback_control(self, op: p.PlaybackControlRequest) -> None:
+        """Seek, set the speed, play or pause (in that order, as foxglove-sdk's player does),
+        off the loop (a pause waits for the message being played), then tell every viewer
+        the state, answering the request."""
+        playback = self.playback
+        if playback is None:
+            raise p.ClientMessageError("playbackControlRequest needs capability "
+                                       "'playbackControl', which this server does not offer")
+
+        def control() -> PlaybackState:
+            if op.seek_ns is not None:
+                playback.seek(op.seek_ns)
+                playback.sync()
+            playback.set_rate(min(max(op.speed, MIN_SPEED), MAX_SPEED))
+            if op.command == p.PLAY:
+                playback.resume()
+            else:
+                playback.pause()
+            return playback.state()
+
+        state = await asyncio.get_running_loop().run_in_executor(None, control)
+        self._broadcast_state(state, op.seek_ns is not None, op.request_id)
+
+    def _broadcast_state(self, state: PlaybackState, did_seek: bool, request_id: str) -> None:
+        self._last_status = state.status
+        frame = p.playback_state(_STATUS[state.status], state.current_ns, state.rate
+                                 if math.isfinite(state.rate) else MAX_SPEED, did_seek,
+                                 request_id)
+        for viewer in self._viewers:
+            viewer.send(frame)
 
     async def _guarded(self, viewer: _Viewer, work: Any) -> None:
         try:
@@ -404,11 +483,17 @@ class ViewServer:
         assert loop is not None
 
         def on_message(cdr: bytes) -> None:
-            stamp = round(self.context.ros_time() * 1e9)
+            stamp = self._now_ns()
             with contextlib.suppress(RuntimeError):  # the loop has stopped: nobody listens
                 loop.call_soon_threadsafe(self._fan_out, feed, bytes(cdr), stamp)
 
         return on_message
+
+    def _now_ns(self) -> int:
+        """The context's ROS time in ns, exact where the clock keeps whole ns (a bag's
+        playback clock: a float of seconds since the epoch is only good to ~240 ns)."""
+        exact = getattr(self.context.clock, "ros_time_ns", None)
+        return int(exact()) if exact is not None else round(self.context.ros_time() * 1e9)
 
     def _fan_out(self, feed: _TopicFeed, cdr: bytes, stamp: int) -> None:
         if self._feeds.get(feed.channel_id) is not feed:
@@ -526,7 +611,11 @@ class ViewServer:
     async def _send_time(self) -> None:
         """Time ops while the clock is virtual, so the viewer's clock follows the run."""
         while True:
-            now = round(self.context.ros_time() * 1e9)
+            now = self._now_ns()
+            if self.playback is not None:  # the end reached, say, told unasked
+                state = self.playback.state()
+                if state.status != self._last_status and self._viewers:
+                    self._broadcast_state(state, False, "")
             for viewer in self._viewers:
                 if viewer.last_time != now:  # a new viewer gets the time it joined at
                     viewer.last_time = now
