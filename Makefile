@@ -46,15 +46,20 @@ ros-oracle: $(ROS_STAMP)
 
 # Foxglove's own WebSocket client (@foxglove/ws-protocol) and ROS 2 CDR decoder
 # (@foxglove/rosmsg2-serialization), run by Node: the tests' oracle for `servolab view`
-# (tests/viewclient.py). npm installs them from the lock file; where Node or the registry is
+# (tests/viewclient.py). npm installs them from the lock file, with a headless Chromium
+# shipped inside an npm package (@sparticuz/chromium, driven by puppeteer-core), and esbuild
+# bundles the browser page that plots a joint with the same client (page/plot.js ->
+# build/plot.bundle.js; tests/robots/test_view_browser.py). Where Node or the registry is
 # missing the install fails, the log says why, and the tests that need them skip saying so.
 VIEW_CLIENT := tests/view_client
 VIEW_STAMP := $(VIEW_CLIENT)/node_modules/.installed
 
-$(VIEW_STAMP): $(VIEW_CLIENT)/package-lock.json
-	(cd $(VIEW_CLIENT) && npm ci --no-audit --no-fund > install.log 2>&1) \
+$(VIEW_STAMP): $(VIEW_CLIENT)/package-lock.json $(VIEW_CLIENT)/page/plot.js
+	(cd $(VIEW_CLIENT) && npm ci --no-audit --no-fund > install.log 2>&1 \
+		&& node_modules/.bin/esbuild page/plot.js --bundle --format=iife \
+			--outfile=build/plot.bundle.js --log-level=warning >> install.log 2>&1) \
 		&& touch $(VIEW_STAMP) \
-		|| echo "make view-oracle: the Foxglove client's npm packages did not install" \
+		|| echo "make view-oracle: the Foxglove client's npm packages did not install or its page did not bundle" \
 			"(see $(VIEW_CLIENT)/install.log); the tests that need them will skip"
 
 view-oracle: $(VIEW_STAMP)
@@ -71,4 +76,4 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 clean:
-	rm -rf $(VENV) $(ROS_VENV) tests/view_client/node_modules build *.egg-info src/*.egg-info .pytest_cache .mypy_cache
+	rm -rf $(VENV) $(ROS_VENV) tests/view_client/node_modules tests/view_client/build build *.egg-info src/*.egg-info .pytest_cache .mypy_cache

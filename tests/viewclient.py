@@ -239,3 +239,33 @@ def run_client(url: str, subprotocol: str, topics: Iterable[str] = (), count: in
                         call_service=call_service, request=request) as client:
         client.wait(timeout + 10.0)
         return client.events
+
+
+@contextmanager
+def watched_run(args: list[str], out: Path, *, speed: str = "4") -> Iterator[str]:
+    """``servolab ARGS --view PORT --view-speed SPEED --no-progress --out OUT`` started and
+    waiting for its first viewer; yields the URL to watch it on. After the block the run must
+    end by itself with status 0, having told the student where it was served."""
+    import sys
+
+    from tests.middleware.conftest import free_port
+    from tests.processes import started
+    from tests.waiting import wait_for
+
+    port = free_port()
+    output: list[str] = []
+    with started([sys.executable, "-m", "servolab", *args, "--view", str(port),
+                  "--view-speed", speed, "--no-progress", "--out", str(out)],
+                 stderr_to_stdout=True) as proc:
+        reader = threading.Thread(target=lambda: output.extend(proc.stdout or ()),
+                                  daemon=True)
+        reader.start()
+        wait_for(lambda: any("waiting for a viewer" in line for line in output)
+                 or proc.poll() is not None, "the run to wait for a viewer", timeout=90)
+        assert proc.poll() is None, "".join(output)[-3000:]
+        yield f"ws://127.0.0.1:{port}"
+        proc.wait(timeout=180)
+        reader.join(timeout=10)
+    text = "".join(output)
+    assert proc.returncode == 0, text[-3000:]
+    assert f"serving the run on ws://127.0.0.1:{port}" in text  # the student is told where

@@ -10,17 +10,12 @@ PR #819). What it decoded must equal what the run's bag recorded, read back with
 
 from __future__ import annotations
 
-import sys
-import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tests.middleware.conftest import free_port
-from tests.processes import started
-from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client
-from tests.waiting import wait_for
+from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client, watched_run
 
 pytestmark = pytest.mark.slow
 
@@ -54,26 +49,8 @@ def _watch(args: list[str], out: Path, topics: list[str], subprotocol: str,
     """Run ``servolab ARGS --view PORT`` to its end with the client watching; the client's
     events."""
     node_client()  # skips, saying why, where Node or the npm packages are missing
-    port = free_port()
-    output: list[str] = []
-    with started([sys.executable, "-m", "servolab", *args, "--view", str(port),
-                  "--view-speed", SPEED, "--no-progress", "--out", str(out)],
-                 stderr_to_stdout=True) as proc:
-        assert proc.stdout is not None
-        reader = threading.Thread(target=lambda: output.extend(proc.stdout or ()),
-                                  daemon=True)
-        reader.start()
-        wait_for(lambda: any("waiting for a viewer" in line for line in output)
-                 or proc.poll() is not None, "the run to wait for a viewer", timeout=90)
-        assert proc.poll() is None, "".join(output)
-        events = run_client(f"ws://127.0.0.1:{port}", subprotocol, topics, count,
-                            timeout=90)
-        proc.wait(timeout=180)
-        reader.join(timeout=10)
-    text = "".join(output)
-    assert proc.returncode == 0, text[-3000:]
-    assert f"serving the run on ws://127.0.0.1:{port}" in text  # the student is told where
-    return events
+    with watched_run(args, out, speed=SPEED) as url:
+        return run_client(url, subprotocol, topics, count, timeout=90)
 
 
 def _messages(events: list[dict[str, Any]], topic: str) -> list[dict[str, Any]]:

@@ -93,12 +93,7 @@ def echo_qos(offers: list[QoSProfile | None], say: Say | None = None) -> QoSProf
     kept is shown), else VOLATILE; each fallback said in ros2's words. servolab keeps every
     message (KEEP_ALL) where ros2 starts from ``sensor_data`` (depth 5), so a burst is
     echoed whole; with no publisher yet it asks RELIABLE, VOLATILE."""
-    from servolab.middleware.qos import (
-        DurabilityPolicy,
-        HistoryPolicy,
-        QoSProfile,
-        ReliabilityPolicy,
-    )
+    from servolab.middleware.qos import HistoryPolicy, QoSProfile, adapted_policies
 
     known = [q for q in offers if q is not None]
     reliable = sum(q.reliable for q in known)
@@ -111,12 +106,9 @@ def echo_qos(offers: list[QoSProfile | None], say: Say | None = None) -> QoSProf
         say("Some, but not all, publishers are offering QoSDurabilityPolicy.TRANSIENT_LOCAL. "
             "Falling back to QoSDurabilityPolicy.VOLATILE as it will connect to all "
             "publishers")
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_ALL, depth=0,
-        reliability=(ReliabilityPolicy.RELIABLE if reliable == len(known)
-                     else ReliabilityPolicy.BEST_EFFORT),
-        durability=(DurabilityPolicy.TRANSIENT_LOCAL if known and latched == len(known)
-                    else DurabilityPolicy.VOLATILE))
+    reliability, durability = adapted_policies(known)
+    return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=0, reliability=reliability,
+                      durability=durability)
 
 
 def topic_echo(ctx: Context, topic: str, say: Say, *, type_name: str | None = None,

@@ -15,6 +15,7 @@ is KEEP_LAST(10), RELIABLE, VOLATILE.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from enum import IntEnum
 
@@ -123,3 +124,17 @@ def as_profile(qos: QoSProfile | int) -> QoSProfile:
     if qos == 0:
         return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=0)
     return QoSProfile(depth=qos)
+
+
+def adapted_policies(offers: Iterable[QoSProfile | None]
+                     ) -> tuple[ReliabilityPolicy, DurabilityPolicy]:
+    """The reliability and durability a subscription takes to hear every publisher of a
+    topic, as ``ros2 topic echo`` chooses them (ros2topic ``EchoVerb.choose_qos``): RELIABLE
+    if every publisher is, else BEST_EFFORT; TRANSIENT_LOCAL if every publisher is (so what a
+    latched topic kept reaches it), else VOLATILE. With no publisher known: RELIABLE,
+    VOLATILE. Unknown offers (None) do not count."""
+    known = [q for q in offers if q is not None]
+    reliable = all(q.reliable for q in known)
+    latched = bool(known) and all(q.transient_local for q in known)
+    return (ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)

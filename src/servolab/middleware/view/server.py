@@ -43,7 +43,7 @@ from websockets.typing import Subprotocol
 from ..errors import MiddlewareError
 from ..node import Node
 from ..parameters import from_parameter_value, to_parameter_value
-from ..qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ..qos import DurabilityPolicy, QoSProfile, adapted_policies
 from . import protocol as p
 from .pacing import Pacer
 
@@ -149,15 +149,11 @@ def subscription_qos(offers: Iterable[QoSProfile | None]) -> QoSProfile:
     """The QoS to subscribe with, adapted to the publishers as ``ros2 topic echo`` adapts it:
     RELIABLE if every publisher is, else BEST_EFFORT; TRANSIENT_LOCAL if every publisher is, so
     a latched ``/robot_description`` or map reaches a viewer that connects late."""
-    known = [q for q in offers if q is not None]
-    reliable = all(q.reliable for q in known)
-    latched = bool(known) and all(q.transient_local for q in known)
-    depth = max([10, *(q.depth for q in known if latched)])
-    return QoSProfile(depth=depth,
-                      reliability=(ReliabilityPolicy.RELIABLE if reliable
-                                   else ReliabilityPolicy.BEST_EFFORT),
-                      durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
-                                  else DurabilityPolicy.VOLATILE))
+    offers = list(offers)
+    reliability, durability = adapted_policies(offers)
+    latched = durability == DurabilityPolicy.TRANSIENT_LOCAL
+    depth = max([10, *(q.depth for q in offers if q is not None and latched)])
+    return QoSProfile(depth=depth, reliability=reliability, durability=durability)
 
 
 def _hidden(name: str) -> bool:
