@@ -14,6 +14,7 @@ import math
 
 from .arguments import PORT_HELP, add_out, finite_float, positive_float
 from .registry import Command
+from .view import add_view_flag, view_request
 
 
 def counts_per_mm(text: str) -> float:
@@ -47,6 +48,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "deviation in rad (default 0)")
     p.add_argument("--real-time", action="store_true", help="emulated base: move at the "
                    "wall clock's pace (default: as fast as the computer allows)")
+    add_view_flag(p)
     add_out(p)
 
 
@@ -116,7 +118,7 @@ def _run(args: argparse.Namespace) -> int:
                   show_progress=not args.no_progress, slip=args.slip,
                   slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
                   real_time=args.real_time, percent=percent, counts_per_mm=cpm,
-                  as_printed=as_printed)
+                  as_printed=as_printed, view=view_request(args))
     print(f"run folder: {run.path}")
     return 0
 
@@ -133,5 +135,6 @@ COMMAND = Command(
               "servolab drive rotate --angle 90",
               "servolab drive line --distance 1 --percent 30 --counts-per-mm 5265/575 "
               "--base seed000_4motor",
-              "servolab drive circle --radius 0.5 --base turtlebot3_waffle"),
+              "servolab drive circle --radius 0.5 --base turtlebot3_waffle",
+              "servolab drive circle --radius 0.5 --view"),
     add_arguments=_add_arguments, run=_run)

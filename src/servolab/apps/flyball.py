@@ -12,6 +12,7 @@ import argparse
 
 from .arguments import PORT_HELP, add_out, nonnegative_int, positive_float
 from .registry import Command
+from .view import add_view_flag, view_request
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -48,6 +49,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "together, keeping its path (default), or per-wheel, each on its own as "
                    "the thesis's Listing 4 does")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_view_flag(p)
     add_out(p)
     sub = p.add_subparsers(dest="action", metavar="analyze")
     analyze = sub.add_parser("analyze", help="chapter 3's analysis of a run folder's logs",
@@ -146,12 +148,14 @@ def _run(args: argparse.Namespace) -> int:
         with RunFolder.create("flyball", args.out) as run:
             run_recorded(run, args.frames, camera=args.camera, port=args.port,
                          fps=args.fps, show_progress=not args.no_progress, rig=rig,
-                         size=size, record_video=args.record_video)
+                         size=size, record_video=args.record_video,
+                         view=view_request(args))
     else:
         with RunFolder.create("flyball", args.out) as run:
             run_flyball(run, duration=100.0 if args.duration is None else args.duration,
                         seed=args.seed or 0, show_progress=not args.no_progress,
-                        wheel_clamp=args.clamp, rig=rig, record_video=args.record_video)
+                        wheel_clamp=args.clamp, rig=rig, record_video=args.record_video,
+                        view=view_request(args))
     print(f"run folder: {run.path}")
     return 0
 
@@ -170,5 +174,6 @@ COMMAND = Command(
               "servolab flyball --camera 0 --rig my_rig.yaml --record-video raw.avi",
               "servolab flyball --set tracker.polarity=dark --set tracker.threshold=200",
               "servolab flyball --duration 20 --seed 3 --out runs/fly-a",
+              "servolab flyball --duration 20 --view",
               "servolab flyball analyze runs/fly-a"),
     add_arguments=_add_arguments, run=_run)

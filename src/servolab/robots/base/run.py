@@ -11,6 +11,11 @@ another base's configuration, or a real base on ``port``). Afterwards the run fo
   path's measured figures (a line's truth length, a circle's truth radius, how far the path
   ended from where it started, odometry's final error against truth).
 
+With ``view`` (``servolab drive --view``) the move is served to Foxglove while it runs
+(:func:`~servolab.middleware.view.run_view.serve_run`): the same ``/odom``, ``/ground_truth``
+and ``/wheel_commands`` messages as the bag's, same stamps, with ``/tf`` (``odom`` ->
+``base_footprint``), published by :class:`DrivePublisher` as the move goes.
+
 A line may be seed 000 A.2's (final.m): at a speed percentage (``percent``, final.m's unit,
 turned into m/s by :func:`~.mobile_base.percent_speed`) and stopped by counting encoder counts
 (``counts_per_mm``, final.m's 5265/575), as meant or ``as_printed``; the summary's ``counted``
@@ -54,6 +59,9 @@ from .mobile_base import (
 )
 
 if TYPE_CHECKING:
+    from ...middleware.context import Context
+    from ...middleware.view.run_view import ViewRequest
+    from ...middleware.view.server import ViewServer
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
@@ -133,12 +141,14 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
               port: str | None = None, say: Say = print, show_progress: bool = True,
               slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
               real_time: bool = False, percent: float | None = None,
-              counts_per_mm: float | None = None, as_printed: bool = False
-              ) -> dict[str, Any]:
+              counts_per_mm: float | None = None, as_printed: bool = False,
+              view: ViewRequest | None = None) -> dict[str, Any]:
     """Run one move (see the module docstring); returns the summary. An emulated base runs
     in simulated time, as fast as the computer allows, unless ``real_time``. ``base`` is a
     shipped base's name, a file, or what :func:`prepare` loaded. ``percent``,
-    ``counts_per_mm`` and ``as_printed`` make a line final.m's (seed 000 A.2)."""
+    ``counts_per_mm`` and ``as_printed`` make a line final.m's (seed 000 A.2). ``view``
+    serves the move to Foxglove while it runs (a simulated one waits for the first viewer,
+    then keeps to real time)."""
     config = base if isinstance(base, BaseConfig) else prepare(
         move, base, slip=slip, slip_jitter=slip_jitter, encoder_noise=encoder_noise)
     if as_printed and counts_per_mm is None:
@@ -159,7 +169,17 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
                                "encoder_noise": encoder_noise,
                                "motors_on_stop": ON_STOP}
     interrupted: BaseException | None = None
+    context: Context | None = None
+    viewer: ViewServer | None = None
+    shown: DrivePublisher | None = None
     try:
+        if view is not None:  # served from here on, waiting for a viewer if simulated
+            from ...middleware.context import Context
+            from ...middleware.view.run_view import serve_run
+
+            context = Context.open(clock=robot.clock)
+            shown = DrivePublisher(context, robot)
+            viewer = serve_run(context, view, say, name="servolab drive")
         if move == "rpm":
             rpm = robot.rpm()
             summary["rpm"] = {str(k): v for k, v in rpm.items()}
@@ -171,7 +191,7 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
             _move(robot, move, summary, where, say, show_progress, distance=distance,
                   speed=speed, radius=radius, clockwise=clockwise, turns=turns,
                   angle_deg=angle_deg, percent=percent, counts_per_mm=counts_per_mm,
-                  as_printed=as_printed)
+                  as_printed=as_printed, shown=shown)
     except BaseException as error:  # a stop signal or an error: the wheels stop below
         interrupted = error
     ending = RunEnding(interrupted)
@@ -185,6 +205,15 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
                 if simulation is not None:
                     simulation.stop_real_time()  # type: ignore[attr-defined]
                 robot.close()
+        if context is not None:
+            with ending.step("closing the view"):
+                try:
+                    if shown is not None:
+                        shown.publish_new()  # the stop's last odometry, if any
+                    if viewer is not None:
+                        viewer.close()
+                finally:
+                    context.close()
         if move not in ("rpm", "stop") and robot.track:  # a refused move drove nothing
             with ending.step("measuring"):
                 summary["wheel_commands"] = raw_commands(robot)
@@ -203,13 +232,16 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
 def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say: Say,
           show_progress: bool, *, distance: float, speed: float, radius: float,
           clockwise: bool, turns: float, angle_deg: float, percent: float | None = None,
-          counts_per_mm: float | None = None, as_printed: bool = False) -> None:
-    """One of the moves that drive the wheels, with a progress bar."""
+          counts_per_mm: float | None = None, as_printed: bool = False,
+          shown: DrivePublisher | None = None) -> None:
+    """One of the moves that drive the wheels, with a progress bar (and, ``shown``, its
+    odometry published as it goes)."""
     say(f"{move} on {where}")
     expected = planned_duration(robot.config, move, distance=distance, speed=speed,
                                 radius=radius, turns=turns, angle_deg=angle_deg,
                                 counts_per_mm=counts_per_mm)
-    bar = _progress(expected, robot, show_progress, say)
+    bar = _progress(expected, robot, show_progress, say,
+                    None if shown is None else shown.publish_new)
     try:
         if move == "line" and counts_per_mm is not None:
             summary["asked"] = {"distance_m": distance, "speed_m_s": speed,
@@ -236,6 +268,8 @@ def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say
             summary["asked"] = {"angle_deg": angle_deg}
             robot.rotate(math.radians(angle_deg))
         robot.update_odometry()
+        if shown is not None:
+            shown.publish_new()
     finally:
         bar.close()
 
@@ -254,8 +288,10 @@ def _say_radius(robot: MobileBase, distance: float, counts_per_mm: float, say: S
             f"{abs(distance) * radius / implied:.3f} m, not {abs(distance):g} m")
 
 
-def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:
-    """A tqdm bar over the move's expected seconds, fed by the base's odometry updates."""
+def _progress(expected: float, robot: MobileBase, show: bool, say: Say,
+              also: Callable[[], None] | None = None) -> Any:
+    """A tqdm bar over the move's expected seconds, fed by the base's odometry updates
+    (each of which calls ``also`` too)."""
     from tqdm import tqdm
 
     bar = tqdm(total=round(expected, 2), unit="s", disable=not show, leave=False, delay=0.5,
@@ -265,6 +301,8 @@ def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:
 
     def update(_pose: object) -> None:
         nonlocal said
+        if also is not None:
+            also()
         elapsed = min(expected, robot.clock.now() - start)
         if elapsed > bar.n:
             bar.update(elapsed - bar.n)  # tqdm redraws at most every 0.1 s of wall time
@@ -273,6 +311,81 @@ def _progress(expected: float, robot: MobileBase, show: bool, say: Say) -> Any:
             say(f"moving: {said} of {expected:.0f} s")
     robot.on_update = update
     return bar
+
+
+class DrivePublisher:
+    """The move as it goes, for a viewer: each new odometry update of ``robot.track`` on
+    ``/odom`` (and the floor's truth on ``/ground_truth``) as ``nav_msgs/msg/Odometry``, with
+    ``/tf`` ``odom`` -> ``base_footprint``, and each wheel command sent on
+    ``/wheel_commands``: the very messages :func:`record` writes to the bag, stamped alike
+    (the base's clock reading). The move spins no executor, so each call also runs the
+    context's waiting callbacks (the viewer's subscriptions), never moving its clock: a
+    thread spinning it would move a simulated clock under the move's feet."""
+
+    def __init__(self, context: Context, robot: MobileBase) -> None:
+        from ...middleware.node import Node
+
+        self.robot = robot
+        self.node = Node(context, "drive")
+        self.odom = self.node.create_publisher(ODOMETRY, "/odom", 10)
+        self.truth = (self.node.create_publisher(ODOMETRY, "/ground_truth", 10)
+                      if robot.floor is not None else None)
+        self.tf = self.node.create_publisher("tf2_msgs/msg/TFMessage", "/tf", 10)
+        self.commands = self.node.create_publisher(JOINT_STATE, "/wheel_commands", 10)
+        self._tracked = len(robot.track)
+        self._sent = len(robot.commands)
+
+    def publish_new(self) -> None:
+        """Publish what the base did since the last call."""
+        robot, message = self.robot, self.node.message
+        track, commands = robot.track, robot.commands
+        for i in range(self._sent, len(commands)):
+            t, left, right = commands[i]
+            self.commands.publish(message(JOINT_STATE, **wheel_command_fields(t, left, right)))
+        self._sent = len(commands)
+        for i in range(self._tracked, len(track)):
+            t, ox, oy, otheta, tx, ty, tyaw = track[i]
+            self.odom.publish(message(ODOMETRY, **odometry_fields("odom", t, ox, oy, otheta)))
+            if self.truth is not None:
+                self.truth.publish(message(ODOMETRY, **odometry_fields("world", t, tx, ty,
+                                                                       tyaw)))
+            fields = odometry_fields("odom", t, ox, oy, otheta)
+            pose = fields["pose"]["pose"]
+            self.tf.publish(message("tf2_msgs/msg/TFMessage", transforms=[{
+                "header": fields["header"], "child_frame_id": fields["child_frame_id"],
+                "transform": {"translation": pose["position"],
+                              "rotation": pose["orientation"]}}]))
+        self._tracked = len(track)
+        self.deliver()
+
+    def deliver(self) -> None:
+        """Run the context's callbacks that wait now (none that a clock must reach)."""
+        executor = self.node.context.executor
+        while executor.spin_once(0):
+            pass
+
+
+ODOMETRY, JOINT_STATE = "nav_msgs/msg/Odometry", "sensor_msgs/msg/JointState"
+
+
+def odometry_fields(frame: str, t: float, x: float, y: float, yaw: float) -> dict[str, Any]:
+    """An ``Odometry`` of the base at ``(x, y, yaw)`` in ``frame`` at clock reading ``t``, as
+    the bag and the view carry it."""
+    from ...middleware.messages import time_of
+
+    return {"header": {"stamp": time_of(t), "frame_id": frame},
+            "child_frame_id": "base_footprint",
+            "pose": {"pose": {"position": {"x": x, "y": y},
+                              "orientation": {"z": math.sin(yaw / 2),
+                                              "w": math.cos(yaw / 2)}}}}
+
+
+def wheel_command_fields(t: float, left: float, right: float) -> dict[str, Any]:
+    """A ``JointState`` of the wheel speeds sent (rad/s) at clock reading ``t``."""
+    from ...middleware.messages import time_of
+
+    return {"header": {"stamp": time_of(t)},
+            "name": ["wheel_left_joint", "wheel_right_joint"], "velocity": [left, right]}
 
 
 def raw_commands(robot: MobileBase) -> list[dict[str, Any]]:
@@ -319,24 +432,20 @@ def measure(robot: MobileBase, move: str) -> dict[str, float]:
 def record(robot: MobileBase, path: Path) -> Path:
     """The run's track and commands as an MCAP bag (rosbag2 layout), in the base's time."""
     from ...middleware.bag import BagWriter
-    from ...middleware.messages import MessageTypes, time_of
+    from ...middleware.messages import MessageTypes
 
     if path.exists():  # a run folder's files are replaced (servolab.runs)
         shutil.rmtree(path)
     types = MessageTypes()
     writer = BagWriter(path, types)
-    odometry, joints = "nav_msgs/msg/Odometry", "sensor_msgs/msg/JointState"
+    odometry, joints = ODOMETRY, JOINT_STATE
     writer.add_topic("/odom", odometry)
     writer.add_topic("/wheel_commands", joints)
     if robot.floor is not None:
         writer.add_topic("/ground_truth", odometry)
 
     def pose(topic: str, frame: str, t: float, x: float, y: float, yaw: float) -> None:
-        stamp = time_of(t)
-        msg = types.from_value(odometry, {
-            "header": {"stamp": stamp, "frame_id": frame}, "child_frame_id": "base_footprint",
-            "pose": {"pose": {"position": {"x": x, "y": y},
-                              "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}}})
+        msg = types.from_value(odometry, odometry_fields(frame, t, x, y, yaw))
         writer.write(topic, msg, round(t * 1e9))
 
     try:
@@ -345,10 +454,8 @@ def record(robot: MobileBase, path: Path) -> Path:
             if robot.floor is not None:
                 pose("/ground_truth", "world", t, tx, ty, tyaw)
         for t, left, right in robot.commands:
-            writer.write("/wheel_commands", types.from_value(joints, {
-                "header": {"stamp": time_of(t)},
-                "name": ["wheel_left_joint", "wheel_right_joint"],
-                "velocity": [left, right]}), round(t * 1e9))
+            writer.write("/wheel_commands", types.from_value(
+                joints, wheel_command_fields(t, left, right)), round(t * 1e9))
     finally:
         writer.close()
     return path

@@ -24,6 +24,11 @@ and the figures in ``flyball.png``. The rig (ball, camera, tracker, controller) 
 :mod:`.config`'s, the thesis's unless given. Stamps, the logs' times and the bag's are the
 simulated time, which the run publishes on ``/clock`` for ROS tools with ``use_sim_time``
 (:mod:`servolab.middleware.clock_node`).
+
+With ``view`` (``servolab flyball --view``) the run's context is served to Foxglove while it
+runs (:func:`~servolab.middleware.view.run_view.serve_run`): the camera's ``/image_raw``, the
+tracker's overlay on ``/image_converter/output_video`` (drawn only while watched), ``/fly/pose``,
+``/cmd_vel``, the robot's ``/odom`` and ``/tf``, and the rest of the graph.
 """
 
 from __future__ import annotations
@@ -57,6 +62,8 @@ from .rig import RECORDED, MobrobDataTracker
 from .timing import lost_fly_warning
 
 if TYPE_CHECKING:
+    from ...middleware.view.run_view import ViewRequest
+    from ...middleware.view.server import ViewServer
     from ...runs import RunFolder
     from ...sim.fly_walk import FlyWalkConfig
 
@@ -67,14 +74,17 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 fly: FlyWalkConfig | None = None, say: Say = print,
                 show_progress: bool = True, wheel_clamp: str = "scaled",
                 rig: RigConfig | None = None,
-                record_video: str | Path | None = None) -> dict[str, Any]:
+                record_video: str | Path | None = None,
+                view: ViewRequest | None = None) -> dict[str, Any]:
     """Run the closed loop for ``duration`` simulated seconds (see the module docstring);
     returns the summary (the analysis and where the files are). ``wheel_clamp``
     ``"per-wheel"`` drives the robot as Listing 4 does (each wheel clamped on its own; see
     :mod:`servolab.robots.base.config`). ``record_video`` writes every camera frame there
-    (:mod:`servolab.vision.frame_writer`: ``.avi``, ``.mp4``, or the thesis's ``.bin``)."""
-
+    (:mod:`servolab.vision.frame_writer`: ``.avi``, ``.mp4``, or the thesis's ``.bin``).
+    ``view`` serves the run to Foxglove: it waits for the first viewer, then keeps to real
+    time (``view.speed`` times it)."""
     from ...middleware.recorder import Recorder
+    from ...middleware.view.run_view import serve_run
     from ...sim import Simulation
     from ...sim.fly_camera import SimulatedFlyCamera
     from ...sim.fly_walk import FlyWalkConfig, FlyWalker
@@ -107,6 +117,7 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
         "the robot follows the ball")
     node: TreadmillNode | None = None
     tracker: MobrobDataTracker | None = None
+    viewer: ViewServer | None = None
     ending = RunEnding(None)
     late = DeferredStop()
     summary: dict[str, Any] = {"duration_asked_s": duration, "seed": seed,
@@ -129,6 +140,8 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 BaseNode(context, base)
                 tracker = MobrobDataTracker(context, encoder_log)
                 Recorder(context, str(bag), list(RECORDED))
+                if view is not None:  # served from here on, waiting for a viewer
+                    viewer = serve_run(context, view, say, name="servolab flyball")
                 _spin(context, sim, duration, show_progress)
             except BaseException as error:  # a stop signal, a node's error: keep, analyse
                 ending.error = error
@@ -137,6 +150,9 @@ def run_flyball(run_folder: RunFolder, *, duration: float = 100.0, seed: int = 0
                 base.stop()
             with ending.step("stopping the treadmill"):
                 stop_wheels(aot)
+            if viewer is not None:
+                with ending.step("closing the view"):
+                    viewer.close()
         with ending.step("analysing"):
             summary.update(analysed_run(run_folder, fly_path, encoder_path, bag, rig))
         summary.update({"frames": node.frames if node is not None else 0,
@@ -164,7 +180,8 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                  camera: int | str | None = None, port: str | None = None,
                  say: Say = print, show_progress: bool = True, fps: float | None = None,
                  rig: RigConfig | None = None, size: tuple[int, int] | None = None,
-                 record_video: str | Path | None = None) -> dict[str, Any]:
+                 record_video: str | Path | None = None,
+                 view: ViewRequest | None = None) -> dict[str, Any]:
     """Track a recording (``frames``: a folder of images, a video, or the thesis's
     ``Fly_Image.bin``; :class:`~servolab.vision.frame_source.FrameSource`) or a live
     ``camera`` (an OpenCV device index or path) frame by frame, with the treadmill's motors
@@ -176,10 +193,14 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
     time between frames: ``fps`` if given, else the video's own (``CAP_PROP_FPS``, its
     frames stamped by ``CAP_PROP_POS_MSEC``), else the rig camera's (66 frames/s, Listing 3).
     ``summary.json`` says which (``time_base``). A live camera runs in real time (the
-    emulated motors too), each frame stamped when it was captured, until a stop signal."""
+    emulated motors too), each frame stamped when it was captured, until a stop signal.
+    ``view`` serves the run to Foxglove; a recording on emulated motors waits for the first
+    viewer, then keeps to real time (``view.speed`` times it), and a live camera or real
+    motors are served as they go, waiting for no one."""
     from ...clock import Clock, WallClock
     from ...dynamixel.bus import Bus
     from ...middleware.recorder import Recorder
+    from ...middleware.view.run_view import serve_run
     from ...sim import Simulation
     from ...vision.frame_source import FrameSource
     from .logs import FlyLogWriter
@@ -226,6 +247,9 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
     from tqdm import tqdm
 
     node: TreadmillNode | None = None
+    viewer: ViewServer | None = None
+    if view is not None and live:  # a camera does not wait for a laptop
+        view = replace(view, wait_for_viewer=False)
     ending = RunEnding(None)
     late = DeferredStop()
     summary: dict[str, Any] = {"frames_source": str(frames) if frames is not None else None,
@@ -255,6 +279,8 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                         node.camera = reader
                         Recorder(context, str(bag), ["/cmd_vel", "/fly/pose",
                                                      "/treadmill/joint_states"])
+                        if view is not None:  # served from here on
+                            viewer = serve_run(context, view, say, name="servolab flyball")
                         while not reader.finished:
                             context.spin_until(lambda: reader.finished, timeout=1.0)
                             bar.update(node.frames - bar.n)
@@ -272,6 +298,9 @@ def run_recorded(run_folder: RunFolder, frames: str | Path | None = None, *,
                     late = way_out.enter_context(stops_deferred())  # not cut short
                     with ending.step("stopping the treadmill"):
                         stop_wheels(bus)  # whether or not the node got to start them
+                    if viewer is not None:
+                        with ending.step("closing the view"):
+                            viewer.close()
             finally:
                 source.close()
                 bus.close()
