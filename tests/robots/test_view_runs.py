@@ -10,14 +10,23 @@ PR #819). What it decoded must equal what the run's bag recorded, read back with
 
 from __future__ import annotations
 
+import json
+import signal
+import sys
+import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.middleware.conftest import free_port
+from tests.processes import started
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client, watched_run
+from tests.waiting import wait_for
 
-pytestmark = pytest.mark.slow
+# each runs a robot or a launch in other processes (and a browser): every core busy, so
+# not beside the tests that hold the wall clock to a deadline (tests/conftest.py)
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 SUBPROTOCOLS = [WEBSOCKET_V1, SDK_V1]
 #: the simulated runs play at this many times real time while watched (--view-speed)
@@ -117,3 +126,27 @@ def test_a_watched_navigation_shows_its_costmap_and_path_as_recorded(
                                            for p in twin.poses]
     plans = {_stamp(m.header) for m in recorded["/plan"]}
     assert all(_stamp(msg["header"]) in plans for msg in _messages(events, "/plan"))
+
+
+@pytest.mark.parametrize(("args", "bag", "stop"), [
+    (["walk", "--steps", "1"], "walk_bag", signal.SIGINT),
+    (["navigate", "--goal", "1.2", "0.9"], "navigate_bag", signal.SIGTERM),
+])
+def test_a_stop_while_waiting_for_a_viewer_ends_the_run_cleanly(
+        tmp_path: Path, args: list[str], bag: str, stop: signal.Signals) -> None:
+    """Ctrl-C (or SIGTERM) while the run waits for its first viewer: the run ends as any
+    stopped run does, its summary whole and saying so, its bag closed and readable."""
+    port = free_port()
+    output: list[str] = []
+    with started([sys.executable, "-m", "servolab", *args, "--view", str(port),
+                  "--no-progress", "--out", str(tmp_path)], stderr_to_stdout=True) as proc:
+        threading.Thread(target=lambda: output.extend(proc.stdout or ()), daemon=True).start()
+        wait_for(lambda: any("waiting for a viewer" in line for line in output)
+                 or proc.poll() is not None, "the run to wait for a viewer", timeout=90)
+        proc.send_signal(stop)
+        proc.wait(timeout=60)
+    assert proc.returncode == 128 + stop, "".join(output)[-3000:]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["interrupted"] == stop.name
+    assert not summary.get("failures_on_the_way_out"), summary.get("failures_on_the_way_out")
+    assert _recorded(tmp_path / bag)  # a bag with its messages so far, readable

@@ -16,7 +16,9 @@ import pytest
 from tests.robots.test_view_runs import _messages, _recorded, _stamp, _watch
 from tests.viewclient import SDK_V1
 
-pytestmark = pytest.mark.slow
+# each runs a robot or a launch in other processes (and a browser): every core busy, so
+# not beside the tests that hold the wall clock to a deadline (tests/conftest.py)
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 
 def test_a_watched_drive_shows_its_odometry_as_its_bag_recorded_it(tmp_path: Path) -> None:

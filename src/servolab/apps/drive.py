@@ -94,6 +94,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.base.run import check_move, prepare, run_drive
     from ..runs import RunFolder
 
+    view = view_request(args)  # checked before the run folder is made
     distance: float = getattr(args, "distance", 1.0)
     speed: float = getattr(args, "speed", 0.1)
     radius: float = getattr(args, "radius", 0.5)
@@ -118,7 +119,7 @@ def _run(args: argparse.Namespace) -> int:
                   show_progress=not args.no_progress, slip=args.slip,
                   slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
                   real_time=args.real_time, percent=percent, counts_per_mm=cpm,
-                  as_printed=as_printed, view=view_request(args))
+                  as_printed=as_printed, view=view)
     print(f"run folder: {run.path}")
     return 0
 

@@ -105,6 +105,7 @@ def _analyze(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    view = view_request(args)  # checked before the run folder is made
     if args.action == "analyze":
         return _analyze(args)
     from ..errors import UsageError
@@ -149,13 +150,13 @@ def _run(args: argparse.Namespace) -> int:
             run_recorded(run, args.frames, camera=args.camera, port=args.port,
                          fps=args.fps, show_progress=not args.no_progress, rig=rig,
                          size=size, record_video=args.record_video,
-                         view=view_request(args))
+                         view=view)
     else:
         with RunFolder.create("flyball", args.out) as run:
             run_flyball(run, duration=100.0 if args.duration is None else args.duration,
                         seed=args.seed or 0, show_progress=not args.no_progress,
                         wheel_clamp=args.clamp, rig=rig, record_video=args.record_video,
-                        view=view_request(args))
+                        view=view)
     print(f"run folder: {run.path}")
     return 0
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import argparse
 
+from servolab.middleware.view.defaults import DEFAULT_PORT
+
 from .arguments import add_log_level, add_transport, log_level
 from .registry import Command
-from .view import DEFAULT_PORT, tcp_port
+from .view import view_port
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -20,7 +22,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
     p.add_argument("--process", help=argparse.SUPPRESS)
     add_transport(p, default="")
-    p.add_argument("--view", nargs="?", type=tcp_port, const=DEFAULT_PORT, default=None,
+    p.add_argument("--view", nargs="?", type=view_port, const=DEFAULT_PORT, default=None,
                    metavar="PORT", help="serve the launch's graph to Foxglove or Lichtblick on "
                    f"ws://127.0.0.1:PORT (default {DEFAULT_PORT})")
     add_log_level(p)

@@ -51,6 +51,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.navigation.run import prepare, run_navigate
     from ..runs import RunFolder
 
+    view = view_request(args)  # checked before the run folder is made
     if len(args.goal) not in (2, 3):
         raise UsageError(f"--goal takes X Y or X Y YAW, not {len(args.goal)} number(s)")
     x, y = args.goal[:2]
@@ -68,7 +69,7 @@ def _run(args: argparse.Namespace) -> int:
                          move_base=args.move_base)
     with RunFolder.create("navigate", args.out) as run:
         run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
-                     show_progress=not args.no_progress, view=view_request(args))
+                     show_progress=not args.no_progress, view=view)
     print(f"run folder: {run.path}")
     return 0
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from servolab.errors import UsageError
+from servolab.middleware.view.defaults import DEFAULT_HOST, DEFAULT_PORT
 
 from .arguments import add_transport, nonnegative_float, positive_float, transport_options
 from .registry import Command
@@ -20,8 +21,6 @@ from .registry import Command
 if TYPE_CHECKING:
     from servolab.middleware.view.run_view import ViewRequest
 
-#: Foxglove's and foxglove_bridge's port
-DEFAULT_PORT = 8765
 
 
 def add_view_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,8 +29,8 @@ def add_view_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ws-port", type=tcp_port, default=DEFAULT_PORT, metavar="PORT",
                    help=f"TCP port to serve on (default {DEFAULT_PORT}, Foxglove's; 0: any free "
                    "one, printed)")
-    p.add_argument("--ws-host", default="127.0.0.1", metavar="ADDRESS",
-                   help="address to listen on (default 127.0.0.1: this computer only; "
+    p.add_argument("--ws-host", default=DEFAULT_HOST, metavar="ADDRESS",
+                   help=f"address to listen on (default {DEFAULT_HOST}: this computer only; "
                    "0.0.0.0 lets other computers watch)")
 
 
@@ -45,24 +44,48 @@ def tcp_port(text: str) -> int:
     return port
 
 
+def view_port(text: str) -> int:
+    """``--view``'s port; a word that is not one was most likely meant for the command (the
+    port is optional, so ``--view`` goes after the other arguments)."""
+    try:
+        return tcp_port(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a TCP port (0..65535); --view takes an optional port, so put "
+            "it after the other arguments") from None
+
+
+def view_speed(text: str) -> float:
+    from servolab.middleware.view.pacing import MAX_SPEED, MIN_SPEED
+
+    value = positive_float(text)
+    if not MIN_SPEED <= value <= MAX_SPEED:
+        raise argparse.ArgumentTypeError(f"{text} must be {MIN_SPEED:g} to {MAX_SPEED:g} "
+                                         "(times real time)")
+    return value
+
+
 def add_view_flag(p: argparse.ArgumentParser) -> None:
     """``--view [PORT]`` and ``--view-speed X`` of a robot command: serve the run to
     Foxglove while it runs."""
-    p.add_argument("--view", nargs="?", type=tcp_port, const=DEFAULT_PORT, default=None,
+    p.add_argument("--view", nargs="?", type=view_port, const=DEFAULT_PORT, default=None,
                    metavar="PORT", help="serve the run to Foxglove or Lichtblick on "
                    f"ws://127.0.0.1:PORT (default {DEFAULT_PORT}) while it runs; a simulated "
                    "run waits for the first viewer, then keeps to real time")
-    p.add_argument("--view-speed", type=positive_float, default=1.0, metavar="X",
+    p.add_argument("--view-speed", type=view_speed, default=None, metavar="X",
                    help="with --view, a simulated run: X times real time (default 1)")
 
 
 def view_request(args: argparse.Namespace) -> ViewRequest | None:
-    """What ``--view`` asked for, or None."""
-    if args.view is None:
+    """What ``--view`` asked for, or None (also for a subcommand without it)."""
+    port, speed = getattr(args, "view", None), getattr(args, "view_speed", None)
+    if port is None:
+        if speed is not None:
+            raise UsageError("--view-speed goes with --view")
         return None
     from servolab.middleware.view.run_view import ViewRequest
 
-    return ViewRequest(port=args.view, speed=args.view_speed)
+    return ViewRequest(port=port, speed=speed or 1.0)
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -118,6 +141,8 @@ def _run(args: argparse.Namespace) -> int:
         return write_layout(args.layout, args.output)
     if args.output is not None:
         raise UsageError("-o/--output goes with --layout")
+    if args.bag is None and (args.rate != 1.0 or args.loop):
+        raise UsageError("--rate and --loop go with BAG, a recorded run to play")
     if args.bag is not None:
         if args.listen or args.connect:
             raise UsageError("a bag is played in this process: --listen and --connect go "

@@ -59,6 +59,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.armstrong.run import run_walk
     from ..runs import RunFolder
 
+    view = view_request(args)  # checked before the run folder is made
     if args.file and args.gait != "seed":
         raise UsageError("--file plays a motion file; --gait generates one: give one of them")
     steps = args.steps if args.steps is not None else (10 if args.gait == "zmp" else 1)
@@ -117,7 +118,7 @@ def _run(args: argparse.Namespace) -> int:
         run_walk(run, motion, steps=steps, rate=rate, port=args.port,
                  config=args.config, show_progress=not args.no_progress, world=args.world,
                  assumptions=assumptions, video=Path(args.video) if args.video else None,
-                 gait=args.file or args.gait, view=view_request(args))
+                 gait=args.file or args.gait, view=view)
     print(f"run folder: {run.path}")
     return 0
 

@@ -573,7 +573,8 @@ class FastCdr:
             try:
                 return store.deserialize_cdr(data, typename)
             except Exception as exc:
-                raise CdrError(f"{len(data)} bytes are not a CDR {typename}: {exc}") from None
+                why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+                raise CdrError(f"{len(data)} bytes are not a CDR {typename}: {why}") from None
         return read
 
     def source(self, typename: str) -> str | None:

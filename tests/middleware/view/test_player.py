@@ -236,6 +236,25 @@ def test_seek_to_the_middle_plays_from_there_and_republishes_the_latched_descrip
     assert len(late.got) == 1
 
 
+def test_a_seek_made_while_a_message_plays_is_where_the_player_says_it_is(
+        player: BagPlayer, recorded: Recorded) -> None:
+    """A seek (and a pause) from inside the callback of a message being played: the state
+    and the clock are at the seek, not at the message that was playing (the app's timeline
+    would jump back)."""
+    middle = recorded.twists[TWISTS // 2][0]
+
+    def seek_on_first(_: Any) -> None:
+        if player.state().status == PLAYING and player.played == 1:  # the description was 0
+            player.seek(middle)
+            player.pause()
+
+    Node(player.context, "seeker").create_subscription(TWIST, "/cmd_vel", seek_on_first, 100)
+    player.resume()
+    wait_for(lambda: player.state().status == PAUSED, "the player to pause")
+    assert player.sync()
+    assert player.state().current_ns == middle == player.clock.ros_time_ns()
+
+
 def test_a_seek_back_before_the_description_forgets_it(player: BagPlayer,
                                                        recorded: Recorded) -> None:
     """Seeking to the very start: no latched message lies before it, so a subscriber joining

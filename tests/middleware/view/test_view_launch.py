@@ -15,7 +15,9 @@ from tests.processes import started
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client
 from tests.waiting import wait_for
 
-pytestmark = pytest.mark.slow
+# each runs a robot or a launch in other processes (and a browser): every core busy, so
+# not beside the tests that hold the wall clock to a deadline (tests/conftest.py)
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 LAUNCH = """\
 transport: {transport}

@@ -384,3 +384,17 @@ def test_topics_and_services_are_advertised_as_they_come_and_go(graph: Graph,
     assert client.op("unadvertise")["channelIds"] == [channel["id"]]
     graph.talker.destroy_service(server)
     assert client.op("unadvertiseServices")["serviceIds"] == [service["id"]]
+
+
+def test_a_second_viewer_of_a_latched_topic_gets_what_it_kept(graph: Graph) -> None:
+    """Two apps open at once (Foxglove and Lichtblick, two tabs): the view's one subscription
+    replays the latched description to the first viewer only; the second gets it too, from
+    what the view kept."""
+    with SpecClient.open(graph.url, SUBPROTOCOLS[0]) as first, \
+            SpecClient.open(graph.url, SUBPROTOCOLS[1]) as second:
+        for viewer, sid in ((first, 1), (second, 2)):
+            channel = viewer.channel("/robot_description")
+            viewer.send("subscribe", subscriptions=[{"id": sid, "channelId": channel["id"]}])
+            _, payload = viewer.message_data(sid)
+            assert decoder(channel)(payload).data == LATCHED_TEXT
+        assert graph.view_subscriptions("/robot_description") == 1  # still one, shared

@@ -8,7 +8,17 @@
         ctx.spin()
 """
 
-from .protocol import SUBPROTOCOLS, ClientMessageError
-from .server import ViewConfig, ViewServer
+from typing import TYPE_CHECKING
 
+from ..._lazy import lazy_exports
+
+#: Each public name and its module, imported on first use (PEP 562): the command line reads
+#: :mod:`.defaults` without loading the server and its WebSocket library.
+_EXPORTS = {"SUBPROTOCOLS": "protocol", "ClientMessageError": "protocol",
+            "ViewConfig": "server", "ViewServer": "server"}
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 __all__ = ["SUBPROTOCOLS", "ClientMessageError", "ViewConfig", "ViewServer"]
+
+if TYPE_CHECKING:
+    from .protocol import SUBPROTOCOLS, ClientMessageError
+    from .server import ViewConfig, ViewServer

@@ -29,6 +29,11 @@ PACE_PERIOD = 0.01
 #: How far (s) the run may fall behind the wall clock before the pacer stops trying to make
 #: it up: a run slower than real time is shown as it comes, not in a burst to catch up.
 MAX_LAG = 0.25
+#: The speeds a watched run may be paced at (times real time), as foxglove-sdk clamps a
+#: player's: slower would hold the robot's thread for minutes a step.
+MIN_SPEED, MAX_SPEED = 0.01, 100.0
+#: The longest one wait lasts before the pacer looks again whether it was released (s).
+WAIT_SLICE = 0.05
 
 
 class TickHandle(Protocol):
@@ -55,8 +60,12 @@ class PaceConfig:
     def __post_init__(self) -> None:
         for name in ("speed", "period"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0 < value < float("inf")):
+            if isinstance(value, bool) or not (isinstance(value, int | float)
+                                               and 0 < value < float("inf")):
                 raise ServolabValueError(f"pace {name} must be a number > 0, got {value!r}")
+        if not MIN_SPEED <= self.speed <= MAX_SPEED:
+            raise ServolabValueError(f"pace speed must be {MIN_SPEED:g} to {MAX_SPEED:g} times "
+                                     f"real time, got {self.speed!r}")
 
 
 class Pacer:
@@ -65,11 +74,12 @@ class Pacer:
 
     def __init__(self, clock: PacedClock, config: PaceConfig | None = None, *,
                  wall: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep) -> None:
+                 sleep: Callable[[float], None] | None = None) -> None:
         self.clock = clock
         self.config = config or PaceConfig()
         self._wall = wall
-        self._sleep = sleep
+        self._released = threading.Event()  # set when the last viewer leaves: waits end
+        self._sleep = sleep if sleep is not None else self._wait
         self._lock = threading.Lock()
         self._holds = 0
         self._tick: TickHandle | None = None
@@ -91,6 +101,7 @@ class Pacer:
             if call_every is None:
                 return  # a virtual clock without callbacks cannot be paced
             self._origin = (self.clock.now(), self._wall())
+            self._released.clear()
             self._tick = call_every(self.config.period, self._pace)
 
     def release(self) -> None:
@@ -102,6 +113,13 @@ class Pacer:
             if self._holds == 0 and self._tick is not None:
                 self._tick.cancel()
                 self._tick = None
+                self._released.set()
+
+    def _wait(self, seconds: float) -> None:
+        """Sleep ``seconds`` in short slices, ended at once when the last viewer leaves."""
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0 and not self._released.is_set():
+            self._released.wait(min(left, WAIT_SLICE))
 
     def _pace(self, virtual_now: float) -> None:
         """Wait until the wall clock has caught up with ``virtual_now`` (on the thread that

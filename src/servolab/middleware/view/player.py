@@ -59,6 +59,8 @@ from ..qos import (
     ReliabilityPolicy,
 )
 from ..transport import TransportOptions
+from .defaults import DEFAULT_HOST, DEFAULT_PORT
+from .pacing import MAX_LAG
 
 _log = logging.getLogger("servolab.view.player")
 
@@ -67,9 +69,6 @@ PLAYING, PAUSED, ENDED = "playing", "paused", "ended"
 #: s between two looks at callbacks other threads bring while the player waits (and at
 #: whether its context was shut down): the latency of a viewer's subscription while paused.
 POLL_PERIOD = 0.01
-#: How far (s) playback may fall behind the wall clock before it stops trying to make it up:
-#: a slow stretch is then shown as it comes, not in a burst to catch up (as the pacer does).
-MAX_LAG = 0.25
 #: Topics latched by convention, taken as latched when the bag recorded no QoS for them (a
 #: topic named with ``--type`` before its publisher appeared): (depth kept for late viewers).
 LATCHED_BY_NAME: Mapping[str, int] = {"/robot_description": 1, "/map": 1, "/tf_static": 100}
@@ -466,6 +465,8 @@ class BagPlayer:
                             messages, pending = self._from(seek)
                         finally:
                             self._cond.acquire()
+                        if self._seek_to is None:  # no newer seek came meanwhile
+                            self._current_ns = seek
                         continue
                     self._turn()  # after a seek: sync() returns once it is done
                     if self._status != PLAYING:
@@ -496,7 +497,8 @@ class BagPlayer:
                         self._publishing = False
                         self._cond.notify_all()
                     self.played += 1
-                    self._current_ns = pending.log_time_ns
+                    if self._seek_to is None:  # a seek made while it played has moved on
+                        self._current_ns = pending.log_time_ns
                     pending = next(messages, None)
         finally:
             messages.close()
@@ -582,7 +584,7 @@ def _wait(done: Callable[[], bool], ok: Callable[[], bool], timeout: float | Non
     return done()
 
 
-def serve_bag(path: str, *, host: str = "127.0.0.1", port: int = 8765, rate: float = 1.0,
+def serve_bag(path: str, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, rate: float = 1.0,
               loop: bool = False, say: Callable[[str], None] = print,
               wait_for_viewer: bool = True, types: MessageTypes | None = None,
               keep_serving: bool = False) -> int:

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .defaults import DEFAULT_HOST, DEFAULT_PORT
 from .pacing import PaceConfig, Pacer
 from .server import ViewConfig, ViewServer
 
@@ -23,8 +24,8 @@ if TYPE_CHECKING:
 class ViewRequest:
     """What a robot command's ``--view [PORT]`` (and ``--view-speed X``) asked for."""
 
-    port: int = 8765
-    host: str = "127.0.0.1"
+    port: int = DEFAULT_PORT
+    host: str = DEFAULT_HOST
     speed: float = 1.0
     wait_for_viewer: bool = True
 

@@ -45,7 +45,8 @@ from ..node import Node
 from ..parameters import from_parameter_value, to_parameter_value
 from ..qos import DurabilityPolicy, QoSProfile, adapted_policies
 from . import protocol as p
-from .pacing import Pacer
+from .defaults import DEFAULT_HOST, DEFAULT_PORT
+from .pacing import MAX_SPEED, MIN_SPEED, Pacer
 
 if TYPE_CHECKING:
     from ..client import Client
@@ -83,16 +84,14 @@ class Playback(Protocol):
 
 #: A player's status as the protocol numbers it.
 _STATUS = {"playing": p.PLAYING, "paused": p.PAUSED, "ended": p.ENDED}
-#: The speeds the app may ask for, as foxglove-sdk clamps them.
-MIN_SPEED, MAX_SPEED = 0.01, 100.0
 
 
 @dataclass(frozen=True)
 class ViewConfig:
     """Where the server listens and how it paces itself."""
 
-    host: str = "127.0.0.1"
-    port: int = 8765                  # 0: a free port (then read ViewServer.port)
+    host: str = DEFAULT_HOST
+    port: int = DEFAULT_PORT                  # 0: a free port (then read ViewServer.port)
     name: str = "servolab view"       # serverInfo's name, shown by the viewer
     node_name: str = "servolab_view"  # the server's node in the graph
     graph_period: float = 0.25        # s between two looks at the graph
@@ -143,6 +142,9 @@ class _TopicFeed:
     channel_id: int
     subscription: Subscription | None = None
     receivers: dict[_Viewer, int] = field(default_factory=dict)  # viewer -> subscription id
+    #: a latched topic's last messages (stamp, CDR), up to its depth: the subscription's
+    #: TRANSIENT_LOCAL replay reaches the first viewer only, a later one gets them from here
+    kept: deque[tuple[int, bytes]] | None = None
 
 
 def subscription_qos(offers: Iterable[QoSProfile | None]) -> QoSProfile:
@@ -451,10 +453,16 @@ class ViewServer:
         if feed is None:
             feed = _TopicFeed(channel_id)
             channel = self._channels[channel_id]
+            qos = subscription_qos(self._offers.get(channel.topic, []))
+            if qos.transient_local:
+                feed.kept = deque(maxlen=max(1, qos.depth))
             feed.subscription = self.node.create_subscription(
-                self._channel_types[channel_id], channel.topic, self._forward(feed),
-                subscription_qos(self._offers.get(channel.topic, [])), raw=True)
+                self._channel_types[channel_id], channel.topic, self._forward(feed), qos,
+                raw=True)
             self._feeds[channel_id] = feed
+        elif feed.kept:  # a latched topic others watch already: what it kept, first
+            for stamp, cdr in feed.kept:
+                viewer.send_data(p.message_data(subscription_id, stamp, cdr))
         viewer.subscriptions[subscription_id] = channel_id
         feed.receivers[viewer] = subscription_id
 
@@ -494,6 +502,8 @@ class ViewServer:
     def _fan_out(self, feed: _TopicFeed, cdr: bytes, stamp: int) -> None:
         if self._feeds.get(feed.channel_id) is not feed:
             return  # unsubscribed meanwhile
+        if feed.kept is not None:
+            feed.kept.append((stamp, cdr))
         for viewer, subscription_id in feed.receivers.items():
             if not viewer.send_data(p.message_data(subscription_id, stamp, cdr)):
                 self._dropped += 1

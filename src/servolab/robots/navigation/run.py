@@ -255,9 +255,9 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
             planner_frequency=move_base_params.planner_frequency,
             pose_timeout=POSE_TIMEOUT_FRAMES / world.camera.rate)
         Recorder(context, str(bag), list(RECORDED))
+        start = base.clock.now()  # before the wait for a viewer, which a stop may end
         if view is not None:  # served from here on, waiting for a viewer if simulated
             viewer = serve_run(context, view, say, name="servolab navigate")
-        start = base.clock.now()
         say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
             f"on {world.path}")
         _drive(context, navigator, base, start, timeout, show_progress, say)
