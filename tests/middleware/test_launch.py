@@ -759,3 +759,22 @@ def test_exec_children_are_given_the_launchs_transport_in_their_environment() ->
         "SERVOLAB_TRANSPORT": "zenoh", "SERVOLAB_LISTEN": "tcp/127.0.0.1:0",
         "SERVOLAB_CONNECT": "tcp/127.0.0.1:7000", "ROS_DOMAIN_ID": "7"}
     assert child_environment(TransportOptions())["SERVOLAB_TRANSPORT"] == "local"
+
+
+def test_a_launch_of_rclpy_shaped_classes_leaves_no_default_context_open(
+        tmp_path: Path, rclpy_nodes: str) -> None:
+    """The classes' own rclpy-shaped ``__init__`` runs before the launch's and asked for the
+    process's default context, which stayed open after the launch (and broke the next
+    ``rclpy.init()`` in the same process)."""
+    from servolab.middleware import default_context
+
+    path = write(tmp_path, f"""\
+        nodes:
+          - name: talker
+            node: {rclpy_nodes}:Talker
+            parameters: {{count: 2}}
+            required: true
+        """)
+    assert not default_context.is_initialized()
+    assert run_launch(load_launch(path), out=lambda _: None) == 0
+    assert not default_context.is_initialized()

@@ -572,6 +572,10 @@ def node_call(launch: LaunchFile, entry: NodeEntry, cls: type[Node]) -> NodeCall
     return NodeCall(args, kwargs, rclpy=True)
 
 
+#: The attribute a launched class carries its launch's context in (:func:`launched_class`).
+LAUNCH_CONTEXT = "_servolab_launch_context"
+
+
 def launched_class(cls: type[Node], context: Any, entry: NodeEntry) -> type[Node]:
     """``cls`` with the launch's context, and the entry's name, namespace, parameters and
     remappings, put under it: a subclass whose method resolution order reaches servolab's
@@ -590,7 +594,10 @@ def launched_class(cls: type[Node], context: Any, entry: NodeEntry) -> type[Node
         Node.__init__(self, context, entry.name, entry.namespace, parameter_overrides=params,
                       remappings=remaps)
 
-    under = type("LaunchEntry", (Node,), {"__init__": init, "__module__": __name__})
+    # the launch's context, for an rclpy-shaped class whose own __init__ runs first and would
+    # otherwise open the process's default context, which nothing then closes
+    under = type("LaunchEntry", (Node,), {"__init__": init, "__module__": __name__,
+                                          LAUNCH_CONTEXT: context})
     return type(cls.__name__, (cls, under), {"__module__": cls.__module__,
                                             "__qualname__": cls.__qualname__})
 

@@ -127,9 +127,10 @@ class Node(_Node):
             if namespace is not None or len(args) > 1:
                 raise TypeError("Node(name, namespace) takes a namespace once, not twice")
             namespace = args[0]
-        if context is None:
+        if context is None:  # a launch's node class carries the launch's; else the default
             from servolab.middleware.default_context import default_context
-            context = default_context()
+            from servolab.middleware.launch_file import LAUNCH_CONTEXT
+            context = getattr(self, LAUNCH_CONTEXT, None) or default_context()
         arguments = RosArguments()
         if use_global_arguments:
             arguments.extend(Global.arguments)
