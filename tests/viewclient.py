@@ -84,7 +84,9 @@ class NodeClient:
         self.args = args
         self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      stdin=subprocess.DEVNULL, text=True, cwd=VIEW_CLIENT)
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
+        #: notified on every event and when the client's output ends: waits wake on it
+        self._changed = threading.Condition(self._lock)
         self._events: list[Event] = []
         self._stderr: list[str] = []
         self._readers = [threading.Thread(target=self._read_stdout, daemon=True),
@@ -104,8 +106,11 @@ class NodeClient:
                 event = {"op": "unparsed", "line": line}
             if not isinstance(event, dict):
                 event = {"op": "unparsed", "line": line}
-            with self._lock:
+            with self._changed:
                 self._events.append(event)
+                self._changed.notify_all()
+        with self._changed:  # its output ended: the client is leaving
+            self._changed.notify_all()
 
     def _read_stderr(self) -> None:
         assert self.proc.stderr is not None
@@ -143,8 +148,14 @@ class NodeClient:
         return (f"client {'running' if self.returncode is None else f'exit {self.returncode}'}"
                 f"; last events:\n  {events}\nstderr: {self.stderr.strip()[-2000:] or '(none)'}")
 
+    def _await_change(self, deadline: float) -> None:
+        """Wait for the next event or the end of the client's output, at most until
+        ``deadline`` (and a moment, so an exit without output is seen too)."""
+        with self._changed:
+            self._changed.wait(max(0.0, min(deadline - time.monotonic(), 0.2)))
+
     def wait_until(self, predicate: Callable[[NodeClient], object], what: str,
-                   timeout: float = 10.0, step: float = 0.02) -> None:
+                   timeout: float = 10.0) -> None:
         """Poll ``predicate(self)`` until true, failing after ``timeout`` s (or as soon as the
         client exited without it) with what the client did instead."""
         deadline = time.monotonic() + timeout
@@ -157,9 +168,9 @@ class NodeClient:
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out after {timeout:g} s waiting for {what}: "
                                      f"{self.describe()}")
-            time.sleep(step)
+            self._await_change(deadline)
 
-    def wait_for_more(self, op: str, timeout: float, step: float = 0.005) -> bool:
+    def wait_for_more(self, op: str, timeout: float) -> bool:
         """Wait up to ``timeout`` s for one more event of kind ``op`` than there is now (or for
         the client's end); returns whether one came. For pacing a loop that feeds the client,
         never a failure."""
@@ -168,7 +179,7 @@ class NodeClient:
         while len(self.of(op)) == seen and self.returncode is None:
             if time.monotonic() > deadline:
                 return False
-            time.sleep(step)
+            self._await_change(deadline)
         return len(self.of(op)) > seen
 
     def wait(self, timeout: float) -> int:
