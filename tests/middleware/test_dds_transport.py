@@ -11,6 +11,8 @@ rclpy on Fast DDS.
 from __future__ import annotations
 
 import logging
+import threading
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -125,6 +127,41 @@ def test_services_and_parameters_across_participants(dds_pair, caplog) -> None:
     finally:
         a.shutdown()
         spinner.join(2.0)
+
+
+def test_builtin_reads_from_many_threads(dds_pair) -> None:
+    """Concurrent service calls each ask whether a Fast DDS server answers, reading DDS's
+    builtin subscription topic from their own thread while endpoints come and go. Unguarded,
+    cyclonedds-python failed such reads ("Callfunc endpoint constructor errored": 5 of ~1 600
+    rounds with eight threads, none with one), which failed a service call in CI."""
+    a, b = dds_pair
+    churn = Node(a, "churn")
+    errors: list[BaseException] = []
+    stop = threading.Event()
+
+    def ask() -> None:
+        while not stop.is_set():
+            try:
+                b.transport.fast_dds_serves("/add_two_ints")  # type: ignore[attr-defined]
+            except Exception as exc:  # every failure is the finding
+                errors.append(exc)
+
+    askers = [threading.Thread(target=ask) for _ in range(8)]
+    for thread in askers:
+        thread.start()
+    try:
+        end = time.monotonic() + 3.0
+        rounds = 0
+        while time.monotonic() < end and not errors:
+            sub = churn.create_subscription("std_msgs/msg/String", f"/churn{rounds % 5}",
+                                            lambda msg: None, 10)
+            churn.destroy_subscription(sub)
+            rounds += 1
+    finally:
+        stop.set()
+        for thread in askers:
+            thread.join()
+    assert not errors, f"{len(errors)} builtin reads failed, first: {errors[0]!r}"
 
 
 def test_graph_shows_both_participants(dds_pair) -> None:

@@ -464,6 +464,7 @@ class DdsTransport(Transport):
             DISCOVERY_TOPIC, DISCOVERY_TYPE,
             QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL),
             self._on_discovery, ros=False)
+        self._builtin_lock = threading.Lock()
         self._builtin = {
             "participant": BuiltinDataReader(self.participant, BuiltinTopicDcpsParticipant),
             "publication": BuiltinDataReader(self.participant, BuiltinTopicDcpsPublication),
@@ -549,6 +550,16 @@ class DdsTransport(Transport):
                 for check in list(self._checks):
                     check()
 
+    def _read_builtin(self, kind: str) -> list[Any]:
+        """The alive samples of one of DDS's own discovery topics.
+
+        One thread at a time: cyclonedds-python's builtin readers are not safe to read from
+        several threads at once (eight concurrent service calls each asking
+        :meth:`fast_dds_serves` failed with "Callfunc endpoint constructor errored", seen in
+        CI and reproduced by ``test_builtin_reads_from_many_threads``)."""
+        with self._builtin_lock:
+            return list(self._builtin[kind].read(N=100_000, condition=self._alive[kind]))
+
     def bare_participant(self) -> DomainParticipant:
         """A second participant for calling Fast DDS servers: their request and reply topics
         carry the bare request and response, which this participant's types describe (the
@@ -563,8 +574,7 @@ class DdsTransport(Transport):
         """Whether a Fast DDS participant has a reader of the service's requests."""
         wanted = request_topic(name)
         return any(ep.topic_name == wanted and ep.participant_key.bytes[:2] == VENDOR_EPROSIMA
-                   for ep in self._builtin["subscription"].read(
-                       N=100_000, condition=self._alive["subscription"]))
+                   for ep in self._read_builtin("subscription"))
 
     def _own(self, node: NodeInfo, *, readers: tuple[Any, ...] = (),
              writers: tuple[Any, ...] = ()) -> Callable[[], None]:
@@ -774,14 +784,12 @@ class DdsTransport(Transport):
             if now >= self._opened + timeout:
                 own = {self.gid} | ({self._bare_participant.get_guid().bytes}
                                     if self._bare_participant is not None else set())
-                met = {p.key.bytes for p in self._builtin["participant"].read(
-                    N=100_000, condition=self._alive["participant"])} - own
+                met = {p.key.bytes for p in self._read_builtin("participant")} - own
                 with self._lock:
                     if met <= set(self._peers):
                         break
             time.sleep(0.02)
-        alive = {p.key.bytes for p in self._builtin["participant"].read(
-            N=100_000, condition=self._alive["participant"])}
+        alive = {p.key.bytes for p in self._read_builtin("participant")}
         owner: dict[bytes, str] = {}
         endpoints: list[Endpoint] = []
         with self._lock:
@@ -793,7 +801,7 @@ class DdsTransport(Transport):
                 for gid in (*node.reader_gid_seq, *node.writer_gid_seq):
                     owner[bytes(gid.data[:16])] = fqn
         for kind in ("publication", "subscription"):
-            for ep in self._builtin[kind].read(N=100_000, condition=self._alive[kind]):
+            for ep in self._read_builtin(kind):
                 owned_by = owner.get(ep.key.bytes)
                 name = ros_name(ep.topic_name, ep.type_name)
                 if owned_by is None or name is None:
@@ -814,8 +822,7 @@ class DdsTransport(Transport):
             return
         end = time.monotonic() + timeout
         while True:
-            others = [p for p in self._builtin["participant"].read(
-                N=100_000, condition=self._alive["participant"]) if p.key.bytes != self.gid]
+            others = [p for p in self._read_builtin("participant") if p.key.bytes != self.gid]
             if others:
                 return
             if time.monotonic() >= end:
