@@ -26,6 +26,7 @@ class Publisher:
         self.topic = topic
         self.qos = qos
         self._inner = node.context.transport.advertise(node.info, topic, type_name, qos)
+        self._publish = self._inner.sender()  # looked up once: a control loop's every message
 
     @property
     def topic_name(self) -> str:
@@ -36,7 +37,7 @@ class Publisher:
         if getattr(msg, "__msgtype__", None) != self.type_name:
             raise MessageError(f"{self.topic} carries {self.type_name}, not "
                                f"{getattr(msg, '__msgtype__', type(msg).__name__)}")
-        self._inner.publish(msg)
+        self._publish(msg)
 
     def publish_serialized(self, cdr: bytes) -> None:
         """Publish CDR bytes of this publisher's type as they are (bag playback)."""

@@ -40,8 +40,6 @@ _NUMBER = re.compile(r"[0-9]+")
 #: rmw_zenoh's 33-byte attachment (``attachment_helpers.cpp``): sequence number, source
 #: timestamp (ns), GID length, GID, little-endian
 ATTACHMENT = struct.Struct("<qqB16s")
-#: its first two fields, which change with every message
-ATTACHMENT_SEQUENCE_AND_TIME = struct.Struct("<qq")
 
 
 class EntityKind(StrEnum):

@@ -75,6 +75,11 @@ class TransportPublisher(ABC):
     @abstractmethod
     def publish(self, msg: Any) -> None: ...
 
+    def sender(self) -> Callable[[Any], None]:
+        """What :meth:`publish` does, as one function a :class:`.Publisher` keeps: a
+        transport may give one with what it needs bound in, no lookups per message."""
+        return self.publish
+
     @abstractmethod
     def publish_serialized(self, cdr: bytes) -> None:
         """Publish a message given as its CDR bytes (bag playback): a transport that carries

@@ -31,6 +31,7 @@ import re
 import threading
 import time
 import weakref
+from collections.abc import Callable
 from concurrent.futures import Future
 from typing import Any
 
@@ -43,7 +44,8 @@ from .messages import MessageTypes, ServiceType
 from .qos import QoSProfile
 from .rmw_zenoh import (
     ADMIN_SPACE,
-    ATTACHMENT_SEQUENCE_AND_TIME,
+    ATTACHMENT,
+    GID_SIZE,
     EntityKind,
     decode_attachment,
     encode_attachment,
@@ -178,11 +180,10 @@ class ZenohPublisher(TransportPublisher):
         self._session = transport.session
         self._key = key
         self._gid = gid
-        # the attachment's last 17 bytes (GID length, GID) never change: checked once here
-        self._gid_tail = encode_attachment(0, 0, gid)[ATTACHMENT_SEQUENCE_AND_TIME.size:]
-        # sequence number and time: the part of the attachment that changes, packed per put
-        self._next = itertools.count(1).__next__
-        self._pack = ATTACHMENT_SEQUENCE_AND_TIME.pack
+        encode_attachment(0, 0, gid)  # the GID checked once here, packed as it is per put
+        self._gid = bytes(gid)
+        self._next = itertools.count(1).__next__  # the attachment's sequence number
+        self._pack = ATTACHMENT.pack
         options: dict[str, Any] = {
             "congestion_control": congestion_control(qos.reliable, qos.queue_depth),
             "reliability": (zenoh.Reliability.RELIABLE if qos.reliable
@@ -197,17 +198,29 @@ class ZenohPublisher(TransportPublisher):
                 publisher_detection=True, **options)
         else:
             self._publisher = transport.session.declare_publisher(key, **options)
+        self._put = self._publisher.put
         self._declared = _Declared(self._publisher)
 
     def _add_token(self, token: Any) -> None:
         self._declared = _Declared(self._publisher, token)
 
     def publish(self, msg: Any) -> None:
-        self.publish_serialized(self._write(msg))
+        self._put(self._write(msg), attachment=self._pack(self._next(), time.time_ns(),
+                                                          GID_SIZE, self._gid))
+
+    def sender(self) -> Callable[[Any], None]:
+        """:meth:`publish` with everything it uses bound: no attribute lookups per message,
+        0.14 us of a Twist's 1.4 (benchmarks/middleware.py's flood pays it per message)."""
+        put, write, pack, sequence, gid = (self._put, self._write, self._pack, self._next,
+                                           self._gid)
+        time_ns = time.time_ns
+
+        def publish(msg: Any) -> None:
+            put(write(msg), attachment=pack(sequence(), time_ns(), GID_SIZE, gid))
+        return publish
 
     def publish_serialized(self, cdr: bytes) -> None:
-        self._publisher.put(cdr, attachment=self._pack(self._next(), time.time_ns())
-                            + self._gid_tail)
+        self._put(cdr, attachment=self._pack(self._next(), time.time_ns(), GID_SIZE, self._gid))
 
     def wait_for_subscription(self, timeout: float) -> bool:
         """Zenoh's matching status of a publisher on the key: true once this session routes
