@@ -25,6 +25,7 @@ an empty sequence before a float64).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import struct
 from typing import Any
@@ -37,7 +38,7 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys.base import normalize_fieldname
 
 from servolab.middleware.errors import MessageError
-from servolab.middleware.fast_cdr import FastCdr
+from servolab.middleware.fast_cdr import FastCdr, _plain_fields
 from servolab.middleware.messages import MessageTypes
 
 #: Edge cases the shipped types do not all have: alignment after a uint8, after a string and
@@ -142,6 +143,9 @@ def same(a: Any, b: Any, strict: bool = True, where: str = "msg") -> None:
     (NaNs compare), and with ``strict``, also by writability (a view or a copy)."""
     assert type(a) is type(b), (where, type(a), type(b))
     if hasattr(a, "__dataclass_fields__"):
+        # the same instance state, not only the same attributes: the generated code builds
+        # a message without its __init__ and must set what that sets (its __msgtype__)
+        assert vars(a).keys() == vars(b).keys(), (where, vars(a).keys(), vars(b).keys())
         for name in a.__dataclass_fields__:
             same(getattr(a, name), getattr(b, name), strict, f"{where}.{name}")
     elif isinstance(a, np.ndarray):
@@ -298,3 +302,39 @@ def test_a_second_store_is_independent() -> None:
     codec = FastCdr(MessageTypes().store)
     with pytest.raises(KeyError):
         codec.serializer(EDGE)
+
+
+def test_messages_are_built_without_init_only_where_init_just_sets_fields() -> None:
+    """The deserializer sets a plain dataclass's fields on ``object.__new__(cls)`` (faster
+    than calling it); any class whose ``__init__`` does more is called as it is."""
+
+    @dataclasses.dataclass
+    class Plain:
+        x: float
+        y: float
+        kind: str = "point"
+
+    @dataclasses.dataclass(frozen=True)
+    class Frozen:
+        x: float
+
+    @dataclasses.dataclass
+    class Checked:
+        x: float
+
+        def __post_init__(self) -> None:
+            raise AssertionError("called")
+
+    @dataclasses.dataclass
+    class Made:
+        x: float
+        extra: list[float] = dataclasses.field(default_factory=list)
+
+    assert _plain_fields(Plain, ["x", "y"]) == {"kind": "point"}
+    assert _plain_fields(Plain, ["y", "x"]) is None  # fields not in __init__'s order
+    assert _plain_fields(Frozen, ["x"]) is None
+    assert _plain_fields(Checked, ["x"]) is None
+    assert _plain_fields(Made, ["x"]) is None
+    assert _plain_fields(type("NotADataclass", (), {}), []) is None
+    source = TYPES.cdr.source("geometry_msgs/msg/Twist")
+    assert source is not None and "_new(" in source and "__msgtype__" in source

@@ -150,10 +150,7 @@ class ChannelInbox:
         if self._armed.is_set() and not self._closed:
             return None  # the watcher has the channel until it wakes us
         if not self._depth:  # KEEP_ALL: a batch, so that a full channel wakes Zenoh once
-            for _ in range(KEEP_ALL_BATCH):
-                if (sample := self._try_recv()) is None:
-                    break
-                self._backlog.append(sample)
+            self._take_batch()
             if self._backlog:
                 return self._backlog.popleft()
             if not self._closed:
@@ -162,6 +159,19 @@ class ChannelInbox:
         if (sample := self._try_recv()) is None and not self._closed:
             self._armed.set()
         return sample
+
+    def _take_batch(self) -> None:
+        """Move up to :data:`KEEP_ALL_BATCH` samples from Zenoh's channel to the backlog
+        (:meth:`_try_recv`'s work inline: a flood pays this loop per message)."""
+        try_recv, append = self._channel.try_recv, self._backlog.append
+        try:
+            for _ in range(KEEP_ALL_BATCH):
+                sample = try_recv()
+                if sample is None:
+                    return
+                append(sample)
+        except zenoh.ZError:
+            return  # closed and empty
 
     def _try_recv(self) -> zenoh.Sample | None:
         try:
