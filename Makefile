@@ -67,6 +67,7 @@ view-oracle: $(VIEW_STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bus_cycle.py
 	$(BIN)/python benchmarks/middleware.py
+	$(BIN)/python benchmarks/wakeups.py
 	$(BIN)/python benchmarks/dds.py
 	$(BIN)/python benchmarks/view.py
 	$(BIN)/python benchmarks/sim.py

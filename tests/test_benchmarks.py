@@ -519,6 +519,30 @@ def test_dds_quick_run(capsys: pytest.CaptureFixture[str]) -> None:
     assert "ratio servolab/bare: latency p50 x" in out
 
 
+@pytest.mark.slow
+@pytest.mark.timeout(90)
+def test_wakeups_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """benchmarks/wakeups.py --quick: a Twist every 2 ms from a servolab talker in a child
+    process, received by servolab (the watcher's moment and the callback's) and by bare Zenoh;
+    every message accounted for, each delay positive, the watcher before the callback, and
+    the talker gone afterwards."""
+    bench = _load(BENCHMARK.with_name("wakeups.py"), "wakeups_bench")
+    out_json = tmp_path / "figures.json"
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
+    figures = json.loads(out_json.read_text())
+    count = figures["count"]
+    assert len(figures["anchor_us"]) == count
+    assert len(figures["zenoh_callback_us"]) >= count
+    assert figures["received"] == [count]  # every message reached servolab's callback
+    # those that found the executor idle have both moments (under load, not every one)
+    assert 0 < len(figures["callback_us"]) == len(figures["watcher_us"]) <= count
+    assert all(v > 0 for v in figures["callback_us"] + figures["zenoh_callback_us"])
+    assert all(h >= 0 for h in figures["hop_us"])
+    out = capsys.readouterr().out
+    assert "watcher -> callback (the hop)" in out and "of a bare thread wake-up" in out
+    assert not _children_running("--child"), "the talker outlived the benchmark"
+
+
 @pytest.mark.timeout(90)
 def test_view_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """benchmarks/view.py --quick: /joint_states (Armstrong's 21 joints) and a 640x376 mono8
