@@ -113,6 +113,16 @@ def test_limit_versus_listing_4_clamp() -> None:
     np.testing.assert_allclose(right, [5.0, 0.0])
 
 
+def test_limit_leaves_tiny_speeds_alone_without_overflow() -> None:
+    """A subnormal wheel speed is within any limit: returned as it is, and limit / speed is
+    never computed for it (it overflowed to inf with a RuntimeWarning, seen in CI)."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        left, right = limit_wheel_speeds([5e-324, 0.0], [0.0, -5e-324], 1.0)
+    assert list(left) == [5e-324, 0.0] and list(right) == [0.0, -5e-324]
+
+
 def test_limit_refuses_bad_values() -> None:
     with pytest.raises(ValueError, match=r"left wheel speed.*nan"):
         limit_wheel_speeds(math.nan, 1.0, 5.0)

@@ -135,7 +135,8 @@ def limit_wheel_speeds(left: npt.ArrayLike, right: npt.ArrayLike,
     left_arr = finite_array("left wheel speed", left)
     right_arr = finite_array("right wheel speed", right)
     largest = np.maximum(np.abs(left_arr), np.abs(right_arr))
-    scale = np.where(largest > limit, limit / np.where(largest > 0, largest, 1.0), 1.0)
+    # divided only where over the limit: a subnormal speed must not overflow limit / speed
+    scale = np.divide(limit, largest, out=np.ones_like(largest), where=largest > limit)
     return left_arr * scale, right_arr * scale
 
 
