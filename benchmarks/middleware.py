@@ -38,7 +38,12 @@ in the same run as a ratio, and, when the rate target is not met, what remains a
 Child processes listen on nothing and connect to the main side's free loopback port; each is
 stopped when its setup ends (its stdin closes; it is killed if it does not leave).
 
-Run: ``.venv/bin/python benchmarks/middleware.py [--quick] [--json PATH]``.
+A Twist's publish over Zenoh is also timed alone, in one session: a bare ``put``, a ``put``
+with rmw_zenoh's attachment, and servolab's whole ``publish``. ``--runs N`` measures every
+setup N times and ends with the spread of the ratios over the runs and in how many runs each
+target was met: single runs on a shared machine move by tens of per cent.
+
+Run: ``.venv/bin/python benchmarks/middleware.py [--quick] [--runs N] [--json PATH]``.
 """
 
 from __future__ import annotations
@@ -143,6 +148,44 @@ def python_costs(types: MessageTypes, type_name: str) -> dict[str, float]:
             "rosbags_deserialize_us": lambda: store.deserialize_cdr(cdr, type_name)}
     return {name: min(timeit.repeat(f, number=number, repeat=5)) / number * 1e6
             for name, f in work.items()}
+
+
+def publish_costs(types: MessageTypes) -> dict[str, float]:
+    """Microseconds per publish of a Twist over Zenoh, each timed alone in one session with
+    a subscriber of its own (so that Zenoh routes every put): a bare ``put`` of the CDR
+    bytes, the same with rmw_zenoh's 33-byte attachment (what every ROS 2 peer expects), and
+    servolab's whole ``Publisher.publish`` (serializing, packing the attachment, the put)."""
+    options = TransportOptions("zenoh", listen=[_loopback()])
+    number, costs = 5000, {}
+    with Context.open(options, types=types) as context:
+        node = Node(context, "bench_publish_costs")
+        pub = node.create_publisher(TWIST, PING, 0)
+        msg = sample_message(types, TWIST)
+        payload = types.serialize(msg, TWIST)
+        attachment = bytes(33)
+        session = context.transport.session  # type: ignore[attr-defined]
+        key = KEYS[PING]
+        sink = session.declare_subscriber(key, zenoh.handlers.FifoChannel(2 * number))
+        own = session.declare_subscriber(pub._inner._key,  # type: ignore[attr-defined]
+                                         zenoh.handlers.FifoChannel(2 * number))
+        bare = session.declare_publisher(key, congestion_control=BLOCK)
+        work = {"put_us": lambda: bare.put(payload),
+                "put_attachment_us": lambda: bare.put(payload, attachment=attachment),
+                "publish_us": lambda: pub.publish(msg)}
+        try:
+            for name, f in work.items():
+                best = math.inf
+                for _ in range(5):
+                    best = min(best, timeit.timeit(f, number=number) / number * 1e6)
+                    for channel in (sink.handler, own.handler):
+                        while channel.try_recv() is not None:
+                            pass
+                costs[name] = best
+        finally:
+            entities: list[Any] = [bare, sink, own]
+            for entity in entities:
+                entity.undeclare()
+    return costs
 
 
 # -- the echo side ---------------------------------------------------------------------------
@@ -514,6 +557,10 @@ def main(argv: Sequence[str] | None = None,
     parser.add_argument("--quick", action="store_true",
                         help="a few messages per setup: checks that it runs, not how fast")
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
+    parser.add_argument("--runs", type=int, default=1,
+                        help="measure every setup this many times, one run after the other, "
+                             "and end with the spread of the ratios and how many runs met "
+                             "each target (the report above it is the last run's)")
     parser.add_argument("--child", choices=("servolab", "zenoh"), help=argparse.SUPPRESS)
     parser.add_argument("--type", default=TWIST, help=argparse.SUPPRESS)
     parser.add_argument("--flood", type=int, default=1, help=argparse.SUPPRESS)
@@ -527,12 +574,17 @@ def main(argv: Sequence[str] | None = None,
     print(f"servolab middleware benchmark: Python {platform.python_version()}, "
           f"eclipse-zenoh {_version('eclipse-zenoh')}, rosbags {_version('rosbags')}, "
           f"{platform.machine()}{' (quick)' if args.quick else ''}")
-    rows: list[Figures] = []
-    for type_name in (TWIST, IMAGE):
-        for engine, processes in SETUPS:
-            progress(f"  measuring {SHORT_NAMES[type_name]}: {engine}, "
-                     f"{processes} process(es)...")
-            rows.append(run_setup(engine, processes, type_name, sizes[type_name], types))
+    if args.runs < 1:
+        parser.error(f"--runs must be at least 1, got {args.runs}")
+    runs: list[list[Figures]] = []
+    for run in range(args.runs):
+        rows: list[Figures] = []
+        for type_name in (TWIST, IMAGE):
+            for engine, processes in SETUPS:
+                progress(f"  run {run + 1}/{args.runs}, measuring {SHORT_NAMES[type_name]}: "
+                         f"{engine}, {processes} process(es)...")
+                rows.append(run_setup(engine, processes, type_name, sizes[type_name], types))
+        runs.append(rows)
 
     print()
     print("latency = half a ping-pong round trip; throughput = one way, N back to back")
@@ -580,6 +632,10 @@ def main(argv: Sequence[str] | None = None,
         print(f"  two processes: servolab {1e6 / two.throughput_msg_s:.1f} us per message "
               f"one way, bare zenoh {1e6 / bare.throughput_msg_s:.1f} us; CDR alone "
               f"(serialize + deserialize) is {c['serialize_us'] + c['deserialize_us']:.1f} us")
+    sending = publish_costs(types)
+    print(f"Twist publish over Zenoh: bare put {sending['put_us']:.2f} us, with rmw_zenoh's "
+          f"attachment {sending['put_attachment_us']:.2f} us; servolab's publish "
+          f"{sending['publish_us']:.2f} us (CDR, attachment, put)")
     if twist["rate"] < 0.5:
         c = costs[SHORT_NAMES[TWIST]]
         bare = next(r for r in rows if (r.message, r.engine, r.processes)
@@ -598,13 +654,37 @@ def main(argv: Sequence[str] | None = None,
         best = bare_us / (bare_us + max(c["serialize_us"], c["deserialize_us"]))
         print(f"best Twist rate the CDR codec allows: x{best:.2f} of bare zenoh (each side "
               f"at least bare zenoh's {bare_us:.1f} us plus its CDR; everything else free)")
+    every = [ratios(run_rows) for run_rows in runs]
+    if len(runs) > 1:
+        print()
+        print(f"over {len(runs)} runs (each ratio within its run): min to max, median")
+        for index, q in enumerate(found):
+            values = {k: [run_ratios[index][k] for run_ratios in every]
+                      for k in ("latency_p50", "rate")}
+            where = "one process" if q["processes"] == 1 else "two processes"
+            print(f"spread {q['message']} {where}: latency p50 "
+                  f"x{min(values['latency_p50']):.2f} to x{max(values['latency_p50']):.2f} "
+                  f"(median x{statistics.median(values['latency_p50']):.2f}), messages per "
+                  f"second x{min(values['rate']):.2f} to x{max(values['rate']):.2f} "
+                  f"(median x{statistics.median(values['rate']):.2f})")
+        met = [(t["latency_p50"] <= 1.5, t["rate"] >= 0.5) for t in (
+            next(q for q in run_ratios if q["message"] == SHORT_NAMES[TWIST]
+                 and q["processes"] == 2) for run_ratios in every)]
+        print(f"targets met, Twist two processes: p50 latency in {sum(a for a, _ in met)} of "
+              f"{len(met)} runs, messages per second in {sum(b for _, b in met)} of "
+              f"{len(met)}, both in {sum(a and b for a, b in met)} of {len(met)}")
     if args.json:
         args.json.write_text(json.dumps({"rows": [asdict(r) for r in rows], "ratios": found,
+                                         "runs": [{"rows": [asdict(r) for r in run_rows],
+                                                   "ratios": run_ratios}
+                                                  for run_rows, run_ratios in zip(
+                                                      runs, every, strict=True)],
                                          "python_costs_us": costs,
+                                         "publish_costs_us": sending,
                                          "sizes": {SHORT_NAMES[k]: asdict(v)
                                                    for k, v in sizes.items()}}, indent=2))
-    if not all(math.isfinite(v) and v > 0 for q in found for k, v in q.items()
-               if k.startswith(("latency", "time", "rate"))):
+    if not all(math.isfinite(v) and v > 0 for run_ratios in every for q in run_ratios
+               for k, v in q.items() if k.startswith(("latency", "time", "rate"))):
         return 1
     return 0
 

@@ -167,12 +167,14 @@ PROCESSES = {1: "one process", 2: "two processes"}
 @pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_middleware_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """benchmarks/middleware.py --quick: eight setups (Twist and Image; servolab and bare
-    Zenoh; one and two processes) each echo every ping and count every flood message, and the
-    ratios servolab/zenoh come out finite. Its child processes are gone afterwards."""
+    """benchmarks/middleware.py --quick --runs 2: eight setups (Twist and Image; servolab and
+    bare Zenoh; one and two processes) each echo every ping and count every flood message,
+    twice, and the ratios servolab/zenoh come out finite in each run, with their spread over
+    the runs; a Twist's publish costs are timed. Its child processes are gone afterwards."""
     bench = _load(MIDDLEWARE, "middleware_bench")
     out_json = tmp_path / "figures.json"
-    assert bench.main(["--quick", "--json", str(out_json)], progress=lambda s: None) == 0
+    assert bench.main(["--quick", "--runs", "2", "--json", str(out_json)],
+                      progress=lambda s: None) == 0
     out = capsys.readouterr().out
     figures = json.loads(out_json.read_text())
     assert figures["sizes"] == {bench.SHORT_NAMES[k]: asdict(v) for k, v in bench.QUICK.items()}
@@ -201,6 +203,14 @@ def test_middleware_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert out.strip(), "the benchmark printed nothing"
     for q in ratios:
         assert f"ratio {q['message']} {PROCESSES[q['processes']]}: latency p50 x" in out, out
+        assert f"spread {q['message']} {PROCESSES[q['processes']]}: latency p50 x" in out, out
+
+    runs = figures["runs"]
+    assert len(runs) == 2 and runs[-1]["ratios"] == ratios  # the report is the last run's
+    assert all(len(run["rows"]) == 8 and len(run["ratios"]) == 4 for run in runs)
+    assert "of 2 runs, messages per second in" in out
+    assert set(figures["publish_costs_us"]) == {"put_us", "put_attachment_us", "publish_us"}
+    assert all(_positive(v) for v in figures["publish_costs_us"].values())
     assert not _children_running("--child"), "an echo process outlived the benchmark"
 
 
@@ -534,10 +544,14 @@ def test_wakeups_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert len(figures["anchor_us"]) == count
     assert len(figures["zenoh_callback_us"]) >= count
     assert figures["received"] == [count]  # every message reached servolab's callback
-    # those that found the executor idle have both moments (under load, not every one)
-    assert 0 < len(figures["callback_us"]) == len(figures["watcher_us"]) <= count
-    assert all(v > 0 for v in figures["callback_us"] + figures["zenoh_callback_us"])
-    assert all(h >= 0 for h in figures["hop_us"])
+    # those that found the executor idle have both moments (under load, not every one), the
+    # watcher's before the callback's
+    paired = list(zip(figures["watcher_us"], figures["callback_us"], figures["hop_us"],
+                      strict=True))
+    assert 0 < len(paired) <= count
+    assert all(0 < watcher <= callback for watcher, callback, _ in paired)
+    assert all(abs(callback - watcher - hop) < 1e-6 for watcher, callback, hop in paired)
+    assert all(v > 0 for v in figures["zenoh_callback_us"])
     out = capsys.readouterr().out
     assert "watcher -> callback (the hop)" in out and "of a bare thread wake-up" in out
     assert not _children_running("--child"), "the talker outlived the benchmark"

@@ -49,7 +49,7 @@ def test_timer_keeps_its_rate_in_a_flood_on_a_virtual_clock(vctx: Context, spin:
     """A 1 kHz stream into a 2 ms callback (twice what it can take, KEEP_ALL so the backlog
     grows without bound): the 10 Hz timer still ticks at 10 Hz, deterministically. Also
     through ``spin()`` and a spin thread, which run queued work back to back
-    (``Executor.run_ready``) until a timer falls due."""
+    (``Executor._run_ready``) until a timer falls due."""
     clock = vctx.clock
     assert isinstance(clock, VirtualClock)
     node = Node(vctx, "controller")
@@ -80,6 +80,7 @@ def test_timer_keeps_its_rate_in_a_flood_on_a_virtual_clock(vctx: Context, spin:
             thread = vctx.executor.spin_in_thread()
             wait_for(lambda: vctx.executor.is_shutdown, "the 3 s timer", timeout=10.0)
             thread.join(2.0)
+            assert not thread.is_alive()
     assert sub.pending > 500  # the flood really piled up
     assert len(ticks) >= 29
     assert _rate(ticks) >= 9.9

@@ -131,37 +131,49 @@ def test_services_and_parameters_across_participants(dds_pair, caplog) -> None:
 
 def test_builtin_reads_from_many_threads(dds_pair) -> None:
     """Concurrent service calls each ask whether a Fast DDS server answers, reading DDS's
-    builtin subscription topic from their own thread while endpoints come and go. Unguarded,
-    cyclonedds-python failed such reads ("Callfunc endpoint constructor errored": 5 of ~1 600
-    rounds with eight threads, none with one), which failed a service call in CI."""
-    a, b = dds_pair
-    churn = Node(a, "churn")
+    builtin subscription topic from their own thread. cyclonedds-python's builtin readers are
+    not safe to read from several threads at once (unguarded, "Callfunc endpoint constructor
+    errored" in 5 of ~1 600 rounds with eight threads, none with one; it failed a service call
+    in CI), so the transport lets one thread at a time read them: a reader that takes its time
+    never has two threads inside it."""
+    _, b = dds_pair
+    transport = b.transport
+    real = transport._builtin["subscription"]  # type: ignore[attr-defined]
+    inside, most = [0], [0]
+    count_lock = threading.Lock()
+
+    class SlowReader:
+        def read(self, **kwargs: object) -> list[object]:
+            with count_lock:
+                inside[0] += 1
+                most[0] = max(most[0], inside[0])
+            try:
+                time.sleep(0.002)  # long enough for every other thread to come in unguarded
+                return list(real.read(**kwargs))
+            finally:
+                with count_lock:
+                    inside[0] -= 1
+
+    transport._builtin["subscription"] = SlowReader()  # type: ignore[attr-defined]
     errors: list[BaseException] = []
-    stop = threading.Event()
 
     def ask() -> None:
-        while not stop.is_set():
+        for _ in range(5):
             try:
-                b.transport.fast_dds_serves("/add_two_ints")  # type: ignore[attr-defined]
+                transport.fast_dds_serves("/add_two_ints")  # type: ignore[attr-defined]
             except Exception as exc:  # every failure is the finding
                 errors.append(exc)
 
     askers = [threading.Thread(target=ask) for _ in range(8)]
-    for thread in askers:
-        thread.start()
     try:
-        end = time.monotonic() + 3.0
-        rounds = 0
-        while time.monotonic() < end and not errors:
-            sub = churn.create_subscription("std_msgs/msg/String", f"/churn{rounds % 5}",
-                                            lambda msg: None, 10)
-            churn.destroy_subscription(sub)
-            rounds += 1
-    finally:
-        stop.set()
+        for thread in askers:
+            thread.start()
         for thread in askers:
             thread.join()
-    assert not errors, f"{len(errors)} builtin reads failed, first: {errors[0]!r}"
+    finally:
+        transport._builtin["subscription"] = real  # type: ignore[attr-defined]
+    assert not errors, errors[0]
+    assert most[0] == 1, f"{most[0]} threads read the builtin topic at once"
 
 
 def test_graph_shows_both_participants(dds_pair) -> None:

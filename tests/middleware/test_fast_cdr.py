@@ -330,11 +330,26 @@ def test_messages_are_built_without_init_only_where_init_just_sets_fields() -> N
         x: float
         extra: list[float] = dataclasses.field(default_factory=list)
 
+    @dataclasses.dataclass(init=False)
+    class OwnInit:
+        x: float
+
+        def __init__(self, x: float) -> None:
+            self.x = x
+            self.scaled = 2 * x
+
+    @dataclasses.dataclass
+    class Hidden:
+        x: float
+        cache: list[float] = dataclasses.field(default_factory=list, init=False)
+
     assert _plain_fields(Plain, ["x", "y"]) == {"kind": "point"}
     assert _plain_fields(Plain, ["y", "x"]) is None  # fields not in __init__'s order
     assert _plain_fields(Frozen, ["x"]) is None
     assert _plain_fields(Checked, ["x"]) is None
     assert _plain_fields(Made, ["x"]) is None
+    assert _plain_fields(OwnInit, ["x"]) is None
+    assert _plain_fields(Hidden, ["x"]) is None
     assert _plain_fields(type("NotADataclass", (), {}), []) is None
     source = TYPES.cdr.source("geometry_msgs/msg/Twist")
     assert source is not None and "_new(" in source and "__msgtype__" in source

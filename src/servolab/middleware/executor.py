@@ -121,7 +121,7 @@ class SpinThread(threading.Thread):
         try:
             while not executor.is_shutdown:
                 try:
-                    if not executor.run_ready():
+                    if not executor._run_ready():
                         executor.spin_once(0.1)
                 except Exception as exc:
                     if self.on_error == "log":
@@ -379,30 +379,34 @@ class Executor:
             while not self._shutdown:
                 if outer and self._error is not None:
                     self.raise_if_failed()
-                if not self.run_ready():
+                if not self._run_ready():
                     self.spin_once(0.1)
 
-    def run_ready(self) -> int:
+    def _run_ready(self) -> int:
         """Run queued work back to back while no timer is due; how many pieces ran.
 
         What :meth:`spin` and a spin thread do between waits: the same pieces in the same
-        order as :meth:`spin_once` one after the other, without a call, a lock or a look at
-        the spin thread's error per piece (under a flood that bookkeeping cost as much as
-        deserializing a ``Twist``). A timer that falls due stops the run, so timers still come
-        first; loops that look at a condition after each callback (:meth:`spin_until`) use
-        :meth:`spin_once`. Only from a thread counted as spinning (:meth:`spinning`)."""
+        order as :meth:`spin_once` one after the other, without a call, a lock or a clock
+        deadline per piece (under a flood that bookkeeping cost about as much as
+        deserializing a ``Twist``). A timer that falls due stops the run, so timers still
+        come first, and so does a spin thread's error, so its owner gets it; loops that look
+        at a condition after each callback (:meth:`spin_until`) use :meth:`spin_once`. Only
+        from a thread counted as spinning (:meth:`spinning`)."""
         ready, timers, now = self._ready, self._timers, self.clock.now
         popleft = ready.popleft
         ran = 0
-        while ready and not self._shutdown and (not timers or timers[0][0] > now()):
-            try:
-                work = popleft()
-            except IndexError:  # another spinner took it
-                break
-            ran += 1
-            work()
-        if ran:
-            self._last_was_timer = False  # a message has had its turn since the last timer
+        try:
+            while (ready and not self._shutdown and self._error is None
+                   and (not timers or timers[0][0] > now())):
+                try:
+                    work = popleft()
+                except IndexError:  # another spinner took it
+                    break
+                ran += 1
+                work()
+        finally:
+            if ran:
+                self._last_was_timer = False  # a message has had its turn since the timer
         return ran
 
     def spin_in_thread(self, *, on_error: OnError = "raise") -> SpinThread:

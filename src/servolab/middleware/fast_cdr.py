@@ -119,21 +119,34 @@ def _after_repeats(start: Known, size: int) -> Known:
 
 
 def _plain_fields(cls: type, fields: list[str]) -> dict[str, Any] | None:
-    """The fields beyond ``fields`` that ``cls(*values)`` sets, with the defaults it sets
-    them to (rosbags' ``__msgtype__``), when its ``__init__`` does nothing else, as a
-    dataclass's (not frozen, no slots, no ``__post_init__``); else None."""
+    """The attributes beyond ``fields`` that ``cls(*values)`` sets, with the values it sets
+    them to (rosbags' ``__msgtype__``), when that is all its ``__init__`` does: then the
+    generated code may set them itself on ``object.__new__(cls)``. Else None.
+
+    Asked of the class, not assumed: a dataclass (not frozen, no slots, no ``__post_init__``)
+    is made once with a distinct object per field, and what it holds afterwards must be those
+    objects under the fields' names, and otherwise only the very default objects of its other
+    fields (so a hand-written ``__init__``, or a field made by a factory, is called as it is)."""
     if (not dataclasses.is_dataclass(cls) or hasattr(cls, "__post_init__")
             or "__slots__" in vars(cls)
             or cls.__dataclass_params__.frozen):  # type: ignore[attr-defined]
         return None
-    init = [f for f in dataclasses.fields(cls) if f.init]
-    if [f.name for f in init[:len(fields)]] != fields:
+    given = [object() for _ in fields]
+    try:
+        made = cls(*given)
+    except Exception:
+        return None  # it checks its arguments: call it
+    held = dict(vars(made))
+    if any(held.pop(field, None) is not value for field, value in zip(fields, given,
+                                                                       strict=True)):
         return None
-    extra = {}
-    for f in init[len(fields):]:
-        if f.default is dataclasses.MISSING:
-            return None  # a factory, or no default: leave it to __init__
-        extra[f.name] = f.default
+    by_name = {f.name: f for f in dataclasses.fields(cls)}
+    extra: dict[str, Any] = {}
+    for name, value in held.items():
+        field = by_name.get(name)
+        if field is None or value is not field.default:
+            return None  # set by something else than its plain default
+        extra[name] = field.default
     return extra
 
 
@@ -423,10 +436,10 @@ class _DeGen(_Gen):
         """Emit the statements that build message ``name`` (and those inside it) from the
         locals its fields were read into, now that all are read.
 
-        A plain dataclass is made with ``object.__new__`` and its fields set one by one:
-        what its ``__init__`` does, without the call per nested message (a ``Twist`` is three
-        objects: 0.43 us through ``__init__``, 0.34 like this, which a flood pays per
-        message). A class that is not plain (frozen, slots, ``__post_init__``) is called."""
+        A plain dataclass (:func:`_plain_fields`) is made with ``object.__new__`` and its
+        fields set one by one: what its ``__init__`` does, without a call per nested message,
+        which a flood of small messages pays per message (a ``Twist`` is three objects). Any
+        other class is called."""
         cls, values = self.builds.pop(name)
         for _, value in values:
             if value in self.builds:

@@ -141,16 +141,13 @@ class ChannelInbox:
                 return held
             # KEEP_LAST: the held sample and what the ring kept may be depth + 1
             self._backlog.append(held)
-            for _ in range(self._depth):
-                if (sample := self._try_recv()) is None:
-                    break
-                self._backlog.append(sample)
+            self._take_batch(self._depth)
         if self._backlog:
             return self._backlog.popleft()
         if self._armed.is_set() and not self._closed:
             return None  # the watcher has the channel until it wakes us
         if not self._depth:  # KEEP_ALL: a batch, so that a full channel wakes Zenoh once
-            self._take_batch()
+            self._take_batch(KEEP_ALL_BATCH)
             if self._backlog:
                 return self._backlog.popleft()
             if not self._closed:
@@ -160,12 +157,12 @@ class ChannelInbox:
             self._armed.set()
         return sample
 
-    def _take_batch(self) -> None:
-        """Move up to :data:`KEEP_ALL_BATCH` samples from Zenoh's channel to the backlog
-        (:meth:`_try_recv`'s work inline: a flood pays this loop per message)."""
+    def _take_batch(self, limit: int) -> None:
+        """Move up to ``limit`` samples from Zenoh's channel to the backlog (:meth:`_try_recv`'s
+        work inline: a flood pays this loop per message)."""
         try_recv, append = self._channel.try_recv, self._backlog.append
         try:
-            for _ in range(KEEP_ALL_BATCH):
+            for _ in range(limit):
                 sample = try_recv()
                 if sample is None:
                     return

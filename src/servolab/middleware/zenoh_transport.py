@@ -179,7 +179,6 @@ class ZenohPublisher(TransportPublisher):
         self._write = transport.types.writer(type_name)  # CDR per message, looked up once
         self._session = transport.session
         self._key = key
-        self._gid = gid
         encode_attachment(0, 0, gid)  # the GID checked once here, packed as it is per put
         self._gid = bytes(gid)
         self._next = itertools.count(1).__next__  # the attachment's sequence number
@@ -205,12 +204,11 @@ class ZenohPublisher(TransportPublisher):
         self._declared = _Declared(self._publisher, token)
 
     def publish(self, msg: Any) -> None:
-        self._put(self._write(msg), attachment=self._pack(self._next(), time.time_ns(),
-                                                          GID_SIZE, self._gid))
+        self.publish_serialized(self._write(msg))
 
     def sender(self) -> Callable[[Any], None]:
         """:meth:`publish` with everything it uses bound: no attribute lookups per message,
-        0.14 us of a Twist's 1.4 (benchmarks/middleware.py's flood pays it per message)."""
+        which a control loop or a flood pays per message."""
         put, write, pack, sequence, gid = (self._put, self._write, self._pack, self._next,
                                            self._gid)
         time_ns = time.time_ns
