@@ -176,6 +176,36 @@ def test_builtin_reads_from_many_threads(dds_pair) -> None:
     assert most[0] == 1, f"{most[0]} threads read the builtin topic at once"
 
 
+def test_a_failing_check_does_not_stop_the_dispatch_thread(dds_pair, caplog) -> None:
+    """The dispatch thread runs the transport's periodic checks (a service's look for Fast
+    DDS clients). One that raises, as a closed service's did on its deleted reader (CI), is
+    logged while it is still registered, and every reader keeps being served."""
+    a, b = dds_pair
+    transport = a.transport
+    calls = [0]
+
+    def failing() -> None:
+        calls[0] += 1
+        raise RuntimeError("the reader this check looks at is gone")
+
+    transport._checks.append(failing)  # type: ignore[attr-defined]
+    try:
+        with caplog.at_level(logging.ERROR, logger="servolab.middleware.dds_transport"):
+            assert wait_until(lambda: calls[0] >= 2, timeout=5.0)  # ran, and ran again
+        assert transport._dispatcher.is_alive()  # type: ignore[attr-defined]
+        assert "a periodic check failed" in caplog.text
+    finally:
+        transport._checks.remove(failing)  # type: ignore[attr-defined]
+    got: list[float] = []
+    Node(a, "listener").create_subscription(TWIST, "/after", lambda m: got.append(m.linear.x),
+                                            10)
+    talker = Node(b, "talker")
+    pub = talker.create_publisher(TWIST, "/after", 10)
+    wait_for_subscriber(b, "/after", TWIST, "/listener")
+    pub.publish(talker.message(TWIST, linear={"x": 1.5}))
+    assert a.spin_until(lambda: got == [1.5], timeout=5.0)
+
+
 def test_graph_shows_both_participants(dds_pair) -> None:
     a, b = dds_pair
     Node(a, "talker", "/robot1").create_publisher(TWIST, "/cmd_vel")

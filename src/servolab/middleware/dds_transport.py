@@ -548,7 +548,13 @@ class DdsTransport(Transport):
             if time.monotonic() >= next_check:
                 next_check = time.monotonic() + DISPATCH_CHECK_S
                 for check in list(self._checks):
-                    check()
+                    try:
+                        check()
+                    except Exception:  # a failed check must not stop every reader either
+                        # (a service closed since the list was copied has deleted the reader
+                        # its check looks at: Cyclone says BAD_PARAMETER, seen in CI)
+                        if not self._closed and check in self._checks:
+                            log.exception("DDS transport: a periodic check failed")
 
     def _read_builtin(self, kind: str) -> list[Any]:
         """The alive samples of one of DDS's own discovery topics.
