@@ -349,6 +349,18 @@ def test_messages_are_built_without_init_only_where_init_just_sets_fields() -> N
     assert _plain_fields(Checked, ["x"]) is None
     assert _plain_fields(Made, ["x"]) is None
     assert _plain_fields(OwnInit, ["x"]) is None
+
+    registry: list[object] = []
+
+    @dataclasses.dataclass(init=False)
+    class Registered:  # its __init__ sets only its field, and does more
+        x: float
+
+        def __init__(self, x: float) -> None:
+            self.x = x
+            registry.append(self)
+
+    assert _plain_fields(Registered, ["x"]) is None
     assert _plain_fields(Hidden, ["x"]) is None
     assert _plain_fields(type("NotADataclass", (), {}), []) is None
     source = TYPES.cdr.source("geometry_msgs/msg/Twist")

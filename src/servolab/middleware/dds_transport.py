@@ -443,6 +443,7 @@ class DdsTransport(Transport):
         self._watched: dict[int, tuple[DataReader[Any], ReadCondition, Callable[
             [DataReader[Any]], None]]] = {}
         self._checks: list[Callable[[], None]] = []
+        self._failed_checks: list[Callable[[], None]] = []  # logged once each
         # owned by the domain, so that both participants' readers may be attached
         self._waitset = WaitSet(domain)  # type: ignore[arg-type]
         self._guard = GuardCondition(domain)  # type: ignore[arg-type]
@@ -553,7 +554,9 @@ class DdsTransport(Transport):
                     except Exception:  # a failed check must not stop every reader either
                         # (a service closed since the list was copied has deleted the reader
                         # its check looks at: Cyclone says BAD_PARAMETER, seen in CI)
-                        if not self._closed and check in self._checks:
+                        if (not self._closed and check in self._checks
+                                and check not in self._failed_checks):
+                            self._failed_checks.append(check)  # told once, not every 0.5 s
                             log.exception("DDS transport: a periodic check failed")
 
     def _read_builtin(self, kind: str) -> list[Any]:

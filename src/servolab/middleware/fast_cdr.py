@@ -126,10 +126,15 @@ def _plain_fields(cls: type, fields: list[str]) -> dict[str, Any] | None:
     Asked of the class, not assumed: a dataclass (not frozen, no slots, no ``__post_init__``)
     is made once with a distinct object per field, and what it holds afterwards must be those
     objects under the fields' names, and otherwise only the very default objects of its other
-    fields (so a hand-written ``__init__``, or a field made by a factory, is called as it is)."""
+    fields. A class with its own ``__init__`` or ``__new__``, or a field made by a factory, is
+    called as it is."""
     if (not dataclasses.is_dataclass(cls) or hasattr(cls, "__post_init__")
             or "__slots__" in vars(cls)
-            or cls.__dataclass_params__.frozen):  # type: ignore[attr-defined]
+            or cls.__dataclass_params__.frozen  # type: ignore[attr-defined]
+            or cls.__new__ is not object.__new__
+            # dataclasses compiles the __init__ it writes from a string: one written by
+            # hand may do what the probe below cannot see (register the instance, say)
+            or getattr(getattr(cls.__init__, "__code__", None), "co_filename", "") != "<string>"):
         return None
     given = [object() for _ in fields]
     try:
