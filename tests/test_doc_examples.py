@@ -92,10 +92,10 @@ def test_shell_command_parses(command: Command, capsys: pytest.CaptureFixture[st
         pytest.fail(f"{command.where}: {command.text!r} does not parse: "
                     f"{error[-1] if error else '?'}", pytrace=False)
     if args.command == "robots" and getattr(args, "action", None) == "show":
-        from servolab.robots.registry import robot_models, shipped_files
+        from servolab.robots.registry import shipped_files
 
-        assert args.name in {*shipped_files(), *robot_models()}, \
-            f"{command.where}: no shipped file or robot model {args.name}"
+        assert args.name in shipped_files(), \
+            f"{command.where}: no shipped file or robot description {args.name}"
 
 
 def _options(parser: argparse.ArgumentParser) -> set[str]:

@@ -11,9 +11,11 @@ import pytest
 from servolab.cli import main
 from servolab.errors import UsageError
 from servolab.robots.navigation.run import RECORDED as NAVIGATION_RECORDED
+from servolab.robots.registry import layout_named, layouts
 from servolab.robots.treadmill.node import FICTRAC_TOPIC, OVERLAY_TOPIC
 from servolab.robots.treadmill.rig import RECORDED as TREADMILL_RECORDED
-from servolab.robots.view_layouts import LAYOUTS, layout_named
+
+LAYOUTS = layouts()
 
 #: what each robot's run publishes, from the robots' own modules (walk: the state publisher's
 #: four topics and the manager's diagnostics, tests/robots/armstrong/test_state_publisher.py)

@@ -19,6 +19,7 @@ from .registry import Command
 
 if TYPE_CHECKING:
     from ..dynamixel.motorspec import MotorSpec
+    from ..robots.plugin import ServedRobot
     from ..runs import RunFolder
 
 
@@ -45,7 +46,7 @@ def hardware_priority() -> int | None:
 def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
         stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr,
         duration: float | None = None, raise_priority: bool = False,
-        echo: bool = False, world: str | None = None) -> dict[str, object]:
+        echo: bool = False, served: ServedRobot | None = None) -> dict[str, object]:
     """Serve emulated motors on a pseudo-terminal until Ctrl-C / SIGTERM (or ``duration`` s).
 
     The motors live in a :class:`~servolab.sim.Simulation` that runs in real time on its own
@@ -58,9 +59,10 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     (:class:`~servolab.dynamixel.ports.EchoingDevice`). The summary says how late the
     replies were handed over (``reply_lateness``, after their modelled wire time).
 
-    ``world="armstrong-mujoco"``: the motors (Armstrong's, ``spec``) drive the biped in
-    MuJoCo (:mod:`servolab.robots.armstrong.physics`), stepped in real time beside the bus;
-    the summary says whether and when it fell (``"physics"``)."""
+    ``served``: a robot's (``servolab sim --robot NAME``, :class:`~servolab.robots.plugin.
+    ServedRobot`): when it brings a world, the motors (``spec``, the robot's) move it, stepped
+    in real time beside the bus (Armstrong in MuJoCo), and the summary adds what the robot
+    reports of it (whether and when the biped fell)."""
     from ..dynamixel.emulator import build_emulator
     from ..dynamixel.ports import (
         REALTIME_PRIORITY,
@@ -73,10 +75,8 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     from ..sim import Simulation
 
     physics = None
-    if world == "armstrong-mujoco":
-        from ..robots.armstrong.physics import in_mujoco
-
-        simulation, emulator, physics = in_mujoco(build_emulator(spec))
+    if served is not None and served.place is not None:
+        simulation, emulator, physics = served.place(build_emulator(spec))
     else:
         simulation = Simulation()
         emulator = simulation.add_emulator(build_emulator(spec))
@@ -109,7 +109,7 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
               f"{_protocols(spec.protocol)} at {baud} bps on {server.device}"
               f"{f' (link {link})' if link else ''}"
               f"{', echoing every byte sent' if echo else ''}"
-              f"{', driving Armstrong in MuJoCo' if physics else ''}"
+              f"{f', {served.what}' if served is not None and served.what else ''}"
               f"{f', at raised priority ({how})' if how else ''}; "
               "Ctrl-C stops", file=stderr, flush=True)
         try:
@@ -128,28 +128,23 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
                "reply_lateness": server.reply_lateness(),
                "replies_lost": server.replies_lost,
                "reply_bytes_unread": server.bytes_overflowed}
-    if physics is not None:
-        from ..robots.armstrong.physics_report import served_figures
-
-        figures.update(served_figures(physics, run.file("physics.png"), simulation.now()))
+    if served is not None and served.report is not None:
+        figures.update(served.report(physics, run.file("physics.png"), simulation.now()))
     run.write_summary(figures)
     print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
           f"summary in {run.path}", file=stderr, flush=True)
     return figures
 
 
-#: What ``--robot`` serves, by name: its emulated bus, and the world it stands in.
-ROBOT_WORLDS = {"armstrong": "armstrong-mujoco"}
-
-
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--motors", metavar="SPEC",
                        help="'rx28:11-16,21-26', 'xm430-w210:100-102', or a YAML file")
-    which.add_argument("--robot", choices=sorted(ROBOT_WORLDS),
-                       help="a robot's motors in its physics world: 'armstrong', the biped's "
-                       "20 RX-28 at 57142 bps driving it in MuJoCo (servolab walk --port "
-                       "PTY walks it; the summary says whether it fell)")
+    which.add_argument("--robot", metavar="NAME",
+                       help="a robot's motors (servolab robots lists them), in its world when "
+                       "it has one: 'armstrong' is the biped's 20 RX-28 at 57142 bps driving it "
+                       "in MuJoCo (servolab walk --port PTY walks it; the summary says whether "
+                       "it fell)")
     p.add_argument("--pty", action="store_true", required=True,
                    help="serve on a pseudo-terminal (prints its path on the first line)")
     p.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the pty")
@@ -169,20 +164,19 @@ def _run(args: argparse.Namespace) -> int:
     from ..dynamixel import motorspec
     from ..runs import RunFolder
 
-    world = None
-    if args.robot and args.protocol:
-        from ..errors import UsageError
-
-        raise UsageError(f"--protocol: --robot {args.robot} brings its own bus (protocol 1.0)")
+    served = None
     if args.robot:
-        from ..robots.armstrong.hardware import emulated_spec, load_config
+        from ..errors import UsageError
+        from ..robots.registry import entry
 
-        spec = emulated_spec(load_config(), baudrate=args.baud)
-        world = ROBOT_WORLDS[args.robot]
+        if args.protocol:
+            raise UsageError(f"--protocol: --robot {args.robot} brings its own bus")
+        served = entry(args.robot).serve(args.baud)
+        spec = served.spec
     else:
         spec = motorspec.load(args.motors, protocol=args.protocol, baudrate=args.baud)
     sim(spec, run=RunFolder.create("sim", args.out), link=args.link, raise_priority=True,
-        echo=args.echo, world=world)
+        echo=args.echo, served=served)
     return 0
 
 

@@ -1,7 +1,7 @@
 """``servolab view``: a running graph, or a recorded run, served to Foxglove or Lichtblick.
 
 The command only parses: :mod:`servolab.middleware.view` serves (its :mod:`.player` plays a
-bag), and :mod:`servolab.robots.view_layouts` holds the robots' layouts.
+bag), and :mod:`servolab.robots.registry` finds each robot's layout in its plug-in.
 """
 
 from __future__ import annotations
@@ -99,15 +99,16 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "possible)")
     p.add_argument("--loop", action="store_true", help="with BAG: play it again at the end")
     p.add_argument("--layout", metavar="NAME",
-                   help="write a robot's Foxglove/Lichtblick layout (armstrong, navigation, "
-                   "base, treadmill) and exit; import it in the app's Layouts menu")
+                   help="write a robot's Foxglove/Lichtblick layout (a robot's name, as "
+                   "servolab robots lists them, or base) and exit; import it in the app's "
+                   "Layouts menu")
     p.add_argument("-o", "--output", metavar="FILE",
                    help="with --layout: the file to write (default: standard output)")
     add_transport(p)
 
 
 def write_layout(name: str, output: str | None) -> int:
-    from servolab.robots.view_layouts import layout_named
+    from servolab.robots.registry import layout_named
 
     text = json.dumps(layout_named(name).to_json(), indent=2) + "\n"
     if output is None:

@@ -1,16 +1,20 @@
-"""servolab's robots: one subpackage a robot, each wiring the pure algorithms to the Dynamixel
-bus and to topics as nodes, with its default configuration files beside its code.
+"""servolab's robots: each a plug-in (:mod:`.plugin`), found by :mod:`.registry` — servolab's
+own in their subpackages, a lab's through the ``servolab.robots`` entry point or as a folder on
+``SERVOLAB_ROBOT_PATH`` (a URDF with its ``<ros2_control>`` block: :mod:`.robot_folder`).
 
 - :mod:`.controllers`: the ports of ROS ``dynamixel_motor`` (controller configuration, manager,
   joint position controllers, motor states) that any Dynamixel robot uses;
+- :mod:`.urdf_robot`: any robot described by a URDF whose ``<ros2_control>`` block names each
+  joint's Dynamixel;
 - :mod:`.armstrong`: seed 001's biped; :mod:`.base`: differential-drive bases (seed 000's,
   a TurtleBot3 Waffle); :mod:`.navigation`: seed 000's navigation around a base;
   :mod:`.treadmill`: seed 002's ball treadmill.
 
-``servolab.robots.load("armstrong")`` gives a robot by name (:mod:`.registry`); each robot's
-``run`` module is its command's body and nothing else imports it.
+``servolab.robots.load("armstrong")`` gives a robot by name; each robot's ``run`` module is its
+command's body and nothing else imports it.
 """
 
-from .registry import ROBOTS, RobotEntry, entry, load
+from .plugin import BusSummary, RobotPlugin, ServedRobot
+from .registry import discover, entry, load, robots
 
-__all__ = ["ROBOTS", "RobotEntry", "entry", "load"]
+__all__ = ["BusSummary", "RobotPlugin", "ServedRobot", "discover", "entry", "load", "robots"]

@@ -1,184 +1,206 @@
-"""The robots servolab ships, by name, as ``dm_control.suite.load`` finds its domains.
+"""The robots servolab can open, found where they live — never listed by hand.
 
-``load("armstrong")`` gives the robot on emulated motors; ``load("armstrong", port=DEV)`` the
-same robot on real ones. Each entry says what the robot is on its bus (model, IDs, protocol,
-baud rate) and which configuration file it starts from, so ``servolab robots`` can list them and
-``servolab robots show NAME`` print that file for a user to copy and edit. A fifth robot is one
-more :class:`RobotEntry` here and a subpackage beside the others.
+Three places, in this order:
 
-The entries import nothing of their robot until loaded: ``servolab robots`` reads only the
-configuration files.
+1. **servolab's own robots**: every subpackage of :mod:`servolab.robots` with a ``plugin``
+   module, whose ``ROBOTS`` is a tuple of :class:`~.plugin.RobotPlugin` (as ``servolab``'s
+   commands are the modules of :mod:`servolab.apps` with a ``COMMAND``);
+2. **installed plug-ins**: the Python entry points of the group ``servolab.robots``; an entry
+   point names a :class:`~.plugin.RobotPlugin`, a tuple of them, or a function returning
+   either (a package declares it in its ``pyproject.toml``:
+   ``[project.entry-points."servolab.robots"] my_arm = "my_arm.robot:PLUGIN"``);
+3. **robot folders**: every folder inside the folders of ``SERVOLAB_ROBOT_PATH`` (joined by
+   ``os.pathsep``, as ``PATH``) that holds a URDF with a ``<ros2_control>`` block: a robot made
+   of data only (:mod:`.robot_folder`), named after its folder.
+
+A robot that cannot be loaded (a broken entry point, a folder whose URDF does not parse, a
+name taken twice) never hides the others: :func:`discover` keeps one line about it in
+``problems``, ``servolab robots`` prints it, and loading that name raises it. Nothing is cached:
+each call looks again, so a folder made a moment ago is found, and there is no state to reset.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+import importlib
+import importlib.util
+import os
+import pkgutil
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
+from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..errors import ServolabError
-from .armstrong import ON_STOP as ARMSTRONG_ON_STOP
-from .base import ON_STOP as BASE_ON_STOP
-from .treadmill import ON_STOP as TREADMILL_ON_STOP
+from ..errors import ServolabError, UsageError
+from .plugin import RobotPlugin, ShownFile
+
+if TYPE_CHECKING:
+    from ..middleware.view.layout import Layout
+
+#: the entry-point group an installed package declares its robots in
+ENTRY_POINT_GROUP = "servolab.robots"
+#: the environment variable naming folders that hold robot folders
+PATH_VARIABLE = "SERVOLAB_ROBOT_PATH"
 
 
 class UnknownRobotError(ServolabError, ValueError):
-    """A robot name that is not in :data:`ROBOTS`."""
+    """A robot name that no plug-in answers to."""
+
+
+class RobotPluginError(ServolabError, ValueError):
+    """A robot plug-in that cannot be loaded: what it is, where it was found, and why."""
 
 
 @dataclass(frozen=True)
-class BusSummary:
-    """What a robot is on its bus, for a listing."""
+class Robots:
+    """What one look found: the robots by name, the aliases (another name -> the robot's),
+    and one line per plug-in that could not be loaded, by the name it would have had."""
 
-    model: str
-    ids: tuple[int, ...]
-    protocol: int
-    baudrate: int
+    plugins: Mapping[str, RobotPlugin]
+    aliases: Mapping[str, str]
+    problems: Mapping[str, str]
 
-    def __str__(self) -> str:
-        return (f"{len(self.ids)} x {self.model} (IDs {_ranges(self.ids)}), Protocol "
-                f"{self.protocol:.1f}, {self.baudrate} bps")
-
-
-@dataclass(frozen=True)
-class RobotEntry:
-    """One robot: its name, the seed it comes from, its default configuration file (None when
-    its parameters are in code), how to describe its bus and how to open it."""
-
-    name: str
-    summary: str
-    config: Callable[[], Path | None]
-    bus: Callable[[], BusSummary]
-    opener: Callable[[str | None], Any]
-    stops_by: str
-
-    def load(self, port: str | None = None) -> Any:
-        return self.opener(port)
+    def entry(self, name: str) -> RobotPlugin:
+        found = self.plugins.get(self.aliases.get(name, name))
+        if found is not None:
+            return found
+        if name in self.problems:
+            raise RobotPluginError(self.problems[name])
+        raise UnknownRobotError(f"no robot {name!r}; there are {', '.join(self.plugins)}"
+                                f" (a robot of your own: docs/layout.md, 'Adding a robot')")
 
 
-def _ranges(ids: tuple[int, ...]) -> str:
-    """``11-16,21-26``: runs of consecutive IDs, as ``emu://`` URLs write them."""
-    parts: list[str] = []
-    start = previous = None
-    for i in sorted(ids):
-        if previous is not None and i == previous + 1:
-            previous = i
-            continue
-        if start is not None:
-            parts.append(f"{start}" if start == previous else f"{start}-{previous}")
-        start = previous = i
-    if start is not None:
-        parts.append(f"{start}" if start == previous else f"{start}-{previous}")
-    return ",".join(parts)
+def _as_plugins(value: Any, where: str) -> tuple[RobotPlugin, ...]:
+    """An entry point's or a ``plugin`` module's value as plug-ins: one, a tuple or list of
+    them, or a function returning either."""
+    if callable(value) and not isinstance(value, RobotPlugin):
+        value = value()
+    if isinstance(value, RobotPlugin):
+        return (value,)
+    if isinstance(value, list | tuple) and value and all(isinstance(v, RobotPlugin)
+                                                         for v in value):
+        return tuple(value)
+    raise RobotPluginError(f"{where}: expected a servolab.robots.RobotPlugin (or a tuple of "
+                           f"them, or a function returning one), got {type(value).__name__}")
 
 
-# -- Armstrong ---------------------------------------------------------------------------------
-
-def _armstrong_config() -> Path:
-    from .armstrong.hardware import CONFIG
-
-    return CONFIG
-
-
-def _armstrong_bus() -> BusSummary:
-    from .armstrong import hardware
-
-    config = hardware.load_config()
-    port = config.manager.serial_ports[0]
-    ids = tuple(c.motor.id for c in config.controllers if c.motor.id not in hardware.ABSENT)
-    return BusSummary(hardware.MODEL, ids, 1, port.baud_rate)
+def _shipped() -> Iterable[tuple[str, Any]]:
+    """(where, value) of each servolab robot package's ``plugin.ROBOTS``."""
+    package = __name__.rpartition(".")[0]
+    here = importlib.import_module(package)
+    for info in sorted(pkgutil.iter_modules(here.__path__), key=lambda i: i.name):
+        name = f"{package}.{info.name}.plugin"
+        if info.ispkg and importlib.util.find_spec(name) is not None:
+            yield f"{name}.ROBOTS", importlib.import_module(name).ROBOTS
 
 
-def _armstrong(port: str | None) -> Any:
-    from .armstrong.control_node import Armstrong
-
-    return Armstrong(port=port)
-
-
-# -- differential-drive bases ------------------------------------------------------------------
-
-def _base_entry(name: str, summary: str) -> RobotEntry:
-    def config() -> Path:
-        from .base.config import shipped_base
-
-        return shipped_base(name)
-
-    def bus() -> BusSummary:
-        from .base.config import load
-
-        base = load(config())
-        return BusSummary(base.model.name, tuple(m.id for m in base.motors), base.protocol,
-                          base.baudrate)
-
-    def opener(port: str | None) -> Any:
-        from .base.config import load
-        from .base.mobile_base import open_base
-
-        return open_base(load(config()), port)
-
-    return RobotEntry(name, summary, config, bus, opener, BASE_ON_STOP)
+def _entry_points() -> Iterable[tuple[str, str, Any]]:
+    """(entry point name, where, its value or the exception loading it) of each installed
+    plug-in."""
+    for point in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda p: p.name):
+        where = f"entry point {point.name} = {point.value!r} ({ENTRY_POINT_GROUP})"
+        try:
+            yield point.name, where, point.load()
+        except Exception as exc:  # a third party's import error must not hide the rest
+            yield point.name, where, exc
 
 
-# -- the treadmill -----------------------------------------------------------------------------
+def robot_folders(environ: Mapping[str, str] | None = None) -> list[Path]:
+    """The robot folders inside the folders of ``SERVOLAB_ROBOT_PATH``, in path order, each
+    folder's robots by name."""
+    from .robot_folder import is_robot_folder
 
-def _treadmill_bus() -> BusSummary:
-    from .treadmill.node import TREADMILL_BAUDRATE, TREADMILL_IDS, TREADMILL_MODEL
-
-    return BusSummary(TREADMILL_MODEL, TREADMILL_IDS, 2, TREADMILL_BAUDRATE)
-
-
-def _treadmill(port: str | None) -> Any:
-    from .treadmill.node import Treadmill
-
-    return Treadmill.open(port)
-
-
-#: every robot servolab ships, by name
-ROBOTS: dict[str, RobotEntry] = {e.name: e for e in (
-    RobotEntry("armstrong", "seed 001's 21-servo biped (20 on its bus), dynamixel_motor "
-               "controllers", _armstrong_config, _armstrong_bus, _armstrong,
-               ARMSTRONG_ON_STOP),
-    _base_entry("seed000", "seed 000's two-wheel robot, EX-106+ in wheel mode"),
-    _base_entry("seed000_4motor", "seed 000 A.2's four-motor robot"),
-    _base_entry("turtlebot3_waffle", "a TurtleBot3 Waffle (seed 002's robot), XM430 wheels"),
-    RobotEntry("treadmill", "seed 002's ball treadmill on three omni-wheels",
-               lambda: None, _treadmill_bus, _treadmill, TREADMILL_ON_STOP),
-)}
+    found: list[Path] = []
+    for entry in (environ if environ is not None else os.environ).get(PATH_VARIABLE, "") \
+            .split(os.pathsep):
+        folder = Path(entry).expanduser()
+        if entry and folder.is_dir():
+            found += sorted(p for p in folder.iterdir() if is_robot_folder(p))
+    return found
 
 
-def entry(name: str) -> RobotEntry:
-    try:
-        return ROBOTS[name]
-    except KeyError:
-        raise UnknownRobotError(f"no robot {name!r}; there are {', '.join(ROBOTS)}") from None
+def discover(environ: Mapping[str, str] | None = None) -> Robots:
+    """Look for every robot (see the module's docstring)."""
+    plugins: dict[str, RobotPlugin] = {}
+    aliases: dict[str, str] = {}
+    problems: dict[str, str] = {}
+
+    def add(found: Iterable[RobotPlugin], where: str) -> None:
+        for plugin in found:
+            names = (plugin.name, *plugin.aliases)
+            taken = [n for n in names if n in plugins or n in aliases]
+            if taken:
+                first = plugins[aliases.get(taken[0], taken[0])].origin
+                problems.setdefault(plugin.name, f"robot {taken[0]!r} from {where}: the name is "
+                                    f"taken by {first}; rename one of them")
+                continue
+            plugins[plugin.name] = replace(plugin, origin=where)
+            aliases.update({alias: plugin.name for alias in plugin.aliases})
+
+    for where, value in _shipped():
+        add(_as_plugins(value, where), "servolab")
+    for name, where, value in _entry_points():
+        try:
+            if isinstance(value, Exception):
+                raise RobotPluginError(f"{where}: {type(value).__name__}: {value}")
+            add(_as_plugins(value, where), where)
+        except Exception as exc:
+            problems.setdefault(name, str(exc) if isinstance(exc, RobotPluginError)
+                                else f"{where}: {type(exc).__name__}: {exc}")
+    for folder in robot_folders(environ):
+        from .robot_folder import folder_plugin
+
+        try:
+            add((folder_plugin(folder),), f"folder {folder}")
+        except ServolabError as exc:
+            problems.setdefault(folder.name, f"robot folder {folder}: {exc}")
+    return Robots(plugins, aliases, problems)
+
+
+def robots() -> Mapping[str, RobotPlugin]:
+    """Every robot found, by name."""
+    return discover().plugins
+
+
+def entry(name: str) -> RobotPlugin:
+    """The robot called ``name`` (or one of its aliases); one line naming the robots there are
+    when none is, or saying why the one of that name cannot be loaded."""
+    return discover().entry(name)
 
 
 def load(name: str, port: str | None = None) -> Any:
     """The robot ``name`` on emulated motors, or on the serial port (or pyserial URL)
-    ``port``: Armstrong's :class:`~.armstrong.control_node.Armstrong`, a base's
-    :class:`~.base.mobile_base.MobileBase`, the treadmill's :class:`~.treadmill.node.Treadmill`.
-    Each closes with ``close()`` (Armstrong also as a context manager)."""
+    ``port``, as ``dm_control.suite.load`` gives a domain: Armstrong's
+    :class:`~.armstrong.control_node.Armstrong`, a base's :class:`~.base.mobile_base.MobileBase`,
+    the treadmill's :class:`~.treadmill.node.Treadmill`, a robot folder's
+    :class:`~.urdf_robot.UrdfRobot`. Each has ``bus`` and closes with ``close()``."""
     return entry(name).load(port)
 
 
-def robot_models() -> dict[str, Callable[[], str]]:
-    """The robot descriptions ``servolab robots show`` prints, by name: written from the
-    robot's one model each time (:mod:`.armstrong.description`), not shipped as files."""
-    from .armstrong.description import assumptions_table, model_file
-
-    return {"armstrong.urdf": lambda: model_file("urdf"),
-            "armstrong.mjcf": lambda: model_file("mjcf"),
-            "armstrong.assumptions": assumptions_table}
-
-
-def shipped_files() -> dict[str, Path]:
-    """Every configuration file servolab ships, by the name ``servolab robots show`` takes:
-    each robot's default file, and the navigation's parameter files and scene."""
-    from ..sim.scene import DEFAULT_SCENE
-    from .navigation.params import DEFAULT_COSTMAP, DEFAULT_DWA, DEFAULT_MOVE_BASE
-
-    files = {name: path for name, e in ROBOTS.items() if (path := e.config()) is not None}
-    files.update({"costmap_params": DEFAULT_COSTMAP, "dwa_params": DEFAULT_DWA,
-                  "move_base_params": DEFAULT_MOVE_BASE, "nav_scene": DEFAULT_SCENE})
+def shipped_files() -> dict[str, ShownFile]:
+    """Every file ``servolab robots show`` prints, by the name it takes: each robot's default
+    configuration, its URDF and the other files its plug-in names."""
+    files: dict[str, ShownFile] = {}
+    for plugin in robots().values():
+        files.update(plugin.shown_files())
     return files
+
+
+def layouts() -> dict[str, Layout]:
+    """Every robot's Foxglove layout, by the layout's own name (bases share one, ``base``)."""
+    return {layout.name: layout for plugin in robots().values()
+            if plugin.layout is not None and (layout := plugin.layout())}
+
+
+def layout_named(name: str) -> Layout:
+    """The layout of the robot ``name`` (or alias), or the layout called ``name``; else one
+    line listing the names there are."""
+    found = discover()
+    plugin = found.plugins.get(found.aliases.get(name, name))
+    if plugin is not None and plugin.layout is not None:
+        return plugin.layout()
+    every = layouts()
+    if name in every:
+        return every[name]
+    names = {*every, *(n for n, p in found.plugins.items() if p.layout is not None)}
+    raise UsageError(f"no layout {name!r}; there are: {', '.join(sorted(names))}")
