@@ -38,7 +38,7 @@ from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.middleware.qos import qos_profile_latched
 from servolab.robots.armstrong.description import model_file
-from servolab.robots.armstrong.hardware import load_motion
+from servolab.robots.armstrong.motions import load_motion
 from servolab.robots.armstrong.poses import MOTORS
 from servolab.robots.armstrong.run import run_walk
 from servolab.robots.armstrong.state_publisher import (
