@@ -267,7 +267,7 @@ def biped(out: Path) -> dict[str, float]:
     from servolab.gait.plots import plot_foot_positions, plot_joint_angles
     from servolab.gait.walking import generate_walk
     from servolab.robots.armstrong.control_node import Armstrong
-    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.motions import load_motion
     from servolab.robots.armstrong.run import run_walk
     from servolab.runs import RunFolder
 
@@ -329,7 +329,7 @@ def biped_physics(out: Path, *, quick: bool) -> dict[str, float]:
     """docs/biped.md's physics: the seed's gait as printed in the MuJoCo world (its balance
     plot, and a frame as it starts to tip), servolab's own gait (:func:`zmp_walk`), and — not
     with ``--quick``, 54 walks — the sweep of the assumptions the seed leaves open."""
-    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.motions import load_motion
 
     summary, world = walk_in_mujoco(out, "biped_physics_seed.png", load_motion(None),
                                     steps=4)
@@ -347,7 +347,7 @@ def zmp_walk(out: Path) -> dict[str, float]:
     walk of 10 steps in MuJoCo (its balance plot) and a frame in mid-stride."""
     from servolab.gait.plots import plot_zmp_walk
     from servolab.gait.zmp_walk import plan_zmp_walk
-    from servolab.robots.armstrong.hardware import zmp_motion
+    from servolab.robots.armstrong.motions import zmp_motion
 
     plot_zmp_walk(plan_zmp_walk(), out / "biped_zmp_plan.png")
     motion, rate = zmp_motion(10)
@@ -370,7 +370,7 @@ def sweep_figure(out: Path) -> None:
 
     import matplotlib.pyplot as plt
 
-    from servolab.robots.armstrong.hardware import load_motion, zmp_motion
+    from servolab.robots.armstrong.motions import load_motion, zmp_motion
     from servolab.robots.armstrong.sweep import cases, sweep
 
     logging.disable(logging.WARNING)   # 54 robots' start-up: motor 62 is absent in each

@@ -180,7 +180,7 @@ def _flyball(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, obj
 
 def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
     """Armstrong (seed 001) stands up and walks one step, recorded (see docs/biped.md)."""
-    from ..robots.armstrong.hardware import load_motion
+    from ..robots.armstrong.motions import load_motion
     from ..robots.armstrong.run import run_walk
 
     say("5. Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")

@@ -136,7 +136,7 @@ def _check(args: argparse.Namespace) -> int:
 
     from ..errors import UsageError
     from ..gait.walking import check_loop, loop_jumps
-    from ..robots.armstrong.hardware import load_motion
+    from ..robots.armstrong.motions import load_motion
 
     if not (math.isfinite(args.rate) and args.rate > 0):
         raise UsageError(f"--rate {args.rate:g}: must be a number > 0")

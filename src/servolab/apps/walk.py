@@ -55,7 +55,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..gait.motionfile import MotionFileWarning
     from ..middleware.logger import console_log
     from ..robots.armstrong.control_node import PLAY_RATE
-    from ..robots.armstrong.hardware import load_motion, zmp_motion
+    from ..robots.armstrong.motions import load_motion, zmp_motion
     from ..robots.armstrong.run import run_walk
     from ..runs import RunFolder
 

@@ -183,7 +183,7 @@ def test_the_walk_refuses_bad_options_before_anything_runs(
 def test_the_docs_sweep_table_is_what_the_sweep_gives() -> None:
     """docs/biped.md's sweep (docs/img/biped_sweep.json, written by docs/plots.py) against a
     new walk of two of its cases; a case that makes no robot is refused, not walked."""
-    from servolab.robots.armstrong.hardware import load_motion
+    from servolab.robots.armstrong.motions import load_motion
     from servolab.robots.armstrong.sweep import Case, cases, sweep
 
     committed = json.loads((Path(__file__).resolve().parents[3] / "docs" / "img"
@@ -321,7 +321,7 @@ def test_the_zmp_gait_keeps_to_the_legs_configured_joint_speed(tmp_path: Path) -
     joint_max_speed below it): the plan that needs 0.87 rad/s is refused before anything
     moves, naming max_joint_speed (the servos could not follow it)."""
     from servolab.gait.errors import GaitValueError
-    from servolab.robots.armstrong.hardware import zmp_motion
+    from servolab.robots.armstrong.motions import zmp_motion
 
     slow = tmp_path / "slow.yaml"
     slow.write_text(ping_once_config(tmp_path).read_text().replace(

@@ -21,7 +21,7 @@ from mcap_ros2.reader import read_ros2_messages
 from servolab.gait.motionfile import MotionFileError, write_motion_file
 from servolab.gait.walking import generate_walk
 from servolab.robots.armstrong.control_node import MOVE_RATE, Armstrong
-from servolab.robots.armstrong.hardware import load_motion
+from servolab.robots.armstrong.motions import load_motion
 from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
 from servolab.robots.armstrong.run import run_walk
 from servolab.robots.armstrong.supervisor import FINISH_DURATION

@@ -1,4 +1,5 @@
-"""Armstrong shown to a 3D viewer (robots/armstrong/state_publisher.py), as ROS's
+"""Armstrong shown to a 3D viewer (robots/armstrong/state_publisher.py, on
+robots/state_publisher.py), as ROS's
 robot_state_publisher shows a robot: ``/robot_description`` latched, ``/joint_states`` from the
 joint controllers' states, ``/tf`` and ``/tf_static``.
 
@@ -38,16 +39,15 @@ from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.middleware.qos import qos_profile_latched
 from servolab.robots.armstrong.description import model_file
-from servolab.robots.armstrong.hardware import load_motion
+from servolab.robots.armstrong.motions import load_motion
 from servolab.robots.armstrong.poses import MOTORS
 from servolab.robots.armstrong.run import run_walk
 from servolab.robots.armstrong.state_publisher import (
     ArmstrongStatePublisher,
     StatePublisherConfig,
-    joint_transforms,
-    rpy_quaternions,
 )
 from servolab.robots.errors import RobotValueError
+from servolab.robots.state_publisher import joint_transforms, rpy_quaternions
 from servolab.runs import RunFolder
 
 RNG_SEED = 105

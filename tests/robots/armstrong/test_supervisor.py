@@ -27,7 +27,8 @@ from mcap_ros2.reader import read_ros2_messages
 
 from servolab.dynamixel.emulator import Emulator, Faults
 from servolab.robots.armstrong.control_node import Armstrong
-from servolab.robots.armstrong.hardware import CONFIG, load_motion
+from servolab.robots.armstrong.hardware import CONFIG
+from servolab.robots.armstrong.motions import load_motion
 from servolab.robots.armstrong.poses import STAND_POSE
 from servolab.robots.armstrong.run import run_walk
 from servolab.runs import RunFolder

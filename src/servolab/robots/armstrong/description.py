@@ -48,10 +48,8 @@ and docs/biped.md says so.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
-from typing import Literal
 
 import numpy as np
 
@@ -66,14 +64,24 @@ from ...kinematics.leg import (
     leg_transform,
 )
 from ..controllers.config import RobotConfig
+from ..description import (
+    Box,
+    Contact,
+    Drive,
+    Drives,
+    Joint,
+    Keyframe,
+    Link,
+    Vec3,
+    vec3,
+)
+from ..description import Description as GenericDescription
+from ..description import Motor as GenericMotor
+from ..description import mjcf as generic_mjcf
+from ..description import urdf as generic_urdf
 from ..errors import RobotValueError
 from .hardware import ABSENT, MODEL, joint_limits, load_config
 from .poses import JOINTS, MOTORS, STAND_POSE
-
-Vec3 = tuple[float, float, float]
-#: What a box touches in the physics: nothing (seen only), the floor (a fall lands on it),
-#: or everything (the soles, which stand on the floor and can meet each other).
-Contact = Literal["none", "floor", "all"]
 
 MM = 1e-3  # leg.py's lengths are in mm
 
@@ -219,150 +227,40 @@ class Assumptions:
 
 
 @dataclass(frozen=True)
-class Box:
-    """A uniform solid box, axis-aligned in its link's frame: one piece of the link's shape
-    and of its mass."""
+class Motor(GenericMotor):
+    """The RX-28 that turns a joint: its ID (Table 2.2, Appendix A), motor angle = direction x
+    joint angle (+1 or -1), Table 4.1's joint function and coordinate (``"left_hip x"``), and
+    whether it is on the bus (motor 62 is not, 001 Figure 3.4)."""
 
-    name: str
-    size: Vec3          # full extents along x, y, z (m); the MJCF takes half of them
-    pos: Vec3           # centre in the link frame (m)
-    mass: float         # kg
-    material: str       # a key of MATERIALS
-    contact: Contact = "none"
-
-    @property
-    def inertia(self) -> np.ndarray:
-        """The inertia tensor (kg m²) about the box's centre."""
-        x, y, z = self.size
-        return np.diag([y * y + z * z, x * x + z * z, x * x + y * y]) * self.mass / 12.0
-
-
-@dataclass(frozen=True)
-class Inertial:
-    """A link's mass, centre of mass (link frame) and inertia tensor about that centre."""
-
-    mass: float
-    com: Vec3
-    inertia: tuple[tuple[float, float, float], ...]
-
-    @property
-    def six(self) -> tuple[float, float, float, float, float, float]:
-        """``ixx iyy izz ixy ixz iyz``, the tensor's elements as the URDF and MJCF name them."""
-        i = self.inertia
-        return i[0][0], i[1][1], i[2][2], i[0][1], i[0][2], i[1][2]
-
-
-@dataclass(frozen=True)
-class Link:
-    """A rigid body. A link without boxes is a frame only (a sole, where the IK's target is)."""
-
-    name: str
-    boxes: tuple[Box, ...] = ()
-
-    @property
-    def mass(self) -> float:
-        return sum(b.mass for b in self.boxes)
-
-    @property
-    def inertial(self) -> Inertial:
-        """From the boxes: the centre of their masses, and their inertias moved to it
-        (parallel-axis theorem)."""
-        if not self.boxes:
-            return Inertial(0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)
-        masses = np.array([b.mass for b in self.boxes])
-        centres = np.array([b.pos for b in self.boxes])
-        com = masses @ centres / masses.sum()
-        tensor = np.zeros((3, 3))
-        for box, centre in zip(self.boxes, centres, strict=True):
-            d = centre - com
-            tensor += box.inertia + box.mass * (d @ d * np.eye(3) - np.outer(d, d))
-        return Inertial(float(masses.sum()), _vec3(com),
-                        tuple(_vec3(row) for row in tensor))
-
-
-@dataclass(frozen=True)
-class Motor:
-    """The RX-28 that turns a joint."""
-
-    id: int             # Table 2.2, Appendix A
-    direction: int      # motor angle = direction x joint angle (+1 or -1)
-    function: str       # Table 4.1's joint function and coordinate, e.g. "left_hip x"
-    on_bus: bool = True  # motor 62 is not (001 Figure 3.4)
+    function: str = ""
+    on_bus: bool = True
 
     @property
     def column(self) -> str:
         """The motion files' column and the controller's suffix (``m14``)."""
-        return f"m{self.id}"
+        return self.actuator
 
 
 @dataclass(frozen=True)
-class Joint:
-    """A joint from ``parent`` to ``child``: a revolute joint turned by a motor, or a fixed
-    one (a frame on a link)."""
+class Description(GenericDescription):
+    """Armstrong as one tree of links and joints, rooted at the pelvis, with the assumptions
+    it was built under."""
 
-    name: str
-    kind: Literal["revolute", "fixed"]
-    parent: str
-    child: str
-    origin: Vec3                     # the child's frame in the parent's (m), no rotation
-    axis: Vec3 = (0.0, 0.0, 1.0)     # positive angles turn the child right-handed about it
-    lower: float = 0.0               # rad, the joint's range (from its motor's)
-    upper: float = 0.0
-    motor: Motor | None = None
-
-
-@dataclass(frozen=True)
-class Drive:
-    """What each joint's RX-28 gives the physics, from its model table (the e-Manual)."""
-
-    stall_torque: float     # N m: the most a position actuator may push (forcerange)
-    no_load_speed: float    # rad/s: the URDF's velocity limit
-    #: N m/rad: the stall torque over the default compliance slope (32 ticks), the error at
-    #: which the RX-28's firmware reaches full torque
-    kp: float
-    #: N m s/rad: a DC motor's torque falls linearly from stall at 0 to nothing at the
-    #: no-load speed, so its back-EMF damps the joint by stall torque / no-load speed
-    damping: float
-    armature: float         # kg m²: rotor inertia x gear ratio²
-    friction: float = 0.0   # N m: the gear train's dry friction, torque on or off
-
-
-@dataclass(frozen=True)
-class Description:
-    """Armstrong as one tree of links and joints, rooted at the pelvis."""
-
-    name: str
-    root: str
-    links: tuple[Link, ...]
-    joints: tuple[Joint, ...]
-    drive: Drive
-    assumptions: Assumptions
-
-    def link(self, name: str) -> Link:
-        for link in self.links:
-            if link.name == name:
-                return link
-        raise RobotValueError(_unknown("link", name, [k.name for k in self.links]))
-
-    def joint(self, name: str) -> Joint:
-        for joint in self.joints:
-            if joint.name == name:
-                return joint
-        raise RobotValueError(_unknown("joint", name, [j.name for j in self.joints]))
-
-    def children(self, link: str) -> tuple[Joint, ...]:
-        return tuple(j for j in self.joints if j.parent == link)
+    assumptions: Assumptions = field(default_factory=Assumptions)
 
     @property
-    def motors(self) -> tuple[tuple[Joint, Motor], ...]:
+    def motors(self) -> tuple[tuple[Joint, GenericMotor], ...]:
         """The 21 joints with a motor and their motors, in the order of the motion files'
         columns."""
-        by_column = {j.motor.column: (j, j.motor) for j in self.joints if j.motor is not None}
+        by_column = {j.motor.actuator: (j, j.motor) for j in self.joints
+                     if j.motor is not None}
         return tuple(by_column[c] for c in MOTORS)
 
-    @property
-    def total_mass(self) -> float:
-        return sum(link.mass for link in self.links)
+    def motor(self, joint: Joint) -> Motor:
+        """``joint``'s motor, with Armstrong's facts (function, on the bus)."""
+        if not isinstance(joint.motor, Motor):
+            raise RobotValueError(f"Armstrong's joint {joint.name!r} has no motor")
+        return joint.motor
 
     def joint_positions(self, pose: Mapping[str, float]) -> dict[str, float]:
         """A pose of motor columns in degrees (Table 4.2, a motion file's row) as joint
@@ -370,7 +268,7 @@ class Description:
         unknown = sorted(set(pose) - set(MOTORS))
         if unknown:
             raise RobotValueError(_unknown("motor column", unknown[0], MOTORS))
-        return {j.name: motor.direction * math.radians(pose.get(motor.column, 0.0))
+        return {j.name: motor.direction * math.radians(pose.get(motor.actuator, 0.0))
                 for j, motor in self.motors}
 
     def leg_joints(self, positions: Mapping[str, float], side: str) -> np.ndarray:
@@ -390,11 +288,6 @@ def _unknown(what: str, name: str, known: list[str] | tuple[str, ...]) -> str:
     return f"Armstrong has no {what} {name!r}" + (f" (did you mean {close!r}?)" if close else "")
 
 
-def _vec3(values: object) -> Vec3:
-    x, y, z = (float(v) for v in np.asarray(values, dtype=np.float64))
-    return x, y, z
-
-
 def _servo(name: str, pos: Vec3, axis: Vec3) -> Box:
     """An RX-28 centred on its joint's axis at ``pos`` (a guess: the case's mounting is not in
     the seed), its depth D along the axis and its height H upright (along x for a vertical
@@ -404,7 +297,7 @@ def _servo(name: str, pos: Vec3, axis: Vec3) -> Box:
     size = [w, w, w]
     size[along] = d
     size[2 if along != 2 else 0] = h
-    return Box(name, _vec3(size), pos, RX28_MASS, "servo")
+    return Box(name, vec3(size), pos, mass=RX28_MASS, material="servo")
 
 
 def _leg_axes() -> list[Vec3]:
@@ -419,7 +312,7 @@ def _leg_axes() -> list[Vec3]:
         turn = leg_transform(q)[:3, :3] @ zero.T
         axis = np.array([turn[2, 1] - turn[1, 2], turn[0, 2] - turn[2, 0],
                          turn[1, 0] - turn[0, 1]]) / 2.0
-        axes.append(_vec3(np.round(axis, 12) + 0.0))
+        axes.append(vec3(np.round(axis, 12) + 0.0))
     return axes
 
 
@@ -481,15 +374,18 @@ def describe(assumptions: Assumptions | None = None,
             return
         joint_name, function = functions[column]
         ends = sorted(direction * math.radians(v) for v in limits[column])
-        motor = Motor(int(column[1:]), direction, function, int(column[1:]) not in ABSENT)
+        motor = Motor(int(column[1:]), MODEL, direction, function=function,
+                      on_bus=int(column[1:]) not in ABSENT)
         joints.append(Joint(joint_name, "revolute", parent, child, origin, axis, ends[0],
-                            ends[1], motor))
+                            ends[1], motor, effort=drive.stall_torque,
+                            velocity=drive.no_load_speed, damping=drive.damping,
+                            friction=drive.friction))
         boxes.setdefault(parent, []).append(_servo(f"{column}_servo", origin, axis))
 
     def frame(link: str, name: str, size: Vec3, pos: Vec3, mass: float,
               material: str = "frame", contact: Contact = "floor") -> None:
-        boxes.setdefault(link, []).append(Box(f"{link}_{name}", size, pos, mass, material,
-                                              contact))
+        boxes.setdefault(link, []).append(Box(f"{link}_{name}", size, pos, mass=mass,
+                                              material=material, contact=contact))
 
     # the pelvis: both hip-yaw motors and the trunk's motor sit on it
     boxes["pelvis"] = []
@@ -550,7 +446,8 @@ def describe(assumptions: Assumptions | None = None,
           "camera")
 
     links = tuple(Link(name, tuple(parts)) for name, parts in boxes.items())
-    return Description("armstrong", "pelvis", links, tuple(joints), drive, a)
+    return Description("armstrong", "pelvis", links, tuple(joints), drive, MATERIALS, _HEADER,
+                       assumptions=a)
 
 
 # -- the generated files ----------------------------------------------------------------------
@@ -560,76 +457,15 @@ _HEADER = ("Generated by servolab.robots.armstrong.description from seed 001 (Ta
            "edit: change the description and generate it again.")
 
 
-def _num(value: float) -> str:
-    text = f"{value:.12g}"
-    return "0" if text == "-0" else text
-
-
-def _nums(values: tuple[float, ...] | list[float]) -> str:
-    return " ".join(_num(v) for v in values)
-
-
-def _xml(root: ET.Element) -> str:
-    ET.indent(root, "  ")
-    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
-
-
 def urdf(description: Description) -> str:
-    """The URDF: links with inertial, visual and (for boxes that touch anything) collision
-    boxes; revolute joints with the motor's range, the RX-28's stall torque and no-load speed
-    as limits and its back-EMF damping; a ``<transmission>`` per motor joint whose actuator is
-    the motor column (``m14``) and whose ``mechanicalReduction`` is the motor's direction."""
-    d = description
-    robot = ET.Element("robot", name=d.name)
-    robot.append(ET.Comment(" " + _HEADER + " "))
-    for name, rgba in MATERIALS.items():
-        material = ET.SubElement(robot, "material", name=name)
-        ET.SubElement(material, "color", rgba=_nums(rgba))
-    for link in d.links:
-        element = ET.SubElement(robot, "link", name=link.name)
-        if link.boxes:
-            inertial = link.inertial
-            node = ET.SubElement(element, "inertial")
-            ET.SubElement(node, "origin", xyz=_nums(inertial.com), rpy="0 0 0")
-            ET.SubElement(node, "mass", value=_num(inertial.mass))
-            ET.SubElement(node, "inertia", dict(zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"),
-                                                    (_num(v) for v in inertial.six),
-                                                    strict=True)))
-        for box in link.boxes:
-            kinds = ("visual", "collision") if box.contact != "none" else ("visual",)
-            for kind in kinds:
-                node = ET.SubElement(element, kind, name=box.name)
-                ET.SubElement(node, "origin", xyz=_nums(box.pos), rpy="0 0 0")
-                geometry = ET.SubElement(node, "geometry")
-                ET.SubElement(geometry, "box", size=_nums(box.size))
-                if kind == "visual":
-                    ET.SubElement(node, "material", name=box.material)
-    for joint in d.joints:
-        element = ET.SubElement(robot, "joint", name=joint.name, type=joint.kind)
-        ET.SubElement(element, "parent", link=joint.parent)
-        ET.SubElement(element, "child", link=joint.child)
-        ET.SubElement(element, "origin", xyz=_nums(joint.origin), rpy="0 0 0")
-        if joint.kind == "revolute":
-            ET.SubElement(element, "axis", xyz=_nums(joint.axis))
-            ET.SubElement(element, "limit", lower=_num(joint.lower), upper=_num(joint.upper),
-                          effort=_num(d.drive.stall_torque),
-                          velocity=_num(d.drive.no_load_speed))
-            ET.SubElement(element, "dynamics", damping=_num(d.drive.damping),
-                          friction=_num(d.drive.friction))
-    for joint, motor in d.motors:
-        transmission = ET.SubElement(robot, "transmission", name=f"{motor.column}_transmission")
-        ET.SubElement(transmission, "type").text = "transmission_interface/SimpleTransmission"
-        node = ET.SubElement(transmission, "joint", name=joint.name)
-        ET.SubElement(node, "hardwareInterface").text = "hardware_interface/PositionJointInterface"
-        actuator = ET.SubElement(transmission, "actuator", name=motor.column)
-        ET.SubElement(actuator, "mechanicalReduction").text = str(motor.direction)
-    return _xml(robot)
+    """The URDF (:func:`servolab.robots.description.urdf`): links with inertial, visual and
+    (for boxes that touch anything) collision boxes; revolute joints with the motor's range,
+    the RX-28's stall torque and no-load speed as limits and its back-EMF damping; a
+    ``<transmission>`` per motor joint whose actuator is the motor column (``m14``) and whose
+    ``mechanicalReduction`` is the motor's direction."""
+    return generic_urdf(description)
 
 
-#: MJCF contact bits: the floor meets both kinds of box, the soles meet each other too, and
-#: no other pair of the robot's boxes meets (their shapes are rough guesses that overlap).
-_CONTACT_BITS: dict[Contact, tuple[int, int]] = {"none": (0, 0), "floor": (2, 0), "all": (1, 1)}
-_FLOOR_BITS = (1, 3)
 #: the physics step (s): MuJoCo's default, 2 ms, and the step the emulated robot's
 #: Simulation takes in the MuJoCo world (:mod:`.physics`): the firmware's law runs once a
 #: step, 500 times a second; at 1 ms the run costs twice as much for no visible difference
@@ -638,16 +474,10 @@ _FLOOR_BITS = (1, 3)
 TIMESTEP = 0.002
 
 
-#: How the MJCF's joints are driven: by MuJoCo's position actuators (a model to look at and
-#: play with on its own), or by nothing inside the model, the emulated servos' firmware
-#: giving each joint its torque (:mod:`servolab.sim.mujoco_world`).
-Drives = Literal["position", "firmware"]
-
-
 def mjcf(description: Description, drive: Drives = "position") -> str:
-    """The MJCF for MuJoCo: angles in radians (MJCF's default is degrees), a floor, the
-    pelvis free above it on straight legs, and a ``stand`` keyframe: Table 4.2's pose with its
-    soles on the floor.
+    """The MJCF for MuJoCo (:func:`servolab.robots.description.mjcf`): angles in radians, a
+    floor, the pelvis free above it on straight legs, and a ``stand`` keyframe: Table 4.2's
+    pose with its soles on the floor.
 
     ``drive="position"``: a position actuator per motor joint named by its column whose
     control is the motor's angle (``gear`` = direction) within the motor's range and whose
@@ -655,81 +485,13 @@ def mjcf(description: Description, drive: Drives = "position") -> str:
     ``drive="firmware"``: no actuators and no damping — the world's firmware law gives the
     torque, back-EMF included — and a joint whose motor is not on the bus (m62) welded, as a
     joint nothing turns holds by its gears' friction on the real robot."""
-    if drive not in ("position", "firmware"):
-        raise RobotValueError(f"no MJCF drive {drive!r}: one of position, firmware")
     d = description
-    firmware = drive == "firmware"
-    root = ET.Element("mujoco", model=d.name)
-    root.append(ET.Comment(" " + _HEADER + " "))
-    ET.SubElement(root, "compiler", angle="radian", autolimits="true")
-    # implicitfast: velocity-dependent forces (the joints' damping) integrated implicitly; the
-    # actuators' stiffness stays explicit, stable at 1 ms (kp dt^2 / I is about 0.006)
-    ET.SubElement(root, "option", timestep=_num(TIMESTEP), integrator="implicitfast")
-    default = ET.SubElement(root, "default")
-    ET.SubElement(default, "joint", damping=_num(0.0 if firmware else d.drive.damping),
-                  armature=_num(d.drive.armature), frictionloss=_num(d.drive.friction))
-    if not firmware:
-        ET.SubElement(default, "position", kp=_num(d.drive.kp),
-                      forcerange=_nums((-d.drive.stall_torque, d.drive.stall_torque)))
-    ET.SubElement(default, "site", size="0.005", rgba="1 0 0 1")
-    asset = ET.SubElement(root, "asset")
-    ET.SubElement(asset, "texture", name="grid", type="2d", builtin="checker", width="512",
-                  height="512", rgb1="0.2 0.3 0.4", rgb2="0.3 0.4 0.5")
-    ET.SubElement(asset, "material", name="floor", texture="grid", texrepeat="8 8",
-                  reflectance="0.1")
-    for name, rgba in MATERIALS.items():
-        ET.SubElement(asset, "material", name=name, rgba=_nums(rgba))
-    world = ET.SubElement(root, "worldbody")
-    ET.SubElement(world, "light", name="sun", pos="0 0 3", dir="0 0 -1", directional="true")
-    ET.SubElement(world, "geom", name="floor", type="plane", size="0 0 0.05", material="floor",
-                  contype=str(_FLOOR_BITS[0]), conaffinity=str(_FLOOR_BITS[1]))
-    pelvis = ET.SubElement(world, "body", name=d.root,
-                           pos=_nums((0.0, 0.0, d.standing_height({}))))
-    ET.SubElement(pelvis, "freejoint", name="root")
-    order: list[str] = []
-    welded = frozenset(j.name for j, motor in d.motors if firmware and not motor.on_bus)
-    _mjcf_body(d, pelvis, d.link(d.root), order, welded)
-    if not firmware:
-        actuators = ET.SubElement(root, "actuator")
-        for joint, motor in d.motors:
-            lo, hi = sorted((motor.direction * joint.lower, motor.direction * joint.upper))
-            ET.SubElement(actuators, "position", name=motor.column, joint=joint.name,
-                          gear=str(motor.direction), ctrlrange=_nums((lo, hi)))
-    stand = d.joint_positions(STAND_POSE)
-    keyframe = ET.SubElement(root, "keyframe")
-    qpos = [0.0, 0.0, d.standing_height(STAND_POSE), 1.0, 0.0, 0.0, 0.0]
-    key = {"name": "stand", "qpos": _nums(qpos + [stand[n] for n in order])}
-    if not firmware:
-        key["ctrl"] = _nums([math.radians(STAND_POSE[motor.column]) for _, motor in d.motors])
-    ET.SubElement(keyframe, "key", key)
-    return _xml(root)
-
-
-def _mjcf_body(d: Description, body: ET.Element, link: Link, order: list[str],
-               welded: frozenset[str] = frozenset()) -> None:
-    """``link``'s inertial and boxes into ``body``, then its children: a frame-only link on a
-    fixed joint becomes a site, anything else a body (with a hinge if it has a motor)."""
-    if link.boxes:
-        inertial = link.inertial
-        ET.SubElement(body, "inertial", pos=_nums(inertial.com), mass=_num(inertial.mass),
-                      fullinertia=_nums(inertial.six))
-    for box in link.boxes:
-        contype, conaffinity = _CONTACT_BITS[box.contact]
-        ET.SubElement(body, "geom", name=box.name, type="box",
-                      size=_nums(tuple(s / 2 for s in box.size)), pos=_nums(box.pos),
-                      material=box.material, contype=str(contype),
-                      conaffinity=str(conaffinity), group="0" if box.contact != "none" else "1")
-    for joint in d.children(link.name):
-        child = d.link(joint.child)
-        if joint.kind == "fixed" and not child.boxes and not d.children(child.name):
-            ET.SubElement(body, "site", name=child.name, pos=_nums(joint.origin))
-            continue
-        element = ET.SubElement(body, "body", name=child.name, pos=_nums(joint.origin))
-        if joint.kind == "revolute" and joint.name not in welded:
-            ET.SubElement(element, "joint", name=joint.name, type="hinge",
-                          axis=_nums(joint.axis), range=_nums((joint.lower, joint.upper)))
-            order.append(joint.name)
-        _mjcf_body(d, element, child, order, welded)
+    welded = frozenset(j.name for j, _ in d.motors
+                       if drive == "firmware" and not d.motor(j).on_bus)
+    stand = Keyframe("stand", d.joint_positions(STAND_POSE), d.standing_height(STAND_POSE))
+    return generic_mjcf(d, drive, floor=True, free_base=True,
+                        base_height=d.standing_height({}), keyframes=(stand,), welded=welded,
+                        timestep=TIMESTEP)
 
 
 def stand_com_offset(description: Description) -> tuple[float, float]:

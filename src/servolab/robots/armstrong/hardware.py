@@ -1,4 +1,5 @@
-"""Armstrong, the biped of seed 001: its bus, emulated by default or real on a named port.
+"""Armstrong, the biped of seed 001: its configuration and its bus, emulated by default or
+real on a named port. (Its motions, built on its description, are :mod:`.motions`.)
 
 The emulated robot is what the seed's robot is on its bus: 20 RX-28 on one Protocol 1.0 bus at
 57142 bps with the IDs of Table 2.2, each standing at its configured ``init`` position; motor
@@ -13,7 +14,6 @@ import math
 from collections.abc import Collection
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from ...configfile import shipped
 from ...dynamixel import units
@@ -21,16 +21,9 @@ from ...dynamixel.bus import Bus
 from ...dynamixel.emulator import Faults
 from ...dynamixel.models import model
 from ...dynamixel.motorspec import MotorEntry, MotorSpec
-from ...gait.motionfile import MotionFile, read_motion_file
-from ...gait.walking import GaitParameters, generate_walk
-from ...gait.zmp_walk import ZmpWalkParameters, generate_zmp_walk
 from ...sim.emulated import emulated_port
 from ...sim.simulation import Simulation
 from ..controllers.config import ControllerConfigError, RobotConfig, SerialPortConfig, load
-
-if TYPE_CHECKING:
-    from .description import Assumptions
-from .poses import MOTORS
 
 #: armstrong.yaml beside this module (Listing 3.3 + Appendix A): the default configuration
 CONFIG = shipped(__package__ or "servolab.robots.armstrong", "armstrong.yaml")
@@ -108,35 +101,3 @@ def open_bus(config: RobotConfig, *, port_name: str | None = None,
         spec = emulated_spec(config, absent=absent, baudrate=baud)
         bus = Bus(emulated_port(spec, baud, simulation=simulation, faults=faults))
     return bus, replace(port, port_name=port_name or bus.port.name, baud_rate=baud)
-
-
-def load_motion(path: str | Path | None, config: str | Path | None = None,
-                parameters: GaitParameters | None = None) -> MotionFile:
-    """The motion to play: the file at ``path`` (all 21 columns, within the configured
-    joints' limits), or the seed's gait generated with ``parameters``."""
-    limits = joint_limits(load_config(config))
-    if path is not None:
-        return read_motion_file(path, limits=limits, required=MOTORS)
-    # checked against the same limits as a file, at generation (gait.walking)
-    return generate_walk(parameters or GaitParameters(), limits=limits).motion()
-
-
-def zmp_motion(steps: int = 10, config: str | Path | None = None,
-               assumptions: Assumptions | None = None,
-               parameters: ZmpWalkParameters | None = None) -> tuple[MotionFile, float]:
-    """servolab's own gait (:mod:`servolab.gait.zmp_walk`, Kajita's preview control) for
-    this robot: ``steps`` footsteps, with the hip width and the centre of mass's offset of
-    the robot's description (under ``assumptions``), within the configured joints' limits.
-    Returns the motion and the rate (rows a second) it must be played at."""
-    from .description import Assumptions, describe, stand_com_offset
-
-    a = assumptions if assumptions is not None else Assumptions()
-    robot_config = load_config(config)
-    base = parameters if parameters is not None else ZmpWalkParameters()
-    # the legs' servos move at their controllers' joint_speed: the plan must not ask more
-    legs = [min(c.joint_speed, c.joint_max_speed or math.inf)   # as the controller clamps
-            for c in robot_config.controllers if f"m{c.motor.id}" in MOTORS[:12]]
-    fitted = replace(base, steps=steps, hip_width=a.hip_width,
-                     com_offset=stand_com_offset(describe(a, robot_config)),
-                     max_joint_speed=min([base.max_joint_speed, *legs]))
-    return generate_zmp_walk(fitted, joint_limits(robot_config)), fitted.rate

@@ -90,7 +90,7 @@ class Walker(BipedNode):
     def __init__(self, context: Context, name: str = "walker", namespace: str = "/", *,
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
-        from .hardware import load_motion
+        from .motions import load_motion
 
         super().__init__(context, name=name, namespace=namespace,
                          parameter_overrides=parameter_overrides, remappings=remappings)

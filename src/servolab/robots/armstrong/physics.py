@@ -64,7 +64,7 @@ def armstrong_world(simulation: Simulation, emulator: Emulator, config: RobotCon
     init = {c.motor.id: c.motor for c in config.controllers}
     joints = []
     for joint, motor in description.motors:
-        if not motor.on_bus:
+        if not description.motor(joint).on_bus:
             continue
         if motor.id not in init:
             raise RobotValueError(f"no controller for motor {motor.id} in "
