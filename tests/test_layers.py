@@ -101,3 +101,69 @@ def test_only_the_commands_import_a_robots_run_module() -> None:
                if "apps" not in path.relative_to(PACKAGE).parts
                for line, target in imports(path) if target in runs]
     assert outside == []
+
+
+def _type_checking_lines(tree: ast.Module) -> set[int]:
+    """The lines of imports under ``if TYPE_CHECKING:``: read by mypy, never run."""
+    lines: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) \
+                and node.test.id == "TYPE_CHECKING":
+            lines |= {n.lineno for stmt in node.body for n in ast.walk(stmt)
+                      if isinstance(n, ast.Import | ast.ImportFrom)}
+    return lines
+
+
+def run_time_graph(package: Path) -> dict[str, set[str]]:
+    """Module -> the modules of ``package`` it imports when it runs (at its top or inside a
+    function, not under TYPE_CHECKING); ``from .x import name`` counts ``x.name`` when that is
+    a module. (Importing ``a.b`` also runs ``a/__init__``, but Python imports a package's
+    module while the package is half made, so that edge is no circle.)"""
+    modules = {_module(p): p for p in package.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        tree = ast.parse(path.read_text(), str(path))
+        skip = _type_checking_lines(tree)
+        targets: set[str] = set()
+        names = {(n.lineno, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+                 for a in n.names}
+        for line, target in imports(path):
+            if line in skip:
+                continue
+            targets |= {f"{target}.{a}" for ln, a in names if ln == line
+                        and f"{target}.{a}" in modules}
+            targets.add(target)
+        graph[name] = {t for t in targets if t in modules and t != name}
+    return graph
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module: each an import circle."""
+    import numpy as np
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    names = sorted(graph)
+    index = {n: i for i, n in enumerate(names)}
+    rows = [index[a] for a in names for _ in graph[a]]
+    cols = [index[b] for a in names for b in graph[a]]
+    matrix = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(names), len(names)))
+    count, labels = connected_components(matrix, directed=True, connection="strong")
+    groups = [[names[i] for i in np.flatnonzero(labels == k)] for k in range(count)]
+    return [g for g in groups if len(g) > 1]
+
+
+def test_the_circle_finder_sees_a_circle(tmp_path: Path) -> None:
+    assert import_circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert import_circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_circle_under_robots_at_run_time() -> None:
+    """Robots are plug-ins: a robot's modules import shared machinery and never the other
+    way round, and no two modules of the robot layer need each other (issue 42: Armstrong's
+    description and hardware once did)."""
+    graph = {name: {t for t in targets if t.startswith("servolab.robots")}
+             for name, targets in run_time_graph(PACKAGE).items()
+             if name.startswith("servolab.robots")}
+    assert len(graph) > 50, "the checker found too few robot modules"
+    assert import_circles(graph) == []

@@ -25,6 +25,7 @@ import servolab.robots
 from servolab.cli import main
 from tests.robots.adding_a_robot import blocks, commands, examples, write_files
 from tests.simproc import sim_process
+from tests.viewclient import SDK_V1, WEBSOCKET_V1, NodeClient, node_client, started_client
 from tests.waiting import wait_until
 
 #: e-Manual, XM430-W350: model number and control table
@@ -177,3 +178,48 @@ def test_a_package_declaring_the_entry_point_is_found_and_moves_both_joints(
                           timeout=20.0), angles()
     finally:
         head.close()  # type: ignore[attr-defined]
+
+
+def _latest_rotation(client: NodeClient, child: str) -> dict[str, float] | None:
+    for message in reversed(client.messages("/tf")):
+        for transform in message["transforms"]:
+            if transform["child_frame_id"] == child:
+                return dict(transform["transform"]["rotation"])
+    return None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("subprotocol", [WEBSOCKET_V1, SDK_V1])
+def test_the_live_view_of_a_folder_robot_follows_its_joints(robot_path: Path,
+                                                            subprotocol: str) -> None:
+    """Foxglove's own client (tests/view_client) watches the folder robot opened with
+    servolab.robots.load and moved from Python: /robot_description is the URDF, and /tf turns
+    each joint's link by the angle its motor reports (URDF: pan about z, tilt about y; a
+    rotation by a about a unit axis u is the quaternion (u sin a/2, cos a/2))."""
+    node_client()  # skips, saying why, where Node or the npm packages are missing
+    with servolab.robots.load("pan_tilt") as head:
+        server = head.view()
+        with started_client(server.url, subprotocol,
+                            ["/robot_description", "/tf", "/joint_states"], count=1_000_000,
+                            timeout=90) as client:
+            client.wait_until(lambda c: c.messages("/robot_description"), "the description")
+            assert client.messages("/robot_description")[0]["data"] == head.urdf
+            for pan, tilt in ((0.8, -0.4), (-0.5, 0.3)):
+                reached = head.move_to({"pan": pan, "tilt": tilt})
+                expected = {"pan_link": {"x": 0.0, "y": 0.0, "z": math.sin(reached["pan"] / 2),
+                                         "w": math.cos(reached["pan"] / 2)},
+                            "tilt_link": {"x": 0.0, "y": math.sin(reached["tilt"] / 2),
+                                          "z": 0.0, "w": math.cos(reached["tilt"] / 2)}}
+
+                def follows(c: NodeClient, expected: dict[str, dict[str, float]] = expected
+                            ) -> bool:
+                    for child, quaternion in expected.items():
+                        got = _latest_rotation(c, child)
+                        if got is None or any(abs(got[k] - v) > 2e-3
+                                              for k, v in quaternion.items()):
+                            return False
+                    return True
+
+                client.wait_until(follows, f"/tf at pan {pan}, tilt {tilt}", timeout=20)
+            (latest,) = client.messages("/joint_states")[-1:]
+            assert latest["name"] == ["pan", "tilt"]

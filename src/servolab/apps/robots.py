@@ -52,6 +52,8 @@ def _list() -> None:
         more = [n for n in plugin.shown_files() if n != name]
         if more:
             print(f"  files:   {', '.join(more)}")
+        if plugin.commands:
+            print(f"  run by:  {', '.join(f'servolab {c}' for c in plugin.commands)}")
         if plugin.aliases:
             print(f"  also:    {', '.join(plugin.aliases)}")
         if plugin.origin != "servolab":

@@ -70,4 +70,4 @@ def _layout() -> Layout:
 ROBOTS = (RobotPlugin(
     "armstrong", "seed 001's 21-servo biped (20 on its bus), dynamixel_motor controllers",
     bus=_bus, open=_open, on_stop=ON_STOP, config=_config, files=_files, description=_urdf,
-    served=_served, layout=_layout, aliases=("seed001",)),)
+    served=_served, layout=_layout, aliases=("seed001",), commands=("walk", "gait")),)

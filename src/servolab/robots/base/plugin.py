@@ -45,7 +45,7 @@ def _base(name: str, summary: str, aliases: tuple[str, ...] = ()) -> RobotPlugin
 
     return RobotPlugin(name, summary, bus=lambda: base_bus(config()),
                        open=lambda port: open_base_file(config(), port), on_stop=ON_STOP,
-                       config=config, layout=_layout, aliases=aliases)
+                       config=config, layout=_layout, aliases=aliases, commands=("drive",))
 
 
 ROBOTS = (

@@ -45,4 +45,5 @@ def _layout() -> Layout:
 
 ROBOTS = (RobotPlugin("navigation", "seed 000's robot navigating under its overhead camera "
                       "(D* Lite, DWA), on the scene's base", bus=_bus, open=_open,
-                      on_stop=ON_STOP, files=_files, layout=_layout),)
+                      on_stop=ON_STOP, files=_files, layout=_layout,
+                      commands=("navigate", "plan")),)

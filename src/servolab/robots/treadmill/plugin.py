@@ -40,4 +40,4 @@ def _layout() -> Layout:
 
 ROBOTS = (RobotPlugin("treadmill", "seed 002's ball treadmill on three omni-wheels",
                       bus=_bus, open=_open, on_stop=ON_STOP, config=_config, layout=_layout,
-                      aliases=("seed002",)),)
+                      aliases=("seed002",), commands=("flyball",)),)
