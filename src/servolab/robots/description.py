@@ -250,7 +250,8 @@ class Joint:
     parent: str
     child: str
     origin: Vec3 = ZERO
-    axis: Vec3 = (0.0, 0.0, 1.0)     # positive positions turn right-handed about it
+    #: positive positions turn right-handed about it (slide along it); the URDF's default
+    axis: Vec3 = (1.0, 0.0, 0.0)
     lower: float | None = None
     upper: float | None = None
     motor: Motor | None = None
@@ -683,15 +684,16 @@ def urdf(description: Description) -> str:
         if joint.kind == "fixed":
             continue
         ET.SubElement(element, "axis", xyz=_nums(joint.axis))
+        # a revolute or prismatic joint must have a <limit> (its effort and velocity too); a
+        # continuous one may, with effort and velocity only (wiki.ros.org/urdf/XML/joint)
         limit: dict[str, str] = {}
         if joint.kind != "continuous":
             limit["lower"] = _num(joint.lower if joint.lower is not None else 0.0)
             limit["upper"] = _num(joint.upper if joint.upper is not None else 0.0)
-        if joint.effort is not None or joint.kind != "continuous":
+        if joint.kind != "continuous" or joint.effort is not None or joint.velocity is not None:
             limit["effort"] = _num(joint.effort or 0.0)
-        if joint.velocity is not None or joint.kind != "continuous":
             limit["velocity"] = _num(joint.velocity or 0.0)
-        ET.SubElement(element, "limit", limit)
+            ET.SubElement(element, "limit", limit)
         dynamics = {k: _num(v) for k, v in (("damping", joint.damping),
                                             ("friction", joint.friction)) if v is not None}
         if dynamics:

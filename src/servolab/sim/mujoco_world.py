@@ -1,9 +1,12 @@
 """A MuJoCo world: a robot of Dynamixel joints whose bodies a physics engine moves, each joint
 driven through its emulated servo's firmware.
 
-Where the floor and the ball own a few wheels, this world owns a whole robot (an MJCF: the
-biped of seed 001 is written by :mod:`servolab.robots.armstrong.description`) and the state
-of its joints. Each emulated motor keeps its firmware (control table, instructions, errors,
+Where the floor and the ball own a few wheels, this world owns a whole robot (an MJCF: any
+robot's is written by :func:`servolab.robots.description.mjcf`, the biped of seed 001's by
+:mod:`servolab.robots.armstrong.description`) and the state of its joints: hinges and slides,
+each driven by one servo through a gear ratio and a direction (:class:`ServoJoint`). A floor
+is the model's to have or not: a walking robot stands on one, an arm fixed to a table needs
+none. Each emulated motor keeps its firmware (control table, instructions, errors,
 alarms) and gets a :class:`JointPlant` in place of its own plant: the firmware's
 :class:`~servolab.dynamixel.plant.ServoCommand` goes in, and present position, speed, load
 and temperature come out of the physics. Nothing else drives the joints: an MJCF actuator on
@@ -95,13 +98,23 @@ SUPPORT_N = 0.05
 
 @dataclass(frozen=True)
 class ServoJoint:
-    """An emulated motor and the MJCF hinge it turns: horn angle (rad from the model's centre
-    tick, what the firmware counts) = ``offset`` + ``direction`` x joint angle."""
+    """An emulated motor and the MJCF joint it drives, a hinge (rad) or a slide (m): horn
+    angle (rad from the model's centre tick, what the firmware counts) = ``offset`` +
+    ``direction`` x ``gear_ratio`` x joint position. The gear ratio is horn radians a joint
+    unit: a belt's or gears' reduction for a hinge, 1 / the pinion's radius for a slide
+    driven by rack and pinion (a gripper's fingers). The joint's generalised force is the
+    horn's torque x ``direction`` x ``gear_ratio`` (a lossless transmission)."""
 
     joint: str
     motor: VirtualMotor
     offset: float = 0.0
     direction: int = 1
+    gear_ratio: float = 1.0
+
+    @property
+    def reduction(self) -> float:
+        """Horn angle a joint unit, signed: ``direction`` x ``gear_ratio``."""
+        return self.direction * self.gear_ratio
 
 
 @dataclass(frozen=True)
@@ -204,17 +217,19 @@ class JointPlant:
 class MujocoWorld(World):
     """A robot in MuJoCo, its joints driven by emulated servos (see the module docstring).
 
-    ``mjcf`` is the model's XML text; ``joints`` name the hinges the motors turn. ``base`` is
-    the body whose pose :meth:`ground_truth` reports (default: the first body with a free
-    joint, else the first body); ``feet`` the bodies whose floor contacts are support (the
-    rest are falls); ``floor`` the floor geom's name. ``qpos`` (MuJoCo's) sets the start,
+    ``mjcf`` is the model's XML text; ``joints`` name the hinges and slides the motors
+    drive. ``base`` is the body whose pose :meth:`ground_truth` reports (default: the first
+    body with a free joint, else the first body); ``feet`` the bodies whose floor contacts are
+    support (the rest are falls); ``floor`` the floor geom's name (default: the geom named
+    ``floor`` if the model has one; a model without a floor — an arm fixed to a table — has no
+    contacts with it, no zero-moment point and never falls). ``qpos`` (MuJoCo's) sets the start,
     else the model's own ``qpos0``; ``start`` is the simulation's time when the world joins
     it (the samples' times are the simulation's)."""
 
     name = "mujoco"
 
     def __init__(self, mjcf: str, joints: Sequence[ServoJoint], *, base: str | None = None,
-                 feet: Sequence[str] = (), floor: str = "floor",
+                 feet: Sequence[str] = (), floor: str | None = None,
                  max_tilt: float = math.radians(45.0), record_period: float = 0.02,
                  qpos: Sequence[float] | None = None, start: float = 0.0,
                  max_samples: int = 30_000) -> None:
@@ -236,12 +251,19 @@ class MujocoWorld(World):
         if len(set(ids)) != len(ids):
             raise SimulationError("two motors turn the same joint: "
                                   + ", ".join(j.joint for j in self.joints))
+        driven = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
         for j, jid in zip(self.joints, ids, strict=True):
-            if m.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
-                raise SimulationError(f"joint {j.joint!r} is not a hinge: a servo turns one")
+            if int(m.jnt_type[jid]) not in driven:
+                raise SimulationError(f"joint {j.joint!r} is not a hinge or a slide: a servo "
+                                      "drives one")
             if j.direction not in (-1, 1):
                 raise SimulationError(f"joint {j.joint!r}: direction {j.direction!r} must be "
                                       "+1 or -1")
+            ratio = j.gear_ratio
+            if isinstance(ratio, bool) or not isinstance(ratio, int | float) \
+                    or not (math.isfinite(ratio) and ratio > 0):
+                raise SimulationError(f"joint {j.joint!r}: gear_ratio {ratio!r} must be a "
+                                      "positive number")
         for a in range(m.nu):
             if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and \
                     int(m.actuator_trnid[a, 0]) in ids:
@@ -253,7 +275,9 @@ class MujocoWorld(World):
         self._qadr = np.array([m.jnt_qposadr[i] for i in ids])
         self._dadr = np.array([m.jnt_dofadr[i] for i in ids])
         self._offset = np.array([j.offset for j in self.joints], dtype=np.float64)
-        self._dir = np.array([j.direction for j in self.joints], dtype=np.float64)
+        # horn angle a joint unit, signed (direction x gear ratio): what turns a joint's
+        # position and speed into the horn's, and the horn's torque into the joint's force
+        self._dir = np.array([j.reduction for j in self.joints], dtype=np.float64)
         models = [j.motor.model for j in self.joints]
         self._stall = np.array([mm.stall_torque_nm for mm in models], dtype=np.float64)
         self._w0 = np.array([mm.no_load_speed for mm in models], dtype=np.float64)
@@ -289,15 +313,20 @@ class MujocoWorld(World):
         mujoco.mj_forward(m, self.data)
         # the robot's bodies and the floor
         self.base = self._base_body(base)
-        self.floor = self._id(mujoco.mjtObj.mjOBJ_GEOM, floor, "geom")
+        if floor is None and mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor") >= 0:
+            floor = "floor"
+        #: the floor geom's id, -1 without a floor
+        self.floor = -1 if floor is None else self._id(mujoco.mjtObj.mjOBJ_GEOM, floor, "geom")
         gx, gy, gz = (float(v) for v in m.opt.gravity)
-        level = (m.geom_type[self.floor] == mujoco.mjtGeom.mjGEOM_PLANE
-                 and abs(float(self.data.geom_xpos[self.floor][2])) < 1e-9
-                 and float(self.data.geom_xmat[self.floor][8]) > 1 - 1e-9)
-        if not level or gx or gy or not gz < 0:
-            raise SimulationError(
-                f"floor {floor!r}: the zero-moment point is computed for a level plane at "
-                "z = 0 under gravity along -z; this model's floor or gravity is not that")
+        if self.floor >= 0:
+            level = (m.geom_type[self.floor] == mujoco.mjtGeom.mjGEOM_PLANE
+                     and abs(float(self.data.geom_xpos[self.floor][2])) < 1e-9
+                     and float(self.data.geom_xmat[self.floor][8]) > 1 - 1e-9)
+            if not level or gx or gy or not gz < 0:
+                raise SimulationError(
+                    f"floor {floor!r}: the zero-moment point is computed for a level plane "
+                    "at z = 0 under gravity along -z; this model's floor or gravity is not "
+                    "that")
         self._gravity = -gz
         self.feet = tuple(feet)
         foot_ids = [self._id(mujoco.mjtObj.mjOBJ_BODY, f, "body") for f in self.feet]
@@ -540,7 +569,7 @@ class MujocoWorld(World):
         of that state is what ``data`` holds, but for ``qpos``, which mj_step moved on)."""
         d = self.data
         forces, points, other = self._contacts()
-        zmp = self._zmp(t)
+        zmp = self._zmp(t) if self.floor >= 0 else (math.nan, math.nan)
         total = sum(p[2] for p in points)
         cop = ((sum(p[0] * p[2] for p in points) / total,
                 sum(p[1] * p[2] for p in points) / total) if total > 0 else (math.nan, math.nan))
@@ -548,7 +577,8 @@ class MujocoWorld(World):
         support = ((sum(p[0] for p in points) / len(points),
                     sum(p[1] for p in points) / len(points)) if points
                    else (math.nan, math.nan))
-        fallen = other or self._tilt() > self.max_tilt
+        # nothing to fall onto without a floor
+        fallen = self.floor >= 0 and (other or self._tilt() > self.max_tilt)
         if fallen and self.fell_at is None:
             self.fell_at = t
         pos = d.xpos[self.base]

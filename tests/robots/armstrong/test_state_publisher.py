@@ -22,7 +22,7 @@ Facts and oracles, none of them servolab's:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,6 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
-from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 from urdf_parser_py.urdf import URDF
 
@@ -49,79 +48,15 @@ from servolab.robots.armstrong.state_publisher import (
 from servolab.robots.errors import RobotValueError
 from servolab.robots.state_publisher import joint_transforms, rpy_quaternions
 from servolab.runs import RunFolder
+from tests.robots.urdf_oracle import axis_turn as _axis_turn
+from tests.robots.urdf_oracle import homogeneous as _homogeneous
+from tests.robots.urdf_oracle import spec_rpy as _spec_rpy
+from tests.robots.urdf_oracle import tf_chain, urdf_fk
 
 RNG_SEED = 105
 #: motor 62 (the camera) is absent from the seed's bus: its controller does not run
 RUNNING = tuple(f"controller_{m}" for m in MOTORS if m != "m62")
 TIPS = ("left_sole", "right_sole", "head", "left_forearm", "right_forearm")
-
-
-# -- the oracle: URDF forward kinematics from urdf-parser-py, the spec's matrices ------------
-
-def _rx(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _ry(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _rz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _spec_rpy(rpy: Any) -> np.ndarray:
-    """Roll about x, then pitch about y, then yaw about z, all about the fixed axes."""
-    roll, pitch, yaw = (float(v) for v in rpy)
-    return _rz(yaw) @ _ry(pitch) @ _rx(roll)
-
-
-def _axis_turn(axis: Any, q: float) -> np.ndarray:
-    k = np.asarray(axis, dtype=float)
-    k = k / np.linalg.norm(k)
-    skew = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.asarray(expm(skew * q))
-
-
-def _homogeneous(rotation: np.ndarray, translation: Any) -> np.ndarray:
-    t = np.eye(4)
-    t[:3, :3] = rotation
-    t[:3, 3] = translation
-    return t
-
-
-def urdf_fk(robot: Any, tip: str, q: Mapping[str, float]) -> np.ndarray:
-    """root -> ``tip`` as a 4x4 matrix, joint by joint of urdf-parser-py's chain."""
-    t = np.eye(4)
-    for name in robot.get_chain(robot.get_root(), tip, links=False):
-        joint = robot.joint_map[name]
-        origin = joint.origin
-        t = t @ _homogeneous(_spec_rpy(origin.rpy if origin else (0, 0, 0)),
-                             origin.xyz if origin else (0, 0, 0))
-        if joint.type in ("revolute", "continuous"):
-            t = t @ _homogeneous(_axis_turn(joint.axis, q.get(name, 0.0)), (0, 0, 0))
-        elif joint.type == "prismatic":
-            t = t @ _homogeneous(np.eye(3), np.asarray(joint.axis) * q.get(name, 0.0))
-    return t
-
-
-def tf_chain(transforms: list[Any], root: str, tip: str) -> np.ndarray:
-    """root -> ``tip`` composed from TransformStamped messages (each parent -> child)."""
-    by_child = {t.child_frame_id: t for t in transforms}
-    t = np.eye(4)
-    frame = tip
-    while frame != root:
-        if frame not in by_child:
-            raise AssertionError(f"no transform reaches {frame!r} from {root!r}")
-        step = by_child[frame]
-        r, p = step.transform.rotation, step.transform.translation
-        t = _homogeneous(Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix(),
-                         (p.x, p.y, p.z)) @ t
-        frame = step.header.frame_id
-    return t
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,109 @@
+"""A fixed arm in the MuJoCo world: a hinge and a rack-and-pinion slide, each driven by an
+emulated XM430-W350 through the servo firmware, described with the generic description model
+(robots/description.py) and written to MJCF with no floor and no floating base.
+
+Facts checked against sources other than this code:
+
+- the XM430-W350's position unit: 4096 ticks a turn, 0.088 degrees a tick (ROBOTIS e-Manual,
+  XM430-W350, Goal Position), so a joint settles within a few ticks of its goal;
+- a rack and pinion of pitch radius r moves the rack r x theta for a pinion turn of theta
+  (the arc length), so the slide's gear ratio is 1 / r radians a metre.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from servolab.dynamixel.bus import Bus
+from servolab.robots.description import Box, Description, Joint, Link, Motor, mjcf
+from servolab.sim import MujocoWorld, ServoJoint, Simulation
+
+mujoco = pytest.importorskip("mujoco")
+
+XM430_TICK = 2 * math.pi / 4096       # rad, e-Manual: 0.088 degrees a tick
+PINION_RADIUS = 0.01                  # m: the gripper's pinion (a choice of this test)
+#: the horn-side inertia of an XM430 (rotor x gear ratio²; a guess, the e-Manual gives none)
+HORN_INERTIA = 0.01
+
+
+def arm() -> Description:
+    """A base on a table, a shoulder turning about the vertical, an upper arm, and a gripper
+    finger sliding along the arm on a rack."""
+    slide_ratio = 1.0 / PINION_RADIUS
+    links = (
+        Link("base", (Box("base_box", (0.06, 0.06, 0.04), (0.0, 0.0, 0.02), mass=0.5),)),
+        Link("upper_arm", (Box("upper_box", (0.2, 0.03, 0.03), (0.1, 0.0, 0.0), mass=0.15),)),
+        Link("finger", (Box("finger_box", (0.02, 0.01, 0.04), (0.0, 0.0, -0.02),
+                            mass=0.02),)),
+        Link("tool"),
+    )
+    joints = (
+        Joint("shoulder", "revolute", "base", "upper_arm", (0.0, 0.0, 0.06), (0.0, 0.0, 1.0),
+              -2.0, 2.0, Motor(1, "XM430-W350", direction=-1), armature=HORN_INERTIA),
+        Joint("finger_slide", "prismatic", "upper_arm", "finger", (0.15, 0.0, 0.0),
+              (1.0, 0.0, 0.0), 0.0, 0.03, Motor(2, "XM430-W350", gear_ratio=slide_ratio),
+              armature=HORN_INERTIA * slide_ratio ** 2),
+        Joint("tool_joint", "fixed", "finger", "tool", (0.0, 0.0, -0.04)),
+    )
+    return Description("gripper_arm", "base", links, joints)
+
+
+def _world() -> tuple[Simulation, Bus, MujocoWorld, Description]:
+    description = arm()
+    sim = Simulation(0.002)
+    bus = Bus.open("emu://xm430-w350:1-2", simulation=sim)
+    joints = [ServoJoint(j.name, bus.emulator.motor(m.id), direction=m.direction,
+                         gear_ratio=m.gear_ratio) for j, m in description.motors]
+    world = sim.add(MujocoWorld(mjcf(description, "firmware"), joints, start=sim.now()))
+    return sim, bus, world, description
+
+
+def test_a_hinge_and_a_geared_slide_reach_their_commanded_positions() -> None:
+    sim, bus, world, description = _world()
+    targets = {"shoulder": 0.7, "finger_slide": 0.02}      # rad, m
+    for joint, motor in description.motors:
+        bus.write(motor.id, "torque_enable", 1)
+        bus.write(motor.id, "goal_position", motor.reduction * targets[joint.name])
+    sim.advance(3.0)
+    for joint, motor in description.motors:
+        qpos = float(world.data.qpos[world.model.joint(joint.name).qposadr[0]])
+        horn = bus.read(motor.id, "present_position")
+        # the joint is where the horn says, through the transmission
+        assert horn == pytest.approx(motor.reduction * qpos, abs=1e-9)
+        # and the horn within a few ticks of its goal: the slide within 4 ticks / 100 rad/m
+        assert horn == pytest.approx(motor.reduction * targets[joint.name],
+                                     abs=4 * XM430_TICK)
+    # the rack moved the finger along the arm by r x the pinion's turn
+    slide = world.model.joint("finger_slide").qposadr[0]
+    turn = bus.read(2, "present_position")
+    assert world.data.qpos[slide] == pytest.approx(PINION_RADIUS * turn, abs=1e-9)
+    # the tool frame (a site) went with it: shoulder turned 0.7 rad about z
+    tool = world.data.site("tool").xpos
+    reach = 0.15 + 0.02
+    np.testing.assert_allclose(tool, [reach * math.cos(0.7), reach * math.sin(0.7), 0.02],
+                               atol=4 * XM430_TICK * reach)
+
+
+def test_an_arm_without_a_floor_has_no_floor_and_never_falls() -> None:
+    sim, bus, world, _ = _world()
+    assert world.floor == -1
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", -2.0)         # the shoulder swings far past 45 degrees
+    sim.advance(1.0)
+    assert world.samples and not any(s.fallen for s in world.samples)
+    assert all(math.isnan(s.zmp[0]) for s in world.samples)
+    assert world.ground_truth()["fallen"] == 0.0
+
+
+def test_a_gear_ratio_that_is_not_a_positive_number_is_refused() -> None:
+    from servolab.sim import SimulationError
+
+    description = arm()
+    sim = Simulation(0.002)
+    bus = Bus.open("emu://xm430-w350:1-2", simulation=sim)
+    with pytest.raises(SimulationError, match="gear_ratio 0 must be a positive number"):
+        MujocoWorld(mjcf(description, "firmware"),
+                    [ServoJoint("finger_slide", bus.emulator.motor(2), gear_ratio=0)])
