@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from .dynamixel_system import DynamixelSystem, dynamixel_system
 from .errors import RobotError, RobotValueError
-from .plugin import BusSummary, RobotPlugin, ShownFile
+from .plugin import BusSummary, RobotPlugin, ServedRobot, ShownFile
 
 if TYPE_CHECKING:
     from ..clock import Clock
@@ -252,6 +252,19 @@ def urdf_plugin(name: str, summary: str, urdf: Callable[[], str], *, source: str
         return UrdfRobot.open(name, urdf(), port, source=source, default_model=default_model,
                               on_stop=on_stop)
 
+    def served(baudrate: int | None) -> ServedRobot:
+        from ..dynamixel.errors import ConfigError
+        from .urdf_world import mujoco_placement
+
+        text, found = urdf(), system()
+        try:
+            spec = found.bus().motor_spec().at_baudrate(baudrate or found.baudrate)
+        except ConfigError as exc:
+            raise RobotValueError(f"{source}: {exc}") from None
+        place = mujoco_placement(text, found, source)
+        return ServedRobot(spec, place=place,
+                           what="moving its URDF in MuJoCo" if place is not None else "")
+
     def layout() -> Any:
         from .urdf_layout import urdf_layout
 
@@ -263,4 +276,5 @@ def urdf_plugin(name: str, summary: str, urdf: Callable[[], str], *, source: str
     if files is not None:
         kwargs["files"] = files
     return RobotPlugin(name, summary, bus=bus, open=open_robot, on_stop=ON_STOP[on_stop],
-                       description=urdf, layout=layout, aliases=aliases, **kwargs)
+                       description=urdf, served=served, layout=layout, aliases=aliases,
+                       **kwargs)
