@@ -17,11 +17,11 @@ the first model's factory rate.
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 from ..dynamixel.errors import ConfigError
 from ..dynamixel.models import Model, model
+from .description import Description, Joint
 from .hardware_info import ComponentInfo, HardwareInfo, HardwareInfoError, parse_control_resources
 from .plugin import BusSummary
 
@@ -33,8 +33,9 @@ BAUD_PARAMETERS = ("baud_rate", "baudrate")
 ID_PARAMETERS = ("id", "ID")
 #: a joint's Dynamixel model
 MODEL_PARAMETERS = ("motor_type", "model")
-#: the URDF joint types a single Dynamixel can drive directly
-DRIVEN_TYPES = ("revolute", "continuous", "prismatic")
+#: the URDF joint types a Dynamixel drives here: its horn is the joint (a prismatic joint needs
+#: a transmission, which the <ros2_control> blocks of both plugins state in their own ways)
+DRIVEN_TYPES = ("revolute", "continuous")
 
 
 @dataclass(frozen=True)
@@ -89,32 +90,13 @@ def _integer(text: str, what: str, where: str, low: int, high: int) -> int:
     return value
 
 
-def _urdf_joints(urdf: str, source: str) -> dict[str, ET.Element]:
-    root = ET.fromstring(urdf)  # parse_control_resources has checked it is XML
-    return {j.get("name", ""): j for j in root.findall("joint")}
-
-
-def _limit(joint: ET.Element, end: str, where: str) -> float | None:
-    if joint.get("type") == "continuous":
-        return None
-    limit = joint.find("limit")
-    text = limit.get(end) if limit is not None else None
-    if text is None:
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise HardwareInfoError(f"{where}: <limit {end}={text!r}> is not a number") from None
-
-
-def _joint(component: ComponentInfo, urdf_joint: ET.Element | None, where: str,
+def _joint(component: ComponentInfo, urdf_joint: Joint | None, where: str,
            default_model: str | None) -> DynamixelJoint:
     here = f'{where} <joint name="{component.name}">'
     if urdf_joint is None:
         raise HardwareInfoError(f"{here}: the URDF has no <joint> of that name")
-    kind = urdf_joint.get("type", "")
-    if kind not in DRIVEN_TYPES:
-        raise HardwareInfoError(f"{here}: a {kind or 'typeless'} joint cannot be driven (one of "
+    if urdf_joint.kind not in DRIVEN_TYPES:
+        raise HardwareInfoError(f"{here}: a {urdf_joint.kind} joint cannot be driven (one of "
                                 f"{', '.join(DRIVEN_TYPES)})")
     parameters = dict(component.parameters)
     id_text = _one(parameters, ID_PARAMETERS, here)
@@ -129,7 +111,7 @@ def _joint(component: ComponentInfo, urdf_joint: ET.Element | None, where: str,
     except ConfigError as exc:
         raise HardwareInfoError(f"{here}: {exc}") from None
     return DynamixelJoint(component.name, _integer(id_text, "ID", here, 0, 252), found,
-                          _limit(urdf_joint, "lower", here), _limit(urdf_joint, "upper", here))
+                          urdf_joint.lower, urdf_joint.upper)
 
 
 def dynamixel_system(urdf: str, source: str = "<urdf>", *,
@@ -147,10 +129,11 @@ def dynamixel_system(urdf: str, source: str = "<urdf>", *,
         raise HardwareInfoError(f"{source}: {len(ours)} Dynamixel <ros2_control> blocks "
                                 f"({', '.join(b.name for b in ours)}); servolab opens one bus "
                                 "a robot")
-    return _system(ours[0], _urdf_joints(urdf, source), source, default_model)
+    joints = {j.name: j for j in Description.from_urdf(urdf, source).joints}
+    return _system(ours[0], joints, source, default_model)
 
 
-def _system(block: HardwareInfo, urdf_joints: dict[str, ET.Element], source: str,
+def _system(block: HardwareInfo, urdf_joints: dict[str, Joint], source: str,
             default_model: str | None) -> DynamixelSystem:
     where = block.where(source)
     if not block.joints:
