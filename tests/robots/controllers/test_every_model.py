@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from servolab.dynamixel import MODELS
+from servolab.dynamixel import MODELS, models, register_model
 from servolab.dynamixel.bus import Bus
 from servolab.middleware.context import Context
 from servolab.middleware.errors import ServiceError
@@ -82,3 +82,36 @@ def test_the_manager_drives_every_shipped_model(name: str, tmp_path: Path) -> No
     finally:
         context.close()
         bus.close()
+
+
+def test_a_model_without_a_state_role_is_left_out_with_one_line(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A lab's own model file whose table has no Goal PWM (no torque limit role): the manager
+    says which register it lacks, and the motor's controller does not start for that
+    reason (not "did not answer")."""
+    text = Path(MODELS["XM430-W350"].path).read_text()
+    lab = tmp_path / "lab-x.yaml"
+    lab.write_text(text.replace("name: XM430-W350", "name: LAB-X")
+                   .replace("number: 1020", "number: 64999")
+                   .replace("default: 1020}", "default: 64999}")
+                   .replace("  goal_pwm:", "  # goal_pwm:"))
+    register_model(lab)
+    path = tmp_path / "controllers.yaml"
+    path.write_text(config_text(2048, 800))
+    config = load(path)
+    sim = Simulation()
+    bus = Bus(emulated_port("LAB-X:1", 1_000_000, simulation=sim))
+    context = Context.open(clock=sim)
+    try:
+        manager = DynamixelManager(context, bus, config.manager.serial_ports[0],
+                                   config.controllers)
+        assert manager.motors == {} and manager.failed == ["joint_controller"]
+        lines = [r.getMessage() for r in caplog.records if r.levelname == "ERROR"]
+        lacking = "LAB-X has no torque_limit or goal_pwm register (torque or output limit)"
+        assert any("motor 1 cannot be read" in line and lacking in line for line in lines)
+        assert any("Unable to start controller joint_controller: " + lacking in line
+                   for line in lines), lines
+    finally:
+        context.close()
+        bus.close()
+        models._REGISTRY.forget("LAB-X")

@@ -156,10 +156,13 @@ class DynamixelManager(Node):
         """Each motor's state plan; a motor whose model lacks a state role is left out, with
         one line saying which register it lacks (its controller then cannot start)."""
         plans = {}
+        #: motor ID -> why a motor that answered cannot be driven
+        self.unreadable: dict[int, str] = {}
         for motor_id in list(self.motors):
             try:
                 plans[motor_id] = StatePlan.for_motor(self.bus, motor_id)
             except ConfigError as error:
+                self.unreadable[motor_id] = str(error)
                 self.get_logger().error(f"{self.port.name}: motor {motor_id} cannot be read "
                                         f"as dynamixel_motor does: {error}")
                 del self.motors[motor_id]
@@ -193,8 +196,11 @@ class DynamixelManager(Node):
                       "it, call restart.")
             return None
         if config.motor.id not in self.motors:
+            why = self.unreadable.get(config.motor.id,
+                                      f"motor {config.motor.id} did not answer on "
+                                      f"{self.port.name}")
             log.error(f"Initialization failed. Unable to start controller {config.name}: "
-                      f"motor {config.motor.id} did not answer on {self.port.name}")
+                      f"{why}")
             self._note_failed(config.name)
             return None
         position = self.bus.model_of(config.motor.id).register("goal_position")
