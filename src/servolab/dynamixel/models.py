@@ -160,6 +160,20 @@ class Model:
     def has(self, name: str) -> bool:
         return name in self._by_name
 
+    def role(self, role: str) -> Register:
+        """The register that plays ``role`` (a name of :data:`ROLES`, e.g. ``"moving_speed"``
+        is Moving Speed(32) on an RX-28 and Profile Velocity(112) on an XM430); ConfigError,
+        one line naming the model and what it lacks, if the model has none."""
+        names = _role_names(role)
+        for name in names:
+            if name in self._by_name:
+                return self._by_name[name]
+        raise ConfigError(f"{self.name} has no {' or '.join(names)} register ({ROLE_WORDS[role]})")
+
+    def has_role(self, role: str) -> bool:
+        """Whether some register of the model plays ``role``."""
+        return any(name in self._by_name for name in _role_names(role))
+
     def register_at(self, address: int) -> Register | None:
         for reg in self.registers:
             if reg.address == address:
@@ -272,6 +286,59 @@ OPERATING_MODES: dict[str, int] = {
     "current": 0, "velocity": 1, "position": 3, "extended_position": 4,
     "current_based_position": 5, "pwm": 16,
 }
+
+
+#: Registers by role: what the dynamixel_motor controllers ask of any motor (the role names are
+#: the Protocol 1.0 register names that ROS ``dynamixel_driver`` speaks), and the register of
+#: each control-table family that plays it, first match in a model's table winning. The
+#: families' names are the e-Manual's, so a lab's own model file gets its roles from its
+#: register names: AX/RX/EX/MX(1.0)/XL-320 have the 1.0 names; X-series and MX(2.0) have
+#: Profile Velocity, Present Velocity, Present Current (Present Load on XL430/MX-28(2.0)),
+#: Present Input Voltage, Goal PWM as the limit of output that works in every operating mode
+#: ("in other control modes, this value is used to limit PWM value", e-Manual
+#: control_table_goal_pwm: Goal Current limits only in current-based position mode, Current
+#: Limit(38) only in the current modes) and Position PID gains instead of compliance.
+ROLES: dict[str, tuple[str, ...]] = {
+    "goal_position": ("goal_position",),
+    "moving_speed": ("moving_speed", "profile_velocity"),
+    "present_position": ("present_position",),
+    "present_speed": ("present_speed", "present_velocity"),
+    "present_load": ("present_load", "present_current"),
+    "present_voltage": ("present_voltage", "present_input_voltage"),
+    "present_temperature": ("present_temperature",),
+    "torque_enable": ("torque_enable",),
+    "moving": ("moving",),
+    "torque_limit": ("torque_limit", "goal_pwm"),
+    "current_limit": ("current_limit",),
+    "cw_compliance_margin": ("cw_compliance_margin",),
+    "ccw_compliance_margin": ("ccw_compliance_margin",),
+    "cw_compliance_slope": ("cw_compliance_slope",),
+    "ccw_compliance_slope": ("ccw_compliance_slope",),
+    "punch": ("punch",),
+    "p_gain": ("p_gain", "position_p_gain"),
+    "i_gain": ("i_gain", "position_i_gain"),
+    "d_gain": ("d_gain", "position_d_gain"),
+}
+#: Each role in words, for the one line that says a model lacks it.
+ROLE_WORDS: dict[str, str] = {
+    "goal_position": "goal position", "moving_speed": "moving speed or profile velocity",
+    "present_position": "present position", "present_speed": "present speed or velocity",
+    "present_load": "present load or current", "present_voltage": "present voltage",
+    "present_temperature": "present temperature", "torque_enable": "torque enable",
+    "moving": "moving flag", "torque_limit": "torque or output limit",
+    "current_limit": "current limit",
+    "cw_compliance_margin": "compliance margin", "ccw_compliance_margin": "compliance margin",
+    "cw_compliance_slope": "compliance slope", "ccw_compliance_slope": "compliance slope",
+    "punch": "compliance punch", "p_gain": "P gain", "i_gain": "I gain", "d_gain": "D gain",
+}
+
+
+def _role_names(role: str) -> tuple[str, ...]:
+    try:
+        return ROLES[role]
+    except KeyError:
+        raise ConfigError(f"no register role {role!r}; the roles are: "
+                          f"{', '.join(ROLES)}") from None
 
 
 def R(name: str, address: int, size: int, area: Area, access: Access, default: int | None = None,

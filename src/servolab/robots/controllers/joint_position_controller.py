@@ -23,6 +23,16 @@ the motor's signs inverted; the original (``process_motor_states``) scaled the m
 error and copied its speed and load, so a flipped joint showed all three with the wrong sign
 (a velocity that was not the way ``current_pos`` moved). ``/motor_states`` stays the motor's,
 raw, as ``dynamixel_driver`` publishes it.
+
+It drives any model servolab knows, by the registers' roles
+(:data:`~servolab.dynamixel.models.ROLES`): ``set_speed`` writes Moving Speed(32) on
+AX/RX/EX/MX(1.0) and Profile Velocity(112) on the X-series and MX(2.0) (0 is full speed on
+both, so never written); ``set_torque_limit`` writes Torque Limit(34), or Goal PWM(100) on
+2.0 models; the compliance services write the AX/RX/EX compliance registers and are refused,
+one line naming the model and the register it lacks, on a model that has PID gains instead
+(MX, X-series): the service answers with that error and the controller runs on. A
+``joint_compliance_*`` in the configuration of such a motor keeps its controller from
+starting, with the same line.
 """
 
 from __future__ import annotations
@@ -32,6 +42,7 @@ from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
+from ...dynamixel.errors import ConfigError
 from ..errors import RobotValueError
 from .config import ControllerConfig
 from .motor_state import MotorReading
@@ -48,7 +59,7 @@ SET_COMPLIANCE_SLOPE = "dynamixel_controllers/srv/SetComplianceSlope"
 SET_COMPLIANCE_MARGIN = "dynamixel_controllers/srv/SetComplianceMargin"
 SET_COMPLIANCE_PUNCH = "dynamixel_controllers/srv/SetCompliancePunch"
 SET_TORQUE_LIMIT = "dynamixel_controllers/srv/SetTorqueLimit"
-#: The compliance services: request field -> the registers written (both directions alike).
+#: The compliance services: request field -> the roles written (both directions alike).
 COMPLIANCE = {"slope": ("cw_compliance_slope", "ccw_compliance_slope"),
               "margin": ("cw_compliance_margin", "ccw_compliance_margin"),
               "punch": ("punch",)}
@@ -75,11 +86,11 @@ class JointGeometry:
 
         init = angle(motor.init)
         sign = -1.0 if motor.flipped else 1.0
-        min_speed = float(bus.to_si(motor.id, "moving_speed", 1))
-        full = bus.model_of(motor.id).register("moving_speed")
+        full = bus.model_of(motor.id).role("moving_speed")
+        min_speed = float(bus.to_si(motor.id, full.name, 1))
         # the register's largest raw value is its largest speed (on a 1.0 model with the
         # direction in bit 10, the largest magnitude: hence abs)
-        top = abs(float(bus.to_si(motor.id, "moving_speed", full.maximum if full.maximum
+        top = abs(float(bus.to_si(motor.id, full.name, full.maximum if full.maximum
                                   is not None else 1023)))
         max_speed = min(top, config.joint_max_speed or top)
         return cls(init, motor.flipped, sign * (angle(motor.min) - init),
@@ -106,7 +117,12 @@ class JointPositionController:
         self.config = config
         self.name = config.name
         self.motor_id = config.motor.id
+        self.model = bus.model_of(self.motor_id)
+        #: role -> register name, of the roles the controller writes
+        self.registers = {role: self.model.role(role).name
+                          for role in ("moving_speed", "torque_enable", "torque_limit")}
         self.geometry = JointGeometry.of(config, bus)
+        tuning = self._tuning(config)  # refused here, before anything is on the graph
         self._node = node
         self._bus = bus
         self._set_goal = set_goal
@@ -129,22 +145,33 @@ class JointPositionController:
                 srv, f"{base}/set_compliance_{field_name}",
                 partial(self._on_compliance, field_name)))
         self.set_speed(config.joint_speed)
-        self._tune(config)
-
-    def _tune(self, config: ControllerConfig) -> None:
-        """The joint_compliance_* and joint_torque_limit the configuration gives, written as
-        dynamixel_controllers writes them (compliance in the motor's raw units, both
-        directions alike; the torque limit as a fraction of the maximum)."""
-        motor = self.motor_id
-        for value, names in ((config.compliance_slope, ("cw_compliance_slope",
-                                                        "ccw_compliance_slope")),
-                             (config.compliance_margin, ("cw_compliance_margin",
-                                                         "ccw_compliance_margin")),
-                             (config.compliance_punch, ("punch",))):
-            if value is not None:
-                self._bus.write(motor, dict.fromkeys(names, value), raw=True)
+        for names, value in tuning:
+            self._bus.write(self.motor_id, dict.fromkeys(names, value), raw=True)
         if config.torque_limit is not None:
-            self._bus.write(motor, "torque_limit", config.torque_limit)
+            self.set_torque_limit(config.torque_limit)
+
+    def _tuning(self, config: ControllerConfig) -> list[tuple[tuple[str, ...], int]]:
+        """The joint_compliance_* the configuration gives, as dynamixel_controllers writes
+        them (the motor's raw units, both directions alike): (registers, value) each; a
+        model without the registers refuses the controller (:meth:`compliance_registers`)."""
+        given = (("slope", config.compliance_slope), ("margin", config.compliance_margin),
+                 ("punch", config.compliance_punch))
+        return [(self.compliance_registers(which), value) for which, value in given
+                if value is not None]
+
+    def compliance_registers(self, which: str) -> tuple[str, ...]:
+        """The registers compliance ``which`` (slope, margin or punch) writes; on a model
+        without them (MX, X-series: PID gains instead) RobotValueError, one line naming the
+        model and the register it lacks."""
+        try:
+            return tuple(self.model.role(role).name for role in COMPLIANCE[which])
+        except ConfigError as error:
+            instead = ""
+            if self.model.has_role("p_gain"):
+                instead = (f"; it has PID gains ({self.model.role('p_gain').name}, ...) "
+                           "instead, which dynamixel_controllers does not set")
+            raise RobotValueError(f"{self.name}: compliance {which} refused: {error}"
+                                  f"{instead}") from None
 
     # -- commands --------------------------------------------------------------------------
 
@@ -176,7 +203,7 @@ class JointPositionController:
         if not math.isfinite(speed):
             raise RobotValueError(f"{self.name}: speed {speed!r} is not a finite number")
         chosen = self.geometry.clamp_speed(abs(speed))
-        self._bus.write(self.motor_id, "moving_speed", chosen)
+        self._bus.write(self.motor_id, self.registers["moving_speed"], chosen)
         return chosen
 
     def _on_set_speed(self, request: Any, response: Any) -> Any:
@@ -184,7 +211,7 @@ class JointPositionController:
         return response
 
     def torque_enable(self, on: bool) -> None:
-        self._bus.write(self.motor_id, "torque_enable", 1 if on else 0)
+        self._bus.write(self.motor_id, self.registers["torque_enable"], 1 if on else 0)
 
     def _on_torque_enable(self, request: Any, response: Any) -> Any:
         self.torque_enable(bool(request.torque_enable))
@@ -193,8 +220,8 @@ class JointPositionController:
     def set_compliance(self, which: str, value: int) -> int:
         """Write compliance ``which`` (slope, margin or punch) in the motor's raw units,
         clamped to the register's range; returns the value written."""
-        names = COMPLIANCE[which]
-        register = self._bus.model_of(self.motor_id).register(names[0])
+        names = self.compliance_registers(which)
+        register = self.model.register(names[0])
         top = register.maximum if register.maximum is not None else value
         chosen = min(max(int(value), register.minimum), top)
         if chosen != value:
@@ -208,11 +235,14 @@ class JointPositionController:
         return response
 
     def set_torque_limit(self, fraction: float) -> float:
-        """The most torque the motor may use, a fraction 0..1 of its maximum (clamped)."""
+        """The most torque the motor may use, a fraction 0..1 of its maximum (clamped):
+        Torque Limit(34) on AX/RX/EX/MX(1.0) (1,023 = 100 %), Goal PWM(100) on the X-series
+        and MX(2.0) (885 = 100 %, the limit that acts in position mode; see
+        :data:`~servolab.dynamixel.models.ROLES`)."""
         if not math.isfinite(fraction):
             raise RobotValueError(f"{self.name}: torque limit {fraction!r} is not a number")
         chosen = min(max(fraction, 0.0), 1.0)
-        self._bus.write(self.motor_id, "torque_limit", chosen)
+        self._bus.write(self.motor_id, self.registers["torque_limit"], chosen)
         return chosen
 
     def _on_set_torque_limit(self, request: Any, response: Any) -> Any:

@@ -22,10 +22,13 @@ that fails after ``read_retries`` retries is counted against its motor
 goes on; whoever supervises the robot reads :attr:`DynamixelManager.health` after each
 sweep (:attr:`DynamixelManager.sweep_listeners`).
 
-Each motor's state is one READ of its contiguous state registers, the 17 bytes from the goal
-position that the original's driver reads (the goal read back, so a goal lost on the way
-shows), and the goals the controllers were given leave in one SYNC_WRITE rather than one
-WRITE each.
+It works on any model servolab knows: each motor's state is read by role
+(:mod:`.motor_state`), one READ of its contiguous state registers where its table allows (on
+an RX-28 the 17 bytes from the goal position that the original's driver reads, the goal read
+back, so a goal lost on the way shows; on an XM430 the 47 bytes from Goal PWM(100) to Present
+Temperature(146)), and the goals the controllers were given leave in one SYNC_WRITE rather
+than one WRITE each. A motor whose model lacks a state role is left out, with one line
+naming the register it lacks.
 
 The wire decides the rate. At 57142 bps one READ of an RX-28's 17 state bytes is 8 + 23
 bytes, 5.4 ms, plus the return delay (0.5 ms at the factory setting): 20 motors take about
@@ -41,15 +44,16 @@ from collections.abc import Callable, Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
-from ...dynamixel.errors import CommError, MotorError
+from ...dynamixel.errors import CommError, ConfigError, MotorError
 from ...dynamixel.wire import byte_time
 from ...middleware.node import Node
 from ..bus_owner import BusOwner
+from ..errors import RobotValueError
 from .config import JOINT_POSITION_CONTROLLER, ControllerConfig, SerialPortConfig
 from .diagnostics import DIAGNOSTIC_ARRAY, diagnostics
 from .joint_position_controller import JointPositionController
 from .motor_health import MotorHealth
-from .motor_state import STATE_REGISTERS, MotorReading
+from .motor_state import MotorReading, StatePlan
 
 if TYPE_CHECKING:
     from ...dynamixel.bus import Bus
@@ -81,8 +85,10 @@ class DynamixelManager(Node):
 
     def _start(self, controllers: Sequence[ControllerConfig], namespace: str) -> None:
         bus, port, context = self.bus, self.port, self.context
-        #: motor ID -> model name, of every motor that answered
+        #: motor ID -> model name, of every motor that answered and can be read
         self.motors = self._find_motors()
+        #: motor ID -> how its state is read (the registers of its model's roles)
+        self.plans = self._plan_reads()
         self.started = self.context.clock.now()
         self.health = {i: MotorHealth(i) for i in self.motors}
         #: the last reading of each motor
@@ -146,19 +152,33 @@ class DynamixelManager(Node):
                       "port, the baud rate and the power")
         return found
 
+    def _plan_reads(self) -> dict[int, StatePlan]:
+        """Each motor's state plan; a motor whose model lacks a state role is left out, with
+        one line saying which register it lacks (its controller then cannot start)."""
+        plans = {}
+        #: motor ID -> why a motor that answered cannot be driven
+        self.unreadable: dict[int, str] = {}
+        for motor_id in list(self.motors):
+            try:
+                plans[motor_id] = StatePlan.for_motor(self.bus, motor_id)
+            except ConfigError as error:
+                self.unreadable[motor_id] = str(error)
+                self.get_logger().error(f"{self.port.name}: motor {motor_id} cannot be read "
+                                        f"as dynamixel_motor does: {error}")
+                del self.motors[motor_id]
+        return plans
+
     def wire_time(self) -> float:
-        """Seconds one update takes on the wire: one READ of the state registers per motor
+        """Seconds one update takes on the wire: the READs of each motor's state registers
         (instruction, status, return delay) and one SYNC_WRITE of every motor's goal."""
         bus, proto = self.bus, self.bus.proto
         seconds_per_byte = byte_time(bus.baudrate)
         total = 0.0
         for motor_id in self.motors:
-            registers = [bus.model_of(motor_id).register(n) for n in STATE_REGISTERS]
-            start = registers[0].address
-            length = registers[-1].address + registers[-1].size - start
-            packet = proto.encode_instruction(proto.read(motor_id, start, length))
-            total += (len(packet) + proto.status_size(length)) * seconds_per_byte
-            total += float(bus.read(motor_id, "return_delay_time"))
+            delay = float(bus.read(motor_id, "return_delay_time"))
+            for start, length in self.plans[motor_id].spans():
+                packet = proto.encode_instruction(proto.read(motor_id, start, length))
+                total += (len(packet) + proto.status_size(length)) * seconds_per_byte + delay
         if self.motors:
             goal = bus.model_of(next(iter(self.motors))).register("goal_position")
             sync = proto.sync_write(goal.address, goal.size,
@@ -176,8 +196,11 @@ class DynamixelManager(Node):
                       "it, call restart.")
             return None
         if config.motor.id not in self.motors:
+            why = self.unreadable.get(config.motor.id,
+                                      f"motor {config.motor.id} did not answer on "
+                                      f"{self.port.name}")
             log.error(f"Initialization failed. Unable to start controller {config.name}: "
-                      f"motor {config.motor.id} did not answer on {self.port.name}")
+                      f"{why}")
             self._note_failed(config.name)
             return None
         position = self.bus.model_of(config.motor.id).register("goal_position")
@@ -190,7 +213,13 @@ class DynamixelManager(Node):
                       f"{self.motors[config.motor.id]}'s positions {position.minimum}..{top}")
             self._note_failed(config.name)
             return None
-        controller = JointPositionController(self, config, self.bus, self._set_goal)
+        try:
+            controller = JointPositionController(self, config, self.bus, self._set_goal)
+        except RobotValueError as error:  # its configuration asks what the model lacks
+            log.error(f"Initialization failed. Unable to start controller {config.name}: "
+                      f"{error}")
+            self._note_failed(config.name)
+            return None
         self.controllers[config.name] = controller
         if config.name in self.failed:
             self.failed.remove(config.name)
@@ -298,7 +327,8 @@ class DynamixelManager(Node):
         retried = stats.retries
         try:
             reading = MotorReading.read(self.bus, motor_id, self._now(),
-                                        retries=self.port.read_retries)
+                                        retries=self.port.read_retries,
+                                        plan=self.plans[motor_id])
         except (CommError, MotorError) as error:
             record.retried += stats.retries - retried
             record.failed(error)
