@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.clirun import servolab
+
 ROOT = Path(__file__).resolve().parents[3]
 LAUNCH = ROOT / "configs" / "armstrong.launch.yaml"
 # a short walk: one step, a fast stand, 9 rows a second
@@ -21,9 +23,7 @@ SHORT = ("{steps: 2, rate: 4.5, stand_duration: 2.0}",
 def _launch(path: Path) -> subprocess.CompletedProcess[str]:
     """The launch, to its end; on a timeout it is stopped with every process it started
     (tests/processes.py), and the test fails."""
-    from tests.processes import run_to_end
-
-    return run_to_end([sys.executable, "-m", "servolab", "launch", str(path)], timeout=180)
+    return servolab("launch", str(path), timeout=180)
 
 
 @pytest.mark.slow
@@ -81,10 +81,8 @@ def test_move_a_joint_from_the_command_line() -> None:
             Node(ctx, "probe").create_subscription(
                 "dynamixel_msgs/msg/JointState", "/controller_m14/state",
                 lambda msg: heard.append(msg.current_pos))
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/controller_m14/command",
-                 "std_msgs/msg/Float64", "{data: 0.5}", "--once", "--connect", endpoint],
-                capture_output=True, text=True, timeout=60)
+            pub = servolab("topic", "pub", "/controller_m14/command", "std_msgs/msg/Float64",
+                           "{data: 0.5}", "--once", "--connect", endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
             assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
                                   timeout=30.0), heard[-3:]

@@ -6,12 +6,13 @@ it when the commands end."""
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from tests.clirun import servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -37,10 +38,9 @@ def test_drive_the_base_across_processes() -> None:
             probe.create_subscription("nav_msgs/msg/Odometry", "/odom", odom.append, 0)
             probe.create_subscription("nav_msgs/msg/Odometry", "/ground_truth",
                                       truth.append, 0)
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/cmd_vel",
-                 "geometry_msgs/msg/Twist", "{linear: {x: 0.1}}", "--rate", "10", "--count",
-                 "10", "--connect", endpoint], capture_output=True, text=True, timeout=60)
+            pub = servolab("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
+                           "{linear: {x: 0.1}}", "--rate", "10", "--count", "10", "--connect",
+                           endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
             # after the last command the watchdog stops the wheels: the truth stands still
             assert ctx.spin_until(

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from tests.clirun import servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 GOAL = (1.2, 0.6)
@@ -61,10 +62,8 @@ def test_a_goal_on_goal_pose_is_reached_by_the_launch_over_zenoh() -> None:
             x, y = GOAL
             goal = (f"{{header: {{frame_id: map}}, pose: {{position: {{x: {x}, y: {y}}}, "
                     "orientation: {w: 1.0}}}")
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/goal_pose",
-                 "geometry_msgs/msg/PoseStamped", goal, "--count", "1", "--connect",
-                 endpoint], capture_output=True, text=True, timeout=60)
+            pub = servolab("topic", "pub", "/goal_pose", "geometry_msgs/msg/PoseStamped", goal,
+                           "--count", "1", "--connect", endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
 
             def last_status() -> int | None:
