@@ -1,17 +1,22 @@
 """Run ``servolab`` as a user would and read what it said: in this process (:func:`refusal`),
-as a child process (:func:`servolab`, leaving nothing behind), and check that an error says
-what went wrong in one line (:func:`one_line`)."""
+as a child process (:func:`servolab` to its end, :func:`launched` for a ``with`` block, both
+leaving nothing behind), and check that an error says what went wrong in one line
+(:func:`one_line`)."""
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 
 from servolab.cli import main
-from tests.processes import run_to_end
+from tests.processes import run_to_end, started
+from tests.waiting import wait_for_line
 
 #: ``servolab`` as a child process runs it: this interpreter, this checkout's package.
 SERVOLAB = [sys.executable, "-m", "servolab"]
@@ -25,6 +30,19 @@ def servolab(*args: str, timeout: float = 120.0,
     and the test fails (:func:`tests.processes.run_to_end`), as does a command that exits
     with 0 but leaves processes running."""
     return run_to_end([*SERVOLAB, *args], timeout=timeout, env=env)
+
+
+@contextmanager
+def launched(file: Path, *, timeout: float = 60.0) -> Iterator[tuple[subprocess.Popen[str], str]]:
+    """``servolab launch FILE`` for the length of a ``with`` block, once it has said where other
+    tools connect (within ``timeout`` s): the launcher (stdout and stderr as one stream) and
+    that Zenoh endpoint. The launch is stopped with everything it started when the block
+    ends (:func:`tests.processes.started`)."""
+    with started([*SERVOLAB, "launch", str(file)], stderr_to_stdout=True) as proc:
+        said = wait_for_line(proc, "other tools: --connect", timeout=timeout)[-1]
+        endpoint = re.search(r"--connect (tcp/\S+?)\)", said)
+        assert endpoint, f"no endpoint in {said!r}"
+        yield proc, endpoint[1]
 
 
 def refusal(argv: Sequence[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from tests.clirun import servolab
+from tests.clirun import launched, servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 LAUNCH = ROOT / "configs" / "armstrong.launch.yaml"
@@ -67,14 +66,9 @@ def test_move_a_joint_from_the_command_line() -> None:
     from servolab.middleware.context import Context
     from servolab.middleware.node import Node
     from servolab.middleware.transport import TransportOptions
-    from tests.processes import started
     from tests.waiting import wait_for_line
 
-    launch = [sys.executable, "-m", "servolab", "launch",
-              str(ROOT / "configs" / "armstrong_robot.launch.yaml")]
-    with started(launch, stderr_to_stdout=True) as robot:
-        said = wait_for_line(robot, "other tools: --connect", timeout=60.0)
-        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
+    with launched(ROOT / "configs" / "armstrong_robot.launch.yaml") as (robot, endpoint):
         wait_for_line(robot, "started armstrong (in process", timeout=60.0)
         with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
             heard: list[float] = []
