@@ -1,4 +1,8 @@
-"""Lets the tests import servolab from src/ while the package is not installed yet."""
+"""Lets the tests import servolab from src/ while the package is not installed yet; the
+fixtures every folder's tests share: one test at a time holds the wall clock (``realtime``),
+and a middleware context that is always closed (``ctx``)."""
+
+from __future__ import annotations
 
 import sys
 from pathlib import Path
@@ -18,8 +22,15 @@ os.environ["SERVOLAB_ZENOH_ROUTER"] = ""
 
 import fcntl
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import pytest
+
+if TYPE_CHECKING:
+    from servolab.clock import Clock
+    from servolab.middleware.context import Context
+    from servolab.middleware.messages import MessageTypes
+    from servolab.middleware.transport import TransportOptions
 
 
 @pytest.fixture(autouse=True)
@@ -41,3 +52,35 @@ def _one_real_time_test_at_a_time(request: pytest.FixtureRequest,
             yield
         finally:
             fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+@pytest.fixture(scope="session")
+def types() -> MessageTypes:
+    """One set of message types for the session: loading them is the slow part of opening a
+    context."""
+    from servolab.middleware.messages import MessageTypes
+    return MessageTypes()
+
+
+@pytest.fixture
+def ctx_transport() -> TransportOptions | None:
+    """The transport ``ctx`` opens; None is the in-process one. A test module that wants
+    another (DDS in a domain of its own) overrides this fixture."""
+    return None
+
+
+@pytest.fixture
+def ctx_clock() -> Clock | None:
+    """The clock ``ctx`` runs on; None is the wall clock. A test module that steps time
+    itself overrides this fixture with a ``VirtualClock``."""
+    return None
+
+
+@pytest.fixture
+def ctx(types: MessageTypes, ctx_transport: TransportOptions | None,
+        ctx_clock: Clock | None) -> Iterator[Context]:
+    """A middleware context for one test, closed after it whatever the test did (its nodes,
+    their threads and the transport with it)."""
+    from servolab.middleware.context import Context
+    with Context.open(ctx_transport, types=types, clock=ctx_clock) as context:
+        yield context

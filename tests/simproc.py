@@ -7,15 +7,16 @@ import os
 import select
 import signal
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
+
+from tests.clirun import SERVOLAB
 
 
 @contextlib.contextmanager
 def sim_process(*args: str, out_dir: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     """Run ``servolab sim --pty ARGS``; yield (device path, process). SIGINT stops it."""
-    cmd = [sys.executable, "-m", "servolab", "sim", "--pty", "--out", str(out_dir), *args]
+    cmd = [*SERVOLAB, "sim", "--pty", "--out", str(out_dir), *args]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             stdin=subprocess.DEVNULL)
     try:

@@ -21,14 +21,10 @@ from servolab.dynamixel.errors import ConfigError, MotorError, NoResponse
 from servolab.errors import ConfigFileError
 from servolab.harness import StopSignal
 from servolab.middleware.errors import MessageError, ServiceError
+from tests.clirun import servolab
 from tests.simproc import sim_process
 
 pytestmark = pytest.mark.slow
-
-
-def servolab(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "servolab", *args], capture_output=True,
-                          text=True, timeout=120, stdin=subprocess.DEVNULL)
 
 
 @pytest.fixture(scope="module")
@@ -294,9 +290,8 @@ def test_an_error_not_raised_on_purpose_keeps_its_traceback(
 def test_out_that_is_a_file_is_one_line_exit_2(tmp_path: Path) -> None:
     target = tmp_path / "taken"
     target.write_text("")
-    result = subprocess.run([sys.executable, "-m", "servolab", "scan", "--port", "emu://rx28:1",
-                             "--ids", "0-2", "--out", str(target)], capture_output=True,
-                            text=True, timeout=60)
+    result = servolab("scan", "--port", "emu://rx28:1", "--ids", "0-2", "--out", str(target),
+                      timeout=60)
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [
         f"servolab scan: error: --out {target}: exists and is not a folder; name a folder (it "
@@ -306,9 +301,8 @@ def test_out_that_is_a_file_is_one_line_exit_2(tmp_path: Path) -> None:
 def test_a_silent_motor_on_the_wrong_protocol_is_told_so() -> None:
     """RX-28s speak protocol 1.0 only (e-Manual, RX-28: Protocol 1.0 control table): asked in
     2.0 they stay silent, and the one-line error says which flag to try."""
-    result = subprocess.run([sys.executable, "-m", "servolab", "read", "--port", "emu://rx28:1",
-                             "--protocol", "2", "--id", "1", "present_position"],
-                            capture_output=True, text=True, timeout=60)
+    result = servolab("read", "--port", "emu://rx28:1", "--protocol", "2", "--id", "1",
+                      "present_position", timeout=60)
     assert result.returncode == 1
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("servolab read: NoResponse: motor 1:")

@@ -19,12 +19,7 @@ import pytest
 
 from servolab.apps.drive import counts_per_mm
 from servolab.cli import main
-
-
-def _one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    err = capsys.readouterr().err
-    assert err.endswith("\n") and err.count("\n") == 1, err
-    return err.rstrip("\n")
+from tests.clirun import stderr_line
 
 
 @pytest.mark.parametrize(("args", "value"), [
@@ -41,7 +36,7 @@ def test_an_absurd_move_is_one_line_and_no_run_folder(
         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "run"
     assert main(["drive", *args, "--out", str(out), "--no-progress"]) == 2
-    line = _one_line(capsys)
+    line = stderr_line(capsys)
     assert value in line and "over the 600 s (10 min) a move may take" in line
     assert not out.exists()
 
@@ -55,7 +50,7 @@ def test_final_m_options_refused_in_one_line(args: list[str], says: str, tmp_pat
                                              capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "run"
     assert main(["drive", "line", "--distance", "1", *args, "--out", str(out)]) == 2
-    assert says in _one_line(capsys)
+    assert says in stderr_line(capsys)
     assert not out.exists()
 
 
@@ -96,6 +91,6 @@ def test_measure_refuses_a_pixel_off_the_calibrated_image(
     assert main(["measure", "--calib", str(path), "100", "100", "200", "100"]) == 0
     assert capsys.readouterr().out == "125.00 mm\n"  # 100 px at f = 800 px, 1000 mm away
     assert main(["measure", "--calib", str(path), "5000", "340", "100", "100"]) == 2
-    assert _one_line(capsys) == ("servolab measure: error: image point (5000, 340) is outside "
+    assert stderr_line(capsys) == ("servolab measure: error: image point (5000, 340) is outside "
                                  "the calibrated 640x480 image (u -0.5..639.5, v -0.5..479.5 "
                                  "px)")

@@ -13,6 +13,7 @@ import pytest
 
 from servolab.cli import main
 from servolab.robots.errors import RobotError, RobotValueError
+from tests.clirun import stderr_line
 
 
 def _raising(error: BaseException) -> Callable[..., None]:
@@ -21,12 +22,6 @@ def _raising(error: BaseException) -> Callable[..., None]:
     def run(*args: object, **kwargs: object) -> None:
         raise error
     return run
-
-
-def _one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    err = capsys.readouterr().err
-    assert err.endswith("\n") and err.count("\n") == 1, err
-    return err.rstrip("\n")
 
 
 DRIVE = ["drive", "line", "--distance", "0.5", "--no-progress"]
@@ -59,7 +54,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path: Path, monkeypatch: pytest.Monkey
     monkeypatch.setattr("servolab.robots.base.run.run_drive",
                         _raising(RobotValueError("distance must be a finite number of metres")))
     assert main([*DRIVE, "--out", str(tmp_path / "run")]) == 2
-    assert _one_line(capsys) == "servolab drive: error: distance must be a finite number of " \
+    assert stderr_line(capsys) == "servolab drive: error: distance must be a finite number of " \
         "metres"
 
 
@@ -69,13 +64,13 @@ def test_a_failure_at_run_time_is_one_line_exit_1(tmp_path: Path,
     monkeypatch.setattr("servolab.robots.base.run.run_drive",
                         _raising(RobotError("the goal was not reached in 10 s")))
     assert main([*DRIVE, "--out", str(tmp_path / "run")]) == 1
-    assert _one_line(capsys) == "servolab drive: RobotError: the goal was not reached in 10 s"
+    assert stderr_line(capsys) == "servolab drive: RobotError: the goal was not reached in 10 s"
 
 
 def test_walk_with_no_steps_is_bad_input(tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["walk", "--steps", "0", "--out", str(tmp_path / "run")]) == 2
-    assert _one_line(capsys) == "servolab walk: error: --steps 0: must be 1 or more"
+    assert stderr_line(capsys) == "servolab walk: error: --steps 0: must be 1 or more"
     assert not (tmp_path / "run").exists()
 
 
@@ -84,7 +79,7 @@ def test_walk_with_no_steps_is_bad_input(tmp_path: Path,
 def test_gait_out_of_reach_is_bad_input(tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["gait", "generate", "--s-step", "150", "--out", str(tmp_path / "g")]) == 2
-    line = _one_line(capsys)
+    line = stderr_line(capsys)
     assert line.startswith("servolab gait generate: error: gait sample ")
     assert "out of reach" in line
     assert not (tmp_path / "g").exists()
@@ -103,12 +98,12 @@ def test_calibrate_a_missing_image_is_bad_input(tmp_path: Path,
     missing = tmp_path / "nope.png"
     assert main(["calibrate", str(missing), "--board", "10x7", "--square", "25",
                  "--out", str(tmp_path / "c.yaml")]) == 2
-    assert _one_line(capsys) == f"servolab calibrate: error: no image file {str(missing)!r}"
+    assert stderr_line(capsys) == f"servolab calibrate: error: no image file {str(missing)!r}"
     folder = tmp_path / "folder"
     folder.mkdir()
     assert main(["calibrate", str(missing), "--board", "10x7", "--square", "25",
                  "--out", str(folder)]) == 2
-    assert _one_line(capsys) == (f"servolab calibrate: error: cannot write --out "
+    assert stderr_line(capsys) == (f"servolab calibrate: error: cannot write --out "
                                  f"{str(folder)!r}: it is a folder")
 
 
@@ -120,7 +115,7 @@ def test_measure_without_a_floor_plane_is_bad_input(tmp_path: Path,
     k = np.array([[800.0, 0, 320], [0, 800, 240], [0, 0, 1]])
     cal.save(cal.CameraCalibration(k, np.zeros(5), (640, 480)), None, path)
     assert main(["measure", "--calib", str(path), "1", "2", "3", "4"]) == 2
-    assert _one_line(capsys) == (f"servolab measure: error: --calib {path} has no floor plane; "
+    assert stderr_line(capsys) == (f"servolab measure: error: --calib {path} has no floor plane; "
                                  "calibrate with --floor IMAGE")
 
 

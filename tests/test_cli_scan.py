@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from servolab.cli import build_parser, main
-from tests.clirun import refusal
+from tests.clirun import refusal, servolab
 from tests.mixedbus import mixed_bus, use_mixed_scheme
 
 
@@ -140,17 +140,13 @@ def test_servolab_sim_serves_a_mixed_bus_that_scan_finds_at_wire_speed(tmp_path:
     protocol, as under DynamixelSDK's protocol_combined example); `servolab sim --pty` serves
     it in real time and `servolab scan` with no options finds every motor, each in its own
     protocol, in a separate process, through the pty."""
-    import subprocess
-    import sys
 
     from tests.simproc import sim_process
 
     spec = "xm430-w210:1-2;xl430-w250:3;rx28:11-12;ax12a:21"
     with sim_process("--motors", spec, "--baud", "1000000", out_dir=tmp_path / "sim") as (
             device, _):
-        done = subprocess.run([sys.executable, "-m", "servolab", "scan", "--port", device,
-                               "--out", str(tmp_path / "scan")], capture_output=True,
-                              text=True, timeout=120)
+        done = servolab("scan", "--port", device, "--out", str(tmp_path / "scan"), timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]
     assert rows(done.stdout) == {(1, "XM430-W210", "2.0", 1_000_000),
                                  (2, "XM430-W210", "2.0", 1_000_000),

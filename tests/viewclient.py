@@ -26,6 +26,8 @@ from typing import Any
 
 import pytest
 
+from tests.clirun import SERVOLAB
+
 REPO = Path(__file__).resolve().parents[1]
 VIEW_CLIENT = REPO / "tests" / "view_client"
 CLIENT_SCRIPT = VIEW_CLIENT / "client.mjs"
@@ -257,7 +259,6 @@ def watched_run(args: list[str], out: Path, *, speed: str = "4") -> Iterator[str
     """``servolab ARGS --view PORT --view-speed SPEED --no-progress --out OUT`` started and
     waiting for its first viewer; yields the URL to watch it on. After the block the run must
     end by itself with status 0, having told the student where it was served."""
-    import sys
 
     from tests.middleware.conftest import free_port
     from tests.processes import started
@@ -265,7 +266,7 @@ def watched_run(args: list[str], out: Path, *, speed: str = "4") -> Iterator[str
 
     port = free_port()
     output: list[str] = []
-    with started([sys.executable, "-m", "servolab", *args, "--view", str(port),
+    with started([*SERVOLAB, *args, "--view", str(port),
                   "--view-speed", speed, "--no-progress", "--out", str(out)],
                  stderr_to_stdout=True) as proc:
         reader = threading.Thread(target=lambda: output.extend(proc.stdout or ()),

@@ -13,6 +13,7 @@ import math
 import pytest
 
 from servolab.dynamixel import Bus, ConfigError
+from tests.clirun import one_line as assert_one_line_naming
 
 RX28_TICK = math.radians(300.0) / 1023
 X_TICK = 2 * math.pi / 4096
@@ -122,13 +123,6 @@ def test_model_is_learnt_once() -> None:
 
 
 # -- bad input writes nothing ------------------------------------------------------------------
-
-def assert_one_line_naming(exc: BaseException, *names: str) -> None:
-    message = str(exc)
-    assert "\n" not in message
-    for name in names:
-        assert name in message, f"{name!r} not in {message!r}"
-
 
 def test_unknown_model_in_spec() -> None:
     with pytest.raises(ConfigError) as info:

@@ -26,6 +26,7 @@ from servolab.dynamixel import Bus, ConfigError, DynamixelError, MotorError, NoR
 from servolab.dynamixel.bus import line_rate, raw_access_limits, register_of, usable_rates
 from servolab.dynamixel.errors import did_you_mean
 from servolab.dynamixel.packets import Instruction
+from tests.clirun import one_line
 
 
 def sent(bus: Bus) -> list[Instruction]:
@@ -43,13 +44,6 @@ def sent(bus: Bus) -> list[Instruction]:
 
 def names(bus: Bus, packets: list[Instruction]) -> list[str]:
     return [bus.proto.instruction_name(p.instruction) for p in packets]
-
-
-def one_line(exc: BaseException, *parts: str) -> None:
-    message = str(exc)
-    assert "\n" not in message, message
-    for part in parts:
-        assert part in message, f"{part!r} not in {message!r}"
 
 
 # -- IDs ------------------------------------------------------------------------------------------

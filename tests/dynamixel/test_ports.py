@@ -18,6 +18,7 @@ from servolab.dynamixel import model, ports
 from servolab.dynamixel.emulator import Emulator, Faults, VirtualMotor
 from servolab.dynamixel.errors import ConfigError, PortError
 from servolab.dynamixel.protocol2 import PROTOCOL2
+from tests.clirun import one_line
 from tests.waiting import wait_for
 
 
@@ -203,11 +204,6 @@ def pty_port():
         os.close(slave)
 
 
-def _one_line_naming_the_port(exc: BaseException, port: ports.SerialPort) -> None:
-    message = str(exc)
-    assert port.name in message and "unplugged" in message and "\n" not in message
-
-
 def test_serial_port_gone_is_one_line_naming_it(pty_port) -> None:
     """Reading a pty whose other end is closed fails with EIO, as a USB adapter does once it
     is unplugged: a PortError (which the CLI prints on one line), not an OSError's
@@ -217,7 +213,7 @@ def test_serial_port_gone_is_one_line_naming_it(pty_port) -> None:
     ends["master"] = None
     with pytest.raises(PortError) as info:
         port.read(4, 0.2)
-    _one_line_naming_the_port(info.value, port)
+    one_line(info.value, port.name, "unplugged")
     assert isinstance(info.value.__cause__, OSError)
 
 
@@ -231,7 +227,7 @@ def test_serial_port_write_error_is_one_line_naming_it(pty_port,
     monkeypatch.setattr(ports.os, "write", eio)
     with pytest.raises(PortError) as info:
         port.write(b"\xff\xff\x01\x02\x01\xfb")
-    _one_line_naming_the_port(info.value, port)
+    one_line(info.value, port.name, "unplugged")
     assert "Input/output error" in str(info.value)
 
 

@@ -27,8 +27,6 @@ import pty
 import re
 import select
 import socket
-import subprocess
-import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -41,6 +39,7 @@ from servolab.dynamixel.bus import Bus
 from servolab.dynamixel.errors import ConfigError, NoResponse, PortError
 from servolab.dynamixel.ports import PyserialPort, SerialPort, open_port, pyserial_schemes
 from servolab.sim.emulated import emulated_port
+from tests.clirun import servolab
 from tests.simproc import sim_process
 from tests.waiting import wait_for
 
@@ -198,11 +197,6 @@ def _spy_log(path: Path) -> dict[str, bytes]:
         if m:
             streams[m[1]] += bytes.fromhex(m[2])
     return {k: bytes(v) for k, v in streams.items()}
-
-
-def servolab(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "servolab", *args], capture_output=True,
-                          text=True, timeout=120, stdin=subprocess.DEVNULL)
 
 
 # -- opening -----------------------------------------------------------------------------------

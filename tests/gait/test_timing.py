@@ -16,12 +16,12 @@ import pytest
 
 from servolab.cli import main
 from servolab.gait.errors import GaitValueError
-from servolab.gait.walking import PLAY_RATE, GaitParameters, generate_walk
+from servolab.gait.walking import GaitParameters, generate_walk
 
 
 def test_the_default_t_step_is_the_seeds_playback() -> None:
-    assert PLAY_RATE == 4.5
     params = GaitParameters()
+    assert params == GaitParameters.at_rate(4.5)  # seed 001: ros::Rate loop_rate(4.5)
     assert params.play_rate == pytest.approx(4.5)
     walk = generate_walk(params)
     row = walk.time_ms[1] - walk.time_ms[0]

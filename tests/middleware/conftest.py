@@ -1,4 +1,5 @@
-"""Shared fixtures: free loopback ports and Zenoh contexts that are always closed."""
+"""Shared fixtures: free loopback ports and Zenoh contexts that are always closed (the
+message types and the in-process ``ctx`` are tests/conftest.py's)."""
 
 from __future__ import annotations
 
@@ -16,11 +17,6 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-@pytest.fixture(scope="session")
-def types() -> MessageTypes:
-    return MessageTypes()
 
 
 @pytest.fixture

@@ -19,9 +19,9 @@ from servolab.middleware.bag import BagWriter
 from servolab.middleware.context import Context
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.transport import MessageInfo, NodeInfo
+from tests.clirun import servolab
 from tests.middleware.conftest import free_port
 from tests.middleware.inboxes import subscribe_with
-from tests.middleware.test_cli_graph import cli
 from tests.processes import started
 from tests.waiting import wait_for, wait_for_line
 
@@ -143,8 +143,8 @@ def test_bag_play_reaches_a_subscriber_process_started_just_before(
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         with started([sys.executable, "-c", LISTENER, endpoint, *topics]) as listener:
             wait_for_line(listener, "ready", timeout=30.0)
-            played = cli("bag", "play", str(tmp_path / f"bag_{k}"), "--rate", "0",
-                         "--wait-matching", "20", "--connect", endpoint, timeout=60)
+            played = servolab("bag", "play", str(tmp_path / f"bag_{k}"), "--rate", "0",
+                              "--wait-matching", "20", "--connect", endpoint, timeout=60)
             assert played.returncode == 0, played.stderr
             assert f"played {len(order)} message(s)" in played.stdout, played.stdout
             assert "no subscription" not in played.stdout, played.stdout

@@ -5,7 +5,6 @@ open it as is; ``reindex`` (``servolab bag reindex``) makes it a complete file t
 from __future__ import annotations
 
 import signal
-import subprocess
 import sys
 import textwrap
 import warnings
@@ -20,8 +19,8 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from servolab.middleware.bag import BagReader, BagWriter, qos_profile, reindex
 from servolab.middleware.errors import BagError
 from servolab.middleware.messages import MessageTypes
+from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
-from tests.middleware.test_cli_graph import CLI, cli
 from tests.processes import started
 from tests.waiting import wait_for_bag, wait_for_line
 
@@ -138,12 +137,12 @@ def test_reindex_of_a_lone_file_and_of_a_complete_bag(tmp_path: Path,
 def test_cli_record_killed_then_reindexed_reads_every_message(tmp_path: Path) -> None:
     bag = tmp_path / "run"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with started([*CLI, "bag", "record", "/cmd_vel", "-o", str(bag), "--type",
+    with started([*SERVOLAB, "bag", "record", "/cmd_vel", "-o", str(bag), "--type",
                   "/cmd_vel:geometry_msgs/msg/Twist", "--listen", endpoint]) as recorder:
         wait_for_line(recorder, "recording to")
-        sent = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
-                   "{linear: {x: 0.25}, angular: {z: -1.5}}", "--rate", "0", "--count", "300",
-                   "--connect", endpoint, timeout=60)
+        sent = servolab("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
+                        "{linear: {x: 0.25}, angular: {z: -1.5}}", "--rate", "0", "--count", "300",
+                        "--connect", endpoint, timeout=60)
         assert sent.returncode == 0, sent.stderr
         wait_for_bag(bag, 300)  # received and flushed (the recorder flushes every second)
         recorder.send_signal(signal.SIGKILL)
@@ -153,20 +152,19 @@ def test_cli_record_killed_then_reindexed_reads_every_message(tmp_path: Path) ->
     with pytest.raises(McapError):
         seeking_read(mcap_file)
 
-    result = cli("bag", "reindex", str(bag))
+    result = servolab("bag", "reindex", str(bag), timeout=30)
     assert result.returncode == 0, result.stderr
     assert f"reindexed {mcap_file}: 300 message(s) kept" in result.stdout
     got = seeking_read(mcap_file)
     assert len(got) == 300
     assert all(topic == "/cmd_vel" and x == 0.25 for topic, x, _, _ in got)
     assert [t for _, _, t, _ in got] == sorted(t for _, _, t, _ in got)
-    again = cli("bag", "reindex", str(bag))
+    again = servolab("bag", "reindex", str(bag), timeout=30)
     assert again.returncode == 0 and "nothing to do" in again.stdout
-    assert "Messages:          300" in cli("bag", "info", str(bag)).stdout
+    assert "Messages:          300" in servolab("bag", "info", str(bag), timeout=30).stdout
 
 
 def test_reindex_cli_names_a_bad_path(tmp_path: Path) -> None:
-    result = subprocess.run([*CLI, "bag", "reindex", str(tmp_path / "nope")],
-                            capture_output=True, text=True, timeout=30)
+    result = servolab("bag", "reindex", str(tmp_path / "nope"), timeout=30)
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert str(tmp_path / "nope") in result.stderr

@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 import signal
-import subprocess
 import warnings
 from pathlib import Path
 
 import pytest
 import yaml
 
+from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
-from tests.middleware.test_cli_graph import CLI, cli, started
+from tests.processes import started
 from tests.waiting import wait_for_bag, wait_for_graph_at, wait_for_line
 
 with warnings.catch_warnings():
@@ -23,16 +23,16 @@ with warnings.catch_warnings():
 def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
     bag = tmp_path / "burst"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with started([*CLI, "bag", "record", "/cmd_vel", "/odom_x", "-o", str(bag), "--type",
+    with started([*SERVOLAB, "bag", "record", "/cmd_vel", "/odom_x", "-o", str(bag), "--type",
                   "/cmd_vel:geometry_msgs/msg/Twist", "--type", "/odom_x:std_msgs/msg/Float64",
                   "--listen", endpoint]) as recorder:
         wait_for_line(recorder, "recording to")
-        burst = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
-                    "{linear: {x: 0.25}, angular: {z: -1.5}}", "--rate", "0", "--count",
-                    "10000", "--connect", endpoint, timeout=120)
+        burst = servolab("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
+                         "{linear: {x: 0.25}, angular: {z: -1.5}}", "--rate", "0", "--count",
+                         "10000", "--connect", endpoint, timeout=120)
         assert burst.returncode == 0, burst.stderr
-        paced = cli("topic", "pub", "/odom_x", "std_msgs/msg/Float64", "3.5", "--rate", "100",
-                    "--count", "7", "--connect", endpoint)
+        paced = servolab("topic", "pub", "/odom_x", "std_msgs/msg/Float64", "3.5", "--rate", "100",
+                         "--count", "7", "--connect", endpoint, timeout=30)
         assert paced.returncode == 0, paced.stderr
         wait_for_bag(bag, 10007)  # every message received and flushed before the SIGINT
         recorder.send_signal(signal.SIGINT)
@@ -54,7 +54,7 @@ def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
     metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert metadata["message_count"] == 10007
     assert metadata["storage_identifier"] == "mcap"
-    info = cli("bag", "info", str(bag))
+    info = servolab("bag", "info", str(bag), timeout=30)
     assert "Messages:          10007" in info.stdout
     assert "Topic: /cmd_vel | Type: geometry_msgs/msg/Twist | Count: 10000" in info.stdout
 
@@ -63,12 +63,12 @@ def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
 def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
     bag = tmp_path / "talk"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with started([*CLI, "bag", "record", "/chatter", "-o", str(bag), "--type",
+    with started([*SERVOLAB, "bag", "record", "/chatter", "-o", str(bag), "--type",
                   "/chatter:std_msgs/msg/String", "--listen", endpoint]) as recorder:
         wait_for_line(recorder, "recording to")
         for k in range(5):
-            cli("topic", "pub", "/chatter", "std_msgs/msg/String", f"{{data: 'hello {k}'}}",
-                "--once", "--connect", endpoint)
+            servolab("topic", "pub", "/chatter", "std_msgs/msg/String", f"{{data: 'hello {k}'}}",
+                     "--once", "--connect", endpoint, timeout=30)
         wait_for_bag(bag, 5)  # every message received and flushed before the SIGTERM
         recorder.send_signal(signal.SIGTERM)
         recorder.communicate(timeout=30)
@@ -76,10 +76,11 @@ def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
     texts = [m.ros_msg.data for m in read_ros2_messages(str(bag / "talk_0.mcap"))]
     assert texts == [f"hello {k}" for k in range(5)]
     endpoint2 = f"tcp/127.0.0.1:{free_port()}"
-    with started([*CLI, "topic", "echo", "/chatter", "--type", "std_msgs/msg/String",
+    with started([*SERVOLAB, "topic", "echo", "/chatter", "--type", "std_msgs/msg/String",
                   "--count", "5", "--listen", endpoint2]) as echo:
         wait_for_graph_at(endpoint2, ("MS", None, "/chatter"))  # the echo listens, subscribed
-        played = cli("bag", "play", str(bag), "--rate", "4", "--connect", endpoint2)
+        played = servolab("bag", "play", str(bag), "--rate", "4", "--connect", endpoint2,
+                          timeout=30)
         assert played.returncode == 0, played.stderr
         assert "played 5 message(s)" in played.stdout
         out, _ = echo.communicate(timeout=20)
@@ -89,14 +90,13 @@ def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
 def test_bag_paths_that_are_not_mcap_are_named(tmp_path: Path) -> None:
     text = tmp_path / "notes.txt"
     text.write_text("hello")
-    result = cli("bag", "info", str(text))
+    result = servolab("bag", "info", str(text), timeout=30)
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert result.stderr.startswith("servolab bag info: error: ") and str(text) in result.stderr
     assert "not an MCAP file" in result.stderr
-    missing = cli("bag", "info", str(tmp_path / "nope"))
+    missing = servolab("bag", "info", str(tmp_path / "nope"), timeout=30)
     assert missing.returncode == 2 and str(tmp_path / "nope") in missing.stderr
-    bad_type = subprocess.run([*CLI, "bag", "record", "/x", "-o", str(tmp_path / "b"),
-                               "--type", "/x", "--transport", "local"],
-                              capture_output=True, text=True, timeout=30)
+    bad_type = servolab("bag", "record", "/x", "-o", str(tmp_path / "b"), "--type", "/x",
+                        "--transport", "local", timeout=30)
     assert bad_type.returncode == 2
     assert "--type '/x' is not TOPIC:TYPE" in bad_type.stderr

@@ -4,36 +4,32 @@ talking over Zenoh on loopback, on ports chosen free at run time."""
 from __future__ import annotations
 
 import math
-import subprocess
 import sys
 import textwrap
 
 import pytest
 import yaml
 
+from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for_graph_at, wait_for_line
 
-CLI = [sys.executable, "-m", "servolab"]
 TWIST_VALUES = "{linear: {x: 0.1, y: -0.2}, angular: {z: 0.5}}"
-
-
-def cli(*args: str, timeout: float = 30) -> subprocess.CompletedProcess:
-    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.mark.slow
 def test_two_processes_exchange_twist_on_cmd_vel_over_zenoh() -> None:
     port = free_port()
-    echo_args = [*CLI, "topic", "echo", "/cmd_vel", "--type", "geometry_msgs/msg/Twist",
+    echo_args = [*SERVOLAB, "topic", "echo", "/cmd_vel", "--type", "geometry_msgs/msg/Twist",
                  "--count", "20", "--listen", f"tcp/127.0.0.1:{port}"]
     with started(echo_args) as echo:
         # the echo listens and is subscribed before the publisher looks for it (it looks for
         # 2 s only, and a slow start of the echo would lose the first messages)
         wait_for_graph_at(f"tcp/127.0.0.1:{port}", ("MS", None, "/cmd_vel"))
-        pub = cli("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", TWIST_VALUES,
-                  "--rate", "50", "--count", "20", "--connect", f"tcp/127.0.0.1:{port}")
+        pub = servolab("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist", TWIST_VALUES,
+                       "--rate", "50", "--count", "20", "--connect", f"tcp/127.0.0.1:{port}",
+                       timeout=30)
         assert pub.returncode == 0, pub.stderr
         out, err = echo.communicate(timeout=20)
     assert echo.returncode == 0, err
@@ -61,26 +57,29 @@ def test_topic_list_hz_and_params_of_a_running_node() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with started([sys.executable, "-c", TALKER, endpoint]) as talker:
         assert wait_for_line(talker, "ready", timeout=20.0)[-1].strip() == "ready"
-        listing = cli("topic", "list", "-t", "--connect", endpoint)
+        listing = servolab("topic", "list", "-t", "--connect", endpoint, timeout=30)
         assert "/robot/cmd_vel [geometry_msgs/msg/Twist]" in listing.stdout, listing
-        params = cli("param", "list", "--connect", endpoint)
+        params = servolab("param", "list", "--connect", endpoint, timeout=30)
         assert params.returncode == 0, params.stderr
         assert "/robot/talker:" in params.stdout and "  rate" in params.stdout
-        got = cli("param", "get", "/robot/talker", "speed", "--connect", endpoint)
+        got = servolab("param", "get", "/robot/talker", "speed", "--connect", endpoint, timeout=30)
         assert got.stdout.strip() == "speed: 0.1"
-        changed = cli("param", "set", "/robot/talker", "speed", "0.3", "--connect", endpoint)
+        changed = servolab("param", "set", "/robot/talker", "speed", "0.3", "--connect", endpoint,
+                           timeout=30)
         assert changed.returncode == 0, changed.stderr
-        assert cli("param", "get", "/robot/talker", "speed", "--connect",
-                   endpoint).stdout.strip() == "speed: 0.3"
-        refused = cli("param", "set", "/robot/talker", "speed", "fast", "--connect", endpoint)
+        assert servolab("param", "get", "/robot/talker", "speed", "--connect", endpoint,
+                        timeout=30).stdout.strip() == "speed: 0.3"
+        refused = servolab("param", "set", "/robot/talker", "speed", "fast", "--connect", endpoint,
+                           timeout=30)
         assert refused.returncode == 2
         assert refused.stderr.strip() == ("servolab param set: error: setting speed on "
                                           "/robot/talker failed: parameter speed is a double; "
                                           "'fast' is a string")
-        echo = cli("topic", "echo", "/robot/cmd_vel", "--count", "3", "--connect", endpoint)
+        echo = servolab("topic", "echo", "/robot/cmd_vel", "--count", "3", "--connect", endpoint,
+                        timeout=30)
         docs = [d for d in yaml.safe_load_all(echo.stdout) if d]
         assert [d["linear"]["x"] for d in docs] == [0.3] * 3   # the new speed, live
-        with started([*CLI, "topic", "hz", "/robot/cmd_vel", "--connect", endpoint]) as hz:
+        with started([*SERVOLAB, "topic", "hz", "/robot/cmd_vel", "--connect", endpoint]) as hz:
             lines = [hz.stdout.readline() for _ in range(6)]
         rates = [float(line.split(":")[1]) for line in lines if line.startswith("average rate")]
         assert rates and all(math.isfinite(r) and r > 0 for r in rates)
@@ -99,8 +98,8 @@ def test_topic_list_hz_and_params_of_a_running_node() -> None:
      "servolab topic list: error: --listen and --connect need --transport zenoh"),
 ])
 def test_bad_input_is_one_line_naming_it(args: list[str], message: str) -> None:
-    result = cli(*args, "--transport", "local") if "--transport" not in args and \
-        "--connect" not in args else cli(*args)
+    result = servolab(*args, "--transport", "local", timeout=30) if "--transport" not in args and \
+        "--connect" not in args else servolab(*args, timeout=30)
     assert result.returncode == 2
     assert result.stderr.startswith(message), result.stderr
     assert result.stderr.count("\n") == 1
@@ -109,7 +108,8 @@ def test_bad_input_is_one_line_naming_it(args: list[str], message: str) -> None:
 def test_a_bad_name_is_shown_with_a_mark_under_its_first_bad_character() -> None:
     """As rclpy shows a name error (rclpy/validate_topic_name.py): the rule, then the name,
     then a caret under the first character that breaks it; exit status 2."""
-    result = cli("topic", "pub", "bad//name", "std_msgs/msg/Float64", "1", "--transport", "local")
+    result = servolab("topic", "pub", "bad//name", "std_msgs/msg/Float64", "1", "--transport",
+                      "local", timeout=30)
     assert result.returncode == 2
     first, name, mark = result.stderr.splitlines()
     assert first.startswith("servolab topic pub: error: Invalid topic name: topic name must not "

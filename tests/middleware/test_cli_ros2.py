@@ -15,10 +15,8 @@ from __future__ import annotations
 import json
 import re
 import signal
-import subprocess
 import sys
 import textwrap
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -48,21 +46,17 @@ from servolab.middleware.node import Node
 from servolab.middleware.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from servolab.middleware.recorder import Recorder
 from servolab.middleware.transport import Endpoint
+from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.rosoracle import free_domain_id, ros_python, ros_venv, run_ros
 from tests.waiting import wait_for_bag, wait_for_graph_at, wait_for_line
 
 TYPES = MessageTypes()
-CLI = [sys.executable, "-m", "servolab"]
 STRING = "std_msgs/msg/String"
 SET_BOOL = "std_srvs/srv/SetBool"
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SENSOR = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
-
-
-def cli(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout)
 
 
 def build_graph(ctx: Context) -> Node:
@@ -74,12 +68,6 @@ def build_graph(ctx: Context) -> Node:
     node.create_service(SET_BOOL, "add", lambda request, response: response)
     node.create_client(SET_BOOL, "/other/add")
     return node
-
-
-@pytest.fixture
-def ctx() -> Iterator[Context]:
-    with Context.open(types=TYPES) as context:
-        yield context
 
 
 # -- node ----------------------------------------------------------------------------------------
@@ -268,8 +256,8 @@ def test_echo_over_zenoh_shows_a_latched_message_published_before_it_started() -
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with started([sys.executable, "-c", LATCHER, endpoint]) as latcher:
         wait_for_line(latcher, "ready", timeout=20.0)
-        echo = cli("topic", "echo", "/robot_description", "--count", "1", "--connect", endpoint,
-                   timeout=40)
+        echo = servolab("topic", "echo", "/robot_description", "--count", "1", "--connect",
+                        endpoint, timeout=40)
     assert echo.returncode == 0, echo.stderr
     assert echo.stdout == "data: <robot name='biped'/>\n---\n"
 
@@ -481,7 +469,8 @@ def test_record_regex_takes_the_topics_it_matches(ctx: Context, tmp_path: Path) 
 def test_record_without_topics_or_with_a_bad_regex_is_refused(tmp_path: Path,
                                                                args: list[str],
                                                                message: str) -> None:
-    result = cli("bag", "record", *args, "-o", str(tmp_path / "b"), "--transport", "local")
+    result = servolab("bag", "record", *args, "-o", str(tmp_path / "b"), "--transport", "local",
+                      timeout=30)
     assert result.returncode == 2
     head, _, tail = message.partition("(...)")  # the regex error's own words vary by Python
     assert result.stderr.startswith(head) and result.stderr.endswith(tail + "\n")
@@ -496,10 +485,10 @@ def test_record_all_over_zenoh_records_a_topic_published_after_it_started(
         tmp_path: Path) -> None:
     bag = tmp_path / "everything"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with started([*CLI, "bag", "record", "-a", "-o", str(bag), "--listen", endpoint]) as rec:
+    with started([*SERVOLAB, "bag", "record", "-a", "-o", str(bag), "--listen", endpoint]) as rec:
         wait_for_line(rec, "recording every topic a publisher appears on")
-        pub = cli("topic", "pub", "/chatter", STRING, "{data: hello}", "--rate", "20",
-                  "--count", "5", "--wait-matching", "10", "--connect", endpoint)
+        pub = servolab("topic", "pub", "/chatter", STRING, "{data: hello}", "--rate", "20",
+                       "--count", "5", "--wait-matching", "10", "--connect", endpoint, timeout=30)
         assert pub.returncode == 0, pub.stderr
         wait_for_bag(bag, 5)
         rec.send_signal(signal.SIGINT)
@@ -623,23 +612,24 @@ def test_the_new_commands_over_zenoh_as_a_user_types_them() -> None:
         wait_for_line(proc, "ready", timeout=20.0)
         wait_for_graph_at(endpoint, ("MP", "/robot/talker", "/robot/cmd_vel"))
         connect = ["--connect", endpoint]
-        assert cli("node", "list", *connect).stdout == "/robot/talker\n"
-        info = cli("node", "info", "/robot/talker", *connect)
+        assert servolab("node", "list", *connect, timeout=30).stdout == "/robot/talker\n"
+        info = servolab("node", "info", "/robot/talker", *connect, timeout=30)
         assert info.stdout.startswith("/robot/talker\n  Subscribers:\n\n  Publishers:\n"
                                       "    /robot/cmd_vel: geometry_msgs/msg/Twist\n"), info
-        assert cli("topic", "type", "/robot/cmd_vel", *connect).stdout == \
+        assert servolab("topic", "type", "/robot/cmd_vel", *connect, timeout=30).stdout == \
             "geometry_msgs/msg/Twist\n"
-        assert cli("topic", "info", "/robot/cmd_vel", *connect).stdout == (
+        assert servolab("topic", "info", "/robot/cmd_vel", *connect, timeout=30).stdout == (
             "Type: geometry_msgs/msg/Twist\nPublisher count: 1\nSubscription count: 0\n")
-        assert cli("service", "type", "/robot/talker/get_parameters", *connect).stdout == \
+        assert servolab("service", "type", "/robot/talker/get_parameters", *connect,
+                        timeout=30).stdout == \
             "rcl_interfaces/srv/GetParameters\n"
-        dump = cli("param", "dump", "/robot/talker", *connect)
+        dump = servolab("param", "dump", "/robot/talker", *connect, timeout=30)
         assert yaml.safe_load(dump.stdout) == {"/robot/talker": {"ros__parameters": {
             "count": 0, "rate": 20.0, "speed": 0.1}}}
-        described = cli("param", "describe", "/robot/talker", "speed", *connect)
+        described = servolab("param", "describe", "/robot/talker", "speed", *connect, timeout=30)
         assert described.stdout == ("Parameter name: speed\n  Type: double\n  Description: "
                                     "linear.x in m/s (live)\n  Constraints:\n")
-        missing = cli("node", "info", "/robot/talkr", *connect)
+        missing = servolab("node", "info", "/robot/talkr", *connect, timeout=30)
         assert missing.returncode == 2
         assert missing.stderr == ("servolab node info: error: Unable to find node "
                                   "'/robot/talkr'; the graph has /robot/talker ('servolab node "

@@ -17,18 +17,14 @@ from servolab.middleware.context import Context
 from servolab.middleware.errors import MessageError, ServiceError
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
+from tests.clirun import servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for_line
 
 TYPES = MessageTypes()
-CLI = [sys.executable, "-m", "servolab"]
 SET_SPEED = "dynamixel_controllers/srv/SetSpeed"
 STOP = "dynamixel_controllers/srv/StopController"
-
-
-def cli(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout)
 
 
 # -- in one process ----------------------------------------------------------------------------
@@ -215,9 +211,9 @@ def test_list_over_zenoh_shows_the_services_with_their_types(
     _, endpoint = server
     # The call waits for the graph to show the service (a condition, not a fixed time), so
     # once it has answered the listing must show it.
-    assert cli("service", "call", "/controller_m14/set_speed", SET_SPEED, "{speed: 0.25}",
-               "--connect", endpoint).returncode == 0
-    listing = cli("service", "list", "-t", "--connect", endpoint)
+    assert servolab("service", "call", "/controller_m14/set_speed", SET_SPEED, "{speed: 0.25}",
+                    "--connect", endpoint, timeout=30).returncode == 0
+    listing = servolab("service", "list", "-t", "--connect", endpoint, timeout=30)
     assert listing.returncode == 0, listing.stderr
     lines = listing.stdout.splitlines()
     for line in ("/controller_m14/set_speed [dynamixel_controllers/srv/SetSpeed]",
@@ -229,7 +225,7 @@ def test_list_over_zenoh_shows_the_services_with_their_types(
         assert line in lines, listing.stdout
     assert lines == sorted(lines)
     assert not any("_servolab" in line for line in lines)  # tools' hidden nodes left out
-    plain = cli("service", "list", "--connect", endpoint)
+    plain = servolab("service", "list", "--connect", endpoint, timeout=30)
     assert "/controller_m14/set_speed" in plain.stdout.splitlines()
 
 
@@ -237,19 +233,19 @@ def test_list_over_zenoh_shows_the_services_with_their_types(
 def test_call_over_zenoh_reaches_the_node_and_prints_the_response(
         server: tuple[subprocess.Popen[str], str]) -> None:
     proc, endpoint = server
-    result = cli("service", "call", "/controller_m14/set_speed", SET_SPEED, "{speed: 0.5}",
-                 "--connect", endpoint)
+    result = servolab("service", "call", "/controller_m14/set_speed", SET_SPEED, "{speed: 0.5}",
+                      "--connect", endpoint, timeout=30)
     assert result.returncode == 0, result.stderr
     assert "requester: making request: dynamixel_controllers.srv.SetSpeed_Request(speed=0.5)" \
         "\n\nresponse:\ndynamixel_controllers.srv.SetSpeed_Response()\n" in result.stdout
     assert wait_for_line(proc, "speed 0.5", timeout=10.0)[-1] == "speed 0.5"
-    result = cli("service", "call", "/controller_m14/torque_enable",
-                 "dynamixel_controllers/TorqueEnable", "{torque_enable: false}",
-                 "--connect", endpoint)
+    result = servolab("service", "call", "/controller_m14/torque_enable",
+                      "dynamixel_controllers/TorqueEnable", "{torque_enable: false}", "--connect",
+                      endpoint, timeout=30)
     assert result.returncode == 0, result.stderr
     assert wait_for_line(proc, "torque", timeout=10.0)[-1] == "torque False"
-    result = cli("service", "call", "/dynamixel_manager/dxl_port/stop_controller", STOP,
-                 "{controller_name: controller_m14}", "--connect", endpoint)
+    result = servolab("service", "call", "/dynamixel_manager/dxl_port/stop_controller", STOP,
+                      "{controller_name: controller_m14}", "--connect", endpoint, timeout=30)
     assert result.returncode == 0, result.stderr
     assert result.stdout.endswith(
         "response:\ndynamixel_controllers.srv.StopController_Response(success=True, "
@@ -280,7 +276,7 @@ def test_errors_over_zenoh_are_one_line_with_the_clis_exit_status(
         server: tuple[subprocess.Popen[str], str], args: list[str], status: int,
         message: str) -> None:
     _, endpoint = server
-    result = cli("service", "call", *args, "--connect", endpoint)
+    result = servolab("service", "call", *args, "--connect", endpoint, timeout=30)
     assert result.returncode == status, (result.stdout, result.stderr)
     assert result.stderr.startswith(message), result.stderr
     assert result.stderr.count("\n") == 1, result.stderr
@@ -291,7 +287,7 @@ def test_errors_over_zenoh_are_one_line_with_the_clis_exit_status(
 
 @pytest.mark.slow
 def test_an_endpoint_where_nobody_answers_is_said_so() -> None:
-    result = cli("service", "list", "--connect", f"tcp/127.0.0.1:{free_port()}")
+    result = servolab("service", "list", "--connect", f"tcp/127.0.0.1:{free_port()}", timeout=30)
     assert result.returncode == 2
     assert result.stderr.startswith("servolab service list: error: no Zenoh peer or router "
                                     "answers at tcp/127.0.0.1:")

@@ -16,16 +16,14 @@ import json
 import logging
 import os
 import subprocess
-import sys
-from collections.abc import Iterator
 
 import pytest
 
 from servolab.middleware.context import Context
-from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
 from servolab.middleware.qos import DurabilityPolicy, QoSProfile
 from servolab.middleware.transport import TransportOptions
+from tests.clirun import servolab
 from tests.processes import started
 from tests.rosoracle import free_domain_id, ros_env, ros_python
 from tests.waiting import wait_for_line, wait_until
@@ -46,9 +44,9 @@ def domain(monkeypatch: pytest.MonkeyPatch) -> int:
 
 
 @pytest.fixture
-def ctx(domain: int, types: MessageTypes) -> Iterator[Context]:
-    with Context.open(TransportOptions("dds", domain_id=domain), types=types) as context:
-        yield context
+def ctx_transport(domain: int) -> TransportOptions:
+    """``ctx`` (tests/conftest.py) on DDS, in the test's own domain."""
+    return TransportOptions("dds", domain_id=domain)
 
 
 def ros(code: str, domain: int) -> list[str]:
@@ -192,13 +190,12 @@ def test_servolab_lists_and_calls_a_real_rclpy_node(ctx: Context, domain: int) -
         assert scan.qos is not None and not scan.qos.reliable and not scan.qos.transient_local
         # and the command line a user types, as its own process
         env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
-        cli = [sys.executable, "-m", "servolab"]
         options = ["--transport", "dds", "--domain-id", str(domain)]
-        nodes = subprocess.run([*cli, "node", "list", *options], env=env, capture_output=True,
-                               text=True, timeout=60, check=True).stdout.splitlines()
-        topics = subprocess.run([*cli, "topic", "list", "-t", *options], env=env,
-                                capture_output=True, text=True, timeout=60,
-                                check=True).stdout.splitlines()
+        node_list = servolab("node", "list", *options, env=env, timeout=60)
+        topic_list = servolab("topic", "list", "-t", *options, env=env, timeout=60)
+        assert node_list.returncode == topic_list.returncode == 0, \
+            node_list.stderr + topic_list.stderr
+        nodes, topics = node_list.stdout.splitlines(), topic_list.stdout.splitlines()
         assert "/lab/ros_robot" in nodes
         assert "/lab/chatter [std_msgs/msg/String]" in topics
         assert "/lab/scan [sensor_msgs/msg/LaserScan]" in topics

@@ -24,9 +24,9 @@ TWIST = "geometry_msgs/msg/Twist"
 
 
 @pytest.fixture
-def ctx() -> Context:
-    with Context.open(types=TYPES, clock=VirtualClock()) as context:
-        yield context
+def ctx_clock() -> VirtualClock:
+    """``ctx`` (tests/conftest.py) on a virtual clock: these tests step time themselves."""
+    return VirtualClock()
 
 
 def test_publish_subscribe_across_namespaces_and_remapping(ctx: Context) -> None:

@@ -4,7 +4,6 @@ rclpy answers them. References are to ros2/rclpy (rolling, 8.0.0): ``rclpy/param
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -28,9 +27,9 @@ TYPES = MessageTypes()
 
 
 @pytest.fixture
-def ctx() -> Iterator[Context]:
-    with Context.open(types=TYPES, clock=VirtualClock()) as context:
-        yield context
+def ctx_clock() -> VirtualClock:
+    """``ctx`` (tests/conftest.py) on a virtual clock: these tests step time themselves."""
+    return VirtualClock()
 
 
 @pytest.fixture

@@ -16,7 +16,6 @@ import difflib
 import logging
 import os
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -133,12 +132,6 @@ def ported(source: str) -> str:
                if d.startswith(("+", "-")) and not d.startswith(("+++", "---"))]
     assert changed and all(d[1:].startswith(("import ", "from ")) for d in changed), changed
     return "\n".join(lines) + "\n"
-
-
-@pytest.fixture
-def ctx() -> Iterator[Context]:
-    with Context.open() as context:
-        yield context
 
 
 def _env(**extra: str) -> dict[str, str]:

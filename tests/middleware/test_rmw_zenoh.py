@@ -69,11 +69,6 @@ DOC_CLIENT = (
     "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a/::,10:,:,:,,")
 
 
-@pytest.fixture(scope="module")
-def types() -> MessageTypes:
-    return MessageTypes()
-
-
 # -- type names and hashes --------------------------------------------------------------------
 
 def test_our_type_hashes_are_rosidls(types: MessageTypes) -> None:

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -28,11 +26,11 @@ from servolab.middleware.zenoh_transport import (
     ROUTER_ENV,
     session_endpoints,
 )
+from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for, wait_for_graph_at
 
-CLI = [sys.executable, "-m", "servolab"]
 STRING = "std_msgs/msg/String"
 
 
@@ -159,13 +157,12 @@ def _env(router_port: int) -> dict[str, str]:
 def _echo_and_pub(echo_extra: list[str], pub_extra: list[str], probe: str, env: dict[str, str],
                   data: str) -> None:
     """A ``topic echo`` process hears a ``topic pub`` process, each with the endpoints given."""
-    echo_args = [*CLI, "topic", "echo", "/chatter", "--type", STRING, "--count", "1",
+    echo_args = [*SERVOLAB, "topic", "echo", "/chatter", "--type", STRING, "--count", "1",
                  *echo_extra]
     with started(echo_args, env=env) as echo:
         wait_for_graph_at(probe, ("MS", None, "/chatter"))
-        pub = subprocess.run([*CLI, "topic", "pub", "/chatter", STRING, f"{{data: {data}}}",
-                              "--rate", "5", "--count", "10", *pub_extra],
-                             capture_output=True, text=True, timeout=60, env=env)
+        pub = servolab("topic", "pub", "/chatter", STRING, f"{{data: {data}}}", "--rate", "5",
+                       "--count", "10", *pub_extra, timeout=60, env=env)
         assert pub.returncode == 0, pub.stderr
         out, err = echo.communicate(timeout=15)
         assert echo.returncode == 0, err
@@ -185,7 +182,7 @@ def test_two_processes_talk_through_a_router(router_port: int) -> None:
 @pytest.mark.slow
 def test_the_router_starts_while_servolab_processes_run(router_port: int) -> None:
     env = _env(router_port)
-    echo_args = [*CLI, "topic", "echo", "/chatter", "--type", STRING, "--count", "1"]
+    echo_args = [*SERVOLAB, "topic", "echo", "/chatter", "--type", STRING, "--count", "1"]
     with started(echo_args, env=env) as echo:
         wait_for(lambda: any(port != router_port for _, port in listening_ports(echo.pid)),
                  "the echo process to listen")
@@ -193,9 +190,8 @@ def test_the_router_starts_while_servolab_processes_run(router_port: int) -> Non
                    for a, p in listening_ports(echo.pid)), listening_ports(echo.pid)
         with router(router_port):  # the port is free: servolab did not take it
             wait_for_graph_at(f"tcp/127.0.0.1:{router_port}", ("MS", None, "/chatter"))
-            pub = subprocess.run([*CLI, "topic", "pub", "/chatter", STRING, "{data: late}",
-                                  "--rate", "5", "--count", "10"],
-                                 capture_output=True, text=True, timeout=60, env=env)
+            pub = servolab("topic", "pub", "/chatter", STRING, "{data: late}", "--rate", "5",
+                           "--count", "10", timeout=60, env=env)
             assert pub.returncode == 0, pub.stderr
             out, err = echo.communicate(timeout=15)
             assert "data: late" in out, (out, err)
@@ -214,8 +210,7 @@ def test_two_processes_talk_without_a_router(router_port: int) -> None:
 @pytest.mark.parametrize("action", [["list"], ["echo", "/chatter"], ["hz", "/chatter"]])
 def test_connect_to_an_endpoint_nobody_answers_is_one_line_and_fails(action: list[str]) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    done = subprocess.run([*CLI, "topic", *action, "--connect", endpoint], capture_output=True,
-                          text=True, timeout=60)
+    done = servolab("topic", *action, "--connect", endpoint, timeout=60)
     assert done.returncode == 2
     assert done.stdout == ""
     lines = done.stderr.strip().splitlines()

@@ -93,12 +93,6 @@ def test_rclpy_clients_give_rclpys_future(ctx: Context) -> None:
     assert client.call(client.request(data=False), timeout_sec=2.0).success is True
 
 
-@pytest.fixture
-def ctx() -> object:
-    with Context.open() as context:
-        yield context
-
-
 def test_a_sync_call_while_rclpy_spins_in_a_thread() -> None:
     """The ROS 2 docs' synchronous client: ``rclpy.spin(node)`` on a thread, ``call()`` on
     the main one, which waits for the spinning thread to run the server and the response."""

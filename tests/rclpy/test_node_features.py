@@ -8,7 +8,6 @@ import contextlib
 import logging
 import sys
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -28,12 +27,6 @@ from servolab.rclpy.parameter import Parameter
 from servolab.rclpy.task import Future
 from servolab.rclpy.time import Time
 from servolab.rclpy.topic_endpoint_info import TopicEndpointTypeEnum
-
-
-@pytest.fixture
-def ctx() -> Iterator[Context]:
-    with Context.open() as context:
-        yield context
 
 
 def test_graph_queries(ctx: Context) -> None:

@@ -4,8 +4,6 @@ node. The slow test runs one snippet under the real rclpy and servolab and compa
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
 from servolab.interfaces.rcl_interfaces.msg import (
@@ -23,12 +21,6 @@ from servolab.rclpy.exceptions import (
 from servolab.rclpy.node import Node
 from servolab.rclpy.parameter import Parameter, get_parameter_value, parameter_value_to_python
 from tests.rclpy.oracle import run_both
-
-
-@pytest.fixture
-def ctx() -> Iterator[Context]:
-    with Context.open() as context:
-        yield context
 
 
 def test_parameter_shape() -> None:

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import json
 import signal
-import sys
 import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.clirun import SERVOLAB
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client, watched_run
@@ -138,7 +138,7 @@ def test_a_stop_while_waiting_for_a_viewer_ends_the_run_cleanly(
     stopped run does, its summary whole and saying so, its bag closed and readable."""
     port = free_port()
     output: list[str] = []
-    with started([sys.executable, "-m", "servolab", *args, "--view", str(port),
+    with started([*SERVOLAB, *args, "--view", str(port),
                   "--no-progress", "--out", str(tmp_path)], stderr_to_stdout=True) as proc:
         threading.Thread(target=lambda: output.extend(proc.stdout or ()), daemon=True).start()
         wait_for(lambda: any("waiting for a viewer" in line for line in output)

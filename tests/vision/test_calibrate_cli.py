@@ -4,8 +4,6 @@ calibration file is ROS camera_info YAML, a 100 mm distance on the floor is meas
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -20,14 +18,10 @@ from servolab.vision.synthetic import (
     random_board_poses,
     render_checkerboard,
 )
+from tests.clirun import servolab
 
 CAMERA = PinholeCamera(fx=820.0, fy=805.0, cx=326.0, cy=236.0, width=640, height=480,
                        distortion=(-0.28, 0.11, 0.0012, -0.0008, -0.02))
-
-
-def servolab(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "servolab", *args], capture_output=True,
-                          text=True, timeout=180)
 
 
 @pytest.fixture(scope="module")
@@ -51,8 +45,9 @@ def test_calibrate_then_measure_100_mm_on_the_floor(images: tuple[list[str], str
                                                     tmp_path: Path) -> None:
     paths, floor, _ = images
     out = tmp_path / "camera.yaml"
-    result = servolab("calibrate", *paths, "--board", "10x7", "--square", "25", "--floor",
-                      floor, "--floor-board", "12x9", "--floor-square", "40", "--out", str(out))
+    result = servolab("calibrate", *paths, "--board", "10x7", "--square", "25", "--floor", floor,
+                      "--floor-board", "12x9", "--floor-square", "40", "--out", str(out),
+                      timeout=180)
     assert result.returncode == 0, result.stderr
     info = yaml.safe_load(out.read_text())
     assert (info["image_width"], info["image_height"]) == (640, 480)
@@ -69,7 +64,8 @@ def test_calibrate_then_measure_100_mm_on_the_floor(images: tuple[list[str], str
     true_calib = cal.CameraCalibration(CAMERA.camera_matrix, CAMERA.distortion_coefficients,
                                        CAMERA.image_size)
     uv = cal.floor_to_image(true_calib, truth, np.array([[60.0, 80.0], [160.0, 80.0]]))
-    measured = servolab("measure", "--calib", str(out), *(f"{v:.4f}" for v in uv.ravel()))
+    measured = servolab("measure", "--calib", str(out), *(f"{v:.4f}" for v in uv.ravel()),
+                        timeout=180)
     assert measured.returncode == 0, measured.stderr
     assert float(measured.stdout.split()[0]) == pytest.approx(100.0, abs=1.0)
 
@@ -82,7 +78,7 @@ def test_bad_boards_are_one_line(images: tuple[list[str], str, Path], tmp_path: 
                                  args: list[str], says: str) -> None:
     paths, _, _ = images
     result = servolab("calibrate", *paths[:3], *args, "--square", "25", "--out",
-                      str(tmp_path / "c.yaml"))
+                      str(tmp_path / "c.yaml"), timeout=180)
     assert result.returncode != 0
     assert says in result.stderr.strip().splitlines()[-1]  # one line (after argparse's usage)
 
@@ -90,13 +86,13 @@ def test_bad_boards_are_one_line(images: tuple[list[str], str, Path], tmp_path: 
 def test_a_missing_image_and_too_few_boards_are_named(images: tuple[list[str], str, Path],
                                                       tmp_path: Path) -> None:
     paths, _, folder = images
-    missing = servolab("calibrate", str(folder / "nope.png"), "--board", "10x7", "--square",
-                       "25", "--out", str(tmp_path / "c.yaml"))
+    missing = servolab("calibrate", str(folder / "nope.png"), "--board", "10x7", "--square", "25",
+                       "--out", str(tmp_path / "c.yaml"), timeout=180)
     assert missing.returncode != 0 and "nope.png" in missing.stderr
     blank = folder / "blank.png"
     cv2.imwrite(str(blank), np.full((480, 640), 128, np.uint8))
-    few = servolab("calibrate", paths[0], str(blank), "--board", "10x7", "--square", "25",
-                   "--out", str(tmp_path / "c.yaml"))
+    few = servolab("calibrate", paths[0], str(blank), "--board", "10x7", "--square", "25", "--out",
+                   str(tmp_path / "c.yaml"), timeout=180)
     assert few.returncode != 0
     assert few.stderr.strip().count("\n") == 0, few.stderr
     assert "blank.png" in few.stderr
@@ -107,5 +103,5 @@ def test_measure_needs_a_floor_plane(tmp_path: Path) -> None:
                                   CAMERA.image_size)
     path = tmp_path / "camera.yaml"
     cal.save(calib, None, path)
-    result = servolab("measure", "--calib", str(path), "1", "2", "3", "4")
+    result = servolab("measure", "--calib", str(path), "1", "2", "3", "4", timeout=180)
     assert result.returncode != 0 and "no floor plane" in result.stderr

@@ -15,6 +15,7 @@ import pytest
 
 from servolab.errors import ServolabError
 from servolab.vision.frame_source import FrameSource, FrameSourceError, natural_key
+from tests.clirun import one_line
 
 W, H = 640, 376
 
@@ -39,12 +40,6 @@ def all_frames(source: FrameSource) -> list[np.ndarray]:
     while (frame := source()) is not None:
         frames.append(frame)
     return frames
-
-
-def one_line(error: pytest.ExceptionInfo[FrameSourceError]) -> str:
-    text = str(error.value)
-    assert "\n" not in text
-    return text
 
 
 def test_natural_key_orders_numbers_by_value() -> None:

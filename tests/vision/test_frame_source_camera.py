@@ -33,6 +33,7 @@ from servolab.vision.frame_source import (
     FrameSource,
     FrameSourceError,
 )
+from tests.clirun import one_line
 
 SIZE = (64, 48)
 REAL_CAPTURE = cv2.VideoCapture
@@ -60,12 +61,6 @@ def read_all(source: FrameSource) -> list[Frame]:
     while (frame := source.read()) is not None:
         frames.append(frame)
     return frames
-
-
-def one_line(error: pytest.ExceptionInfo[FrameSourceError]) -> str:
-    text = str(error.value)
-    assert "\n" not in text
-    return text
 
 
 @pytest.fixture

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from servolab.vision.frame_source import FrameSource, FrameSourceError
+from tests.clirun import one_line
 
 W, H = 640, 376  # Listing 1
 FRAME_BYTES = W * H  # 240 640
@@ -33,12 +34,6 @@ def write_as_listing_1(path: Path, images: list[np.ndarray]) -> None:
     with open(path, "wb") as out:
         for image in images:
             out.write(image.tobytes())  # C order: row after row, like cv::Mat::data
-
-
-def one_line(error: pytest.ExceptionInfo[FrameSourceError]) -> str:
-    text = str(error.value)
-    assert "\n" not in text
-    return text
 
 
 def test_fly_image_bin_is_read_frame_by_frame(tmp_path: Path) -> None:

@@ -22,6 +22,7 @@ import pytest
 from servolab.vision import frame_writer
 from servolab.vision.frame_source import STAMPS_VIDEO_MSEC, FrameSource
 from servolab.vision.frame_writer import FrameWriter, FrameWriterError
+from tests.clirun import one_line
 
 W, H = 640, 376  # Listing 1
 SMALL = (64, 48)
@@ -59,12 +60,6 @@ def read_back(path: Path, size: tuple[int, int]) -> list[np.ndarray]:
         while (image := source()) is not None:
             images.append(image)
     return images
-
-
-def one_line(error: pytest.ExceptionInfo[FrameWriterError]) -> str:
-    text = str(error.value)
-    assert "\n" not in text
-    return text
 
 
 def test_bin_round_trip_is_exact_and_is_listing_1s_layout(tmp_path: Path) -> None:

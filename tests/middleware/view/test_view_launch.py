@@ -4,12 +4,12 @@ more supervised child, ``servolab view``, joined where the processes meet)."""
 
 from __future__ import annotations
 
-import sys
 import threading
 from pathlib import Path
 
 import pytest
 
+from tests.clirun import SERVOLAB
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, node_client, run_client
@@ -43,7 +43,7 @@ def test_a_launch_with_view_serves_its_graph(tmp_path: Path, transport: str,
         listener_process="one" if transport == "local" else "two"))
     port = free_port()
     output: list[str] = []
-    with started([sys.executable, "-m", "servolab", "launch", str(file), "--view",
+    with started([*SERVOLAB, "launch", str(file), "--view",
                   str(port)], stderr_to_stdout=True) as proc:
         threading.Thread(target=lambda: output.extend(proc.stdout or ()), daemon=True).start()
         serving = f"serving the graph on ws://127.0.0.1:{port}"

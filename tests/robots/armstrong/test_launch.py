@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.clirun import launched, servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 LAUNCH = ROOT / "configs" / "armstrong.launch.yaml"
@@ -21,9 +22,7 @@ SHORT = ("{steps: 2, rate: 4.5, stand_duration: 2.0}",
 def _launch(path: Path) -> subprocess.CompletedProcess[str]:
     """The launch, to its end; on a timeout it is stopped with every process it started
     (tests/processes.py), and the test fails."""
-    from tests.processes import run_to_end
-
-    return run_to_end([sys.executable, "-m", "servolab", "launch", str(path)], timeout=180)
+    return servolab("launch", str(path), timeout=180)
 
 
 @pytest.mark.slow
@@ -67,24 +66,17 @@ def test_move_a_joint_from_the_command_line() -> None:
     from servolab.middleware.context import Context
     from servolab.middleware.node import Node
     from servolab.middleware.transport import TransportOptions
-    from tests.processes import started
     from tests.waiting import wait_for_line
 
-    launch = [sys.executable, "-m", "servolab", "launch",
-              str(ROOT / "configs" / "armstrong_robot.launch.yaml")]
-    with started(launch, stderr_to_stdout=True) as robot:
-        said = wait_for_line(robot, "other tools: --connect", timeout=60.0)
-        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
+    with launched(ROOT / "configs" / "armstrong_robot.launch.yaml") as (robot, endpoint):
         wait_for_line(robot, "started armstrong (in process", timeout=60.0)
         with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
             heard: list[float] = []
             Node(ctx, "probe").create_subscription(
                 "dynamixel_msgs/msg/JointState", "/controller_m14/state",
                 lambda msg: heard.append(msg.current_pos))
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/controller_m14/command",
-                 "std_msgs/msg/Float64", "{data: 0.5}", "--once", "--connect", endpoint],
-                capture_output=True, text=True, timeout=60)
+            pub = servolab("topic", "pub", "/controller_m14/command", "std_msgs/msg/Float64",
+                           "{data: 0.5}", "--once", "--connect", endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
             assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
                                   timeout=30.0), heard[-3:]

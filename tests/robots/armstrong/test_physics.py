@@ -18,7 +18,6 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +28,7 @@ from servolab.robots.armstrong.control_node import Armstrong
 from servolab.robots.armstrong.description import Assumptions
 from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
 from servolab.robots.errors import RobotValueError
+from tests.clirun import servolab
 from tests.robots.test_stop_signals import busy_cpu  # noqa: F401 - the fixture
 from tests.simproc import sim_process
 
@@ -117,10 +117,8 @@ def _walk(tmp_path: Path, *args: str) -> subprocess.CompletedProcess[str]:
     """``servolab walk --world mujoco ARGS`` with the shipped configuration, as a user (and
     docs/plots.py) runs it: its start-up is part of the run (the robot stands on straight
     legs meanwhile), and the docs' numbers are this run's."""
-    return subprocess.run(
-        [sys.executable, "-m", "servolab", "walk", "--world", "mujoco", "--no-progress",
-         "--out", str(tmp_path / "run"), *args],
-        capture_output=True, text=True, timeout=120)
+    return servolab("walk", "--world", "mujoco", "--no-progress", "--out", str(tmp_path / "run"),
+                    *args, timeout=120)
 
 
 @pytest.mark.slow
@@ -220,10 +218,8 @@ def test_the_biped_in_mujoco_on_a_real_time_bus_with_the_cpu_busy(tmp_path: Path
     write_motion_file(tmp_path / "bend.csv", MotionFile(MOTORS, np.vstack([stand, bent,
                                                                             stand])))
     with sim_process("--robot", "armstrong", out_dir=tmp_path / "sim") as (pty, _):
-        walked = subprocess.run(
-            [sys.executable, "-m", "servolab", "walk", "--file", str(tmp_path / "bend.csv"),
-             "--no-progress", "--config", str(config), "--out", str(tmp_path / "walk"),
-             "--port", pty], capture_output=True, text=True, timeout=120)
+        walked = servolab("walk", "--file", str(tmp_path / "bend.csv"), "--no-progress", "--config",
+                          str(config), "--out", str(tmp_path / "walk"), "--port", pty, timeout=120)
     assert walked.returncode == 0, walked.stderr[-2000:]
     assert json.loads((tmp_path / "walk" / "summary.json").read_text())["rows_played"] == 3
     served = json.loads((tmp_path / "sim" / "summary.json").read_text())

@@ -17,14 +17,13 @@ The bag is read with ``mcap``'s own reader (tests/robots/armstrong/delivery.py).
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from servolab.robots.armstrong.hardware import load_config
 from servolab.robots.armstrong.poses import MOTORS
+from tests.clirun import servolab
 from tests.robots.armstrong.configs import ping_once_config
 from tests.robots.armstrong.delivery import goal_deliveries, row_end_errors
 from tests.simproc import sim_process
@@ -39,10 +38,8 @@ ROW_PERIOD = 1 / 4.5
 
 
 def _walk(out: Path, config: Path, *port: str) -> dict[str, object]:
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--steps", "1",
-                             "--no-progress", "--config", str(config), "--out", str(out),
-                             *port],
-                            capture_output=True, text=True, timeout=180)
+    result = servolab("walk", "--steps", "1", "--no-progress", "--config", str(config), "--out",
+                      str(out), *port, timeout=180)
     assert result.returncode == 0, result.stderr[-2000:]
     return json.loads((out / "summary.json").read_text())  # type: ignore[no-any-return]
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
 from servolab.robots.armstrong.run import run_walk
 from servolab.robots.armstrong.supervisor import FINISH_DURATION
 from servolab.runs import RunFolder
+from tests.clirun import servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -117,9 +117,7 @@ def test_a_bad_motion_file_is_refused_before_anything_moves(tmp_path: Path, cell
     with pytest.raises(MotionFileError, match=re.escape(f"walk.csv:4: {says}")):
         load_motion(path)
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--file", str(path),
-                             "--out", str(out), "--no-progress"],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("walk", "--file", str(path), "--out", str(out), "--no-progress", timeout=120)
     assert result.returncode != 0
     assert result.stderr.strip().count("\n") == 0, result.stderr  # one line
     assert "walk.csv:4:" in result.stderr and "m14" in result.stderr
@@ -146,9 +144,7 @@ def test_five_lines_for_a_student() -> None:
 
 def test_gait_generate_writes_its_files(tmp_path: Path) -> None:
     out = tmp_path / "gait"
-    result = subprocess.run([sys.executable, "-m", "servolab", "gait", "generate",
-                             "--l-step", "30", "--out", str(out)],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("gait", "generate", "--l-step", "30", "--out", str(out), timeout=120)
     assert result.returncode == 0, result.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["parameters"]["l_step"] == 30.0 and summary["rows"] == 17
@@ -157,9 +153,8 @@ def test_gait_generate_writes_its_files(tmp_path: Path) -> None:
 
 
 def test_gait_generate_refuses_an_unreachable_gait(tmp_path: Path) -> None:
-    result = subprocess.run([sys.executable, "-m", "servolab", "gait", "generate",
-                             "--s-step", "150", "--out", str(tmp_path / "g")],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("gait", "generate", "--s-step", "150", "--out", str(tmp_path / "g"),
+                      timeout=120)
     assert result.returncode != 0
     assert "gait sample" in result.stderr and "out of reach" in result.stderr
 
@@ -231,8 +226,7 @@ def test_a_generated_gait_beyond_the_configured_limits_is_refused(tmp_path: Path
 @pytest.mark.parametrize("rate", ["inf", "nan", "-1"])
 def test_a_rate_that_is_not_a_positive_number_is_refused(tmp_path: Path, rate: str) -> None:
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", f"--rate={rate}",
-                             "--out", str(out)], capture_output=True, text=True, timeout=120)
+    result = servolab("walk", f"--rate={rate}", "--out", str(out), timeout=120)
     assert result.returncode != 0
     assert "--rate" in result.stderr and result.stderr.strip().count("\n") == 0
     assert not out.exists()
@@ -244,10 +238,9 @@ def test_appendix_a_as_printed_walks(tmp_path: Path) -> None:
     the manager's settings of Listing 3.3 from the shipped file (as ROS takes them from
     controller_manager.launch), and walks a step."""
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--config",
-                             str(ROOT / "tests" / "data" / "armstrong_appendix_a.yaml"),
-                             "--no-progress", "--out", str(out)],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("walk", "--config",
+                      str(ROOT / "tests" / "data" / "armstrong_appendix_a.yaml"), "--no-progress",
+                      "--out", str(out), timeout=120)
     assert result.returncode == 0, result.stderr
     warnings = [line for line in result.stderr.splitlines() if line.startswith("[WARNING]")]
     assert sum("share joint name 'pan_joint_33'" in w for w in warnings) == 6

@@ -16,8 +16,6 @@ Facts checked, and where they come from:
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -32,6 +30,7 @@ from servolab.robots.armstrong.motions import load_motion
 from servolab.robots.armstrong.poses import STAND_POSE
 from servolab.robots.armstrong.run import run_walk
 from servolab.runs import RunFolder
+from tests.clirun import servolab
 
 ERROR = 2  # diagnostic_msgs/DiagnosticStatus.ERROR
 
@@ -76,9 +75,8 @@ def test_a_missing_leg_motor_is_refused_before_anything_moves(tmp_path: Path) ->
     config = tmp_path / "armstrong.yaml"
     config.write_text(Path(CONFIG).read_text().replace("min_motor_id: 1", "min_motor_id: 20"))
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--config", str(config),
-                             "--no-progress", "--out", str(out)],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("walk", "--config", str(config), "--no-progress", "--out", str(out),
+                      timeout=120)
     assert result.returncode == 2, result.stderr
     last = result.stderr.strip().splitlines()[-1]
     assert "m11, m12, m13, m14, m15, m16 did not answer" in last
@@ -186,10 +184,8 @@ def test_walk_reports_what_it_found_as_figure_3_1(tmp_path: Path, level: str) ->
     """Seed 001 Figure 3.1, as rospy prints it ("[INFO] [WallTime: ...] pan_tilt_port: Found
     20 motors - ..."): shown at the default --log-level, not at warn, where the controller
     that could not start (m62) still is."""
-    result = subprocess.run([sys.executable, "-m", "servolab", "walk", "--steps", "1",
-                             "--no-progress", "--log-level", level, "--out",
-                             str(tmp_path / "run")],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("walk", "--steps", "1", "--no-progress", "--log-level", level, "--out",
+                      str(tmp_path / "run"), timeout=120)
     assert result.returncode == 0, result.stderr
     lines = result.stderr.splitlines()
     found = [line for line in lines if line.endswith(FIGURE_3_1)]

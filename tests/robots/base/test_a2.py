@@ -64,8 +64,13 @@ def test_final_m_s_counts_per_mm_imply_a_0_102_m_wheel_not_figure_a3s() -> None:
     assert h == 9157
     rolled_on_5_2_cm = h / EX106.ticks_per_rev * 2 * math.pi * 0.052
     assert rolled_on_5_2_cm == pytest.approx(0.5092, abs=1e-4)
-    assert 4096 / (2 * math.pi * A2_COUNTS_PER_MM * 1000) == pytest.approx(0.0712, abs=1e-4)
-    assert 6000 / (2 * math.pi * A2_COUNTS_PER_MM * 1000) == pytest.approx(0.1043, abs=1e-4)
+    # the same counts a millimetre on the EX-106+ read at other scales
+    twelve_bit = dataclasses.replace(EX106, ticks_per_rev=4096)  # the 12-bit joint range
+    assert radius_from_counts_per_mm(A2_COUNTS_PER_MM, twelve_bit) == \
+        pytest.approx(0.0712, abs=1e-4)
+    rounded = dataclasses.replace(EX106, ticks_per_rev=360 / 0.06)  # e-Manual: 0.06 degree
+    assert radius_from_counts_per_mm(A2_COUNTS_PER_MM, rounded) == \
+        pytest.approx(0.1043, abs=1e-4)
 
 
 def test_matlab_round_goes_half_away_from_zero() -> None:

@@ -5,13 +5,12 @@ it when the commands end."""
 
 from __future__ import annotations
 
-import re
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from tests.clirun import launched, servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -21,14 +20,9 @@ def test_drive_the_base_across_processes() -> None:
     from servolab.middleware.context import Context
     from servolab.middleware.node import Node
     from servolab.middleware.transport import TransportOptions
-    from tests.processes import started
     from tests.waiting import wait_for_line
 
-    launch = [sys.executable, "-m", "servolab", "launch", str(ROOT / "configs" /
-                                                             "base.launch.yaml")]
-    with started(launch, stderr_to_stdout=True) as base:
-        said = wait_for_line(base, "other tools: --connect", timeout=60.0)
-        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
+    with launched(ROOT / "configs" / "base.launch.yaml") as (base, endpoint):
         wait_for_line(base, "started base_robot (in process", timeout=60.0)
         with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
             odom: list[Any] = []
@@ -37,10 +31,9 @@ def test_drive_the_base_across_processes() -> None:
             probe.create_subscription("nav_msgs/msg/Odometry", "/odom", odom.append, 0)
             probe.create_subscription("nav_msgs/msg/Odometry", "/ground_truth",
                                       truth.append, 0)
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/cmd_vel",
-                 "geometry_msgs/msg/Twist", "{linear: {x: 0.1}}", "--rate", "10", "--count",
-                 "10", "--connect", endpoint], capture_output=True, text=True, timeout=60)
+            pub = servolab("topic", "pub", "/cmd_vel", "geometry_msgs/msg/Twist",
+                           "{linear: {x: 0.1}}", "--rate", "10", "--count", "10", "--connect",
+                           endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
             # after the last command the watchdog stops the wheels: the truth stands still
             assert ctx.spin_until(

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -19,6 +17,7 @@ from mcap_ros2.reader import read_ros2_messages
 from servolab.robots.base.config import SHIPPED_DIR
 from servolab.robots.base.run import run_drive
 from servolab.runs import RunFolder
+from tests.clirun import servolab
 
 CONFIGS = SHIPPED_DIR  # the shipped bases: package data of servolab.robots.base
 
@@ -52,9 +51,8 @@ def test_a_line_measures_its_truth_length(tmp_path: Path) -> None:
 
 def test_the_cli_writes_its_run_folder(tmp_path: Path) -> None:
     out = tmp_path / "eight"
-    result = subprocess.run([sys.executable, "-m", "servolab", "drive", "eight", "--radius",
-                             "0.3", "--out", str(out), "--no-progress"],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("drive", "eight", "--radius", "0.3", "--out", str(out), "--no-progress",
+                      timeout=120)
     assert result.returncode == 0, result.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["measured"]["closure_m"] < 0.02 * 4 * 0.3
@@ -70,8 +68,7 @@ def test_the_cli_writes_its_run_folder(tmp_path: Path) -> None:
 def test_bad_arguments_are_one_line_and_nothing_moves(tmp_path: Path, args: list[str],
                                                       says: str) -> None:
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "drive", *args, "--out",
-                             str(out)], capture_output=True, text=True, timeout=120)
+    result = servolab("drive", *args, "--out", str(out), timeout=120)
     assert result.returncode == 2
     assert says in result.stderr.strip().splitlines()[-1]
     assert not out.exists()
@@ -82,9 +79,8 @@ def test_a_base_without_a_wheel_radius_is_refused_before_anything_moves(tmp_path
     bad.write_text((CONFIGS / "base_seed000.yaml").read_text().replace(
         "  wheel_radius: 0.052\n", ""))
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "servolab", "drive", "line", "--distance",
-                             "1", "--base", str(bad), "--out", str(out)],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("drive", "line", "--distance", "1", "--base", str(bad), "--out", str(out),
+                      timeout=120)
     assert result.returncode == 2  # bad input (servolab.harness)
     assert f"{bad}:" in result.stderr and "wheel_radius" in result.stderr
     assert result.stderr.strip().count("\n") == 0
@@ -94,9 +90,8 @@ def test_a_base_without_a_wheel_radius_is_refused_before_anything_moves(tmp_path
 def test_a_speed_over_the_motors_limit_is_refused_in_one_line(tmp_path: Path) -> None:
     """The EX-106+'s no-load 91 rpm on a 5.2 cm wheel is 0.50 m/s: 2 m/s is refused before the
     wheels move."""
-    result = subprocess.run([sys.executable, "-m", "servolab", "drive", "line", "--distance",
-                             "1", "--speed", "2", "--out", str(tmp_path / "run")],
-                            capture_output=True, text=True, timeout=120)
+    result = servolab("drive", "line", "--distance", "1", "--speed", "2", "--out",
+                      str(tmp_path / "run"), timeout=120)
     assert result.returncode != 0
     assert result.stderr.strip().count("\n") == 0, result.stderr
     assert "over the EX-106+'s" in result.stderr and "rad/s" in result.stderr

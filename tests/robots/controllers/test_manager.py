@@ -24,6 +24,7 @@ from typing import Any
 
 import pytest
 
+from servolab.dynamixel.wire import wire_time
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.robots.armstrong import hardware as armstrong
@@ -179,8 +180,12 @@ def test_the_wire_sets_the_rate(robot: Robot, caplog: pytest.LogCaptureFixture) 
     """At 57142 bps 20 READs of the 17 bytes from goal_position (8-byte instruction, 23-byte
     status) take 119 ms with the factory return delay: update_rate 20 Hz cannot be met, and
     the manager says so and updates as fast as the wire allows."""
-    manager = robot.manager
-    reads = 20 * (31 * 10 / 57142 + 250 * 2e-6)
+    manager, bus, proto = robot.manager, robot.bus, robot.bus.proto
+    read = proto.encode_instruction(proto.read(11, 30, 17))  # get_feedback's READ of 30..46
+    assert (len(read), proto.status_size(17)) == (8, 23)
+    delay = float(bus.read(11, "return_delay_time"))
+    assert delay == pytest.approx(250 * 2e-6)  # the factory return delay (RX-28 e-Manual)
+    reads = 20 * (wire_time(len(read) + proto.status_size(17), bus.baudrate) + delay)
     assert reads == pytest.approx(0.1185, abs=1e-4)
     sync = manager.update_time - reads  # the SYNC_WRITE of 20 goals: 8 + 20 x 3 bytes
     assert sync == pytest.approx((8 + 20 * 3) * 10 / 57142, abs=1e-9)

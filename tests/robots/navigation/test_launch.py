@@ -9,14 +9,13 @@ is the system clock: docs.ros.org, "Clock and Time"), within a second of ``time.
 from __future__ import annotations
 
 import math
-import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from tests.clirun import launched, servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 GOAL = (1.2, 0.6)
@@ -31,56 +30,48 @@ def test_a_goal_on_goal_pose_is_reached_by_the_launch_over_zenoh() -> None:
     from servolab.robots.navigation.navigator import NAV2_MSGS, STATUS_TOPIC
     from servolab.robots.navigation.params import DEFAULT_DWA, load_dwa
     from servolab.robots.navigation.tracker_node import LATCHED
-    from tests.processes import started
-    from tests.waiting import wait_for_line
 
-    launch = [sys.executable, "-m", "servolab", "launch",
-              str(ROOT / "configs" / "navigation.launch.yaml")]
-    with started(launch, stderr_to_stdout=True) as nav:
-        said = wait_for_line(nav, "other tools: --connect", timeout=60.0)
-        endpoint = re.findall(r"--connect (tcp/\S+?)\)", said[-1])[0]
-        with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
-            ctx.types.register_msgs(NAV2_MSGS)
-            probe = Node(ctx, "probe")
-            statuses: list[Any] = []
-            truth: list[Any] = []
-            late: list[float] = []
+    with launched(ROOT / "configs" / "navigation.launch.yaml") as (_, endpoint), \
+            Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
+        ctx.types.register_msgs(NAV2_MSGS)
+        probe = Node(ctx, "probe")
+        statuses: list[Any] = []
+        truth: list[Any] = []
+        late: list[float] = []
 
-            def on_pose(msg: Any) -> None:
-                late.append(time.time() - seconds_of(msg.header.stamp))
+        def on_pose(msg: Any) -> None:
+            late.append(time.time() - seconds_of(msg.header.stamp))
 
-            probe.create_subscription("action_msgs/msg/GoalStatusArray", STATUS_TOPIC,
-                                      statuses.append, LATCHED)
-            probe.create_subscription("nav_msgs/msg/Odometry", "/ground_truth",
-                                      truth.append, 0)
-            probe.create_subscription("geometry_msgs/msg/PoseStamped", "/fused_pose",
-                                      on_pose, 0)
-            # the localiser publishes once the tracker (calibrated at start) sees the robot
-            assert ctx.spin_until(lambda: len(late) >= 3, timeout=90.0), \
-                "no /fused_pose: the tracker never saw the robot"
-            x, y = GOAL
-            goal = (f"{{header: {{frame_id: map}}, pose: {{position: {{x: {x}, y: {y}}}, "
-                    "orientation: {w: 1.0}}}")
-            pub = subprocess.run(
-                [sys.executable, "-m", "servolab", "topic", "pub", "/goal_pose",
-                 "geometry_msgs/msg/PoseStamped", goal, "--count", "1", "--connect",
-                 endpoint], capture_output=True, text=True, timeout=60)
-            assert pub.returncode == 0, pub.stderr
+        probe.create_subscription("action_msgs/msg/GoalStatusArray", STATUS_TOPIC,
+                                  statuses.append, LATCHED)
+        probe.create_subscription("nav_msgs/msg/Odometry", "/ground_truth",
+                                  truth.append, 0)
+        probe.create_subscription("geometry_msgs/msg/PoseStamped", "/fused_pose",
+                                  on_pose, 0)
+        # the localiser publishes once the tracker (calibrated at start) sees the robot
+        assert ctx.spin_until(lambda: len(late) >= 3, timeout=90.0), \
+            "no /fused_pose: the tracker never saw the robot"
+        x, y = GOAL
+        goal = (f"{{header: {{frame_id: map}}, pose: {{position: {{x: {x}, y: {y}}}, "
+                "orientation: {w: 1.0}}}")
+        pub = servolab("topic", "pub", "/goal_pose", "geometry_msgs/msg/PoseStamped", goal,
+                       "--count", "1", "--connect", endpoint, timeout=60)
+        assert pub.returncode == 0, pub.stderr
 
-            def last_status() -> int | None:
-                if not statuses or not statuses[-1].status_list:
-                    return None
-                return int(statuses[-1].status_list[-1].status)
+        def last_status() -> int | None:
+            if not statuses or not statuses[-1].status_list:
+                return None
+            return int(statuses[-1].status_list[-1].status)
 
-            assert ctx.spin_until(lambda: last_status() in (4, 5, 6), timeout=60.0), \
-                statuses[-1:]
-            assert last_status() == 4  # SUCCEEDED
-            x = truth[-1].pose.pose.position.x
-            y = truth[-1].pose.pose.position.y
-            tolerance = load_dwa(DEFAULT_DWA).xy_goal_tolerance
-            assert math.hypot(x - GOAL[0], y - GOAL[1]) <= tolerance + 0.03
-            # wall-clock stamps (not seconds since boot): the least delayed message shows the
-            # stamps' clock within a second of time.time() (a busy machine delays some more)
-            assert late and min(abs(d) for d in late) < 1.0, late[:5]
-            stamp = statuses[-1].status_list[-1].goal_info.stamp
-            assert abs(time.time() - seconds_of(stamp)) < 30.0
+        assert ctx.spin_until(lambda: last_status() in (4, 5, 6), timeout=60.0), \
+            statuses[-1:]
+        assert last_status() == 4  # SUCCEEDED
+        x = truth[-1].pose.pose.position.x
+        y = truth[-1].pose.pose.position.y
+        tolerance = load_dwa(DEFAULT_DWA).xy_goal_tolerance
+        assert math.hypot(x - GOAL[0], y - GOAL[1]) <= tolerance + 0.03
+        # wall-clock stamps (not seconds since boot): the least delayed message shows the
+        # stamps' clock within a second of time.time() (a busy machine delays some more)
+        assert late and min(abs(d) for d in late) < 1.0, late[:5]
+        stamp = statuses[-1].status_list[-1].goal_info.stamp
+        assert abs(time.time() - seconds_of(stamp)) < 30.0

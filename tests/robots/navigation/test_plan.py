@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -16,6 +14,7 @@ import pytest
 
 from servolab.cli import main
 from servolab.planning.costmap import traversal_costs
+from tests.clirun import servolab
 
 SQRT2 = math.sqrt(2.0)
 
@@ -168,15 +167,13 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path,
 
 def test_the_command_line_exit_codes(tmp_path: Path) -> None:
     mapfile = str(_image(tmp_path, _corridor_map()))
-    ok = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", mapfile,
-                         "--start", "10", "15", "--goal", "90", "15", "--out",
-                         str(tmp_path / "ok")], capture_output=True, text=True, timeout=60)
+    ok = servolab("plan", "--map", mapfile, "--start", "10", "15", "--goal", "90", "15", "--out",
+                  str(tmp_path / "ok"), timeout=60)
     assert ok.returncode == 0, ok.stderr
     assert "ignored keys of" in ok.stdout and "obstacle_layer" in ok.stdout
     assert (tmp_path / "ok" / "summary.json").exists()
-    bad = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", mapfile,
-                          "--start", "10", "15", "--goal", "49", "20"],
-                         capture_output=True, text=True, timeout=60)
+    bad = servolab("plan", "--map", mapfile, "--start", "10", "15", "--goal", "49", "20",
+                   timeout=60)
     assert bad.returncode == 2  # bad input
     assert bad.stderr.strip().splitlines() == [
         "servolab plan: error: goal (49, 20) is inside an obstacle (a pixel darker than 128 in "
@@ -191,10 +188,8 @@ def test_options_that_cannot_apply_are_refused(tmp_path: Path, extra: list[str],
                                                says: str) -> None:
     image = tmp_path / "map.png"
     cv2.imwrite(str(image), np.full((20, 20), 255, np.uint8))
-    result = subprocess.run([sys.executable, "-m", "servolab", "plan", "--map", str(image),
-                             "--start", "1", "1", "--goal", "18", "18", *extra, "--out",
-                             str(tmp_path / "run")], capture_output=True, text=True,
-                            timeout=120)
+    result = servolab("plan", "--map", str(image), "--start", "1", "1", "--goal", "18", "18",
+                      *extra, "--out", str(tmp_path / "run"), timeout=120)
     assert result.returncode == 2
     assert says in result.stderr and result.stderr.strip().count("\n") == 0
 

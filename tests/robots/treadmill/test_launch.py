@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,7 +21,7 @@ from servolab.robots.errors import RobotError
 from servolab.robots.treadmill.logs import read_encoder_log, read_fly_log
 from servolab.robots.treadmill.node import TREADMILL_IDS
 from servolab.robots.treadmill.rig import SENSOR_STATE, TreadmillRig
-from tests.processes import run_to_end
+from tests.clirun import servolab
 
 ROOT = Path(__file__).resolve().parents[3]
 LAUNCH = ROOT / "configs" / "flyball.launch.yaml"
@@ -38,8 +37,9 @@ def test_camera_pc_and_robot_in_two_processes(tmp_path: Path) -> None:
     path.write_text(text.replace(shipped, f'parameters: {{duration: 4.0, seed: 0, '
                                           f'out: "{out}"}}'))
     # to its end; on a timeout the launcher gets SIGTERM and whatever is left of its
-    # children's process groups is killed (run_to_end), so no camera PC or robot outlives it
-    result = run_to_end([sys.executable, "-m", "servolab", "launch", str(path)], timeout=180)
+    # children's process groups is killed (tests/clirun.py servolab), so no camera PC or
+    # robot outlives it
+    result = servolab("launch", str(path), timeout=180)
     said = result.stdout + result.stderr
     assert result.returncode == 0, said[-3000:]
     pids = set(re.findall(r"started (?:treadmill|robot) \(pid (\d+)\)", said))
@@ -150,7 +150,7 @@ nodes:
     process: camera_pc
     required: true
 """)
-    result = run_to_end([sys.executable, "-m", "servolab", "launch", str(path)], timeout=120)
+    result = servolab("launch", str(path), timeout=120)
     said = result.stdout + result.stderr
     assert result.returncode == 1, said[-3000:]
     assert "robot was never heard" in said
