@@ -162,6 +162,7 @@ def test_the_written_urdf_reads_the_same_in_urdf_parser_py_and_here(
         if link.inertial is not None:
             assert robot.link_map[link.name].inertial.mass == link.inertial.mass
     assert Description.from_urdf(text).joints == described.joints
+    assert described.urdf() == text
 
 
 def test_motors_write_transmissions_whose_reduction_is_direction_times_gear_ratio(
@@ -200,8 +201,8 @@ def test_the_mjcf_has_no_floor_and_a_fixed_base_unless_asked(described: Descript
     assert model.eq_obj2id[0] == model.joint("left_finger_joint").id
     np.testing.assert_allclose(model.eq_data[0][:5], [0.1, -1.5, 0, 0, 0])
 
-    free = mujoco.MjModel.from_xml_string(mjcf(described, floor=True, free_base=True,
-                                               base_height=0.5))
+    free = mujoco.MjModel.from_xml_string(described.mjcf(floor=True, free_base=True,
+                                                         base_height=0.5))
     assert free.nq == 7 + 4 and free.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
     floor = free.geom("floor")
     assert floor.type[0] == mujoco.mjtGeom.mjGEOM_PLANE
@@ -288,6 +289,7 @@ def test_armstrongs_description_is_the_generic_one() -> None:
 
     armstrong = describe()
     assert isinstance(armstrong, Description)
+    assert armstrong.urdf() == model_file("urdf") and armstrong.mjcf() == model_file("mjcf")
     read = Description.from_urdf(model_file("urdf"), "armstrong.urdf")
     assert [(j.name, j.kind, j.parent, j.child, j.origin, j.axis) for j in read.joints] == [
         (j.name, j.kind, j.parent, j.child, j.origin, j.axis) for j in armstrong.joints]

@@ -32,7 +32,7 @@ import math
 import xml.etree.ElementTree as ET
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import KW_ONLY, dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -310,6 +310,14 @@ class Description:
     def from_urdf(cls, text: str, source: str = "<urdf>") -> Description:
         """The description a URDF states (see :func:`read_urdf`)."""
         return read_urdf(text, source)
+
+    def urdf(self) -> str:
+        """This description as a URDF (:func:`urdf`)."""
+        return urdf(self)
+
+    def mjcf(self, drive: Drives = "position", **options: Any) -> str:
+        """This description as an MJCF (:func:`mjcf`: ``floor``, ``free_base``, ...)."""
+        return mjcf(self, drive, **options)
 
     def link(self, name: str) -> Link:
         for link in self.links:
