@@ -17,6 +17,7 @@ Facts and oracles, none of them servolab's:
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -24,7 +25,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from urdf_parser_py.urdf import URDF
 
-from servolab.robots.description import Description, Mimic, Motor, mjcf, urdf
+from servolab.robots.description import SPECK_KG, Description, Mimic, Motor, mjcf, urdf
 from servolab.robots.errors import RobotValueError
 from tests.robots.urdf_oracle import urdf_fk
 
@@ -209,6 +210,19 @@ def test_the_mjcf_has_no_floor_and_a_fixed_base_unless_asked(described: Descript
     data = mujoco.MjData(free)
     mujoco.mj_forward(free, data)
     assert data.xpos[free.body("base_link").id][2] == pytest.approx(0.5)
+
+
+def test_a_urdf_without_inertials_still_makes_a_model_mujoco_takes() -> None:
+    bare = re.sub(r"<inertial>.*?</inertial>", "", ARM, flags=re.S)
+    d = Description.from_urdf(bare)
+    assert d.total_mass == 0.0
+    model = mujoco.MjModel.from_xml_string(mjcf(d))
+    mass = {name: float(model.body(name).mass[0]) for name in
+            ("carriage", "wrist", "left_finger", "right_finger")}
+    # shapes at MuJoCo's default density (1000 kg/m³), a bare or mesh-only moving link a speck
+    assert mass["carriage"] == pytest.approx(1000 * math.pi * 0.015 ** 2 * 0.1)
+    assert mass["wrist"] == pytest.approx(1000 * 4 / 3 * math.pi * 0.02 ** 3)
+    assert mass["left_finger"] == mass["right_finger"] == SPECK_KG
 
 
 @pytest.mark.parametrize("trial", range(3))

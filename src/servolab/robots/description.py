@@ -724,6 +724,8 @@ def urdf(description: Description) -> str:
 #: other too, and no other pair meets (rough shapes that overlap at their joints).
 _CONTACT_BITS: dict[Contact, tuple[int, int]] = {"none": (0, 0), "floor": (2, 0), "all": (1, 1)}
 _FLOOR_BITS = (1, 3)
+#: The mass (kg) given to a moving link that has none (see _MjcfBodies.children)
+SPECK_KG = 1e-6
 #: MuJoCo's own default physics step (s)
 TIMESTEP = 0.002
 
@@ -751,8 +753,9 @@ def _placed(attributes: dict[str, str], rpy: Vec3) -> dict[str, str]:
 
 
 def _solid(link: Link) -> bool:
-    """A link that is more than a frame: it has shapes or mass."""
-    return bool(link.shapes) or link.inertial.mass > 0
+    """A link that is more than a frame in the MJCF: it has mass, or shapes MuJoCo draws
+    (a mesh is the viewers' only)."""
+    return link.inertial.mass > 0 or any(not isinstance(s, Mesh) for s in link.shapes)
 
 
 def mjcf(description: Description, drive: Drives = "position", *, floor: bool = False,
@@ -764,7 +767,9 @@ def mjcf(description: Description, drive: Drives = "position", *, floor: bool = 
     revolute joints as hinges with their range, continuous ones as hinges without, prismatic
     ones as slides, mimic joints tied to their leaders by a joint equality (``polycoef``
     offset, multiplier), ``welded`` joints (one nothing turns) left fixed, and a frame-only
-    link on a fixed joint as a site.
+    link on a fixed joint as a site. A link's mass is its inertial's; a link with shapes but
+    no mass gets MuJoCo's (its shapes at water's density), a moving link with neither a speck
+    (:data:`SPECK_KG`), as MuJoCo refuses a massless moving body.
 
     ``drive="position"``: a position actuator per motor joint named by its motor, whose control
     is the horn angle (``gear`` = direction x gear ratio) within the joint's range, its
@@ -903,8 +908,14 @@ class _MjcfBodies:
             element = ET.SubElement(body, "body", _placed({"name": child.name,
                                                            "pos": _nums(joint.origin)},
                                                           joint.rpy))
-            if joint.movable and joint.name not in self.welded:
+            moves = joint.movable and joint.name not in self.welded
+            if moves:
                 self._joint(element, joint)
+            if moves and not _solid(child):
+                # MuJoCo refuses a moving body without mass (a URDF link with no
+                # <inertial>, a finger's frame): a speck of one, too small to matter
+                ET.SubElement(element, "inertial", pos="0 0 0", mass=_num(SPECK_KG),
+                              diaginertia=_nums((SPECK_KG * 1e-4,) * 3))
             self.body(element, child)
 
     def _joint(self, element: ET.Element, joint: Joint) -> None:
