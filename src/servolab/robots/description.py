@@ -351,11 +351,8 @@ class Description:
     def with_motors(self, motors: Mapping[str, Motor]) -> Description:
         """This description with ``motors`` (joint name -> motor) on their joints, as a
         ``<ros2_control>`` block assigns them; an unknown or fixed joint is refused."""
-        names = [j.name for j in self.joints]
         for name in motors:
-            joint = self.joint(name) if name in names else None
-            if joint is None:
-                raise RobotValueError(self._unknown("joint", name, names))
+            joint = self.joint(name)
             if not joint.movable or joint.mimic is not None:
                 raise RobotValueError(f"{self.name}: joint {name!r} is {joint.kind}"
                                       f"{' (a mimic)' if joint.mimic else ''}: no motor turns it")
@@ -410,6 +407,10 @@ class _Reader:
         if element is None or element.get(attribute) is None:
             return default
         return self.floats(element, attribute, 1, None, where)[0]
+
+    def value(self, element: ET.Element, attribute: str, where: str, default: float) -> float:
+        """A number attribute, ``default`` where it is not given."""
+        return self.floats(element, attribute, 1, (default,), where)[0]
 
     def origin(self, parent: ET.Element, where: str) -> tuple[Vec3, Vec3]:
         origin = parent.find("origin")
@@ -469,9 +470,9 @@ class _Reader:
             if mass is None or mass < 0:
                 raise self.fail(f"{where} <inertial> <mass>", "needs value= a number >= 0")
             i = node.find("inertia")
-            six = [self.number(i, k, f"{where} <inertial> <inertia>", 0.0)
-                   for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")]
-            ixx, iyy, izz, ixy, ixz, iyz = (float(v or 0.0) for v in six)
+            ixx, iyy, izz, ixy, ixz, iyz = (
+                0.0 if i is None else self.value(i, k, f"{where} <inertial> <inertia>", 0.0)
+                for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
             tensor = _turned(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]), rpy)
             inertial = Inertial(mass, com, tuple(vec3(row) for row in tensor))
         shapes: list[Shape] = []
@@ -518,14 +519,15 @@ class _Reader:
             raise self.fail(f"{where} <axis>", "xyz='0 0 0' is not a direction")
         limit = element.find("limit")
         lw = f"{where} <limit>"
-        lower = upper = None
+        lower: float | None = None
+        upper: float | None = None
         if kind in ("revolute", "prismatic"):
             if limit is None:
                 raise self.fail(where, f"a {kind} joint needs <limit lower= upper= effort= "
                                        "velocity=> (the URDF's rule)")
-            lower = self.number(limit, "lower", lw, 0.0)
-            upper = self.number(limit, "upper", lw, 0.0)
-            if lower is not None and upper is not None and lower > upper:
+            lower = self.value(limit, "lower", lw, 0.0)    # the URDF's defaults: 0
+            upper = self.value(limit, "upper", lw, 0.0)
+            if lower > upper:
                 raise self.fail(lw, f"lower={lower:g} is above upper={upper:g}")
         dynamics = element.find("dynamics")
         dw = f"{where} <dynamics>"
@@ -535,9 +537,8 @@ class _Reader:
             leader = node.get("joint")
             if not leader:
                 raise self.fail(f"{where} <mimic>", "needs joint=")
-            mimic = Mimic(leader, float(self.number(node, "multiplier", f"{where} <mimic>", 1.0)
-                                        or 0.0),
-                          float(self.number(node, "offset", f"{where} <mimic>", 0.0) or 0.0))
+            mimic = Mimic(leader, self.value(node, "multiplier", f"{where} <mimic>", 1.0),
+                          self.value(node, "offset", f"{where} <mimic>", 0.0))
         return Joint(name, kind, ends[0], ends[1], origin,
                      axis if kind != "fixed" else (1.0, 0.0, 0.0), lower, upper, None, rpy,
                      self.number(limit, "effort", lw), self.number(limit, "velocity", lw),
