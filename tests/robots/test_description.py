@@ -261,6 +261,8 @@ def test_a_world_link_is_the_world_and_a_joint_can_be_welded() -> None:
     assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base_link") == 1
     assert model.body("base_link").parentid[0] == 0          # MuJoCo's world body
     assert model.nq == 3                                      # the wrist welded
+    with pytest.raises(RobotValueError, match="root link is 'world'"):
+        mjcf(d, free_base=True)
 
 
 @pytest.mark.parametrize(("change", "words"), [

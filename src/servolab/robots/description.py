@@ -780,6 +780,9 @@ def mjcf(description: Description, drive: Drives = "position", *, floor: bool = 
     if drive not in ("position", "firmware"):
         raise RobotValueError(f"no MJCF drive {drive!r}: one of position, firmware")
     d = description
+    if free_base and d.root == "world":
+        raise RobotValueError(f"{d.name}: its root link is 'world', which a URDF fixes the "
+                              "robot to: it cannot have a free base")
     firmware = drive == "firmware"
     root = ET.Element("mujoco", model=d.name)
     if d.comment:
