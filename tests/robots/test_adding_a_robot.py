@@ -23,6 +23,7 @@ import pytest
 
 import servolab.robots
 from servolab.cli import main
+from tests.clirun import one_line, servolab
 from tests.robots.adding_a_robot import blocks, commands, examples, write_files
 from tests.simproc import sim_process
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, NodeClient, node_client, started_client
@@ -72,8 +73,8 @@ def test_the_folder_robot_is_listed_and_its_urdf_shown(robot_path: Path,
     assert main(shlex.split(show)[1:]) == 0
     assert capsys.readouterr().out == (robot_path / "robots/pan_tilt/pan_tilt.urdf").read_text()
     # another process finds it through the environment alone
-    listed = subprocess.run([sys.executable, "-m", "servolab", "robots"], capture_output=True,
-                            text=True, timeout=120, check=True)
+    listed = servolab("robots")
+    assert listed.returncode == 0, listed.stderr
     assert "pan_tilt: a pan-tilt head of two XM430-W350" in listed.stdout
 
 
@@ -97,8 +98,9 @@ def test_a_goal_outside_the_urdf_limits_is_refused_before_anything_moves(
 
     with servolab.robots.load("pan_tilt") as head:
         with pytest.raises(RobotValueError, match=r"^pan_tilt: joint tilt: goal 2 rad is outside "
-                           r"its URDF limits \[-1\.5, 1\.5\]$"):
+                           r"its URDF limits \[-1\.5, 1\.5\]$") as caught:
             head.move_to({"pan": 0.5, "tilt": 2.0})
+        one_line(caught, "pan_tilt", "tilt")
         assert head.bus.read(1, "torque_enable") == 0  # the pan was not sent either
         with pytest.raises(ValueError, match="no Dynamixel joint 'roll'; there are pan, tilt"):
             head.move_to({"roll": 0.1})
@@ -159,8 +161,11 @@ def test_a_package_declaring_the_entry_point_is_found_and_moves_both_joints(
                    capture_output=True)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(site), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    listed = subprocess.run([sys.executable, "-m", *shlex.split(listing)], env=env, check=True,
-                            capture_output=True, text=True, timeout=120).stdout
+    argv = shlex.split(listing)
+    assert argv[0] == "servolab"
+    ran = servolab(*argv[1:], env=env)
+    assert ran.returncode == 0, ran.stderr
+    listed = ran.stdout
     assert "lab_pan_tilt: our lab's pan-tilt head, two XM430-W350" in listed
     assert "2 x XM430-W350 (IDs 1-2), Protocol 2.0, 1000000 bps" in listed
     assert "from:    entry point lab_pan_tilt = 'lab_robots.pan_tilt:PLUGIN'" in listed

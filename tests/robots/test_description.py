@@ -17,6 +17,7 @@ Facts and oracles, none of them servolab's:
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -24,7 +25,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from urdf_parser_py.urdf import URDF
 
-from servolab.robots.description import Description, Mimic, Motor, mjcf, urdf
+from servolab.robots.description import SPECK_KG, Description, Mimic, Motor, mjcf, urdf
 from servolab.robots.errors import RobotValueError
 from tests.robots.urdf_oracle import urdf_fk
 
@@ -162,6 +163,7 @@ def test_the_written_urdf_reads_the_same_in_urdf_parser_py_and_here(
         if link.inertial is not None:
             assert robot.link_map[link.name].inertial.mass == link.inertial.mass
     assert Description.from_urdf(text).joints == described.joints
+    assert described.urdf() == text
 
 
 def test_motors_write_transmissions_whose_reduction_is_direction_times_gear_ratio(
@@ -200,14 +202,27 @@ def test_the_mjcf_has_no_floor_and_a_fixed_base_unless_asked(described: Descript
     assert model.eq_obj2id[0] == model.joint("left_finger_joint").id
     np.testing.assert_allclose(model.eq_data[0][:5], [0.1, -1.5, 0, 0, 0])
 
-    free = mujoco.MjModel.from_xml_string(mjcf(described, floor=True, free_base=True,
-                                               base_height=0.5))
+    free = mujoco.MjModel.from_xml_string(described.mjcf(floor=True, free_base=True,
+                                                         base_height=0.5))
     assert free.nq == 7 + 4 and free.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
     floor = free.geom("floor")
     assert floor.type[0] == mujoco.mjtGeom.mjGEOM_PLANE
     data = mujoco.MjData(free)
     mujoco.mj_forward(free, data)
     assert data.xpos[free.body("base_link").id][2] == pytest.approx(0.5)
+
+
+def test_a_urdf_without_inertials_still_makes_a_model_mujoco_takes() -> None:
+    bare = re.sub(r"<inertial>.*?</inertial>", "", ARM, flags=re.S)
+    d = Description.from_urdf(bare)
+    assert d.total_mass == 0.0
+    model = mujoco.MjModel.from_xml_string(mjcf(d))
+    mass = {name: float(model.body(name).mass[0]) for name in
+            ("carriage", "wrist", "left_finger", "right_finger")}
+    # shapes at MuJoCo's default density (1000 kg/m³), a bare or mesh-only moving link a speck
+    assert mass["carriage"] == pytest.approx(1000 * math.pi * 0.015 ** 2 * 0.1)
+    assert mass["wrist"] == pytest.approx(1000 * 4 / 3 * math.pi * 0.02 ** 3)
+    assert mass["left_finger"] == mass["right_finger"] == SPECK_KG
 
 
 @pytest.mark.parametrize("trial", range(3))
@@ -246,6 +261,8 @@ def test_a_world_link_is_the_world_and_a_joint_can_be_welded() -> None:
     assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base_link") == 1
     assert model.body("base_link").parentid[0] == 0          # MuJoCo's world body
     assert model.nq == 3                                      # the wrist welded
+    with pytest.raises(RobotValueError, match="root link is 'world'"):
+        mjcf(d, free_base=True)
 
 
 @pytest.mark.parametrize(("change", "words"), [
@@ -288,6 +305,7 @@ def test_armstrongs_description_is_the_generic_one() -> None:
 
     armstrong = describe()
     assert isinstance(armstrong, Description)
+    assert armstrong.urdf() == model_file("urdf") and armstrong.mjcf() == model_file("mjcf")
     read = Description.from_urdf(model_file("urdf"), "armstrong.urdf")
     assert [(j.name, j.kind, j.parent, j.child, j.origin, j.axis) for j in read.joints] == [
         (j.name, j.kind, j.parent, j.child, j.origin, j.axis) for j in armstrong.joints]

@@ -20,6 +20,7 @@ from servolab.errors import ConfigFileError
 from servolab.robots.dynamixel_system import dynamixel_system
 from servolab.robots.hardware_info import HardwareInfoError, parse_control_resources
 from servolab.robots.registry import RobotPluginError, discover
+from tests.clirun import one_line
 from tests.robots.adding_a_robot import write_files
 
 ARM = """<?xml version="1.0"?>
@@ -126,7 +127,7 @@ def test_a_block_servolab_cannot_drive_is_one_line_naming_the_element(urdf: str,
                                                                        message: str) -> None:
     with pytest.raises(HardwareInfoError, match=message) as caught:
         dynamixel_system(urdf, "arm.urdf")
-    assert "\n" not in str(caught.value)
+    one_line(caught, "arm.urdf")
 
 
 @pytest.fixture

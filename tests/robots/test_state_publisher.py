@@ -30,7 +30,11 @@ from servolab.middleware.context import Context
 from servolab.middleware.node import Node
 from servolab.middleware.qos import qos_profile_latched
 from servolab.robots.errors import RobotValueError
-from servolab.robots.state_publisher import RobotStatePublisher, follow_mimics
+from servolab.robots.state_publisher import (
+    ControllerStates,
+    RobotStatePublisher,
+    follow_mimics,
+)
 from tests.robots.test_description import ARM
 from tests.robots.urdf_oracle import tf_chain, urdf_fk
 
@@ -167,3 +171,30 @@ def test_a_bad_description_is_refused_in_one_line() -> None:
         message = str(caught.value)
         assert "\n" not in message
         assert "right_finger_joint" in message and "<mimic>" in message and "lots" in message
+
+
+def test_with_controllers_it_publishes_joint_states_and_the_mimic_follows() -> None:
+    """The option Armstrong uses: dynamixel_msgs controller states in, /joint_states out;
+    the arm's <transmission> names actuator m1 on the lift, reduction 1."""
+    with Context.open(clock=VirtualClock()) as context:
+        publisher = RobotStatePublisher(context, ARM,
+                                        controllers=ControllerStates(("controller_m1",)))
+        driver = Driver(context)
+        heard: list[Any] = []
+        driver.create_subscription("sensor_msgs/msg/JointState", "/joint_states",
+                                   heard.append, 10)
+        report = driver.create_publisher("dynamixel_msgs/msg/JointState",
+                                         "/controller_m1/state", 10)
+        report.publish(driver.message("dynamixel_msgs/msg/JointState", name="controller_m1",
+                                      current_pos=0.12, velocity=0.01))
+        _spin(context, lambda: heard and driver.tf)
+        (state,) = heard
+        positions = dict(zip(state.name, state.position, strict=True))
+        # the lift where its controller says; the mimic at -1.5 x 0 + 0.1 from its leader at 0
+        assert positions == pytest.approx({"lift": 0.12, "wrist_roll": 0.0,
+                                           "left_finger_joint": 0.0,
+                                           "right_finger_joint": 0.1})
+        assert "/joint_states" in publisher.topics
+        with pytest.raises(RobotValueError, match="no transmission whose actuator is 'm9'"):
+            RobotStatePublisher(context, ARM, name="other",
+                                controllers=ControllerStates(("controller_m9",)))

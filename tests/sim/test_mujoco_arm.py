@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from servolab.dynamixel.bus import Bus
-from servolab.robots.description import Box, Description, Joint, Link, Motor, mjcf
+from servolab.robots.description import Box, Description, Joint, Link, Mimic, Motor, mjcf
 from servolab.sim import MujocoWorld, ServoJoint, Simulation
 
 mujoco = pytest.importorskip("mujoco")
@@ -39,6 +39,8 @@ def arm() -> Description:
         Link("finger", (Box("finger_box", (0.02, 0.01, 0.04), (0.0, 0.0, -0.02),
                             mass=0.02),)),
         Link("tool"),
+        Link("other_finger", (Box("other_box", (0.02, 0.01, 0.04), (0.0, 0.0, -0.02),
+                                  mass=0.02),)),
     )
     joints = (
         Joint("shoulder", "revolute", "base", "upper_arm", (0.0, 0.0, 0.06), (0.0, 0.0, 1.0),
@@ -47,6 +49,10 @@ def arm() -> Description:
               (1.0, 0.0, 0.0), 0.0, 0.03, Motor(2, "XM430-W350", gear_ratio=slide_ratio),
               armature=HORN_INERTIA * slide_ratio ** 2),
         Joint("tool_joint", "fixed", "finger", "tool", (0.0, 0.0, -0.04)),
+        # the second finger on the same pinion, the other side of it: it moves the other way
+        Joint("other_finger_slide", "prismatic", "upper_arm", "other_finger",
+              (0.15, 0.0, 0.0), (1.0, 0.0, 0.0), -0.03, 0.0,
+              armature=HORN_INERTIA * slide_ratio ** 2, mimic=Mimic("finger_slide", -1.0)),
     )
     return Description("gripper_arm", "base", links, joints)
 
@@ -80,6 +86,10 @@ def test_a_hinge_and_a_geared_slide_reach_their_commanded_positions() -> None:
     slide = world.model.joint("finger_slide").qposadr[0]
     turn = bus.read(2, "present_position")
     assert world.data.qpos[slide] == pytest.approx(PINION_RADIUS * turn, abs=1e-9)
+    # and the mimic finger the other way (URDF <mimic multiplier="-1">, MuJoCo's soft
+    # joint equality: within a tenth of a millimetre)
+    other = world.model.joint("other_finger_slide").qposadr[0]
+    assert world.data.qpos[other] == pytest.approx(-world.data.qpos[slide], abs=1e-4)
     # the tool frame (a site) went with it: shoulder turned 0.7 rad about z
     tool = world.data.site("tool").xpos
     reach = 0.15 + 0.02

@@ -32,7 +32,7 @@ import math
 import xml.etree.ElementTree as ET
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import KW_ONLY, dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -311,6 +311,14 @@ class Description:
         """The description a URDF states (see :func:`read_urdf`)."""
         return read_urdf(text, source)
 
+    def urdf(self) -> str:
+        """This description as a URDF (:func:`urdf`)."""
+        return urdf(self)
+
+    def mjcf(self, drive: Drives = "position", **options: Any) -> str:
+        """This description as an MJCF (:func:`mjcf`: ``floor``, ``free_base``, ...)."""
+        return mjcf(self, drive, **options)
+
     def link(self, name: str) -> Link:
         for link in self.links:
             if link.name == name:
@@ -343,11 +351,8 @@ class Description:
     def with_motors(self, motors: Mapping[str, Motor]) -> Description:
         """This description with ``motors`` (joint name -> motor) on their joints, as a
         ``<ros2_control>`` block assigns them; an unknown or fixed joint is refused."""
-        names = [j.name for j in self.joints]
         for name in motors:
-            joint = self.joint(name) if name in names else None
-            if joint is None:
-                raise RobotValueError(self._unknown("joint", name, names))
+            joint = self.joint(name)
             if not joint.movable or joint.mimic is not None:
                 raise RobotValueError(f"{self.name}: joint {name!r} is {joint.kind}"
                                       f"{' (a mimic)' if joint.mimic else ''}: no motor turns it")
@@ -402,6 +407,10 @@ class _Reader:
         if element is None or element.get(attribute) is None:
             return default
         return self.floats(element, attribute, 1, None, where)[0]
+
+    def value(self, element: ET.Element, attribute: str, where: str, default: float) -> float:
+        """A number attribute, ``default`` where it is not given."""
+        return self.floats(element, attribute, 1, (default,), where)[0]
 
     def origin(self, parent: ET.Element, where: str) -> tuple[Vec3, Vec3]:
         origin = parent.find("origin")
@@ -461,9 +470,9 @@ class _Reader:
             if mass is None or mass < 0:
                 raise self.fail(f"{where} <inertial> <mass>", "needs value= a number >= 0")
             i = node.find("inertia")
-            six = [self.number(i, k, f"{where} <inertial> <inertia>", 0.0)
-                   for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")]
-            ixx, iyy, izz, ixy, ixz, iyz = (float(v or 0.0) for v in six)
+            ixx, iyy, izz, ixy, ixz, iyz = (
+                0.0 if i is None else self.value(i, k, f"{where} <inertial> <inertia>", 0.0)
+                for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
             tensor = _turned(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]), rpy)
             inertial = Inertial(mass, com, tuple(vec3(row) for row in tensor))
         shapes: list[Shape] = []
@@ -510,14 +519,15 @@ class _Reader:
             raise self.fail(f"{where} <axis>", "xyz='0 0 0' is not a direction")
         limit = element.find("limit")
         lw = f"{where} <limit>"
-        lower = upper = None
+        lower: float | None = None
+        upper: float | None = None
         if kind in ("revolute", "prismatic"):
             if limit is None:
                 raise self.fail(where, f"a {kind} joint needs <limit lower= upper= effort= "
                                        "velocity=> (the URDF's rule)")
-            lower = self.number(limit, "lower", lw, 0.0)
-            upper = self.number(limit, "upper", lw, 0.0)
-            if lower is not None and upper is not None and lower > upper:
+            lower = self.value(limit, "lower", lw, 0.0)    # the URDF's defaults: 0
+            upper = self.value(limit, "upper", lw, 0.0)
+            if lower > upper:
                 raise self.fail(lw, f"lower={lower:g} is above upper={upper:g}")
         dynamics = element.find("dynamics")
         dw = f"{where} <dynamics>"
@@ -527,9 +537,8 @@ class _Reader:
             leader = node.get("joint")
             if not leader:
                 raise self.fail(f"{where} <mimic>", "needs joint=")
-            mimic = Mimic(leader, float(self.number(node, "multiplier", f"{where} <mimic>", 1.0)
-                                        or 0.0),
-                          float(self.number(node, "offset", f"{where} <mimic>", 0.0) or 0.0))
+            mimic = Mimic(leader, self.value(node, "multiplier", f"{where} <mimic>", 1.0),
+                          self.value(node, "offset", f"{where} <mimic>", 0.0))
         return Joint(name, kind, ends[0], ends[1], origin,
                      axis if kind != "fixed" else (1.0, 0.0, 0.0), lower, upper, None, rpy,
                      self.number(limit, "effort", lw), self.number(limit, "velocity", lw),
@@ -716,6 +725,8 @@ def urdf(description: Description) -> str:
 #: other too, and no other pair meets (rough shapes that overlap at their joints).
 _CONTACT_BITS: dict[Contact, tuple[int, int]] = {"none": (0, 0), "floor": (2, 0), "all": (1, 1)}
 _FLOOR_BITS = (1, 3)
+#: The mass (kg) given to a moving link that has none (see _MjcfBodies.children)
+SPECK_KG = 1e-6
 #: MuJoCo's own default physics step (s)
 TIMESTEP = 0.002
 
@@ -743,8 +754,9 @@ def _placed(attributes: dict[str, str], rpy: Vec3) -> dict[str, str]:
 
 
 def _solid(link: Link) -> bool:
-    """A link that is more than a frame: it has shapes or mass."""
-    return bool(link.shapes) or link.inertial.mass > 0
+    """A link that is more than a frame in the MJCF: it has mass, or shapes MuJoCo draws
+    (a mesh is the viewers' only)."""
+    return link.inertial.mass > 0 or any(not isinstance(s, Mesh) for s in link.shapes)
 
 
 def mjcf(description: Description, drive: Drives = "position", *, floor: bool = False,
@@ -756,7 +768,9 @@ def mjcf(description: Description, drive: Drives = "position", *, floor: bool = 
     revolute joints as hinges with their range, continuous ones as hinges without, prismatic
     ones as slides, mimic joints tied to their leaders by a joint equality (``polycoef``
     offset, multiplier), ``welded`` joints (one nothing turns) left fixed, and a frame-only
-    link on a fixed joint as a site.
+    link on a fixed joint as a site. A link's mass is its inertial's; a link with shapes but
+    no mass gets MuJoCo's (its shapes at water's density), a moving link with neither a speck
+    (:data:`SPECK_KG`), as MuJoCo refuses a massless moving body.
 
     ``drive="position"``: a position actuator per motor joint named by its motor, whose control
     is the horn angle (``gear`` = direction x gear ratio) within the joint's range, its
@@ -766,6 +780,9 @@ def mjcf(description: Description, drive: Drives = "position", *, floor: bool = 
     if drive not in ("position", "firmware"):
         raise RobotValueError(f"no MJCF drive {drive!r}: one of position, firmware")
     d = description
+    if free_base and d.root == "world":
+        raise RobotValueError(f"{d.name}: its root link is 'world', which a URDF fixes the "
+                              "robot to: it cannot have a free base")
     firmware = drive == "firmware"
     root = ET.Element("mujoco", model=d.name)
     if d.comment:
@@ -895,8 +912,14 @@ class _MjcfBodies:
             element = ET.SubElement(body, "body", _placed({"name": child.name,
                                                            "pos": _nums(joint.origin)},
                                                           joint.rpy))
-            if joint.movable and joint.name not in self.welded:
+            moves = joint.movable and joint.name not in self.welded
+            if moves:
                 self._joint(element, joint)
+            if moves and not _solid(child):
+                # MuJoCo refuses a moving body without mass (a URDF link with no
+                # <inertial>, a finger's frame): a speck of one, too small to matter
+                ET.SubElement(element, "inertial", pos="0 0 0", mass=_num(SPECK_KG),
+                              diaginertia=_nums((SPECK_KG * 1e-4,) * 3))
             self.body(element, child)
 
     def _joint(self, element: ET.Element, joint: Joint) -> None:

@@ -50,6 +50,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
@@ -255,6 +256,12 @@ class Description(GenericDescription):
         by_column = {j.motor.actuator: (j, j.motor) for j in self.joints
                      if j.motor is not None}
         return tuple(by_column[c] for c in MOTORS)
+
+    def mjcf(self, drive: Drives = "position", **options: Any) -> str:
+        """Armstrong's MJCF (:func:`mjcf`: a floor, the pelvis free at standing height, the
+        stand keyframe); with ``options``, the generic writer's (:func:`~servolab.robots.
+        description.mjcf`) instead."""
+        return generic_mjcf(self, drive, **options) if options else mjcf(self, drive)
 
     def motor(self, joint: Joint) -> Motor:
         """``joint``'s motor, with Armstrong's facts (function, on the bus)."""
