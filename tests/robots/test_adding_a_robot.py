@@ -23,7 +23,8 @@ import pytest
 
 import servolab.robots
 from servolab.cli import main
-from tests.clirun import one_line, servolab
+from tests.clirun import one_line
+from tests.clirun import servolab as servolab_command
 from tests.robots.adding_a_robot import blocks, commands, examples, write_files
 from tests.simproc import sim_process
 from tests.viewclient import SDK_V1, WEBSOCKET_V1, NodeClient, node_client, started_client
@@ -73,7 +74,7 @@ def test_the_folder_robot_is_listed_and_its_urdf_shown(robot_path: Path,
     assert main(shlex.split(show)[1:]) == 0
     assert capsys.readouterr().out == (robot_path / "robots/pan_tilt/pan_tilt.urdf").read_text()
     # another process finds it through the environment alone
-    listed = servolab("robots")
+    listed = servolab_command("robots")
     assert listed.returncode == 0, listed.stderr
     assert "pan_tilt: a pan-tilt head of two XM430-W350" in listed.stdout
 
@@ -163,7 +164,7 @@ def test_a_package_declaring_the_entry_point_is_found_and_moves_both_joints(
         [str(site), *filter(None, [os.environ.get("PYTHONPATH")])])}
     argv = shlex.split(listing)
     assert argv[0] == "servolab"
-    ran = servolab(*argv[1:], env=env)
+    ran = servolab_command(*argv[1:], env=env)
     assert ran.returncode == 0, ran.stderr
     listed = ran.stdout
     assert "lab_pan_tilt: our lab's pan-tilt head, two XM430-W350" in listed
