@@ -32,9 +32,6 @@ SETTLE_WINDOW = 0.2
 #: Rates a port is set to for a motor's baud rate register: the one within UART tolerance
 #: (an RX-28's 57142 bps is spoken to at 57600, as the Dynamixel Wizard does), else the
 #: motor's own.
-#: Rates a port is set to for a motor's baud rate register: the one within UART tolerance
-#: (an RX-28's 57142 bps is spoken to at 57600, as the Dynamixel Wizard does), else the
-#: motor's own.
 COMMON_RATES = (9_600, 19_200, 38_400, 57_600, 115_200, 200_000, 230_400, 250_000,
                 400_000, 460_800, 500_000, 921_600, 1_000_000, 2_000_000, 2_250_000,
                 2_500_000, 3_000_000, 4_000_000, 4_500_000)

@@ -401,6 +401,16 @@ class Discovery(BusCore):
                                   "not one servolab knows; declare it with bus.motors[id] = ...")
         return self.motors[motor_id]
 
+    def known_model(self, motor_id: int) -> Model | None:
+        """The model of ``motor_id`` when servolab has its table (declared, or learnt by a
+        PING now), None for a model it does not know (a motor that does not answer raises
+        :class:`NoResponse`)."""
+        self.proto.check_id(motor_id)
+        found = self.motors.get(motor_id)
+        if found is None:
+            found = self.ping(motor_id).model
+        return found
+
     def declare(self, motor_id: int, model_name: str | Model, *,
                 wheel_mode: bool | None = None) -> None:
         """Tell the bus which model ``motor_id`` is, so no PING is needed to learn it, and

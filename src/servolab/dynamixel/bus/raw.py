@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from .. import models as _models
 from ..errors import ConfigError, PacketError
-from ..models import Model
 from ..packets import Protocol
 from ..protocol2 import MAX_LENGTH
 from .commissioning import Commissioning
@@ -51,16 +50,6 @@ class RawAccess(Commissioning):
         if address + size > space:
             raise ConfigError(f"address {address} and {size} bytes run past {space - 1}, the "
                               f"last address of protocol {proto.version}.0")
-
-    def known_model(self, motor_id: int) -> Model | None:
-        """The model of ``motor_id`` when servolab has its table (declared, or learnt by a
-        PING now), None for a model it does not know (a motor that does not answer raises
-        :class:`NoResponse`)."""
-        self.proto.check_id(motor_id)
-        found = self.motors.get(motor_id)
-        if found is None:
-            found = self.ping(motor_id).model
-        return found
 
     def read_address(self, motor_id: int, address: int, size: int) -> bytes:
         """``size`` raw bytes of ``motor_id``'s control table from ``address`` (one READ),
