@@ -32,7 +32,6 @@ exactly as expected is checked in place (header, ID, length, checksum/CRC, error
 decoded in one call; only one that is not goes through the stream parser, which finds what it
 can in noise, partial and stray packets.
 
-
 **Parts.** One module per job, :class:`Bus` (:mod:`.facade`) the one class on top: the link
 (:mod:`.link`: a transaction, its lock, late answers, hardware-error alerts), discovery
 (:mod:`.discovery`: PING, broadcast PING, scan, models), the status return level
