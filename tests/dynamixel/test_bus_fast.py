@@ -21,7 +21,7 @@ import pytest
 import serial
 
 from servolab.dynamixel import MODELS, Bus, ConfigError, ports
-from servolab.dynamixel import bus as bus_module
+from servolab.dynamixel.bus import plans
 from servolab.dynamixel.protocol1 import PROTOCOL1
 from servolab.dynamixel.protocol2 import PROTOCOL2
 from servolab.dynamixel.units import from_si, to_si
@@ -66,14 +66,14 @@ def test_si_conversions_are_those_of_units(name: str) -> None:
     """The plan's converters compute what units.to_si / from_si compute, to the last bit."""
     m = MODELS[name]
     for reg in m.registers:
-        decode = bus_module._si_decoder(m, reg)
+        decode = plans.si_decoder(m, reg)
         rng = random.Random(reg.address)
         samples = {reg.raw_min, reg.raw_max, (reg.raw_min + reg.raw_max) // 2, 0, 1,
                    *(rng.randint(reg.raw_min, reg.raw_max) for _ in range(50))}
         for raw in samples:
             want = to_si(m, reg, raw)
             assert (raw if decode is None else decode(raw)) == want, (reg.name, raw)
-        encode = bus_module._si_encoder(m, reg)
+        encode = plans.si_encoder(m, reg)
         if encode is None:
             continue
         lo, hi = sorted((to_si(m, reg, reg.raw_min), to_si(m, reg, reg.raw_max)))
@@ -89,7 +89,7 @@ def test_sync_write_packet_is_the_general_encoders(name: str) -> None:
     proto = PROTOCOL1 if m.protocol == 1 else PROTOCOL2
     reg = m.register("goal_position")
     ids = (3, 1, 7, 20)
-    plan = bus_module._SyncWrite(proto, ids, [m] * len(ids), reg, False)
+    plan = plans.SyncWrite(proto, ids, [m] * len(ids), reg, False)
     rng = random.Random(1)
     for _ in range(200):
         values = [rng.randint(reg.raw_min, reg.raw_max) for _ in ids]

@@ -68,7 +68,7 @@ class MixedBus(Bus):
             proto = protocol_for(version)
             if not 0 <= motor_id <= proto.max_id:
                 continue
-            with self._speaking(version):
+            with self._in_protocol(version):
                 try:
                     Bus.ping(self, motor_id)
                 except NoResponse:
@@ -82,8 +82,8 @@ class MixedBus(Bus):
                          motor_id=motor_id, instruction="PING")
 
     @contextlib.contextmanager
-    def _to(self, motor_id: int) -> Iterator[None]:
-        with self._lock, self._speaking(self.version_of(motor_id)):
+    def _in_protocol_of(self, motor_id: int) -> Iterator[None]:
+        with self._lock, self._in_protocol(self.version_of(motor_id)):
             yield
 
     # -- discovery ---------------------------------------------------------------------------
@@ -111,54 +111,54 @@ class MixedBus(Bus):
             self.versions[result.id] = version
         return found
 
-    def _keeps(self, version: int, own: int) -> bool:
+    def _scan_keeps(self, version: int, own: int) -> bool:
         return True
 
     def ping(self, motor_id: int, *, retries: int | None = None) -> PingResult:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().ping(motor_id, retries=retries)
 
     def broadcast_ping(self, ids: Iterable[int] | None = None) -> list[PingResult]:
-        with self._speaking(2):
+        with self._in_protocol(2):
             return super().broadcast_ping(ids)
 
     def model_of(self, motor_id: int) -> Model:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().model_of(motor_id)
 
     def known_model(self, motor_id: int) -> Model | None:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().known_model(motor_id)
 
     def declare(self, motor_id: int, model_name: str | Model, *,
                 wheel_mode: bool | None = None) -> None:
         m = model_name if isinstance(model_name, Model) else model(model_name)
-        with self._speaking(m.protocol):
+        with self._in_protocol(m.protocol):
             super().declare(motor_id, m, wheel_mode=wheel_mode)
         self.versions[motor_id] = m.protocol
 
     def hardware_errors(self, motor_id: int) -> tuple[str, ...]:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().hardware_errors(motor_id)
 
     def wheel_mode(self, motor_id: int) -> bool:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().wheel_mode(motor_id)
 
     def to_si(self, motor_id: int, name: str, raw: int) -> Value:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().to_si(motor_id, name, raw)
 
     def from_si(self, motor_id: int, name: str, value: float) -> int:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().from_si(motor_id, name, value)
 
     def contact(self, motor_id: int) -> Contact:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().contact(motor_id)
 
     def reboot(self, motor_id: int) -> None:
-        with self._speaking(2) if motor_id == BROADCAST_ID else self._to(motor_id):
+        with self._in_protocol(2) if motor_id == BROADCAST_ID else self._in_protocol_of(motor_id):
             super().reboot(motor_id)
 
     def factory_reset(self, motor_id: int, *, keep_id: bool = True,
@@ -166,14 +166,14 @@ class MixedBus(Bus):
         if motor_id == BROADCAST_ID:
             raise ConfigError("a mixed bus resets its motors one at a time (factory_reset of "
                               "each ID): a broadcast reaches one protocol's motors only")
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             super().factory_reset(motor_id, keep_id=keep_id, keep_baud=keep_baud)
 
     def change_id(self, motor_id: int, new_id: int) -> PingResult:
         """:meth:`Bus.change_id`: refused where a motor of either protocol answers at
         ``new_id`` (its PING there is this bus's, which tries both)."""
         version = self.version_of(motor_id)
-        with self._speaking(version):
+        with self._in_protocol(version):
             found = super().change_id(motor_id, new_id)
         if new_id != motor_id:
             self.versions.pop(motor_id, None)
@@ -181,11 +181,11 @@ class MixedBus(Bus):
         return found
 
     def change_baud(self, motor_id: int, baudrate: int, *, follow: bool = True) -> PingResult:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().change_baud(motor_id, baudrate, follow=follow)
 
     def read_address(self, motor_id: int, address: int, size: int) -> bytes:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             return super().read_address(motor_id, address, size)
 
     def write_address(self, motor_id: int, address: int, data: bytes) -> None:
@@ -193,7 +193,7 @@ class MixedBus(Bus):
             raise ConfigError("a raw broadcast reaches one protocol's motors only: on a mixed "
                               "bus use broadcast_write (by register name, each protocol's "
                               "motors in their own)")
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             super().write_address(motor_id, address, data)
 
     # -- one motor ---------------------------------------------------------------------------
@@ -207,7 +207,7 @@ class MixedBus(Bus):
 
     def read(self, motor_id: int, names: Names, *, raw: bool = False,
              check: bool = True, retries: int | None = None) -> Value | dict[str, Value]:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             if isinstance(names, str):
                 return super().read(motor_id, names, raw=raw, check=check, retries=retries)
             return super().read(motor_id, list(names), raw=raw, check=check,
@@ -215,7 +215,7 @@ class MixedBus(Bus):
 
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
               *, raw: bool = False, registered: bool = False) -> None:
-        with self._to(motor_id):
+        with self._in_protocol_of(motor_id):
             super().write(motor_id, name, value, raw=raw, registered=registered)
 
     # -- several motors: one instruction per protocol ----------------------------------------
@@ -226,11 +226,13 @@ class MixedBus(Bus):
         """ACTION in both protocols (one broadcast each): every motor applies its
         REG_WRITE."""
         with self._lock:
-            pending, self._registered = self._registered, {}
+            waiting = self._memory.registered
+            pending = dict(waiting)
             for version in (2, 1):
-                self._registered = {i: w for i, w in pending.items()
-                                    if self.version_of(i) == version}
-                with self._speaking(version):
+                waiting.clear()
+                waiting.update({i: w for i, w in pending.items()
+                                if self.version_of(i) == version})
+                with self._in_protocol(version):
                     super().action()
 
     def broadcast_write(self, name: str | Mapping[str, Value], value: Value | None = None, *,
@@ -242,20 +244,20 @@ class MixedBus(Bus):
         given = None if models is None else [m if isinstance(m, Model) else model(m)
                                              for m in models]
         versions = sorted({m.protocol for m in (given if given is not None
-                                                 else self.motors.values())}, reverse=True)
+                                                else self.motors.values())}, reverse=True)
         if not versions:
             versions = [self.proto.version]    # (refused there: no motor known)
         ids: list[int] = []
         with self._lock:
             plans = []
             for version in versions:          # all checked before anything is sent
-                with self._speaking(version):
+                with self._in_protocol(version):
                     mine = None if given is None else [m for m in given
                                                        if m.protocol == version]
-                    plans.append((version, self._broadcast_plan(name, value, raw, mine)))
+                    plans.append((version, self._check_broadcast_write(name, value, raw, mine)))
             for version, blocks in plans:
-                with self._speaking(version):
-                    ids += self._send_broadcast(blocks)
+                with self._in_protocol(version):
+                    ids += self._send_broadcast_write(blocks)
         return sorted(ids)
 
     @overload
@@ -277,7 +279,7 @@ class MixedBus(Bus):
                     elif isinstance(v, Sequence) and len(v) == len(names):
                         self._precheck(i, dict(zip(names, v, strict=True)), raw)
             for version, ids in groups.items():
-                with self._speaking(version):
+                with self._in_protocol(version):
                     if isinstance(names, str):
                         super().sync_write(names, {i: values[i] for i in ids},  # type: ignore[misc]
                                            raw=raw)
@@ -301,7 +303,7 @@ class MixedBus(Bus):
         got: dict[int, Any] = {}
         with self._lock:
             for version, group in self._groups(ids).items():
-                with self._speaking(version):
+                with self._in_protocol(version):
                     if isinstance(names, str):
                         got.update(super().sync_read(names, group, raw=raw, check=check,
                                                      fast=fast))
@@ -316,7 +318,7 @@ class MixedBus(Bus):
         got: dict[int, dict[str, Value]] = {}
         with self._lock:
             for version, group in self._groups(requests).items():
-                with self._speaking(version):
+                with self._in_protocol(version):
                     got.update(super().bulk_read({i: requests[i] for i in group}, raw=raw,
                                                  check=check, fast=fast))
         return {i: got[i] for i in requests}
@@ -338,8 +340,8 @@ class MixedBus(Bus):
     def _precheck(self, motor_id: int, values: Mapping[str, Value], raw: bool) -> None:
         """Check a write of ``values`` to ``motor_id`` as :meth:`write` does, sending nothing
         (but what finding out its model, mode and limits takes)."""
-        with self._to(motor_id):
-            self._block(motor_id, self.model_of(motor_id), values, raw)
+        with self._in_protocol_of(motor_id):
+            self._checked_block(motor_id, self.model_of(motor_id), values, raw)
 
     def bulk_write(self, values: Mapping[int, Mapping[str, Value]], *,
                    raw: bool = False) -> None:
@@ -349,5 +351,5 @@ class MixedBus(Bus):
                 for motor_id, written in values.items():
                     self._precheck(motor_id, written, raw)
             for version, group in groups.items():
-                with self._speaking(version):
+                with self._in_protocol(version):
                     super().bulk_write({i: values[i] for i in group}, raw=raw)
