@@ -166,16 +166,8 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
                               "it needs a calibration file (--calib)")
     loaded = None
     if calib is not None:
-        calibration, board = load_calibration(calib)
-        if board is None:
-            raise NavigationError(f"{calib}: has no floor extrinsics; calibrate with "
-                                  "--floor IMAGE (a board lying on the floor)")
-        if tuple(calibration.image_size) != world.camera.pinhole().image_size:
-            raise NavigationError(f"{calib}: is for {calibration.image_size[0]}x"
-                                  f"{calibration.image_size[1]} images, the scene's camera "
-                                  f"gives {world.camera.width}x{world.camera.height}")
-        loaded = (calibration, board)
-        board_at = board_at or board.board_at or (0.0, 0.0, 0.0)
+        loaded = _calibration_file(calib, world)
+        board_at = board_at or loaded[1].board_at or (0.0, 0.0, 0.0)
     if world.camera.rate < dwa_config.controller_frequency:
         raise NavigationError(
             f"{world.path}: the camera's rate {world.camera.rate:g} frames/s is below "
@@ -192,6 +184,20 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
             f"within the robot's inscribed radius {body:.3g} m: the robot cannot stand there")
     return Navigation(world, costmap_params, dwa_config, move_base_params, (gx, gy, goal_yaw),
                       loaded, board_at or BOARD_AT, ignored)
+
+
+def _calibration_file(calib: str | Path,
+                      world: Scene) -> tuple[CameraCalibration, FloorExtrinsics]:
+    """A calibration file's camera and floor board, checked against the scene's camera."""
+    calibration, board = load_calibration(calib)
+    if board is None:
+        raise NavigationError(f"{calib}: has no floor extrinsics; calibrate with "
+                              "--floor IMAGE (a board lying on the floor)")
+    if tuple(calibration.image_size) != world.camera.pinhole().image_size:
+        raise NavigationError(f"{calib}: is for {calibration.image_size[0]}x"
+                              f"{calibration.image_size[1]} images, the scene's camera "
+                              f"gives {world.camera.width}x{world.camera.height}")
+    return calibration, board
 
 
 def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: float = 180.0,
@@ -433,9 +439,6 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Circle, Rectangle
-
-    from ...sim.scene import BoxObstacle, CircleObstacle
 
     figure, ax = plt.subplots(figsize=(8, 6))
     x0, y0 = grid.origin
@@ -444,19 +447,7 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
         ax.imshow(np.where(occupancy, 0.35, 1.0), cmap="gray", vmin=0, vmax=1, origin="lower",
                   extent=(x0, x0 + cols * grid.resolution, y0, y0 + rows * grid.resolution),
                   interpolation="nearest")
-    for obstacle in world.obstacles:
-        late = obstacle.appear_at is not None
-        colour, line = ("tab:red", "--") if late else ("black", "-")
-        if isinstance(obstacle, CircleObstacle):
-            ax.add_patch(Circle((obstacle.x, obstacle.y), obstacle.radius, fill=False,
-                                edgecolor=colour, linestyle=line, linewidth=1.5))
-        elif isinstance(obstacle, BoxObstacle):
-            ax.add_patch(Rectangle((obstacle.x, obstacle.y), obstacle.width, obstacle.depth,
-                                   fill=False, edgecolor=colour, linestyle=line,
-                                   linewidth=1.5))
-        if late:
-            ax.annotate(f"appears at {obstacle.appear_at:g} s", (obstacle.x, obstacle.y),
-                        color="tab:red", fontsize=8)
+    _draw_obstacles(ax, world)
     for k, (t, plan) in enumerate(navigator.plans):
         first = k == 0
         if first or any(abs(r.t - t) < 1e-9 for r in navigator.repairs):
@@ -488,3 +479,24 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
     figure.savefig(path, dpi=100)
     plt.close(figure)
     return path
+
+
+def _draw_obstacles(ax: Any, world: Scene) -> None:
+    """The scene's obstacles, those appearing mid-run dashed red with their time."""
+    from matplotlib.patches import Circle, Rectangle
+
+    from ...sim.scene import BoxObstacle, CircleObstacle
+
+    for obstacle in world.obstacles:
+        late = obstacle.appear_at is not None
+        colour, line = ("tab:red", "--") if late else ("black", "-")
+        if isinstance(obstacle, CircleObstacle):
+            ax.add_patch(Circle((obstacle.x, obstacle.y), obstacle.radius, fill=False,
+                                edgecolor=colour, linestyle=line, linewidth=1.5))
+        elif isinstance(obstacle, BoxObstacle):
+            ax.add_patch(Rectangle((obstacle.x, obstacle.y), obstacle.width, obstacle.depth,
+                                   fill=False, edgecolor=colour, linestyle=line,
+                                   linewidth=1.5))
+        if late:
+            ax.annotate(f"appears at {obstacle.appear_at:g} s", (obstacle.x, obstacle.y),
+                        color="tab:red", fontsize=8)
