@@ -12,10 +12,11 @@ for a stop that hangs. Standard output and error survive their reader going away
 terminal that closed, the usual source of SIGHUP, fails every write with EIO): a write that
 fails so is dropped, or it would fail the stop in the middle (:class:`HangupSafeStream`).
 
-Each robot's run module then does the same three things on its way out, ended or not: it
-stops its motors (or holds them, where that is safer: :mod:`servolab.robots.registry` says
-which per robot), closes its bag, and writes ``summary.json`` with what it measured so far
-and ``"interrupted"``: the signal's name, the error, or ``null`` for a run that finished
+Every robot command's run then does the same three things on its way out, ended or not,
+written once in :func:`servolab.robots.lifecycle.run_task` on :func:`stops_deferred` and
+:class:`RunEnding`: it stops its motors (or holds them, where that is safer: each robot's
+``ON_STOP`` says which), closes its bag, and writes ``summary.json`` with what it measured so
+far and ``"interrupted"``: the signal's name, the error, or ``null`` for a run that finished
 (:meth:`servolab.runs.RunFolder.write_summary`). The exit status is decided in one place,
 :func:`exit_status`:
 

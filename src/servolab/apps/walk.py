@@ -10,10 +10,14 @@ import math
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .arguments import PORT_HELP, add_log_level, add_out, log_level
 from .registry import Command
 from .view import add_view_flag, view_request
+
+if TYPE_CHECKING:
+    from ..robots.armstrong.description import Assumptions
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,7 +55,6 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..errors import UsageError
     from ..gait.motionfile import MotionFileWarning
     from ..middleware.logger import console_log
     from ..robots.armstrong.control_node import PLAY_RATE
@@ -60,45 +63,8 @@ def _run(args: argparse.Namespace) -> int:
     from ..runs import RunFolder
 
     view = view_request(args)  # checked before the run folder is made
-    if args.file and args.gait != "seed":
-        raise UsageError("--file plays a motion file; --gait generates one: give one of them")
-    steps = args.steps if args.steps is not None else (10 if args.gait == "zmp" else 1)
-    if steps < 1:
-        raise UsageError(f"--steps {steps}: must be 1 or more")
-    if (args.assume or args.video) and args.world != "mujoco":
-        raise UsageError(("--assume" if args.assume else "--video") + " needs --world mujoco "
-                         "(the kinematic world has no bodies)")
-    if args.port and args.world != "kinematic":
-        raise UsageError(f"--world {args.world}: a robot on --port {args.port} walks in the "
-                         "real world; worlds are for the emulated robot (leave out --port)")
-    if args.video:
-        from ..sim.mujoco_video import FOURCC
-
-        video = Path(args.video)
-        if video.suffix.lower() not in FOURCC:
-            raise UsageError(f"--video {video}: name it .mp4 or .avi (the suffix says which "
-                             "video OpenCV writes)")
-        if not video.parent.is_dir():
-            raise UsageError(f"--video {video}: the folder {video.parent} does not exist")
-    values: dict[str, float] = {}
-    for item in args.assume:
-        name, sep, text = item.partition("=")
-        try:
-            number = float(text)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise UsageError(f"--assume {item!r}: give NAME=NUMBER, e.g. hip_width=0.12")
-        if name.strip() in values:
-            raise UsageError(f"--assume {name.strip()} is given twice")
-        values[name.strip()] = number
-    assumptions = None
-    if values:
-        from ..robots.armstrong.description import Assumptions
-
-        assumptions = Assumptions.with_values(values)
-    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
-        raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
+    steps = _check(args)
+    assumptions = _assumptions(args.assume)
     rate = args.rate if args.rate is not None else PLAY_RATE
     with warnings.catch_warnings(record=True) as caught:  # one line each, not Python's two
         warnings.simplefilter("always", MotionFileWarning)
@@ -121,6 +87,58 @@ def _run(args: argparse.Namespace) -> int:
                  gait=args.file or args.gait, view=view)
     print(f"run folder: {run.path}")
     return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    """The options checked together before anything is made; the number of steps."""
+    from ..errors import UsageError
+
+    if args.file and args.gait != "seed":
+        raise UsageError("--file plays a motion file; --gait generates one: give one of them")
+    steps: int = args.steps if args.steps is not None else (10 if args.gait == "zmp" else 1)
+    if steps < 1:
+        raise UsageError(f"--steps {steps}: must be 1 or more")
+    if (args.assume or args.video) and args.world != "mujoco":
+        raise UsageError(("--assume" if args.assume else "--video") + " needs --world mujoco "
+                         "(the kinematic world has no bodies)")
+    if args.port and args.world != "kinematic":
+        raise UsageError(f"--world {args.world}: a robot on --port {args.port} walks in the "
+                         "real world; worlds are for the emulated robot (leave out --port)")
+    if args.video:
+        from ..sim.mujoco_video import FOURCC
+
+        video = Path(args.video)
+        if video.suffix.lower() not in FOURCC:
+            raise UsageError(f"--video {video}: name it .mp4 or .avi (the suffix says which "
+                             "video OpenCV writes)")
+        if not video.parent.is_dir():
+            raise UsageError(f"--video {video}: the folder {video.parent} does not exist")
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
+        raise UsageError(f"--rate {args.rate:g}: must be a number > 0")
+    return steps
+
+
+def _assumptions(items: list[str]) -> Assumptions | None:
+    """The description's assumptions changed by ``--assume NAME=VALUE``, or None."""
+    from ..errors import UsageError
+
+    values: dict[str, float] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        try:
+            number = float(text)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--assume {item!r}: give NAME=NUMBER, e.g. hip_width=0.12")
+        if name.strip() in values:
+            raise UsageError(f"--assume {name.strip()} is given twice")
+        values[name.strip()] = number
+    if not values:
+        return None
+    from ..robots.armstrong.description import Assumptions
+
+    return Assumptions.with_values(values)
 
 
 COMMAND = Command(

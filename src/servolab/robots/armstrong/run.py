@@ -17,16 +17,18 @@ motor's reads met.
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Callable
+from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ...gait.motionfile import MotionFile
-from ...middleware.view.run_view import ViewRequest, serve_run
+from ...middleware.view.run_view import ViewRequest
 from ..errors import RobotValueError
+from ..lifecycle import Step, Task, replaced, run_task
 from . import ON_STOP
 from .control_node import PLAY_RATE, Armstrong, controller_of
 from .physics_report import physics_summary, plot_physics, render_walk
@@ -35,6 +37,7 @@ from .state_publisher import ArmstrongStatePublisher, StatePublisherConfig
 
 if TYPE_CHECKING:
     from ...dynamixel.emulator import Faults
+    from ...middleware.context import Context
     from ...runs import RunFolder
     from .description import Assumptions
 
@@ -72,145 +75,200 @@ def run_walk(run_folder: RunFolder, motion: MotionFile, *, steps: int = 1,
     ``assumptions``): the ground truth goes into the bag, and the summary says whether and
     when it fell and why (:mod:`.physics_report`), with a plot of its balance and, given
     ``video``, the run rendered to that file."""
-    from tqdm import tqdm
-
-    from ...harness import RunEnding, interruption, stops_deferred
-    from ...middleware.clock_node import start_clock
-    from ...middleware.recorder import Recorder
-
-    bag = run_folder.file("walk_bag")
-    if bag.exists():  # a run folder's files are replaced (servolab.runs)
-        shutil.rmtree(bag)
-    total = steps * motion.poses
-    played = 0
-    interrupted: BaseException | None = None
     if video is not None and world != "mujoco":
         raise RobotValueError(f"a video of the walk needs the MuJoCo world (--world mujoco), "
                               f"not {world!r}: the {world} world has no bodies to draw")
-    with Armstrong(port=port, config=config, history=True, faults=faults, world=world,
-                   assumptions=assumptions) as robot:
-        where = port or ("the emulated robot" + (" in MuJoCo" if robot.physics else ""))
-        say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
-            f"{len(robot.manager.controllers)} controllers running"
-            + (f" ({', '.join(robot.manager.failed)} could not start)"
-               if robot.manager.failed else ""))
+    task = WalkTask(run_folder, motion, Walk(steps=steps, rate=rate, gait=gait, port=port,
+                                             config=config, world=world,
+                                             assumptions=assumptions, video=video),
+                    say=say, show_progress=show_progress, faults=faults, on_row=on_row)
+    return run_task(run_folder, task, view=view, say=say)
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A walk as asked: how often and how fast the motion is played, on which robot (a port,
+    or the emulated one in ``world``) with which controllers."""
+
+    steps: int = 1
+    rate: float = PLAY_RATE
+    gait: str | None = None
+    port: str | None = None
+    config: str | Path | None = None
+    world: str = "kinematic"
+    assumptions: Assumptions | None = None
+    video: Path | None = None
+
+
+class WalkTask(Task):
+    """A walk's part of the run (:func:`~servolab.robots.lifecycle.run_task`): Armstrong
+    opened and recorded, stood up and walked; finished to double support, then measured,
+    plotted and judged."""
+
+    name = "walk"
+
+    def __init__(self, run_folder: RunFolder, motion: MotionFile, walk: Walk, *, say: Say,
+                 show_progress: bool, faults: Faults | None,
+                 on_row: Callable[[Armstrong, int], None] | None) -> None:
+        self.run_folder, self.motion, self.walk = run_folder, motion, walk
+        self.say, self.show_progress, self.faults, self.on_row = say, show_progress, faults, on_row
+        self.total, self.played = walk.steps * motion.poses, 0
+        self.summary: dict[str, Any] = {}
+
+    def open(self, opened: ExitStack) -> None:
+        from ...middleware.clock_node import start_clock
+        from ...middleware.recorder import Recorder
+
+        walk = self.walk
+        self.bag = replaced(self.run_folder.file("walk_bag"))
+        self.robot = robot = opened.enter_context(Armstrong(
+            port=walk.port, config=walk.config, history=True, faults=self.faults,
+            world=walk.world, assumptions=walk.assumptions))
+        where = walk.port or ("the emulated robot" + (" in MuJoCo" if robot.physics else ""))
+        self.say(f"Armstrong on {where}: {len(robot.manager.motors)} motors, "
+                 f"{len(robot.manager.controllers)} controllers running"
+                 + (f" ({', '.join(robot.manager.failed)} could not start)"
+                    if robot.manager.failed else ""))
         start_clock(robot.context)  # the emulated robot's simulated time on /clock
         # the robot for a 3D viewer: /robot_description, /joint_states, /tf, /tf_static;
         # made before the recorder, which then hears the latched topics' publishers
         shown = ArmstrongStatePublisher(robot.context, StatePublisherConfig.armstrong(
-            robot.manager.controllers, assumptions, robot.config))
-        topics = recorded_topics(robot)
-        topics.update(shown.topics)
-        truth = None
+            robot.manager.controllers, walk.assumptions, robot.config))
+        topics = {**recorded_topics(robot), **shown.topics}
+        self.truth = None
         if robot.physics is not None:
             from ...sim.mujoco_truth import SampledTruthNode, truth_topics
 
-            if video is not None:  # a video that cannot be made is said before the walk
+            if walk.video is not None:  # a video that cannot be made is said before the walk
                 from ...sim.mujoco_video import check_video
 
-                check_video(robot.physics.world.model, video)
-
-            truth = SampledTruthNode(robot.context, robot.physics.world)
+                check_video(robot.physics.world.model, walk.video)
+            self.truth = SampledTruthNode(robot.context, robot.physics.world)
             topics.update(truth_topics(robot.physics.world))
-        recorder = Recorder(robot.context, str(bag), list(topics), types=topics, quiet=True)
-        viewer = None
-        started = robot.context.clock.now()
-        gait_start = gait_end = started
-        try:
-            if view is not None:  # served from here on, waiting for a viewer if simulated
-                viewer = serve_run(robot.context, view, say, name="servolab walk")
-                started = gait_start = gait_end = robot.context.clock.now()
-            say("standing up (Table 4.2, over 2 s)")
-            robot.stand()
-            say(f"playing {motion.poses} rows "
-                + (f"x {steps} step(s)" if steps > 1 or gait in (None, "seed") else "once")
-                + f" at {rate:g} Hz ({motion.poses / rate:.2f} s"
-                + (" a step)" if steps > 1 or gait in (None, "seed") else ")"))
-            gait_start = robot.context.clock.now()
-            with tqdm(total=total, unit="row", disable=not show_progress,
-                      leave=False) as bar:
-                def progress(done: int, _total: int) -> None:
-                    nonlocal played
-                    played = done
-                    bar.update(done - bar.n)
-                    if on_row is not None:
-                        on_row(robot, done)
-                    if not show_progress and done % motion.poses == 0:
-                        say(f"step {done // motion.poses} of {steps} played")
-                played = robot.play(motion, steps, rate, progress=progress)
-            gait_end = robot.context.clock.now()
-            if robot.fallen:
-                say(f"fell at {robot.physics.world.fell_at:.2f} s: the gait is stopped"
-                    if robot.physics else "fell")
-            if robot.supervisor.tripped:
-                say("alarm: " + "; ".join(str(a) for a in robot.supervisor.alarms))
-        except BaseException as error:  # a stop signal or an error: finish, record, report
-            interrupted = error
-            gait_end = robot.context.clock.now()   # the gait ended here, before the finish
-        ending = RunEnding(interrupted)
-        with stops_deferred() as late:  # the way out is not cut short by a signal
-            if played < total or interrupted is not None:
-                with ending.step("finishing to double support"):
-                    robot.finish(interrupted)
-            with ending.step("letting the last goals be reached and recorded"):
+        self.recorder = Recorder(robot.context, str(self.bag), list(topics), types=topics,
+                                 quiet=True)
+        self.started = self.gait_start = self.gait_end = robot.context.clock.now()
+
+    def served(self) -> Context:
+        return self.robot.context
+
+    def run(self) -> None:
+        robot, motion, walk, say = self.robot, self.motion, self.walk, self.say
+        clock = robot.context.clock
+        self.started = self.gait_start = self.gait_end = clock.now()  # after the viewer came
+        say("standing up (Table 4.2, over 2 s)")
+        robot.stand()
+        repeated = walk.steps > 1 or walk.gait in (None, "seed")
+        say(f"playing {motion.poses} rows " + (f"x {walk.steps} step(s)" if repeated else "once")
+            + f" at {walk.rate:g} Hz ({motion.poses / walk.rate:.2f} s"
+            + (" a step)" if repeated else ")"))
+        self.gait_start = clock.now()
+        self.played = self._play()
+        self.gait_end = clock.now()
+        if robot.fallen:
+            say(f"fell at {robot.physics.world.fell_at:.2f} s: the gait is stopped"
+                if robot.physics else "fell")
+        if robot.supervisor.tripped:
+            say("alarm: " + "; ".join(str(a) for a in robot.supervisor.alarms))
+
+    def _play(self) -> int:
+        """The motion played with a progress bar; the rows played."""
+        from tqdm import tqdm
+
+        robot, poses, steps = self.robot, self.motion.poses, self.walk.steps
+        with tqdm(total=self.total, unit="row", disable=not self.show_progress,
+                  leave=False) as bar:
+            def progress(done: int, _total: int) -> None:
+                self.played = done
+                bar.update(done - bar.n)
+                if self.on_row is not None:
+                    self.on_row(robot, done)
+                if not self.show_progress and done % poses == 0:
+                    self.say(f"step {done // poses} of {steps} played")
+            return robot.play(self.motion, steps, self.walk.rate, progress=progress)
+
+    def stop(self, ended: BaseException | None) -> list[Step]:
+        robot = self.robot
+        if ended is not None:
+            self.gait_end = robot.context.clock.now()  # the gait ended here, before the finish
+        steps = [Step("finishing to double support", lambda: robot.finish(ended))
+                 ] if self.played < self.total or ended is not None else []
+
+        def settle() -> None:
+            robot.context.spin_for(0.5)
+            if robot.supervisor.tripped and robot.ending is None:  # an alarm just now
+                robot.finish()
                 robot.context.spin_for(0.5)
-                if robot.supervisor.tripped and robot.ending is None:  # an alarm just now
-                    robot.finish()
-                    robot.context.spin_for(0.5)
-            with ending.step("closing the bag"):
-                if truth is not None:
-                    truth.publish_new()
-                    robot.context.spin_for(0.05)
-                recorder.destroy()
-            if viewer is not None:
-                with ending.step("closing the view"):
-                    viewer.close()
-            manager = robot.manager
-            summary: dict[str, Any] = {
-                "gait": gait, "rows_played": played, "rows_asked": total, "steps": steps,
-                "rate_hz": rate,
-                "stopped": played < total, "ending": robot.ending or "walked",
-                "alarms": [a.as_dict() for a in robot.supervisor.alarms],
-                "motor_errors": {str(i): e for i, e in manager.error_counts().items()},
-                "bus": {k: getattr(robot.bus.stats, k)
-                        for k in ("transactions", "retries", "timeouts", "corrupt")},
-                "state_rate_hz": round(manager.sweep_rate, 2),
-                "state_rate_wire_limit_hz": round(1.0 / manager.update_time, 2),
-                "goals": {"written": manager.owner.goals_written,
-                          "replaced_before_written": manager.owner.goals_replaced},
-                "walked_s": robot.context.clock.now() - started, "bag": str(bag),
-                "port": port or "emulated", "controllers_failed": manager.failed,
-                "motors_on_stop": ON_STOP}
-            with ending.step("plotting"):
-                summary["plot"] = str(plot_tracking(robot, run_folder.file("walk.png")))
-                if robot.supervisor.alarms:
-                    summary["alarm_plot"] = str(plot_alarms(robot,
-                                                            run_folder.file("alarms.png")))
-            with ending.step("measuring"):
-                summary["max_tracking_error_deg"] = tracking_errors(robot)
-            if robot.physics is not None:
-                physics = robot.physics
-                with ending.step("judging the physics"):
-                    summary["physics"] = physics_summary(physics.world, physics.description,
-                                                         gait_start, gait_end)
-                    summary["fell"] = summary["physics"]["fell"]
-                    summary["fell_at_s"] = summary["physics"]["fell_at_s"]
-                    summary["physics_plot"] = str(plot_physics(
-                        physics.world, run_folder.file("physics.png"), gait_start))
-                    if physics.world.fell_at is not None:
-                        say(summary["physics"].get("fall_cause", "it fell"))
-                if video is not None:
-                    with ending.step("rendering the video"):
-                        summary["video"] = str(render_walk(physics.world, video))
-            say(("stopped after " if played < total else "played ") + f"{played} of {total} "
-                f"rows; recorded to {bag}; plot {summary.get('plot')}")
-            run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
-    if ending.error is not None:
-        say(f"interrupted ({interruption(ending.error)}): "
-            + ("the robot is in double support (the stand pose)" if robot.ending == "stand"
-               else "the motors hold the last pose"))
-    ending.raise_if_ended()
-    return summary
+
+        def close_bag() -> None:
+            if self.truth is not None:
+                self.truth.publish_new()
+                robot.context.spin_for(0.05)
+            self.recorder.destroy()
+
+        return [*steps, Step("letting the last goals be reached and recorded", settle),
+                Step("closing the bag", close_bag)]
+
+    def way_out(self, ended: BaseException | None) -> list[Step]:
+        steps = [Step("summarising", self._summarise), Step("plotting", self._plot),
+                 Step("measuring", lambda: self.summary.update(
+                     max_tracking_error_deg=tracking_errors(self.robot)))]
+        if self.robot.physics is not None:
+            steps.append(Step("judging the physics", self._judge_physics))
+            if self.walk.video is not None:
+                physics, video = self.robot.physics, self.walk.video
+                steps.append(Step("rendering the video", lambda: self.summary.update(
+                    video=str(render_walk(physics.world, video)))))
+        steps.append(Step("saying what was played", lambda: self.say(
+            ("stopped after " if self.played < self.total else "played ")
+            + f"{self.played} of {self.total} rows; recorded to {self.bag}; "
+            f"plot {self.summary.get('plot')}")))
+        return steps
+
+    def _summarise(self) -> None:
+        robot, walk, played, total = self.robot, self.walk, self.played, self.total
+        manager = robot.manager
+        self.summary.update({
+            "gait": walk.gait, "rows_played": played, "rows_asked": total,
+            "steps": walk.steps, "rate_hz": walk.rate,
+            "stopped": played < total, "ending": robot.ending or "walked",
+            "alarms": [a.as_dict() for a in robot.supervisor.alarms],
+            "motor_errors": {str(i): e for i, e in manager.error_counts().items()},
+            "bus": {k: getattr(robot.bus.stats, k)
+                    for k in ("transactions", "retries", "timeouts", "corrupt")},
+            "state_rate_hz": round(manager.sweep_rate, 2),
+            "state_rate_wire_limit_hz": round(1.0 / manager.update_time, 2),
+            "goals": {"written": manager.owner.goals_written,
+                      "replaced_before_written": manager.owner.goals_replaced},
+            "walked_s": robot.context.clock.now() - self.started, "bag": str(self.bag),
+            "port": walk.port or "emulated", "controllers_failed": manager.failed,
+            "motors_on_stop": ON_STOP})
+
+    def _plot(self) -> None:
+        folder = self.run_folder
+        self.summary["plot"] = str(plot_tracking(self.robot, folder.file("walk.png")))
+        if self.robot.supervisor.alarms:
+            self.summary["alarm_plot"] = str(plot_alarms(self.robot, folder.file("alarms.png")))
+
+    def _judge_physics(self) -> None:
+        physics, summary = self.robot.physics, self.summary
+        assert physics is not None
+        summary["physics"] = physics_summary(physics.world, physics.description,
+                                             self.gait_start, self.gait_end)
+        summary["fell"] = summary["physics"]["fell"]
+        summary["fell_at_s"] = summary["physics"]["fell_at_s"]
+        summary["physics_plot"] = str(plot_physics(
+            physics.world, self.run_folder.file("physics.png"), self.gait_start))
+        if physics.world.fell_at is not None:
+            self.say(summary["physics"].get("fall_cause", "it fell"))
+
+    def report(self, ended: BaseException | None) -> None:
+        from ...harness import interruption
+
+        if ended is not None:
+            self.say(f"interrupted ({interruption(ended)}): "
+                     + ("the robot is in double support (the stand pose)"
+                        if self.robot.ending == "stand" else "the motors hold the last pose"))
 
 
 def tracking_errors(robot: Armstrong) -> dict[str, float]:

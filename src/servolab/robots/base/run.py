@@ -31,12 +31,12 @@ import dataclasses
 import math
 import shutil
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...harness import RunEnding, stops_deferred
 from ...kinematics.diffdrive import (
     DiffDrive,
     a2_target_counts,
@@ -45,6 +45,7 @@ from ...kinematics.diffdrive import (
     rotation,
 )
 from ..errors import RobotValueError
+from ..lifecycle import Step, Task, run_task
 from . import ON_STOP
 from .config import BaseConfig
 from .config import load as load_base
@@ -61,7 +62,6 @@ from .mobile_base import (
 if TYPE_CHECKING:
     from ...middleware.context import Context
     from ...middleware.view.run_view import ViewRequest
-    from ...middleware.view.server import ViewServer
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
@@ -158,120 +158,173 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
                turns=turns, angle_deg=angle_deg, counts_per_mm=counts_per_mm)
     if move == "line":
         speed = line_speed(config, speed, percent)
-    robot = open_base(config, port, setup=move != "rpm", slip=slip, slip_jitter=slip_jitter,
-                      encoder_noise=encoder_noise)
-    simulation = robot.clock if robot.floor is not None and real_time else None
-    if simulation is not None:
-        simulation.start_real_time()  # type: ignore[attr-defined]
-    where = port or f"the emulated {config.name} base"
-    summary: dict[str, Any] = {"move": move, "base": config.name, "port": port or "emulated",
-                               "slip": slip, "slip_jitter": slip_jitter,
-                               "encoder_noise": encoder_noise,
-                               "motors_on_stop": ON_STOP}
-    interrupted: BaseException | None = None
-    context: Context | None = None
-    viewer: ViewServer | None = None
-    shown: DrivePublisher | None = None
-    try:
-        if view is not None:  # served from here on, waiting for a viewer if simulated
-            from ...middleware.context import Context
-            from ...middleware.view.run_view import serve_run
+    asked = Asked(distance=distance, speed=speed, radius=radius, clockwise=clockwise,
+                  turns=turns, angle_deg=angle_deg, percent=percent,
+                  counts_per_mm=counts_per_mm, as_printed=as_printed)
+    task = DriveTask(run_folder, config, move, asked, port=port, say=say,
+                     show_progress=show_progress, floor=Floor(slip, slip_jitter, encoder_noise),
+                     real_time=real_time)
+    return run_task(run_folder, task, view=view, say=say)
 
-            context = Context.open(clock=robot.clock)
-            shown = DrivePublisher(context, robot)
-            viewer = serve_run(context, view, say, name="servolab drive")
+
+@dataclasses.dataclass(frozen=True)
+class Asked:
+    """A move as asked: SI units, a line's speed in m/s (``percent`` converted already);
+    ``percent``, ``counts_per_mm`` and ``as_printed`` make a line final.m's."""
+
+    distance: float = 1.0
+    speed: float = 0.1
+    radius: float = 0.5
+    clockwise: bool = False
+    turns: float = 1.0
+    angle_deg: float = 90.0
+    percent: float | None = None
+    counts_per_mm: float | None = None
+    as_printed: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class Floor:
+    """The emulated floor's slip (fractions) and encoder noise (rad)."""
+
+    slip: float = 0.0
+    slip_jitter: float = 0.0
+    encoder_noise: float = 0.0
+
+
+class DriveTask(Task):
+    """A drive's part of the run (:func:`~servolab.robots.lifecycle.run_task`): open the
+    base, do the move, stop the wheels; measure, record and plot the path."""
+
+    name = "drive"
+
+    def __init__(self, run_folder: RunFolder, config: BaseConfig, move: str, asked: Asked, *,
+                 port: str | None, say: Say, show_progress: bool, floor: Floor,
+                 real_time: bool) -> None:
+        self.run_folder, self.config, self.move, self.asked = run_folder, config, move, asked
+        self.port, self.say, self.show_progress = port, say, show_progress
+        self.floor, self.real_time = floor, real_time
+        self.shown: DrivePublisher | None = None
+        self.summary = {"move": move, "base": config.name, "port": port or "emulated",
+                        "slip": floor.slip, "slip_jitter": floor.slip_jitter,
+                        "encoder_noise": floor.encoder_noise, "motors_on_stop": ON_STOP}
+
+    def open(self, opened: ExitStack) -> None:
+        self.opened = opened
+        self.robot = open_base(self.config, self.port, setup=self.move != "rpm",
+                               slip=self.floor.slip, slip_jitter=self.floor.slip_jitter,
+                               encoder_noise=self.floor.encoder_noise)
+        self.simulation = (self.robot.clock if self.robot.floor is not None and self.real_time
+                           else None)
+        if self.simulation is not None:
+            self.simulation.start_real_time()  # type: ignore[attr-defined]
+
+    def served(self) -> Context:
+        from ...middleware.context import Context
+
+        context = self.opened.enter_context(Context.open(clock=self.robot.clock))
+        self.shown = DrivePublisher(context, self.robot)
+        return context
+
+    def run(self) -> None:
+        robot, move, say = self.robot, self.move, self.say
+        where = self.port or f"the emulated {self.config.name} base"
         if move == "rpm":
             rpm = robot.rpm()
-            summary["rpm"] = {str(k): v for k, v in rpm.items()}
+            self.summary["rpm"] = {str(k): v for k, v in rpm.items()}
             say(f"{where}: " + ", ".join(f"motor {k} {v:+.2f} rpm" for k, v in rpm.items()))
         elif move == "stop":
             robot.stop()
             say(f"{where}: all wheels stopped")
         else:
-            _move(robot, move, summary, where, say, show_progress, distance=distance,
-                  speed=speed, radius=radius, clockwise=clockwise, turns=turns,
-                  angle_deg=angle_deg, percent=percent, counts_per_mm=counts_per_mm,
-                  as_printed=as_printed, shown=shown)
-    except BaseException as error:  # a stop signal or an error: the wheels stop below
-        interrupted = error
-    ending = RunEnding(interrupted)
-    with stops_deferred() as late:  # the way out is not cut short by a signal
-        with ending.step("stopping the wheels"):
-            try:
-                if move != "rpm":  # reading the wheels' speed leaves them as they are
-                    robot.stop()
-                    summary["wheels_after_stop"] = robot.wheel_commands()
-            finally:
-                if simulation is not None:
-                    simulation.stop_real_time()  # type: ignore[attr-defined]
-                robot.close()
-        if context is not None:
-            with ending.step("closing the view"):
-                try:
-                    if shown is not None:
-                        shown.publish_new()  # the stop's last odometry, if any
-                    if viewer is not None:
-                        viewer.close()
-                finally:
-                    context.close()
-        if move not in ("rpm", "stop") and robot.track:  # a refused move drove nothing
-            with ending.step("measuring"):
-                summary["wheel_commands"] = raw_commands(robot)
-                summary["measured"] = measure(robot, move)
-            with ending.step("recording the bag"):
-                summary["bag"] = str(record(robot, run_folder.file("drive_bag")))
-            with ending.step("plotting"):
-                summary["plot"] = str(plot_path(robot, run_folder.file("drive.png")))
-            say(" ".join(f"{k} {v:.4g};" for k, v in summary.get("measured", {}).items())
-                + f" bag {summary.get('bag')}, plot {summary.get('plot')}")
-        run_folder.write_summary(summary, interrupted=ending.settle(late, summary))
-    ending.raise_if_ended()
-    return summary
+            _move(robot, move, self.summary, where, say, self.show_progress, self.asked,
+                  shown=self.shown)
+
+    def _stop_wheels(self) -> None:
+        try:
+            if self.move != "rpm":  # reading the wheels' speed leaves them as they are
+                self.robot.stop()
+                self.summary["wheels_after_stop"] = self.robot.wheel_commands()
+        finally:
+            if self.simulation is not None:
+                self.simulation.stop_real_time()  # type: ignore[attr-defined]
+            self.robot.close()
+
+    def stop(self, ended: BaseException | None) -> list[Step]:
+        steps = [Step("stopping the wheels", self._stop_wheels)]
+        if self.shown is not None:  # the stop's last odometry, if any
+            steps.append(Step("showing the stop", self.shown.publish_new))
+        return steps
+
+    def way_out(self, ended: BaseException | None) -> list[Step]:
+        robot, summary, folder = self.robot, self.summary, self.run_folder
+        if self.move in ("rpm", "stop") or not robot.track:  # a refused move drove nothing
+            return []
+
+        def measured() -> None:
+            summary["wheel_commands"] = raw_commands(robot)
+            summary["measured"] = measure(robot, self.move)
+
+        return [Step("measuring", measured),
+                Step("recording the bag", lambda: summary.update(
+                    bag=str(record(robot, folder.file("drive_bag"))))),
+                Step("plotting", lambda: summary.update(
+                    plot=str(plot_path(robot, folder.file("drive.png"))))),
+                Step("saying what was measured", lambda: self.say(
+                    " ".join(f"{k} {v:.4g};" for k, v in summary.get("measured", {}).items())
+                    + f" bag {summary.get('bag')}, plot {summary.get('plot')}"))]
 
 
 def _move(robot: MobileBase, move: str, summary: dict[str, Any], where: str, say: Say,
-          show_progress: bool, *, distance: float, speed: float, radius: float,
-          clockwise: bool, turns: float, angle_deg: float, percent: float | None = None,
-          counts_per_mm: float | None = None, as_printed: bool = False,
-          shown: DrivePublisher | None = None) -> None:
+          show_progress: bool, asked: Asked, *, shown: DrivePublisher | None = None) -> None:
     """One of the moves that drive the wheels, with a progress bar (and, ``shown``, its
     odometry published as it goes)."""
     say(f"{move} on {where}")
-    expected = planned_duration(robot.config, move, distance=distance, speed=speed,
-                                radius=radius, turns=turns, angle_deg=angle_deg,
-                                counts_per_mm=counts_per_mm)
+    expected = planned_duration(robot.config, move, distance=asked.distance,
+                                speed=asked.speed, radius=asked.radius, turns=asked.turns,
+                                angle_deg=asked.angle_deg, counts_per_mm=asked.counts_per_mm)
     bar = _progress(expected, robot, show_progress, say,
                     None if shown is None else shown.publish_new)
     try:
-        if move == "line" and counts_per_mm is not None:
-            summary["asked"] = {"distance_m": distance, "speed_m_s": speed,
-                                "speed_percent": percent, "counts_per_mm": counts_per_mm,
-                                "as_printed": as_printed}
-            _say_radius(robot, distance, counts_per_mm, say)
-            counted = robot.count_line(distance, speed, counts_per_mm, as_printed=as_printed)
+        summary["asked"] = _asked_figures(move, asked)
+        if move == "line" and asked.counts_per_mm is not None:
+            _say_radius(robot, asked.distance, asked.counts_per_mm, say)
+            counted = robot.count_line(asked.distance, asked.speed, asked.counts_per_mm,
+                                       as_printed=asked.as_printed)
             summary["counted"] = dataclasses.asdict(counted)
             say(f"final.m's count on motor {counted.motor}: i = {counted.counted} of "
                 f"h = {counted.target} in {counted.reads} reads ({counted.equal_reads} equal "
                 f"to the one before, {counted.wraps} wraps)")
         elif move == "line":
-            summary["asked"] = {"distance_m": distance, "speed_m_s": speed,
-                                "speed_percent": percent}
-            robot.line(distance, speed)
+            robot.line(asked.distance, asked.speed)
         elif move == "circle":
-            summary["asked"] = {"radius_m": radius, "speed_m_s": speed, "turns": turns,
-                                "clockwise": clockwise}
-            robot.circle(radius, speed, clockwise=clockwise, turns=turns)
+            robot.circle(asked.radius, asked.speed, clockwise=asked.clockwise,
+                         turns=asked.turns)
         elif move == "eight":
-            summary["asked"] = {"radius_m": radius, "speed_m_s": speed}
-            robot.eight(radius, speed)
+            robot.eight(asked.radius, asked.speed)
         else:
-            summary["asked"] = {"angle_deg": angle_deg}
-            robot.rotate(math.radians(angle_deg))
+            robot.rotate(math.radians(asked.angle_deg))
         robot.update_odometry()
         if shown is not None:
             shown.publish_new()
     finally:
         bar.close()
+
+
+def _asked_figures(move: str, asked: Asked) -> dict[str, Any]:
+    """The summary's ``asked``: the move's own parameters."""
+    if move == "line":
+        figures: dict[str, Any] = {"distance_m": asked.distance, "speed_m_s": asked.speed,
+                                   "speed_percent": asked.percent}
+        if asked.counts_per_mm is not None:
+            figures.update(counts_per_mm=asked.counts_per_mm, as_printed=asked.as_printed)
+        return figures
+    if move == "circle":
+        return {"radius_m": asked.radius, "speed_m_s": asked.speed, "turns": asked.turns,
+                "clockwise": asked.clockwise}
+    if move == "eight":
+        return {"radius_m": asked.radius, "speed_m_s": asked.speed}
+    return {"angle_deg": asked.angle_deg}
 
 
 def _say_radius(robot: MobileBase, distance: float, counts_per_mm: float, say: Say) -> None:

@@ -46,16 +46,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import shutil
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...harness import RunEnding, interruption, stops_deferred
+from ...harness import interruption
 from ...planning.dwa import DwaConfig
 from ...sim.scene import Scene
 from ...vision.calibration import (
@@ -70,6 +70,7 @@ from ..base import ON_STOP as BASE_ON_STOP
 from ..base.config import load as load_base
 from ..base.mobile_base import MobileBase
 from ..errors import RobotError
+from ..lifecycle import Step, Task, replaced, run_task
 from .navigator import NavigationStatus, NavigatorNode, Patience
 from .params import (
     DEFAULT_COSTMAP,
@@ -95,8 +96,8 @@ from .session import (
 )
 
 if TYPE_CHECKING:
+    from ...middleware.context import Context
     from ...middleware.view.run_view import ViewRequest
-    from ...middleware.view.server import ViewServer
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
@@ -165,16 +166,8 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
                               "it needs a calibration file (--calib)")
     loaded = None
     if calib is not None:
-        calibration, board = load_calibration(calib)
-        if board is None:
-            raise NavigationError(f"{calib}: has no floor extrinsics; calibrate with "
-                                  "--floor IMAGE (a board lying on the floor)")
-        if tuple(calibration.image_size) != world.camera.pinhole().image_size:
-            raise NavigationError(f"{calib}: is for {calibration.image_size[0]}x"
-                                  f"{calibration.image_size[1]} images, the scene's camera "
-                                  f"gives {world.camera.width}x{world.camera.height}")
-        loaded = (calibration, board)
-        board_at = board_at or board.board_at or (0.0, 0.0, 0.0)
+        loaded = _calibration_file(calib, world)
+        board_at = board_at or loaded[1].board_at or (0.0, 0.0, 0.0)
     if world.camera.rate < dwa_config.controller_frequency:
         raise NavigationError(
             f"{world.path}: the camera's rate {world.camera.rate:g} frames/s is below "
@@ -193,6 +186,20 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
                       loaded, board_at or BOARD_AT, ignored)
 
 
+def _calibration_file(calib: str | Path,
+                      world: Scene) -> tuple[CameraCalibration, FloorExtrinsics]:
+    """A calibration file's camera and floor board, checked against the scene's camera."""
+    calibration, board = load_calibration(calib)
+    if board is None:
+        raise NavigationError(f"{calib}: has no floor extrinsics; calibrate with "
+                              "--floor IMAGE (a board lying on the floor)")
+    if tuple(calibration.image_size) != world.camera.pinhole().image_size:
+        raise NavigationError(f"{calib}: is for {calibration.image_size[0]}x"
+                              f"{calibration.image_size[1]} images, the scene's camera "
+                              f"gives {world.camera.width}x{world.camera.height}")
+    return calibration, board
+
+
 def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: float = 180.0,
                  seed: int = 0, say: Say = print, show_progress: bool = True,
                  view: ViewRequest | None = None) -> dict[str, Any]:
@@ -201,121 +208,160 @@ def run_navigate(run_folder: RunFolder, navigation: Navigation, *, timeout: floa
     error, the wheels stop, the bag closes, and the summary and plot are written with
     ``interrupted`` before the stop goes on to the caller. ``timeout`` is in the floor's
     simulated seconds."""
-    from ...middleware.clock_node import start_clock
-    from ...middleware.context import Context
-    from ...middleware.recorder import Recorder
-    from ...middleware.view.run_view import serve_run
-    from ...sim.overhead_camera import OverheadCameraNode
-    from ...sim.truth_node import GroundTruthNode
-    from ...vision.map_file import save_map
-    from ..base.fusion_node import FusionNode
-    from ..base.node import BaseNode
-    from .tracker_node import OverheadTrackerNode
+    task = NavigateTask(run_folder, navigation, timeout=timeout, seed=seed, say=say,
+                        show_progress=show_progress)
+    return run_task(run_folder, task, view=view, say=say)
 
-    world = navigation.world
-    costmap_params, dwa_config = navigation.costmap, navigation.dwa
-    move_base_params = navigation.move_base
-    gx, gy, goal_yaw = navigation.goal
-    board_at = navigation.board_at
-    for line in navigation.ignored:
-        say(line)
-    if navigation.calibration is not None:
-        calibration, board = navigation.calibration
-    else:
-        say(f"calibrating the overhead camera: {VIEWS} views of a {BOARD[0]}x{BOARD[1]} board")
-        calibration, board = calibrate_synthetic(world, np.random.default_rng(seed))
-    save_calibration(calibration, dataclasses.replace(board, board_at=board_at),
-                     run_folder.file("calibration.yaml"))
-    extrinsics = in_map(board, (board_at[0] * 1000.0, board_at[1] * 1000.0, board_at[2]))
-    grid = map_grid(world, costmap_params.resolution)
 
-    base = MobileBase.emulated(load_base(world.base), start=world.start, seed=seed)
-    assert base.floor is not None
-    bag = run_folder.file("navigate_bag")
-    if bag.exists():  # a run folder's files are replaced (servolab.runs)
-        shutil.rmtree(bag)
-    context = Context.open(clock=base.clock)
-    start_clock(context)  # /clock in the floor's simulated time, as Gazebo's use_sim_time
-    wall = time.perf_counter()
-    interrupted: BaseException | None = None
-    viewer: ViewServer | None = None
-    try:
+class NavigateTask(Task):
+    """A navigation's part of the run (:func:`~servolab.robots.lifecycle.run_task`): the
+    camera calibrated and the base on its floor, the nodes, the drive to the goal; the
+    wheels stopped, the figures measured against the truth, the map saved and plotted."""
+
+    name = "navigate"
+
+    def __init__(self, run_folder: RunFolder, navigation: Navigation, *, timeout: float,
+                 seed: int, say: Say, show_progress: bool) -> None:
+        self.run_folder, self.navigation, self.timeout = run_folder, navigation, timeout
+        self.seed, self.say, self.show_progress = seed, say, show_progress
+        self.summary = {"motors_on_stop": BASE_ON_STOP}
+
+    def open(self, opened: ExitStack) -> None:
+        from ...middleware.clock_node import start_clock
+        from ...middleware.context import Context
+
+        navigation, folder = self.navigation, self.run_folder
+        for line in navigation.ignored:
+            self.say(line)
+        if navigation.calibration is not None:
+            self.calibration, board = navigation.calibration
+        else:
+            self.say(f"calibrating the overhead camera: {VIEWS} views of a {BOARD[0]}x"
+                     f"{BOARD[1]} board")
+            self.calibration, board = calibrate_synthetic(
+                navigation.world, np.random.default_rng(self.seed))
+        board_at = navigation.board_at
+        save_calibration(self.calibration, dataclasses.replace(board, board_at=board_at),
+                         folder.file("calibration.yaml"))
+        self.extrinsics = in_map(board, (board_at[0] * 1000.0, board_at[1] * 1000.0,
+                                         board_at[2]))
+        self.grid = map_grid(navigation.world, navigation.costmap.resolution)
+        self.base = MobileBase.emulated(load_base(navigation.world.base),
+                                        start=navigation.world.start, seed=self.seed)
+        opened.callback(self.base.bus.close)
+        self.bag = replaced(folder.file("navigate_bag"))
+        self.context = opened.enter_context(Context.open(clock=self.base.clock))
+        self.opened = opened
+        start_clock(self.context)  # /clock in the floor's simulated time, as Gazebo's
+        self.wall = time.perf_counter()
+        self.summary.update(bag=str(self.bag), calibration_file=str(
+            folder.file("calibration.yaml")), board_at=list(board_at))
+
+    def start(self) -> None:
+        from ...middleware.recorder import Recorder
+        from ...sim.overhead_camera import OverheadCameraNode
+        from ...sim.truth_node import GroundTruthNode
+        from ..base.fusion_node import FusionNode
+        from ..base.node import BaseNode
+        from .tracker_node import OverheadTrackerNode
+
+        context, base, world = self.context, self.base, self.navigation.world
+        assert base.floor is not None
         BaseNode(context, base)
         GroundTruthNode(context, base.floor)
-        camera = OverheadCameraNode(context, world, base.floor, seed=seed)
-        tracker = OverheadTrackerNode(context, calibration, extrinsics, grid)
+        self.camera = OverheadCameraNode(context, world, base.floor, seed=self.seed)
+        self.tracker = OverheadTrackerNode(context, self.calibration, self.extrinsics,
+                                           self.grid)
         FusionNode(context, pose_filter=fusion_for(world))
-        navigator = NavigatorNode(
-            context, (gx, gy), costmap=costmap_params, dwa=dwa_config, goal_yaw=goal_yaw,
-            patience=Patience(move_base_params.planner_patience,
-                              move_base_params.controller_patience,
-                              move_base_params.oscillation_timeout,
-                              move_base_params.oscillation_distance),
-            recovery=move_base_params.behaviors(costmap_params.circumscribed_radius),
-            planner_frequency=move_base_params.planner_frequency,
-            pose_timeout=POSE_TIMEOUT_FRAMES / world.camera.rate)
-        Recorder(context, str(bag), list(RECORDED))
-        start = base.clock.now()  # before the wait for a viewer, which a stop may end
-        if view is not None:  # served from here on, waiting for a viewer if simulated
-            viewer = serve_run(context, view, say, name="servolab navigate")
-        say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, {gy:g}) "
-            f"on {world.path}")
-        _drive(context, navigator, base, start, timeout, show_progress, say)
-    except BaseException as error:  # a stop signal or a node's error: stop, keep what happened
-        interrupted = error
-    ending = RunEnding(interrupted)
-    summary: dict[str, Any] = {"motors_on_stop": BASE_ON_STOP}
-    with stops_deferred() as late:  # the way out is not cut short by a signal
-        with ending.step("stopping the wheels"):
-            try:
-                base.stop()  # the wheels first, whatever else fails
-                summary["wheels_after_stop"] = base.wheel_commands()
-            finally:
-                try:
-                    if viewer is not None:
-                        viewer.close()
-                    context.close()  # the recorder finishes the bag
-                finally:
-                    base.bus.close()
-        with ending.step("measuring"):
-            elapsed = base.clock.now() - start
-            summary.update(summarise(
-                world, base, navigator, goal=(gx, gy, goal_yaw), elapsed=elapsed,
-                calibration=calibration, frames=camera.frames, sightings=tracker.sightings,
-                dwa=dwa_config, start=camera.start,
-                body_radius=max(world.robot_radius, costmap_params.circumscribed_radius)))
-            summary["wall_seconds"] = round(time.perf_counter() - wall, 2)
-            #: the simulated time the run started at (the camera's first frame; obstacles
-            #: appear at their ``appear_at`` after it): the bag's and the repairs' times count
-            #: from the clock's 0
-            summary["start_time_s"] = camera.start
-        summary["bag"] = str(bag)
-        summary["calibration_file"] = str(run_folder.file("calibration.yaml"))
-        summary["board_at"] = list(board_at)
-        with ending.step("saving the map"):
-            if tracker.occupancy is not None:
-                yaml_path, _ = save_map(run_folder.file("map"), tracker.occupancy,
-                                        grid.resolution, grid.origin)
-                summary["map"] = str(yaml_path)
-        with ending.step("plotting"):
-            summary["plot"] = str(plot_navigation(world, base, navigator, tracker.occupancy,
-                                                  grid, run_folder.file("navigate.png")))
-        interrupted = ending.settle(late, summary)
-        if interrupted is not None:
-            summary["status"] = "INTERRUPTED"
-            summary["reason"] = f"interrupted: {interruption(interrupted)}"
-        elif navigator.status is not NavigationStatus.SUCCEEDED:
-            summary["reason"] = navigator.reason or f"not at the goal after {timeout:g} s"
-        run_folder.write_summary(summary, interrupted=interrupted)
-    ending.raise_if_ended()
-    if navigator.status is not NavigationStatus.SUCCEEDED:
-        raise GoalNotReached(f"navigation failed: {summary['reason']} (run folder: "
-                             f"{run_folder.path})", summary)
-    say(f"goal reached in {elapsed:.1f} s: {summary['goal_distance_m'] * 1000:.0f} mm and "
-        f"{math.degrees(summary['goal_yaw_error_rad']):.1f}° from the goal (truth), nearest "
-        f"obstacle {summary['min_clearance_m'] * 1000:.0f} mm from the robot's edge, "
-        f"{len(navigator.repairs)} plan repair(s); bag {bag}, plot {summary['plot']}")
-    return summary
+        self.navigator = navigator_for(context, self.navigation)
+        Recorder(context, str(self.bag), list(RECORDED))
+        self.started = base.clock.now()  # before the wait for a viewer, which a stop may end
+
+    def served(self) -> Context:
+        return self.context
+
+    def run(self) -> None:
+        world, (gx, gy, _) = self.navigation.world, self.navigation.goal
+        self.say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, "
+                 f"{gy:g}) on {world.path}")
+        _drive(self.context, self.navigator, self.base, self.started, self.timeout,
+               self.show_progress, self.say)
+
+    def stop(self, ended: BaseException | None) -> list[Step]:
+        def wheels() -> None:
+            self.base.stop()  # the wheels first, whatever else fails
+            self.summary["wheels_after_stop"] = self.base.wheel_commands()
+
+        return [Step("stopping the wheels", wheels)]
+
+    def way_out(self, ended: BaseException | None) -> list[Step]:
+        return [Step("closing the bag and the bus", self.opened.close),  # the recorder ends
+                Step("measuring", self._measure), Step("saving the map", self._save_map),
+                Step("plotting", self._plot)]
+
+    def _measure(self) -> None:
+        navigation, base = self.navigation, self.base
+        self.summary.update(summarise(
+            navigation.world, base, self.navigator, goal=navigation.goal,
+            elapsed=base.clock.now() - self.started, calibration=self.calibration,
+            frames=self.camera.frames, sightings=self.tracker.sightings, dwa=navigation.dwa,
+            start=self.camera.start, body_radius=max(
+                navigation.world.robot_radius, navigation.costmap.circumscribed_radius)))
+        self.summary["wall_seconds"] = round(time.perf_counter() - self.wall, 2)
+        #: the simulated time the run started at (the camera's first frame; obstacles
+        #: appear at their ``appear_at`` after it): the bag's and the repairs' times count
+        #: from the clock's 0
+        self.summary["start_time_s"] = self.camera.start
+
+    def _save_map(self) -> None:
+        from ...vision.map_file import save_map
+
+        if self.tracker.occupancy is not None:
+            yaml_path, _ = save_map(self.run_folder.file("map"), self.tracker.occupancy,
+                                    self.grid.resolution, self.grid.origin)
+            self.summary["map"] = str(yaml_path)
+
+    def _plot(self) -> None:
+        self.summary["plot"] = str(plot_navigation(
+            self.navigation.world, self.base, self.navigator, self.tracker.occupancy,
+            self.grid, self.run_folder.file("navigate.png")))
+
+    def verdict(self, ended: BaseException | None) -> None:
+        if ended is not None:
+            self.summary["status"] = "INTERRUPTED"
+            self.summary["reason"] = f"interrupted: {interruption(ended)}"
+        elif self.navigator.status is not NavigationStatus.SUCCEEDED:
+            self.summary["reason"] = (self.navigator.reason
+                                      or f"not at the goal after {self.timeout:g} s")
+
+    def report(self, ended: BaseException | None) -> None:
+        if ended is not None:
+            return
+        summary, navigator = self.summary, self.navigator
+        if navigator.status is not NavigationStatus.SUCCEEDED:
+            raise GoalNotReached(f"navigation failed: {summary['reason']} (run folder: "
+                                 f"{self.run_folder.path})", summary)
+        self.say(f"goal reached in {summary['seconds']:.1f} s: "
+                 f"{summary['goal_distance_m'] * 1000:.0f} mm and "
+                 f"{math.degrees(summary['goal_yaw_error_rad']):.1f}° from the goal (truth), "
+                 f"nearest obstacle {summary['min_clearance_m'] * 1000:.0f} mm from the "
+                 f"robot's edge, {len(navigator.repairs)} plan repair(s); bag {self.bag}, "
+                 f"plot {summary['plot']}")
+
+
+def navigator_for(context: Context, navigation: Navigation) -> NavigatorNode:
+    """The navigator with the navigation's parameters: move_base's patience, recovery and
+    planner frequency, and a pose older than :data:`POSE_TIMEOUT_FRAMES` camera frames
+    counted stale."""
+    costmap, move_base = navigation.costmap, navigation.move_base
+    gx, gy, goal_yaw = navigation.goal
+    return NavigatorNode(
+        context, (gx, gy), costmap=costmap, dwa=navigation.dwa, goal_yaw=goal_yaw,
+        patience=Patience(move_base.planner_patience, move_base.controller_patience,
+                          move_base.oscillation_timeout, move_base.oscillation_distance),
+        recovery=move_base.behaviors(costmap.circumscribed_radius),
+        planner_frequency=move_base.planner_frequency,
+        pose_timeout=POSE_TIMEOUT_FRAMES / navigation.world.camera.rate)
 
 
 def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: float,
@@ -393,9 +439,6 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Circle, Rectangle
-
-    from ...sim.scene import BoxObstacle, CircleObstacle
 
     figure, ax = plt.subplots(figsize=(8, 6))
     x0, y0 = grid.origin
@@ -404,19 +447,7 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
         ax.imshow(np.where(occupancy, 0.35, 1.0), cmap="gray", vmin=0, vmax=1, origin="lower",
                   extent=(x0, x0 + cols * grid.resolution, y0, y0 + rows * grid.resolution),
                   interpolation="nearest")
-    for obstacle in world.obstacles:
-        late = obstacle.appear_at is not None
-        colour, line = ("tab:red", "--") if late else ("black", "-")
-        if isinstance(obstacle, CircleObstacle):
-            ax.add_patch(Circle((obstacle.x, obstacle.y), obstacle.radius, fill=False,
-                                edgecolor=colour, linestyle=line, linewidth=1.5))
-        elif isinstance(obstacle, BoxObstacle):
-            ax.add_patch(Rectangle((obstacle.x, obstacle.y), obstacle.width, obstacle.depth,
-                                   fill=False, edgecolor=colour, linestyle=line,
-                                   linewidth=1.5))
-        if late:
-            ax.annotate(f"appears at {obstacle.appear_at:g} s", (obstacle.x, obstacle.y),
-                        color="tab:red", fontsize=8)
+    _draw_obstacles(ax, world)
     for k, (t, plan) in enumerate(navigator.plans):
         first = k == 0
         if first or any(abs(r.t - t) < 1e-9 for r in navigator.repairs):
@@ -448,3 +479,24 @@ def plot_navigation(world: Scene, base: MobileBase, navigator: NavigatorNode,
     figure.savefig(path, dpi=100)
     plt.close(figure)
     return path
+
+
+def _draw_obstacles(ax: Any, world: Scene) -> None:
+    """The scene's obstacles, those appearing mid-run dashed red with their time."""
+    from matplotlib.patches import Circle, Rectangle
+
+    from ...sim.scene import BoxObstacle, CircleObstacle
+
+    for obstacle in world.obstacles:
+        late = obstacle.appear_at is not None
+        colour, line = ("tab:red", "--") if late else ("black", "-")
+        if isinstance(obstacle, CircleObstacle):
+            ax.add_patch(Circle((obstacle.x, obstacle.y), obstacle.radius, fill=False,
+                                edgecolor=colour, linestyle=line, linewidth=1.5))
+        elif isinstance(obstacle, BoxObstacle):
+            ax.add_patch(Rectangle((obstacle.x, obstacle.y), obstacle.width, obstacle.depth,
+                                   fill=False, edgecolor=colour, linestyle=line,
+                                   linewidth=1.5))
+        if late:
+            ax.annotate(f"appears at {obstacle.appear_at:g} s", (obstacle.x, obstacle.y),
+                        color="tab:red", fontsize=8)
