@@ -126,6 +126,12 @@ def test_demo_runs_and_leaves_a_run_folder(tmp_path: Path) -> None:
     assert summary["rx28"]["motors_found"] == [11, 12, 13, 14, 15, 16]
     assert summary["rx28"]["final_position_rad"] == pytest.approx(0.8, abs=0.006)
     assert (tmp_path / "run" / "demo_motion.png").stat().st_size > 10_000
+    # each robot command brought its robot to the tour (Command.demo), and its run finished
+    assert summary["walk"]["rows_played"] > 0
+    assert summary["drive"]["measured"] and summary["flyball"]["frames"] > 0
+    assert summary["navigate"]["status"] == "SUCCEEDED"
+    for name in ("walk", "drive", "navigate", "flyball"):
+        assert Path(summary[name]["plot"]).is_file()
 
 
 def test_duplicate_ids_in_a_spec_are_refused(tmp_path: Path,

@@ -6,6 +6,8 @@ statement (also those inside functions), relative ones resolved."""
 from __future__ import annotations
 
 import ast
+import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -168,3 +170,90 @@ def test_no_import_circle_under_robots_at_run_time() -> None:
              if name.startswith("servolab.robots")}
     assert len(graph) > 50, "the checker found too few robot modules"
     assert import_circles(graph) == []
+
+
+def _docstrings(tree: ast.Module) -> set[int]:
+    """The ids of a module's, classes' and functions' docstring nodes (prose, not code)."""
+    found: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef) \
+                and node.body and isinstance(node.body[0], ast.Expr) \
+                and isinstance(node.body[0].value, ast.Constant):
+            found.add(id(node.body[0].value))
+    return found
+
+
+def _servolabs_robots() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Each name (and alias) of servolab's own robots -> (its package under robots/, the
+    commands its plug-in says run it)."""
+    from servolab.robots.registry import discover
+
+    found = discover({})
+    names: dict[str, tuple[str, tuple[str, ...]]] = {}
+    for plugin in found.plugins.values():
+        if plugin.origin == "servolab":
+            package = plugin.open.__module__.split(".")[2]
+            names.update({n: (package, plugin.commands) for n in (plugin.name, *plugin.aliases)})
+    return names
+
+
+def shared_mentions(names: dict[str, tuple[str, tuple[str, ...]]]) -> list[str]:
+    """Where a module outside every robot's package names a robot in code: a string that is a
+    robot's name (or its name and a dot: one of its files, ``armstrong.urdf``), a string
+    naming two robots (a list), or an import of a robot's package — unless the module is one of
+    the commands that robot's plug-in says run it."""
+    packages = {package for package, _ in names.values()}
+    words = {n: re.compile(rf"(?<![\w-]){re.escape(n)}(?![\w-])") for n in names}
+    found: list[str] = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE).parts
+        if parts[0] == "robots" and len(parts) > 2 and parts[1] in packages:
+            continue
+        command = path.stem if parts[0] == "apps" else None
+        allowed = {n for n, (_, commands) in names.items() if command in commands}
+        tree = ast.parse(path.read_text(), str(path))
+        prose = _docstrings(tree)
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.Constant) and isinstance(node.value, str)) \
+                    or id(node) in prose:
+                continue
+            named = {n for n, word in words.items() if word.search(node.value)} - allowed
+            keys = {n for n in named if node.value == n or node.value.startswith(f"{n}.")}
+            if keys or len(named) > 1:
+                found.append(f"{path.relative_to(SRC)}:{node.lineno} names "
+                             f"{', '.join(sorted(keys or named))}: {node.value[:60]!r}")
+        owners = {f"servolab.robots.{names[n][0]}" for n in names} - \
+            {f"servolab.robots.{names[n][0]}" for n in allowed}
+        found += [f"{path.relative_to(SRC)}:{line} imports {target}"
+                  for line, target in imports(path)
+                  if any(target == o or target.startswith(o + ".") for o in owners)]
+    return found
+
+
+def test_the_shared_list_finder_sees_a_list_a_key_and_an_import(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch
+                                                                 ) -> None:
+    apps = tmp_path / "servolab" / "apps"
+    apps.mkdir(parents=True)
+    (apps / "tour.py").write_text('ROBOTS = ("alpha", "beta")\nFILE = "alpha.urdf"\n'
+                                  'HELP = "runs alpha, the arm"\n'
+                                  "from ..robots.beta import plugin\n")
+    (apps / "move.py").write_text('FILE = "alpha.urdf"\nfrom ..robots.alpha import run\n')
+    monkeypatch.setattr(sys.modules[__name__], "SRC", tmp_path)
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", tmp_path / "servolab")
+    found = shared_mentions({"alpha": ("alpha", ("move",)), "beta": ("beta", ())})
+    assert sorted(found) == ["servolab/apps/tour.py:1 names alpha: 'alpha'",
+                     "servolab/apps/tour.py:1 names beta: 'beta'",
+                     "servolab/apps/tour.py:2 names alpha: 'alpha.urdf'",
+                     "servolab/apps/tour.py:4 imports servolab.robots.beta"]
+
+
+def test_no_shared_file_names_a_robot() -> None:
+    """A robot is a plug-in (issue 42): outside its own package and the commands that run it,
+    servolab holds no list of robots to edit — no robot's name as a key or file, no string
+    naming two robots, no import of a robot's package. Robots may use each other (the
+    navigation drives a base); prose that mentions one (docstrings, a help line's example)
+    is not a list."""
+    names = _servolabs_robots()
+    assert {"armstrong", "seed000", "turtlebot3_waffle", "treadmill", "navigation"} <= set(names)
+    assert shared_mentions(names) == []

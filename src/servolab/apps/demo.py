@@ -4,12 +4,11 @@ It shows the Dynamixel layer: it builds an emulated bus like Armstrong's legs (R
 Protocol 1.0 at 57142 bps) and one like the fly treadmill's (XM430-W210 on Protocol 2.0 at
 1 Mbps), scans them, moves a motor and prints what it saw; then the middleware: a talker and a
 listener node on ``/cmd_vel``, recorded to an MCAP bag; then a simulated world: two wheels on a
-floor, stepped by the simulation that owns time; last, Armstrong (the biped of seed 001)
-stands up and walks a step, seed 000's wheeled robot drives a figure of eight and then
-navigates to a goal with its overhead camera, D* Lite and DWA, and a simulated fly on the
-ball treadmill of seed 002 steers a robot. It saves
-plots, bags and summary.json in the run folder. Every robot that servolab grows adds its own
-short run here.
+floor, stepped by the simulation that owns time; last, each robot command's own short run (its
+``Command.demo``): the biped stands up and walks a step, seed 000's wheeled robot drives a
+figure of eight and navigates to a goal with its overhead camera, D* Lite and DWA, and a
+simulated fly on the ball treadmill of seed 002 steers a robot. It saves plots, bags and
+summary.json in the run folder. A robot whose command has a ``demo`` joins the tour by itself.
 
 The Dynamixel layer, the middleware and matplotlib are imported inside the functions, so that
 ``servolab --help`` does not load them.
@@ -98,13 +97,7 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say()
     figures["floor"] = _floor(say)
     say()
-    figures["biped"] = _biped(run_folder, say)
-    say()
-    figures["mobile_base"] = _mobile_base(run_folder, say)
-    say()
-    figures["navigation"] = _navigation(run_folder, say)
-    say()
-    figures["flyball"] = _flyball(run_folder, say)
+    figures.update(_robots(run_folder, say, first=5))
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -120,6 +113,33 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say()
     say(f"Plot: {plot}\nSummary: {summary}")
     return figures
+
+
+def _robots(run_folder: RunFolder, say: Callable[[str], None], *, first: int
+            ) -> dict[str, object]:
+    """Each robot command's own short run (its ``Command.demo``), numbered from ``first``:
+    the tour names no robot, so a robot that brings a command with a demo joins it."""
+    from .registry import commands
+
+    figures: dict[str, object] = {}
+    for number, command in enumerate((c for c in commands() if c.demo is not None), first):
+        if number > first:
+            say("")
+        assert command.demo is not None
+        figures[command.name] = command.demo(run_folder, _numbered(say, number))
+    return figures
+
+
+def _numbered(say: Callable[[str], None], number: int) -> Callable[[str], None]:
+    """``say``, with the section's number before its first line."""
+    headed = False
+
+    def numbered(text: str) -> None:
+        nonlocal headed
+        say(text if headed else f"{number}. {text}")
+        headed = True
+
+    return numbered
 
 
 def _floor(say: Callable[[str], None]) -> dict[str, object]:
@@ -140,54 +160,6 @@ def _floor(say: Callable[[str], None]) -> dict[str, object]:
         f"y = {truth['y']:+.3f} m, yaw = {truth['yaw']:+.3f} rad")
     return {"ground_truth": truth, "physics_steps": sim.steps,
             "real_time_factor": 5.0 / host}
-
-
-def _mobile_base(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
-    """Seed 000's two-wheel robot drives a figure of eight on the simulated floor."""
-    from ..robots.base.run import run_drive
-
-    say("6. Seed 000's two-wheel robot (EX-106+ wheels) drives a figure of eight on a floor")
-    say("   (servolab drive eight; see docs/mobile.md)")
-    summary = run_drive(run_folder, "eight", radius=0.3, speed=0.1,
-                        say=lambda text: say("   " + text), show_progress=False)
-    return {k: summary[k] for k in ("measured", "bag", "plot")}
-
-
-def _navigation(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
-    """Seed 000's loop: overhead camera, D* Lite, DWA; an obstacle appears on the way."""
-    from ..robots.navigation.run import prepare, run_navigate
-
-    say("7. Seed 000's navigation: the overhead camera is calibrated, then the robot drives to")
-    say("   (3.3, 2.3) with D* Lite and DWA; at 6 s an obstacle appears on its path")
-    say("   (servolab navigate --goal 3.3 2.3; see docs/navigation.md)")
-    summary = run_navigate(run_folder, prepare((3.3, 2.3)),
-                           say=lambda text: say("   " + text), show_progress=False)
-    return {k: summary[k] for k in ("status", "goal_distance_m", "min_clearance_m", "repairs",
-                                    "bag", "plot")}
-
-
-def _flyball(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
-    """Seed 002: a simulated fly on the ball treadmill steers the robot, for 10 s."""
-    from ..robots.treadmill.run import run_flyball
-
-    say("8. Seed 002's machine-insect interface: a simulated fruit fly walks on a ball, the")
-    say("   camera finds it 66 times a second, three wheels turn the ball back, a robot follows")
-    say("   (servolab flyball; see docs/treadmill.md)")
-    summary = run_flyball(run_folder, duration=10.0, say=lambda text: say("   " + text),
-                          show_progress=False)
-    return {k: summary[k] for k in ("frames", "analysis", "bag", "plot")}
-
-
-def _biped(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
-    """Armstrong (seed 001) stands up and walks one step, recorded (see docs/biped.md)."""
-    from ..robots.armstrong.motions import load_motion
-    from ..robots.armstrong.run import run_walk
-
-    say("5. Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")
-    say("   (servolab walk; see docs/biped.md)")
-    summary = run_walk(run_folder, load_motion(None), steps=1,
-                       say=lambda text: say("   " + text), show_progress=False)
-    return {k: summary[k] for k in ("rows_played", "walked_s", "bag", "plot")}
 
 
 def _nodes(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:

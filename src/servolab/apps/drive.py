@@ -11,10 +11,15 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from .arguments import PORT_HELP, add_out, finite_float, positive_float
 from .registry import Command
 from .view import add_view_flag, view_request
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
 
 
 def counts_per_mm(text: str) -> float:
@@ -124,6 +129,17 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+
+def _demo(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 000's two-wheel robot drives a figure of eight on the simulated floor."""
+    from ..robots.base.run import run_drive
+
+    say("Seed 000's two-wheel robot (EX-106+ wheels) drives a figure of eight on a floor")
+    say("   (servolab drive eight; see docs/mobile.md)")
+    summary = run_drive(run_folder, "eight", radius=0.3, speed=0.1,
+                        say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("measured", "bag", "plot")}
+
 COMMAND = Command(
     name="drive", group="robots", help="seed 000's moves on a wheeled base (line, circle, ...)",
     description="Drive a differential-drive base: a straight line, a circle, a figure of "
@@ -138,4 +154,4 @@ COMMAND = Command(
               "--base seed000_4motor",
               "servolab drive circle --radius 0.5 --base turtlebot3_waffle",
               "servolab drive circle --radius 0.5 --view"),
-    add_arguments=_add_arguments, run=_run)
+    add_arguments=_add_arguments, run=_run, demo=_demo)

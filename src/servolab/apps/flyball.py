@@ -9,10 +9,15 @@ what the thesis reports.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from .arguments import PORT_HELP, add_out, nonnegative_int, positive_float
 from .registry import Command
 from .view import add_view_flag, view_request
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -161,6 +166,18 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+
+def _demo(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 002: a simulated fly on the ball treadmill steers the robot, for 10 s."""
+    from ..robots.treadmill.run import run_flyball
+
+    say("Seed 002's machine-insect interface: a simulated fruit fly walks on a ball, the")
+    say("   camera finds it 66 times a second, three wheels turn the ball back, a robot follows")
+    say("   (servolab flyball; see docs/treadmill.md)")
+    summary = run_flyball(run_folder, duration=10.0, say=lambda text: say("   " + text),
+                          show_progress=False)
+    return {k: summary[k] for k in ("frames", "analysis", "bag", "plot")}
+
 COMMAND = Command(
     name="flyball", group="robots", help="seed 002's fly on the ball treadmill steering a "
     "robot (simulated), and its analysis",
@@ -177,4 +194,4 @@ COMMAND = Command(
               "servolab flyball --duration 20 --seed 3 --out runs/fly-a",
               "servolab flyball --duration 20 --view",
               "servolab flyball analyze runs/fly-a"),
-    add_arguments=_add_arguments, run=_run)
+    add_arguments=_add_arguments, run=_run, demo=_demo)

@@ -10,10 +10,15 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from .arguments import add_out, finite_float, nonnegative_int, positive_float
 from .registry import Command
 from .view import add_view_flag, view_request
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -74,6 +79,19 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+
+def _demo(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Seed 000's loop: overhead camera, D* Lite, DWA; an obstacle appears on the way."""
+    from ..robots.navigation.run import prepare, run_navigate
+
+    say("Seed 000's navigation: the overhead camera is calibrated, then the robot drives to")
+    say("   (3.3, 2.3) with D* Lite and DWA; at 6 s an obstacle appears on its path")
+    say("   (servolab navigate --goal 3.3 2.3; see docs/navigation.md)")
+    summary = run_navigate(run_folder, prepare((3.3, 2.3)),
+                           say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("status", "goal_distance_m", "min_clearance_m", "repairs",
+                                    "bag", "plot")}
+
 COMMAND = Command(
     name="navigate", group="robots", help="drive to a goal with the overhead camera, D* Lite "
     "and DWA (simulated)",
@@ -85,4 +103,4 @@ COMMAND = Command(
     "navigate.png, calibration.yaml and summary.json.",
     examples=("servolab navigate --goal 2.6 1.6",
               "servolab navigate --goal 2.6 1.6 90 --scene my_scene.yaml --out runs/nav-a"),
-    add_arguments=_add_arguments, run=_run)
+    add_arguments=_add_arguments, run=_run, demo=_demo)

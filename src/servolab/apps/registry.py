@@ -24,6 +24,13 @@ import importlib
 import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..runs import RunFolder
+
+#: a command's part of ``servolab demo``: (run folder, say) -> its figures
+Demo = Callable[["RunFolder", Callable[[str], None]], dict[str, object]]
 
 
 @dataclass(frozen=True)
@@ -66,6 +73,10 @@ class Command:
     run: Callable[[argparse.Namespace], int]
     description: str | None = None
     examples: tuple[str, ...] = ()
+    #: the command's part of ``servolab demo``: a short run in the tour's run folder, saying
+    #: its lines through ``say`` (the first is its heading), returning its key figures. A
+    #: robot's command brings its robot to the tour, so the tour names no robot itself.
+    demo: Demo | None = None
 
     def __post_init__(self) -> None:
         if self.group not in {g.name for g in GROUPS}:

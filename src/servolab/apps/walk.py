@@ -9,6 +9,7 @@ import argparse
 import math
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -18,6 +19,7 @@ from .view import add_view_flag, view_request
 
 if TYPE_CHECKING:
     from ..robots.armstrong.description import Assumptions
+    from ..runs import RunFolder
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -141,6 +143,18 @@ def _assumptions(items: list[str]) -> Assumptions | None:
     return Assumptions.with_values(values)
 
 
+
+def _demo(run_folder: RunFolder, say: Callable[[str], None]) -> dict[str, object]:
+    """Armstrong (seed 001) stands up and walks one step, recorded (see docs/biped.md)."""
+    from ..robots.armstrong.motions import load_motion
+    from ..robots.armstrong.run import run_walk
+
+    say("Armstrong, the biped of seed 001: 20 emulated RX-28 stand up and walk one step")
+    say("   (servolab walk; see docs/biped.md)")
+    summary = run_walk(run_folder, load_motion(None), steps=1,
+                       say=lambda text: say("   " + text), show_progress=False)
+    return {k: summary[k] for k in ("rows_played", "walked_s", "bag", "plot")}
+
 COMMAND = Command(
     name="walk", group="robots", help="Armstrong stands up and walks (seed 001), recorded",
     description="Move Armstrong to the stand pose of 001 Table 4.2, then play a motion "
@@ -154,4 +168,4 @@ COMMAND = Command(
               "servolab walk --world mujoco --steps 4 --video walk.mp4",
               "servolab walk --world mujoco --gait zmp --steps 10",
               "servolab walk --port /dev/ttyUSB0 --steps 1"),
-    add_arguments=_add_arguments, run=_run)
+    add_arguments=_add_arguments, run=_run, demo=_demo)

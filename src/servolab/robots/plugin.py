@@ -21,7 +21,6 @@ if TYPE_CHECKING:
     from ..dynamixel.emulator import Emulator
     from ..dynamixel.motorspec import MotorSpec
     from ..middleware.view.layout import Layout
-    from ..runs import RunFolder
     from ..sim.simulation import Simulation
 
 #: A file ``servolab robots show`` prints: shipped as a file, or written when asked (a URDF
@@ -138,9 +137,6 @@ class RobotPlugin:
     #: the ``servolab`` commands that run this robot (``walk``), listed for the user; a
     #: command names its robot, nothing else outside the robot's package does
     commands: tuple[str, ...] = ()
-    #: a short run for ``servolab demo`` (its run folder, a ``say(text)`` for the tour's lines):
-    #: the run's key figures
-    demo: Callable[[RunFolder, Callable[[str], None]], dict[str, object]] | None = None
     origin: str = field(default="", compare=False)
 
     def load(self, port: str | None = None) -> Any:
