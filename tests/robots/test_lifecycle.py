@@ -254,6 +254,14 @@ def test_no_robot_command_body_is_over_60_lines() -> None:
     assert too_long(runs + commands) == []
 
 
+def test_no_command_function_is_over_60_lines() -> None:
+    """The CLI only parses and calls (ARCHITECTURE.md, "Layers"): every command module's
+    functions, not only the robots', stay short enough to read at once."""
+    apps = sorted((SRC / "apps").glob("*.py"))
+    assert len(apps) > 20
+    assert too_long(apps) == []
+
+
 def test_the_length_check_sees_a_long_body(tmp_path: Path) -> None:
     """A mutant of the checker that measured nothing would pass everything."""
     long = tmp_path / "long.py"

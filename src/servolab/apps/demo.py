@@ -25,23 +25,44 @@ from .arguments import add_out
 from .registry import Command
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from ..runs import RunFolder
 
 
 def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]:
     import matplotlib
 
-    from ..dynamixel.bus import Bus
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     def say(text: str = "") -> None:
         print(text, file=stdout, flush=True)
 
     figures: dict[str, object] = {}
+    figures["rx28"], motion = _rx28(say)
+    say()
+    figures["xm430"] = _xm430(say)
+    say()
+    figures["nodes"] = _nodes(run_folder, say)
+    say()
+    figures["floor"] = _floor(say)
+    say()
+    figures.update(_robots(run_folder, say, first=5))
 
-    # -- 1. Armstrong's left leg: six RX-28 on Protocol 1.0 at the factory 57142 bps --------
+    plot = run_folder.save_figure(_motion_figure(*motion), "demo_motion.png")
+    summary = run_folder.write_summary(figures)
+    say()
+    say(f"Plot: {plot}\nSummary: {summary}")
+    return figures
+
+
+Motion = tuple[list[float], list[float], list[float]]  # times (s), positions (rad), speeds (rad/s)
+
+
+def _rx28(say: Callable[[str], None]) -> tuple[dict[str, object], Motion]:
+    """Armstrong's left leg: six RX-28 on Protocol 1.0 at the factory 57142 bps; one moves."""
+    from ..dynamixel.bus import Bus
+
     say("1. An emulated bus like Armstrong's left leg: RX-28 IDs 11-16, protocol 1.0, 57142 bps")
     bus = Bus.open("emu://rx28:11-16", baudrate=57142)
     clock = bus.port.clock
@@ -52,7 +73,9 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     say("   torque on, moving_speed 1.5 rad/s, goal_position of motor 12 <- 0.8 rad")
     bus.write(12, "torque_enable", 1)
     bus.write(12, {"goal_position": 0.8, "moving_speed": 1.5})
-    times, positions, speeds = [], [], []
+    times: list[float] = []
+    positions: list[float] = []
+    speeds: list[float] = []
     t0 = clock.now()
     while clock.now() - t0 < 1.0:
         state = bus.read(12, ["present_position", "present_speed"])
@@ -65,11 +88,14 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
             f"present_speed = {speeds[i]:+.3f} rad/s")
     say(f"   motor 12 reached {positions[-1]:+.3f} rad "
         f"(goal 0.8 rad, one RX-28 tick is {bus.model_of(12).rad_per_tick:.4f} rad)")
-    figures["rx28"] = {"motors_found": [r.id for r in found], "final_position_rad":
-                       positions[-1], "bus_stats": vars(bus.stats)}
+    return ({"motors_found": [r.id for r in found], "final_position_rad": positions[-1],
+             "bus_stats": vars(bus.stats)}, (times, positions, speeds))
 
-    # -- 2. The fly treadmill: three XM430-W210 on Protocol 2.0 at 1 Mbps, velocity mode ------
-    say()
+
+def _xm430(say: Callable[[str], None]) -> dict[str, object]:
+    """The fly treadmill: three XM430-W210 on Protocol 2.0 at 1 Mbps, in velocity mode."""
+    from ..dynamixel.bus import Bus
+
     say("2. An emulated bus like the fly treadmill: XM430-W210 IDs 1-3, protocol 2.0, 1 Mbps")
     xbus = Bus.open("emu://xm430-w210:1-3", baudrate=1_000_000)
     xclock = xbus.port.clock
@@ -89,15 +115,12 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     for i in ids:
         say(f"   motor {i}: present_position after 1 s = {present[i]:+.3f} rad")
     say(f"   one write+read cycle takes {cycle_ms:.3f} ms of bus time at 1 Mbps")
-    figures["xm430"] = {"present_position_rad": present, "cycle_ms": cycle_ms}
+    return {"present_position_rad": present, "cycle_ms": cycle_ms}
 
-    # -- 3. Nodes and topics: a talker, a listener and a recorder, in one process ----------------
-    say()
-    figures["nodes"] = _nodes(run_folder, say)
-    say()
-    figures["floor"] = _floor(say)
-    say()
-    figures.update(_robots(run_folder, say, first=5))
+
+def _motion_figure(times: list[float], positions: list[float], speeds: list[float]) -> Figure:
+    """The RX-28's move of section 1: position against its goal, and speed."""
+    import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     ax1.plot(times, positions, marker=".", label="present_position")
@@ -108,11 +131,7 @@ def run(run_folder: RunFolder, stdout: TextIO = sys.stdout) -> dict[str, object]
     ax2.plot(times, speeds, marker=".", color="tab:orange")
     ax2.set_ylabel("present_speed (rad/s)")
     ax2.set_xlabel("time (s)")
-    plot = run_folder.save_figure(fig, "demo_motion.png")
-    summary = run_folder.write_summary(figures)
-    say()
-    say(f"Plot: {plot}\nSummary: {summary}")
-    return figures
+    return fig
 
 
 def _robots(run_folder: RunFolder, say: Callable[[str], None], *, first: int

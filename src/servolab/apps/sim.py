@@ -18,9 +18,12 @@ from .arguments import add_out, baud, protocol
 from .registry import Command
 
 if TYPE_CHECKING:
+    from ..dynamixel.emulator import Emulator
     from ..dynamixel.motorspec import MotorSpec
+    from ..dynamixel.ports import PtyServer
     from ..robots.plugin import ServedRobot
     from ..runs import RunFolder
+    from ..sim import Simulation
 
 
 #: The niceness ``servolab sim`` asks for: above the programs a lab PC runs at 0.
@@ -63,29 +66,63 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
     ServedRobot`): when it brings a world, the motors (``spec``, the robot's) move it, stepped
     in real time beside the bus (Armstrong in MuJoCo), and the summary adds what the robot
     reports of it (whether and when the biped fell)."""
-    from ..dynamixel.emulator import build_emulator
-    from ..dynamixel.ports import (
-        REALTIME_PRIORITY,
-        Device,
-        EchoingDevice,
-        PtyServer,
-        realtime_thread,
-    )
+    from ..dynamixel.ports import EchoingDevice, PtyServer
     from ..signals import on_stop_signals, raise_keyboard_interrupt
+
+    simulation, emulator, physics = _place(spec, served)
+    niceness = hardware_priority() if raise_priority else None
+    _start_real_time(simulation, raise_priority)
+    server = PtyServer(EchoingDevice(emulator) if echo else emulator, spec.motor_baudrate,
+                       link=link, clock=simulation, lock=simulation.lock,
+                       realtime=raise_priority)
+    started = time.monotonic()
+    with on_stop_signals(raise_keyboard_interrupt), server:
+        print(server.device, file=stdout, flush=True)   # once it serves
+        print(_banner(spec, server, link=link, echo=echo, served=served, niceness=niceness),
+              file=stderr, flush=True)
+        try:
+            while duration is None or time.monotonic() - started < duration:
+                time.sleep(0.2)
+        except KeyboardInterrupt:
+            pass
+    simulation.stop_real_time()
+    figures: dict[str, object] = {
+        "device": server.device, "protocol": spec.protocol, "baudrate": spec.motor_baudrate,
+        "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
+        "instructions_received": emulator.instructions_seen,
+        "served_s": round(time.monotonic() - started, 3),
+        "physics_steps": simulation.steps, "nice": niceness,
+        "realtime": server.realtime, "echo": echo,
+        "reply_lateness": server.reply_lateness(),
+        "replies_lost": server.replies_lost,
+        "reply_bytes_unread": server.bytes_overflowed}
+    if served is not None and served.report is not None:
+        figures.update(served.report(physics, run.file("physics.png"), simulation.now()))
+    run.write_summary(figures)
+    print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
+          f"summary in {run.path}", file=stderr, flush=True)
+    return figures
+
+
+def _place(spec: MotorSpec, served: ServedRobot | None) -> tuple[Simulation, Emulator, object]:
+    """The motors in their simulation: the robot's world when it brings one (its physics is
+    the third value), else a simulation of the motors alone."""
+    from ..dynamixel.emulator import build_emulator
     from ..sim import Simulation
 
-    physics = None
     if served is not None and served.place is not None:
-        simulation, emulator, physics = served.place(build_emulator(spec))
-    else:
-        simulation = Simulation()
-        emulator = simulation.add_emulator(build_emulator(spec))
-    baud = spec.motor_baudrate
-    niceness = hardware_priority() if raise_priority else None
-    # The simulation's thread takes the scheduling of the thread that starts it: real time
-    # just below the pty server's, so that it never sits preempted by an ordinary process
-    # while it holds the motors' lock or the GIL the server waits for. This thread goes back
-    # to ordinary scheduling at once.
+        return served.place(build_emulator(spec))
+    simulation = Simulation()
+    return simulation, simulation.add_emulator(build_emulator(spec)), None
+
+
+def _start_real_time(simulation: Simulation, raise_priority: bool) -> None:
+    """Start the simulation's thread. It takes the scheduling of the thread that starts it:
+    with ``raise_priority``, real time just below the pty server's, so that it never sits
+    preempted by an ordinary process while it holds the motors' lock or the GIL the server
+    waits for. This thread goes back to ordinary scheduling at once."""
+    from ..dynamixel.ports import REALTIME_PRIORITY, realtime_thread
+
     me = threading.get_native_id()
     if raise_priority and realtime_thread(me, REALTIME_PRIORITY - 1):
         try:
@@ -94,47 +131,23 @@ def sim(spec: MotorSpec, *, run: RunFolder, link: str | None = None,
             os.sched_setscheduler(me, os.SCHED_OTHER, os.sched_param(0))
     else:
         simulation.start_real_time()
-    device: Device = EchoingDevice(emulator) if echo else emulator
-    server = PtyServer(device, baud, link=link, clock=simulation, lock=simulation.lock,
-                       realtime=raise_priority)
+
+
+def _banner(spec: MotorSpec, server: PtyServer, *, link: str | None, echo: bool,
+            served: ServedRobot | None, niceness: int | None) -> str:
+    """The line that says what is served, where, and how."""
     names = sorted({e.model.name for e in spec.motors})
     ids = ",".join(str(e.id) for e in spec.motors)
-    started = time.monotonic()
-    with on_stop_signals(raise_keyboard_interrupt), server:
-        print(server.device, file=stdout, flush=True)   # once it serves
-        raised = [f"nice {niceness}"] if niceness is not None else []
-        raised += ["replies from a real-time thread"] if server.realtime else []
-        how = ", ".join(raised)
-        print(f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
-              f"{_protocols(spec.protocol)} at {baud} bps on {server.device}"
-              f"{f' (link {link})' if link else ''}"
-              f"{', echoing every byte sent' if echo else ''}"
-              f"{f', {served.what}' if served is not None and served.what else ''}"
-              f"{f', at raised priority ({how})' if how else ''}; "
-              "Ctrl-C stops", file=stderr, flush=True)
-        try:
-            while duration is None or time.monotonic() - started < duration:
-                time.sleep(0.2)
-        except KeyboardInterrupt:
-            pass
-    simulation.stop_real_time()
-    figures: dict[str, object] = {"device": server.device, "protocol": spec.protocol,
-                                  "baudrate": baud,
-               "motors": [{"id": e.id, "model": e.model.name} for e in spec.motors],
-               "instructions_received": emulator.instructions_seen,
-               "served_s": round(time.monotonic() - started, 3),
-               "physics_steps": simulation.steps, "nice": niceness,
-               "realtime": server.realtime, "echo": echo,
-               "reply_lateness": server.reply_lateness(),
-               "replies_lost": server.replies_lost,
-               "reply_bytes_unread": server.bytes_overflowed}
-    if served is not None and served.report is not None:
-        figures.update(served.report(physics, run.file("physics.png"), simulation.now()))
-    run.write_summary(figures)
-    print(f"servolab sim: stopped after {emulator.instructions_seen} instructions; "
-          f"summary in {run.path}", file=stderr, flush=True)
-    return figures
-
+    raised = [f"nice {niceness}"] if niceness is not None else []
+    raised += ["replies from a real-time thread"] if server.realtime else []
+    how = ", ".join(raised)
+    return (f"servolab sim: {len(spec.motors)} emulated {'/'.join(names)} (IDs {ids}) on "
+            f"{_protocols(spec.protocol)} at {spec.motor_baudrate} bps on {server.device}"
+            f"{f' (link {link})' if link else ''}"
+            f"{', echoing every byte sent' if echo else ''}"
+            f"{f', {served.what}' if served is not None and served.what else ''}"
+            f"{f', at raised priority ({how})' if how else ''}; "
+            "Ctrl-C stops")
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     which = p.add_mutually_exclusive_group(required=True)

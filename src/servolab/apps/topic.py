@@ -392,6 +392,11 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="wait up to this long for a subscription before the first message "
                         "(default 2; says so if none came)")
     add_transport(p)
+    _add_inspecting(actions)
+
+
+def _add_inspecting(actions: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """The actions that measure or describe a topic without printing its messages."""
     p = actions.add_parser("hz", help="measure a topic's rate")
     p.add_argument("topic")
     p.add_argument("--type", dest="type_name", help="message type (default: from the graph)")
