@@ -229,3 +229,51 @@ def test_the_live_view_of_a_folder_robot_follows_its_joints(robot_path: Path,
                 client.wait_until(follows, f"/tf at pan {pan}, tilt {tilt}", timeout=20)
             (latest,) = client.messages("/joint_states")[-1:]
             assert latest["name"] == ["pan", "tilt"]
+
+
+def test_a_goal_the_motor_would_refuse_is_refused_before_any_joint_moves(
+        robot_path: Path) -> None:
+    """A goal inside the URDF's limits that the motor itself refuses (an XM430 in position
+    mode takes 0..4095, about ±π: e-Manual, XM430-W350, Goal Position(116) "Min Position
+    Limit(52) ~ Max Position Limit(48)") is refused for every joint before the first is sent,
+    and a goal that is not a number is one line naming its joint."""
+    from servolab.robots.errors import RobotValueError
+
+    urdf = robot_path / "robots/pan_tilt/pan_tilt.urdf"
+    urdf.write_text(urdf.read_text().replace('lower="-1.5" upper="1.5"',
+                                             'lower="-4" upper="4"'))
+    with servolab.robots.load("pan_tilt") as head:
+        with pytest.raises(RobotValueError, match=r"^pan_tilt: joint tilt: motor 2 "
+                           r"\(XM430-W350\) goal_position: 3\.50?1? rad \(raw 4330\) is outside "
+                           r"its position "
+                           r"limits") as caught:
+            head.move_to({"pan": 1.0, "tilt": 3.5})
+        one_line(caught, "pan_tilt", "tilt")
+        assert head.bus.read(1, "torque_enable") == 0  # the pan was not sent either
+        for goal in ("x", None, float("nan"), True):
+            with pytest.raises(RobotValueError, match=rf"^pan_tilt: joint pan: goal {goal!r} "
+                               r"is not a number \(rad\)$"):
+                head.move_to({"pan": goal})  # type: ignore[dict-item]
+        assert head.bus.read(1, "torque_enable") == 0
+
+
+def test_stopping_tries_every_motor_when_one_does_not_answer(robot_path: Path) -> None:
+    """The head holds on stop: a motor that stopped answering (unplugged from the emulated
+    bus) is named, and the other one is still held and its torque still turned off."""
+    from servolab.robots.errors import RobotError
+
+    with servolab.robots.load("pan_tilt") as head:
+        head.move_to({"pan": 0.3, "tilt": 0.2})
+        unplugged = head.bus.emulator.unplug(1)
+        head.bus.write(2, "goal_position", -0.5)
+        with pytest.raises(RobotError, match=r"^pan_tilt: motor 1: .*") as caught:
+            head.stop()
+        one_line(caught, "motor 1")
+        assert "motor 2" not in str(caught.value)
+        held = head.bus.read(2, "goal_position")
+        assert abs(held - head.bus.read(2, "present_position")) < 0.01
+        assert abs(held - -0.5) > 0.1    # held where it was, not sent on to its goal
+        with pytest.raises(RobotError, match=r"^pan_tilt: motor 1: "):
+            head.torque(False)
+        assert head.bus.read(2, "torque_enable") == 0
+        head.bus.emulator.add(unplugged)  # plugged back, so that closing holds both

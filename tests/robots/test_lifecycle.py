@@ -133,6 +133,50 @@ def test_a_failing_step_is_recorded_and_the_next_still_runs(tmp_path: Path) -> N
     assert summary["interrupted"] == "OSError: disk full"
 
 
+class BrokenTask(Recording):
+    """A task whose own ``stop``, ``way_out`` or ``verdict`` raises (a bug in a plug-in)."""
+
+    def __init__(self, log: list[str], broken: str) -> None:
+        super().__init__(log)
+        self.broken = broken
+
+    def stop(self, ended: BaseException | None) -> list[Step]:
+        if self.broken == "stop":
+            raise AttributeError("'Task' object has no attribute 'wheels'")
+        return super().stop(ended)
+
+    def way_out(self, ended: BaseException | None) -> list[Step]:
+        if self.broken == "way_out":
+            raise KeyError("bag")
+        return super().way_out(ended)
+
+    def verdict(self, ended: BaseException | None) -> None:
+        if self.broken == "verdict":
+            raise ZeroDivisionError("division by zero")
+        super().verdict(ended)
+
+
+@pytest.mark.parametrize(("broken", "error"), [("stop", AttributeError),
+                                               ("way_out", KeyError),
+                                               ("verdict", ZeroDivisionError)])
+def test_a_task_whose_own_way_out_fails_still_closes_the_robot_and_writes_the_summary(
+        tmp_path: Path, broken: str, error: type[Exception]) -> None:
+    log: list[str] = []
+    folder = RunFolder.create("test", tmp_path)
+    with pytest.raises(error):
+        run_task(folder, BrokenTask(log, broken), say=lambda _: None)
+    assert log[-1] == "closed"
+    if broken != "stop":
+        assert "motors stopped" in log
+    if broken != "way_out":
+        assert "measured" in log
+    summary = _summary(folder)
+    if broken != "verdict":
+        (failure,) = summary["failures_on_the_way_out"]
+        assert failure.startswith("stopping the motors: AttributeError" if broken == "stop"
+                                  else "the way out: KeyError")
+
+
 def test_a_stop_signal_stops_the_motors_and_a_second_one_waits_for_the_way_out(
         tmp_path: Path) -> None:
     log: list[str] = []

@@ -224,3 +224,44 @@ def test_a_broken_entry_point_is_one_line_and_hides_no_robot(
     assert found.problems["gone"] == ("entry point gone = 'broken_robots.arm:PLUGIN' "
                                       "(servolab.robots): ModuleNotFoundError: No module named "
                                       "'broken_robots'")
+
+
+@pytest.mark.parametrize(("urdf", "controllers", "said"), [
+    ("<robot name='arm'>", None, "not XML"),
+    (ARM.format(blocks=""), None, "no <ros2_control>"),
+    (arm(), "controller_manager:\n  ros__parameters: {}\nc:\n  ros__parameters:\n"
+            "    joints: [roll]\n", "joint 'roll' is not in the URDF"),
+], ids=["not-xml", "no-block", "controllers-joint"])
+def test_a_robot_whose_description_is_broken_hides_no_other(
+        robot_path: Path, capsys: pytest.CaptureFixture[str], urdf: str,
+        controllers: str | None, said: str) -> None:
+    """A folder is found by its files; its URDF and controllers file are read when the robot
+    is listed, shown or opened. One that does not parse is listed as 'cannot be loaded' with
+    its error, and every other robot is listed, shown and laid out as before."""
+    broken = robot_path / "a_broken"   # listed before pan_tilt
+    broken.mkdir()
+    (broken / "a_broken.urdf").write_text(urdf)
+    if controllers is not None:
+        (broken / "controllers.yaml").write_text(controllers)
+    assert main(["robots"]) == 0
+    out = capsys.readouterr().out
+    assert "pan_tilt: a pan-tilt head" in out and "armstrong:" in out
+    (line,) = [x for x in out.splitlines() if x.startswith("a_broken: ")]
+    assert line.startswith("a_broken: cannot be loaded: ") and said in line, line
+    assert main(["robots", "show", "pan_tilt.urdf"]) == 0
+    assert capsys.readouterr().out == (robot_path / "pan_tilt" / "pan_tilt.urdf").read_text()
+    from servolab.robots.registry import layout_named, layouts
+
+    assert {"pan_tilt", "armstrong"} <= set(layouts())
+    with pytest.raises(ValueError, match=said.replace("(", r"\(")):
+        layout_named("a_broken")
+
+
+def test_a_folder_named_twice_on_the_path_is_one_robot(robot_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    monkeypatch.setenv("SERVOLAB_ROBOT_PATH",
+                       os.pathsep.join([str(robot_path), f"{robot_path}/", str(robot_path)]))
+    found = discover()
+    assert "pan_tilt" in found.plugins and "pan_tilt" not in found.problems

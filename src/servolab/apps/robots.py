@@ -9,8 +9,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .registry import Command
+
+if TYPE_CHECKING:
+    from ..robots.plugin import RobotPlugin
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,10 +30,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _show(name: str) -> None:
     from ..errors import UsageError
-    from ..robots.registry import discover
+    from ..robots.registry import discover, shipped_files
 
     found = discover()
-    files = {n: f for p in found.plugins.values() for n, f in p.shown_files().items()}
+    files = shipped_files(found.plugins)
     if name not in files:
         robot = found.plugins.get(found.aliases.get(name, name))
         hint = (f"{name} has no configuration file: its parameters are in code"
@@ -39,27 +43,39 @@ def _show(name: str) -> None:
     print(shown.read_text() if isinstance(shown, Path) else shown(), end="")
 
 
+def _described(name: str, plugin: RobotPlugin) -> list[str]:
+    """What ``servolab robots`` prints of one robot. Its bus is read from its description (a
+    robot folder's URDF), so this is where a broken robot shows."""
+    config = plugin.config()
+    lines = [f"{name}: {plugin.summary}", f"  bus:     {plugin.bus()}",
+             f"  on stop: {plugin.on_stop}",
+             f"  config:  {config if config is not None else '(in code)'}"]
+    more = [n for n in plugin.shown_files() if n != name]
+    if more:
+        lines.append(f"  files:   {', '.join(more)}")
+    if plugin.commands:
+        lines.append(f"  run by:  {', '.join(f'servolab {c}' for c in plugin.commands)}")
+    if plugin.aliases:
+        lines.append(f"  also:    {', '.join(plugin.aliases)}")
+    if plugin.origin != "servolab":
+        lines.append(f"  from:    {plugin.origin}")
+    return lines
+
+
 def _list() -> None:
+    from ..errors import ServolabError
     from ..robots.registry import discover
 
     found = discover()
+    problems = dict(found.problems)
     for name, plugin in found.plugins.items():
-        config = plugin.config()
-        print(f"{name}: {plugin.summary}")
-        print(f"  bus:     {plugin.bus()}")
-        print(f"  on stop: {plugin.on_stop}")
-        print(f"  config:  {config if config is not None else '(in code)'}")
-        more = [n for n in plugin.shown_files() if n != name]
-        if more:
-            print(f"  files:   {', '.join(more)}")
-        if plugin.commands:
-            print(f"  run by:  {', '.join(f'servolab {c}' for c in plugin.commands)}")
-        if plugin.aliases:
-            print(f"  also:    {', '.join(plugin.aliases)}")
-        if plugin.origin != "servolab":
-            print(f"  from:    {plugin.origin}")
-    for name, problem in found.problems.items():
-        print(f"{name}: cannot be loaded: {problem}")
+        try:
+            print("\n".join(_described(name, plugin)))
+        except Exception as exc:  # one robot's fault must not hide the rest
+            problems[name] = (str(exc) if isinstance(exc, ServolabError)
+                              else f"{plugin.origin}: {type(exc).__name__}: {exc}")
+    for name, problem in problems.items():
+        print(f"{name}: cannot be loaded: {' '.join(problem.split())}")
     print("\n'servolab robots show NAME' prints a file to copy and edit; "
           "servolab.robots.load(NAME, port=None) opens a robot from Python; a robot of your "
           "own: a folder on SERVOLAB_ROBOT_PATH or a 'servolab.robots' entry point.")

@@ -112,21 +112,29 @@ def run_task(run_folder: RunFolder, task: Task, *, view: ViewRequest | None = No
         interrupted = error
     ending = RunEnding(interrupted)
     with stops_deferred() as late:  # the way out is not cut short by a signal
-        _take(ending, task.stop(interrupted))
+        _take(ending, "stopping the motors", lambda: task.stop(interrupted))
         if viewer is not None:
-            _take(ending, [Step("closing the view", viewer.close)])
-        _take(ending, task.way_out(interrupted))  # asked now: the stop may change what it is
-        _take(ending, [Step("closing the robot", opened.close)])
+            _take(ending, "closing the view", lambda: [Step("closing the view", viewer.close)])
+        # asked now: the stop may change what the way out is
+        _take(ending, "the way out", lambda: task.way_out(interrupted))
+        _take(ending, "closing the robot", lambda: [Step("closing the robot", opened.close)])
         ended = ending.settle(late, task.summary)
-        task.verdict(ended)
-        run_folder.write_summary(task.summary, interrupted=ended)
+        try:
+            task.verdict(ended)
+        finally:  # a verdict that fails still leaves the summary of what was done
+            run_folder.write_summary(task.summary, interrupted=ended)
     task.report(ending.error)
     ending.raise_if_ended()
     return task.summary
 
 
-def _take(ending: RunEnding, steps: Sequence[Step]) -> None:
-    for step in steps:
+def _take(ending: RunEnding, what: str, steps: Callable[[], Sequence[Step]]) -> None:
+    """Each of the steps ``steps()`` gives, run even when one before failed; a task whose
+    ``steps()`` itself fails is one failed step (``what``), so the steps after it still run."""
+    built: Sequence[Step] = ()
+    with ending.step(what):
+        built = steps()
+    for step in built:
         with ending.step(step.name):
             step.do()
 

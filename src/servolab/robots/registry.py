@@ -111,11 +111,14 @@ def robot_folders(environ: Mapping[str, str] | None = None) -> list[Path]:
     from .robot_folder import is_robot_folder
 
     found: list[Path] = []
+    seen: set[Path] = set()   # a folder named twice on the path (a/ and a, or a link to it)
     for entry in (environ if environ is not None else os.environ).get(PATH_VARIABLE, "") \
             .split(os.pathsep):
         folder = Path(entry).expanduser()
-        if entry and folder.is_dir():
-            found += sorted(p for p in folder.iterdir() if is_robot_folder(p))
+        if not entry or not folder.is_dir() or folder.resolve() in seen:
+            continue
+        seen.add(folder.resolve())
+        found += sorted(p for p in folder.iterdir() if is_robot_folder(p))
     return found
 
 
@@ -177,19 +180,34 @@ def load(name: str, port: str | None = None) -> Any:
     return entry(name).load(port)
 
 
-def shipped_files() -> dict[str, ShownFile]:
+def shipped_files(plugins: Mapping[str, RobotPlugin] | None = None) -> dict[str, ShownFile]:
     """Every file ``servolab robots show`` prints, by the name it takes: each robot's default
-    configuration, its URDF and the other files its plug-in names."""
+    configuration, its URDF and the other files its plug-in names (of ``plugins``, else of
+    every robot found). A robot whose files cannot be named (a robot folder whose URDF does
+    not parse) is left out: ``servolab robots`` says why."""
     files: dict[str, ShownFile] = {}
-    for plugin in robots().values():
-        files.update(plugin.shown_files())
+    for plugin in (plugins if plugins is not None else robots()).values():
+        try:
+            files.update(plugin.shown_files())
+        except Exception:  # one robot's fault must not hide the others' files
+            continue
     return files
 
 
 def layouts() -> dict[str, Layout]:
-    """Every robot's Foxglove layout, by the layout's own name (bases share one, ``base``)."""
-    return {layout.name: layout for plugin in robots().values()
-            if plugin.layout is not None and (layout := plugin.layout())}
+    """Every robot's Foxglove layout, by the layout's own name (bases share one, ``base``).
+    A robot whose layout cannot be made (a robot folder whose URDF does not parse) is left
+    out, so that it does not hide the others'; :func:`layout_named` raises its error."""
+    found: dict[str, Layout] = {}
+    for plugin in robots().values():
+        if plugin.layout is None:
+            continue
+        try:
+            layout = plugin.layout()
+        except Exception:  # servolab robots says why it cannot be loaded
+            continue
+        found[layout.name] = layout
+    return found
 
 
 def layout_named(name: str) -> Layout:

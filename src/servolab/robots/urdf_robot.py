@@ -11,6 +11,7 @@ from the bus, and a robot_state_publisher's ``/robot_description``, ``/tf`` and 
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
@@ -112,24 +113,47 @@ class UrdfRobot:
                 for j in self.system.joints}
 
     def torque(self, on: bool) -> None:
+        """Torque on or off on every joint's motor; every motor is tried before a failure is
+        raised, so one that does not answer leaves none of the others as they were."""
+        self._each_joint(lambda motor_id: self.bus.write(motor_id, "torque_enable", int(on)))
+
+    def _each_joint(self, act: Callable[[int], object]) -> None:
+        """``act`` on every joint's motor ID, all of them tried; then the first failure,
+        naming each motor that failed."""
+        failed: list[tuple[int, Exception]] = []
         for joint in self.system.joints:
-            self.bus.write(joint.id, "torque_enable", int(on))
+            try:
+                act(joint.id)
+            except Exception as exc:  # the next motor must still stop
+                failed.append((joint.id, exc))
+        if failed:
+            raise RobotError(f"{self.name}: " + "; ".join(f"motor {i}: {' '.join(str(e).split())}"
+                                                          for i, e in failed)) from failed[0][1]
 
     def _checked(self, goals: Mapping[str, float]) -> dict[int, float]:
         """The goals by motor ID, each refused in one line if it names no joint, is not a
         number or lies outside the joint's URDF limits — before anything moves."""
+        from ..dynamixel.errors import ConfigError
+
         by_id: dict[int, float] = {}
         for name, value in goals.items():
             joint = self.system.joint(name)
-            goal = float(value)
-            if not math.isfinite(goal):
+            try:
+                goal = float(value)
+            except (TypeError, ValueError):
+                goal = math.nan
+            if not math.isfinite(goal) or isinstance(value, bool):
                 raise RobotValueError(f"{self.name}: joint {name}: goal {value!r} is not a "
-                                      "number")
+                                      "number (rad)")
             lower = -math.inf if joint.lower is None else joint.lower
             upper = math.inf if joint.upper is None else joint.upper
             if not lower <= goal <= upper:
                 raise RobotValueError(f"{self.name}: joint {name}: goal {goal:g} rad is outside "
                                       f"its URDF limits [{lower:g}, {upper:g}]")
+            try:  # what the motor itself refuses (its position limits in its mode)
+                self.bus.check_write(joint.id, {"goal_position": goal})
+            except ConfigError as exc:
+                raise RobotValueError(f"{self.name}: joint {name}: {exc}") from None
             by_id[joint.id] = goal
         return by_id
 
@@ -140,9 +164,18 @@ class UrdfRobot:
         (RobotError after ``timeout`` s of the robot's clock, naming the joints short of it).
         Returns the positions then."""
         by_id = self._checked(goals)
-        for motor_id, goal in by_id.items():
-            self.bus.write(motor_id, "torque_enable", 1)   # not adjacent on Protocol 2.0
-            self.bus.write(motor_id, "goal_position", goal)
+        sent: list[int] = []
+        try:
+            for motor_id, goal in by_id.items():
+                self.bus.write(motor_id, "torque_enable", 1)   # not adjacent on Protocol 2.0
+                sent.append(motor_id)
+                self.bus.write(motor_id, "goal_position", goal)
+        except Exception:  # a motor that stopped answering: the ones sent hold where they are
+            for motor_id in sent:
+                with contextlib.suppress(Exception):
+                    self.bus.write(motor_id, "goal_position",
+                                   float(self.bus.read(motor_id, "present_position")))
+            raise
         if not wait:
             return self.positions()
         deadline = self.clock.now() + timeout
@@ -167,9 +200,8 @@ class UrdfRobot:
         if self.on_stop == "torque_off":
             self.torque(False)
             return
-        for joint in self.system.joints:
-            self.bus.write(joint.id, "goal_position",
-                           float(self.bus.read(joint.id, "present_position")))
+        self._each_joint(lambda motor_id: self.bus.write(
+            motor_id, "goal_position", float(self.bus.read(motor_id, "present_position"))))
 
     def view(self, port: int = 0, host: str = "127.0.0.1") -> ViewServer:
         """Serve the robot live to Foxglove or Lichtblick on ``ws://host:port`` (0: a free
@@ -187,9 +219,11 @@ class UrdfRobot:
             return
         self._closed = True
         try:
-            if self._view is not None:
-                self._view.close()
-            self.stop()
+            try:
+                if self._view is not None:
+                    self._view.close()
+            finally:
+                self.stop()
         finally:
             if self.simulation is not None:
                 self.simulation.stop_real_time()

@@ -38,6 +38,14 @@ class Writes(Reads):
     def _name_list(names: Names) -> list[str]:
         return [names] if isinstance(names, str) else list(names)
 
+    def check_write(self, motor_id: int, values: Mapping[str, Value], *,
+                    raw: bool = False) -> None:
+        """Raise what :meth:`write` of ``values`` would raise (ConfigError, one line), and
+        send nothing that writes: so a caller moving several motors can refuse a goal that
+        one of them would refuse before any of them moves. Like :meth:`write`, it may read
+        the motor's mode and limits once where a value needs them."""
+        self._checked_block(motor_id, self.model_of(motor_id), values, raw)
+
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
               *, raw: bool = False, registered: bool = False) -> None:
         """Write one register (``write(1, "goal_position", 0.5)``) or several adjacent ones
