@@ -46,10 +46,24 @@ def test_the_listing_names_every_robot_its_bus_and_file(capsys: pytest.CaptureFi
 @pytest.mark.parametrize("name", sorted(shipped_files()))
 def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[str],
                                       tmp_path: Path) -> None:
+    """What is printed is the file itself, byte for byte, read here from the package's own
+    folder; a robot's file is the one ``load`` opens it with (its ``config()``), and a YAML
+    file is a mapping that PyYAML reads."""
+    import yaml
+
     assert main(["robots", "show", name]) == 0
     printed = capsys.readouterr().out
+    assert printed.strip()
     shown = shipped_files()[name]
-    assert printed == (shown.read_text() if isinstance(shown, Path) else shown())
+    if not isinstance(shown, Path):  # written from a description: its own test is below
+        assert printed == shown()
+        return
+    package = Path(__import__("servolab").__file__).parent
+    assert shown.is_relative_to(package) and printed == shown.read_bytes().decode()
+    if name in robots():
+        assert robots()[name].config() == shown
+    if shown.suffix == ".yaml":
+        assert isinstance(yaml.safe_load(printed), dict)
 
 
 @pytest.mark.parametrize(("name", "root"), [("armstrong.urdf", "robot"),

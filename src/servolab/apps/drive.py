@@ -37,9 +37,11 @@ def counts_per_mm(text: str) -> float:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--base", metavar="NAME|YAML", help="a shipped base by name (seed000, "
-                   "seed000_4motor, turtlebot3_waffle: 'servolab robots') or a base file "
-                   "(default seed000, seed 000's two-wheel robot)")
+    from ..robots.base import DEFAULT_BASE, SHIPPED
+
+    p.add_argument("--base", metavar="NAME|YAML", help="a shipped base by name ("
+                   f"{', '.join(SHIPPED)}: 'servolab robots') or a base file (default "
+                   f"{DEFAULT_BASE}, {SHIPPED[DEFAULT_BASE]})")
     p.add_argument("--port", metavar="PORT", help="the base's port: " + PORT_HELP +
                    "; default: the base emulated on a simulated floor")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -45,6 +45,7 @@ from ...configfile import load as load_config
 from ...dynamixel.errors import ConfigError
 from ...dynamixel.models import Model, model
 from ...errors import ConfigFileError
+from . import DEFAULT_BASE, SHIPPED
 
 _TOP = ("base",)
 _BASE_KEYS = ("name", "model", "protocol", "baudrate", "wheel_radius", "wheel_separation",
@@ -104,8 +105,7 @@ class BaseConfig:
         return tuple(m for m in self.motors if m.side == side)
 
 
-#: the bases servolab ships, by name: ``base_<name>.yaml`` beside this module
-SHIPPED = ("seed000", "seed000_4motor", "turtlebot3_waffle")
+
 
 
 def shipped_base(name: str) -> Path:
@@ -120,7 +120,7 @@ def resolve(base: str | Path | None) -> Path:
     """A base as a user names it: a shipped base's name (``turtlebot3_waffle``), a file, or
     nothing for seed 000's two-wheel robot."""
     if base is None or base == "":
-        return shipped_base("seed000")
+        return shipped_base(DEFAULT_BASE)
     if isinstance(base, str) and base in SHIPPED:
         return shipped_base(base)
     path = Path(base)
@@ -133,7 +133,7 @@ def resolve(base: str | Path | None) -> Path:
 
 
 #: the folder of the shipped bases: a scene's ``base:`` is looked for here too
-SHIPPED_DIR = shipped_base("seed000").parent
+SHIPPED_DIR = shipped_base(DEFAULT_BASE).parent
 SEED_000_BASE = shipped_base("seed000")
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..plugin import BusSummary, RobotPlugin
-from . import ON_STOP
+from . import ON_STOP, SHIPPED
 
 if TYPE_CHECKING:
     from ...middleware.view.layout import Layout
@@ -48,8 +48,4 @@ def _base(name: str, summary: str, aliases: tuple[str, ...] = ()) -> RobotPlugin
                        config=config, layout=_layout, aliases=aliases, commands=("drive",))
 
 
-ROBOTS = (
-    _base("seed000", "seed 000's two-wheel robot, EX-106+ in wheel mode"),
-    _base("seed000_4motor", "seed 000 A.2's four-motor robot"),
-    _base("turtlebot3_waffle", "a TurtleBot3 Waffle (seed 002's robot), XM430 wheels"),
-)
+ROBOTS = tuple(_base(name, summary) for name, summary in SHIPPED.items())
