@@ -305,3 +305,38 @@ def test_a_mode_that_cannot_be_read_is_an_error_before_the_wire() -> None:
     bus.sync_write("moving_speed", {1: 1.0})
     assert bus.emulator.motor(1).get_raw("moving_speed") == round(
         1.0 / RX28.no_load_speed * 1023)
+
+
+@pytest.mark.parametrize(("values", "message"), [
+    ({"goal_position": 9.0}, r"goal_position"),          # beyond the XM430's position limits
+    ({"goal_position": 1.0, "id": 5}, r"\bid\b"),        # commissioning beside a register
+    ({"id": 5}, r"change_id\(\) and change_baud\(\)"),
+    ({}, r"names no register"),
+    ({"goal_positon": 1.0}, r"did you mean goal_position"),
+])
+def test_check_write_refuses_what_write_refuses_and_sends_no_write(
+        values: dict[str, float], message: str) -> None:
+    """A robot checks every joint's goal with check_write before it moves any: each refusal
+    is one line, and no WRITE reaches the motor (its goal stays where it was)."""
+    bus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000, retries=0)
+    motor = bus.port.emulator.motor(1)  # type: ignore[attr-defined]
+    before = motor.get_raw("goal_position")
+    with pytest.raises(ConfigError, match=message) as info:
+        bus.check_write(1, values)
+    assert "\n" not in str(info.value)
+    if values and "id" not in values:  # write() refuses each the same way
+        with pytest.raises(ConfigError):
+            bus.write(1, values)
+    assert motor.get_raw("goal_position") == before
+    bus.check_write(1, {"goal_position": 1.0})   # a goal the motor takes passes
+    assert motor.get_raw("goal_position") == before
+    with pytest.raises(ConfigError, match="motor ID 254 is the broadcast ID"):
+        bus.check_write(254, {"led": 1})
+
+
+def test_a_write_of_id_alone_in_a_mapping_is_followed_as_change_id() -> None:
+    """``write(1, {"id": 5})`` is the same as ``write(1, "id", 5)``: the bus follows the motor
+    to its new ID rather than losing it."""
+    bus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000, retries=0)
+    bus.write(1, {"id": 5})
+    assert bus.ping(5).model is not None and bus.read(5, "id") == 5

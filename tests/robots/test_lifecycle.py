@@ -171,10 +171,28 @@ def test_a_task_whose_own_way_out_fails_still_closes_the_robot_and_writes_the_su
     if broken != "way_out":
         assert "measured" in log
     summary = _summary(folder)
-    if broken != "verdict":
-        (failure,) = summary["failures_on_the_way_out"]
-        assert failure.startswith("stopping the motors: AttributeError" if broken == "stop"
-                                  else "the way out: KeyError")
+    (failure,) = summary["failures_on_the_way_out"]
+    assert failure.startswith({"stop": "stopping the motors: AttributeError",
+                               "way_out": "the way out: KeyError",
+                               "verdict": "the verdict: ZeroDivisionError"}[broken])
+    assert summary["interrupted"].startswith(error.__name__)
+
+
+def test_a_verdict_that_fails_after_an_error_leaves_the_first_cause_raised(
+        tmp_path: Path) -> None:
+    """The motor fault that ended the run is what the user sees (and its exit status), not
+    the task's own bug in judging it; the bug is kept in the summary."""
+    log: list[str] = []
+    folder = RunFolder.create("test", tmp_path)
+    task = BrokenTask(log, "verdict")
+    task.during = lambda: (_ for _ in ()).throw(RobotError("motor 3 silent"))
+    with pytest.raises(RobotError, match="motor 3 silent") as info:
+        run_task(folder, task, say=lambda _: None)
+    assert log[-1] == "closed" and task.reported == [info.value]
+    summary = _summary(folder)
+    assert summary["interrupted"] == "RobotError: motor 3 silent"
+    assert summary["failures_on_the_way_out"] == [
+        "the verdict: ZeroDivisionError: division by zero"]
 
 
 def test_a_stop_signal_stops_the_motors_and_a_second_one_waits_for_the_way_out(

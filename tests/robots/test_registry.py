@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
+import servolab
 from servolab.cli import main
 from servolab.robots import load, robots
-from servolab.robots.registry import UnknownRobotError, shipped_files
+from servolab.robots.registry import UnknownRobotError, layouts, shipped_files
 
 
 @pytest.mark.parametrize("name", sorted(robots()))
@@ -46,9 +47,8 @@ def test_the_listing_names_every_robot_its_bus_and_file(capsys: pytest.CaptureFi
 @pytest.mark.parametrize("name", sorted(shipped_files()))
 def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[str],
                                       tmp_path: Path) -> None:
-    """What is printed is the file itself, byte for byte, read here from the package's own
-    folder; a robot's file is the one ``load`` opens it with (its ``config()``), and a YAML
-    file is a mapping that PyYAML reads."""
+    """What is printed is the file itself, byte for byte, from the installed package's own
+    folder, and a YAML file is a mapping that PyYAML reads."""
     import yaml
 
     assert main(["robots", "show", name]) == 0
@@ -58,10 +58,8 @@ def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[s
     if not isinstance(shown, Path):  # written from a description: its own test is below
         assert printed == shown()
         return
-    package = Path(__import__("servolab").__file__).parent
+    package = Path(servolab.__file__).parent
     assert shown.is_relative_to(package) and printed == shown.read_bytes().decode()
-    if name in robots():
-        assert robots()[name].config() == shown
     if shown.suffix == ".yaml":
         assert isinstance(yaml.safe_load(printed), dict)
 
@@ -113,3 +111,26 @@ def test_a_base_is_named_or_a_file_and_a_typo_gets_a_suggestion(
     assert line == ("servolab drive: error: turtlebot: no such file, nor a shipped base; "
                     "did you mean turtlebot3_waffle?")
     assert not (tmp_path / "run").exists()  # refused before a run folder was made
+
+
+@pytest.mark.parametrize("name", sorted(n for n, p in robots().items() if p.origin == "servolab"))
+def test_every_shipped_robot_names_its_files_and_makes_its_layout(name: str) -> None:
+    """A shipped robot whose files or layout fail is servolab's bug, raised rather than left
+    out of 'servolab robots show' and the view (only a user's robot is skipped)."""
+    plugin = robots()[name]
+    files = plugin.shown_files()
+    if plugin.config() is not None:
+        assert files[name] == plugin.config()
+    if plugin.layout is not None:
+        assert plugin.layout().name in layouts()
+
+
+def test_the_shipped_bases_are_the_base_files_beside_them() -> None:
+    """robots/base SHIPPED names exactly the ``base_<name>.yaml`` files the package ships, and
+    each is a robot (so 'servolab drive --base NAME' and 'servolab robots' agree)."""
+    from servolab.robots import base
+    from servolab.robots.base import DEFAULT_BASE, SHIPPED
+
+    on_disk = {p.stem.removeprefix("base_") for p in Path(base.__file__).parent.glob("base_*.yaml")}
+    assert set(SHIPPED) == on_disk and DEFAULT_BASE in SHIPPED
+    assert {n: robots()[n].summary for n in SHIPPED} == dict(SHIPPED)

@@ -119,10 +119,11 @@ def run_task(run_folder: RunFolder, task: Task, *, view: ViewRequest | None = No
         _take(ending, "the way out", lambda: task.way_out(interrupted))
         _take(ending, "closing the robot", lambda: [Step("closing the robot", opened.close)])
         ended = ending.settle(late, task.summary)
-        try:
+        # a verdict that fails is one more failure on the way out: the summary of what was
+        # done is still written, and what ended the run first is what is raised
+        with ending.step("the verdict"):
             task.verdict(ended)
-        finally:  # a verdict that fails still leaves the summary of what was done
-            run_folder.write_summary(task.summary, interrupted=ended)
+        run_folder.write_summary(task.summary, interrupted=ending.settle(late, task.summary))
     task.report(ending.error)
     ending.raise_if_ended()
     return task.summary

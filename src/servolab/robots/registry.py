@@ -183,28 +183,31 @@ def load(name: str, port: str | None = None) -> Any:
 def shipped_files(plugins: Mapping[str, RobotPlugin] | None = None) -> dict[str, ShownFile]:
     """Every file ``servolab robots show`` prints, by the name it takes: each robot's default
     configuration, its URDF and the other files its plug-in names (of ``plugins``, else of
-    every robot found). A robot whose files cannot be named (a robot folder whose URDF does
-    not parse) is left out: ``servolab robots`` says why."""
+    every robot found). A user's robot whose files cannot be named (a robot folder whose URDF
+    does not parse) is left out: ``servolab robots`` says why."""
     files: dict[str, ShownFile] = {}
     for plugin in (plugins if plugins is not None else robots()).values():
         try:
             files.update(plugin.shown_files())
-        except Exception:  # one robot's fault must not hide the others' files
-            continue
+        except Exception:  # a user's robot's fault must not hide the others' files
+            if plugin.origin == "servolab":  # a shipped robot's is servolab's bug: raised
+                raise
     return files
 
 
 def layouts() -> dict[str, Layout]:
     """Every robot's Foxglove layout, by the layout's own name (bases share one, ``base``).
-    A robot whose layout cannot be made (a robot folder whose URDF does not parse) is left
-    out, so that it does not hide the others'; :func:`layout_named` raises its error."""
+    A user's robot whose layout cannot be made (a robot folder whose URDF does not parse) is
+    left out, so that it does not hide the others'; :func:`layout_named` raises its error."""
     found: dict[str, Layout] = {}
     for plugin in robots().values():
         if plugin.layout is None:
             continue
         try:
             layout = plugin.layout()
-        except Exception:  # servolab robots says why it cannot be loaded
+        except Exception:  # servolab robots says why a user's robot cannot be loaded
+            if plugin.origin == "servolab":  # a shipped robot's is servolab's bug: raised
+                raise
             continue
         found[layout.name] = layout
     return found

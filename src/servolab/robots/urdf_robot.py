@@ -127,8 +127,8 @@ class UrdfRobot:
             except Exception as exc:  # the next motor must still stop
                 failed.append((joint.id, exc))
         if failed:
-            raise RobotError(f"{self.name}: " + "; ".join(f"motor {i}: {' '.join(str(e).split())}"
-                                                          for i, e in failed)) from failed[0][1]
+            raise RobotError(f"{self.name}: " + "; ".join(_naming_motor(i, e) for i, e in failed)
+                             ) from failed[0][1]
 
     def _checked(self, goals: Mapping[str, float]) -> dict[int, float]:
         """The goals by motor ID, each refused in one line if it names no joint, is not a
@@ -170,7 +170,8 @@ class UrdfRobot:
                 self.bus.write(motor_id, "torque_enable", 1)   # not adjacent on Protocol 2.0
                 sent.append(motor_id)
                 self.bus.write(motor_id, "goal_position", goal)
-        except Exception:  # a motor that stopped answering: the ones sent hold where they are
+        except BaseException:  # a motor that stopped answering, or a Ctrl-C between two
+            # writes: the motors already sent hold where they are
             for motor_id in sent:
                 with contextlib.suppress(Exception):
                     self.bus.write(motor_id, "goal_position",
@@ -312,3 +313,9 @@ def urdf_plugin(name: str, summary: str, urdf: Callable[[], str], *, source: str
     return RobotPlugin(name, summary, bus=bus, open=open_robot, on_stop=ON_STOP[on_stop],
                        description=urdf, served=served, layout=layout, aliases=aliases,
                        **kwargs)
+
+
+def _naming_motor(motor_id: int, error: Exception) -> str:
+    """``error`` on one line, starting with its motor (the bus's own errors already do)."""
+    text = " ".join(str(error).split())
+    return text if text.startswith(f"motor {motor_id}") else f"motor {motor_id}: {text}"

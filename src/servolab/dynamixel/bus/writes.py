@@ -43,8 +43,31 @@ class Writes(Reads):
         """Raise what :meth:`write` of ``values`` would raise (ConfigError, one line), and
         send nothing that writes: so a caller moving several motors can refuse a goal that
         one of them would refuse before any of them moves. Like :meth:`write`, it may read
-        the motor's mode and limits once where a value needs them."""
-        self._checked_block(motor_id, self.model_of(motor_id), values, raw)
+        the motor's mode and limits once where a value needs them. ``id`` and ``baud_rate``,
+        which :meth:`write` hands to commissioning, are refused here."""
+        plain = self._write_values(motor_id, values, None)
+        if "id" in plain or "baud_rate" in plain:
+            raise ConfigError(f"motor {motor_id}: check_write checks registers; id and "
+                              "baud_rate are checked by change_id() and change_baud()")
+        self._checked_block(motor_id, self.model_of(motor_id), plain, raw)
+
+    def _write_values(self, motor_id: int, name: str | Mapping[str, Value],
+                      value: Value | None) -> dict[str, Value]:
+        """The values a write to one motor names, refused in one line where no single WRITE
+        could send them: the broadcast ID, nothing to write, a name without a value, or
+        ``id``/``baud_rate`` beside other registers."""
+        if motor_id == self.proto.broadcast_id:
+            raise ConfigError(f"motor ID {motor_id} is the broadcast ID: broadcast_write() "
+                              "writes every motor at once, checked against each one's table")
+        given: dict[str, Value | None] = dict(name) if isinstance(name, Mapping) else {name: value}
+        values = {n: v for n, v in given.items() if v is not None}
+        if len(values) != len(given):
+            raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
+        if not values:
+            raise ConfigError(f"motor {motor_id}: a write names no register")
+        if len(values) > 1:
+            refuse_commissioning(values, "write")
+        return values
 
     def write(self, motor_id: int, name: str | Mapping[str, Value], value: Value | None = None,
               *, raw: bool = False, registered: bool = False) -> None:
@@ -73,22 +96,13 @@ class Writes(Reads):
         a write to a motor at level 1 or 0 expects no status.
 
         Every motor at once (the broadcast ID, 254): :meth:`broadcast_write`."""
-        if motor_id == self.proto.broadcast_id:
-            raise ConfigError(f"motor ID {motor_id} is the broadcast ID: broadcast_write() "
-                              "writes every motor at once, checked against each one's table")
-        if name == "id" or name == "baud_rate":
-            assert isinstance(name, str)
-            if value is None:
-                raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
-            self._commission_by_write(motor_id, name, value, raw=raw, registered=registered)
+        values = self._write_values(motor_id, name, value)
+        (first, first_value), *others = values.items()
+        if not others and first in ("id", "baud_rate"):  # given alone, or as {"id": 5}
+            self._commission_by_write(motor_id, first, first_value, raw=raw,
+                                      registered=registered)
             return
         m = self.model_of(motor_id)
-        given: dict[str, Value | None] = dict(name) if isinstance(name, Mapping) else {name: value}
-        values = {n: v for n, v in given.items() if v is not None}
-        if len(values) != len(given):
-            raise ConfigError(f"motor {motor_id}: write needs a value for {name!r}")
-        if len(values) > 1:
-            refuse_commissioning(values, "write")
         start, block = self._checked_block(motor_id, m, values, raw)
         self._write_block(motor_id, m, start, block, registered=registered)
 

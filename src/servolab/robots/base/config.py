@@ -105,9 +105,6 @@ class BaseConfig:
         return tuple(m for m in self.motors if m.side == side)
 
 
-
-
-
 def shipped_base(name: str) -> Path:
     """The shipped configuration file of base ``name`` (one of :data:`SHIPPED`)."""
     if name not in SHIPPED:
