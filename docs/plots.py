@@ -186,6 +186,50 @@ def joint_moves(path: Path) -> None:
     plt.close(fig)
 
 
+def profile_moves(path: Path) -> None:
+    """An XM430-W350's profiles as ROBOTIS's figure draws them (e-Manual, Profile
+    Velocity(112): velocity against time, t1 and t3 marked): Velocity Trajectory(136) and
+    Present Velocity(128) read over the bus every 5 ms, for a trapezoid (Profile Velocity 100,
+    Acceleration 10, 1 024 ticks), a triangle (the same over 300 ticks) and a time-based move
+    (Drive Mode bit 2: span 1 000 ms, acceleration time 300 ms, 800 ticks). The dashed
+    lines are the e-Manual's t1 = 64 x 100 / 10 ms and t3 = t1 + 1 024 / V."""
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    moves = (("trapezoidal: V 100, A 10, 1024 ticks", 0, 100, 10, 1024),
+             ("triangular: V 100, A 10, 300 ticks", 0, 100, 10, 300),
+             ("time-based: 1000 ms, 300 ms, 800 ticks", 4, 1000, 300, 800))
+    for label, drive_mode, velocity, acceleration, ticks in moves:
+        bus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000)
+        clock = bus.port.clock
+        bus.write(1, "drive_mode", drive_mode, raw=True)
+        bus.write(1, "torque_enable", 1)
+        bus.write(1, {"profile_acceleration": acceleration, "profile_velocity": velocity},
+                  raw=True)
+        start = bus.read(1, "present_position", raw=True)
+        t0 = clock.now()
+        bus.write(1, "goal_position", start + ticks, raw=True)
+        times, desired, present = [], [], []
+        while clock.now() - t0 < 1.6:
+            raw = bus.read(1, ["velocity_trajectory", "present_velocity"], raw=True)
+            times.append(clock.now() - t0)
+            desired.append(raw["velocity_trajectory"])
+            present.append(raw["present_velocity"])
+            clock.sleep(0.005)
+        line, = ax.plot(times, desired, label=f"{label} (Velocity Trajectory)")
+        ax.plot(times, present, ".", markersize=2, color=line.get_color())
+    t1 = 64 * 100 / 10 / 1000
+    t3 = t1 + 1024 / (100 * 0.229 * 4096 / 60)
+    for t, name in ((t1, "t1"), (t3, "t3")):
+        ax.axvline(t, color="gray", linestyle="--", linewidth=0.8)
+        ax.text(t, 104, name, ha="center", fontsize=8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("velocity (0.229 rev/min units)")
+    ax.set_title("Emulated XM430-W350: the profile generator (dots: Present Velocity)")
+    ax.set_ylim(0, 150)
+    ax.legend(loc="upper right", fontsize=7)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
 def cycle_time(path: Path) -> dict[str, float]:
     """Bus time of one cycle (write every goal, read every present position) vs motor count;
     returns docs/dynamixel.md's numbers, 20 RX-28's cycle at either baud rate."""
@@ -754,6 +798,7 @@ def main(argv: list[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     values: dict[str, float] = {}
     joint_moves(out / "rx28_joint_moves.png")
+    profile_moves(out / "xm430_profiles.png")
     values.update(cycle_time(out / "bus_cycle_time.png"))
     floor_world(out / "floor_world.png")
     values.update(biped(out))

@@ -24,7 +24,8 @@ from tests.docblocks import prose
 
 ROOT = Path(__file__).resolve().parent.parent
 FIGURES = ROOT / "docs" / "img" / "figures.json"
-IMAGES = ("rx28_joint_moves.png", "bus_cycle_time.png", "floor_world.png", "gait_feet.png",
+IMAGES = ("rx28_joint_moves.png", "xm430_profiles.png", "bus_cycle_time.png",
+          "floor_world.png", "gait_feet.png",
           "gait_joint_angles.png", "biped_walk.png", "mobile_eight.png", "mobile_slip.png",
           "mobile_fusion.png", "navigation_calibration.png", "navigation_plan.png",
           "navigation_plan_no_inflation.png", "navigation_loop.png", "navigation_corner.png",

@@ -251,3 +251,46 @@ def test_seed000_sync_write_of_moving_speed_turns_ex106_wheels(tmp_path: Path) -
             assert wait_until(stopped, timeout=5.0)
         finally:
             port.closePort()
+
+
+@pytest.mark.realtime
+def test_sdk_sees_the_time_based_profile_through_pty(tmp_path: Path) -> None:
+    """ROBOTIS's own sequence for a time-based move, as the e-Manual describes it: Drive Mode
+    (10) bit 2 with torque off, then Profile Acceleration (108) 300 ms and Profile Velocity
+    (112) 1 000 ms, a goal 2 000 ticks away, and Moving Status (123) polled until In-Position.
+    The motor reports a trapezoidal profile in progress (0x32), then in position (0x31) on
+    its goal, and the move takes the span on the server's real-time clock: never less than
+    1 s (e-Manual, control_table_profile_velocity.md, control_table_moving_status.md)."""
+    import time
+
+    with sim_process("--motors", "xm430-w350:1", "--baud", "57600",
+                     out_dir=tmp_path) as (device, _):
+        port, ph = _open(device, 2.0)
+        try:
+            _ok(ph.write1ByteTxRx(port, 1, 10, 4))            # Drive Mode: time-based
+            _ok(ph.write1ByteTxRx(port, 1, 64, 1))            # Torque Enable
+            _ok(ph.write4ByteTxRx(port, 1, 108, 300))         # Profile Acceleration: 300 ms
+            _ok(ph.write4ByteTxRx(port, 1, 112, 1000))        # Profile Velocity: 1 000 ms
+            (start,) = _ok(ph.read4ByteTxRx(port, 1, 132))    # Present Position
+            goal = start + 2000
+            began = time.monotonic()
+            _ok(ph.write4ByteTxRx(port, 1, 116, goal))        # Goal Position
+            statuses: list[int] = []
+            trajectory: list[int] = []
+
+            def in_position() -> bool:
+                (status,) = _ok(ph.read1ByteTxRx(port, 1, 123))
+                (desired,) = _ok(ph.read4ByteTxRx(port, 1, 140))   # Position Trajectory
+                statuses.append(status)
+                trajectory.append(desired)
+                return bool(status & 0x01) and not status & 0x02
+
+            assert wait_until(in_position, timeout=10.0), statuses[-5:]
+            took = time.monotonic() - began
+            (present,) = _ok(ph.read4ByteTxRx(port, 1, 132))
+        finally:
+            port.closePort()
+    assert present == goal and trajectory[-1] == goal
+    assert statuses[0] == 0x32 and statuses[-1] == 0x31
+    assert trajectory == sorted(trajectory) and len(set(trajectory)) > 5
+    assert took >= 1.0 - 0.002      # the span, on the wall clock (a 1 ms step early at most)

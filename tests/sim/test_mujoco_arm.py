@@ -117,3 +117,27 @@ def test_a_gear_ratio_that_is_not_a_positive_number_is_refused() -> None:
     with pytest.raises(SimulationError, match="gear_ratio 0 must be a positive number"):
         MujocoWorld(mjcf(description, "firmware"),
                     [ServoJoint("finger_slide", bus.emulator.motor(2), gear_ratio=0)])
+
+
+
+def test_the_shoulder_follows_a_time_based_profile_in_mujoco() -> None:
+    """The same X-series profile in MuJoCo as on the default plant (e-Manual, Drive Mode(10)
+    bit 2: Profile Velocity is the span, 1 000 ms; Profile Acceleration the acceleration time,
+    300 ms). A move of d over that trapezoid cruises at v = d / (1 - 0.3): a quarter-second
+    in, the ramp has covered v t² / (2 x 0.3); half-way through the span the shoulder is
+    half-way (the trapezoid is symmetric); after the span it stands on its goal."""
+    sim, bus, _, _ = _world()
+    bus.write(1, "drive_mode", 4 | 1, raw=True)     # time-based, and the shoulder's reverse
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, {"profile_acceleration": 300, "profile_velocity": 1000}, raw=True)
+    start = bus.read(1, "present_position")
+    distance = 1.2
+    began = sim.now()
+    bus.write(1, "goal_position", start + distance)
+    cruise = distance / 0.7
+    expected = {0.25: cruise * 0.25 ** 2 / (2 * 0.3), 0.5: distance / 2, 1.01: distance}
+    for t, moved in expected.items():
+        sim.advance_to(began + t)
+        assert bus.read(1, "present_position") - start == pytest.approx(
+            moved, abs=4 * XM430_TICK), t
+    assert bus.read(1, "moving_status", raw=True) == 0x31    # trapezoidal, in position

@@ -28,6 +28,7 @@ from .models import ALLOWED_MODES, Model, Register, supports
 from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
 from .plant import Compliance, KinematicServo, ServoCommand, ServoPlant
+from .profile_generator import POSITION_MODES, ProfileGenerator, Registers
 from .protocol import protocol as protocol_for
 from .wire import baud_matches, byte_time
 
@@ -37,8 +38,8 @@ _SETTINGS = frozenset({
     "id", "baud_rate", "homing_offset", "temperature_limit", "return_delay_time",
     "status_return_level", "torque_enable", "goal_position", "moving_speed", "torque_limit",
     "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm",
-    "goal_current", "profile_velocity", "pwm_limit", "current_limit", "drive_mode",
-    "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
+    "goal_current", "profile_velocity", "profile_acceleration", "pwm_limit", "current_limit",
+    "drive_mode", "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
     "multi_turn_offset", "resolution_divider", "cw_compliance_margin", "ccw_compliance_margin",
     "cw_compliance_slope", "ccw_compliance_slope", "punch"})
 
@@ -154,6 +155,8 @@ class VirtualMotor:
         self.hardware_error = 0
         self._supply_voltage = model.nominal_voltage
         self._plant: ServoPlant = KinematicServo(model.no_load_speed, position)
+        #: the X-series profile generator (unused by the AX-style table)
+        self._profiles = ProfileGenerator(model.firmware)
         self._lazy = True           # the default plant: caught up on demand
         self._offset_ticks = 0.0    # turns the firmware no longer counts (2.0 CLEAR)
         self._emulator: Emulator | None = None
@@ -668,9 +671,12 @@ class VirtualMotor:
             # The bus watchdog stopped the motor: it holds still until a new goal.
             return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
                                 goal_position=self._plant.position)
+        velocity, acceleration = self._profiles.plan(
+            self._profile_registers(mode, torque), self._plant.position, self._plant.velocity,
+            self._now())
         if mode == 1:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
-                                torque_limit=limit)
+                                profile_acceleration=acceleration, torque_limit=limit)
         if mode == 16:
             return ServoCommand(torque, True, torque_limit=limit,
                                 goal_velocity=sign * self._si("goal_pwm") * m.no_load_speed)
@@ -679,7 +685,26 @@ class VirtualMotor:
             return ServoCommand(torque, True, goal_velocity=sign * share * m.no_load_speed,
                                 torque_limit=limit)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
-                            profile_velocity=self._si("profile_velocity"), torque_limit=limit)
+                            profile_velocity=velocity, profile_acceleration=acceleration,
+                            torque_limit=limit)
+
+    def _profile_registers(self, mode: int, torque: bool) -> Registers:
+        """What decides the X-series profile, read from the table (SI in the joint's own
+        direction where a plan needs it)."""
+        return Registers(
+            mode=mode, torque=torque, drive_mode=self._try_get("drive_mode"),
+            goal_position=self.get_raw("goal_position"),
+            goal_angle=self._goal_angle() if mode in POSITION_MODES else 0.0,
+            goal_velocity=self._sign * self._si("goal_velocity"),
+            profile_velocity_raw=self.get_raw("profile_velocity"),
+            profile_acceleration_raw=self.get_raw("profile_acceleration"),
+            profile_velocity=self._si("profile_velocity"),
+            profile_acceleration=self._si("profile_acceleration"))
+
+    def _now(self) -> float:
+        """The motor's time, s: its steps on the emulator's clock (0 off a bus)."""
+        emulator = self._emulator
+        return self._steps_done * emulator.dt if emulator is not None else 0.0
 
     def _compliance(self) -> Compliance | None:
         """Compliance Margin, Slope and Punch in SI, on the models that have them (e-Manual,
@@ -754,8 +779,7 @@ class VirtualMotor:
             self._show("present_pwm", velocity / m.no_load_speed)
             self._show("present_input_voltage", voltage)
             self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
-            self._set_raw("velocity_trajectory", self.get_raw("present_velocity"))
-            self._set_raw("position_trajectory", present)
+            self._show_trajectory(ticks)
         if m.has("realtime_tick") and self._emulator is not None and self._steps_done:
             # Realtime Tick: milliseconds, 0..32767, then again from 0 (e-Manual).
             elapsed_ms = self._steps_done * self._emulator.dt * 1000.0
@@ -763,6 +787,29 @@ class VirtualMotor:
         self._show("present_temperature", plant.temperature)
         self._stale = False
         self._sensed_step = self._steps_done
+
+    def _show_trajectory(self, present_ticks: int) -> None:
+        """Velocity Trajectory(136), Position Trajectory(140) and Moving Status(123): the
+        profile generator's desired trajectory now and how the horn keeps to it (e-Manual,
+        Profile Velocity(112): "Target velocity trajectory and target position trajectory
+        from Profile are stored at Velocity Trajectory(136) and Position Trajectory(140)")."""
+        now = self._now()
+        profiles = self._profiles
+        desired = profiles.desired(now)
+        mode = self.get_raw("operating_mode")
+        goal_ticks = self._present_ticks(self._goal_angle())
+        desired_ticks: float | None = None
+        if desired is not None:
+            desired_ticks = self._present_ticks(desired[0])
+            trajectory = (round(desired_ticks), self._sign * desired[1])
+        elif mode in POSITION_MODES and self.get_raw("torque_enable"):
+            trajectory = (round(goal_ticks), 0.0)    # a step: the goal at once
+        else:
+            trajectory = (present_ticks, self._sign * self._plant.velocity)
+        self._set_raw("position_trajectory", (trajectory[0] + 2**31) % 2**32 - 2**31)
+        self._show("velocity_trajectory", trajectory[1])
+        self._set_raw("moving_status", profiles.moving_status(
+            now, goal_ticks, present_ticks, desired_ticks))
 
     # -- instructions --------------------------------------------------------------------------
     def error_byte(self, error: int = 0) -> int:

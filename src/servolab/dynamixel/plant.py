@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from .errors import ConfigError
+from .profile import Profile, move, ramp
 
 AMBIENT_C = 25.0
 #: Winding temperature above ambient with no load (electronics and holding current).
@@ -77,6 +78,10 @@ class ServoCommand:
     goal_position: float = 0.0      # rad
     profile_velocity: float = 0.0   # rad/s, magnitude; 0 = the motor's top speed
     goal_velocity: float = 0.0      # rad/s, signed
+    #: rad/s², the X-series profile's acceleration: a move accelerates and brakes at it (with
+    #: ``profile_velocity`` > 0), a goal velocity is ramped to at it; infinity: no ramp
+    #: (the Protocol 1.0 models, and Profile Acceleration 0)
+    profile_acceleration: float = math.inf
     torque_limit: float = 1.0       # fraction of stall torque the firmware allows
     #: the position control law of a compliance-controlled model (AX, RX, EX); None where the
     #: firmware has another (X-series PID) or the joint is in velocity control
@@ -280,7 +285,7 @@ class KinematicServo:
         if dt != self._decay[0]:
             self._restart()
             self._decay = _decay(dt, self._tau)
-            self._plan_steps(dt)
+            self._plan()        # (a profile is planned again from where the joint is)
         first, last = self._j + 1, self._j + steps
         hot = self._first_above(first, last, temperature_limit)
         self._j = last if hot is None else hot
@@ -311,14 +316,22 @@ class KinematicServo:
         """Decide the segment's motion from the command and the load (dt-independent)."""
         cmd = self._command
         top = self._max_speed()
+        self._profile: Profile | None = None
+        ramped = cmd.torque_enabled and math.isfinite(cmd.profile_acceleration) and top > 0
         if not cmd.torque_enabled:
             self._speed, self._target = 0.0, math.nan
         elif cmd.velocity_control:
             self._speed, self._target = max(-top, min(top, cmd.goal_velocity)), math.nan
+            if ramped:
+                self._profile = ramp(self._v0, self._speed, cmd.profile_acceleration,
+                                     start=self._p0)
         else:
             want = abs(cmd.profile_velocity)
             self._speed = top if want == 0 else min(want, top)
             self._target = cmd.goal_position
+            if ramped and want > 0:
+                self._profile = move(self._p0, self._v0, self._target, self._speed,
+                                     cmd.profile_acceleration)
         self._plan_steps(self._decay[0])
 
     def _plan_steps(self, dt: float) -> None:
@@ -330,7 +343,12 @@ class KinematicServo:
         self._travel = self._speed * dt if not math.isnan(dt) else 0.0
         self._arrive = 0  # 0: no goal (velocity control); -1: stalled short of it
         torque = self._command.torque_enabled
-        if not math.isnan(self._target):
+        profile = self._profile
+        if profile is not None and not math.isnan(self._target):
+            # a profiled move arrives on the first step at or after its end
+            self._arrive = max(1, math.ceil(profile.duration / dt - 1e-9)) \
+                if not math.isnan(dt) else 1
+        elif not math.isnan(self._target):
             error = abs(self._target - self._p0)
             if error == 0:
                 self._arrive = 1
@@ -348,6 +366,8 @@ class KinematicServo:
             self._v_move = 0.0
         elif math.isnan(self._target):
             self._v_move = self._speed
+        elif profile is not None:   # its cruise (or peak) speed, for the heat while it moves
+            self._v_move = math.copysign(profile.peak_speed, self._target - self._p0)
         else:
             self._v_move = 0.0 if self._arrive == -1 else math.copysign(
                 self._speed, self._target - self._p0)
@@ -377,12 +397,17 @@ class KinematicServo:
         if j <= 0 or not self._command.torque_enabled:
             return False
         if math.isnan(self._target):
-            return self._speed != 0
+            return self._speed != 0 or (self._profile is not None and self._velocity(j) != 0)
         return self._arrive == -1 or j < self._arrive
 
     def _position(self, j: int) -> float:
         if j <= 0 or not self._command.torque_enabled:
             return self._p0
+        profile = self._profile
+        if profile is not None:
+            if not math.isnan(self._target) and j >= self._arrive:
+                return self._target
+            return profile.at(j * self._decay[0])[0]
         if math.isnan(self._target):
             return self._p0 + self._travel * j
         if self._arrive == -1:
@@ -392,6 +417,11 @@ class KinematicServo:
         return self._p0 + self._step_travel * j
 
     def _velocity(self, j: int) -> float:
+        profile = self._profile
+        if profile is not None and j > 0 and self._command.torque_enabled:
+            if not math.isnan(self._target) and j >= self._arrive:
+                return 0.0
+            return profile.at(j * self._decay[0])[1]
         return self._v_move if self._moving(j) else 0.0
 
     def _inertia(self, j: int) -> float:
@@ -402,6 +432,14 @@ class KinematicServo:
         if not self._command.torque_enabled:
             return 0.0
         r = self._decay[2]
+        profile = self._profile
+        if profile is not None:
+            # a profile accelerates at a steadily: the first-order motor settles on a x tau /
+            # no-load speed, what a step of speed dv gives in all (dv x tau / no-load speed)
+            # spread over the ramp; the torque from before still decays
+            moving = math.isnan(self._target) or j < self._arrive
+            a = profile.at(j * self._decay[0])[2] if moving else 0.0
+            return self._i0 * r ** j + a * MECHANICAL_TIME_CONSTANT_S / self.no_load_speed
         first_rest = self._first_rest
         if first_rest is None or j < first_rest:
             return self._kick_move * r ** j

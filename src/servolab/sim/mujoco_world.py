@@ -17,7 +17,10 @@ the AX/RX/EX law only in words (e-Manual, RX-28 Compliance and Punch; Moving Spe
 this is that law made concrete, and stated so it can be changed:
 
 1. a reference moves from where the horn was when torque came on toward ``goal_position``
-   at no more than ``moving_speed`` (0: at once) — the firmware's speed control;
+   at no more than ``moving_speed`` (0: at once) — the firmware's speed control; on an
+   X-series motor with a Profile Acceleration it follows the firmware's profile instead
+   (trapezoid or triangle, velocity- or time-based: :mod:`servolab.dynamixel.profile`, the
+   law the default plant follows), and a goal velocity is ramped to;
 2. the error (reference - horn) gives the output share ``u``: 0 within the compliance
    margin, then growing linearly across the compliance slope toward full output, capped at
    the torque limit (the e-Manual's Torque Limit caps the output), and never below punch
@@ -79,6 +82,7 @@ from ..dynamixel.plant import (
     THERMAL_TIME_CONSTANT_S,
     ServoCommand,
 )
+from ..dynamixel.profile import Profile, move, ramp
 from .errors import SimulationError
 from .simulation import Simulation
 from .world import World
@@ -293,6 +297,10 @@ class MujocoWorld(World):
         self._margin = np.zeros((2, n))       # [cw, ccw]
         self._slope = np.vstack([one_tick, one_tick])   # no compliance: full at one tick
         self._punch = np.zeros(n)
+        # the X-series profile each joint's reference follows, with the time it began: None
+        # where the reference moves at the moving speed (AX/RX/EX, no Profile Acceleration)
+        self._profiles: list[tuple[Profile, float] | None] = [None] * n
+        self._profiled: list[int] = []
         # the state
         self._reference = np.zeros(n)
         self._effort = np.zeros(n)
@@ -390,7 +398,29 @@ class MujocoWorld(World):
             self._punch[k] = c.punch
         if command.torque_enabled and not was_on:
             self._reference[k] = self._horn(k)  # the move starts where the horn is
+        self._profiles[k] = self._profile_of(k, command, was_on)
+        self._profiled = [i for i, p in enumerate(self._profiles) if p is not None]
         self._laws_changed = True
+
+    def _profile_of(self, k: int, command: ServoCommand, was_on: bool
+                    ) -> tuple[Profile, float] | None:
+        """The X-series profile joint ``k``'s reference follows from now (e-Manual, Profile
+        Velocity(112)): planned from where the reference is and how fast it moves (Velocity
+        Override), by the same law the default plant's horn follows
+        (:mod:`servolab.dynamixel.profile`); a goal velocity's ramp likewise."""
+        if not command.torque_enabled or not math.isfinite(command.profile_acceleration):
+            return None
+        held = self._profiles[k]
+        now = self._time
+        # "based on present velocity": the trajectory's own where one is under way
+        velocity = held[0].at(now - held[1])[1] if held is not None else self._horn_velocity(k)
+        if command.velocity_control:
+            return ramp(velocity, command.goal_velocity, command.profile_acceleration), now
+        if not command.profile_velocity > 0:
+            return None
+        return move(float(self._reference[k]), velocity if was_on else 0.0,
+                    command.goal_position,
+                    command.profile_velocity, command.profile_acceleration), now
 
     def _horns(self) -> np.ndarray:
         horns: np.ndarray = self._offset + self._dir * self.data.qpos[self._qadr]
@@ -421,6 +451,13 @@ class MujocoWorld(World):
         np.copyto(ref, horn, where=self._off)
         if self._any_velocity_mode:     # back in position control, a move starts here too
             np.copyto(ref, horn, where=self._velocity_mode)
+        for k in self._profiled:        # the X-series profile: the trajectory's own point
+            profile, began = self._profiles[k]  # type: ignore[misc]
+            if self._velocity_mode[k]:
+                self._wheel_share[k] = min(self._limit[k], max(-self._limit[k], profile.at(
+                    self._time + dt - began)[1] / self._w0[k]))
+            else:
+                ref[k] = profile.at(self._time + dt - began)[0]
         # 2. the output share from the error, by margin, slope and punch
         error = ref - horn
         if self._symmetric:     # the usual case: the same margin and slope either way
