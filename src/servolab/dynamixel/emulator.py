@@ -169,6 +169,7 @@ class VirtualMotor:
         self._overloaded = False    # overload found by the firmware (not injected)
         self._watchdog_tripped = False
         self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
+        self._max_output = 1.0      # (2.0) PWM and Current Limit's share of stall torque
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._layout = _layout(model)
         self._has_watchdog = model.has("bus_watchdog")
@@ -583,6 +584,8 @@ class VirtualMotor:
         plant = self._plant
         if not (getattr(plant, "stalled", False) and plant.command.torque_limit > 0):
             return False
+        if plant.command.torque_limit < self._max_output:
+            return False  # held at a goal current the host asked for: not an overload
         bit = self._overload_bit
         if not self.hardware_error & bit:
             return True
@@ -644,7 +647,7 @@ class VirtualMotor:
         sign = self._sign
         torque = bool(self.get_raw("torque_enable"))
         if self._dx:
-            limit = self._si("torque_limit")
+            limit = self._max_output = self._si("torque_limit")
             if self.wheel_mode:
                 if not m.wheel_output_ratio:
                     return ServoCommand(torque, True, goal_velocity=self._si("moving_speed"),
@@ -659,14 +662,17 @@ class VirtualMotor:
                                 torque_limit=limit, compliance=self._compliance())
         mode = self.get_raw("operating_mode")
         # Effort: PWM Limit(36) caps the output, and on current-sensing models Current Limit(38)
-        # the current (as a share of its factory maximum); in Current-based Position mode
-        # Goal Current(102) "sets a limit to current" (e-Manual, Goal Current(102)).
+        # the current, so the torque: a current is a share of the stall torque through the
+        # torque constant (see _current_share). In Current-based Position mode Goal
+        # Current(102) "sets a limit to current" (e-Manual, Goal Current(102)); there, and in
+        # Current Control Mode, a load the goal current cannot hold is what was asked, not an
+        # overload: only the motor's own maximum (PWM and Current Limit) overloads it.
         limit = self._si("pwm_limit")
         if m.has("current_limit"):
-            full = m.register("current_limit").raw_max
-            limit = min(limit, self.get_raw("current_limit") / full)
-            if mode == 5:
-                limit = min(limit, abs(self.get_raw("goal_current")) / full)
+            limit = min(limit, self._current_share("current_limit"))
+        self._max_output = limit
+        if mode == 5:
+            limit = min(limit, abs(self._current_share("goal_current")))
         if self._watchdog_hold:
             # The bus watchdog stopped the motor: it holds still until a new goal.
             return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
@@ -681,12 +687,24 @@ class VirtualMotor:
             return ServoCommand(torque, True, torque_limit=limit,
                                 goal_velocity=sign * self._si("goal_pwm") * m.no_load_speed)
         if mode == 0:
-            share = self._try_get("goal_current") / max(1, self._try_get("current_limit", 1))
-            return ServoCommand(torque, True, goal_velocity=sign * share * m.no_load_speed,
-                                torque_limit=limit)
+            # Current Control Mode: a torque demand. The horn turns the way it asks, as fast
+            # as the motor can against the load, while the load is below it; a load above it
+            # holds the horn (the default plant: stalled at the goal's torque, no further).
+            share = self._current_share("goal_current")
+            return ServoCommand(torque, True, torque_limit=min(limit, abs(share)),
+                                goal_velocity=sign * math.copysign(m.no_load_speed, share)
+                                if share else 0.0)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=velocity, profile_acceleration=acceleration,
                             torque_limit=limit)
+
+    def _current_share(self, name: str) -> float:
+        """The current register ``name`` as a share of the stall torque: torque = Kt x current,
+        with the torque constant Kt = stall torque / stall current, the e-Manual's two
+        specification figures at the rated voltage (XM430-W350: 4.1 N m at 2.3 A), so a
+        current is its share of the stall current. (A DC motor's torque is proportional to
+        its current; the no-load current that friction takes is in the plant's friction.)"""
+        return self._si(name) / self.model.stall_current_a
 
     def _profile_registers(self, mode: int, torque: bool) -> Registers:
         """What decides the X-series profile, read from the table (SI in the joint's own
@@ -773,7 +791,8 @@ class VirtualMotor:
             self._set_raw("present_position", present)
             self._show("present_velocity", velocity)
             if m.has("present_current"):
-                self._show("present_current", load * self._si("current_limit"))
+                # the current that gives the motor's torque: torque / Kt (see _current_share)
+                self._show("present_current", load * m.stall_current_a)
             else:
                 self._show("present_load", load)
             self._show("present_pwm", velocity / m.no_load_speed)
