@@ -129,3 +129,12 @@ def test_every_move_ends_at_rest_on_its_goal_within_its_limits(
     assert profile.peak_speed <= max(v_max, abs(velocity)) * (1 + 1e-12)
     # the velocity is continuous from the present one (Velocity Override)
     assert profile.at(0.0)[1] == velocity
+
+
+def test_a_profile_without_velocity_or_span_is_refused_in_one_line() -> None:
+    from servolab.dynamixel import ConfigError
+
+    with pytest.raises(ConfigError, match=r"profile velocity 0.0 rad/s must be > 0"):
+        move(0.0, 0.0, 1.0, 0.0, 1.0)
+    with pytest.raises(ConfigError, match=r"time span 0.0 s must be > 0"):
+        time_based(1.0, 0.0, 0.0)

@@ -128,6 +128,9 @@ def test_the_shoulder_follows_a_time_based_profile_in_mujoco() -> None:
     half-way (the trapezoid is symmetric); after the span it stands on its goal."""
     sim, bus, _, _ = _world()
     bus.write(1, "drive_mode", 4 | 1, raw=True)     # time-based, and the shoulder's reverse
+    # the stiffest P gain, so that the horn keeps within a few ticks of the trajectory (at
+    # the default 800 it lags by the error its P term needs against the back-EMF)
+    bus.write(1, "position_p_gain", 16383, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, {"profile_acceleration": 300, "profile_velocity": 1000}, raw=True)
     start = bus.read(1, "present_position")
@@ -143,37 +146,64 @@ def test_the_shoulder_follows_a_time_based_profile_in_mujoco() -> None:
     assert bus.read(1, "moving_status", raw=True) == 0x31    # trapezoidal, in position
 
 
-def _lever(mass: float, reach: float) -> tuple[Simulation, Bus, MujocoWorld]:
+def _lever(mass: float, reach: float, motor: str = "XM430-W350"
+           ) -> tuple[Simulation, Bus, MujocoWorld]:
     """A block of ``mass`` kg whose centre is ``reach`` m out from a horizontal hinge (about
-    y: a positive angle lowers it), on an XM430-W350."""
+    y: a positive angle lowers it), on an emulated ``motor``."""
     description = Description("lever", "base", (
         Link("base", (Box("base_box", (0.04, 0.04, 0.04), (0.0, 0.0, 0.0), mass=1.0),)),
         Link("lever", (Box("lever_box", (0.02, 0.02, 0.02), (reach, 0.0, 0.0), mass=mass),)),
     ), (Joint("hinge", "revolute", "base", "lever", (0.0, 0.0, 0.1), (0.0, 1.0, 0.0),
-              -2.0, 2.0, Motor(1, "XM430-W350"), armature=HORN_INERTIA),))
+              -2.0, 2.0, Motor(1, motor), armature=HORN_INERTIA),))
     sim = Simulation(0.002)
-    bus = Bus.open("emu://xm430-w350:1", simulation=sim)
+    bus = Bus.open(f"emu://{motor.lower().replace('-', '')}:1", simulation=sim)
     world = sim.add(MujocoWorld(mjcf(description, "firmware"),
                                 [ServoJoint("hinge", bus.emulator.motor(1))], start=sim.now()))
     return sim, bus, world
 
 
-def test_present_current_is_the_gravity_torque_over_the_torque_constant() -> None:
+@pytest.mark.parametrize("p_gain", [400, 800, 1600])
+def test_a_held_lever_sags_by_its_p_gain_and_draws_its_torques_current(p_gain: int) -> None:
     """A 0.3 kg block whose centre is 0.1 m out from a horizontal hinge, held level in
-    position mode: gravity asks m g r = 0.3 x 9.81 x 0.1 = 0.294 N m of the horn, so the
-    motor draws 0.294 / Kt, Kt = 4.1 N m / 2.3 A (XM430-W350, e-Manual specifications):
-    0.165 A, 61 units of 2.69 mA — within 5 %, computed here by hand, not by the model."""
+    position mode: gravity asks m g r = 0.3 x 9.81 x 0.1 = 0.294 N m of the horn, 0.0717 of
+    the XM430-W350's 4.1 N m stall torque. Computed here by hand, not by the model:
+
+    - the P term gives PWM = KPP x error, KPP = P / 128, full output 885 (e-Manual,
+      Position PID Gain; Goal PWM's range), so the lever sags until 885 x 0.0717 = KPP x
+      error: 20.3, 10.2 and 5.1 ticks at P 400, 800, 1 600 (within a tick);
+    - the motor draws torque / Kt, Kt = 4.1 N m / 2.3 A: 0.165 A, 61 units of 2.69 mA
+      (within 5 %)."""
     mass, reach, g = 0.3, 0.1, 9.81
     sim, bus, world = _lever(mass, reach)
+    bus.write(1, "position_p_gain", p_gain, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 0.0)
-    sim.advance(2.0)
+    sim.advance(3.0)
     angle = float(world.data.qpos[world.model.joint("hinge").qposadr[0]])
-    assert abs(angle) < 4 * XM430_TICK                      # level
     torque_nm = mass * g * reach * math.cos(angle)
+    sag_ticks = 885 * (torque_nm / 4.1) / (p_gain / 128)
+    assert abs(angle) / XM430_TICK == pytest.approx(sag_ticks, abs=1.0)
     amps = torque_nm / (4.1 / 2.3)
     current = bus.read(1, "present_current", raw=True)
     assert abs(current) == pytest.approx(amps / 0.00269, rel=0.05)
+
+
+@pytest.mark.parametrize("p_gain", [16, 32, 64])
+def test_an_mx28_lever_sags_by_its_p_gain(p_gain: int) -> None:
+    """The MX-28 (Protocol 1.0) P gain as the e-Manual's table makes it the compliance
+    slope's equal (slope 8/16/32/64/128 is P 128/64/32/16/8: slope = 1 024 / P ticks), so
+    the 0.294 N m lever sags share x 1 024 / P ticks, share = 0.294 / 2.5 N m stall (MX-28,
+    e-Manual specifications at 12 V): 7.5, 3.8, 1.9 ticks (within a tick). It held the same
+    at every P gain before."""
+    mass, reach, g = 0.3, 0.1, 9.81
+    sim, bus, world = _lever(mass, reach, "MX-28")
+    bus.write(1, "p_gain", p_gain, raw=True)
+    bus.write(1, "goal_position", 0.0)               # (Protocol 1.0: torque on with the goal)
+    sim.advance(3.0)
+    angle = float(world.data.qpos[world.model.joint("hinge").qposadr[0]])
+    share = mass * g * reach * math.cos(angle) / 2.5
+    tick = 2 * math.pi / 4096                       # MX-28: 4096 ticks a turn
+    assert abs(angle) / tick == pytest.approx(share * 1024 / p_gain, abs=1.0)
 
 
 def test_a_lever_held_by_goal_current_comes_to_rest_where_gravity_equals_it() -> None:

@@ -696,7 +696,7 @@ class VirtualMotor:
                                 if share else 0.0)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=velocity, profile_acceleration=acceleration,
-                            torque_limit=limit)
+                            torque_limit=limit, compliance=self._position_p_law())
 
     def _current_share(self, name: str) -> float:
         """The current register ``name`` as a share of the stall torque: torque = Kt x current,
@@ -726,8 +726,13 @@ class VirtualMotor:
 
     def _compliance(self) -> Compliance | None:
         """Compliance Margin, Slope and Punch in SI, on the models that have them (e-Manual,
-        RX-28: margins and slopes in position ticks, punch on the torque limit's scale)."""
+        RX-28: margins and slopes in position ticks, punch on the torque limit's scale); on
+        the MX (1.0), its P gain as the e-Manual's equivalent slope."""
         m = self.model
+        if m.has("p_gain"):
+            # "The relationship between Compliance Slop and PID": slope 8, 16, 32, 64, 128 is
+            # P gain 128, 64, 32, 16, 8 (e-Manual, MX-28 PID): slope = 1 024 / P ticks.
+            return _proportional(m, 1024.0, self.get_raw("p_gain"))
         if not m.has("cw_compliance_slope"):
             return None
         return Compliance(
@@ -736,6 +741,18 @@ class VirtualMotor:
             cw_slope=units.tick_span(m, self.get_raw("cw_compliance_slope")),
             ccw_slope=units.tick_span(m, self.get_raw("ccw_compliance_slope")),
             punch=self.get_raw("punch") / 1023.0)   # Torque Limit's scale: 1023 = 100 %
+
+    def _position_p_law(self) -> Compliance | None:
+        """The X-series position P gain as the output it gives for an error: "PWM output" =
+        KPP x error with KPP = Position P Gain(84) / 128 (e-Manual, Position PID Gain), the
+        error in pulses and the output in Goal PWM's units (885 = 100 %; the e-Manual names
+        neither unit, these are the table's own). Full output is then reached 885 x 128 / P
+        ticks from the goal: the compliance law with that slope, no margin, no punch."""
+        m = self.model
+        if not m.has("position_p_gain") or not m.has("goal_pwm"):
+            return None
+        return _proportional(m, m.register("goal_pwm").raw_max * 128.0,
+                             self.get_raw("position_p_gain"))
 
     def _goal_angle(self) -> float:
         """goal_position as an angle of the joint (in Position Control Mode the count was
@@ -1077,6 +1094,13 @@ class VirtualMotor:
         if reg.name == "goal_pwm" and abs(value) > other("pwm_limit"):
             return p2.DATA_LIMIT
         return 0
+
+
+def _proportional(model: Model, full_output_at: float, gain: int) -> Compliance:
+    """A proportional position law as the compliance law: full output ``full_output_at /
+    gain`` ticks from the goal (a gain of 0: no output at all)."""
+    slope = units.tick_span(model, full_output_at / gain) if gain else math.inf
+    return Compliance(cw_slope=slope, ccw_slope=slope)
 
 
 @dataclass(frozen=True)

@@ -83,8 +83,9 @@ class ServoCommand:
     #: (the Protocol 1.0 models, and Profile Acceleration 0)
     profile_acceleration: float = math.inf
     torque_limit: float = 1.0       # fraction of stall torque the firmware allows
-    #: the position control law of a compliance-controlled model (AX, RX, EX); None where the
-    #: firmware has another (X-series PID) or the joint is in velocity control
+    #: the position control law: a compliance-controlled model's (AX, RX, EX), or the P gain
+    #: of a PID model as its compliance equivalent (MX: the e-Manual's table; X-series:
+    #: Position P Gain); None in velocity control
     compliance: Compliance | None = None
 
 

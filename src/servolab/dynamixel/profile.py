@@ -34,6 +34,8 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
+from .errors import ConfigError
+
 
 class ProfileType(IntEnum):
     """Moving Status(123) bits 4-5 (e-Manual, Moving Status): the kind of velocity profile."""
@@ -112,7 +114,7 @@ def move(start: float, velocity: float, goal: float, profile_velocity: float,
     profile": the motor's own top speed, which only the plant knows)."""
     v_max = float(profile_velocity)
     if not (v_max > 0):
-        raise ValueError(f"profile velocity {profile_velocity!r} rad/s must be > 0 for a profile")
+        raise ConfigError(f"profile velocity {profile_velocity!r} rad/s must be > 0 for a profile")
     a_max = math.inf if profile_acceleration in (0, math.inf) else float(profile_acceleration)
     distance = goal - start
     if math.isinf(a_max):  # rectangular: at the profile velocity at once, stopping on the goal
@@ -155,7 +157,7 @@ def time_based(distance: float, span: float, acceleration_time: float
     acceleration time ``acceleration_time`` s (t1, at most half the span: e-Manual). A t1 of
     0 gives a rectangular profile (infinite acceleration)."""
     if not span > 0:
-        raise ValueError(f"time span {span!r} s must be > 0 for a time-based profile")
+        raise ConfigError(f"time span {span!r} s must be > 0 for a time-based profile")
     t1 = min(max(0.0, acceleration_time), span / 2)
     cruise_speed = abs(distance) / (span - t1)   # area of the trapezoid: v (t3 - t1)
     return cruise_speed, (cruise_speed / t1 if t1 > 0 else math.inf)

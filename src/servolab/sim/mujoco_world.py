@@ -32,8 +32,10 @@ this is that law made concrete, and stated so it can be changed:
 
 In velocity control (wheel mode) ``u`` is the goal speed's share of the no-load speed, the
 output the e-Manual says wheel mode sets; back in position control the reference starts
-from the horn again. A model without compliance registers (the X-series, whose PID this
-does not model) is driven with full output beyond one tick of error.
+from the horn again. A PID model's P gain comes as its compliance equivalent (the MX's
+table in the e-Manual; an X-series' Position P Gain, output KPP x error in PWM units), so
+a stiffer gain sags less under the same load; the I and D terms and the feedforward gains are
+not modelled yet.
 
 **Load and heat.** Present load is the drive ``u``: "an inferred value based on the internal
 output value" (e-Manual, RX-28 Present Load), so a joint held against something reads its
