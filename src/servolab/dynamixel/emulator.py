@@ -684,7 +684,10 @@ class VirtualMotor:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
                                 profile_acceleration=acceleration, torque_limit=limit)
         if mode == 16:
-            return ServoCommand(torque, True, torque_limit=limit,
+            # PWM Control Mode: the goal is a voltage, "directly controlling the supplying
+            # voltage to the motor" (e-Manual, Position PID Gain note): its share of the no-load
+            # speed, which a load moves along the torque-speed line (voltage_control)
+            return ServoCommand(torque, True, torque_limit=limit, voltage_control=True,
                                 goal_velocity=sign * self._si("goal_pwm") * m.no_load_speed)
         if mode == 0:
             # Current Control Mode: a torque demand. The horn turns the way it asks, as fast
@@ -812,7 +815,13 @@ class VirtualMotor:
                 self._show("present_current", load * m.stall_current_a)
             else:
                 self._show("present_load", load)
-            self._show("present_pwm", velocity / m.no_load_speed)
+            # the voltage the motor gets: Goal PWM itself in PWM Control Mode; else what its
+            # torque and its back-EMF take (a DC motor: PWM share = torque share + speed /
+            # no-load speed); within PWM Limit(36) either way
+            pwm_limit = self._si("pwm_limit")
+            applied = (self._si("goal_pwm") if self.get_raw("operating_mode") == 16
+                       and self.get_raw("torque_enable") else load + velocity / m.no_load_speed)
+            self._show("present_pwm", max(-pwm_limit, min(pwm_limit, applied)))
             self._show("present_input_voltage", voltage)
             self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
             self._show_trajectory(ticks)

@@ -82,6 +82,10 @@ class ServoCommand:
     #: ``profile_velocity`` > 0), a goal velocity is ramped to at it; infinity: no ramp
     #: (the Protocol 1.0 models, and Profile Acceleration 0)
     profile_acceleration: float = math.inf
+    #: the goal is a voltage, not a speed (X-series PWM Control Mode): ``goal_velocity`` is the
+    #: unloaded horn's speed at it, and a load moves the horn along the torque-speed line,
+    #: forward or backward (nothing stalls: nothing is held)
+    voltage_control: bool = False
     torque_limit: float = 1.0       # fraction of stall torque the firmware allows
     #: the position control law: a compliance-controlled model's (AX, RX, EX), or the P gain
     #: of a PID model as its compliance equivalent (MX: the e-Manual's table; X-series:
@@ -232,8 +236,9 @@ class KinematicServo:
     def stalled(self) -> bool:
         """Torque is on and the external load beats the torque limit: the horn cannot turn
         and the motor gives all the limit allows (the firmware's overload condition)."""
-        return self._command.torque_enabled and abs(self._external_load) > max(
-            0.0, self._command.torque_limit)
+        command = self._command
+        return (command.torque_enabled and not command.voltage_control
+                and abs(self._external_load) > max(0.0, command.torque_limit))
 
     # -- state ----------------------------------------------------------------------------------
     @property
@@ -321,6 +326,13 @@ class KinematicServo:
         ramped = cmd.torque_enabled and math.isfinite(cmd.profile_acceleration) and top > 0
         if not cmd.torque_enabled:
             self._speed, self._target = 0.0, math.nan
+        elif cmd.voltage_control:
+            # a DC motor at a voltage share u turns where its torque line u - w / w0 meets the
+            # load it holds, -L (L: the external load, + pushing counter-clockwise; friction is
+            # in the no-load speed the datasheet gives): w = w0 (u + L), up to the no-load speed
+            w0 = self.no_load_speed
+            self._speed = w0 * max(-1.0, min(1.0, cmd.goal_velocity / w0 + self._external_load))
+            self._target = math.nan
         elif cmd.velocity_control:
             self._speed, self._target = max(-top, min(top, cmd.goal_velocity)), math.nan
             if ramped:
