@@ -1,5 +1,6 @@
 """Lets the tests import servolab from src/ while the package is not installed yet; the
 fixtures every folder's tests share: one test at a time holds the wall clock (``realtime``),
+every core kept busy by other processes (``busy_cpu``),
 and a middleware context that is always closed (``ctx``)."""
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import os
 os.environ["SERVOLAB_ZENOH_ROUTER"] = ""
 
 import fcntl
+import subprocess
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
@@ -84,3 +86,18 @@ def ctx(types: MessageTypes, ctx_transport: TransportOptions | None,
     from servolab.middleware.context import Context
     with Context.open(ctx_transport, types=types, clock=ctx_clock) as context:
         yield context
+
+
+@pytest.fixture
+def busy_cpu() -> Iterator[None]:
+    """Every core kept busy by another process while the robot runs on its real-time bus, as
+    on a lab PC that also runs a camera and a viewer: the stop must not depend on spare CPU."""
+    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"],
+                                stdin=subprocess.DEVNULL)
+               for _ in range(os.cpu_count() or 1)]
+    try:
+        yield
+    finally:
+        for burner in burners:
+            burner.kill()
+            burner.wait()

@@ -88,21 +88,6 @@ def stop(proc: subprocess.Popen[str], sig: signal.Signals, marker: str,
     return said
 
 
-@pytest.fixture
-def busy_cpu() -> Iterator[None]:
-    """Every core kept busy by another process while the robot runs on its real-time bus, as
-    on a lab PC that also runs a camera and a viewer: the stop must not depend on spare CPU."""
-    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"],
-                                stdin=subprocess.DEVNULL)
-               for _ in range(os.cpu_count() or 1)]
-    try:
-        yield
-    finally:
-        for burner in burners:
-            burner.kill()
-            burner.wait()
-
-
 def summary_of(run: Path, sig: signal.Signals) -> dict[str, object]:
     summary = json.loads((run / "summary.json").read_text())
     assert summary["interrupted"] == sig.name
