@@ -103,3 +103,15 @@ def test_current_based_position_holds_an_object_at_goal_current_without_shutdown
     load_nm(bus, 0.0)                       # the object taken away: on to the goal
     bus.port.clock.advance(2.0)  # type: ignore[attr-defined]
     assert bus.read(1, "present_position") == pytest.approx(start + 1.0, abs=0.002)
+
+
+def test_a_load_pushing_the_way_the_current_turns_does_not_hold_the_horn() -> None:
+    """Goal Current -200 asks a clockwise torque; a clockwise load helps it: the horn turns
+    clockwise and the motor draws the -200 asked (it was held still, reading +200, when the
+    load's direction was ignored)."""
+    bus = motor_on(0)
+    load_nm(bus, 2.05)                      # clockwise
+    bus.write(1, "goal_current", -200, raw=True)
+    bus.port.clock.advance(0.5)  # type: ignore[attr-defined]
+    assert bus.read(1, "present_velocity", raw=True) < 0
+    assert bus.read(1, "present_current", raw=True) == pytest.approx(-200, abs=1)

@@ -177,3 +177,63 @@ def test_a_led_written_mid_move_does_not_restart_the_profile() -> None:
     status = bus.read(1, "moving_status", raw=True)
     assert status & 0x01 and not status & 0x02
     assert bus.read(1, "present_position", raw=True) == CENTRE + 2000
+
+
+def test_a_new_goal_mid_time_based_move_is_reached_within_the_span() -> None:
+    """A time-based move is planned again from where the horn is on each new goal, over the
+    same span: turned back half-way, the horn arrives on the new goal a span later and never
+    runs past the first one."""
+    bus = arm(drive_mode=4)
+    bus.write(1, {"profile_acceleration": 300, "profile_velocity": 1000}, raw=True)
+    clock = bus.port.clock  # type: ignore[attr-defined]
+    bus.write(1, "goal_position", CENTRE + 2000, raw=True)
+    clock.advance(0.5)
+    seen = watch_move(bus, CENTRE + 1000)
+    assert seen[-1][0] == pytest.approx(1.0, abs=within(seen))
+    assert max(present for _, _, present, _ in seen) <= CENTRE + 2000
+
+
+def test_only_a_new_goal_makes_a_new_profile() -> None:
+    """A profile is made "when Goal Position(116) is updated": writing Goal Velocity or the
+    profile registers mid-move changes nothing of it (the new profile registers count from
+    the next goal)."""
+    bus = arm(drive_mode=4)
+    bus.write(1, {"profile_acceleration": 300, "profile_velocity": 1000}, raw=True)
+    clock = bus.port.clock  # type: ignore[attr-defined]
+    bus.write(1, "goal_position", CENTRE + 2000, raw=True)
+    clock.advance(0.5)
+    bus.write(1, "goal_velocity", 10, raw=True)
+    bus.write(1, {"profile_acceleration": 100, "profile_velocity": 3000}, raw=True)
+    clock.advance(0.5 + 2 * PERIOD)
+    status = bus.read(1, "moving_status", raw=True)
+    assert status == 0x31 and bus.read(1, "present_position", raw=True) == CENTRE + 2000
+    seen = watch_move(bus, CENTRE)         # the next goal takes the new span, 3 s
+    assert seen[-1][0] == pytest.approx(3.0, abs=within(seen))
+
+
+def test_a_horn_too_loaded_to_keep_to_its_trajectory_sets_following_error() -> None:
+    """"Following Error: Dynamixel fails to reach desired position trajectory" (Moving
+    Status bit 0x08): under 0.8 of its stall torque the horn turns at a fifth of the no-load
+    speed (the torque-speed line), too slow for a profile at 190 units (43.5 rev/min, nearly
+    the no-load 46); it falls behind the Position Trajectory, and still arrives."""
+    bus = arm(mode=4)                               # extended position: 3 000 ticks on
+    bus.emulator.motor(1).external_load = -0.8      # type: ignore[attr-defined]
+    bus.write(1, {"profile_acceleration": 100, "profile_velocity": 190}, raw=True)
+    seen = watch_move(bus, CENTRE + 3000, limit=10.0)
+    assert any(status & 0x08 for _, status, _, _ in seen)
+    assert not seen[-1][1] & 0x08
+
+
+def test_a_load_changed_mid_ramp_does_not_jolt_the_motor_s_torque() -> None:
+    """The torque that accelerates motor and gears along a ramp is a first-order lag toward
+    a x tau / no-load speed: a load changed by nothing mid-ramp leaves it where it was."""
+    bus = arm()
+    bus.write(1, {"profile_acceleration": 10, "profile_velocity": 100}, raw=True)
+    bus.write(1, "goal_position", CENTRE + 1024, raw=True)
+    motor = bus.emulator.motor(1)                   # type: ignore[attr-defined]
+    bus.port.clock.advance(0.3)  # type: ignore[attr-defined]
+    before = motor.load
+    motor.external_load = 1e-12
+    assert motor.load == pytest.approx(before, abs=1e-6)
+    bus.port.clock.advance(0.001)  # type: ignore[attr-defined]
+    assert motor.load == pytest.approx(before, abs=1e-3)

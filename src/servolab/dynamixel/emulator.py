@@ -674,15 +674,19 @@ class VirtualMotor:
         if mode == 5:
             limit = min(limit, abs(self._current_share("goal_current")))
         if self._watchdog_hold:
-            # The bus watchdog stopped the motor: it holds still until a new goal.
+            # The bus watchdog stopped the motor: it holds still until a new goal (and the
+            # profile it was following is gone).
+            self._profiles.reset()
             return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
                                 goal_position=self._plant.position)
         velocity, acceleration = self._profiles.plan(
             self._profile_registers(mode, torque), self._plant.position, self._plant.velocity,
             self._now())
+        trajectory = self._profiles.trajectory
         if mode == 1:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
-                                profile_acceleration=acceleration, torque_limit=limit)
+                                profile_acceleration=acceleration, torque_limit=limit,
+                                trajectory=trajectory)
         if mode == 16:
             # PWM Control Mode: the goal is a voltage, "directly controlling the supplying
             # voltage to the motor" (e-Manual, Position PID Gain note): its share of the no-load
@@ -695,11 +699,13 @@ class VirtualMotor:
             # holds the horn (the default plant: stalled at the goal's torque, no further).
             share = self._current_share("goal_current")
             return ServoCommand(torque, True, torque_limit=min(limit, abs(share)),
+                                torque_control=True,
                                 goal_velocity=sign * math.copysign(m.no_load_speed, share)
                                 if share else 0.0)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=velocity, profile_acceleration=acceleration,
-                            torque_limit=limit, compliance=self._position_p_law())
+                            torque_limit=limit, compliance=self._position_p_law(),
+                            trajectory=trajectory)
 
     def _current_share(self, name: str) -> float:
         """The current register ``name`` as a share of the stall torque: torque = Kt x current,

@@ -86,6 +86,13 @@ class ServoCommand:
     #: unloaded horn's speed at it, and a load moves the horn along the torque-speed line,
     #: forward or backward (nothing stalls: nothing is held)
     voltage_control: bool = False
+    #: the goal is a torque (X-series Current Control Mode): the motor gives ``torque_limit``
+    #: in ``goal_velocity``'s direction, turning that way unless a load pushes harder against
+    #: it (then held there)
+    torque_control: bool = False
+    #: the X-series firmware's planned trajectory (its profile generator, in the joint's
+    #: angle): the horn follows it while the load lets it (else it goes as the limits allow)
+    trajectory: Profile | None = None
     torque_limit: float = 1.0       # fraction of stall torque the firmware allows
     #: the position control law: a compliance-controlled model's (AX, RX, EX), or the P gain
     #: of a PID model as its compliance equivalent (MX: the e-Manual's table; X-series:
@@ -187,6 +194,7 @@ class KinematicServo:
         self._e0 = 0.0                  # step of a new command, the joint is as it was
         self._i0 = 0.0                  # the acceleration torque still decaying at the start
         self._j = 0                     # steps taken in the segment
+        self._elapsed = 0.0             # s into the firmware's trajectory at the segment start
         self._cached_j = -1
         self._cached = (0.0, 0.0, 0.0, 0.0)
         self._plan()
@@ -200,6 +208,8 @@ class KinematicServo:
     def command(self, command: ServoCommand) -> None:
         if command != self._command:
             self._restart()
+            if command.trajectory != self._command.trajectory:
+                self._elapsed = 0.0     # a new trajectory starts now
             self._command = command
             self._plan()
 
@@ -237,6 +247,8 @@ class KinematicServo:
         """Torque is on and the external load beats the torque limit: the horn cannot turn
         and the motor gives all the limit allows (the firmware's overload condition)."""
         command = self._command
+        if command.torque_control and not self._opposed():
+            return False
         return (command.torque_enabled and not command.voltage_control
                 and abs(self._external_load) > max(0.0, command.torque_limit))
 
@@ -303,6 +315,8 @@ class KinematicServo:
         self._p0, self._t0 = self.position, self.temperature
         self._v0, self._e0 = self.velocity, self.effort
         self._i0 = self._inertia(self._j)
+        if not math.isnan(self._decay[0]):
+            self._elapsed += self._j * self._decay[0]
         self._j = 0
         self._cached_j = -1
 
@@ -314,16 +328,25 @@ class KinematicServo:
     def _max_speed(self) -> float:
         load = abs(self._external_load)
         limit = self._command.torque_limit
+        if self._command.torque_control and not self._opposed():
+            return self.no_load_speed * max(0.0, 1.0 - load) if limit > 0 else 0.0
         if limit <= 0 or load > limit:
             return 0.0  # no torque allowed, or the load beats it: stalled
         return self.no_load_speed * max(0.0, 1.0 - load)
+
+    def _opposed(self) -> bool:
+        """Whether the external load pushes against the way a torque demand turns."""
+        return self._external_load * self._command.goal_velocity < 0
 
     def _plan(self) -> None:
         """Decide the segment's motion from the command and the load (dt-independent)."""
         cmd = self._command
         top = self._max_speed()
         self._profile: Profile | None = None
-        ramped = cmd.torque_enabled and math.isfinite(cmd.profile_acceleration) and top > 0
+        self._profile_t0 = self._elapsed
+        trajectory = cmd.trajectory if cmd.torque_enabled and top > 0 else None
+        if trajectory is not None and not _leads_to(trajectory, cmd):
+            trajectory = None   # a world changed the goal the firmware planned for (stiction)
         if not cmd.torque_enabled:
             self._speed, self._target = 0.0, math.nan
         elif cmd.voltage_control:
@@ -335,17 +358,26 @@ class KinematicServo:
             self._target = math.nan
         elif cmd.velocity_control:
             self._speed, self._target = max(-top, min(top, cmd.goal_velocity)), math.nan
-            if ramped:
-                self._profile = ramp(self._v0, self._speed, cmd.profile_acceleration,
-                                     start=self._p0)
+            if trajectory is not None:
+                # the firmware's ramp while the load lets the horn reach its goal velocity;
+                # else one of its own, at the same acceleration, to what it can reach
+                self._profile = trajectory if abs(trajectory.after) <= top * (1 + 1e-12) \
+                    else self._own(ramp(self._v0, self._speed, _acceleration(trajectory),
+                                        start=self._p0))
         else:
             want = abs(cmd.profile_velocity)
             self._speed = top if want == 0 else min(want, top)
             self._target = cmd.goal_position
-            if ramped and want > 0:
-                self._profile = move(self._p0, self._v0, self._target, self._speed,
-                                     cmd.profile_acceleration)
+            if trajectory is not None:
+                self._profile = trajectory if trajectory.peak_speed <= top * (1 + 1e-12) \
+                    else self._own(move(self._p0, self._v0, self._target, top,
+                                        _acceleration(trajectory)))
         self._plan_steps(self._decay[0])
+
+    def _own(self, profile: Profile) -> Profile:
+        """A profile of the plant's own, from where the joint is now (its time starts here)."""
+        self._profile_t0 = 0.0
+        return profile
 
     def _plan_steps(self, dt: float) -> None:
         """The segment's per-step figures for this ``dt``: travel per step, the step on which
@@ -359,7 +391,7 @@ class KinematicServo:
         profile = self._profile
         if profile is not None and not math.isnan(self._target):
             # a profiled move arrives on the first step at or after its end
-            self._arrive = max(1, math.ceil(profile.duration / dt - 1e-9)) \
+            self._arrive = max(1, math.ceil((profile.duration - self._profile_t0) / dt - 1e-9)) \
                 if not math.isnan(dt) else 1
         elif not math.isnan(self._target):
             error = abs(self._target - self._p0)
@@ -420,7 +452,7 @@ class KinematicServo:
         if profile is not None:
             if not math.isnan(self._target) and j >= self._arrive:
                 return self._target
-            return profile.at(j * self._decay[0])[0]
+            return profile.at(self._profile_t0 + j * self._decay[0])[0]
         if math.isnan(self._target):
             return self._p0 + self._travel * j
         if self._arrive == -1:
@@ -434,7 +466,7 @@ class KinematicServo:
         if profile is not None and j > 0 and self._command.torque_enabled:
             if not math.isnan(self._target) and j >= self._arrive:
                 return 0.0
-            return profile.at(j * self._decay[0])[1]
+            return profile.at(self._profile_t0 + j * self._decay[0])[1]
         return self._v_move if self._moving(j) else 0.0
 
     def _inertia(self, j: int) -> float:
@@ -450,9 +482,12 @@ class KinematicServo:
             # a profile accelerates at a steadily: the first-order motor settles on a x tau /
             # no-load speed, what a step of speed dv gives in all (dv x tau / no-load speed)
             # spread over the ramp; the torque from before still decays
+            # (a first-order lag toward a x tau / w0 from where the torque stood at the start)
             moving = math.isnan(self._target) or j < self._arrive
-            a = profile.at(j * self._decay[0])[2] if moving else 0.0
-            return self._i0 * r ** j + a * MECHANICAL_TIME_CONSTANT_S / self.no_load_speed
+            k = MECHANICAL_TIME_CONSTANT_S / self.no_load_speed
+            a = profile.at(self._profile_t0 + j * self._decay[0])[2] if moving else 0.0
+            a0 = profile.at(self._profile_t0)[2]
+            return a * k + (self._i0 - a0 * k) * r ** j
         first_rest = self._first_rest
         if first_rest is None or j < first_rest:
             return self._kick_move * r ** j
@@ -462,6 +497,8 @@ class KinematicServo:
         """The torque the motor gives turning at ``velocity`` against friction and holding the
         external load, within its torque limit (the effort that heats it)."""
         limit = self._limit()
+        if self._command.torque_control and limit:
+            return math.copysign(limit, self._command.goal_velocity)
         top = self._max_speed()
         friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
         load = (math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
@@ -473,6 +510,8 @@ class KinematicServo:
         limit = self._limit()
         if not limit:
             return 0.0
+        if self._command.torque_control:   # the current loop holds the demanded torque
+            return math.copysign(limit, self._command.goal_velocity)
         top = self._max_speed()
         friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
         load = ((math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
@@ -532,3 +571,16 @@ def _decay(dt: float, thermal_tau: float) -> tuple[float, float, float]:
     if math.isnan(dt):
         return (dt, 1.0, 1.0)
     return (dt, math.exp(-dt / thermal_tau), math.exp(-dt / MECHANICAL_TIME_CONSTANT_S))
+
+
+def _acceleration(profile: Profile) -> float:
+    """The largest acceleration (rad/s²) of a trajectory's phases; infinity with none (a step
+    or a rectangular profile)."""
+    return max((abs(p.acceleration) for p in profile.phases), default=0.0) or math.inf
+
+
+def _leads_to(trajectory: Profile, command: ServoCommand) -> bool:
+    """Whether ``trajectory`` ends at ``command``'s goal (velocity, or position)."""
+    if command.velocity_control:
+        return math.isclose(trajectory.after, command.goal_velocity, abs_tol=1e-12)
+    return math.isclose(trajectory.end, command.goal_position, rel_tol=1e-9, abs_tol=1e-9)

@@ -38,7 +38,7 @@ VELOCITY_MODE = 1
 @dataclass(frozen=True)
 class Registers:
     """What the generator reads of the control table, raw, and the horn, in SI (rad, rad/s;
-    the joint's own direction): what decides a plan."""
+    the joint's own direction). A new plan is made when :attr:`key` changes."""
 
     mode: int
     torque: bool
@@ -51,6 +51,16 @@ class Registers:
     profile_velocity: float     # rad/s (velocity-based)
     profile_acceleration: float  # rad/s² (velocity-based)
 
+    @property
+    def key(self) -> tuple[int, bool, int]:
+        """What a new profile is made on: "when Goal Position(116) is updated" in the
+        position modes, Goal Velocity(104) in Velocity Control Mode (e-Manual, Profile
+        Velocity(112)); the operating mode and torque (switching either starts afresh). The
+        profile registers and Drive Mode take effect from the next goal."""
+        goal = (self.goal_position if self.mode in POSITION_MODES
+                else round(self.goal_velocity * 1e6) if self.mode == VELOCITY_MODE else 0)
+        return self.mode, self.torque, goal
+
 
 class ProfileGenerator:
     """The firmware's profile: planned again only when what decides it changes (a new goal,
@@ -59,7 +69,8 @@ class ProfileGenerator:
 
     def __init__(self, firmware: int) -> None:
         self.time_based_allowed = firmware >= TIME_BASED_FIRMWARE
-        self._key: Registers | None = None
+        self._key: tuple[int, bool, int] | None = None
+        self._mode = -1
         self._limits = (0.0, math.inf)
         self.trajectory: Profile | None = None
         self.kind = ProfileType.NONE
@@ -71,9 +82,9 @@ class ProfileGenerator:
         planned from the horn at ``position`` and ``velocity`` at ``now`` (s) if the goal or
         the profile changed; (0, inf) where no profile applies (the motor's top speed, no
         ramp: a step)."""
-        if registers == self._key:
+        if registers.key == self._key:
             return self._limits
-        self._key = registers
+        self._key, self._mode = registers.key, registers.mode
         self._start_time = now
         self.trajectory, self.kind = None, ProfileType.NONE
         self._limits = (0.0, math.inf)
@@ -106,6 +117,12 @@ class ProfileGenerator:
         self.kind = self.trajectory.kind
         return self._limits
 
+    def reset(self) -> None:
+        """No profile until the next goal (the bus watchdog stopped the motor)."""
+        self._key, self._mode = None, -1
+        self.trajectory, self.kind = None, ProfileType.NONE
+        self._limits = (0.0, math.inf)
+
     def desired(self, now: float) -> tuple[float, float] | None:
         """The desired (position rad, velocity rad/s) at ``now``, or None with no profile."""
         if self.trajectory is None:
@@ -115,9 +132,7 @@ class ProfileGenerator:
 
     def ongoing(self, now: float) -> bool:
         """Whether a move's profile is still in progress at ``now``."""
-        key = self._key
-        return (self.trajectory is not None and key is not None
-                and key.mode in POSITION_MODES
+        return (self.trajectory is not None and self._mode in POSITION_MODES
                 and now - self._start_time < self.trajectory.duration)
 
     def moving_status(self, now: float, goal_ticks: float, present_ticks: float,
@@ -126,12 +141,12 @@ class ProfileGenerator:
         profile-ongoing and following-error bits."""
         status = int(self.kind)
         key = self._key
-        if key is None or key.mode not in POSITION_MODES:
+        if key is None or self._mode not in POSITION_MODES:
             return status
         ongoing = self.ongoing(now)
         if ongoing:
             status |= PROFILE_ONGOING
-        elif key.torque and abs(goal_ticks - present_ticks) <= IN_POSITION_TICKS:
+        elif key[1] and abs(goal_ticks - present_ticks) <= IN_POSITION_TICKS:
             status |= IN_POSITION
         if desired_ticks is not None and abs(desired_ticks - present_ticks) > \
                 FOLLOWING_ERROR_TICKS:

@@ -18,9 +18,9 @@ this is that law made concrete, and stated so it can be changed:
 
 1. a reference moves from where the horn was when torque came on toward ``goal_position``
    at no more than ``moving_speed`` (0: at once) — the firmware's speed control; on an
-   X-series motor with a Profile Acceleration it follows the firmware's profile instead
+   X-series motor it follows the trajectory of the firmware's profile generator instead
    (trapezoid or triangle, velocity- or time-based: :mod:`servolab.dynamixel.profile`, the
-   law the default plant follows), and a goal velocity is ramped to;
+   one the default plant follows), and a goal velocity is ramped to;
 2. the error (reference - horn) gives the output share ``u``: 0 within the compliance
    margin, then growing linearly across the compliance slope toward full output, capped at
    the torque limit (the e-Manual's Torque Limit caps the output), and never below punch
@@ -84,7 +84,7 @@ from ..dynamixel.plant import (
     THERMAL_TIME_CONSTANT_S,
     ServoCommand,
 )
-from ..dynamixel.profile import Profile, move, ramp
+from ..dynamixel.profile import Profile
 from .errors import SimulationError
 from .simulation import Simulation
 from .world import World
@@ -400,29 +400,21 @@ class MujocoWorld(World):
             self._punch[k] = c.punch
         if command.torque_enabled and not was_on:
             self._reference[k] = self._horn(k)  # the move starts where the horn is
-        self._profiles[k] = self._profile_of(k, command, was_on)
+        self._profiles[k] = self._profile_of(k, command)
         self._profiled = [i for i, p in enumerate(self._profiles) if p is not None]
         self._laws_changed = True
 
-    def _profile_of(self, k: int, command: ServoCommand, was_on: bool
-                    ) -> tuple[Profile, float] | None:
-        """The X-series profile joint ``k``'s reference follows from now (e-Manual, Profile
-        Velocity(112)): planned from where the reference is and how fast it moves (Velocity
-        Override), by the same law the default plant's horn follows
-        (:mod:`servolab.dynamixel.profile`); a goal velocity's ramp likewise."""
-        if not command.torque_enabled or not math.isfinite(command.profile_acceleration):
+    def _profile_of(self, k: int, command: ServoCommand) -> tuple[Profile, float] | None:
+        """The X-series firmware's trajectory joint ``k``'s reference follows, with the time
+        it began (its profile generator's: :mod:`servolab.dynamixel.profile`, the law the
+        default plant's horn follows too): kept while the command changes only otherwise."""
+        trajectory = command.trajectory
+        if not command.torque_enabled or trajectory is None:
             return None
         held = self._profiles[k]
-        now = self._time
-        # "based on present velocity": the trajectory's own where one is under way
-        velocity = held[0].at(now - held[1])[1] if held is not None else self._horn_velocity(k)
-        if command.velocity_control:
-            return ramp(velocity, command.goal_velocity, command.profile_acceleration), now
-        if not command.profile_velocity > 0:
-            return None
-        return move(float(self._reference[k]), velocity if was_on else 0.0,
-                    command.goal_position,
-                    command.profile_velocity, command.profile_acceleration), now
+        if held is not None and held[0] == trajectory:
+            return held
+        return trajectory, self._time
 
     def _horns(self) -> np.ndarray:
         horns: np.ndarray = self._offset + self._dir * self.data.qpos[self._qadr]

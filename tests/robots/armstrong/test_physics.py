@@ -29,7 +29,6 @@ from servolab.robots.armstrong.description import Assumptions
 from servolab.robots.armstrong.poses import MOTORS, STAND_POSE
 from servolab.robots.errors import RobotValueError
 from tests.clirun import servolab
-from tests.robots.test_stop_signals import busy_cpu  # noqa: F401 - the fixture
 from tests.simproc import sim_process
 
 from .configs import ping_once_config
