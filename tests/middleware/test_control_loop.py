@@ -116,12 +116,14 @@ def test_timer_keeps_9_hz_in_a_1_khz_flood_on_the_wall_clock(wctx: Context) -> N
     try:
         assert wctx.spin_until(lambda: received[0] > 0, timeout=5.0)
         start = node.now()
-        wctx.spin_until(lambda: node.now() - start >= 2.5, timeout=10.0)
+        # 6 s: long enough that one stall of the OS (a few hundred ms on a busy 2-core
+        # machine, the other test worker running beside) does not decide the rate
+        wctx.spin_until(lambda: node.now() - start >= 6.0, timeout=15.0)
     finally:
         stop.set()
         source.join(timeout=2.0)
     during = [t for t in ticks if t >= start]
-    assert len(during) >= 20, during
+    assert len(during) >= 50, during
     assert _rate(during) >= 9.0
 
 
