@@ -679,14 +679,13 @@ class VirtualMotor:
             self._profiles.reset()
             return ServoCommand(torque, mode in (0, 1, 16), torque_limit=limit,
                                 goal_position=self._plant.position)
-        velocity, acceleration = self._profiles.plan(
+        velocity = self._profiles.plan(
             self._profile_registers(mode, torque), self._plant.position, self._plant.velocity,
             self._now())
         trajectory = self._profiles.trajectory
         if mode == 1:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
-                                profile_acceleration=acceleration, torque_limit=limit,
-                                trajectory=trajectory)
+                                torque_limit=limit, trajectory=trajectory)
         if mode == 16:
             # PWM Control Mode: the goal is a voltage, "directly controlling the supplying
             # voltage to the motor" (e-Manual, Position PID Gain note): its share of the no-load
@@ -703,8 +702,8 @@ class VirtualMotor:
                                 goal_velocity=sign * math.copysign(m.no_load_speed, share)
                                 if share else 0.0)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
-                            profile_velocity=velocity, profile_acceleration=acceleration,
-                            torque_limit=limit, compliance=self._position_p_law(),
+                            profile_velocity=velocity, torque_limit=limit,
+                            compliance=self._position_p_law(),
                             trajectory=trajectory)
 
     def _current_share(self, name: str) -> float:

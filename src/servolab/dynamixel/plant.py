@@ -78,10 +78,6 @@ class ServoCommand:
     goal_position: float = 0.0      # rad
     profile_velocity: float = 0.0   # rad/s, magnitude; 0 = the motor's top speed
     goal_velocity: float = 0.0      # rad/s, signed
-    #: rad/s², the X-series profile's acceleration: a move accelerates and brakes at it (with
-    #: ``profile_velocity`` > 0), a goal velocity is ramped to at it; infinity: no ramp
-    #: (the Protocol 1.0 models, and Profile Acceleration 0)
-    profile_acceleration: float = math.inf
     #: the goal is a voltage, not a speed (X-series PWM Control Mode): ``goal_velocity`` is the
     #: unloaded horn's speed at it, and a load moves the horn along the torque-speed line,
     #: forward or backward (nothing stalls: nothing is held)
@@ -479,10 +475,9 @@ class KinematicServo:
         r = self._decay[2]
         profile = self._profile
         if profile is not None:
-            # a profile accelerates at a steadily: the first-order motor settles on a x tau /
-            # no-load speed, what a step of speed dv gives in all (dv x tau / no-load speed)
-            # spread over the ramp; the torque from before still decays
-            # (a first-order lag toward a x tau / w0 from where the torque stood at the start)
+            # along a profile the motor and gears ask a x tau / no-load speed (what a step of
+            # speed dv gives in all, dv x tau / no-load speed, spread over the ramp): a
+            # first-order lag toward it from where the torque stood at the segment's start
             moving = math.isnan(self._target) or j < self._arrive
             k = MECHANICAL_TIME_CONSTANT_S / self.no_load_speed
             a = profile.at(self._profile_t0 + j * self._decay[0])[2] if moving else 0.0

@@ -77,13 +77,18 @@ class ProfileGenerator:
         self._start_time = 0.0
 
     def plan(self, registers: Registers, position: float, velocity: float, now: float
-             ) -> tuple[float, float]:
-        """The (profile velocity rad/s, profile acceleration rad/s²) the joint moves with,
-        planned from the horn at ``position`` and ``velocity`` at ``now`` (s) if the goal or
-        the profile changed; (0, inf) where no profile applies (the motor's top speed, no
-        ramp: a step)."""
+             ) -> float:
+        """Plan :attr:`trajectory` from the horn at ``position`` and ``velocity`` at ``now``
+        (s) if a new goal came; return the profile velocity (rad/s) it moves at, 0 where no
+        profile applies (a step: the motor's top speed)."""
         if registers.key == self._key:
-            return self._limits
+            return self._limits[0]
+        self._plan(registers, position, velocity, now)
+        return self._limits[0]
+
+    def _plan(self, registers: Registers, position: float, velocity: float, now: float
+              ) -> tuple[float, float]:
+        """Plan afresh; (profile velocity rad/s, profile acceleration rad/s²)."""
         self._key, self._mode = registers.key, registers.mode
         self._start_time = now
         self.trajectory, self.kind = None, ProfileType.NONE
