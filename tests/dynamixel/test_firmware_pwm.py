@@ -56,3 +56,21 @@ def test_present_pwm_never_exceeds_pwm_limit() -> None:
     bus.emulator.motor(1).external_load = 0.5       # type: ignore[attr-defined]
     bus.port.clock.advance(0.5)  # type: ignore[attr-defined]
     assert abs(bus.read(1, "present_pwm", raw=True)) <= 442
+
+
+@pytest.mark.parametrize(("against", "expected_share"), [(0.0, 100 / NO_LOAD_UNITS),
+                                                         (0.3, 0.3 + 100 / NO_LOAD_UNITS)])
+def test_present_pwm_in_velocity_mode_is_the_voltage_the_speed_and_load_take(
+        against: float, expected_share: float) -> None:
+    """Velocity mode at Goal Velocity 100 (22.9 rev/min, half the no-load speed): the motor
+    runs on the voltage its torque-speed line asks, PWM share = held torque share + speed /
+    no-load speed — 0.498 with no load (the gears' friction is inside the datasheet's no-load
+    speed, not counted again), 0.798 holding 0.3 of stall against it."""
+    bus = Bus.open("emu://xm430-w350:1", baudrate=1_000_000, retries=0)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).external_load = -against   # type: ignore[attr-defined]
+    bus.write(1, "goal_velocity", 100, raw=True)
+    bus.port.clock.advance(0.5)  # type: ignore[attr-defined]
+    assert bus.read(1, "present_velocity", raw=True) == 100
+    assert bus.read(1, "present_pwm", raw=True) == pytest.approx(885 * expected_share, abs=2)

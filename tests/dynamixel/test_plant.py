@@ -147,7 +147,8 @@ def _session(eager: bool, spec: str, baud: int) -> list[object]:
     for k in range(60):
         if k % 9 == 0:
             bus.sync_write("goal_position", {i: 0.4 * math.sin(k + i) for i in ids})
-        if k == 40:     # more than the torque limit holds: overload, shutdown
+        if k == 20:     # more than the torque limit holds: an overload a second on, then
+            # shutdown (within the 120 s the clock jumps at k = 30)
             bus.emulator.motor(ids[1]).external_load = -1.2
         motor = ids[k % len(ids)]
         answers.append(bus.read(motor, regs, raw=True, check=False))
@@ -195,8 +196,14 @@ class _Reference:
     def step(self, cmd: ServoCommand, load: float, dt: float) -> None:
         top = 0.0 if cmd.torque_limit <= 0 or abs(load) > cmd.torque_limit else \
             self.top * max(0.0, 1 - abs(load))
-        if not cmd.torque_enabled:
-            self.velocity = 0.0
+        if not cmd.torque_enabled or cmd.torque_limit <= 0:
+            # no output: the load back-drives the horn past the gears' static friction
+            # (0.04 of stall), as fast as their viscous friction (0.12 at the no-load speed)
+            # lets it, at most the no-load speed
+            excess = abs(load) - 0.04
+            self.velocity = 0.0 if excess <= 0 else math.copysign(
+                self.top * min(1.0, excess / 0.12), load)
+            self.position += self.velocity * dt
         elif cmd.velocity_control:
             self.velocity = max(-top, min(top, cmd.goal_velocity))
             self.position += self.velocity * dt

@@ -20,6 +20,7 @@ over in seconds.
 from __future__ import annotations
 
 from servolab.dynamixel import Bus, VirtualMotor
+from servolab.dynamixel.emulator import OVERLOAD_TIME_S
 from servolab.dynamixel.plant import MECHANICAL_TIME_CONSTANT_S
 
 OVERHEATING, OVERLOAD = 0x04, 0x20          # status error bits (e-Manual, Alarm Shutdown)
@@ -96,16 +97,20 @@ def test_load_reads_the_torque_that_holds_an_external_load() -> None:
 def test_a_load_above_the_torque_limit_is_an_overload_and_shuts_the_output_down() -> None:
     """Overload Error "when the current load cannot be controlled with the set maximum
     torque", and with the default Shutdown 0x24 "the motor output becomes 0 % by resetting the
-    value of Torque Limit(34) to 0" (e-Manual, Alarm Shutdown). The bit stays in every status
-    while the load it could not hold still pushes; gone with the load."""
+    value of Torque Limit(34) to 0" (e-Manual, Alarm Shutdown) — once the load has lasted
+    servolab's OVERLOAD_TIME_S (the e-Manual: a "persistent load"; it names no time). The
+    bit stays in every status while the load it could not hold still pushes; gone with the
+    load."""
     bus, motor = _rx28()
     bus.write(14, "torque_enable", 1)
     bus.write(14, "torque_limit", 512, raw=True)           # 50 %
     motor.external_load = 0.3                              # within it: held, no error
     bus.port.clock.advance(0.1)
     assert _load_and_error(bus) == (CW | 300, 0)
-    motor.external_load = 0.6                              # beyond it
-    bus.port.clock.advance(0.01)
+    motor.external_load = 0.6                              # beyond it: stalled, its
+    bus.port.clock.advance(OVERLOAD_TIME_S - 0.1)          # whole limit, and a second of
+    assert _load_and_error(bus) == (CW | 500, 0)           # it is an overload: not yet
+    bus.port.clock.advance(0.11)
     for _ in range(3):
         load, error = _load_and_error(bus)
         assert error == OVERLOAD
@@ -115,20 +120,23 @@ def test_a_load_above_the_torque_limit_is_an_overload_and_shuts_the_output_down(
         "torque_limit": 0, "torque_enable": 1}             # torque enable stays (1.0)
     assert bus.alerts == {14: OVERLOAD}
     bus.write(14, "torque_limit", 580, raw=True)           # 57 %: still beaten
-    bus.port.clock.advance(0.01)
+    bus.port.clock.advance(OVERLOAD_TIME_S - 0.1)
+    assert bus.read(14, "torque_limit", raw=True) == 580   # for less than a second
+    bus.port.clock.advance(0.11)
     assert bus.read(14, "torque_limit", raw=True) == 0     # shut down again
     motor.external_load = 0.0
     bus.port.clock.advance(0.01)
     assert _load_and_error(bus) == (0, 0)                  # the condition is gone (1.0)
     bus.write(14, "torque_limit", 1023, raw=True)          # and the output back for good
-    motor.external_load = 0.6                              # which holds 60 %
-    bus.port.clock.advance(0.1)
+    motor.external_load = 0.6                              # which holds 60 %, once back on
+    bus.port.clock.advance(10.0)                           # the goal the load drove it off
     assert _load_and_error(bus) == (CW | 600, 0)
 
 
 def test_held_against_its_torque_limit_it_heats_and_trips_at_the_temperature_limit() -> None:
-    """Shutdown set to overheating only (0x04): a load above the torque limit is reported as
-    an overload in every status but does not cut the output; the stalled motor gives its full
+    """Shutdown set to overheating only (0x04): a load above the torque limit is reported,
+    once it has lasted OVERLOAD_TIME_S, as an overload in every status but does not cut the
+    output; the stalled motor gives its full
     torque limit (Present Load 100 %, CCW against a CW push), heats monotonically, and once
     its temperature passes Temperature Limit(11), 80 °C, every status carries the Overheating
     Error bit and Torque Limit(34) is 0 (e-Manual, Temperature Limit and Alarm Shutdown)."""
@@ -138,14 +146,19 @@ def test_held_against_its_torque_limit_it_heats_and_trips_at_the_temperature_lim
     motor.temperature = 75.0                               # it has worked all morning
     motor.thermal_time_constant = 10.0                     # and warms in seconds
     motor.external_load = -1.2                             # more than its 100 % holds
+    loaded_at = bus.port.clock.now()
     readings: list[int] = []
     tripped_at = None
     for k in range(400):                                   # 10 s at 40 Hz
         bus.port.clock.advance(0.025)
+        stalled_for = bus.port.clock.now() - loaded_at
         load, error = _load_and_error(bus)
         temperature = bus.read(14, "present_temperature", raw=True)
         if not error & OVERHEATING:
-            assert error == OVERLOAD
+            # an overload once the stall has lasted a second (the READ's few ms either way)
+            if abs(stalled_for - OVERLOAD_TIME_S) > 0.01:
+                assert error == (OVERLOAD if stalled_for > OVERLOAD_TIME_S else 0), \
+                    (stalled_for, error)
             assert load == 1000                            # the whole torque limit, CCW
             assert temperature <= 80
             readings.append(temperature)

@@ -210,9 +210,8 @@ def test_a_lever_held_by_goal_current_comes_to_rest_where_gravity_equals_it() ->
     """Current Control Mode is a torque demand: Goal Current 50 (0.1345 A, x Kt = 0.240 N m)
     under a lever whose gravity torque is m g r cos(angle) = 0.294 cos(angle) N m lets it
     sink to rest at acos(0.240 / 0.294) = 35.4 degrees below level, and stay there: the
-    angle a hand calculation gives, not the model. (It sinks slowly: this world's motor is
-    driven by its voltage, so the back-EMF brakes the horn, 4.1 N m at 46 rev/min; a real
-    current loop would make up for it, and gear friction would damp the swing instead.)"""
+    angle a hand calculation gives, not the model. (The current loop makes up for the
+    back-EMF, so it is the gears' viscous friction that damps the swing.)"""
     mass, reach, g = 0.3, 0.1, 9.81
     sim, bus, world = _lever(mass, reach)
     bus.write(1, "operating_mode", 0, raw=True)

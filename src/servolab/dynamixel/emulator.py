@@ -14,20 +14,20 @@ pseudo-terminal.
 
 from __future__ import annotations
 
-import functools
 import math
 import random
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
+from . import gains, units
 from . import protocol1 as p1
 from . import protocol2 as p2
-from . import units
+from .control_table import ControlTable, angle_limit_modes
 from .errors import ConfigError
-from .models import ALLOWED_MODES, Model, Register, supports
+from .models import Model, supports
 from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
-from .plant import Compliance, KinematicServo, ServoCommand, ServoPlant
+from .plant import KinematicServo, ServoCommand, ServoPlant
 from .profile_generator import POSITION_MODES, ProfileGenerator, Registers
 from .protocol import protocol as protocol_for
 from .wire import baud_matches, byte_time
@@ -41,7 +41,9 @@ _SETTINGS = frozenset({
     "goal_current", "profile_velocity", "profile_acceleration", "pwm_limit", "current_limit",
     "drive_mode", "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
     "multi_turn_offset", "resolution_divider", "cw_compliance_margin", "ccw_compliance_margin",
-    "cw_compliance_slope", "ccw_compliance_slope", "punch"})
+    "cw_compliance_slope", "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain",
+    "position_p_gain", "position_i_gain", "position_d_gain", "feedforward_1st_gain",
+    "feedforward_2nd_gain", "velocity_p_gain", "velocity_i_gain"})
 
 #: Protocol 1.0: writing either of these switches torque on (the seeds' programs rely on it:
 #: seed 000 drives its EX-106+ wheels with a SYNC_WRITE of moving_speed alone, and ROS
@@ -68,6 +70,12 @@ _SECONDARY_OFF = 253
 #: margin the error would last one physics step: once the shutdown has cut the output, the
 #: windings cool at once (:mod:`.plant`), and a host polling at 10 Hz would never see it.
 OVERHEATING_HYSTERESIS_C = 5.0
+#: How long a load must beat the motor's output before the firmware calls it an overload,
+#: s. The e-Manual says only "persistent load that exceeds maximum output" (X-series,
+#: Shutdown(63), bit 5) and "the current load cannot be controlled" (RX-28, Alarm
+#: Shutdown); a second is assumed: a joint saturating for a moment as it accelerates or
+#: lands a step is not overloaded, one pushed against a wall for a second is.
+OVERLOAD_TIME_S = 1.0
 
 #: Instructions after which a motor is at its factory (or EEPROM) settings.
 _RESETS = frozenset({"REBOOT", "FACTORY_RESET", "RESET"})
@@ -143,8 +151,8 @@ class VirtualMotor:
         self.protocol: Protocol = protocol_for(model.protocol)
         #: the AX-style control table (angle limits, moving speed, torque limit): every 1.0
         #: model, and the XL-320 on 2.0; the X-series table (operating_mode) otherwise
-        self._dx = model.has("cw_angle_limit")
-        self.table = bytearray(model.table_size)
+        self._table = ControlTable(model)
+        self._dx = self._table.dx
         self._load_defaults(keep=())
         self._set_raw("id", _check_id(model, motor_id))
         if baudrate is not None:
@@ -167,11 +175,11 @@ class VirtualMotor:
         self._heard_step = 0        # the step of the last instruction that reached the motor
         self._too_hot = False       # overheating found by the firmware (not injected)
         self._overloaded = False    # overload found by the firmware (not injected)
+        self._stall_step: int | None = None  # the step since which a load beats the output
         self._watchdog_tripped = False
         self._watchdog_hold = False  # stopped by the bus watchdog until a new goal comes
         self._max_output = 1.0      # (2.0) PWM and Current Limit's share of stall torque
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
-        self._layout = _layout(model)
         self._has_watchdog = model.has("bus_watchdog")
         self._overheating_bit = _hardware_bit(model, "overheating")
         self._overload_bit = _hardware_bit(model, "overload")
@@ -189,26 +197,17 @@ class VirtualMotor:
     # -- control table -------------------------------------------------------------------------
     def _load_defaults(self, keep: Iterable[str]) -> None:
         """The table as at power-up: factory defaults (but the registers in ``keep``)."""
-        kept = {name: self.get_raw(name) for name in keep}
-        self.table[:] = bytes(len(self.table))
-        for reg in self.model.registers:
-            if reg.default is not None:
-                self.table[reg.address:reg.address + reg.size] = reg.encode(reg.default)
-        self._set_raw("firmware_version", self.model.firmware)
-        for name, value in kept.items():
-            self._set_raw(name, value)
-        if self.model.has("max_torque"):
-            # "When the power is turned on, Torque Limit(34) is reset to the value of Max
-            # Torque(14)" (e-Manual, Torque Limit).
-            reg = self.model.register("torque_limit")
-            self.table[reg.address:reg.address + reg.size] = reg.encode(
-                self.get_raw("max_torque"))
+        self._table.load_defaults({name: self.get_raw(name) for name in keep})
         self._watchdog_tripped = self._watchdog_hold = False
         self._pending = None    # a REG_WRITE does not survive a reset or REBOOT
 
+    @property
+    def table(self) -> bytearray:
+        """The control table's bytes (:class:`~.control_table.ControlTable`)."""
+        return self._table.data
+
     def get_raw(self, name: str) -> int:
-        reg = self.model.register(name)
-        return reg.decode(self.table[reg.address:reg.address + reg.size])
+        return self._table.get(name)
 
     def set_raw(self, name: str, value: int) -> None:
         """Set a register directly, bypassing access rights, as the motor's own firmware
@@ -218,8 +217,7 @@ class VirtualMotor:
         self._set_raw(name, value)
 
     def _set_raw(self, name: str, value: int) -> None:
-        reg = self.model.register(name)
-        self.table[reg.address:reg.address + reg.size] = reg.encode(value)
+        self._table.put(name, value)
         if name in _SETTINGS:
             self._table_changed()
 
@@ -257,7 +255,7 @@ class VirtualMotor:
             # XL-320: Control Mode(11) 1 is wheel mode, 2 joint mode (e-Manual XL-320)
             wheel, self._multi_turn = self.get_raw("control_mode") == 1, False
         elif v1:
-            wheel, self._multi_turn = _angle_limit_modes(
+            wheel, self._multi_turn = angle_limit_modes(
                 m, self.get_raw("cw_angle_limit"), self.get_raw("ccw_angle_limit"))
         else:
             wheel = mode in (0, 1, 16)
@@ -560,18 +558,34 @@ class VirtualMotor:
         plant = self._plant
         assert isinstance(plant, KinematicServo)
         overheating = self._overheating_bit
+        now = self._steps_done
         while steps > 0:
             limit = math.inf if self.hardware_error & overheating else self._temperature_limit
-            # An overload is found on the first step after the load came to beat the limit.
-            chunk = 1 if self._overload_due() else steps
-            steps -= plant.advance(chunk, dt, temperature_limit=limit)
+            # A stall (constant while the command and the load are) is an overload once it
+            # has lasted OVERLOAD_TIME_S: step to that step, no further, to find it there.
+            due = self._overload_step(now, dt)
+            chunk = steps if due is None else max(1, min(steps, due - now))
+            taken = plant.advance(chunk, dt, temperature_limit=limit)
+            steps -= taken
+            now += taken
             if plant.temperature > limit:
                 self._hardware_error(overheating)
                 self._too_hot = True
-            if self._overload_due():
+            due = self._overload_step(now, dt)
+            if due is not None and now >= due:
                 self._overload()
         self._cooled_down(overheating)
         self._unloaded()
+
+    def _overload_step(self, now: int, dt: float) -> int | None:
+        """The step on which a stall that holds now becomes an overload (None: no stall),
+        counting from the step it was first seen on."""
+        if not self._overload_due():
+            self._stall_step = None
+            return None
+        if self._stall_step is None:
+            self._stall_step = now
+        return self._stall_step + max(1, math.ceil(OVERLOAD_TIME_S / dt - 1e-9))
 
     def _overload_due(self) -> bool:
         """The motor gives torque and the plant is stalled by a load its torque limit cannot
@@ -597,6 +611,7 @@ class VirtualMotor:
         it (RX-28 default 0x24: overheating and overload; e-Manual, Alarm Shutdown)."""
         self._hardware_error(self._overload_bit)
         self._overloaded = True
+        self._stall_step = None     # (a 1.0 motor given its limit back counts afresh)
 
     def _unloaded(self) -> None:
         """A 1.0 servo reports overload while the load it cannot control lasts (as it does
@@ -634,8 +649,14 @@ class VirtualMotor:
                 and not self.hardware_error & overheating):
             self._hardware_error(overheating)
             self._too_hot = True
-        if getattr(plant, "stalled", False) and self._overload_due():
-            self._overload()
+        emulator = self._emulator
+        if emulator is not None and emulator.dt > 0:
+            # (seen after a step: the stall held during it, from the step before)
+            due = self._overload_step(emulator.steps - 1, emulator.dt)
+            if due is not None and emulator.steps >= due:
+                self._overload()
+        elif getattr(plant, "stalled", False) and self._overload_due():
+            self._overload()    # (a motor off any bus has no clock: at once)
         if self._too_hot:
             self._cooled_down(overheating)
         if self._overloaded:
@@ -659,7 +680,9 @@ class VirtualMotor:
                 return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
             return ServoCommand(torque, False, goal_position=self._goal_angle(),
                                 profile_velocity=abs(self._si("moving_speed")),
-                                torque_limit=limit, compliance=self._compliance())
+                                torque_limit=limit,
+                                compliance=gains.compliance(m, self.get_raw),
+                                pid=gains.position_pid(m, self.get_raw))
         mode = self.get_raw("operating_mode")
         # Effort: PWM Limit(36) caps the output, and on current-sensing models Current Limit(38)
         # the current, so the torque: a current is a share of the stall torque through the
@@ -685,7 +708,8 @@ class VirtualMotor:
         trajectory = self._profiles.trajectory
         if mode == 1:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
-                                torque_limit=limit, trajectory=trajectory)
+                                torque_limit=limit, trajectory=trajectory,
+                                velocity_pi=gains.velocity_pi(m, self.get_raw))
         if mode == 16:
             # PWM Control Mode: the goal is a voltage, "directly controlling the supplying
             # voltage to the motor" (e-Manual, Position PID Gain note): its share of the no-load
@@ -703,7 +727,8 @@ class VirtualMotor:
                                 if share else 0.0)
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=velocity, torque_limit=limit,
-                            compliance=self._position_p_law(),
+                            compliance=gains.compliance(m, self.get_raw),
+                            pid=gains.position_pid(m, self.get_raw),
                             trajectory=trajectory)
 
     def _current_share(self, name: str) -> float:
@@ -731,36 +756,6 @@ class VirtualMotor:
         """The motor's time, s: its steps on the emulator's clock (0 off a bus)."""
         emulator = self._emulator
         return self._steps_done * emulator.dt if emulator is not None else 0.0
-
-    def _compliance(self) -> Compliance | None:
-        """Compliance Margin, Slope and Punch in SI, on the models that have them (e-Manual,
-        RX-28: margins and slopes in position ticks, punch on the torque limit's scale); on
-        the MX (1.0), its P gain as the e-Manual's equivalent slope."""
-        m = self.model
-        if m.has("p_gain"):
-            # "The relationship between Compliance Slop and PID": slope 8, 16, 32, 64, 128 is
-            # P gain 128, 64, 32, 16, 8 (e-Manual, MX-28 PID): slope = 1 024 / P ticks.
-            return _proportional(m, 1024.0, self.get_raw("p_gain"))
-        if not m.has("cw_compliance_slope"):
-            return None
-        return Compliance(
-            cw_margin=units.tick_span(m, self.get_raw("cw_compliance_margin")),
-            ccw_margin=units.tick_span(m, self.get_raw("ccw_compliance_margin")),
-            cw_slope=units.tick_span(m, self.get_raw("cw_compliance_slope")),
-            ccw_slope=units.tick_span(m, self.get_raw("ccw_compliance_slope")),
-            punch=self.get_raw("punch") / 1023.0)   # Torque Limit's scale: 1023 = 100 %
-
-    def _position_p_law(self) -> Compliance | None:
-        """The X-series position P gain as the output it gives for an error: "PWM output" =
-        KPP x error with KPP = Position P Gain(84) / 128 (e-Manual, Position PID Gain), the
-        error in pulses and the output in Goal PWM's units (885 = 100 %; the e-Manual names
-        neither unit, these are the table's own). Full output is then reached 885 x 128 / P
-        ticks from the goal: the compliance law with that slope, no margin, no punch."""
-        m = self.model
-        if not m.has("position_p_gain") or not m.has("goal_pwm"):
-            return None
-        return _proportional(m, m.register("goal_pwm").raw_max * 128.0,
-                             self.get_raw("position_p_gain"))
 
     def _goal_angle(self) -> float:
         """goal_position as an angle of the joint (in Position Control Mode the count was
@@ -820,12 +815,16 @@ class VirtualMotor:
                 self._show("present_current", load * m.stall_current_a)
             else:
                 self._show("present_load", load)
-            # the voltage the motor gets: Goal PWM itself in PWM Control Mode; else what its
+            # the voltage the motor gets: Goal PWM itself in PWM Control Mode; else the
+            # share its plant runs it on (``drive``), or from a plant without one what its
             # torque and its back-EMF take (a DC motor: PWM share = torque share + speed /
             # no-load speed); within PWM Limit(36) either way
             pwm_limit = self._si("pwm_limit")
+            drive = getattr(plant, "drive", None)
             applied = (self._si("goal_pwm") if self.get_raw("operating_mode") == 16
-                       and self.get_raw("torque_enable") else load + velocity / m.no_load_speed)
+                       and self.get_raw("torque_enable") else
+                       self._sign * drive if drive is not None
+                       else load + velocity / m.no_load_speed)
             self._show("present_pwm", max(-pwm_limit, min(pwm_limit, applied)))
             self._show("present_input_voltage", voltage)
             self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
@@ -958,29 +957,11 @@ class VirtualMotor:
     def read(self, address: int, length: int) -> Status:
         self.sync()
         self._heard()
-        end = address + length
-        if length == 0 or end > len(self.table):
+        data = self._table.read(address, length)
+        if data is None:
             v1 = self.model.protocol == 1
             return Status(self.id, self.error_byte(p1.RANGE if v1 else p2.ACCESS))
-        data = bytearray(self.table[address:end])
-        layout = self._layout
-        if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
-            # Indirect Data n reads the byte its Indirect Address n points at (e-Manual,
-            # Indirect Address and Indirect Data).
-            for data_address, target in self._indirect_targets(address, end):
-                data[data_address - address] = self.table[target]
-        return Status(self.id, self.error_byte(), bytes(data))
-
-    def _indirect_targets(self, start: int, end: int) -> list[tuple[int, int]]:
-        """(indirect data address, the address it stands for) for indirect data in start..end."""
-        table = self.table
-        out = []
-        for data_address, pointer in self._layout.indirect:
-            if start <= data_address < end:
-                target = table[pointer] | table[pointer + 1] << 8
-                if target < len(table):
-                    out.append((data_address, target))
-        return out
+        return Status(self.id, self.error_byte(), data)
 
     def write(self, address: int, data: bytes, *, registered: bool = False,
               secondary: bool = False) -> int:
@@ -995,32 +976,11 @@ class VirtualMotor:
         self._heard()
         m = self.model
         v1 = m.protocol == 1
-        range_error = p1.RANGE if v1 else p2.ACCESS
-        end = address + len(data)
-        if end > len(self.table):
-            return range_error
-        assigned = dict(zip(range(address, end), data, strict=True))
-        layout = self._layout
-        if layout.indirect and address <= layout.indirect_end and end > layout.indirect_start:
-            for data_address, target in self._indirect_targets(address, end):
-                assigned[target] = assigned[data_address]
-        at = layout.at
-        touched_set: set[Register] = set()
-        for a in assigned:
-            reg = at[a]
-            if reg is None:
-                return range_error       # a byte outside every register
-            touched_set.add(reg)
-        touched = sorted(touched_set, key=lambda r: r.address)
-        for reg in touched:
-            if any(a not in assigned for a in range(reg.address, reg.address + reg.size)):
-                # Part of an item only, e.g. 2 bytes of the 4 of goal_position: on 2.0 the
-                # error table's Data Length Error (0x05).
-                return range_error if v1 else p2.DATA_LENGTH
-            if not reg.writable:
-                return range_error
-        names = {r.name for r in touched}
-        eeprom = any(r.area == "EEPROM" for r in touched)
+        staged = self._table.stage(address, data)
+        if isinstance(staged, int):
+            return staged   # a byte outside every register, read-only, or part of an item
+        names = staged.names
+        eeprom = any(r.area == "EEPROM" for r in staged.touched)
         if not v1 and eeprom and (secondary or self.torque_enabled):
             return p2.ACCESS
         if m.has("lock") and self.get_raw("lock") and (eeprom or "lock" in names):
@@ -1029,31 +989,26 @@ class VirtualMotor:
             # manual, example 20).
             return p1.RANGE
         if self._watchdog_tripped and (names & _GOALS_2 or (
-                "bus_watchdog" in names and assigned[m.register("bus_watchdog").address])):
+                "bus_watchdog" in names and staged.scratch[m.register("bus_watchdog").address])):
             # After a bus watchdog error the goals are read-only, a Data Range Error; "If the
             # value of Bus Watchdog(98) is changed to '0', Bus Watchdog Error will be cleared"
             # (e-Manual, Bus Watchdog(98)): 0 is the only way out.
             return p2.DATA_RANGE
-        scratch = bytearray(self.table)
-        for a, byte in assigned.items():
-            scratch[a] = byte
-        for reg in touched:
-            value = reg.decode(scratch[reg.address:reg.address + reg.size])
-            error = self._check_value(reg, value, scratch)
-            if error:
-                return error
+        error = self._table.check(staged)
+        if error:
+            return error
         if registered:
             self._pending = (address, bytes(data))
             self._set_registered(1)
             return 0
-        self.table[:] = scratch
+        self._table.commit(staged)
         if names & _GOALS_2:
             self._watchdog_hold = False     # a new goal after a bus watchdog stop
         self._torque_rules(names)
         self._table_changed()
         return 0
 
-    def _torque_rules(self, written: set[str]) -> None:
+    def _torque_rules(self, written: frozenset[str]) -> None:
         """What a write does to torque besides what it wrote."""
         torque = self.model.register("torque_enable")
         if self.model.protocol == 1:
@@ -1072,82 +1027,6 @@ class VirtualMotor:
     def _set_registered(self, value: int) -> None:
         name = "registered" if self.model.protocol == 1 else "registered_instruction"
         self._set_raw(name, value)
-
-    def _check_value(self, reg: Register, value: int, table: bytearray) -> int:
-        v1 = self.model.protocol == 1
-
-        def other(name: str) -> int:
-            r = self.model.register(name)
-            return r.decode(table[r.address:r.address + r.size])
-
-        if not reg.raw_min <= value <= reg.raw_max:
-            return p1.RANGE if v1 else p2.DATA_RANGE
-        if self._dx:
-            cw, ccw = other("cw_angle_limit"), other("ccw_angle_limit")
-            if self.model.has("control_mode"):
-                wheel, multi_turn = other("control_mode") == 1, False
-            else:
-                wheel, multi_turn = _angle_limit_modes(self.model, cw, ccw)
-            # In multi-turn mode the register's own range (±28 672) is the limit.
-            if reg.name == "goal_position" and not wheel and not multi_turn and not (
-                    cw <= value <= ccw):
-                return p1.ANGLE_LIMIT if v1 else p2.DATA_LIMIT
-            if reg.name == "moving_speed" and not wheel and value > 1023:
-                return p1.RANGE if v1 else p2.DATA_RANGE
-            return 0
-        if reg.name == "operating_mode" and value not in ALLOWED_MODES.get(
-                self.model.name, (value,)):
-            return p2.DATA_RANGE
-        if reg.name == "goal_velocity" and abs(value) > other("velocity_limit"):
-            return p2.DATA_LIMIT
-        if reg.name == "goal_position" and other("operating_mode") == 3 and not (
-                other("min_position_limit") <= value <= other("max_position_limit")):
-            return p2.DATA_LIMIT
-        if reg.name == "goal_current" and abs(value) > other("current_limit"):
-            return p2.DATA_LIMIT
-        if reg.name == "goal_pwm" and abs(value) > other("pwm_limit"):
-            return p2.DATA_LIMIT
-        return 0
-
-
-def _proportional(model: Model, full_output_at: float, gain: int) -> Compliance:
-    """A proportional position law as the compliance law: full output ``full_output_at /
-    gain`` ticks from the goal (a gain of 0: no output at all)."""
-    slope = units.tick_span(model, full_output_at / gain) if gain else math.inf
-    return Compliance(cw_slope=slope, ccw_slope=slope)
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """What the firmware looks up on every write, per model: the register each byte of the
-    table belongs to, and where the indirect data are and where their addresses are kept."""
-
-    at: tuple[Register | None, ...]
-    indirect: tuple[tuple[int, int], ...]   # (Indirect Data n, address of Indirect Address n)
-    indirect_start: int
-    indirect_end: int                       # the last Indirect Data address (inclusive)
-
-
-@functools.cache
-def _layout(model: Model) -> _Layout:
-    at: list[Register | None] = [None] * model.table_size
-    for reg in model.registers:
-        for a in range(reg.address, reg.address + reg.size):
-            at[a] = reg
-    indirect = tuple(sorted(
-        (reg.address, model.register("indirect_address_" + reg.name[len("indirect_data_"):])
-         .address)
-        for reg in model.registers if reg.name.startswith("indirect_data_")))
-    data = [d for d, _ in indirect]
-    return _Layout(tuple(at), indirect, min(data, default=0), max(data, default=-1))
-
-
-def _angle_limit_modes(model: Model, cw: int, ccw: int) -> tuple[bool, bool]:
-    """(wheel mode, multi-turn mode) of a 1.0 servo with these angle limits: wheel when both
-    are 0, multi-turn (MX-28) when both are 4095 (e-Manual, CW/CCW Angle Limit)."""
-    top = model.register("ccw_angle_limit").raw_max
-    return (cw == ccw == 0, model.has("multi_turn_offset") and cw == ccw == top)
-
 
 def wheel_position(model: Model, ticks: int) -> int:
     """present_position of a 1.0 model in wheel mode, for the unbounded count ``ticks``

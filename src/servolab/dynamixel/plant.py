@@ -64,6 +64,35 @@ class Compliance:
 
 
 @dataclass(frozen=True)
+class PositionPid:
+    """A PID model's position law beyond its proportional part (which comes as the
+    :class:`Compliance` equivalent), in SI: output shares (1.0 = full output) per unit of
+    the error's integral, its rate, and the trajectory's velocity and acceleration. The
+    firmware's own conversions from its registers are in :mod:`.gains`. Like the
+    compliance law, only a plant whose joint a physics engine moves runs it."""
+
+    integral: float = 0.0                   # share per rad s
+    derivative: float = 0.0                 # share per rad/s
+    velocity_feedforward: float = 0.0       # share per rad/s of the trajectory's velocity
+    acceleration_feedforward: float = 0.0   # share per rad/s² of its acceleration
+
+    @property
+    def active(self) -> bool:
+        return any((self.integral, self.derivative, self.velocity_feedforward,
+                    self.acceleration_feedforward))
+
+
+@dataclass(frozen=True)
+class VelocityPi:
+    """The X-series Velocity Control Mode law in SI: output share = ``proportional`` x speed
+    error + ``integral`` x its integral (rad/s and rad). Without it (AX/RX/EX wheel mode)
+    the goal speed's share of the no-load speed is the output, open loop."""
+
+    proportional: float = 0.0   # share per rad/s
+    integral: float = 0.0       # share per rad
+
+
+@dataclass(frozen=True)
 class ServoCommand:
     """What the firmware asks of the joint, in SI units.
 
@@ -94,6 +123,11 @@ class ServoCommand:
     #: of a PID model as its compliance equivalent (MX: the e-Manual's table; X-series:
     #: Position P Gain); None in velocity control
     compliance: Compliance | None = None
+    #: the integral, derivative and feedforward gains of a PID model's position law (None:
+    #: proportional only)
+    pid: PositionPid | None = None
+    #: the X-series velocity law (None: the goal velocity's share is the output, open loop)
+    velocity_pi: VelocityPi | None = None
 
 
 class ServoPlant(Protocol):
@@ -157,6 +191,12 @@ class KinematicServo:
 
     and never more than the torque limit allows: held against a load above its limit, the
     motor stalls and gives exactly its limit; with torque off or a limit of 0 it gives none.
+
+    **Back-driven.** A motor that gives nothing (torque off, or a limit of 0) holds nothing
+    either: an external load above the gears' static friction turns the horn its way, as
+    fast as their viscous friction lets it, up to the no-load speed
+    (:meth:`_back_driven`). ROBOTIS publish no back-driving figure; the friction is the same
+    that takes :data:`FRICTION_STATIC` and :data:`FRICTION_VISCOUS` of the torque driving it.
 
     **Temperature** (:attr:`temperature`) is the winding temperature, a first-order lag of
     :attr:`thermal_time_constant` toward ``ambient`` + :data:`IDLE_RISE_C` +
@@ -275,6 +315,27 @@ class KinematicServo:
         self._t0 = float(celsius)
         self._plan()
 
+    @property
+    def drive(self) -> float:
+        """The voltage the motor runs on, as a share of the supply (what Present PWM shows):
+        on the torque-speed line of the datasheet's figures, drive = output torque share +
+        speed / no-load speed, where the output torque is what holds the load and
+        accelerates the horn — the gears' friction is already in those figures (the no-load
+        speed is measured against it), so it is not counted again. In PWM mode it is the
+        goal asked; in current mode the torque asked is the motor's own, friction and all;
+        with no output, 0."""
+        _, velocity, effort, _ = self._state()
+        cmd = self._command
+        if not self._limit():
+            return 0.0
+        if cmd.voltage_control:
+            return cmd.goal_velocity / self.no_load_speed
+        if cmd.torque_control or not velocity:
+            return effort + velocity / self.no_load_speed
+        top = self._max_speed()
+        friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
+        return effort - math.copysign(friction, velocity) + velocity / self.no_load_speed
+
     def _state(self) -> tuple[float, float, float, float]:
         """(position, velocity, effort, temperature) now, computed once per step."""
         if self._cached_j != self._j:
@@ -343,8 +404,8 @@ class KinematicServo:
         trajectory = cmd.trajectory if cmd.torque_enabled and top > 0 else None
         if trajectory is not None and not _leads_to(trajectory, cmd):
             trajectory = None   # a world changed the goal the firmware planned for (stiction)
-        if not cmd.torque_enabled:
-            self._speed, self._target = 0.0, math.nan
+        if not self._limit():    # no output (torque off, or a limit of 0): back-driven
+            self._speed, self._target = self._back_driven(), math.nan
         elif cmd.voltage_control:
             # a DC motor at a voltage share u turns where its torque line u - w / w0 meets the
             # load it holds, -L (L: the external load, + pushing counter-clockwise; friction is
@@ -369,6 +430,18 @@ class KinematicServo:
                     else self._own(move(self._p0, self._v0, self._target, top,
                                         _acceleration(trajectory)))
         self._plan_steps(self._decay[0])
+
+    def _back_driven(self) -> float:
+        """With torque off the motor gives nothing and the external load turns the horn
+        through the gears, where it beats their static friction, at the speed their viscous
+        friction balances it: |w| = no-load speed x (|load| - FRICTION_STATIC) /
+        FRICTION_VISCOUS — never faster than the no-load speed, past which the motor's
+        back-EMF exceeds the supply and its driver's diodes brake it."""
+        load = self._external_load
+        excess = abs(load) - FRICTION_STATIC
+        if excess <= 0:
+            return 0.0
+        return math.copysign(self.no_load_speed * min(1.0, excess / FRICTION_VISCOUS), load)
 
     def _own(self, profile: Profile) -> Profile:
         """A profile of the plant's own, from where the joint is now (its time starts here)."""
@@ -403,9 +476,7 @@ class KinematicServo:
             else:
                 self._arrive = -1  # pushed to a standstill short of the goal
             self._step_travel = math.copysign(self._travel, self._target - self._p0)
-        if not torque:
-            self._v_move = 0.0
-        elif math.isnan(self._target):
+        if math.isnan(self._target):
             self._v_move = self._speed
         elif profile is not None:   # its cruise (or peak) speed, for the heat while it moves
             self._v_move = math.copysign(profile.peak_speed, self._target - self._p0)
@@ -435,14 +506,14 @@ class KinematicServo:
                                - self._v_move / top)
 
     def _moving(self, j: int) -> bool:
-        if j <= 0 or not self._command.torque_enabled:
+        if j <= 0:
             return False
         if math.isnan(self._target):
             return self._speed != 0 or (self._profile is not None and self._velocity(j) != 0)
         return self._arrive == -1 or j < self._arrive
 
     def _position(self, j: int) -> float:
-        if j <= 0 or not self._command.torque_enabled:
+        if j <= 0:
             return self._p0
         profile = self._profile
         if profile is not None:

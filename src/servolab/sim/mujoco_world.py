@@ -24,18 +24,24 @@ this is that law made concrete, and stated so it can be changed:
 2. the error (reference - horn) gives the output share ``u``: 0 within the compliance
    margin, then growing linearly across the compliance slope toward full output, capped at
    the torque limit (the e-Manual's Torque Limit caps the output), and never below punch
-   while non-zero (the ``cw_*`` values for a negative error);
+   while non-zero (the ``cw_*`` values for a negative error); a PID model (MX, X-series)
+   adds its integral, derivative and feedforward terms (:mod:`servolab.dynamixel.gains`
+   gives them in SI from the registers), the integral held within the torque limit;
 3. the motor is a DC motor behind its gears: torque = stall torque x (``u`` - speed /
    no-load speed), the back-EMF line of the datasheet's two figures (RX-28: 3.7 N m, 85 rpm):
    the back-EMF brakes on top of the capped drive (never past the stall torque), also at an
-   output of 0; with torque off the motor gives nothing (the H-bridge is open).
+   output of 0; with torque off the motor gives nothing (the H-bridge is open) and the
+   gears' viscous friction (:data:`~servolab.dynamixel.plant.FRICTION_VISCOUS`) is all that
+   brakes a back-driven horn.
 
-In velocity control (wheel mode) ``u`` is the goal speed's share of the no-load speed, the
-output the e-Manual says wheel mode sets; back in position control the reference starts
-from the horn again. A PID model's P gain comes as its compliance equivalent (the MX's
-table in the e-Manual; an X-series' Position P Gain, output KPP x error in PWM units), so
-a stiffer gain sags less under the same load; the I and D terms and the feedforward gains are
-not modelled yet.
+In velocity control ``u`` is, on the X-series, its Velocity PI law on the speed error (to
+the goal velocity, or along the profile's ramp to it); on the AX/RX/EX (wheel mode) the goal
+speed's share of the no-load speed, the output the e-Manual says wheel mode sets; in PWM
+mode the goal PWM. Current Control Mode is a current loop: the torque is the goal current's
+(Kt x current) while the supply's voltage allows it, less the gears' viscous friction.
+Back in position control the reference starts from the horn again. A PID model's P gain
+comes as its compliance equivalent (the MX's table in the e-Manual; an X-series' Position P
+Gain, output KPP x error in PWM units), so a stiffer gain sags less under the same load.
 
 **Load and heat.** Present load is the drive ``u``: "an inferred value based on the internal
 output value" (e-Manual, RX-28 Present Load), so a joint held against something reads its
@@ -45,9 +51,10 @@ default plant's does (:mod:`servolab.dynamixel.plant`: a first-order lag toward 
 7 °C + 60 °C x (torque / stall torque)²), so a joint pushed against its limit heats, and the
 firmware's alarm shutdown and a walk's supervisor act on it as on hardware. The firmware's
 overload error needs the joint *stalled*: the drive at its limit while the horn stands still
-for :data:`OVERLOAD_TIME_S` (ROBOTIS give no time; a joint saturating for a moment while it
-accelerates is not overloaded); after the alarm shut the output off it lasts, as the default
-plant's does, until a host gives the torque back.
+(sampled every :data:`BOOKKEEPING_S`), for as long as the firmware's
+:data:`~servolab.dynamixel.emulator.OVERLOAD_TIME_S` (a joint saturating for a moment while
+it accelerates is not overloaded); after the alarm shut the output off it lasts, as the
+default plant's does, until a host gives the torque back.
 
 **Time.** The simulation steps the world at its physics step (MuJoCo's timestep is set to
 it); the same inputs give the same run, bit for bit: MuJoCo's step is deterministic on one
@@ -79,6 +86,7 @@ import numpy as np
 from ..dynamixel.emulator import VirtualMotor
 from ..dynamixel.plant import (
     AMBIENT_C,
+    FRICTION_VISCOUS,
     IDLE_RISE_C,
     STALL_HEATING_C,
     THERMAL_TIME_CONSTANT_S,
@@ -89,9 +97,6 @@ from .errors import SimulationError
 from .simulation import Simulation
 from .world import World
 
-#: How long a joint must give its whole torque limit without moving before the firmware
-#: calls it overloaded (a guess: ROBOTIS give no figure).
-OVERLOAD_TIME_S = 1.0
 #: How often (s) the world updates the windings' temperatures and the joints' stall timers:
 #: slow quantities, kept off the per-step path (see MujocoWorld._book).
 BOOKKEEPING_S = 0.02
@@ -188,6 +193,12 @@ class JointPlant:
         return float(self._world._effort[self._index])
 
     @property
+    def drive(self) -> float:
+        """The voltage share the motor runs on (Present PWM): the law's output ``u``; in
+        current mode the torque asked plus the back-EMF it must overcome."""
+        return float(self._world._drive[self._index])
+
+    @property
     def temperature(self) -> float:
         """Winding temperature, °C; settable (the windings are that warm from now on), as the
         default plant's (:class:`~servolab.dynamixel.plant.KinematicServo`)."""
@@ -212,8 +223,8 @@ class JointPlant:
 
     @property
     def stalled(self) -> bool:
-        """At the torque limit and not moving for :data:`OVERLOAD_TIME_S`: the firmware's
-        overload condition."""
+        """At the torque limit and not moving (as last sampled): the condition the firmware
+        calls an overload once it has lasted its ``OVERLOAD_TIME_S``."""
         return self._stalled
 
     def step(self, dt: float) -> None:
@@ -299,6 +310,15 @@ class MujocoWorld(World):
         self._margin = np.zeros((2, n))       # [cw, ccw]
         self._slope = np.vstack([one_tick, one_tick])   # no compliance: full at one tick
         self._punch = np.zeros(n)
+        # a PID model's further gains (gains.position_pid, gains.velocity_pi), SI: 0 where none
+        self._ki = np.zeros(n)
+        self._kd = np.zeros(n)
+        self._kff1 = np.zeros(n)
+        self._kff2 = np.zeros(n)
+        self._kvp = np.zeros(n)
+        self._kvi = np.zeros(n)
+        self._velocity_pi = np.zeros(n, dtype=bool)
+        self._torque_mode = np.zeros(n, dtype=bool)     # current mode: a torque demand
         # the X-series profile each joint's reference follows, with the time it began: None
         # where the reference moves at the moving speed (AX/RX/EX, no Profile Acceleration)
         self._profiles: list[tuple[Profile, float] | None] = [None] * n
@@ -306,13 +326,20 @@ class MujocoWorld(World):
         # the state
         self._reference = np.zeros(n)
         self._effort = np.zeros(n)
+        self._drive = np.zeros(n)
+        self._integral = np.zeros(n)    # the error's integral (rad s; rad in velocity mode)
+        self._last_error = np.zeros(n)  # for the derivative
+        self._fresh = np.ones(n, dtype=bool)  # no derivative on a law's first step
+        # the trajectory's velocity and acceleration (feedforward; velocity mode's reference)
+        self._v_ref = np.zeros(n)
+        self._a_ref = np.zeros(n)
         self._temperature = np.array([AMBIENT_C + IDLE_RISE_C] * n)
         self._thermal_tau = np.full(n, THERMAL_TIME_CONSTANT_S)
         self._decay_dt = math.nan                # the step's length
         self._square = np.zeros(n)
         self._heat = np.zeros(n)                 # sum of the squared loads since _book
         self._heat_steps = 0
-        self._stalled_for = np.zeros(n)
+        self._stalled = np.zeros(n, dtype=bool)
         self._laws_changed = True
         if qpos is not None:
             pose = np.asarray(qpos, dtype=np.float64)
@@ -384,8 +411,22 @@ class MujocoWorld(World):
     # -- the plants' side ---------------------------------------------------------------------
     def _commanded(self, k: int, command: ServoCommand) -> None:
         was_on = bool(self._torque_on[k])
+        if (command.torque_enabled and not was_on) or \
+                command.velocity_control != self._velocity_mode[k]:
+            self._integral[k] = 0.0     # a new law starts from nothing accumulated
+            self._fresh[k] = True
         self._torque_on[k] = command.torque_enabled
         self._velocity_mode[k] = command.velocity_control
+        self._torque_mode[k] = command.torque_control
+        pid, pi = command.pid, command.velocity_pi
+        self._ki[k] = pid.integral if pid is not None else 0.0
+        self._kd[k] = pid.derivative if pid is not None else 0.0
+        self._kff1[k] = pid.velocity_feedforward if pid is not None else 0.0
+        self._kff2[k] = pid.acceleration_feedforward if pid is not None else 0.0
+        self._velocity_pi[k] = pi is not None and command.velocity_control \
+            and not command.torque_control and not command.voltage_control
+        self._kvp[k] = pi.proportional if pi is not None else 0.0
+        self._kvi[k] = pi.integral if pi is not None else 0.0
         self._goal[k] = command.goal_position
         self._speed[k] = command.profile_velocity
         self._goal_velocity[k] = command.goal_velocity
@@ -447,11 +488,10 @@ class MujocoWorld(World):
             np.copyto(ref, horn, where=self._velocity_mode)
         for k in self._profiled:        # the X-series profile: the trajectory's own point
             profile, began = self._profiles[k]  # type: ignore[misc]
-            if self._velocity_mode[k]:
-                self._wheel_share[k] = min(self._limit[k], max(-self._limit[k], profile.at(
-                    self._time + dt - began)[1] / self._w0[k]))
-            else:
-                ref[k] = profile.at(self._time + dt - began)[0]
+            point = profile.at(self._time + dt - began)
+            if not self._velocity_mode[k]:
+                ref[k] = point[0]
+            self._v_ref[k], self._a_ref[k] = point[1], point[2]
         # 2. the output share from the error, by margin, slope and punch
         error = ref - horn
         if self._symmetric:     # the usual case: the same margin and slope either way
@@ -464,18 +504,36 @@ class MujocoWorld(World):
         np.maximum(share, self._punch, out=share)
         np.minimum(share, self._limit, out=share)
         u = np.where(beyond > 0, np.copysign(share, error), 0.0)
+        speed = self._dir * d.qvel[self._dadr]
+        if self._any_pid:       # a PID model's integral, derivative and feedforward terms
+            u += self._pid(error, dt)
+            np.minimum(u, self._limit, out=u)
+            np.maximum(u, -self._limit, out=u)
         if self._any_velocity_mode:
-            np.copyto(u, self._wheel_share, where=self._velocity_mode)
+            np.copyto(u, self._velocity_law(speed, dt), where=self._velocity_mode)
         # 3. the DC motor behind its gears: the torque limit caps the drive (u, above); the
         #    back-EMF brakes on top of it, never beyond the stall torque. Present load is
         #    the drive ("inferred ... based on the internal output value", e-Manual RX-28
         #    Present Load); the torque, and the current that heats the windings, are this:
         u *= self._on
-        self._effort = u
-        torque = u - d.qvel[self._dadr] * self._dir_over_w0
+        self._effort = self._drive = u
+        back_emf = speed / self._w0
+        torque = u - back_emf
         np.minimum(torque, 1.0, out=torque)
         np.maximum(torque, -1.0, out=torque)
+        if self._any_torque_mode:
+            # current mode: the current loop gives the torque asked (Kt x current) while the
+            # supply's voltage lets it (the torque line at full drive, +-1 - speed share);
+            # the gears' viscous friction takes its share of it on the way to the horn (the
+            # static part is in the stall figures Kt comes from)
+            asked = np.clip(u, -1.0 - back_emf, 1.0 - back_emf)
+            current = self._torque_mode & self._torque_on
+            np.copyto(torque, asked - FRICTION_VISCOUS * back_emf, where=current)
+            self._effort = np.where(current, asked, u)
+            self._drive = np.where(current, asked + back_emf, u)
         torque *= self._on
+        if self._any_off:   # torque off: back-driven through the gears' viscous friction
+            np.copyto(torque, -FRICTION_VISCOUS * back_emf, where=self._off)
         d.qfrc_applied[self._dadr] = torque * self._dir_stall
         recording = self._time >= self._next_record - 1e-12   # a sample every period
         before = (self._time, tuple(d.qpos.tolist())) if recording else None
@@ -485,18 +543,56 @@ class MujocoWorld(World):
         self._heat_steps += 1
         self._time += dt
         if self._time >= self._next_book - 1e-12:
-            self._book(u, self._dir * d.qvel[self._dadr])
+            self._book(self._effort, self._dir * d.qvel[self._dadr])
             self._next_book += BOOKKEEPING_S
         if before is not None:
             self._record(*before)
             self._next_record += self.record_period
 
+    def _pid(self, error: np.ndarray, dt: float) -> np.ndarray:
+        """The position law's integral, derivative and feedforward terms (output shares) of
+        the joints that have them, 0 elsewhere. The integral is held where its term alone
+        would pass the torque limit (the firmware's anti-windup, whose gain ROBOTIS do not
+        publish); the derivative is of the error, as the X-series' KPD acts on the error's
+        change a period, and is 0 on a law's first step."""
+        joints = self._pid_joints
+        rate = np.where(self._fresh, 0.0, (error - self._last_error) / dt)
+        self._last_error = np.where(joints, error, self._last_error)
+        self._fresh &= ~joints
+        integral = self._integral
+        np.copyto(integral, integral + error * dt, where=joints & (self._ki > 0))
+        bound = np.divide(self._limit, self._ki, out=np.full_like(self._ki, np.inf),
+                          where=self._ki > 0)
+        np.clip(integral, -bound, bound, out=integral)
+        terms = (self._ki * integral + self._kd * rate + self._kff1 * self._v_ref
+                 + self._kff2 * self._a_ref)
+        return np.where(joints, terms, 0.0)
+
+    def _velocity_law(self, speed: np.ndarray, dt: float) -> np.ndarray:
+        """Velocity control's output share: the X-series' PI law on the speed error (its
+        integral held within the torque limit, as the position law's), else the goal
+        speed's share of the no-load speed, open loop (AX/RX/EX wheel mode, current and PWM
+        modes' demands)."""
+        limit = self._limit
+        u = np.clip(self._v_ref / self._w0, -limit, limit)
+        if self._any_velocity_pi:
+            pi = self._velocity_pi
+            error = self._v_ref - speed
+            integral = self._integral
+            np.copyto(integral, integral + error * dt, where=pi & (self._kvi > 0))
+            bound = np.divide(limit, self._kvi, out=np.full_like(limit, np.inf),
+                              where=self._kvi > 0)
+            np.clip(integral, -bound, bound, out=integral)
+            closed = np.clip(self._kvp * error + self._kvi * integral, -limit, limit)
+            np.copyto(u, closed, where=pi)
+        return u
+
     def _book(self, effort: np.ndarray, speed: np.ndarray) -> None:
         """Every :data:`BOOKKEEPING_S`: the windings' temperature, by the first-order lag
         over the interval toward the steady temperature of its mean squared load (exact for
         a constant load; the load's changes within 20 ms are nothing to a lag of minutes),
-        and how long each joint has pushed at its limit without moving (sampled: the
-        overload takes a second)."""
+        and whether each joint pushes at its limit without moving (sampled: the firmware's
+        overload takes a second of it)."""
         span = self._heat_steps * self._decay_dt
         steady = AMBIENT_C + IDLE_RISE_C + STALL_HEATING_C * (self._heat / self._heat_steps)
         decay = np.exp(-span / self._thermal_tau)
@@ -507,11 +603,9 @@ class MujocoWorld(World):
         # after the overload shut the output off (limit 0), the load it could not hold
         # still cannot be: the condition lasts until a host gives the torque back (as the
         # default plant's, where any load beats a limit of 0)
-        shut_off = self._torque_on & (self._limit == 0) & \
-            (self._stalled_for >= OVERLOAD_TIME_S - 1e-9)
-        self._stalled_for = np.where(shut_off, self._stalled_for,
-                                     np.where(pushing, self._stalled_for + span, 0.0))
-        stalled = (self._stalled_for >= OVERLOAD_TIME_S - 1e-9).tolist()
+        shut_off = self._torque_on & (self._limit == 0) & self._stalled
+        self._stalled = pushing | shut_off
+        stalled = self._stalled.tolist()
         for plant, joint, celsius, stuck in zip(self.plants, self.joints,
                                                 self._temperature.tolist(), stalled,
                                                 strict=True):
@@ -531,7 +625,16 @@ class MujocoWorld(World):
                                and np.array_equal(self._slope[0], self._slope[1]))
         self._dir_stall = self._dir * self._stall
         self._any_velocity_mode = bool(self._velocity_mode.any())
-        self._wheel_share = np.clip(self._goal_velocity / self._w0, -self._limit, self._limit)
+        self._any_off = bool(self._off.any())
+        self._any_torque_mode = bool((self._torque_mode & self._torque_on).any())
+        self._pid_joints = self._torque_on & ~self._velocity_mode & (
+            (self._ki != 0) | (self._kd != 0) | (self._kff1 != 0) | (self._kff2 != 0))
+        self._any_pid = bool(self._pid_joints.any())
+        self._any_velocity_pi = bool((self._velocity_pi & self._torque_on).any())
+        for k in range(len(self.joints)):
+            if self._profiles[k] is None:   # no trajectory: the goal speed, and no ramp
+                self._v_ref[k] = self._goal_velocity[k] if self._velocity_mode[k] else 0.0
+                self._a_ref[k] = 0.0
         # a joint at its limit (and torque on, with a limit above 0) pushes as hard as it may
         self._saturated = np.where(self._torque_on & (self._limit > 0), self._limit - 1e-9,
                                    np.inf)
