@@ -11,7 +11,7 @@ Sources:
   0.229 rpm units; stall current 2.3 A (4.1 N m) at 12 V, below Current Limit(38)'s
   factory 1 193 x 2.69 mA = 3.2 A: on 12 V the voltage caps the current first;
 - servolab's stated assumptions (no ROBOTIS figure): an overload is a load that beats the
-  output for servolab.dynamixel.virtual_motor.OVERLOAD_TIME_S; the gears' friction, static and
+  output for servolab.dynamixel.motor_alarms.OVERLOAD_TIME_S; the gears' friction, static and
   viscous, is servolab.dynamixel.plant.FRICTION_STATIC and FRICTION_VISCOUS.
 """
 
@@ -20,8 +20,8 @@ from __future__ import annotations
 import pytest
 
 from servolab.dynamixel import Bus
+from servolab.dynamixel.motor_alarms import OVERLOAD_TIME_S
 from servolab.dynamixel.plant import FRICTION_STATIC, FRICTION_VISCOUS
-from servolab.dynamixel.virtual_motor import OVERLOAD_TIME_S
 
 OVERLOAD = 0x20
 NO_LOAD_UNITS = 46 / 0.229          # the no-load speed in Present Velocity's units: 200.9

@@ -20,8 +20,8 @@ over in seconds.
 from __future__ import annotations
 
 from servolab.dynamixel import Bus, VirtualMotor
+from servolab.dynamixel.motor_alarms import OVERLOAD_TIME_S
 from servolab.dynamixel.plant import MECHANICAL_TIME_CONSTANT_S
-from servolab.dynamixel.virtual_motor import OVERLOAD_TIME_S
 
 OVERHEATING, OVERLOAD = 0x04, 0x20          # status error bits (e-Manual, Alarm Shutdown)
 PRESENT_LOAD, TORQUE_LIMIT = 40, 34          # addresses (e-Manual, RX-28 control table)

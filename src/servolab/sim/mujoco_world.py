@@ -52,7 +52,7 @@ default plant's does (:mod:`servolab.dynamixel.plant`: a first-order lag toward 
 firmware's alarm shutdown and a walk's supervisor act on it as on hardware. The firmware's
 overload error needs the joint *stalled*: the drive at its limit while the horn stands still
 (sampled every :data:`BOOKKEEPING_S`), for as long as the firmware's
-:data:`~servolab.dynamixel.virtual_motor.OVERLOAD_TIME_S` (a joint saturating for a moment while
+:data:`~servolab.dynamixel.motor_alarms.OVERLOAD_TIME_S` (a joint saturating for a moment while
 it accelerates is not overloaded); after the alarm shut the output off it lasts, as the
 default plant's does, until a host gives the torque back.
 
