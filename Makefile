@@ -12,7 +12,7 @@ ROS_STAMP := $(ROS_VENV)/.installed
 # wheel the install fails, the log says why, and the tests that need it skip saying so.
 ROS_PACKAGES := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-rmw-dds-common \
 	ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-geometry-msgs ros-jazzy-sensor-msgs \
-	ros-jazzy-nav-msgs ros-jazzy-rosgraph-msgs
+	ros-jazzy-nav-msgs ros-jazzy-rosgraph-msgs ros-jazzy-test-msgs
 
 .PHONY: demo test lint bench clean ros-oracle view-oracle
 

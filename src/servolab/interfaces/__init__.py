@@ -61,6 +61,32 @@ def service_class(type_name: str) -> type:
                             "__doc__": f"The ROS 2 service {type_name}."})
 
 
+def action_class(type_name: str) -> type:
+    """The class for ``pkg/action/Name``, as rosidl generates it: ``Name.Goal``,
+    ``Name.Result`` and ``Name.Feedback`` build the three parts, and ``Name.Impl`` holds the
+    services and messages an action is made of on the wire (``SendGoalService``,
+    ``GetResultService``, ``FeedbackMessage``; ``CancelGoalService`` and
+    ``GoalStatusMessage`` where action_msgs' are known)."""
+    short = type_name.rsplit("/", 1)[-1]
+    known = default_types()
+    parts: dict[str, Any] = {
+        "SendGoalService": service_class(f"{type_name}_SendGoal"),
+        "GetResultService": service_class(f"{type_name}_GetResult"),
+        "FeedbackMessage": message_class(f"{type_name}_FeedbackMessage")}
+    for attribute, name, make in (
+            ("CancelGoalService", "action_msgs/srv/CancelGoal", service_class),
+            ("GoalStatusMessage", "action_msgs/msg/GoalStatusArray", message_class)):
+        if name in known.store.fielddefs:
+            parts[attribute] = make(name)
+    impl = type("Impl", (), {"__module__": __name__, **parts})
+    return type(short, (), {"__actiontype__": type_name, "__module__": __name__,
+                            "Goal": message_class(f"{type_name}_Goal"),
+                            "Result": message_class(f"{type_name}_Result"),
+                            "Feedback": message_class(f"{type_name}_Feedback"),
+                            "Impl": impl,
+                            "__doc__": f"The ROS 2 action {type_name}."})
+
+
 class _Kind(pytypes.ModuleType):
     """``servolab.interfaces.<package>.msg`` (or ``.srv``): classes made on first use."""
 
@@ -78,6 +104,10 @@ class _Kind(pytypes.ModuleType):
             if self._kind == "srv":
                 known.service(type_name)
                 cls = service_class(type_name)
+            elif self._kind == "action":
+                if type_name not in known.action_names():
+                    raise MessageError(f"unknown action type {type_name!r}")
+                cls = action_class(type_name)
             else:
                 known.check(type_name)
                 cls = message_class(type_name)
@@ -88,7 +118,8 @@ class _Kind(pytypes.ModuleType):
 
 
 class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Makes ``servolab.interfaces.<package>`` and ``….<package>.<msg|srv>`` on import."""
+    """Makes ``servolab.interfaces.<package>`` and ``….<package>.<msg|srv|action>`` on
+    import."""
 
     def find_spec(self, fullname: str, path: Sequence[str] | None,
                   target: pytypes.ModuleType | None = None,
@@ -96,7 +127,7 @@ class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         parts = fullname.split(".")
         if parts[:2] != ["servolab", "interfaces"] or len(parts) not in (3, 4):
             return None
-        if len(parts) == 4 and parts[3] not in ("msg", "srv"):
+        if len(parts) == 4 and parts[3] not in ("msg", "srv", "action"):
             return None
         package = parts[2]
         if not any(n.startswith(f"{package}/") for n in default_types().store.fielddefs):

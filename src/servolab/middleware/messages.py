@@ -16,9 +16,11 @@ them) into a message, checking every field, and a message back into plain values
 from __future__ import annotations
 
 import difflib
+import re
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, fields
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -28,6 +30,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from .errors import MessageError
 from .fast_cdr import FastCdr
+from .interface_files import InterfacePackage, environment_roots, find_packages, read_package
 
 if TYPE_CHECKING:
     from rosbags.interfaces.typing import BaseDesc, FieldDesc, NameDesc
@@ -211,9 +214,15 @@ class MessageTypes:
 
     One instance per process is enough (building it parses every ``.msg`` text once); pass it
     to whatever needs it rather than reaching for a global.
+
+    Beside rosbags' ROS 2 Jazzy types and servolab's own, it registers the interface
+    packages found in ``interface_path`` (folders; by default those
+    ``SERVOLAB_INTERFACE_PATH`` lists, as ROS reads ``AMENT_PREFIX_PATH``): a lab's own
+    ``.msg``, ``.srv`` and ``.action`` files (:mod:`.interface_files`).
     """
 
-    def __init__(self, extra_msgs: Mapping[str, str] | None = None) -> None:
+    def __init__(self, extra_msgs: Mapping[str, str] | None = None, *,
+                 interface_path: Iterable[str | Path] | None = None) -> None:
         self.store = get_typestore(Stores.ROS2_JAZZY)
         #: the store's CDR code, generated per type on first use (rosbags stays the oracle)
         self.cdr = FastCdr(self.store)
@@ -225,6 +234,9 @@ class MessageTypes:
             self.register_service(name, request, response)
         if extra_msgs:
             self.register_msgs(extra_msgs)
+        roots = environment_roots() if interface_path is None else list(interface_path)
+        for folder in find_packages(roots):
+            self.register_package(read_package(folder))
 
     # -- registering ------------------------------------------------------------------------
 
@@ -236,6 +248,12 @@ class MessageTypes:
         fields = [(n, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16)))
                   if n == "client_gid" else (n, d) for n, d in fields]
         self.store.fielddefs["service_msgs/msg/ServiceEventInfo"] = (consts, fields)
+        # and its char fields, which rosidl makes uint8 (std_msgs/Char, rmw_dds_common/Gid:
+        # their hashes then equal rosidl's own, ros-jazzy-std-msgs' Char.json)
+        fixed = _as_rosidl(dict(self.store.fielddefs))
+        for name, definition in fixed.items():
+            if definition != self.store.fielddefs[name]:
+                self.store.fielddefs[name] = definition
 
     def register_msgs(self, texts: Mapping[str, str]) -> None:
         """Register message types from their ``.msg`` text, keyed by ``pkg/msg/Name``."""
@@ -245,7 +263,8 @@ class MessageTypes:
                 types.update(get_types_from_msg(text, canonical_name(name)))
             except Exception as exc:  # rosbags raises its own parser errors
                 raise MessageError(f"message definition {name}: {exc}") from None
-        self.store.register(types)
+        self._check_references(types)
+        self.store.register(_as_rosidl(types))
 
     def register_service(self, name: str, request: str, response: str) -> ServiceType:
         """Register a service from its request and response text, as rosidl generates it:
@@ -253,6 +272,78 @@ class MessageTypes:
         exists to give the service its RIHS01 hash)."""
         if name.count("/") != 2 or "/srv/" not in name:
             raise MessageError(f"service type {name!r} must be spelled pkg/srv/Name")
+        package = name.split("/")[0]
+        self._register_service(name, _absolute_types(request, package),
+                               _absolute_types(response, package))
+        return ServiceType(name)
+
+    def register_action(self, name: str, goal: str, result: str, feedback: str) -> None:
+        """Register an action from its goal, result and feedback text, expanded as rosidl
+        expands it (rosidl_generator_type_description; checked against its ``.json`` for
+        test_msgs/action/Fibonacci): ``_Goal``, ``_Result`` and ``_Feedback``; the
+        ``_SendGoal`` service (goal id and goal; accepted and stamp), the ``_GetResult``
+        service (goal id; status and result), the ``_FeedbackMessage`` (goal id and
+        feedback); and the action type itself, whose fields name all six, for its hash."""
+        if name.count("/") != 2 or "/action/" not in name:
+            raise MessageError(f"action type {name!r} must be spelled pkg/action/Name")
+        uuid = "unique_identifier_msgs/UUID goal_id\n"
+        types: dict[str, Any] = {}
+        package = name.split("/")[0]
+        goal, result, feedback = (_absolute_types(t, package) for t in (goal, result, feedback))
+        for type_name, text in ((f"{name}_Goal", goal), (f"{name}_Result", result),
+                                (f"{name}_Feedback", feedback),
+                                (f"{name}_FeedbackMessage",
+                                 f"{uuid}{name}_Feedback feedback\n")):
+            try:
+                types.update(get_types_from_msg(text, type_name))
+            except Exception as exc:  # rosbags raises its own parser errors
+                raise MessageError(f"action definition {name}: {exc}") from None
+        self._check_references(types, also=(f"{name}_Feedback",))
+        self.store.register(_as_rosidl(types))
+        self._register_service(f"{name}_SendGoal", f"{uuid}{name}_Goal goal\n",
+                               "bool accepted\nbuiltin_interfaces/Time stamp\n")
+        self._register_service(f"{name}_GetResult", uuid,
+                               f"int8 status\n{name}_Result result\n")
+        self.store.register(get_types_from_msg(
+            f"{name}_Goal goal\n{name}_Result result\n{name}_Feedback feedback\n"
+            f"{name}_SendGoal send_goal_service\n{name}_GetResult get_result_service\n"
+            f"{name}_FeedbackMessage feedback_message\n", name))
+
+    def _check_references(self, types: Mapping[str, Any], also: Iterable[str] = ()) -> None:
+        """Every type ``types`` name is known (already, among themselves, or in ``also``),
+        or a one-line error naming the type and what it uses: rosbags' ``.msg`` parser takes
+        an unknown word for a type of the same package (``wstring``, which it does not
+        support, becomes ``pkg/msg/wstring``)."""
+        known = set(self.store.fielddefs) | set(types) | set(also)
+        for name, (_, definition) in types.items():
+            for field_name, desc in definition:
+                for ref in _references(desc):
+                    if ref not in known:
+                        short = ref.rsplit("/", 1)[-1]
+                        why = (" (wstring fields are not supported: rosbags' .msg parser does "
+                               "not know them)" if short == "wstring" else "")
+                        raise MessageError(f"{name}: field {field_name!r} uses {ref}, which is "
+                                           f"not a known type{why}")
+
+    def register_package(self, package: InterfacePackage) -> None:
+        """Register a package's messages, services and actions read from its files
+        (:func:`~.interface_files.read_package`); its messages first, all at once, so that
+        they may use each other in any order."""
+        try:
+            self.register_msgs(package.msgs)
+            for name, (request, response) in package.srvs.items():
+                self.register_service(name, request, response)
+            for name, (goal, result, feedback) in package.actions.items():
+                self.register_action(name, goal, result, feedback)
+        except MessageError as exc:
+            raise MessageError(f"{package.file_of(str(exc))}: {exc}") from None
+
+    def action_names(self) -> list[str]:
+        """Every known action type name (``pkg/action/Name``), sorted."""
+        return sorted(n for n in self.store.fielddefs
+                      if "/action/" in n and f"{n}_SendGoal" in self.store.fielddefs)
+
+    def _register_service(self, name: str, request: str, response: str) -> None:
         texts = {
             f"{name}_Request": request,
             f"{name}_Response": response,
@@ -263,7 +354,10 @@ class MessageTypes:
         }
         types: dict[str, Any] = {}
         for type_name, text in texts.items():
-            types.update(get_types_from_msg(text, type_name))
+            try:
+                types.update(get_types_from_msg(text, type_name))
+            except Exception as exc:  # rosbags raises its own parser errors
+                raise MessageError(f"service definition {name}: {exc}") from None
 
         def srv(value: Any) -> Any:  # rosbags files pkg/srv/X under pkg/srv/msg/X
             if isinstance(value, str):
@@ -272,8 +366,9 @@ class MessageTypes:
                 return type(value)(srv(v) for v in value)
             return value
 
-        self.store.register({srv(k): srv(v) for k, v in types.items()})
-        return ServiceType(name)
+        types = {srv(k): srv(v) for k, v in types.items()}
+        self._check_references(types)
+        self.store.register(_as_rosidl(types))
 
     # -- looking up -------------------------------------------------------------------------
 
@@ -557,6 +652,58 @@ class MessageTypes:
         if isinstance(msg, np.generic):
             return msg.item()
         return msg
+
+
+def _references(desc: Any) -> Iterator[str]:
+    """The type names a rosbags field description refers to."""
+    kind, rest = desc
+    if kind == Nodetype.NAME:
+        yield rest
+    elif kind in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+        yield from _references(rest[0])
+
+
+def _as_rosidl(types: dict[str, Any]) -> dict[str, Any]:
+    """Parsed ``.msg`` types as rosidl makes them: a ``char`` field is a ``uint8`` (its
+    ``.msg`` to ``.idl`` adapter says so, and the type hash follows: test_msgs/BasicTypes'
+    ``char_value`` has type id 3, uint8, in rosidl's own type description)."""
+
+    def fix(value: Any) -> Any:
+        if isinstance(value, tuple) and len(value) == 2 and value[0] == "char" \
+                and isinstance(value[1], int):
+            return ("uint8", value[1])
+        if isinstance(value, tuple | list):
+            return type(value)(fix(v) for v in value)
+        return value
+
+    return {name: fix(definition) for name, definition in types.items()}
+
+
+#: The primitive types of the ROS 2 interface language (rosidl), which no package qualifies.
+_PRIMITIVES = frozenset({"bool", "byte", "char", "float32", "float64", "int8", "uint8",
+                         "int16", "uint16", "int32", "uint32", "int64", "uint64", "string",
+                         "wstring"})
+
+
+def _absolute_types(text: str, package: str) -> str:
+    """``text`` with every type named relative to its package spelled ``package/Name``:
+    rosidl reads a bare ``Foo`` in a service or action as ``<package>/msg/Foo``, where rosbags
+    would put it beside the part (``pkg/srv/msg/Foo``, ``pkg/action/Foo``)."""
+    out = []
+    for line in text.splitlines():
+        body = line.split("#", 1)[0]
+        stripped = body.strip()
+        if not stripped:
+            out.append(line)
+            continue
+        token = stripped.split()[0]
+        base = re.split(r"[\[<]", token, maxsplit=1)[0]
+        if "/" in base or base in _PRIMITIVES or base == "Header":
+            out.append(line)
+            continue
+        at = line.index(token)
+        out.append(line[:at] + f"{package}/{token}" + line[at + len(token):])
+    return "\n".join(out) + ("\n" if text.endswith("\n") else "")
 
 
 def _repr_scalar(kind: str, value: Any) -> str:
