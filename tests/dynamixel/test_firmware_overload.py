@@ -66,15 +66,31 @@ def test_a_load_for_less_than_the_overload_time_is_no_overload() -> None:
     assert bus.read(1, "hardware_error_status", raw=True) == 0
 
 
-@pytest.mark.parametrize("load", [0.03, 0.07, 0.1, 0.5, -0.1])
-def test_a_horn_with_torque_off_is_back_driven_through_its_gears(load: float) -> None:
-    """Torque off: the load turns the horn once it beats the gears' static friction, at the
-    speed their viscous friction balances it, never past the no-load speed:
-    |w| = w0 x min(1, (|load| - static) / viscous) — 0, 0.25, 0.5, 1 and 0.5 of w0 here."""
+@pytest.mark.parametrize(("load", "share"), [(0.03, 0.0), (0.07, 0.25), (0.1, 0.5),
+                                             (0.5, 1.0), (-0.1, -0.5)])
+def test_a_horn_with_torque_off_is_back_driven_through_its_gears(load: float,
+                                                                 share: float) -> None:
+    """Torque off: the load turns the horn once it beats the gears' static friction (0.04 of
+    stall), at the speed their viscous friction (0.12 at the no-load speed) balances it,
+    never past the no-load speed: |w| = w0 x min(1, (|load| - 0.04) / 0.12) — 0, 0.25, 0.5,
+    1 and 0.5 of w0 here."""
+    assert (FRICTION_STATIC, FRICTION_VISCOUS) == (0.04, 0.12)     # the stated assumption
     bus = _xm430()
     bus.emulator.motor(1).external_load = load
     bus.port.clock.advance(0.2)
-    excess = max(0.0, abs(load) - FRICTION_STATIC)
-    expected = NO_LOAD_UNITS * min(1.0, excess / FRICTION_VISCOUS) * (1 if load > 0 else -1)
-    assert bus.read(1, "present_velocity", raw=True) == pytest.approx(expected, abs=1)
+    assert bus.read(1, "present_velocity", raw=True) == pytest.approx(
+        share * NO_LOAD_UNITS, abs=1)
     assert bus.read(1, "present_current", raw=True) == 0       # the motor gives nothing
+
+
+def test_torque_on_at_an_output_of_0_the_back_emf_brakes_the_horn() -> None:
+    """PWM Limit 0 with torque on: the driver holds the windings at 0 V, the torque-speed
+    line at u = 0, so a load of 0.3 of stall turns the horn at 0.3 of the no-load speed
+    (the MuJoCo world's motor at an output of 0 does the same)."""
+    bus = _xm430()
+    bus.write(1, "pwm_limit", 0, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.emulator.motor(1).external_load = 0.3
+    bus.port.clock.advance(0.2)
+    assert bus.read(1, "present_velocity", raw=True) == pytest.approx(
+        0.3 * NO_LOAD_UNITS, abs=1)

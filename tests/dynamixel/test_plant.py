@@ -196,13 +196,17 @@ class _Reference:
     def step(self, cmd: ServoCommand, load: float, dt: float) -> None:
         top = 0.0 if cmd.torque_limit <= 0 or abs(load) > cmd.torque_limit else \
             self.top * max(0.0, 1 - abs(load))
-        if not cmd.torque_enabled or cmd.torque_limit <= 0:
-            # no output: the load back-drives the horn past the gears' static friction
+        if not cmd.torque_enabled:
+            # torque off: the load back-drives the horn past the gears' static friction
             # (0.04 of stall), as fast as their viscous friction (0.12 at the no-load speed)
             # lets it, at most the no-load speed
             excess = abs(load) - 0.04
             self.velocity = 0.0 if excess <= 0 else math.copysign(
                 self.top * min(1.0, excess / 0.12), load)
+            self.position += self.velocity * dt
+        elif cmd.torque_limit <= 0:
+            # an output of 0: the back-EMF brakes it, w = w0 x load (the torque line, u = 0)
+            self.velocity = self.top * max(-1.0, min(1.0, load))
             self.position += self.velocity * dt
         elif cmd.velocity_control:
             self.velocity = max(-top, min(top, cmd.goal_velocity))

@@ -184,3 +184,125 @@ def test_an_mx28_i_gain_takes_the_sag_out_too() -> None:
         sim.advance(5.0)
         assert _hinge_angle(world) / (2 * math.pi / 4096) == pytest.approx(sag, abs=0.5), \
             i_gain
+
+
+def test_the_position_integral_takes_the_sag_out_at_the_rate_its_gain_sets() -> None:
+    """Held against the lever by P (800) alone, then given I = 300: the law P e + I ∫e +
+    the back-EMF's e'/w0 balances the constant load, so the sag decays as exp(-r t) with
+    r = ki / (kp + 1 / w0) — 0.70 /s here, a hand calculation from the e-Manual's scalings
+    (KPI = I / 65 536 a 1 ms period; the horn's inertia does not enter at this pace)."""
+    sim, bus, world = _lever(MASS, REACH)
+    bus.write(1, "position_p_gain", 800, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", 0.0)
+    sim.advance(3.0)
+    sag = _hinge_angle(world)
+    bus.write(1, "position_i_gain", 300, raw=True)
+    began = sim.now()
+    sim.advance_to(began + 1.0)
+    kp = _p_share_per_rad(800)
+    ki = 300 / 65536 / (PERIOD * XM430_TICK * FULL_PWM)
+    expected = math.exp(-ki / (kp + 1 / NO_LOAD) * (sim.now() - began))
+    assert _hinge_angle(world) / sag == pytest.approx(expected, abs=0.03)
+
+
+def test_velocity_mode_reaches_its_goal_at_the_pace_its_pi_gains_set() -> None:
+    """A step of Goal Velocity against the brake: the P term answers at once (the speed
+    jumps to g k / (k + a)), then the integral closes the rest as exp(-t / T) with
+    T = (k + a) / ki — 0.53 s for the factory gains (P 100, I 1 920), by hand from KVP = P /
+    128 and KVI = I / 65 536 a 1 ms period on Goal Velocity's units."""
+    c = 2.0
+    goal_raw = 40
+    goal = goal_raw * VELOCITY_UNIT
+    k = 100 / 128 / (VELOCITY_UNIT * FULL_PWM)
+    ki = 1920 / 65536 / (PERIOD * VELOCITY_UNIT * FULL_PWM)
+    a = 1 / NO_LOAD + c / STALL_NM
+    pace = (k + a) / ki
+    sim, bus, world = _wheel(c)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", goal_raw, raw=True)
+    began = sim.now()
+    for t in (0.25, 0.5, 1.0):
+        sim.advance_to(began + t)
+        speed = float(world.data.qvel[world.model.joint("axle").dofadr[0]])
+        expected = goal - goal * a / (k + a) * math.exp(-(sim.now() - began) / pace)
+        assert speed == pytest.approx(expected, abs=0.02 * goal), t
+
+
+def _step_on_the_wheel(p_gain: int, i_gain: int, d_gain: int, step: float
+                       ) -> tuple[float, float]:
+    """(the time to 80 % of a ``step`` on the braked wheel, the overshoot past it)."""
+    sim, bus, world = _wheel(0.5)
+    for name, gain in (("position_p_gain", p_gain), ("position_i_gain", i_gain),
+                       ("position_d_gain", d_gain)):
+        bus.write(1, name, gain, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_position", -step / 2)
+    sim.advance(2.0)
+    start = float(world.data.qpos[0])
+    bus.write(1, "goal_position", step / 2)
+    began, reached, peak = sim.now(), math.nan, start
+    while sim.now() < began + 3.0:
+        sim.advance(0.002)
+        moved = float(world.data.qpos[0]) - start
+        peak = max(peak, moved)
+        if math.isnan(reached) and moved >= 0.8 * step:
+            reached = sim.now() - began
+    return reached, peak - step
+
+
+def test_the_law_is_limited_once_so_d_does_not_brake_a_saturated_move() -> None:
+    """A 2 rad step at P 800: far from the goal the P term alone asks far more than full
+    output, so adding D (3 000) to it before the one limit leaves the output at full — the
+    move is as fast as without D — and near the goal the D term damps it."""
+    fast, _ = _step_on_the_wheel(800, 0, 0, 2.0)
+    damped, overshoot = _step_on_the_wheel(800, 0, 3000, 2.0)
+    assert damped == pytest.approx(fast, rel=0.05)
+    assert overshoot < 0.01
+
+
+def test_the_integral_does_not_wind_up_while_the_output_is_saturated() -> None:
+    """The same 2 rad step with I = 300: the integral stops while P + I would pass full
+    output the way the error pushes, so the move ends no further past the goal than P
+    alone takes it (it overshot by 0.21 rad when the integral ran on)."""
+    _, p_only = _step_on_the_wheel(800, 0, 0, 2.0)
+    _, with_i = _step_on_the_wheel(800, 300, 0, 2.0)
+    assert with_i <= max(p_only, 0.0) + 0.01
+
+
+def test_present_current_is_the_torques_and_present_pwm_the_voltage_while_spinning() -> None:
+    """Spinning freely at Goal Velocity 100 (no brake): the motor gives no torque beyond
+    what accelerates nothing, so Present Current reads about 0 — the torque's current,
+    torque / Kt — while Present PWM reads the voltage the speed takes, 885 x v / w0 (it read
+    the voltage as a current before)."""
+    sim, bus, _ = _wheel(0.0)
+    bus.write(1, "operating_mode", 1, raw=True)
+    bus.write(1, "torque_enable", 1)
+    bus.write(1, "goal_velocity", 100, raw=True)
+    sim.advance(4.0)
+    seen = bus.read(1, ["present_pwm", "present_current", "present_velocity"], raw=True)
+    assert seen["present_velocity"] == pytest.approx(100, abs=1)
+    assert abs(seen["present_current"]) <= 3
+    assert seen["present_pwm"] == pytest.approx(FULL_PWM * 100 * VELOCITY_UNIT / NO_LOAD,
+                                                abs=3)
+
+
+def test_an_mx28_integral_takes_the_sag_out_at_the_rate_its_gain_sets() -> None:
+    """MX-28 (1.0), P 32 then I 20: Ki = I x 1 000 / 2 048 on ticks and seconds, over the
+    P gain's full-output scale of 128 (Kp = P / 8 and slope x P = 1 024), so the sag decays
+    as exp(-r t), r = ki / (kp + 1 / w0), w0 = 55 rev/min (e-Manual, MX-28 at 12 V)."""
+    tick = 2 * math.pi / 4096
+    sim, bus, world = _lever(MASS, REACH, "MX-28")
+    bus.write(1, "p_gain", 32, raw=True)
+    bus.write(1, "goal_position", 0.0)
+    sim.advance(3.0)
+    sag = _hinge_angle(world)
+    bus.write(1, "i_gain", 20, raw=True)
+    began = sim.now()
+    sim.advance_to(began + 0.3)
+    kp = 32 / 1024 / tick
+    ki = 20 * 1000 / 2048 / 128 / tick
+    rate = ki / (kp + 1 / (55 * 2 * math.pi / 60))
+    assert _hinge_angle(world) / sag == pytest.approx(math.exp(-rate * (sim.now() - began)),
+                                                      abs=0.03)

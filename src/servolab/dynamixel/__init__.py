@@ -5,7 +5,9 @@
 - :mod:`.wire` — byte time and baud-rate matching, the facts both ends of the wire share
 - :mod:`.ports` — serial port, in-memory port, pseudo-terminal server, ports by URL
 - :mod:`.bus` — the driver (:class:`Bus`)
-- :mod:`.emulator`, :mod:`.plant` — emulated motors: firmware over a plant in SI units
+- :mod:`.emulator`, :mod:`.virtual_motor`, :mod:`.plant` — emulated motors: the bus side,
+  each servo's firmware (its :mod:`.control_table`, :mod:`.gains`, :mod:`.motor_alarms`) over
+  a plant in SI units
 
 Emulated motors live in a simulation (:mod:`servolab.sim`), which owns their time; open them
 as a port like any other: ``Bus.open("emu://rx28:11-16", baudrate=57142)``.

@@ -4,7 +4,7 @@ items only, each value in its range and within the limits other registers set).
 
 What a write may do given the motor's *state* — the EEPROM locked while torque is on, the
 goals read-only after a bus watchdog error, torque switched on by a goal — is the firmware's
-(:class:`~.emulator.VirtualMotor`); the table knows only its bytes. It is the piece of the
+(:class:`~.virtual_motor.VirtualMotor`); the table knows only its bytes. It is the piece of the
 emulated firmware a test can check alone against the e-Manual's tables.
 """
 

@@ -23,15 +23,13 @@ from . import protocol1 as p1
 from . import protocol2 as p2
 from .errors import ConfigError
 from .models import supports
-from .motor_alarms import OVERHEATING_HYSTERESIS_C, OVERLOAD_TIME_S
 from .motorspec import MotorSpec
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
 from .protocol import protocol as protocol_for
 from .virtual_motor import VirtualMotor
 from .wire import baud_matches, byte_time
 
-__all__ = ["OVERHEATING_HYSTERESIS_C", "OVERLOAD_TIME_S", "Emulator", "Faults", "Reply",
-           "VirtualMotor", "build_emulator"]
+__all__ = ["Emulator", "Faults", "Reply", "VirtualMotor", "build_emulator"]
 
 #: Instructions after which a motor is at its factory (or EEPROM) settings.
 _RESETS = frozenset({"REBOOT", "FACTORY_RESET", "RESET"})

@@ -116,6 +116,7 @@ class Alarms:
     def clear_hardware_error(self) -> None:
         self.hardware_error = 0
         self._too_hot = self._overloaded = False
+        self._stall_step = None     # a stall after a REBOOT counts afresh
         self._sync_hardware_register()
 
     def _sync_hardware_register(self) -> None:
@@ -177,7 +178,6 @@ class Alarms:
         it (RX-28 default 0x24: overheating and overload; e-Manual, Alarm Shutdown)."""
         self._hardware_error(self._overload_bit)
         self._overloaded = True
-        self._stall_step = None     # (a 1.0 motor given its limit back counts afresh)
 
     def _unloaded(self) -> None:
         """A 1.0 servo reports overload while the load it cannot control lasts (as it does

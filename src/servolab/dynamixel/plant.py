@@ -1,6 +1,6 @@
 """The servo plant: the physical joint behind an emulated motor's firmware, in SI units.
 
-An emulated Dynamixel is two things. Its *firmware* (:class:`~.emulator.VirtualMotor`) is the
+An emulated Dynamixel is two things. Its *firmware* (:class:`~.virtual_motor.VirtualMotor`) is the
 control table, the instructions and the errors: it turns registers into a
 :class:`ServoCommand` and reads the joint back into present_* registers. Its *plant* is the
 physics: where the horn is, how fast it turns, what load it carries, how warm the motor is.
@@ -192,11 +192,13 @@ class KinematicServo:
     and never more than the torque limit allows: held against a load above its limit, the
     motor stalls and gives exactly its limit; with torque off or a limit of 0 it gives none.
 
-    **Back-driven.** A motor that gives nothing (torque off, or a limit of 0) holds nothing
-    either: an external load above the gears' static friction turns the horn its way, as
-    fast as their viscous friction lets it, up to the no-load speed
-    (:meth:`_back_driven`). ROBOTIS publish no back-driving figure; the friction is the same
-    that takes :data:`FRICTION_STATIC` and :data:`FRICTION_VISCOUS` of the torque driving it.
+    **Back-driven.** A motor with torque off holds nothing: an external load above the
+    gears' static friction turns the horn its way, as fast as their viscous friction lets
+    it, up to the no-load speed (:meth:`_back_driven`). ROBOTIS publish no back-driving
+    figure; the friction is the same that takes :data:`FRICTION_STATIC` and
+    :data:`FRICTION_VISCOUS` of the torque driving it. With torque on at an output of 0 (a
+    limit of 0) the windings are held at 0 V and the back-EMF brakes it instead: the load
+    turns it at no-load speed x load.
 
     **Temperature** (:attr:`temperature`) is the winding temperature, a first-order lag of
     :attr:`thermal_time_constant` toward ``ambient`` + :data:`IDLE_RISE_C` +
@@ -404,8 +406,15 @@ class KinematicServo:
         trajectory = cmd.trajectory if cmd.torque_enabled and top > 0 else None
         if trajectory is not None and not _leads_to(trajectory, cmd):
             trajectory = None   # a world changed the goal the firmware planned for (stiction)
-        if not self._limit():    # no output (torque off, or a limit of 0): back-driven
+        if not cmd.torque_enabled:  # the driver open: back-driven through the gears
             self._speed, self._target = self._back_driven(), math.nan
+        elif not self._limit():
+            # torque on at an output of 0 (a 1.0 shutdown's Torque Limit 0): the driver holds
+            # the windings at 0 V, so the back-EMF brakes the horn along the torque-speed line
+            # at u = 0, w = w0 x load, as the MuJoCo world's motor at u = 0
+            w0 = self.no_load_speed
+            self._speed = w0 * max(-1.0, min(1.0, self._external_load))
+            self._target = math.nan
         elif cmd.voltage_control:
             # a DC motor at a voltage share u turns where its torque line u - w / w0 meets the
             # load it holds, -L (L: the external load, + pushing counter-clockwise; friction is

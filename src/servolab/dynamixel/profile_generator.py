@@ -4,7 +4,7 @@ Velocity Trajectory(136), Position Trajectory(140) and Moving Status(123).
 
 It is the firmware's, not the plant's: the plant moves the horn (along the same law, from the
 limits :meth:`ProfileGenerator.plan` returns), and Moving Status compares the two. Kept apart
-from :class:`~.emulator.VirtualMotor` so that the law and its registers are read in one place.
+from :class:`~.virtual_motor.VirtualMotor` so that the law and its registers are read in one place.
 """
 
 from __future__ import annotations

@@ -58,7 +58,6 @@ _BROADCAST_RESET_ALL_IGNORED_FROM = 42
 _SECONDARY_OFF = 253
 
 
-
 class VirtualMotor(Alarms):
     """One emulated servo's firmware: its control table, how it answers instructions, and
     the registers it reads from and commands to its :class:`~.plant.ServoPlant`.
@@ -422,6 +421,7 @@ class VirtualMotor(Alarms):
             taken = plant.advance(chunk, dt, temperature_limit=limit)
             steps -= taken
             now += taken
+            self._steps_done = now  # (the alarms below act, and plan, on the step they fall)
             if plant.temperature > limit:
                 self._hardware_error(overheating)
                 self._too_hot = True
@@ -806,6 +806,7 @@ class VirtualMotor(Alarms):
     def _set_registered(self, value: int) -> None:
         name = "registered" if self.model.protocol == 1 else "registered_instruction"
         self._set_raw(name, value)
+
 
 def wheel_position(model: Model, ticks: int) -> int:
     """present_position of a 1.0 model in wheel mode, for the unbounded count ``ticks``

@@ -43,10 +43,11 @@ Back in position control the reference starts from the horn again. A PID model's
 comes as its compliance equivalent (the MX's table in the e-Manual; an X-series' Position P
 Gain, output KPP x error in PWM units), so a stiffer gain sags less under the same load.
 
-**Load and heat.** Present load is the drive ``u``: "an inferred value based on the internal
-output value" (e-Manual, RX-28 Present Load), so a joint held against something reads its
-torque limit, and a joint back-driven at output 0 reads 0 while it brakes. The winding
-temperature follows the torque (the current that heats the windings goes with it) as the
+**Load and heat.** A 1.0 model's Present Load is the drive ``u``: "an inferred value based on
+the internal output value" (e-Manual, RX-28 Present Load), so a joint held against something
+reads its torque limit, and a joint back-driven at output 0 reads 0 while it brakes. An
+X-series' Present Current is the torque's current, torque / Kt (its Present PWM the drive).
+The winding temperature follows the torque (the current that heats the windings goes with it) as the
 default plant's does (:mod:`servolab.dynamixel.plant`: a first-order lag toward ambient +
 7 °C + 60 °C x (torque / stall torque)²), so a joint pushed against its limit heats, and the
 firmware's alarm shutdown and a walk's supervisor act on it as on hardware. The firmware's
@@ -319,6 +320,9 @@ class MujocoWorld(World):
         self._kvi = np.zeros(n)
         self._velocity_pi = np.zeros(n, dtype=bool)
         self._torque_mode = np.zeros(n, dtype=bool)     # current mode: a torque demand
+        # the models whose load register is Present Current (the torque's current), not a
+        # 1.0 Present Load (the drive)
+        self._current_sensing = np.array([mm.has("present_current") for mm in models])
         # the X-series profile each joint's reference follows, with the time it began: None
         # where the reference moves at the moving speed (AX/RX/EX, no Profile Acceleration)
         self._profiles: list[tuple[Profile, float] | None] = [None] * n
@@ -501,26 +505,29 @@ class MujocoWorld(World):
             ccw = error >= 0
             beyond = np.abs(error) - np.where(ccw, self._margin[1], self._margin[0])
             share = beyond * np.where(ccw, self._gain[1], self._gain[0])
+        # (a PID model's P term before any limit: the law limits P + I + D + FF once)
+        proportional = np.where(beyond > 0, np.copysign(share, error), 0.0) \
+            if self._any_pid else None
         np.maximum(share, self._punch, out=share)
         np.minimum(share, self._limit, out=share)
         u = np.where(beyond > 0, np.copysign(share, error), 0.0)
         speed = self._dir * d.qvel[self._dadr]
-        if self._any_pid:       # a PID model's integral, derivative and feedforward terms
-            u += self._pid(error, dt)
-            np.minimum(u, self._limit, out=u)
-            np.maximum(u, -self._limit, out=u)
+        if proportional is not None:  # a PID model's integral, derivative and feedforward
+            np.copyto(u, self._pid(error, proportional, dt), where=self._pid_joints)
         if self._any_velocity_mode:
             np.copyto(u, self._velocity_law(speed, dt), where=self._velocity_mode)
         # 3. the DC motor behind its gears: the torque limit caps the drive (u, above); the
-        #    back-EMF brakes on top of it, never beyond the stall torque. Present load is
-        #    the drive ("inferred ... based on the internal output value", e-Manual RX-28
-        #    Present Load); the torque, and the current that heats the windings, are this:
+        #    back-EMF brakes on top of it, never beyond the stall torque. Present load (1.0)
+        #    is the drive ("inferred ... based on the internal output value", e-Manual RX-28
+        #    Present Load); Present Current (X-series) the torque's current, torque / Kt;
+        #    the torque, and the current that heats the windings, are this:
         u *= self._on
-        self._effort = self._drive = u
+        self._drive = u
         back_emf = speed / self._w0
         torque = u - back_emf
         np.minimum(torque, 1.0, out=torque)
         np.maximum(torque, -1.0, out=torque)
+        self._effort = np.where(self._current_sensing, torque, u)
         if self._any_torque_mode:
             # current mode: the current loop gives the torque asked (Kt x current) while the
             # supply's voltage lets it (the torque line at full drive, +-1 - speed share);
@@ -529,60 +536,63 @@ class MujocoWorld(World):
             asked = np.clip(u, -1.0 - back_emf, 1.0 - back_emf)
             current = self._torque_mode & self._torque_on
             np.copyto(torque, asked - FRICTION_VISCOUS * back_emf, where=current)
-            self._effort = np.where(current, asked, u)
+            self._effort = np.where(current, asked, self._effort)
             self._drive = np.where(current, asked + back_emf, u)
         torque *= self._on
+        np.multiply(torque, torque, out=self._square)   # the motor's, for the heat
         if self._any_off:   # torque off: back-driven through the gears' viscous friction
             np.copyto(torque, -FRICTION_VISCOUS * back_emf, where=self._off)
         d.qfrc_applied[self._dadr] = torque * self._dir_stall
         recording = self._time >= self._next_record - 1e-12   # a sample every period
         before = (self._time, tuple(d.qpos.tolist())) if recording else None
         self._mujoco.mj_step(m, d)   # (its forward pass: contacts and bodies of `before`)
-        np.multiply(torque, torque, out=self._square)
         self._heat += self._square              # for the windings' temperature
         self._heat_steps += 1
         self._time += dt
         if self._time >= self._next_book - 1e-12:
-            self._book(self._effort, self._dir * d.qvel[self._dadr])
+            self._book(self._drive, self._dir * d.qvel[self._dadr])
             self._next_book += BOOKKEEPING_S
         if before is not None:
             self._record(*before)
             self._next_record += self.record_period
 
-    def _pid(self, error: np.ndarray, dt: float) -> np.ndarray:
-        """The position law's integral, derivative and feedforward terms (output shares) of
-        the joints that have them, 0 elsewhere. The integral is held where its term alone
-        would pass the torque limit (the firmware's anti-windup, whose gain ROBOTIS do not
-        publish); the derivative is of the error, as the X-series' KPD acts on the error's
-        change a period, and is 0 on a law's first step."""
+    def _pid(self, error: np.ndarray, proportional: np.ndarray, dt: float) -> np.ndarray:
+        """A PID model's whole position law, P + I + D + feedforward (output shares), limited
+        once, as the e-Manual's block diagram limits the controller's sum. The derivative is
+        of the error (KPD acts on its change a period), 0 on a law's first step. The
+        integral stops while the sum is saturated the way the error pushes (conditional
+        integration: the e-Manual's anti-windup gain Ka is not published)."""
         joints = self._pid_joints
         rate = np.where(self._fresh, 0.0, (error - self._last_error) / dt)
         self._last_error = np.where(joints, error, self._last_error)
         self._fresh &= ~joints
+        rest = (self._kd * rate + self._kff1 * self._v_ref + self._kff2 * self._a_ref
+                + proportional)
         integral = self._integral
-        np.copyto(integral, integral + error * dt, where=joints & (self._ki > 0))
-        bound = np.divide(self._limit, self._ki, out=np.full_like(self._ki, np.inf),
-                          where=self._ki > 0)
-        np.clip(integral, -bound, bound, out=integral)
-        terms = (self._ki * integral + self._kd * rate + self._kff1 * self._v_ref
-                 + self._kff2 * self._a_ref)
-        return np.where(joints, terms, 0.0)
+        trial = np.where(joints & (self._ki > 0), integral + error * dt, integral)
+        total = rest + self._ki * trial
+        limit = self._limit
+        wound = (np.abs(total) > limit) & (total * error > 0)
+        np.copyto(integral, trial, where=~wound)
+        law: np.ndarray = np.clip(rest + self._ki * integral, -limit, limit)
+        return law
 
     def _velocity_law(self, speed: np.ndarray, dt: float) -> np.ndarray:
         """Velocity control's output share: the X-series' PI law on the speed error (its
-        integral held within the torque limit, as the position law's), else the goal
+        integral stopped while the sum is saturated, as the position law's), else the goal
         speed's share of the no-load speed, open loop (AX/RX/EX wheel mode, current and PWM
-        modes' demands)."""
+        modes' demands). (The integral shares its array with the position law's: a joint
+        uses one law at a time, and a change of law starts it from 0, see _commanded.)"""
         limit = self._limit
         u = np.clip(self._v_ref / self._w0, -limit, limit)
         if self._any_velocity_pi:
             pi = self._velocity_pi
             error = self._v_ref - speed
             integral = self._integral
-            np.copyto(integral, integral + error * dt, where=pi & (self._kvi > 0))
-            bound = np.divide(limit, self._kvi, out=np.full_like(limit, np.inf),
-                              where=self._kvi > 0)
-            np.clip(integral, -bound, bound, out=integral)
+            trial = np.where(pi & (self._kvi > 0), integral + error * dt, integral)
+            total = self._kvp * error + self._kvi * trial
+            wound = (np.abs(total) > limit) & (total * error > 0)
+            np.copyto(integral, trial, where=pi & ~wound)
             closed = np.clip(self._kvp * error + self._kvi * integral, -limit, limit)
             np.copyto(u, closed, where=pi)
         return u
@@ -620,7 +630,6 @@ class MujocoWorld(World):
         self._off = ~self._torque_on
         self._on = self._torque_on.astype(np.float64)
         self._gain = 1.0 / self._slope
-        self._dir_over_w0 = self._dir / self._w0
         self._symmetric = bool(np.array_equal(self._margin[0], self._margin[1])
                                and np.array_equal(self._slope[0], self._slope[1]))
         self._dir_stall = self._dir * self._stall
