@@ -191,19 +191,27 @@ def test_the_position_integral_takes_the_sag_out_at_the_rate_its_gain_sets() -> 
     the back-EMF's e'/w0 balances the constant load, so the sag decays as exp(-r t) with
     r = ki / (kp + 1 / w0) — 0.70 /s here, a hand calculation from the e-Manual's scalings
     (KPI = I / 65 536 a 1 ms period; the horn's inertia does not enter at this pace)."""
-    sim, bus, world = _lever(MASS, REACH)
-    bus.write(1, "position_p_gain", 800, raw=True)
+    kp = _p_share_per_rad(800)
+    ki = 300 / 65536 / (PERIOD * XM430_TICK * FULL_PWM)
+    left, elapsed = _sag_left("XM430-W350", ("position_p_gain", 800),
+                              ("position_i_gain", 300), 1.0)
+    assert left == pytest.approx(math.exp(-ki / (kp + 1 / NO_LOAD) * elapsed), abs=0.03)
+
+
+def _sag_left(motor: str, p_gain: tuple[str, int], i_gain: tuple[str, int],
+              seconds: float) -> tuple[float, float]:
+    """The lever held by P alone until it settles, then given its I gain: (the share of the
+    sag left ``seconds`` later, the exact time since the I gain was written)."""
+    sim, bus, world = _lever(MASS, REACH, motor)
+    bus.write(1, *p_gain, raw=True)
     bus.write(1, "torque_enable", 1)
     bus.write(1, "goal_position", 0.0)
     sim.advance(3.0)
     sag = _hinge_angle(world)
-    bus.write(1, "position_i_gain", 300, raw=True)
+    bus.write(1, *i_gain, raw=True)
     began = sim.now()
-    sim.advance_to(began + 1.0)
-    kp = _p_share_per_rad(800)
-    ki = 300 / 65536 / (PERIOD * XM430_TICK * FULL_PWM)
-    expected = math.exp(-ki / (kp + 1 / NO_LOAD) * (sim.now() - began))
-    assert _hinge_angle(world) / sag == pytest.approx(expected, abs=0.03)
+    sim.advance_to(began + seconds)
+    return _hinge_angle(world) / sag, sim.now() - began
 
 
 def test_velocity_mode_reaches_its_goal_at_the_pace_its_pi_gains_set() -> None:
@@ -293,16 +301,8 @@ def test_an_mx28_integral_takes_the_sag_out_at_the_rate_its_gain_sets() -> None:
     P gain's full-output scale of 128 (Kp = P / 8 and slope x P = 1 024), so the sag decays
     as exp(-r t), r = ki / (kp + 1 / w0), w0 = 55 rev/min (e-Manual, MX-28 at 12 V)."""
     tick = 2 * math.pi / 4096
-    sim, bus, world = _lever(MASS, REACH, "MX-28")
-    bus.write(1, "p_gain", 32, raw=True)
-    bus.write(1, "goal_position", 0.0)
-    sim.advance(3.0)
-    sag = _hinge_angle(world)
-    bus.write(1, "i_gain", 20, raw=True)
-    began = sim.now()
-    sim.advance_to(began + 0.3)
     kp = 32 / 1024 / tick
     ki = 20 * 1000 / 2048 / 128 / tick
     rate = ki / (kp + 1 / (55 * 2 * math.pi / 60))
-    assert _hinge_angle(world) / sag == pytest.approx(math.exp(-rate * (sim.now() - began)),
-                                                      abs=0.03)
+    left, elapsed = _sag_left("MX-28", ("p_gain", 32), ("i_gain", 20), 0.3)
+    assert left == pytest.approx(math.exp(-rate * elapsed), abs=0.03)
