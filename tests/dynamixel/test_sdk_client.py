@@ -98,6 +98,23 @@ def test_sdk_drives_protocol2_xm430_through_pty(tmp_path: Path) -> None:
             assert sorted(found) == list(ids)
             assert all(found[i][0] == 1030 for i in ids)
 
+            # The gains and profile a controller tunes, written and read back as the SDK's
+            # own read/write examples do (e-Manual, XM430-W210 control table: Velocity I/P
+            # Gain 76/78, Position D/I/P Gain 80/82/84, Feedforward 2nd/1st Gain 88/90, all
+            # 2 bytes; Profile Acceleration/Velocity 108/112, 4 bytes; factory values first).
+            gains = {76: 1920, 78: 100, 80: 0, 82: 0, 84: 800, 88: 0, 90: 0}
+            assert {a: _ok(ph.read2ByteTxRx(port, 100, a))[0] for a in gains} == gains
+            tuned = {76: 1000, 78: 150, 80: 120, 82: 30, 84: 1200, 88: 40, 90: 500}
+            for address, value in tuned.items():
+                _ok(ph.write2ByteTxRx(port, 100, address, value))
+            for address, value in ((108, 25), (112, 140)):
+                _ok(ph.write4ByteTxRx(port, 100, address, value))
+            assert {a: _ok(ph.read2ByteTxRx(port, 100, a))[0] for a in tuned} == tuned
+            assert [_ok(ph.read4ByteTxRx(port, 100, a))[0] for a in (108, 112)] == [25, 140]
+            # a gain beyond its range (0..16 383) is refused with a Data Range error
+            comm, error = ph.write2ByteTxRx(port, 100, 84, 16384)
+            assert comm == dynamixel_sdk.COMM_SUCCESS and error == 0x04
+
             for motor_id in ids:
                 _ok(ph.write1ByteTxRx(port, motor_id, 11, 1))   # operating_mode: velocity
                 _ok(ph.write1ByteTxRx(port, motor_id, 64, 1))   # torque_enable
