@@ -93,3 +93,19 @@ def run_ros(code: str, domain_id: int, *, timeout: float = 60.0,
     """Run ``code`` under the real rclpy to its end; its output as text."""
     return subprocess.run([str(ros_python()), "-c", code], env=ros_env(domain_id, **extra),
                           capture_output=True, text=True, timeout=timeout, check=False)
+
+
+def servolab_on_ros_env(domain_id: int, **extra: str) -> dict[str, str]:
+    """The environment a *servolab* program runs in with ``--transport ros2`` on the oracle's
+    ROS 2, as ``source /opt/ros/jazzy/setup.bash`` would make it: ROS 2's Python packages on
+    ``PYTHONPATH`` (before servolab's venv, as setup.bash puts them), and its libraries, with
+    the folders the index's wheels keep theirs in (what the wheels' own
+    ``ros_wheels_bootstrapper`` adds before it re-executes Python), on ``LD_LIBRARY_PATH``."""
+    ros_python()  # skips, saying why, where the real rclpy is not installed
+    venv = ros_venv()
+    site = next(venv.glob("lib/python3*/site-packages"))
+    libraries = [venv / "lib", *sorted(p for p in site.glob("ros_*.libs") if p.is_dir())]
+    env = ros_env(domain_id, **extra)
+    env.update({"PYTHONPATH": str(site), "SERVOLAB_TRANSPORT": "ros2",
+                "LD_LIBRARY_PATH": os.pathsep.join(str(p) for p in libraries)})
+    return env

@@ -15,6 +15,7 @@ import os
 from typing import TYPE_CHECKING
 
 from servolab.middleware.errors import TransportError
+from servolab.middleware.transport import TRANSPORTS
 
 if TYPE_CHECKING:
     from servolab.middleware.transport import TransportOptions
@@ -172,10 +173,11 @@ def add_transport(p: argparse.ArgumentParser, default: str = "zenoh") -> None:
     """``--transport``, ``--listen``, ``--connect`` and ``--domain-id`` of a command that joins
     the graph; ``default`` "" leaves the choice to the command (a launch file has its own)."""
     shown = default or "the launch file's"
-    p.add_argument("--transport", choices=["local", "zenoh", "dds"], default=default,
+    p.add_argument("--transport", choices=list(TRANSPORTS), default=default,
                    help="local: this process only; zenoh: other processes and machines "
                    "(rmw_zenoh's layout); dds: a ROS 2 system on DDS, as Fast DDS and Cyclone "
-                   f"DDS lay it out (default: {shown})")
+                   "DDS lay it out; ros2: the rmw of an installed ROS 2, through its rclpy "
+                   f"(answers every ROS 2 client) (default: {shown})")
     p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
                    help="Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
     p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
 
 def open_transport(options: TransportOptions, types: MessageTypes) -> Transport:
-    """The transport the options name: ``local``, ``zenoh`` or ``dds``."""
+    """The transport the options name: ``local``, ``zenoh``, ``dds`` or ``ros2``."""
     if options.kind == "local":
         if options.listen or options.connect:
             raise TransportError("--listen and --connect need --transport zenoh or dds")
@@ -44,7 +44,10 @@ def open_transport(options: TransportOptions, types: MessageTypes) -> Transport:
     if options.kind == "dds":
         from .dds_transport import DdsTransport  # cyclonedds loads only when asked for
         return DdsTransport(types, options)
-    raise TransportError(f"unknown transport {options.kind!r} (local, zenoh or dds)")
+    if options.kind == "ros2":
+        from .ros2_transport import Ros2Transport  # an installed ROS 2's rclpy, when asked for
+        return Ros2Transport(types, options)
+    raise TransportError(f"unknown transport {options.kind!r} (local, zenoh, dds or ros2)")
 
 
 class Context:

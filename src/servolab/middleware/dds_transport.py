@@ -14,7 +14,8 @@ Fast DDS service. What does not: a Fast DDS *client* calling a servolab service.
 matches a reply to its request by the RTPS inline QoS ``related_sample_identity``
 (``rmw_fastrtps_shared_cpp/src/rmw_response.cpp``: a reply whose related writer GUID is not
 the client's own is dropped), and the Cyclone DDS API can neither read nor write inline QoS.
-So a servolab server does not answer a Fast DDS client (it logs why, once); between Cyclone
+So a servolab server does not answer a Fast DDS client (it logs why, once; the ROS 2
+transport, :mod:`.ros2_transport`, does, where ROS 2 is installed); between Cyclone
 DDS peers (servolab, rmw_cyclonedds) requests carry rmw_cyclonedds' 16-byte header, the client
 id and sequence number, which the reply echoes. A servolab client calling a Fast DDS server
 sends the bare request (the server takes the request's own sample identity as its id) and, as
@@ -78,6 +79,7 @@ from .rmw_dds import (
 )
 from .transport import (
     Closeable,
+    Declared,
     Endpoint,
     Handler,
     MessageInfo,
@@ -85,6 +87,7 @@ from .transport import (
     Transport,
     TransportOptions,
     TransportPublisher,
+    wait_for,
 )
 
 log = logging.getLogger(__name__)
@@ -231,26 +234,12 @@ class DdsPublisher(TransportPublisher):
     def wait_for_subscription(self, timeout: float) -> bool:
         """DDS's publication-matched status: a reader of the topic, here or in another
         participant, whose QoS the writer's offer satisfies."""
-        end = time.monotonic() + timeout
-        while True:
-            if self._writer.get_publication_matched_status().current_count > 0:
-                return True
-            if time.monotonic() >= end:
-                return False
-            time.sleep(0.005)
+        return wait_for(
+            lambda: self._writer.get_publication_matched_status().current_count > 0, timeout)
 
     def close(self) -> None:
         self._done()
 
-
-class _Declared:
-    def __init__(self, close: Callable[[], None]) -> None:
-        self._close: Callable[[], None] | None = close
-
-    def close(self) -> None:
-        close, self._close = self._close, None
-        if close is not None:
-            close()
 
 
 class _Client:
@@ -657,7 +646,8 @@ class DdsTransport(Transport):
                     self._warn_once(name, f"a Fast DDS (rmw_fastrtps) client of {name} appeared: "
                                     "servolab on Cyclone DDS cannot answer it (Fast DDS matches "
                                     "a reply to its request by RTPS inline QoS, which Cyclone "
-                                    "DDS's API cannot write); call the service from a servolab, "
+                                    "DDS's API cannot write); where ROS 2 is installed, run "
+                                    "servolab with --transport ros2, or call from a servolab, "
                                     "rmw_cyclonedds or Zenoh node")
 
         reader = self._reader(request_topic(name), srv.request, SERVICE_QOS, on_request,
@@ -668,7 +658,7 @@ class DdsTransport(Transport):
         def close() -> None:
             self._checks.remove(fast_dds_clients)
             undo()
-        return _Declared(close)
+        return Declared(close)
 
     def _handle(self, name: str, srv: ServiceType, handler: Handler, writer: DataWriter[Any],
                 header: bytes, request: bytes) -> None:
@@ -700,7 +690,7 @@ class DdsTransport(Transport):
             if client is None or client.srv.name != srv.name:
                 client = self._clients[name] = _Client(self, name, srv)
         gids_node = self._own_gids(node, client)
-        return _Declared(gids_node)
+        return Declared(gids_node)
 
     def _own_gids(self, node: NodeInfo, client: _Client) -> Callable[[], None]:
         reader_gid = client.reader.get_guid().bytes
@@ -742,7 +732,7 @@ class DdsTransport(Transport):
                 self._readers.pop(node.node_id, None)
                 self._writers.pop(node.node_id, None)
             self._publish_graph()
-        return _Declared(forget)
+        return Declared(forget)
 
     def _publish_graph(self) -> None:
         """This participant's ``ParticipantEntitiesInfo``: its nodes and their endpoints'
@@ -829,17 +819,13 @@ class DdsTransport(Transport):
         """With ``--connect`` peers named: some other participant must appear."""
         if not self.options.connect:
             return
-        end = time.monotonic() + timeout
-        while True:
-            others = [p for p in self._read_builtin("participant") if p.key.bytes != self.gid]
-            if others:
-                return
-            if time.monotonic() >= end:
-                raise TransportError(
-                    f"no DDS participant answers at {', '.join(self.options.connect)} (waited "
-                    f"{timeout:g} s, domain {self.domain_id}): is it running, in this "
-                    "ROS_DOMAIN_ID?")
-            time.sleep(0.05)
+        if not wait_for(lambda: any(p.key.bytes != self.gid
+                                    for p in self._read_builtin("participant")),
+                        timeout, pause=0.05):
+            raise TransportError(
+                f"no DDS participant answers at {', '.join(self.options.connect)} (waited "
+                f"{timeout:g} s, domain {self.domain_id}): is it running, in this "
+                "ROS_DOMAIN_ID?")
 
     def close(self) -> None:
         with self._lock:

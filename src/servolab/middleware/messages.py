@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import difflib
 import re
+import struct
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, fields
@@ -443,6 +444,21 @@ class MessageTypes:
         """The message of CDR bytes of either byte order, as rosbags builds it (through
         :mod:`.fast_cdr`), or a one-line :class:`MessageError`."""
         return self.reader(name)(data)
+
+    def deserialize_start(self, data: bytes, name: str) -> Any:
+        """The message at the start of little-endian CDR bytes that may run on past it:
+        rmw_fastrtps' ``rmw_serialize`` (rclpy's ``serialize_message``) returns its size
+        *estimate* as the length, with up to an alignment's slack per field of bytes it never
+        wrote after the message, which a reader of the wire (rosbags, :meth:`deserialize`)
+        rightly refuses. Read by rosbags' own code, which says where the message ends."""
+        if len(data) < 4 or data[:2] != b"\x00\x01":
+            raise MessageError(f"{len(data)} bytes are not little-endian CDR of {name}")
+        msgdef = self.store.get_msgdef(self.check(name))
+        try:
+            message, _end = msgdef.deserialize_cdr_le(data[4:], 0, msgdef.cls, self.store)
+        except (struct.error, UnicodeDecodeError, ValueError, IndexError) as exc:
+            raise MessageError(f"{len(data)} bytes are not a CDR {name}: {exc}") from None
+        return message
 
     def reader(self, name: str) -> Callable[[bytes | memoryview], Any]:
         """:meth:`deserialize` for one type, as one function (what a subscription calls for

@@ -12,6 +12,7 @@ moves onto the thread that spins.
 from __future__ import annotations
 
 import os
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -19,11 +20,11 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 from .errors import TransportError
-from .messages import MessageTypes, ServiceType
 from .qos import QoSProfile
 
 if TYPE_CHECKING:
     from .inbox import Inbox, Wake
+    from .messages import MessageTypes, ServiceType
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,30 @@ class Closeable(Protocol):
     def close(self) -> None: ...
 
 
+class Declared:
+    """A graph entity's handle whose ``close()`` releases it once, however often called."""
+
+    def __init__(self, close: Callable[[], None]) -> None:
+        self._close: Callable[[], None] | None = close
+
+    def close(self) -> None:
+        close, self._close = self._close, None
+        if close is not None:
+            close()
+
+
+def wait_for(condition: Callable[[], bool], timeout: float, pause: float = 0.005) -> bool:
+    """Poll ``condition`` until it holds or ``timeout`` s pass; whether it held (for what a
+    middleware tells by a count it keeps, not by a signal: a publisher's matches)."""
+    end = time.monotonic() + timeout
+    while True:
+        if condition():
+            return True
+        if time.monotonic() >= end:
+            return False
+        time.sleep(pause)
+
+
 class TransportPublisher(ABC):
     @abstractmethod
     def publish(self, msg: Any) -> None: ...
@@ -114,8 +139,8 @@ def environment_domain_id() -> int:
 
 
 #: The transports a context can open: in-process, Zenoh (rmw_zenoh's layout), DDS (rmw_fastrtps'
-#: and rmw_cyclonedds' layout).
-TRANSPORTS = ("local", "zenoh", "dds")
+#: and rmw_cyclonedds' layout), and an installed ROS 2's own rmw through its rclpy.
+TRANSPORTS = ("local", "zenoh", "dds", "ros2")
 
 
 @dataclass
