@@ -227,13 +227,15 @@ def test_unknown_command_is_argparse_error(capsys: pytest.CaptureFixture[str]) -
 def test_help_imports_no_command_body() -> None:
     """``servolab --help`` stays fast: the registry imports the command modules, which leave
     the Dynamixel layer, the middleware, Zenoh and matplotlib to their run functions (only
-    the middleware's errors and the view's defaults, constants the options show, are read;
+    the middleware's errors, the transports' names and the view's defaults, constants the
+    options show, are read;
     the view package's ``__init__`` is lazy)."""
     code = ("import sys\nfrom servolab.cli import main\ntry:\n    main(['--help'])\n"
             "except SystemExit:\n    pass\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('zenoh', 'matplotlib',"
             " 'websockets') or m.startswith(('servolab.dynamixel', 'servolab.middleware.'))"
-            " and m not in ('servolab.middleware.errors', 'servolab.middleware.view',"
+            " and m not in ('servolab.middleware.errors', 'servolab.middleware.transports',"
+            " 'servolab.middleware.view',"
             " 'servolab.middleware.view.defaults')))")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                             timeout=60)

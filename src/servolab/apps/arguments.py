@@ -15,7 +15,7 @@ import os
 from typing import TYPE_CHECKING
 
 from servolab.middleware.errors import TransportError
-from servolab.middleware.transport import TRANSPORTS
+from servolab.middleware.transports import TRANSPORTS
 
 if TYPE_CHECKING:
     from servolab.middleware.transport import TransportOptions

@@ -42,11 +42,15 @@ def topics(ctx: Context, timeout: float = DISCOVERY_S) -> dict[str, set[str]]:
 
 
 def topic_list(ctx: Context, say: Say, *, show_types: bool = False,
-               verbose: bool = False) -> list[str]:
-    from ._graph import hidden
+               verbose: bool = False, include_hidden: bool = False) -> list[str]:
+    """Every topic whatever node publishes or subscribes to it (a ``topic pub`` running
+    in a terminal included), hidden names (a part starting with ``_``: an action's
+    ``/_action/feedback``) only with ``include_hidden``, as ``ros2 topic list`` lists them."""
+    from ._graph import hidden_name
 
-    graph = [e for e in ctx.transport.graph(DISCOVERY_S) if not hidden(e.node)]
-    names = sorted({e.name for e in graph if e.kind in ("MP", "MS")})
+    graph = [e for e in ctx.transport.graph(DISCOVERY_S)
+             if e.kind in ("MP", "MS") and (include_hidden or not hidden_name(e.name))]
+    names = sorted({e.name for e in graph})
     for name in names:
         kinds = sorted({e.type_name for e in graph if e.name == name and e.kind in ("MP", "MS")})
         line = name + (f" [{', '.join(kinds)}]" if show_types or verbose else "")
@@ -367,6 +371,8 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("-t", "--show-types", action="store_true", help="show each topic's type")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="types, and how many publishers and subscriptions")
+    p.add_argument("--include-hidden-topics", action="store_true",
+                   help="hidden topics too (a part of the name starting with _)")
     add_transport(p)
     p = actions.add_parser(
         "echo", help="print a topic's messages as YAML",
@@ -440,7 +446,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.action != "pub":
             ctx.transport.check_reachable()  # not an empty graph from an endpoint gone wrong
         if args.action == "list":
-            topic_list(ctx, say, show_types=args.show_types, verbose=args.verbose)
+            topic_list(ctx, say, show_types=args.show_types, verbose=args.verbose,
+                       include_hidden=args.include_hidden_topics)
         elif args.action == "echo":
             topic_echo(ctx, args.topic, say, type_name=args.type_name, count=args.count,
                        no_arrays=args.no_arr)

@@ -45,10 +45,14 @@ class MessageClass(type):
 
 
 def message_class(type_name: str) -> type:
-    """The class for ``pkg/msg/Name`` (or a service's ``pkg/srv/Name_Request``)."""
+    """The class for ``pkg/msg/Name`` (or a service's ``pkg/srv/Name_Request``), with the
+    type's constants as class attributes, as rosidl's (``GoalStatus.STATUS_SUCCEEDED``)."""
     short = type_name.rsplit("/", 1)[-1]
+    constants = {name: value for name, _kind, value
+                 in default_types().store.fielddefs[type_name][0]}
     return MessageClass(short, (), {"__msgtype__": type_name, "__module__": __name__,
-                                    "__doc__": f"The ROS 2 message {type_name}."})
+                                    "__doc__": f"The ROS 2 message {type_name}.",
+                                    **constants})
 
 
 def service_class(type_name: str) -> type:

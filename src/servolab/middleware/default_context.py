@@ -21,7 +21,8 @@ import threading
 from .context import Context
 from .errors import TransportError
 from .messages import MessageTypes
-from .transport import TRANSPORTS, TransportOptions, environment_domain_id
+from .transport import TransportOptions, environment_domain_id
+from .transports import TRANSPORTS
 
 
 class _Holder:

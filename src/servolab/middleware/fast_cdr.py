@@ -137,8 +137,11 @@ def _plain_fields(cls: type, fields: list[str]) -> dict[str, Any] | None:
             or getattr(getattr(cls.__init__, "__code__", None), "co_filename", "") != "<string>"):
         return None
     given = [object() for _ in fields]
+    # (probed without the field checks MessageTypes puts on assignment, which the generated
+    # code does not go through: it writes the instance's dict, with values it read itself)
+    probe = type(cls.__name__, (cls,), {"__setattr__": object.__setattr__})
     try:
-        made = cls(*given)
+        made = probe(*given)
     except Exception:
         return None  # it checks its arguments: call it
     held = dict(vars(made))
@@ -156,7 +159,16 @@ def _plain_fields(cls: type, fields: list[str]) -> dict[str, Any] | None:
 
 
 #: Names every generated module sees.
-_NAMESPACE: dict[str, Any] = {"_new": object.__new__, "_fb": np.frombuffer, "_u8": np.uint8,
+def _u8view(value: Any) -> np.ndarray:
+    """A primitive sequence's bytes: a numpy array's (what servolab reads and defaults to), or
+    an ``array.array``'s (what assigning a list to the field makes, as rclpy does)."""
+    if type(value) is np.ndarray:
+        return value.view(np.uint8)
+    return np.frombuffer(value, dtype=np.uint8)
+
+
+_NAMESPACE: dict[str, Any] = {"_new": object.__new__, "_u8view": _u8view,
+                              "_fb": np.frombuffer, "_u8": np.uint8,
                               "_blob": _blob, "_bad": _bad, "_SerdeError": SerdeError, "_str": str,
                               "_Z": tuple(bytes(n) for n in range(8)),
                               "_U32LE": struct.Struct("<I"), "_U32BE": struct.Struct(">I")}
@@ -367,7 +379,7 @@ class _SerGen(_Gen):
         (``.view(uint8)``, which must have the count's bytes exactly)."""
         size = _SIZES[base]
         raw, count = self.src.name("r"), self.src.name("n")
-        self.pre.append(f"{raw} = {value}.view(_u8)")
+        self.pre.append(f"{raw} = _u8view({value})")
         self.pre.append(f"{count} = len({value})")
         self.pre.append(f"if {raw}.shape != ({count} * {size},): "
                         "raise _bad('not a flat array of the sequence')")
@@ -453,10 +465,12 @@ class _DeGen(_Gen):
         extra = _plain_fields(cls, [field for field, _ in values])
         if extra is not None:
             self.emit(f"{name} = _new({const})")
+            held = self.src.name("d")
+            self.emit(f"{held} = {name}.__dict__")
             for field, value in values:
-                self.emit(f"{name}.{field} = {value}")
+                self.emit(f"{held}[{field!r}] = {value}")
             for field, default in extra.items():
-                self.emit(f"{name}.{field} = {self.src.const('K', default)}")
+                self.emit(f"{held}[{field!r}] = {self.src.const('K', default)}")
         else:
             self.emit(f"{name} = {const}({', '.join(value for _, value in values)})")
 

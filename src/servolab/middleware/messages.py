@@ -15,6 +15,7 @@ them) into a message, checking every field, and a message back into plain values
 
 from __future__ import annotations
 
+import array
 import difflib
 import re
 import struct
@@ -210,14 +211,20 @@ def canonical_name(name: str) -> str:
     return name.strip()
 
 
+#: The interface packages servolab ships (what rosbags' store lacks: action_msgs' CancelGoal,
+#: test_msgs' and example_interfaces' Fibonacci, ...), read as a lab's own are.
+SHIPPED_INTERFACES = Path(__file__).resolve().parents[1] / "interfaces" / "packages"
+
+
 class MessageTypes:
     """The message and service types servolab knows, and their CDR bytes.
 
     One instance per process is enough (building it parses every ``.msg`` text once); pass it
     to whatever needs it rather than reaching for a global.
 
-    Beside rosbags' ROS 2 Jazzy types and servolab's own, it registers the interface
-    packages found in ``interface_path`` (folders; by default those
+    Beside rosbags' ROS 2 Jazzy types, servolab's own and the packages it ships
+    (:data:`SHIPPED_INTERFACES`), it registers the interface packages found in
+    ``interface_path`` (folders; by default those
     ``SERVOLAB_INTERFACE_PATH`` lists, as ROS reads ``AMENT_PREFIX_PATH``): a lab's own
     ``.msg``, ``.srv`` and ``.action`` files (:mod:`.interface_files`).
     """
@@ -229,6 +236,7 @@ class MessageTypes:
         self.cdr = FastCdr(self.store)
         self._readers: dict[str, Callable[[bytes | memoryview], Any]] = {}
         self._fix_service_event_info()
+        self._register({})
         self.register_msgs(DYNAMIXEL_MSGS)
         self.register_msgs(TURTLEBOT3_MSGS)
         for name, (request, response) in SERVICES.items():
@@ -236,10 +244,17 @@ class MessageTypes:
         if extra_msgs:
             self.register_msgs(extra_msgs)
         roots = environment_roots() if interface_path is None else list(interface_path)
-        for folder in find_packages(roots):
+        for folder in find_packages([SHIPPED_INTERFACES, *roots]):
             self.register_package(read_package(folder))
 
     # -- registering ------------------------------------------------------------------------
+
+    def _register(self, types: Any) -> None:
+        """Register types with the store, and check assignments to their fields."""
+        self.store.register(types)
+        for name, cls in self.store.types.items():
+            if "__setattr__" not in vars(cls):
+                cls.__setattr__ = _field_setter(self, name)  # type: ignore[method-assign]
 
     def _fix_service_event_info(self) -> None:
         """rosbags 0.11 declares ``ServiceEventInfo.client_gid`` as ``char[16]``; ROS 2 Jazzy's
@@ -265,7 +280,7 @@ class MessageTypes:
             except Exception as exc:  # rosbags raises its own parser errors
                 raise MessageError(f"message definition {name}: {exc}") from None
         self._check_references(types)
-        self.store.register(_as_rosidl(types))
+        self._register(_as_rosidl(types))
 
     def register_service(self, name: str, request: str, response: str) -> ServiceType:
         """Register a service from its request and response text, as rosidl generates it:
@@ -300,12 +315,12 @@ class MessageTypes:
             except Exception as exc:  # rosbags raises its own parser errors
                 raise MessageError(f"action definition {name}: {exc}") from None
         self._check_references(types, also=(f"{name}_Feedback",))
-        self.store.register(_as_rosidl(types))
+        self._register(_as_rosidl(types))
         self._register_service(f"{name}_SendGoal", f"{uuid}{name}_Goal goal\n",
                                "bool accepted\nbuiltin_interfaces/Time stamp\n")
         self._register_service(f"{name}_GetResult", uuid,
                                f"int8 status\n{name}_Result result\n")
-        self.store.register(get_types_from_msg(
+        self._register(get_types_from_msg(
             f"{name}_Goal goal\n{name}_Result result\n{name}_Feedback feedback\n"
             f"{name}_SendGoal send_goal_service\n{name}_GetResult get_result_service\n"
             f"{name}_FeedbackMessage feedback_message\n", name))
@@ -369,7 +384,7 @@ class MessageTypes:
 
         types = {srv(k): srv(v) for k, v in types.items()}
         self._check_references(types)
-        self.store.register(_as_rosidl(types))
+        self._register(_as_rosidl(types))
 
     # -- looking up -------------------------------------------------------------------------
 
@@ -533,7 +548,7 @@ class MessageTypes:
                 kwargs[field] = self._field(desc, value[field], where)
             else:
                 kwargs[field] = self._field_default(desc, where)
-        return self.store.types[name](**kwargs)
+        return _built(self.store.types[name], kwargs)
 
     # rosbags describes a field as (Nodetype, detail); what the detail is depends on the
     # Nodetype, so these branch on ``desc[0]``, which tells the type checker which one it is.
@@ -577,6 +592,73 @@ class MessageTypes:
         if sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:
             return np.array(items, dtype=_DTYPES[sub[1][0]])
         return items
+
+    def _assignment_checks(self, name: str) -> dict[str, Callable[[Any], Any]]:
+        """Per field of ``name``, what checks and converts a value assigned to it."""
+        constants, fields = self.store.fielddefs[name]
+        checks = {field: self._assignment_check(desc, f"{name}.{field}")
+                  for field, desc in fields}
+        for constant, _kind, fixed in constants:  # rosbags' __init__ sets them as they are
+            def keep(value: Any, constant: str = constant, fixed: Any = fixed) -> Any:
+                if value != fixed:
+                    raise MessageError(f"{name}.{constant} is a constant ({fixed!r})")
+                return value
+            checks[constant] = keep
+
+        def msgtype(value: Any) -> Any:  # what rosbags' __init__ sets: the type's own name
+            if value != name:
+                raise MessageError(f"{name}.__msgtype__ is {name!r}, not {value!r}")
+            return value
+        checks["__msgtype__"] = msgtype
+        return checks
+
+    def _assignment_check(self, desc: Any, where: str) -> Callable[[Any], Any]:
+        if desc[0] == Nodetype.BASE:
+            kind, bound = desc[1]
+            if kind in _FLOATS:
+                def scalar(value: Any) -> Any:
+                    return value if type(value) is float else self._scalar(kind, value, where)
+                return scalar
+            if kind == "byte":  # an octet: rosbags reads it signed, ROS writes 0..255
+                def octet(value: Any) -> Any:
+                    if isinstance(value, bool) or not isinstance(value, int | np.integer) \
+                            or not -128 <= int(value) <= 255:
+                        raise MessageError(f"{where}: {value!r} is not a byte (0..255)")
+                    return int(value)
+                return octet
+            return lambda value: self._scalar(kind, value, where, bound)
+        if desc[0] == Nodetype.NAME:
+            nested = desc[1]
+
+            def message(value: Any) -> Any:
+                if getattr(value, "__msgtype__", None) != nested:
+                    raise MessageError(f"{where}: {value!r} is not a {nested}")
+                return value
+            return message
+        kind = desc[0]
+        sub, count = desc[1]
+        element = sub[1][0] if sub[0] == Nodetype.BASE else ""
+        code = _TYPECODES.get(element) if kind == Nodetype.SEQUENCE else None
+
+        def sequence(value: Any) -> Any:
+            if type(value) is np.ndarray and element in _DTYPES:
+                if element == "byte" and value.dtype == np.int8:
+                    return value  # byte[] as rosbags reads it: the same octets
+                return self._array(element, value, kind, count, where)
+            if code is not None and isinstance(value, array.array) \
+                    and value.typecode == code and not (count and len(value) > count):
+                return value
+            if isinstance(value, str) or not isinstance(
+                    value, list | tuple | array.array | np.ndarray | bytes | bytearray
+                    | memoryview):
+                raise MessageError(f"{where}: {value!r} is not a sequence")
+            if not isinstance(value, bytes | bytearray | memoryview):
+                value = list(value)
+            checked = self._field(desc, value, where)
+            if code is not None:
+                return array.array(code, checked.tobytes())
+            return checked
+        return sequence
 
     @staticmethod
     def _array(element: str, value: np.ndarray, kind: Nodetype, count: int,
@@ -661,7 +743,7 @@ class MessageTypes:
         if hasattr(msg, "__msgtype__"):
             _, fields = self.store.fielddefs[msg.__msgtype__]
             return {f: self.to_value(getattr(msg, f)) for f, _ in fields}
-        if isinstance(msg, np.ndarray):
+        if isinstance(msg, np.ndarray | array.array):
             return msg.tolist()
         if isinstance(msg, list | tuple):
             return [self.to_value(v) for v in msg]
@@ -743,7 +825,58 @@ def copy_message(msg: Any) -> Any:
     lists are copied, strings and numbers (immutable) shared. This is how in-process delivery
     keeps rclpy's value semantics (a publisher may change and republish the object it
     published) at a fraction of ``copy.deepcopy``'s cost (``benchmarks/middleware.py``)."""
-    return type(msg)(*[_copy_value(getattr(msg, name)) for name in _field_names(type(msg))])
+    cls = type(msg)
+    return _built(cls, {name: _copy_value(getattr(msg, name)) for name in _field_names(cls)})
+
+
+def _built(cls: type, values: dict[str, Any]) -> Any:
+    """A message of ``cls`` holding ``values`` (checked already, or copies of a message's):
+    set as its dataclass ``__init__`` sets them (with rosbags' constants and ``__msgtype__``,
+    which it sets too), without the checks assignments go through."""
+    msg: Any = object.__new__(cls)
+    held = msg.__dict__
+    fixed = _FIXED.get(cls)
+    if fixed is None:
+        fixed = _FIXED[cls] = {f.name: f.default for f in fields(cls)
+                               if f.name == "__msgtype__" or f.name.isupper()}
+    held.update(fixed)
+    held.update(values)
+    return msg
+
+
+#: Each message class's constants and ``__msgtype__`` with their values (a cache).
+_FIXED: dict[type, dict[str, Any]] = {}
+
+
+#: What an assignment to a primitive *sequence* makes of a list: rclpy's ``array.array``
+#: of the element's type code (rosidl_generator_py), so that ``.append`` works as in rclpy.
+_TYPECODES = {"int8": "b", "uint8": "B", "byte": "B", "char": "B", "int16": "h",
+              "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
+              "float32": "f", "float64": "d"}
+
+
+def _field_setter(types: MessageTypes, name: str) -> Callable[[Any, str, Any], None]:
+    """The ``__setattr__`` of message class ``name``: as rclpy's generated properties do, an
+    assignment is checked against the field's type, naming the field (a wrong type, an
+    integer out of range, a fixed array of the wrong length, a field the type does not
+    have), and converted: an int to a float field becomes a float, a list to a primitive
+    sequence an ``array.array`` (rclpy's), to a fixed array a numpy array. So a message
+    that publishes in one process publishes over every transport."""
+    checks: dict[str, Callable[[Any], Any]] = {}
+    set_field = object.__setattr__
+
+    def __setattr__(self: Any, field: str, value: Any) -> None:
+        check = checks.get(field)
+        if check is None:
+            if not checks:
+                checks.update(types._assignment_checks(name))
+            check = checks.get(field)
+            if check is None:
+                fields = sorted(f for f in checks if f != "__msgtype__" and not f.isupper())
+                raise AttributeError(f"{name} has no field {field!r} (it has "
+                                     f"{', '.join(fields) or 'none'})")
+        set_field(self, field, check(value))
+    return __setattr__
 
 
 def _field_names(cls: type) -> tuple[str, ...]:

@@ -371,6 +371,13 @@ class Node:
         """The context's clock (wall time, or a simulation's): ``now()``, ``sleep()``."""
         return self.context.clock
 
+    def own(self, entity: Any) -> Any:
+        """Keep an entity made outside this node's ``create_*`` (an action's services,
+        clients and topics) so that :meth:`destroy` and :meth:`destroy_entity` release it
+        with the rest; returns it."""
+        self._entities.append(entity)
+        return entity
+
     def destroy_entity(self, entity: Any) -> bool:
         """Destroy one publisher, subscription, service, client or timer of this node (as
         rclpy's ``destroy_subscription`` and its kin); False if it is not this node's."""

@@ -50,7 +50,9 @@ VENDOR_ECLIPSE = b"\x01\x10"
 
 DISCOVERY_RANGES = ("LOCALHOST", "SUBNET", "OFF", "SYSTEM_DEFAULT")
 
-_DDS_TYPE = re.compile(r"^(\w+)::(msg|srv)::dds_::(\w+?)_(Request_|Response_)?$")
+#: an action's parts are ``pkg::action::dds_::<Action>_SendGoal_Request_`` (its services'
+#: halves) and ``…_FeedbackMessage_`` (its feedback topic), as rosidl names them
+_DDS_TYPE = re.compile(r"^(\w+)::(msg|srv|action)::dds_::(\w+?)_(Request_|Response_)?$")
 
 
 def topic_name(topic: str) -> str:
@@ -90,9 +92,9 @@ def ros_name(topic: str, dds_type: str) -> DdsName | None:
         return None
     pkg, kind, short, half = found.groups()
     type_name = f"{pkg}/{kind}/{short}"
-    if topic.startswith(TOPIC_PREFIX + "/") and kind == "msg" and half is None:
+    if topic.startswith(TOPIC_PREFIX + "/") and kind != "srv" and half is None:
         return DdsName("topic", topic[len(TOPIC_PREFIX):], type_name)
-    if kind != "srv":
+    if kind == "msg":
         return None
     if (topic.startswith(REQUEST_PREFIX + "/") and topic.endswith("Request")
             and half == "Request_"):

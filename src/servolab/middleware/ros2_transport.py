@@ -78,11 +78,28 @@ def _rclpy() -> Any:
         raise TransportError(_NO_RCLPY.format(reason=exc)) from None
 
 
+#: The parts of an action as rosidl_generator_py holds them: ``pkg/action/X_<part>`` is
+#: ``pkg.action.X.<attribute>``.
+_ACTION_PARTS = {"_SendGoal": "Impl.SendGoalService", "_GetResult": "Impl.GetResultService",
+                 "_FeedbackMessage": "Impl.FeedbackMessage", "_Goal": "Goal",
+                 "_Result": "Result", "_Feedback": "Feedback"}
+
+
 def interface_class(type_name: str) -> Any:
-    """The installed ROS 2's Python class of ``pkg/msg/Name`` or ``pkg/srv/Name``."""
+    """The installed ROS 2's Python class of ``pkg/msg/Name`` or ``pkg/srv/Name``, or of an
+    action's part (``pkg/action/Name_SendGoal``: ``pkg.action.Name.Impl.SendGoalService``)."""
     package, kind, name = type_name.split("/")
+    path = [name]
+    if kind == "action":
+        for suffix, attribute in _ACTION_PARTS.items():
+            if name.endswith(suffix):
+                path = [name[:-len(suffix)], *attribute.split(".")]
+                break
     try:
-        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+        found: Any = importlib.import_module(f"{package}.{kind}")
+        for attribute in path:
+            found = getattr(found, attribute)
+        return found
     except (ImportError, AttributeError) as exc:
         raise TransportError(
             f"the installed ROS 2 has no Python type {type_name} ({exc}): install or build "

@@ -52,14 +52,20 @@ def error_reason(encoding: str) -> str | None:
 
 
 class Service:
-    """Answers requests: ``handler(request, response) -> response``, as in rclpy."""
+    """Answers requests: ``handler(request, response) -> response``, as in rclpy.
+
+    With ``answers_later`` the handler is ``handler(request, respond)`` instead, and the
+    request is answered when ``respond(response)`` is called, from any thread, maybe after the
+    handler returned (an action's ``get_result``, answered when its goal ends): every
+    transport keeps what it needs to answer until then."""
 
     def __init__(self, node: Node, srv: ServiceType, name: str,
-                 handler: Callable[[Any, Any], Any]) -> None:
+                 handler: Callable[[Any, Any], Any], *, answers_later: bool = False) -> None:
         self.node = node
         self.srv = srv
         self.name = name
         self._handler = handler
+        self._answers_later = answers_later
         self._inner = node.context.transport.serve(node.info, name, srv, self._on_request)
 
     def _on_request(self, request: Any, reply: Callable[[Any], None]) -> None:
@@ -74,6 +80,9 @@ class Service:
         try:
             if isinstance(request, bytes | memoryview):
                 request = types.deserialize(request, self.srv.request)
+            if self._answers_later:
+                self._handler(request, self._checked(reply))
+                return
             response = self._handler(request, types.default(self.srv.response))
             if getattr(response, "__msgtype__", None) != self.srv.response:
                 raise ServiceError(f"handler of {self.name} returned {response!r}, not a "
@@ -83,6 +92,25 @@ class Service:
             reply(exc)
             return
         reply(response)
+
+    def _checked(self, reply: Callable[[Any], None]) -> Callable[[Any], None]:
+        """``reply`` for a later answer: once, and a response of the service's type only (an
+        exception is the failure it reports)."""
+        answered = False
+
+        def respond(response: Any) -> None:
+            nonlocal answered
+            if answered:
+                raise ServiceError(f"service {self.name}: a request is answered once")
+            answered = True
+            if not isinstance(response, Exception) \
+                    and getattr(response, "__msgtype__", None) != self.srv.response:
+                error = ServiceError(f"handler of {self.name} answered {response!r}, not a "
+                                     f"{self.srv.response}")
+                self.node.get_logger().error("service %s failed: %s", self.name, error)
+                response = error
+            reply(response)
+        return respond
 
     def destroy(self) -> None:
         self._inner.close()

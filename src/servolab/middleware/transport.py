@@ -138,9 +138,6 @@ def environment_domain_id() -> int:
     return int(text)
 
 
-#: The transports a context can open: in-process, Zenoh (rmw_zenoh's layout), DDS (rmw_fastrtps'
-#: and rmw_cyclonedds' layout), and an installed ROS 2's own rmw through its rclpy.
-TRANSPORTS = ("local", "zenoh", "dds", "ros2")
 
 
 @dataclass
