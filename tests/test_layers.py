@@ -257,3 +257,19 @@ def test_no_shared_file_names_a_robot() -> None:
     names = _servolabs_robots()
     assert {"armstrong", "seed000", "turtlebot3_waffle", "treadmill", "navigation"} <= set(names)
     assert shared_mentions(names) == []
+
+
+def test_the_transports_never_reach_up_into_the_entities() -> None:
+    """A transport carries bytes for nodes; what a node's publisher, subscription, service or
+    client does is above it (issue 44: the Zenoh transport once imported the service module
+    for the error encoding that is rmw_zenoh's, ``rmw_zenoh.error_encoding``)."""
+    graph = run_time_graph(PACKAGE)
+    below = [f"servolab.middleware.{m}" for m in (
+        "transport", "transports", "local", "inbox", "zenoh_transport", "zenoh_inbox",
+        "rmw_zenoh", "dds_transport", "dds_types", "rmw_dds", "ros2_transport")]
+    above = {f"servolab.middleware.{m}" for m in (
+        "node", "publisher", "subscription", "service", "client", "executor", "context")}
+    assert all(module in graph for module in below), "the checker looks in the wrong place"
+    reaching = {module: sorted(graph[module] & above) for module in below
+                if graph[module] & above}
+    assert reaching == {}

@@ -31,12 +31,14 @@ from servolab.middleware.context import Context
 from servolab.middleware.errors import ServiceError
 from servolab.middleware.node import Node
 from servolab.middleware.rmw_zenoh import (
+    ERROR_ENCODING,
     decode_attachment,
     encode_attachment,
+    error_encoding,
+    error_reason,
     parse_token,
     topic_keyexpr,
 )
-from servolab.middleware.service import ERROR_ENCODING, error_encoding, error_reason
 from tests.waiting import wait_for, wait_for_graph, wait_until
 
 TRIGGER = "std_srvs/srv/Trigger"

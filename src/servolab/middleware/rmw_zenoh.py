@@ -299,3 +299,32 @@ def gid_from(session_id_hex: str, entity_id: int) -> bytes:
     of the two is enough (BLAKE2b, as it is in :mod:`hashlib`)."""
     key = f"{_check('session id', session_id_hex)}/{_check_id(entity_id, 'entity id')}"
     return hashlib.blake2b(key.encode(), digest_size=GID_SIZE).digest()
+
+
+# -- a failed service handler's reply -------------------------------------------------------
+
+#: The Zenoh encoding that marks a reply as a failed handler's (see the module docstring).
+ERROR_ENCODING = "servolab/service-error"
+#: Zenoh writes an encoding's schema with a one-byte length: the whole encoding text must fit
+#: in 255 bytes, or zenoh-python's transmit pipeline panics (and the session with it).
+_ENCODING_BYTES = 255
+
+
+def error_encoding(reason: str) -> str:
+    """``servolab/service-error;<reason>``: the reason on one line, cut (at a character
+    boundary, ending in ``…``) so that the whole text fits Zenoh's 255 bytes."""
+    room = _ENCODING_BYTES - len(ERROR_ENCODING) - 1
+    text = " ".join(reason.split()).encode()
+    if len(text) > room:
+        text = text[:room - 3].decode(errors="ignore").encode() + "…".encode()
+    return f"{ERROR_ENCODING};{text.decode()}"
+
+
+def error_reason(encoding: str) -> str | None:
+    """The reason a reply's encoding (its text, e.g. ``str(sample.encoding)``) gives for a
+    failed handler, or None if the reply is a real response."""
+    if encoding == ERROR_ENCODING:
+        return "the service's handler failed"
+    if encoding.startswith(f"{ERROR_ENCODING};"):
+        return encoding[len(ERROR_ENCODING) + 1:] or "the service's handler failed"
+    return None

@@ -7,9 +7,10 @@ rmw_zenoh client can take: an OK reply whose payload is the CDR of a default res
 field zero or empty) with rmw_zenoh's attachment, because rmw_zenoh's client drops an error
 reply and would wait for ever (``rmw_client_data.cpp``, ``ClientData::send_request``: ``if
 (!reply.is_ok()) { log; return; }``). The failure rides in the reply's Zenoh *encoding*,
-:data:`ERROR_ENCODING` with the reason as its schema (:func:`error_encoding`), which rmw_zenoh
-never reads (``ClientData::take_response`` reads payload and attachment only); servolab's
-client sees it (:func:`error_reason`) and raises ServiceError with the reason.
+:data:`~.rmw_zenoh.ERROR_ENCODING` with the reason as its schema
+(:func:`~.rmw_zenoh.error_encoding`), which rmw_zenoh never reads
+(``ClientData::take_response`` reads payload and attachment only); servolab's client sees it
+(:func:`~.rmw_zenoh.error_reason`) and raises ServiceError with the reason.
 """
 
 from __future__ import annotations
@@ -22,33 +23,6 @@ from .messages import ServiceType
 
 if TYPE_CHECKING:
     from .node import Node
-
-
-#: The Zenoh encoding that marks a reply as a failed handler's (see the module docstring).
-ERROR_ENCODING = "servolab/service-error"
-#: Zenoh writes an encoding's schema with a one-byte length: the whole encoding text must fit
-#: in 255 bytes, or zenoh-python's transmit pipeline panics (and the session with it).
-_ENCODING_BYTES = 255
-
-
-def error_encoding(reason: str) -> str:
-    """``servolab/service-error;<reason>``: the reason on one line, cut (at a character
-    boundary, ending in ``…``) so that the whole text fits Zenoh's 255 bytes."""
-    room = _ENCODING_BYTES - len(ERROR_ENCODING) - 1
-    text = " ".join(reason.split()).encode()
-    if len(text) > room:
-        text = text[:room - 3].decode(errors="ignore").encode() + "…".encode()
-    return f"{ERROR_ENCODING};{text.decode()}"
-
-
-def error_reason(encoding: str) -> str | None:
-    """The reason a reply's encoding (its text, e.g. ``str(sample.encoding)``) gives for a
-    failed handler, or None if the reply is a real response."""
-    if encoding == ERROR_ENCODING:
-        return "the service's handler failed"
-    if encoding.startswith(f"{ERROR_ENCODING};"):
-        return encoding[len(ERROR_ENCODING) + 1:] or "the service's handler failed"
-    return None
 
 
 class Service:

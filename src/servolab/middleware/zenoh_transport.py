@@ -50,6 +50,8 @@ from .rmw_zenoh import (
     decode_attachment,
     encode_attachment,
     entity_token,
+    error_encoding,
+    error_reason,
     gid_from,
     node_token,
     parse_token,
@@ -316,10 +318,9 @@ class ZenohTransport(Transport):
         key, with the attachment's sequence number and GID echoed (a fresh timestamp), as
         ``ServiceData::send_response`` writes it. When the handler fails (raises, returns a
         wrong type, or its response does not serialize) the reply is still OK, carrying a
-        default response, and is marked by its encoding (:func:`.service.error_encoding`):
+        default response, and is marked by its encoding (:func:`.rmw_zenoh.error_encoding`):
         rmw_zenoh's client drops error replies and would never learn of the failure. A query
         without that attachment is no ROS client's: it gets a Zenoh error reply."""
-        from .service import error_encoding
 
         key = self._key(name, srv.name)
 
@@ -375,9 +376,8 @@ class ZenohTransport(Transport):
     def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
         """A Zenoh ``get`` as rmw_zenoh's client sends it (``rmw_client_data.cpp``: target
         ALL_COMPLETE, rmw_zenoh's attachment); the first reply decides. A reply marked as a
-        failed handler's (:func:`.service.error_reason`) or a Zenoh error reply is a
+        failed handler's (:func:`.rmw_zenoh.error_reason`) or a Zenoh error reply is a
         :class:`ServiceError` naming the reason."""
-        from .service import error_reason
 
         future: Future[Any] = Future()
         payload = self.types.serialize(request, srv.request)
