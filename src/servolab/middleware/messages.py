@@ -895,6 +895,8 @@ def _copy_value(value: Any) -> Any:
         return copy_message(value)
     if isinstance(value, np.ndarray):
         return value.copy()
+    if isinstance(value, array.array):  # a list assigned to a sequence (rclpy's array.array)
+        return array.array(value.typecode, value)
     if isinstance(value, list):
         return [_copy_value(v) for v in value]
     return value

@@ -313,10 +313,14 @@ class Ros2Transport(Transport):
                     # rmw has no error reply: the client's wait ends at its timeout
                     log.error("service %s failed: %s", name, response)
                     return
-                cdr = bytes(self.types.serialize(response, srv.response))
-                with contextlib.suppress(invalid_handle):  # closed before its answer was ready
+                try:
+                    cdr = bytes(self.types.serialize(response, srv.response))
                     service.send_response(
                         serialization.deserialize_message(cdr, srv_class.Response), header)
+                except invalid_handle:
+                    pass  # the service closed before its answer was ready
+                except Exception as exc:  # the client went away (rclpy's RCLError), ...
+                    log.warning("service %s: the answer could not be sent: %s", name, exc)
 
             try:
                 handler(self.types.deserialize_start(
@@ -327,9 +331,9 @@ class Ros2Transport(Transport):
         self._executor.answers[id(service)] = answer
 
         def close() -> None:
-            self._executor.answers.pop(id(service), None)
             with contextlib.suppress(Exception):  # the node went first
                 ros_node.destroy_service(service)
+            self._executor.answers.pop(id(service), None)
         return Declared(close)
 
     def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:

@@ -1,6 +1,8 @@
 """A service server: one name, one type, one handler (rclpy's ``Service``).
 
-A request is always answered, as a ROS 2 client expects. A handler that raises, or returns
+A request is answered, as a ROS 2 client expects (over DDS and an installed ROS 2's rmw a
+failed handler sends nothing: they have no error reply, and the client's wait ends at its
+timeout). A handler that raises, or returns
 something that is not the service's response, is logged; in-process the caller's future then
 holds a :class:`~.errors.ServiceError` with the reason. Over Zenoh the reply is still what an
 rmw_zenoh client can take: an OK reply whose payload is the CDR of a default response (every
@@ -15,6 +17,7 @@ reply and would wait for ever (``rmw_client_data.cpp``, ``ClientData::send_reque
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -55,7 +58,12 @@ class Service:
             if isinstance(request, bytes | memoryview):
                 request = types.deserialize(request, self.srv.request)
             if self._answers_later:
-                self._handler(request, self._checked(reply))
+                respond = self._checked(reply)
+                try:
+                    self._handler(request, respond)
+                except Exception as exc:  # reported once: an answer given stands
+                    self.node.get_logger().error("service %s failed: %s", self.name, exc)
+                    respond(exc, quiet=True)
                 return
             response = self._handler(request, types.default(self.srv.response))
             if getattr(response, "__msgtype__", None) != self.srv.response:
@@ -67,16 +75,21 @@ class Service:
             return
         reply(response)
 
-    def _checked(self, reply: Callable[[Any], None]) -> Callable[[Any], None]:
+    def _checked(self, reply: Callable[[Any], None]) -> Callable[..., None]:
         """``reply`` for a later answer: once, and a response of the service's type only (an
-        exception is the failure it reports)."""
+        exception is the failure it reports). ``quiet``: a failure after the answer was given
+        is dropped, not raised (the handler raised after answering)."""
         answered = False
+        lock = threading.Lock()
 
-        def respond(response: Any) -> None:
+        def respond(response: Any, *, quiet: bool = False) -> None:
             nonlocal answered
-            if answered:
+            with lock:
+                again, answered = answered, True
+            if again:
+                if quiet:
+                    return
                 raise ServiceError(f"service {self.name}: a request is answered once")
-            answered = True
             if not isinstance(response, Exception) \
                     and getattr(response, "__msgtype__", None) != self.srv.response:
                 error = ServiceError(f"handler of {self.name} answered {response!r}, not a "

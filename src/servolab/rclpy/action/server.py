@@ -81,6 +81,8 @@ _TRANSITIONS = {
     (STATUS_CANCELING, GoalEvent.CANCELED): STATUS_CANCELED,
 }
 _ACTIVE = (STATUS_ACCEPTED, STATUS_EXECUTING, STATUS_CANCELING)
+#: the states a cancel request can move to CANCELING (rcl_action_goal_handle_is_cancelable)
+_CANCELABLE = (STATUS_ACCEPTED, STATUS_EXECUTING)
 
 
 class ActionError(MiddlewareError):
@@ -170,6 +172,8 @@ class ServerGoalHandle:
         return self._status == STATUS_CANCELING
 
     def _update_state(self, event: GoalEvent) -> None:
+        if self._server.destroyed:
+            return  # the server is gone: nothing left to tell (rclpy ignores it too)
         with self._lock:
             state = _TRANSITIONS.get((self._status, event))
             if state is None:
@@ -192,7 +196,7 @@ class ServerGoalHandle:
         if getattr(feedback, "__msgtype__", None) != expected:
             raise TypeError(f"feedback of {self._server.name} is a {expected}, not "
                             f"{getattr(feedback, '__msgtype__', type(feedback).__name__)}")
-        if not self.is_active:
+        if not self.is_active or self._server.destroyed:
             return
         self._server.feedback_publisher.publish(self._server.node.message(
             f"{self._server.type_name}_FeedbackMessage", goal_id=self.goal_id,
@@ -251,6 +255,8 @@ class ActionServer:
         self._group = callback_group or getattr(node, "default_callback_group", None)
         self.result_timeout = float(result_timeout)
         self._lock = threading.RLock()
+        #: set by :meth:`destroy`: goal handles still held change nothing after it
+        self.destroyed = False
         self._goal_handles: dict[bytes, ServerGoalHandle] = {}
         self._result_futures: dict[bytes, Future] = {}
         names = action_names(self.name)
@@ -317,13 +323,9 @@ class ActionServer:
                        execute_callback: Callable[[ServerGoalHandle], Any] | None) -> None:
         callback = execute_callback or self._execute_callback
 
-        def execute() -> None:
-            self._execute_goal(callback, goal_handle)
-
-        if self._group is not None:
-            self.node.context.executor.submit(lambda: self._group.dispatch(execute))
-        else:
-            self.node.context.executor.submit(execute)
+        # a task of the executor outside any callback group, as rclpy's create_task: under a
+        # multi-threaded executor goals run at once and a cancel is served while one runs
+        self.node.context.executor.submit(lambda: self._execute_goal(callback, goal_handle))
 
     def _execute_goal(self, execute_callback: Callable[[ServerGoalHandle], Any],
                       goal_handle: ServerGoalHandle) -> None:
@@ -332,7 +334,7 @@ class ActionServer:
         try:
             result = run_callback(node, execute_callback, goal_handle)
         except Exception as exc:
-            node.get_logger().error(f"Error raised in execute callback: {exc}")
+            node.get_logger().error(f"Error raised in execute callback: {exc!r}")
             result = None
         if result is None or getattr(result, "__msgtype__", None) != \
                 f"{self.type_name}_Result":
@@ -364,30 +366,32 @@ class ActionServer:
     def _on_cancel_goal(self, request: Any, respond: Callable[[Any], None]) -> None:
         """rcl_action's cancel policy (``rcl_action_process_cancel_request``): a zero id and
         zero stamp cancel every goal; a zero id and a stamp, those accepted at or before it;
-        an id, that goal, and with a stamp also those accepted at or before it. Only active
-        goals can be canceled; then each goes to the cancel callback."""
+        an id, that goal, and with a stamp also those accepted at or before it. Only a goal
+        ACCEPTED or EXECUTING can be canceled (one already CANCELING cannot be again); each
+        goes to the cancel callback. The return code is ERROR_NONE but where an id alone
+        (zero stamp) names no goal the server knows (ERROR_UNKNOWN_GOAL_ID) or one that can
+        no longer be canceled (ERROR_GOAL_TERMINATED)."""
         info = request.goal_info
         wanted = _uuid(info.goal_id)
         any_id = not any(wanted)
+        no_stamp = _is_zero(info.stamp)
         with self._lock:
             handles = list(self._goal_handles.items())
-        candidates: list[ServerGoalHandle] = []
+        known = dict(handles)
         return_code = ERROR_NONE
-        for goal_uuid, handle in handles:
-            by_id = not any_id and goal_uuid == wanted
-            by_stamp = not _is_zero(info.stamp) and \
-                _nanoseconds(handle.goal_info.stamp) <= _nanoseconds(info.stamp)
-            everything = any_id and _is_zero(info.stamp)
-            if (by_id or by_stamp or everything) and handle.is_active:
-                candidates.append(handle)
-        if not candidates:
-            known = {goal_uuid: handle for goal_uuid, handle in handles}
-            if not any_id and wanted not in known:
+        if not any_id and no_stamp:
+            handle = known.get(wanted)
+            if handle is None:
                 return_code = ERROR_UNKNOWN_GOAL_ID
-            elif not any_id and not known[wanted].is_active:
+            elif handle.status not in _CANCELABLE:
                 return_code = ERROR_GOAL_TERMINATED
-            else:
-                return_code = ERROR_REJECTED
+        candidates = [
+            handle for goal_uuid, handle in handles
+            if handle.status in _CANCELABLE and (
+                (any_id and no_stamp)
+                or (not any_id and goal_uuid == wanted)
+                or (not no_stamp
+                    and _nanoseconds(handle.goal_info.stamp) <= _nanoseconds(info.stamp)))]
         canceling = []
         for handle in candidates:
             answer = self._in_group(self._cancel_callback, handle)
@@ -403,14 +407,17 @@ class ActionServer:
     # -- status ----------------------------------------------------------------------------
 
     def publish_status(self) -> None:
-        """Every goal the server keeps, with its state (rcl_action's status array)."""
+        """Every goal the server keeps, with its state (rcl_action's status array), published
+        under the lock so that arrays leave in the order the states changed."""
         node = self.node
         with self._lock:
+            if self.destroyed:
+                return
             statuses = [node.message("action_msgs/msg/GoalStatus", goal_info=handle.goal_info,
                                      status=handle.status)
                         for handle in self._goal_handles.values()]
-        self.status_publisher.publish(node.message("action_msgs/msg/GoalStatusArray",
-                                                   status_list=statuses))
+            self.status_publisher.publish(node.message("action_msgs/msg/GoalStatusArray",
+                                                       status_list=statuses))
 
     def _expire_goals(self) -> None:
         """Forget goals that ended more than ``result_timeout`` s ago (their results too)."""
@@ -427,6 +434,11 @@ class ActionServer:
             self.publish_status()
 
     def destroy(self) -> None:
+        """Leave the graph; goals still running end with nothing more published."""
+        with self._lock:
+            self.destroyed = True
+            self._goal_handles.clear()
+            self._result_futures.clear()
         for entity in self._entities:
             self.node.destroy_entity(entity)
         self._entities.clear()

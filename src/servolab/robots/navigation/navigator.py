@@ -74,8 +74,8 @@ import enum
 import math
 import time
 import uuid
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -442,6 +442,15 @@ class NavigatorNode(Node):
         return np.asarray(np.asarray(self.origin) + (cells[:, ::-1] + 0.5) * self.resolution,
                           dtype=np.float64)
 
+    def plan_points(self, cells: npt.NDArray[np.int64]) -> FloatArray:
+        """The plan through ``cells`` as map points, ending at the goal as it was asked for:
+        navfn appends the exact goal to the cell centres it found (``NavFn::makePlan``), and
+        base_local_planner judges "goal reached" on the plan's last pose, so the goal checker
+        measures xy_goal_tolerance from the requested goal, never from its cell's centre."""
+        assert self.goal is not None
+        points = self.points_of(cells)
+        return np.vstack([points, np.asarray([self.goal], dtype=np.float64)])
+
     def obstacle_distance(self, cell: tuple[int, int]) -> float:
         """The distance (m) from a cell's centre to the nearest occupied cell's centre."""
         assert self.occupied is not None
@@ -530,13 +539,17 @@ class NavigatorNode(Node):
             band = (f"goal ({gx:g}, {gy:g}) lies in the inflated band of an obstacle about "
                     f"{clear:.2f} m away: costmap cost {cost} of 252 (inflation_radius "
                     f"{self.params.inflation_radius:g} m)")
-            plan = self.points_of(cells)
+            plan = self.plan_points(cells)
             length = float(np.sum(np.hypot(*np.diff(plan, axis=0).T)))
-            check = dry_run(self.costmap, plan, self.dwa, resolution=self.resolution,
-                            origin=self.origin, goal_yaw=self.goal_yaw, start=pose,
-                            footprint=self.footprint,
-                            stall_time=self.patience.oscillation_timeout or 10.0,
-                            max_time=30.0 + 3.0 * length / max(self.dwa.max_vel_x, 0.01))
+            def rehearse(dwa: DwaConfig) -> Any:
+                assert self.costmap is not None
+                return dry_run(self.costmap, plan, dwa, resolution=self.resolution,
+                               origin=self.origin, goal_yaw=self.goal_yaw, start=pose,
+                               footprint=self.footprint,
+                               stall_time=self.patience.oscillation_timeout or 10.0,
+                               max_time=30.0 + 3.0 * length / max(dwa.max_vel_x, 0.01))
+
+            check = rehearse(self.dwa)
             if not check.reached:
                 x, y, _ = check.pose
                 where = (f"stops {check.distance:.3f} m from it, beyond xy_goal_tolerance "
@@ -545,18 +558,35 @@ class NavigatorNode(Node):
                          + self.dwa.xy_goal_tolerance else
                          f"stops on the way, at ({x:.2f}, {y:.2f}), {check.distance:.2f} m "
                          f"before it (costmap cost {check.cost} there)")
-                self._abort(
-                    f"{band}; a dry run of DWA on this map {where} ({check.status}): "
-                    f"occdist_scale {self.dwa.occdist_scale:g} outweighs "
-                    f"goal_distance_bias {self.dwa.goal_distance_bias:g} and "
-                    f"path_distance_bias {self.dwa.path_distance_bias:g} near obstacles. Move "
-                    "the goal away from the obstacle or lower occdist_scale")
+                self._abort(f"{band}; a dry run of DWA on this map {where} "
+                            f"({check.status}): {self._deciding(rehearse)}")
                 return False
             self.warnings.append(band)
             self.get_logger().warning(band + "; DWA's dry run reaches it")
         self.planner = planner
         self.status = NavigationStatus.ACTIVE
         return True
+
+    def _deciding(self, rehearse: Callable[[DwaConfig], Any]) -> str:
+        """Which DWA parameter keeps the robot off the goal, found by dry runs with each
+        suspect set to 0 in turn (the first that lets DWA settle on the goal is named), and
+        what to do about it: the message names what decides, not a guess."""
+        d = self.dwa
+        suspects = (
+            ("occdist_scale", f"occdist_scale {d.occdist_scale:g} outweighs "
+             f"goal_distance_bias {d.goal_distance_bias:g} and path_distance_bias "
+             f"{d.path_distance_bias:g} near obstacles"),
+            ("forward_point_distance", f"forward_point_distance {d.forward_point_distance:g} "
+             "m puts the robot's nose target past the goal, into the obstacle's cost"),
+        )
+        for name, why in suspects:
+            zeroed: dict[str, Any] = {name: 0.0}
+            if getattr(d, name) != 0 and rehearse(replace(d, **zeroed)).reached:
+                return (f"{why} (with {name} 0 the dry run reaches it). Move the goal away "
+                        f"from the obstacle or lower {name}")
+        return ("neither occdist_scale nor forward_point_distance alone decides it (a dry run "
+                "with each at 0 does not reach it either). Move the goal away from the "
+                "obstacle")
 
     def _waited_too_long(self, now: float) -> bool:
         """A goal with no map or no pose of the robot for ``start_timeout`` s is refused."""
@@ -590,7 +620,7 @@ class NavigatorNode(Node):
             self.repairs.append(Repair(now, self._pending_change, self._pending_seconds
                                        + time.perf_counter() - started))
             self._pending_change, self._pending_seconds = 0, 0.0
-        plan = self.points_of(cells)
+        plan = self.plan_points(cells)
         if self._last_plan is None or not np.array_equal(self._last_plan, plan):
             self._last_plan = plan
             self.plans.append((now, plan))
@@ -623,7 +653,10 @@ class NavigatorNode(Node):
         if self._recovery_index >= len(self.behaviors):
             after = (f", even after {len(self.behaviors)} recovery behaviour(s)"
                      if self.behaviors else "")
-            self._abort(f"{_GIVEN_UP[trigger]}: {why}{after}")
+            goal = None if self.goal is None else self.cell_of(*self.goal)
+            covered = (f"; {self._goal_covered()}" if self.costs is not None
+                       and goal is not None and not math.isfinite(self.costs[goal]) else "")
+            self._abort(f"{_GIVEN_UP[trigger]}: {why}{after}{covered}")
             return
         behavior = self.behaviors[self._recovery_index]
         self._recovery_index += 1
@@ -661,8 +694,22 @@ class NavigatorNode(Node):
             else self.planner.start
         goal = self.cell_of(*self.goal)
         assert goal is not None
+        if not math.isfinite(self.costs[goal]):
+            # an obstacle covers the goal now: a search from scratch cannot reach it either
+            # (the planner keeps its repairs, and finds the goal again if the obstacle goes)
+            self.get_logger().warning(self._goal_covered())
+            return
         self.planner = DStarLite(self.costs, start, goal)
         self._pending_change, self._pending_seconds = 0, 0.0
+
+    def _goal_covered(self) -> str:
+        assert self.goal is not None and self.costmap is not None
+        goal = self.cell_of(*self.goal)
+        assert goal is not None
+        return (f"goal ({self.goal[0]:g}, {self.goal[1]:g}) is inside an obstacle or within "
+                f"the robot's inscribed radius {self.params.inscribed_radius:.3g} m of one on "
+                f"the current map (costmap {int(self.costmap[goal])}): the map covered it "
+                "after the goal was given")
 
     def _stale(self, now: float) -> bool:
         """True (the wheels stopped) while the pose is older than ``pose_timeout``, as a ROS
