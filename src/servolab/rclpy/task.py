@@ -27,9 +27,10 @@ class Future:
             logging.getLogger("servolab.rclpy").error(
                 "The following exception was never retrieved: %s", self._exception)
 
-    def __await__(self) -> Generator[None, None, Any]:
+    def __await__(self) -> Generator[Future, None, Any]:
+        # it yields itself, so that whoever steps the coroutine can resume it when done
         while not self.done():
-            yield
+            yield self
         return self.result()
 
     def cancel(self) -> None:

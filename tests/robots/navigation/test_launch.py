@@ -27,13 +27,12 @@ def test_a_goal_on_goal_pose_is_reached_by_the_launch_over_zenoh() -> None:
     from servolab.middleware.messages import seconds_of
     from servolab.middleware.node import Node
     from servolab.middleware.transport import TransportOptions
-    from servolab.robots.navigation.navigator import NAV2_MSGS, STATUS_TOPIC
+    from servolab.robots.navigation.navigator import STATUS_TOPIC
     from servolab.robots.navigation.params import DEFAULT_DWA, load_dwa
     from servolab.robots.navigation.tracker_node import LATCHED
 
     with launched(ROOT / "configs" / "navigation.launch.yaml") as (_, endpoint), \
             Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
-        ctx.types.register_msgs(NAV2_MSGS)
         probe = Node(ctx, "probe")
         statuses: list[Any] = []
         truth: list[Any] = []
@@ -75,3 +74,71 @@ def test_a_goal_on_goal_pose_is_reached_by_the_launch_over_zenoh() -> None:
         assert late and min(abs(d) for d in late) < 1.0, late[:5]
         stamp = statuses[-1].status_list[-1].goal_info.stamp
         assert abs(time.time() - seconds_of(stamp)) < 30.0
+
+
+@pytest.mark.slow
+def test_navigate_to_pose_from_the_shell_reaches_the_goal_and_ctrl_c_cancels() -> None:
+    """``servolab action send_goal /navigate_to_pose nav2_msgs/action/NavigateToPose ...
+    --feedback`` against the launch, as a nav2 user sends one: feedback, then SUCCEEDED with
+    the floor's truth within xy_goal_tolerance; a second goal, interrupted with Ctrl-C after its
+    first feedbacks, back to where the robot started, is canceled and the wheels read back
+    still (the floor's odometry)."""
+    import signal
+
+    from servolab.middleware.context import Context
+    from servolab.middleware.messages import seconds_of
+    from servolab.middleware.node import Node
+    from servolab.middleware.transport import TransportOptions
+    from servolab.robots.navigation.params import DEFAULT_DWA, load_dwa
+    from tests.clirun import SERVOLAB
+    from tests.processes import started
+    from tests.waiting import wait_for_line
+
+    def goal(x: float, y: float) -> str:
+        return (f"{{pose: {{header: {{frame_id: map}}, pose: {{position: {{x: {x}, y: {y}}}, "
+                "orientation: {w: 1.0}}}}")
+
+    with launched(ROOT / "configs" / "navigation.launch.yaml") as (_, endpoint), \
+            Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
+        probe = Node(ctx, "probe")
+        truth: list[Any] = []
+        odom: list[Any] = []
+        probe.create_subscription("nav_msgs/msg/Odometry", "/ground_truth", truth.append, 0)
+        probe.create_subscription("nav_msgs/msg/Odometry", "/odom", odom.append, 0)
+        sent = servolab("action", "send_goal", "/navigate_to_pose",
+                        "nav2_msgs/action/NavigateToPose", goal(*GOAL), "--feedback",
+                        "--connect", endpoint, timeout=180)
+        assert sent.returncode == 0, sent.stderr
+        assert "Feedback:\n    current_pose:" in sent.stdout
+        assert sent.stdout.endswith("Goal finished with status: SUCCEEDED\n"), sent.stdout[-500:]
+        # the truth that came while the goal ran waits in the probe's queue: take it all,
+        # and the newest, from after the goal ended, is last
+        ended = time.time()
+        assert ctx.spin_until(lambda: bool(truth) and seconds_of(
+            truth[-1].header.stamp) > ended, timeout=20.0)
+        x, y = truth[-1].pose.pose.position.x, truth[-1].pose.pose.position.y
+        assert math.hypot(x - GOAL[0], y - GOAL[1]) <= load_dwa(DEFAULT_DWA).xy_goal_tolerance \
+            + 0.03
+        with started([*SERVOLAB, "action", "send_goal", "/navigate_to_pose",
+                      "nav2_msgs/action/NavigateToPose", goal(0.6, 0.6), "--feedback",
+                      "--connect", endpoint]) as client:
+            wait_for_line(client, "Feedback:", timeout=120.0)
+            wait_for_line(client, "Feedback:", timeout=30.0)  # it is driving
+            client.send_signal(signal.SIGINT)
+            out, err = client.communicate(timeout=60)
+        assert "Canceling goal...\nGoal canceled.\n" in out, (out[-500:], err[-500:])
+        odom.clear()
+
+        def still() -> bool:
+            recent = odom[-5:]
+            return len(recent) == 5 and all(
+                abs(m.twist.twist.linear.x) < 1e-3 and abs(m.twist.twist.angular.z) < 1e-3
+                for m in recent)
+
+        assert ctx.spin_until(still, timeout=20.0), odom[-5:]
+        # stopped by the cancel, not by arriving: still far from the goal it was given
+        stopped = time.time()
+        assert ctx.spin_until(lambda: seconds_of(truth[-1].header.stamp) > stopped,
+                              timeout=20.0)
+        x, y = truth[-1].pose.pose.position.x, truth[-1].pose.pose.position.y
+        assert math.hypot(x - 0.6, y - 0.6) > 0.3, (x, y)

@@ -174,11 +174,10 @@ def test_goals_come_on_goal_pose_and_move_base_simple_goal() -> None:
     SimpleActionServer::accept_pending_goal aborts it; then EXECUTING 2 for the new one); a
     goal in another frame, or with an all-zero orientation (move_base's "Empty quaternion"),
     is refused."""
-    from servolab.robots.navigation.navigator import NAV2_MSGS, STATUS_TOPIC
+    from servolab.robots.navigation.navigator import STATUS_TOPIC
     from servolab.robots.navigation.tracker_node import LATCHED as STATUS_QOS
 
     rig = Rig(goal=None)
-    rig.context.types.register_msgs(NAV2_MSGS)
     statuses: list[Any] = []
     rig.probe.create_subscription("action_msgs/msg/GoalStatusArray", STATUS_TOPIC,
                                   statuses.append, STATUS_QOS)
@@ -254,3 +253,45 @@ def test_a_goal_an_obstacle_covers_later_is_aborted_saying_so_with_the_wheels_st
     assert "goal (2.5, 1) is inside an obstacle" in rig.node.reason
     assert "the map covered it after the goal was given" in rig.node.reason
     assert (rig.commands[-1].linear.x, rig.commands[-1].angular.z) == (0.0, 0.0)
+
+
+def test_navigate_to_pose_is_served_as_nav2_serves_it() -> None:
+    """nav2's NavigateToPose action (``/navigate_to_pose``, nav2_msgs Jazzy): a client's goal
+    is driven to with feedback (the pose, the distance left); a cancel stops the wheels and
+    ends the goal CANCELED; a goal in another frame is rejected."""
+    from servolab.rclpy.action import ActionClient
+    from servolab.rclpy.action.server import STATUS_CANCELED
+
+    rig = Rig(goal=None)
+    client = ActionClient(rig.probe, "nav2_msgs/action/NavigateToPose", "/navigate_to_pose")
+
+    def goal(x: float, frame: str = "map") -> Any:
+        return rig.probe.message("nav2_msgs/action/NavigateToPose_Goal", pose={
+            "header": {"frame_id": frame},
+            "pose": {"position": {"x": x, "y": 1.0}, "orientation": {"w": 1.0}}})
+
+    try:
+        rig.drive_for(0.4, poses=True)
+        assert client.server_is_ready()
+        feedback: list[Any] = []
+        sent = client.send_goal_async(goal(2.5), feedback_callback=feedback.append)
+        rig.drive_for(1.0, poses=True)
+        handle = sent.result()
+        assert handle.accepted and rig.node.goal == (2.5, 1.0)
+        assert rig.node.status is NavigationStatus.ACTIVE and rig.commands[-1].linear.x > 0
+        assert feedback[-1].feedback.distance_remaining == pytest.approx(2.0, abs=0.05)
+        assert feedback[-1].feedback.current_pose.header.frame_id == "map"
+        canceling = handle.cancel_goal_async()
+        rig.drive_for(0.6, poses=True)
+        answer = canceling.result()
+        assert (answer.return_code, len(answer.goals_canceling)) == (0, 1)
+        ended = handle.get_result_async()
+        rig.drive_for(0.4, poses=True)
+        assert ended.result().status == STATUS_CANCELED
+        assert rig.node.status is NavigationStatus.CANCELED
+        assert (rig.commands[-1].linear.x, rig.commands[-1].angular.z) == (0.0, 0.0)
+        other = client.send_goal_async(goal(2.0, frame="odom"))
+        rig.drive_for(0.4, poses=True)
+        assert not other.result().accepted
+    finally:
+        rig.context.close()

@@ -23,10 +23,13 @@ rcl_action's (``goal_state_machine.c``); an illegal change raises.
 from __future__ import annotations
 
 import inspect
+import os
 import threading
 from collections.abc import Callable
 from enum import Enum
 from typing import Any
+
+import numpy as np
 
 from servolab.middleware.errors import MiddlewareError
 from servolab.middleware.qos import DurabilityPolicy, QoSProfile
@@ -106,8 +109,9 @@ def action_names(resolved: str) -> dict[str, str]:
 
 
 def run_callback(node: Any, callback: Callable[..., Any], *args: Any) -> Any:
-    """Call ``callback(*args)`` as rclpy's ``await_or_execute`` does: a coroutine function's
-    coroutine is run to its end (yielding executor work while it awaits a future)."""
+    """Call ``callback(*args)`` as rclpy's ``await_or_execute`` does, for the callbacks whose
+    answer is wanted at once (goal, cancel, handle-accepted): a coroutine function's coroutine
+    is run to its end, running executor work while it awaits a future."""
     result = callback(*args)
     if not inspect.iscoroutine(result):
         return result
@@ -329,13 +333,52 @@ class ActionServer:
 
     def _execute_goal(self, execute_callback: Callable[[ServerGoalHandle], Any],
                       goal_handle: ServerGoalHandle) -> None:
+        """Run the execute callback and end the goal with what it returns. A coroutine (an
+        ``async def`` callback) is stepped as executor work, each step when the future it
+        awaits is done, so that it holds no thread while it waits (rclpy's tasks); a future
+        returned (a servolab node that ends its goals from its own loop) ends the goal when
+        it is done."""
+        try:
+            result = execute_callback(goal_handle)
+        except Exception as exc:
+            self._goal_failed(exc, goal_handle)
+            return
+        if inspect.iscoroutine(result):
+            self._step(result, goal_handle)
+        elif isinstance(result, Future):
+            result.add_done_callback(lambda done: self._ended(goal_handle, done))
+        else:
+            self._end_goal(goal_handle, result)
+
+    def _step(self, coroutine: Any, goal_handle: ServerGoalHandle) -> None:
+        try:
+            awaited = coroutine.send(None)
+        except StopIteration as stop:
+            self._end_goal(goal_handle, stop.value)
+            return
+        except Exception as exc:
+            self._goal_failed(exc, goal_handle)
+            return
+        if isinstance(awaited, Future):  # resumed when it is done
+            awaited.add_done_callback(lambda _done: self._step(coroutine, goal_handle))
+        else:  # a bare yield: resumed on the executor's next turn
+            self.node.context.executor.submit(lambda: self._step(coroutine, goal_handle))
+
+    def _ended(self, goal_handle: ServerGoalHandle, done: Future) -> None:
+        try:
+            result = done.result()
+        except Exception as exc:
+            self._goal_failed(exc, goal_handle)
+            return
+        self._end_goal(goal_handle, result)
+
+    def _goal_failed(self, exc: Exception, goal_handle: ServerGoalHandle) -> None:
+        self.node.get_logger().error(f"Error raised in execute callback: {exc!r}")
+        self._end_goal(goal_handle, None)
+
+    def _end_goal(self, goal_handle: ServerGoalHandle, result: Any) -> None:
         node = self.node
         goal_uuid = _uuid(goal_handle.goal_id)
-        try:
-            result = run_callback(node, execute_callback, goal_handle)
-        except Exception as exc:
-            node.get_logger().error(f"Error raised in execute callback: {exc!r}")
-            result = None
         if result is None or getattr(result, "__msgtype__", None) != \
                 f"{self.type_name}_Result":
             result = node.message(f"{self.type_name}_Result")
@@ -348,6 +391,23 @@ class ActionServer:
         if future is not None:
             future.set_result(node.message(f"{self.type_name}_GetResult_Response",
                                            status=goal_handle.status, result=result))
+
+    def accept_goal(self, goal: Any) -> ServerGoalHandle:
+        """Accept ``goal`` (a ``<Action>_Goal``) that the server's own node received another
+        way (a pose on ``/goal_pose``, a goal set in code), as nav2's bt_navigator sends one to
+        itself: it gets an id and a status, and is ended by its handle as any other. The
+        caller executes it (``handle.execute(...)``)."""
+        node = self.node
+        goal_id = node.message("unique_identifier_msgs/msg/UUID",
+                               uuid=np.frombuffer(os.urandom(16), dtype=np.uint8).copy())
+        goal_info = node.message("action_msgs/msg/GoalInfo", goal_id=goal_id,
+                                 stamp=node.stamp())
+        goal_handle = ServerGoalHandle(self, goal_info, goal)
+        with self._lock:
+            self._goal_handles[_uuid(goal_id)] = goal_handle
+            self._result_futures[_uuid(goal_id)] = Future(executor=node.context.executor)
+        self.publish_status()
+        return goal_handle
 
     def _on_get_result(self, request: Any, respond: Callable[[Any], None]) -> None:
         goal_uuid = _uuid(request.goal_id)

@@ -2,15 +2,16 @@
 
 In: ``/map`` (``nav_msgs/msg/OccupancyGrid``, the overhead camera's), the robot's pose on
 ``pose_topic`` (``geometry_msgs/msg/PoseStamped`` in the map frame, ``/fused_pose`` by default:
-odometry and camera fused), ``/odom`` for the robot's current velocity, and goals
-(``geometry_msgs/msg/PoseStamped`` in the map frame) on ``/goal_pose`` (nav2's) and
-``/move_base_simple/goal`` (move_base's), besides the one it may be built with. A new goal
-replaces the one being driven to, as move_base preempts. Out: ``/cmd_vel``
-(``geometry_msgs/msg/Twist``) every controller period, ``/plan`` (``nav_msgs/msg/Path``)
-whenever the plan changes, the goal's status as nav2's NavigateToPose action server publishes
-it (``action_msgs/msg/GoalStatusArray`` on ``/navigate_to_pose/_action/status``) and its
-feedback (``nav2_msgs/action/NavigateToPose_FeedbackMessage`` on
-``/navigate_to_pose/_action/feedback``: pose, time, recoveries, distance left).
+odometry and camera fused), ``/odom`` for the robot's current velocity, and goals: nav2's
+``navigate_to_pose`` action (``nav2_msgs/action/NavigateToPose``), served here, and
+``geometry_msgs/msg/PoseStamped`` goals in the map frame on ``/goal_pose`` (nav2's) and
+``/move_base_simple/goal`` (move_base's), which become goals of the same server as nav2's
+bt_navigator sends them to itself, besides the one it may be built with. A new goal replaces
+the one being driven to (it ends ABORTED, as nav2 preempts); a cancel stops the wheels and ends
+the goal CANCELED. Out: ``/cmd_vel`` (``geometry_msgs/msg/Twist``) every controller period,
+``/plan`` (``nav_msgs/msg/Path``) whenever the plan changes, and the action's status and
+feedback (pose, time, recoveries, distance left); the result's ``error_msg`` says why a goal
+was aborted.
 
 **What it thinks**, in the types and on the topics Nav2 uses, so rviz2 or Foxglove draw it
 (conversions in :mod:`~.display`, frame ``map``, metres and radians):
@@ -73,7 +74,6 @@ from __future__ import annotations
 import enum
 import math
 import time
-import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -89,6 +89,8 @@ from ...planning.costmap import inflate, traversal_costs
 from ...planning.dstar_lite import DStarLite
 from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, compute_velocity
 from ...planning.errors import NoPath
+from ...rclpy.action import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
+from ...rclpy.task import Future
 from ..errors import RobotValueError
 from .display import (
     COSTMAP_TOPIC,
@@ -108,27 +110,12 @@ POSE = "geometry_msgs/msg/PoseStamped"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TWIST = "geometry_msgs/msg/Twist"
 PATH = "nav_msgs/msg/Path"
-GOAL_STATUS_ARRAY = "action_msgs/msg/GoalStatusArray"
-FEEDBACK = "nav2_msgs/action/NavigateToPose_FeedbackMessage"
-#: nav2_msgs' NavigateToPose feedback (nav2 Jazzy, nav2_msgs/action/NavigateToPose.action), as
-#: rosidl makes an action's feedback message: the goal's UUID and the feedback
-NAV2_MSGS = {
-    "nav2_msgs/action/NavigateToPose_Feedback": (
-        "geometry_msgs/PoseStamped current_pose\n"
-        "builtin_interfaces/Duration navigation_time\n"
-        "builtin_interfaces/Duration estimated_time_remaining\n"
-        "int16 number_of_recoveries\n"
-        "float32 distance_remaining\n"),
-    FEEDBACK: ("unique_identifier_msgs/UUID goal_id\n"
-               "nav2_msgs/action/NavigateToPose_Feedback feedback\n"),
-}
+#: nav2's action (nav2_msgs/action/NavigateToPose, Jazzy's: servolab ships its definition)
+NAVIGATE_TO_POSE = "nav2_msgs/action/NavigateToPose"
+ACTION_NAME = "/navigate_to_pose"
 #: the topics nav2's NavigateToPose action server publishes on
-STATUS_TOPIC = "/navigate_to_pose/_action/status"
-FEEDBACK_TOPIC = "/navigate_to_pose/_action/feedback"
-#: action_msgs/msg/GoalStatus codes
-STATUS_EXECUTING, STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 2, 4, 5, 6
-#: how many goals the status array lists, the newest last
-KEPT_GOALS = 10
+STATUS_TOPIC = f"{ACTION_NAME}/_action/status"
+FEEDBACK_TOPIC = f"{ACTION_NAME}/_action/feedback"
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -139,6 +126,7 @@ class NavigationStatus(enum.Enum):
     ACTIVE = "driving"
     SUCCEEDED = "goal reached"
     ABORTED = "aborted"
+    CANCELED = "canceled"
 
 
 @dataclass(frozen=True)
@@ -212,10 +200,10 @@ class NavigatorNode(Node):
         self.start_timeout = patience.controller if start_timeout is None else start_timeout
         if not (math.isfinite(self.start_timeout) and self.start_timeout > 0):
             raise RobotValueError(f"start_timeout {start_timeout!r} must be > 0 s")
-        context.types.register_msgs(NAV2_MSGS)
-        self._goals = 0
-        #: goal id -> (accepted at, status code), oldest first
-        self._statuses: dict[bytes, tuple[dict[str, int], int]] = {}
+        #: the goal being driven to, as nav2's action server holds it, and what its
+        #: execution ends with
+        self._handle: ServerGoalHandle | None = None
+        self._ending: Future | None = None
         self._pose_at = -math.inf
         self._stale_since: float | None = None
         #: controller cycles skipped, the wheels stopped, because the pose was too old
@@ -259,8 +247,10 @@ class NavigatorNode(Node):
         self._reset_goal_state(self.now())
         self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
         self.plan_publisher = self.create_publisher(PATH, "/plan", LATCHED)
-        self.status_publisher = self.create_publisher(GOAL_STATUS_ARRAY, STATUS_TOPIC, LATCHED)
-        self.feedback_publisher = self.create_publisher(FEEDBACK, FEEDBACK_TOPIC, 10)
+        self.action_server = ActionServer(
+            self, NAVIGATE_TO_POSE, ACTION_NAME, self._execute,
+            goal_callback=self._check_goal, handle_accepted_callback=self._accepted,
+            cancel_callback=lambda _goal: CancelResponse.ACCEPT)
         self.costmap_publisher = self.create_publisher(OCCUPANCY_GRID, COSTMAP_TOPIC, LATCHED)
         self.local_plan_publisher = self.create_publisher(PATH, LOCAL_PLAN_TOPIC, 10)
         self.driven_path_publisher = self.create_publisher(PATH, DRIVEN_PATH_TOPIC, 10)
@@ -276,7 +266,8 @@ class NavigatorNode(Node):
 
     @property
     def done(self) -> bool:
-        return self.status in (NavigationStatus.SUCCEEDED, NavigationStatus.ABORTED)
+        return self.status in (NavigationStatus.SUCCEEDED, NavigationStatus.ABORTED,
+                               NavigationStatus.CANCELED)
 
     # -- goals ---------------------------------------------------------------------------------
 
@@ -302,26 +293,83 @@ class NavigatorNode(Node):
 
     def set_goal(self, x: float, y: float, yaw: float | None = None) -> None:
         """Drive to ``(x, y)`` (map frame, m), ending at ``yaw`` (rad; None: any), replacing
-        the goal being driven to."""
+        the goal being driven to: accepted by the node's own NavigateToPose server, as
+        nav2's bt_navigator sends a ``/goal_pose`` to itself, so it has an id and a status."""
         gx, gy = float(x), float(y)
         if not (math.isfinite(gx) and math.isfinite(gy)) or (
                 yaw is not None and not math.isfinite(yaw)):
             raise RobotValueError(f"goal ({gx!r}, {gy!r}, yaw {yaw!r}) must be finite numbers")
-        if self.goal is not None and not self.done:
+        handle = self.action_server.accept_goal(self.message(
+            f"{NAVIGATE_TO_POSE}_Goal", pose={"header": {"stamp": self.stamp(),
+                                                         "frame_id": MAP_FRAME},
+                                              "pose": pose_fields(gx, gy, yaw or 0.0)}))
+        self._take(handle, (gx, gy), yaw)
+
+    def _check_goal(self, goal: Any) -> GoalResponse:
+        """A NavigateToPose goal from a client: in the map frame, with a heading."""
+        try:
+            self._pose_of(goal.pose)
+        except RobotValueError as error:
+            self.get_logger().error(f"goal refused: {error}")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _accepted(self, handle: ServerGoalHandle) -> None:
+        x, y, yaw = self._pose_of(handle.request.pose)
+        self.get_logger().info(f"new goal ({x:g}, {y:g}, {math.degrees(yaw):.0f}°)")
+        self._take(handle, (x, y), yaw)
+
+    def _take(self, handle: ServerGoalHandle, goal: tuple[float, float],
+              yaw: float | None) -> None:
+        """Make ``handle`` the goal driven to, preempting the one driven to before."""
+        if self._handle is not None and self._handle.is_active:
             # nav2's SimpleActionServer::accept_pending_goal aborts the goal it preempts
-            self._publish_status(STATUS_ABORTED)
             self.get_logger().info("goal preempted by a new one")
             self._stop()
-        self.goal, self.goal_yaw = (gx, gy), yaw
+            self._end(self._handle.abort, "preempted by a new goal")
+        self._handle, self._ending = handle, Future(executor=self.context.executor)
+        self.goal, self.goal_yaw = goal, yaw
         self.status, self.reason, self.refused = NavigationStatus.WAITING, "", False
         self.warnings = []
-        self._goals += 1
-        self._goal_id = uuid.uuid5(uuid.NAMESPACE_OID, f"{self.fully_qualified_name}/"
-                                   f"{self._goals}").bytes
-        self._goal_stamp = self.stamp()
+        self._goal_id = bytes(bytearray(handle.goal_id.uuid))
+        stamp = handle.goal_info.stamp
+        self._goal_stamp = {"sec": int(stamp.sec), "nanosec": int(stamp.nanosec)}
         self._reset_goal_state(self.now())
-        self._publish_status(STATUS_EXECUTING)
+        ending = self._ending
+
+        def execution(_handle: ServerGoalHandle) -> Future:
+            return ending  # ended by _end, from the controller's loop
+        handle.execute(execution)
         self._publish_goal()
+
+    def _execute(self, handle: ServerGoalHandle) -> Any:
+        """Never called: every goal is executed by :meth:`_take` with its own ending."""
+        raise AssertionError("NavigatorNode executes its goals itself")
+
+    def _end(self, terminate: Callable[[], None], message: str) -> None:
+        """End the goal being driven to (``terminate``: its handle's succeed, abort or
+        canceled) with nav2's result: no error code but NONE in Jazzy, the reason."""
+        handle, ending = self._handle, self._ending
+        if handle is None or ending is None or not handle.is_active:
+            return
+        terminate()
+        ending.set_result(self.message(f"{NAVIGATE_TO_POSE}_Result", error_msg=message))
+
+    def _pose_of(self, pose: Any) -> tuple[float, float, float]:
+        """``(x, y, yaw)`` of a PoseStamped goal, or a one-line error saying what is wrong."""
+        frame = str(pose.header.frame_id)
+        if frame not in ("", MAP_FRAME):
+            raise RobotValueError(f"frame {frame!r}; goals are in the {MAP_FRAME!r} frame")
+        p, q = pose.pose.position, pose.pose.orientation
+        if math.hypot(float(q.x), float(q.y), float(q.z), float(q.w)) < 1e-9:
+            # move_base refuses it too ("Empty quaternion received, invalid goal")
+            raise RobotValueError("its orientation is all zeros; give the heading to end "
+                                  "with, e.g. orientation: {w: 1.0} for 0°")
+        x, y = float(p.x), float(p.y)
+        yaw = math.remainder(2.0 * math.atan2(float(q.z), float(q.w)), 2.0 * math.pi)
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+            raise RobotValueError(f"goal ({x!r}, {y!r}, yaw {yaw!r}) must be finite numbers")
+        return x, y, yaw
 
     def _publish_goal(self) -> None:
         assert self.goal is not None
@@ -341,25 +389,13 @@ class NavigatorNode(Node):
     def _on_goal(self, msg: Any) -> None:
         if self._is_echo(msg):
             return
-        frame = str(msg.header.frame_id)
-        if frame not in ("", MAP_FRAME):
-            self.get_logger().error(f"goal refused: frame {frame!r}; goals are in the "
-                                    f"{MAP_FRAME!r} frame")
-            return
-        p, q = msg.pose.position, msg.pose.orientation
-        if math.hypot(float(q.x), float(q.y), float(q.z), float(q.w)) < 1e-9:
-            # move_base refuses it too ("Empty quaternion received, invalid goal")
-            self.get_logger().error("goal refused: its orientation is all zeros; give the "
-                                    "heading to end with, e.g. orientation: {w: 1.0} for 0°")
-            return
-        yaw = math.remainder(2.0 * math.atan2(float(q.z), float(q.w)), 2.0 * math.pi)
         try:
-            self.set_goal(float(p.x), float(p.y), yaw)
+            x, y, yaw = self._pose_of(msg)
+            self.set_goal(x, y, yaw)
         except RobotValueError as error:
             self.get_logger().error(f"goal refused: {error}")
             return
-        self.get_logger().info(f"new goal ({float(p.x):g}, {float(p.y):g}, "
-                               f"{math.degrees(yaw):.0f}°)")
+        self.get_logger().info(f"new goal ({x:g}, {y:g}, {math.degrees(yaw):.0f}°)")
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -471,37 +507,37 @@ class NavigatorNode(Node):
         self.get_logger().error(("goal refused before driving: " if self.refused
                                  else "goal aborted: ") + reason)
         self._stop()
-        self._publish_status(STATUS_ABORTED)
+        if self._handle is not None:
+            self._end(self._handle.abort, reason)
 
     def _succeed(self) -> None:
         self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
         self.planner = None
         self._stop()
-        self._publish_status(STATUS_SUCCEEDED)
+        if self._handle is not None:
+            self._end(self._handle.succeed, "")
 
-    def _publish_status(self, code: int) -> None:
-        """The status of this goal and of the last :data:`KEPT_GOALS` before it, as an action
-        server's status array lists the goals it still knows."""
-        self._statuses[self._goal_id] = (self._goal_stamp, code)
-        while len(self._statuses) > KEPT_GOALS:
-            del self._statuses[next(iter(self._statuses))]
-        self.status_publisher.publish(self.message(GOAL_STATUS_ARRAY, status_list=[{
-            "goal_info": {"goal_id": {"uuid": np.frombuffer(goal_id, dtype=np.uint8)},
-                          "stamp": stamp}, "status": status}
-            for goal_id, (stamp, status) in self._statuses.items()]))
+    def _cancel(self) -> None:
+        """A client canceled the goal: the wheels stop, the goal ends CANCELED."""
+        self.status, self.reason = NavigationStatus.CANCELED, "canceled by its client"
+        self.planner = None
+        self._stop()
+        self.get_logger().info("goal canceled")
+        if self._handle is not None:
+            self._end(self._handle.canceled, "")
 
     def _publish_feedback(self, now: float, x: float, y: float, yaw: float) -> None:
-        assert self.goal is not None
+        assert self.goal is not None and self._handle is not None
         stamp = self.stamp(now)
         elapsed = time_of(now - self._goal_at)  # a duration
-        self.feedback_publisher.publish(self.message(FEEDBACK, goal_id={
-            "uuid": np.frombuffer(self._goal_id, dtype=np.uint8)}, feedback={
-            "current_pose": {"header": {"stamp": stamp, "frame_id": MAP_FRAME}, "pose": {
+        self._handle.publish_feedback(self.message(
+            f"{NAVIGATE_TO_POSE}_Feedback",
+            current_pose={"header": {"stamp": stamp, "frame_id": MAP_FRAME}, "pose": {
                 "position": {"x": x, "y": y},
                 "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
-            "navigation_time": elapsed,
-            "number_of_recoveries": len(self.recoveries) - self._recoveries_before,
-            "distance_remaining": math.hypot(self.goal[0] - x, self.goal[1] - y)}))
+            navigation_time=elapsed,
+            number_of_recoveries=len(self.recoveries) - self._recoveries_before,
+            distance_remaining=math.hypot(self.goal[0] - x, self.goal[1] - y)))
 
     # -- before driving ------------------------------------------------------------------------
 
@@ -730,6 +766,9 @@ class NavigatorNode(Node):
 
     def _cycle(self) -> None:
         if self.done or self.goal is None:
+            return
+        if self._handle is not None and self._handle.is_cancel_requested:
+            self._cancel()
             return
         now = self.now()
         if self.pose is None or self.costs is None or (
