@@ -86,6 +86,13 @@ def run_goal(job: tuple[tuple[float, float, float | None], str, str]) -> dict[st
             refused = summary.get("refused_before_driving", False)
             row["result"] = "refused" if refused else "given up"
             row["reason"] = summary.get("reason", str(error))
+    estimate, truth = summary.get("final_estimate"), summary.get("final_truth")
+    row.update(
+        estimate_distance_m=None if estimate is None
+        else math.hypot(estimate["x"] - x, estimate["y"] - y),
+        localisation_error_m=None if estimate is None or truth is None
+        else math.hypot(estimate["x"] - truth["x"], estimate["y"] - truth["y"]),
+        tolerance_m=summary.get("xy_goal_tolerance_m"))
     row.update(seconds=summary.get("seconds"), distance_m=summary.get("goal_distance_m"),
                yaw_error_deg=None if summary.get("goal_yaw_error_rad") is None
                else math.degrees(summary["goal_yaw_error_rad"]),
@@ -145,6 +152,19 @@ def main(argv: list[str] | None = None) -> int:
     print(f"reached {reached}, given up {given_up}, refused before driving {refused}: "
           f"{share:.0%} of the {tried} goals not refused reached (goal: >= 90 %); "
           f"{reached / standable:.0%} of the {standable} goals the robot could stand at")
+    # the goal checker (issue 44): every goal reached is within xy_goal_tolerance of the goal
+    # asked for, by the navigator's estimate; the truth, allowing the localiser's error
+    done = [r for r in rows if r["result"] == "reached"]
+    by_estimate = sum(r["estimate_distance_m"] <= r["tolerance_m"] + 1e-9 for r in done)
+    by_truth = sum(r["distance_m"] <= r["tolerance_m"] + r["localisation_error_m"] + 1e-9
+                   for r in done)
+    if done:
+        worst = max(r["distance_m"] for r in done)
+        print(f"goal checker: {by_estimate} of {len(done)} reached goals within "
+              f"xy_goal_tolerance of the goal asked for by the estimate, {by_truth} of "
+              f"{len(done)} by the floor's truth allowing the localiser's error (truth "
+              f"distance at most {worst * 1000:.0f} mm; tolerance "
+              f"{done[0]['tolerance_m'] * 1000:.0f} mm)")
     if args.json:
         Path(args.json).write_text(json.dumps({"rows": rows, "reached_share": share},
                                               indent=1))

@@ -23,7 +23,7 @@ import pytest
 import yaml
 
 from servolab.apps.bag import record
-from servolab.apps.interface import interface_list, interface_show
+from servolab.apps.interface import interface_list, interface_package, interface_show
 from servolab.apps.node import node_info, node_list
 from servolab.apps.param import param_describe, param_dump, param_load
 from servolab.apps.service import service_list, service_type
@@ -282,7 +282,10 @@ def test_interface_list_has_ros2s_sections() -> None:
     lines: list[str] = []
     interface_list(TYPES, lines.append)
     messages, services = lines.index("Messages:"), lines.index("Services:")
-    assert messages == 0 and lines[-1] == "Actions:"
+    actions = lines.index("Actions:")
+    assert messages == 0 and actions > services
+    assert "    test_msgs/action/Fibonacci" in lines[actions:]
+    assert "    nav2_msgs/action/NavigateToPose" in lines[actions:]
     assert "    geometry_msgs/msg/Twist" in lines[messages:services]
     assert "    std_srvs/srv/SetBool" in lines[services:]
     listed = lines[messages + 1:services]
@@ -290,6 +293,16 @@ def test_interface_list_has_ros2s_sections() -> None:
     only: list[str] = []
     interface_list(TYPES, only.append, messages=False, actions=False)
     assert only[0] == "Services:" and "Messages:" not in only and "Actions:" not in only
+
+
+def test_interface_package_lists_a_packages_interfaces() -> None:
+    """``ros2 interface package PKG``: its messages, services and actions, sorted."""
+    lines: list[str] = []
+    interface_package(TYPES, "action_msgs", lines.append)
+    assert lines == ["action_msgs/msg/GoalInfo", "action_msgs/msg/GoalStatus",
+                     "action_msgs/msg/GoalStatusArray", "action_msgs/srv/CancelGoal"]
+    with pytest.raises(UsageError, match=r"unknown package 'nav2_msg' \(did you mean nav2_msgs"):
+        interface_package(TYPES, "nav2_msg", lines.append)
 
 
 def test_interface_show_expands_nested_types_and_separates_a_service() -> None:
@@ -311,7 +324,8 @@ def test_interface_show_expands_nested_types_and_separates_a_service() -> None:
 SHOWN = ("geometry_msgs/msg/TwistStamped", "sensor_msgs/msg/Imu", "nav_msgs/msg/Odometry",
          "sensor_msgs/msg/JointState", "sensor_msgs/msg/BatteryState",
          "rcl_interfaces/msg/ParameterDescriptor", "std_srvs/srv/SetBool",
-         "rcl_interfaces/srv/ListParameters", "rcl_interfaces/srv/GetParameters")
+         "rcl_interfaces/srv/ListParameters", "rcl_interfaces/srv/GetParameters",
+         "action_msgs/srv/CancelGoal", "test_msgs/action/Fibonacci")
 _PRIMITIVES = {"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
                "int64", "uint64", "float32", "float64", "string", "wstring"}
 

@@ -26,7 +26,7 @@ SERVICE_SEPARATOR = "---"
 def interface_list(types: MessageTypes, say: Say, *, messages: bool = True,
                    services: bool = True, actions: bool = True) -> None:
     """``Messages:``, ``Services:`` and ``Actions:``, each type indented by four spaces,
-    sorted, as ``ros2 interface list`` prints them (servolab has no action types)."""
+    sorted, as ``ros2 interface list`` prints them."""
     if messages:
         say("Messages:")
         for name in types.names():
@@ -37,6 +37,28 @@ def interface_list(types: MessageTypes, say: Say, *, messages: bool = True,
             say(f"    {name}")
     if actions:
         say("Actions:")
+        for name in types.action_names():
+            say(f"    {name}")
+
+
+def interface_package(types: MessageTypes, package: str, say: Say) -> list[str]:
+    """Every interface of one package, sorted, as ``ros2 interface package`` prints them; an
+    unknown package is a one-line error naming the nearest."""
+    import difflib
+
+    from servolab.errors import UsageError
+
+    found = [n for n in (*types.names(), *types.service_names(), *types.action_names())
+             if n.split("/")[0] == package]
+    if not found:
+        packages = sorted({n.split("/")[0] for n in types.store.fielddefs})
+        near = difflib.get_close_matches(package, packages, n=1)
+        raise UsageError(f"unknown package {package!r}"
+                         + (f" (did you mean {near[0]}?)" if near else "")
+                         + "; 'servolab interface list' lists every type")
+    for name in sorted(found):
+        say(name)
+    return sorted(found)
 
 
 def _type_text(node: tuple[Any, Any], package: str) -> str:
@@ -103,11 +125,19 @@ def interface_show(types: MessageTypes, name: str, say: Say) -> list[str]:
         srv = types.service(name)
         lines = [*definition_lines(types, srv.request), SERVICE_SEPARATOR,
                  *definition_lines(types, srv.response)]
+    elif len(parts) == 3 and parts[1] == "action":
+        if name.strip() not in types.action_names():
+            raise MessageError(f"unknown action type {name!r} ('servolab interface list -a')")
+        action = name.strip()
+        lines = [*definition_lines(types, f"{action}_Goal"), SERVICE_SEPARATOR,
+                 *definition_lines(types, f"{action}_Result"), SERVICE_SEPARATOR,
+                 *definition_lines(types, f"{action}_Feedback")]
     elif (len(parts) == 3 and parts[1] == "msg") or len(parts) == 2:
         lines = definition_lines(types, types.check(name))
     else:
         raise MessageError(f"Invalid name {name!r}: expected three parts separated by '/', "
-                           "e.g. std_msgs/msg/String or std_srvs/srv/Trigger "
+                           "e.g. std_msgs/msg/String, std_srvs/srv/Trigger or "
+                           "test_msgs/action/Fibonacci "
                            "('servolab interface list')")
     for line in lines:
         say(line)
@@ -121,15 +151,20 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("-m", "--only-msgs", action="store_true", help="only the message types")
     p.add_argument("-s", "--only-srvs", action="store_true", help="only the service types")
     p.add_argument("-a", "--only-actions", action="store_true",
-                   help="only the action types (servolab has none)")
+                   help="only the action types")
+    p = actions.add_parser("package", help="every interface of one package, as ros2 "
+                           "interface package")
+    p.add_argument("package", help="e.g. nav2_msgs")
     p = actions.add_parser(
         "show", help="a type's definition, nested types expanded, as ros2 interface show",
-        description="Print a message or service type's definition as 'ros2 interface show' "
-        "does: nested types expanded, one tab deeper each, and '---' between a service's "
-        "request and response. Where servolab differs: the definitions come without the "
-        ".msg files' comments and blank lines (as 'ros2 interface show --no-comments') and "
-        "with one space between type and name; fields' default values are not shown.")
-    p.add_argument("type", help="e.g. geometry_msgs/msg/Twist, std_srvs/srv/SetBool")
+        description="Print a message, service or action type's definition as 'ros2 interface "
+        "show' does: nested types expanded, one tab deeper each, and '---' between a service's "
+        "request and response (an action's goal, result and feedback). Where servolab "
+        "differs: the definitions come without the .msg files' comments and blank lines (as "
+        "'ros2 interface show --no-comments') and with one space between type and name; "
+        "fields' default values are not shown.")
+    p.add_argument("type", help="e.g. geometry_msgs/msg/Twist, std_srvs/srv/SetBool, "
+                   "nav2_msgs/action/NavigateToPose")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -145,13 +180,16 @@ def _run(args: argparse.Namespace) -> int:
                        actions=not only or args.only_actions)
     elif args.action == "show":
         interface_show(types, args.type, say)
+    elif args.action == "package":
+        interface_package(types, args.package, say)
     return 0
 
 
 COMMAND = Command(
-    name="interface", group="graph", help="list message and service types and show one",
-    description="List the message and service types servolab knows and show a type's "
-    "definition, as 'ros2 interface' does.",
+    name="interface", group="graph", help="list message, service and action types; show one",
+    description="List the message, service and action types servolab knows (rosbags' ROS 2 "
+    "Jazzy set, the packages servolab ships, and those SERVOLAB_INTERFACE_PATH names) and "
+    "show a type's definition, as 'ros2 interface' does.",
     examples=("servolab interface list",
               "servolab interface show geometry_msgs/msg/TwistStamped",
               "servolab interface show dynamixel_controllers/srv/SetSpeed"),

@@ -250,7 +250,11 @@ class MessageTypes:
     # -- registering ------------------------------------------------------------------------
 
     def _register(self, types: Any) -> None:
-        """Register types with the store, and check assignments to their fields."""
+        """Register types with the store, and check assignments to their fields
+        (:func:`_field_setter`). rosbags makes one class per type for the whole process, so
+        the check is on every user of that class in the process (rosbags' own reader too,
+        which servolab calls only for what its generated code leaves to it), bound to the
+        first :class:`MessageTypes` that registered it."""
         self.store.register(types)
         for name, cls in self.store.types.items():
             if "__setattr__" not in vars(cls):

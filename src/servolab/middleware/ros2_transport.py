@@ -214,6 +214,8 @@ class Ros2Transport(Transport):
         self._lock = threading.Lock()
         self._nodes: dict[int, Any] = {}
         self._clients: dict[tuple[str, str], Any] = {}
+        #: calls still waiting for their answer (failed when the transport closes)
+        self._calls: set[Future[Any]] = set()
         self._closed = False
         self._opened = time.monotonic()
         try:
@@ -363,6 +365,9 @@ class Ros2Transport(Transport):
 
     def call(self, name: str, srv: ServiceType, request: Any, timeout: float) -> Future[Any]:
         future: Future[Any] = Future()
+        with self._lock:
+            self._calls.add(future)
+        future.add_done_callback(self._calls.discard)
         client = self._client(name, srv)
         srv_class = interface_class(srv.name)
         request_object = self._serialization.deserialize_message(
@@ -450,6 +455,11 @@ class Ros2Transport(Transport):
             nodes = [*self._nodes.values(), self._own]
             self._nodes.clear()
             self._clients.clear()
+            waiting = list(self._calls)
+        for future in waiting:  # nobody waits for an answer that cannot come any more
+            with contextlib.suppress(Exception):  # answered meanwhile
+                future.set_exception(ServiceError("the ROS 2 transport closed before the "
+                                                  "answer came"))
         if threading.current_thread() is not self._spinner:
             self._spinner.join(5.0)
         for node in nodes:
