@@ -221,15 +221,18 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     p = actions.add_parser("list", help="parameters of every node, or of one")
     p.add_argument("node", nargs="?", help="e.g. /robot/talker (default: every node)")
+    _add_call_timeout(p)
     add_transport(p)
     p = actions.add_parser("get", help="one parameter's value")
     p.add_argument("node", help="e.g. /robot/talker")
     p.add_argument("name")
+    _add_call_timeout(p)
     add_transport(p)
     p = actions.add_parser("set", help="change a parameter (the value is YAML)")
     p.add_argument("node", help="e.g. /robot/talker")
     p.add_argument("name")
     p.add_argument("value", help="YAML: 0.3, true, [1, 2], ...")
+    _add_call_timeout(p)
     add_transport(p)
     p = actions.add_parser("dump", help="a node's parameters as a YAML parameter file, as "
                            "ros2 param dump")
@@ -260,6 +263,12 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     add_transport(p)
 
 
+def _add_call_timeout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--timeout", type=positive_float, default=5.0, metavar="SECONDS",
+                   help="wait up to this long for the node's answer, finding it included "
+                   "(discovery with a Fast DDS node can take seconds; default 5)")
+
+
 def _add_timeout(p: argparse.ArgumentParser) -> None:
     p.add_argument("--timeout", type=positive_float, default=1.0, metavar="SECONDS",
                    help="wait up to this long for the node to appear (default 1)")
@@ -272,11 +281,11 @@ def _run(args: argparse.Namespace) -> int:
 
     with Context.open(transport_options(args)) as ctx:
         if args.action == "list":
-            param_list(ctx, say, args.node)
+            param_list(ctx, say, args.node, timeout=args.timeout)
         elif args.action == "get":
-            param_get(ctx, args.node, args.name, say)
+            param_get(ctx, args.node, args.name, say, timeout=args.timeout)
         elif args.action == "set":
-            param_set(ctx, args.node, args.name, args.value, say)
+            param_set(ctx, args.node, args.name, args.value, say, timeout=args.timeout)
         elif args.action == "dump":
             param_dump(ctx, args.node, say, wait=args.timeout)
         elif args.action == "load":
