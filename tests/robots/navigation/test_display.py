@@ -115,7 +115,7 @@ def test_goal_local_plan_and_driven_path(watched: Watched) -> None:
     (goal,) = watched.goals
     assert (goal.pose.position.x, goal.pose.position.y) == (2.5, 1.0)
     assert goal.header.frame_id == "map"
-    assert watched.node.status.name == "ACTIVE" and watched.node._goals == 1
+    assert watched.node.status.name == "ACTIVE" and watched.node.goal_count == 1
     # each cycle's chosen trajectory starts at the pose DWA was given
     assert len(watched.local_plans) == len(watched.node.cycles) >= 4
     for plan, (_, x, y, yaw, v, omega, _) in zip(watched.local_plans, watched.node.cycles,
@@ -144,7 +144,7 @@ def test_a_new_goal_is_published_on_goal_pose(watched: Watched) -> None:
     assert [(g.pose.position.x, g.pose.position.y) for g in watched.goals] == [
         (2.5, 1.0), (2.0, 1.5)]
     assert yaw_of(watched.goals[-1].pose.orientation) == pytest.approx(math.pi / 2)
-    assert watched.node.goal == (2.0, 1.5) and watched.node._goals == 2
+    assert watched.node.goal == (2.0, 1.5) and watched.node.goal_count == 2
 
 
 # -- a whole run, read back from its MCAP -------------------------------------------------------

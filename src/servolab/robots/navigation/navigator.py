@@ -204,6 +204,8 @@ class NavigatorNode(Node):
         #: execution ends with
         self._handle: ServerGoalHandle | None = None
         self._ending: Future | None = None
+        #: how many goals the node has taken (each preempting the one before)
+        self.goal_count = 0
         self._pose_at = -math.inf
         self._stale_since: float | None = None
         #: controller cycles skipped, the wheels stopped, because the pose was too old
@@ -328,6 +330,7 @@ class NavigatorNode(Node):
             self._stop()
             self._end(self._handle.abort, "preempted by a new goal")
         self._handle, self._ending = handle, Future(executor=self.context.executor)
+        self.goal_count += 1
         self.goal, self.goal_yaw = goal, yaw
         self.status, self.reason, self.refused = NavigationStatus.WAITING, "", False
         self.warnings = []
