@@ -74,7 +74,8 @@ class Rig:
         self.canceled_asked.append(bytes(bytearray(goal.goal_id.uuid)))
         return CancelResponse.ACCEPT
 
-    def wait(self, future: Any, timeout: float = 10.0) -> Any:
+    @staticmethod
+    def wait(future: Any, timeout: float = 10.0) -> Any:
         end = time.monotonic() + timeout
         while not future.done():
             assert time.monotonic() < end, "no answer"
@@ -179,9 +180,58 @@ def test_results_are_kept_result_timeout_seconds() -> None:
 
 
 def test_a_server_destroyed_while_its_goal_runs_stops_the_goal_quietly(rig: Rig) -> None:
-    handle = rig.send(3)
+    rig.send(3)
     rig.server.destroy()
     rig.release.set()  # the goal ends now: its succeed() must change nothing, raise nothing
     assert rig.finished.wait(10.0)
-    assert rig.executor._errors == []
-    assert handle.status != STATUS_SUCCEEDED
+    rig.executor.shutdown()
+    rig.thread.join(5.0)  # the executor ran the goal's end to its last step, and stopped
+    assert not rig.thread.is_alive() and rig.executor._errors == []
+
+
+def test_async_execute_callbacks_await_without_holding_the_executor() -> None:
+    """An ``async def`` execute callback that awaits a future is resumed when the future is
+    done, as executor work: under one thread, two goals wait at once, and a cancel is served
+    meanwhile (a callback that held the thread would serve them one after the other)."""
+    from servolab.rclpy.executors import SingleThreadedExecutor
+    from servolab.rclpy.task import Future
+
+    with Context.open() as context:
+        node = Node(context, "waiting_server")
+        waits: list[Future] = []
+
+        async def execute(goal: Any) -> Any:
+            waiting = Future(executor=context.executor)
+            waits.append(waiting)
+            await waiting
+            if goal.is_cancel_requested:
+                goal.canceled()
+            else:
+                goal.succeed()
+            return node.message(f"{FIBONACCI}_Result", sequence=[goal.request.order])
+
+        ActionServer(node, FIBONACCI, "fibonacci", execute,
+                     cancel_callback=lambda _goal: CancelResponse.ACCEPT)
+        client = ActionClient(Node(context, "client"), FIBONACCI, "fibonacci")
+        executor = SingleThreadedExecutor(context=context)
+        thread = threading.Thread(target=executor.spin, daemon=True)
+        thread.start()
+        try:
+            handles = []
+            for order in (1, 2, 3):
+                sent = client.send_goal_async(node.message(f"{FIBONACCI}_Goal", order=order))
+                handles.append(Rig.wait(sent))
+            end = time.monotonic() + 10.0
+            while len(waits) < 3:  # all three wait at once, on one thread
+                assert time.monotonic() < end, waits
+                time.sleep(0.005)
+            canceled = Rig.wait(handles[2].cancel_goal_async())
+            assert len(canceled.goals_canceling) == 1
+            for waiting in waits:
+                threading.Timer(0.05, waiting.set_result, args=(None,)).start()
+            results = [Rig.wait(h.get_result_async()) for h in handles]
+        finally:
+            executor.shutdown()
+            thread.join(5.0)
+    assert [(r.status, list(r.result.sequence)) for r in results] == [
+        (STATUS_SUCCEEDED, [1]), (STATUS_SUCCEEDED, [2]), (STATUS_CANCELED, [3])]

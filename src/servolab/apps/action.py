@@ -15,7 +15,6 @@ function, so the CLI stays a parser and the tests capture what is printed.
 from __future__ import annotations
 
 import argparse
-import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +33,9 @@ Say = Callable[[str], None]
 _SEND_GOAL = "/_action/send_goal"
 _SEND_GOAL_TYPE = "_SendGoal"
 #: action_msgs/msg/GoalStatus' states by number, as ros2action prints them
+#: how long Ctrl-C waits for the server to answer the cancel, and then for the goal's end
+CANCEL_WAIT_S = 5.0
+STATUS_UNKNOWN = 0
 STATUS_NAMES = {0: "UNKNOWN", 1: "ACCEPTED", 2: "EXECUTING", 3: "CANCELING", 4: "SUCCEEDED",
                 5: "CANCELED", 6: "ABORTED"}
 
@@ -139,15 +141,31 @@ def send_goal(ctx: Context, name: str, type_name: str, values: str, say: Say, *,
                          f"(--timeout){listed}")
     say(f"Sending goal:\n     {_yaml(ctx, goal)}\n")
 
-    def on_feedback(message: Any) -> None:
-        say(f"Feedback:\n    {_yaml(ctx, message.feedback)}\n")
+    # feedback and the goal's answer come by different ways: feedback that comes first waits
+    # until the acceptance is printed, so the output reads in the goal's order
+    early: list[Any] | None = []
 
-    handle = client._wait(client.send_goal_async(
-        goal, feedback_callback=on_feedback if feedback else None))
+    def on_feedback(message: Any) -> None:
+        if early is not None:
+            early.append(message)
+        else:
+            say(f"Feedback:\n    {_yaml(ctx, message.feedback)}\n")
+
+    sent = client.send_goal_async(goal, feedback_callback=on_feedback if feedback else None)
+    try:
+        handle = client._wait(sent)
+    except KeyboardInterrupt:
+        say("Interrupted before the server answered the goal.")
+        if sent.done() and sent.result().accepted:
+            return _cancel(client, sent.result(), say)
+        return STATUS_UNKNOWN
     if not handle.accepted:
         say("Goal was rejected.")
         return 0
     say(f"Goal accepted with ID: {bytes(bytearray(handle.goal_id.uuid)).hex()}\n")
+    waiting, early = early, None
+    for message in waiting or []:
+        on_feedback(message)
     result_future = handle.get_result_async()
     try:
         response = client._wait(result_future)
@@ -162,15 +180,19 @@ def send_goal(ctx: Context, name: str, type_name: str, values: str, say: Say, *,
 def _cancel(client: Any, handle: Any, say: Say) -> int:
     """Ctrl-C while the goal ran: cancel it, as ros2action's send_goal does."""
     say("Canceling goal...")
-    response = client._wait(handle.cancel_goal_async())
+    canceling = handle.cancel_goal_async()
+    executor = client._node.context.executor
+    executor.spin_until(canceling.done, CANCEL_WAIT_S)
+    if not canceling.done():
+        say(f"The server did not answer the cancel within {CANCEL_WAIT_S:g} s")
+        return int(handle.status)
+    response = canceling.result()
     if not response.goals_canceling:
         say("Failed to cancel goal")
         return int(handle.status)
     say("Goal canceled.")
-    deadline = time.monotonic() + 5.0
     result = handle.get_result_async()
-    client._node.context.executor.spin_until(
-        lambda: result.done() or time.monotonic() > deadline, 5.0)
+    executor.spin_until(result.done, CANCEL_WAIT_S)
     return int(result.result().status) if result.done() else int(handle.status)
 
 

@@ -582,6 +582,8 @@ class MessageTypes:
         sub, count = desc[1]
         if isinstance(value, bytes | bytearray | memoryview):
             value = np.frombuffer(value, dtype=np.uint8)
+        elif isinstance(value, array.array):  # a sequence as rclpy holds it: its own numbers
+            value = np.array(value)
         if isinstance(value, np.ndarray) and sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:
             return self._array(sub[1][0], value, kind, count, where)
         if isinstance(value, np.ndarray):

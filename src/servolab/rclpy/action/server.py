@@ -11,17 +11,20 @@ transport that answers it, and servolab's client a stock server.
 
 What the server does is rclpy's (``rclpy/action/server.py``, Jazzy): a goal goes to
 ``goal_callback`` (default: accept), an accepted one to ``handle_accepted_callback``
-(default: execute it now), whose ``execute_callback`` runs as executor work, so under a
-:class:`~servolab.rclpy.executors.MultiThreadedExecutor` with a reentrant callback group
-goals run at once. ``get_result`` is answered when the goal ends, for as long as
-``result_timeout`` s after; a cancel request goes to ``cancel_callback`` (default: reject)
-for each goal it names, by rcl_action's policy. A goal whose execute callback returns without
-a terminal state is aborted, with rclpy's warning. The states and their legal changes are
+(default: execute it now), whose ``execute_callback`` runs as executor work outside any
+callback group (rclpy's ``create_task``), so under a
+:class:`~servolab.rclpy.executors.MultiThreadedExecutor` goals run at once, and an ``async
+def`` one is resumed as executor work when the future it awaits is done. ``get_result`` is
+answered when the goal ends, for as long as ``result_timeout`` s after; a cancel request
+goes to ``cancel_callback`` (default: reject) for each goal it names, by rcl_action's policy.
+A goal whose execute callback returns without a terminal state is aborted, with rclpy's
+warning. The states and their legal changes are
 rcl_action's (``goal_state_machine.c``); an illegal change raises.
 """
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import os
 import threading
@@ -321,7 +324,14 @@ class ActionServer:
             self._result_futures[goal_uuid] = Future(executor=node.context.executor)
         respond(node.message(response_type, accepted=True, stamp=stamp))
         self.publish_status()
-        self._in_group(self._handle_accepted_callback, goal_handle)
+        try:
+            self._in_group(self._handle_accepted_callback, goal_handle)
+        except Exception as exc:  # accepted already: end it, or its get_result waits for ever
+            node.get_logger().error(f"Error raised in handle_accepted_callback: {exc!r}")
+            with contextlib.suppress(ActionError):
+                if goal_handle.status == STATUS_ACCEPTED:
+                    goal_handle._update_state(GoalEvent.EXECUTE)
+            self._end_goal(goal_handle, None)
 
     def notify_execute(self, goal_handle: ServerGoalHandle,
                        execute_callback: Callable[[ServerGoalHandle], Any] | None) -> None:
@@ -359,10 +369,20 @@ class ActionServer:
         except Exception as exc:
             self._goal_failed(exc, goal_handle)
             return
-        if isinstance(awaited, Future):  # resumed when it is done
-            awaited.add_done_callback(lambda _done: self._step(coroutine, goal_handle))
-        else:  # a bare yield: resumed on the executor's next turn
-            self.node.context.executor.submit(lambda: self._step(coroutine, goal_handle))
+        executor = self.node.context.executor
+
+        def resume() -> None:
+            executor.submit(lambda: self._step(coroutine, goal_handle))
+
+        if isinstance(awaited, Future):  # resumed, as executor work, when it is done
+            awaited.add_done_callback(lambda _done: resume())
+        elif awaited is None:  # a bare yield: resumed on the executor's next turn
+            resume()
+        else:
+            coroutine.close()
+            self._goal_failed(TypeError(
+                f"an execute callback awaited {awaited!r}: servolab's executor runs rclpy "
+                "futures (servolab.rclpy.task.Future), not asyncio's"), goal_handle)
 
     def _ended(self, goal_handle: ServerGoalHandle, done: Future) -> None:
         try:
@@ -377,6 +397,8 @@ class ActionServer:
         self._end_goal(goal_handle, None)
 
     def _end_goal(self, goal_handle: ServerGoalHandle, result: Any) -> None:
+        if self.destroyed:
+            return  # no one left to answer
         node = self.node
         goal_uuid = _uuid(goal_handle.goal_id)
         if result is None or getattr(result, "__msgtype__", None) != \

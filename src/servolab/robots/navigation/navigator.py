@@ -72,11 +72,13 @@ the camera has lost the robot, its covariance growing, for up to the localiser's
 from __future__ import annotations
 
 import enum
+import functools
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -90,6 +92,7 @@ from ...planning.dstar_lite import DStarLite
 from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, compute_velocity
 from ...planning.errors import NoPath
 from ...rclpy.action import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
+from ...rclpy.action.server import ActionError
 from ...rclpy.task import Future
 from ..errors import RobotValueError
 from .display import (
@@ -117,6 +120,18 @@ ACTION_NAME = "/navigate_to_pose"
 STATUS_TOPIC = f"{ACTION_NAME}/_action/status"
 FEEDBACK_TOPIC = f"{ACTION_NAME}/_action/feedback"
 FloatArray = npt.NDArray[np.float64]
+_Method = TypeVar("_Method", bound=Callable[..., Any])
+
+
+def _one_at_a_time(method: _Method) -> _Method:
+    """Run ``method`` holding the node's lock: the controller's cycle, a new goal (from a
+    client, a topic or code on another thread) and the inputs never change the goal's state
+    under one another, whatever executor runs the node."""
+    @functools.wraps(method)
+    def locked(self: NavigatorNode, *args: Any, **kwargs: Any) -> Any:
+        with self._lock:
+            return method(self, *args, **kwargs)
+    return locked  # type: ignore[return-value]
 
 
 class NavigationStatus(enum.Enum):
@@ -184,6 +199,7 @@ class NavigatorNode(Node):
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
+        self._lock = threading.RLock()
         self.params, self.dwa, self.patience = costmap, dwa, patience
         #: the polygon DWA checks each trajectory pose with (base_local_planner's
         #: footprintCost); a round robot (robot_radius) has its centre cell checked instead,
@@ -293,6 +309,7 @@ class NavigatorNode(Node):
         self._pending_change, self._pending_seconds = 0, 0.0
         self._last_plan: FloatArray | None = None
 
+    @_one_at_a_time
     def set_goal(self, x: float, y: float, yaw: float | None = None) -> None:
         """Drive to ``(x, y)`` (map frame, m), ending at ``yaw`` (rad; None: any), replacing
         the goal being driven to: accepted by the node's own NavigateToPose server, as
@@ -316,6 +333,7 @@ class NavigatorNode(Node):
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
+    @_one_at_a_time
     def _accepted(self, handle: ServerGoalHandle) -> None:
         x, y, yaw = self._pose_of(handle.request.pose)
         self.get_logger().info(f"new goal ({x:g}, {y:g}, {math.degrees(yaw):.0f}°)")
@@ -355,7 +373,10 @@ class NavigatorNode(Node):
         handle, ending = self._handle, self._ending
         if handle is None or ending is None or not handle.is_active:
             return
-        terminate()
+        try:
+            terminate()
+        except ActionError:  # it ended another way meanwhile (a client's cancel went first)
+            return
         ending.set_result(self.message(f"{NAVIGATE_TO_POSE}_Result", error_msg=message))
 
     def _pose_of(self, pose: Any) -> tuple[float, float, float]:
@@ -389,6 +410,7 @@ class NavigatorNode(Node):
         return self._goal_echo == (int(stamp.sec), int(stamp.nanosec), float(p.x), float(p.y),
                                    float(q.z), float(q.w))
 
+    @_one_at_a_time
     def _on_goal(self, msg: Any) -> None:
         if self._is_echo(msg):
             return
@@ -402,6 +424,7 @@ class NavigatorNode(Node):
 
     # -- inputs ------------------------------------------------------------------------------
 
+    @_one_at_a_time
     def _on_map(self, msg: Any) -> None:
         try:
             occupied, resolution, origin = occupancy_of(msg)
@@ -444,6 +467,7 @@ class NavigatorNode(Node):
                   "height": rows, "origin": pose_fields(*origin)},
             data=costmap_occupancy(costmap)))
 
+    @_one_at_a_time
     def _on_pose(self, msg: Any) -> None:
         p, q = msg.pose.position, msg.pose.orientation
         pose = (float(p.x), float(p.y), 2.0 * math.atan2(float(q.z), float(q.w)))
@@ -460,6 +484,7 @@ class NavigatorNode(Node):
             self.driven_path_publisher.publish(self.message(PATH, **path_fields(
                 self.driven, msg.header.stamp, MAP_FRAME, self._driven_stamps)))
 
+    @_one_at_a_time
     def _on_odom(self, msg: Any) -> None:
         v, omega = float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z)
         if math.isfinite(v) and math.isfinite(omega):
@@ -767,6 +792,7 @@ class NavigatorNode(Node):
 
     # -- the loop ------------------------------------------------------------------------------
 
+    @_one_at_a_time
     def _cycle(self) -> None:
         if self.done or self.goal is None:
             return
@@ -848,5 +874,8 @@ class NavigatorNode(Node):
         try:
             if self.context.ok():
                 self._stop()
+                with self._lock:  # a client waiting for the result hears why it ended
+                    if self._handle is not None:
+                        self._end(self._handle.abort, "the navigator shut down")
         finally:
             super().destroy()
