@@ -775,6 +775,7 @@ def test_a_launch_of_rclpy_shaped_classes_leaves_no_default_context_open(
             parameters: {{count: 2}}
             required: true
         """)
+    default_context.shutdown()  # what an earlier test in this process may have left open
     assert not default_context.is_initialized()
     assert run_launch(load_launch(path), out=lambda _: None) == 0
     assert not default_context.is_initialized()
