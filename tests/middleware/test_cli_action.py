@@ -19,7 +19,8 @@ from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for_line
 
-pytestmark = [pytest.mark.slow]
+#: realtime too: a server and a client process beside pytest, in real time
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 SERVER = """
 import os, sys, time

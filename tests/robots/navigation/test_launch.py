@@ -77,6 +77,7 @@ def test_a_goal_on_goal_pose_is_reached_by_the_launch_over_zenoh() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.realtime  # five processes in real time: not beside another wall-clock test
 def test_navigate_to_pose_from_the_shell_reaches_the_goal_and_ctrl_c_cancels() -> None:
     """``servolab action send_goal /navigate_to_pose nav2_msgs/action/NavigateToPose ...
     --feedback`` against the launch, as a nav2 user sends one: feedback, then SUCCEEDED with

@@ -120,6 +120,7 @@ def _video(path: Path, count: int, fps: float = 30.0) -> list[np.ndarray]:
 
 
 @pytest.mark.slow
+@pytest.mark.realtime  # a camera paced at 30 frames/s: a busy machine drops a frame
 def test_a_camera_by_opencv_with_its_frames_recorded(tmp_path: Path) -> None:
     """--camera takes whatever cv2.VideoCapture opens (a video file stands in for a device,
     read at its own 30 frames/s as a camera delivers them, not at decoding speed); the frame
