@@ -242,7 +242,11 @@ class MujocoWorld(World):
     ``floor`` if the model has one; a model without a floor — an arm fixed to a table — has no
     contacts with it, no zero-moment point and never falls). ``qpos`` (MuJoCo's) sets the start,
     else the model's own ``qpos0``; ``start`` is the simulation's time when the world joins
-    it (the samples' times are the simulation's)."""
+    it (the samples' times are the simulation's). ``held_until_torque``: the base hangs in a
+    harness, where it stands, until every servo has its torque on (:attr:`released_at`), as a
+    lab holds a biped on its gantry while its servos power up: a robot served on a pty waits
+    for a client that may come a minute later, and with its torque off (each servo's default
+    at power-on) it would creep over its gears and fall before the client's first goal."""
 
     name = "mujoco"
 
@@ -250,7 +254,7 @@ class MujocoWorld(World):
                  feet: Sequence[str] = (), floor: str | None = None,
                  max_tilt: float = math.radians(45.0), record_period: float = 0.02,
                  qpos: Sequence[float] | None = None, start: float = 0.0,
-                 max_samples: int = 30_000) -> None:
+                 max_samples: int = 30_000, held_until_torque: bool = False) -> None:
         import mujoco
 
         try:
@@ -388,6 +392,10 @@ class MujocoWorld(World):
         #: every sample taken since the start, kept or not
         self.samples_taken = 0
         self.fell_at: float | None = None
+        self._harness = self._free_joint_of_base() if held_until_torque else None
+        #: when the harness let the base go (every servo's torque on), None while it holds
+        #: (or when there is none)
+        self.released_at: float | None = None
         self._time = float(start)
         self._next_record = float(start)
         self._next_book = float(start) + BOOKKEEPING_S
@@ -402,6 +410,18 @@ class MujocoWorld(World):
         if index < 0:
             raise SimulationError(f"the MuJoCo model has no {what} {name!r}")
         return index
+
+    def _free_joint_of_base(self) -> tuple[slice, slice, np.ndarray]:
+        """The base's free joint (its place in qpos and qvel) and its pose now, for the
+        harness to hold it at."""
+        m = self.model
+        for j in range(m.njnt):
+            if m.jnt_type[j] == self._mujoco.mjtJoint.mjJNT_FREE and \
+                    int(m.jnt_bodyid[j]) == self.base:
+                qpos = slice(int(m.jnt_qposadr[j]), int(m.jnt_qposadr[j]) + 7)
+                qvel = slice(int(m.jnt_dofadr[j]), int(m.jnt_dofadr[j]) + 6)
+                return qpos, qvel, self.data.qpos[qpos].copy()
+        raise SimulationError("held_until_torque: the base body has no free joint to hold")
 
     def _base_body(self, name: str | None) -> int:
         m = self.model
@@ -546,6 +566,8 @@ class MujocoWorld(World):
         recording = self._time >= self._next_record - 1e-12   # a sample every period
         before = (self._time, tuple(d.qpos.tolist())) if recording else None
         self._mujoco.mj_step(m, d)   # (its forward pass: contacts and bodies of `before`)
+        if self._harness is not None:
+            self._hold(dt)
         self._heat += self._square              # for the windings' temperature
         self._heat_steps += 1
         self._time += dt
@@ -555,6 +577,18 @@ class MujocoWorld(World):
         if before is not None:
             self._record(*before)
             self._next_record += self.record_period
+
+    def _hold(self, dt: float) -> None:
+        """The harness: the base back where it hangs, at rest, until every servo's torque is
+        on; then it lets go for good."""
+        assert self._harness is not None
+        if self._torque_on.all():
+            self._harness = None
+            self.released_at = self._time + dt
+            return
+        qpos, qvel, pose = self._harness
+        self.data.qpos[qpos] = pose
+        self.data.qvel[qvel] = 0.0
 
     def _pid(self, error: np.ndarray, proportional: np.ndarray, dt: float) -> np.ndarray:
         """A PID model's whole position law, P + I + D + feedforward (output shares), limited

@@ -199,6 +199,44 @@ def test_the_docs_sweep_table_is_what_the_sweep_gives() -> None:
     assert "foot_width" in again[2]["refused"] and "hip_width" in again[2]["refused"]
 
 
+def test_the_served_biped_hangs_in_its_harness_until_every_servo_has_torque() -> None:
+    """``servolab sim --robot armstrong`` serves the biped with its servos as they power up,
+    torque off (e-Manual, RX-28 Torque Enable: initial value 0). Left so, it creeps over its
+    gears and falls within 18 s (the same world without the harness, below) — before a
+    client that a student starts a minute later, or one slowed by a busy machine, sends
+    its first goal. So it hangs where it stands, as a lab holds a biped on a gantry, until
+    every servo's torque is on; then the harness lets go."""
+    from servolab.dynamixel.emulator import build_emulator
+    from servolab.robots.armstrong.hardware import load_config
+    from servolab.robots.armstrong.physics import armstrong_world
+    from servolab.robots.armstrong.plugin import ROBOTS
+    from servolab.sim import Simulation
+
+    served = ROBOTS[0].served(None)
+    assert served.place is not None
+    simulation, emulator, physics = served.place(build_emulator(served.spec))
+    simulation.advance(18.0)
+    world = physics.world
+    assert world.fell_at is None and world.released_at is None
+    ids = [m.id for m in served.spec.motors]
+    for motor_id in ids[:-1]:  # all but one: still held
+        motor = emulator.motor(motor_id)
+        motor.write(motor.model.register("torque_enable").address, b"\x01")
+    simulation.advance(0.1)
+    assert world.released_at is None
+    motor = emulator.motor(ids[-1])
+    motor.write(motor.model.register("torque_enable").address, b"\x01")
+    simulation.advance(0.1)
+    assert world.released_at is not None and 18.1 <= world.released_at <= 18.2
+
+    # the same robot, the same 18 s, no harness: it falls
+    loose = Simulation(simulation.physics_step)
+    bus = loose.add_emulator(build_emulator(served.spec))
+    unheld = armstrong_world(loose, bus, load_config()).world
+    loose.advance(18.0)
+    assert unheld.fell_at is not None
+
+
 @pytest.mark.slow
 @pytest.mark.realtime
 @pytest.mark.usefixtures("busy_cpu")
@@ -230,6 +268,8 @@ def test_the_biped_in_mujoco_on_a_real_time_bus_with_the_cpu_busy(tmp_path: Path
     joints = physics["joints"]
     assert joints["m14"]["peak_load"] > 0.05 and joints["m24"]["peak_load"] > 0.05
     assert served["fell"] is False
+    # the harness let go when the walk turned the servos on, within the sim's time
+    assert 0.0 < served["harness_released_at_s"] < served["served_s"]
     assert Path(served["physics_plot"]).stat().st_size > 10_000
 
 

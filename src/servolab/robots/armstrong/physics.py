@@ -45,7 +45,7 @@ def in_mujoco(emulator: Emulator, config: RobotConfig | None = None
     simulation = Simulation(TIMESTEP)
     simulation.add_emulator(emulator)
     return simulation, emulator, armstrong_world(simulation, emulator,
-                                                 config or load_config())
+                                                 config or load_config(), held=True)
 
 
 @dataclass(frozen=True)
@@ -57,9 +57,11 @@ class Physics:
 
 
 def armstrong_world(simulation: Simulation, emulator: Emulator, config: RobotConfig,
-                    assumptions: Assumptions | None = None) -> Physics:
+                    assumptions: Assumptions | None = None, *, held: bool = False) -> Physics:
     """The MuJoCo world under ``emulator``'s motors (see the module docstring), added to
-    ``simulation``."""
+    ``simulation``; ``held``: in its harness until every servo's torque is on
+    (:class:`~servolab.sim.mujoco_world.MujocoWorld`'s ``held_until_torque``), as served to a
+    client that comes when it comes."""
     description = describe(assumptions, config)
     init = {c.motor.id: c.motor for c in config.controllers}
     joints = []
@@ -79,6 +81,6 @@ def armstrong_world(simulation: Simulation, emulator: Emulator, config: RobotCon
         flip = -1 if raw.flipped else 1
         joints.append(ServoJoint(joint.name, servo, offset, flip * motor.direction))
     world = MujocoWorld(mjcf(description, drive="firmware"), joints, base=description.root,
-                        feet=FEET, start=simulation.now())
+                        feet=FEET, start=simulation.now(), held_until_torque=held)
     simulation.add(world)
     return Physics(world, description)

@@ -79,8 +79,11 @@ def physics_summary(world: MujocoWorld, description: Description, gait_start: fl
 def served_figures(physics: Physics, plot: Path, now: float) -> dict[str, Any]:
     """What ``servolab sim --robot armstrong`` adds to its summary when it stops: the
     physics since it started (whatever walked the robot over the pty), and its plot."""
+    released = physics.world.released_at
     return {"physics": physics_summary(physics.world, physics.description, 0.0, now),
             "fell": physics.world.fell_at is not None,
+            # the harness held it until every servo's torque was on (None: never let go)
+            "harness_released_at_s": None if released is None else round(released, 3),
             "physics_plot": str(plot_physics(physics.world, plot, 0.0))}
 
 
