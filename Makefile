@@ -10,9 +10,14 @@ ROS_STAMP := $(ROS_VENV)/.installed
 # The real ROS 2 Jazzy rclpy, the tests' oracle for DDS and for servolab.rclpy: from the package
 # index, in a venv of its own (it is never servolab's dependency). Where the platform has no
 # wheel the install fails, the log says why, and the tests that need it skip saying so.
+# rosidl's .msg-to-.idl adapter, parser and type hash generator, with the packages whose type
+# descriptions the shipped interfaces use (trajectory_msgs, lifecycle_msgs), hash servolab's
+# shipped interface files as a ROS 2 build would (tests/middleware/test_shipped_interfaces.py).
 ROS_PACKAGES := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-rmw-dds-common \
 	ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-geometry-msgs ros-jazzy-sensor-msgs \
-	ros-jazzy-nav-msgs ros-jazzy-rosgraph-msgs ros-jazzy-test-msgs
+	ros-jazzy-nav-msgs ros-jazzy-rosgraph-msgs ros-jazzy-test-msgs \
+	ros-jazzy-rosidl-adapter ros-jazzy-rosidl-parser ros-jazzy-rosidl-generator-type-description \
+	ros-jazzy-trajectory-msgs ros-jazzy-lifecycle-msgs
 
 .PHONY: demo test lint bench clean ros-oracle view-oracle
 

@@ -141,3 +141,20 @@ def test_type_hashes_equal_rosidls_for_every_installed_interface(tmp_path: Path)
     wrong = {name: (types.rihs01(name), want) for name, want in expected.items()
              if types.rihs01(name) != want}
     assert wrong == {}
+
+
+def test_a_shipped_package_is_read_when_first_used(tmp_path: Path) -> None:
+    """The shipped packages are read on first use (every servolab process builds a
+    MessageTypes; most use none of control_msgs' 32 types): a type of one is there when asked
+    for by name, listed by ``names()``, and usable from a lab's own package that names it."""
+    types = MessageTypes()
+    assert "control_msgs/msg/JointTolerance" not in types.store.fielddefs   # not read yet
+    assert types.has_package("control_msgs") and not types.has_package("no_such_msgs")
+    assert types.check("control_msgs/msg/JointTolerance") == "control_msgs/msg/JointTolerance"
+    assert types.default("control_msgs/msg/JointTolerance").name == ""
+    assert "controller_manager_msgs/srv/ListControllers" in MessageTypes().service_names()
+    lab = tmp_path / "arm_msgs" / "msg"
+    lab.mkdir(parents=True)
+    (lab / "Limits.msg").write_text("control_msgs/JointTolerance[] per_joint\n")
+    labs = MessageTypes(interface_path=[tmp_path])
+    assert labs.rihs01("arm_msgs/msg/Limits").startswith("RIHS01_")

@@ -253,7 +253,7 @@ types = MessageTypes()
 ctx = Context.open(TransportOptions("ros2", domain_id=int(os.environ["ROS_DOMAIN_ID"])),
                    types=types)
 try:
-    Node(ctx, "n").create_publisher("trajectory_msgs/msg/JointTrajectory", "/arm", 10)
+    Node(ctx, "n").create_publisher("control_msgs/msg/JointTolerance", "/arm", 10)
 except TransportError as exc:
     print("refused:", exc, flush=True)
 ctx.close()
@@ -261,15 +261,16 @@ ctx.close()
 
 
 def test_a_type_the_installed_ros_lacks_is_refused_naming_it(domain: int) -> None:
-    """The oracle's ROS 2 has no trajectory_msgs (Makefile ROS_PACKAGES): refused in one
-    line naming the type and its package, before anything is published."""
+    """The oracle's ROS 2 has no control_msgs (the package index has no wheel of it; servolab
+    ships it): refused in one line naming the type and its package, before anything is
+    published."""
     out = subprocess.run(on_ros(SERVOLAB_UNKNOWN_TYPE), env=servolab_on_ros_env(domain),
                          capture_output=True, text=True, timeout=120, check=False)
     assert out.returncode == 0, out.stderr
     line, = out.stdout.splitlines()
     assert line.startswith("refused: the installed ROS 2 has no Python type "
-                           "trajectory_msgs/msg/JointTrajectory")
-    assert "trajectory_msgs" in line.split("(", 1)[1]
+                           "control_msgs/msg/JointTolerance")
+    assert "control_msgs" in line.split("(", 1)[1]
 
 
 # -- large messages: what issue 44 measured lost on the DDS transport -------------------------

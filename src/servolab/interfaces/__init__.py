@@ -48,8 +48,9 @@ def message_class(type_name: str) -> type:
     """The class for ``pkg/msg/Name`` (or a service's ``pkg/srv/Name_Request``), with the
     type's constants as class attributes, as rosidl's (``GoalStatus.STATUS_SUCCEEDED``)."""
     short = type_name.rsplit("/", 1)[-1]
-    constants = {name: value for name, _kind, value
-                 in default_types().store.fielddefs[type_name][0]}
+    known = default_types()
+    known.load_package_of(type_name)
+    constants = {name: value for name, _kind, value in known.store.fielddefs[type_name][0]}
     return MessageClass(short, (), {"__msgtype__": type_name, "__module__": __name__,
                                     "__doc__": f"The ROS 2 message {type_name}.",
                                     **constants})
@@ -73,6 +74,7 @@ def action_class(type_name: str) -> type:
     ``GoalStatusMessage`` where action_msgs' are known)."""
     short = type_name.rsplit("/", 1)[-1]
     known = default_types()
+    known.load_package_of(type_name)
     parts: dict[str, Any] = {
         "SendGoalService": service_class(f"{type_name}_SendGoal"),
         "GetResultService": service_class(f"{type_name}_GetResult"),
@@ -80,6 +82,7 @@ def action_class(type_name: str) -> type:
     for attribute, name, make in (
             ("CancelGoalService", "action_msgs/srv/CancelGoal", service_class),
             ("GoalStatusMessage", "action_msgs/msg/GoalStatusArray", message_class)):
+        known.load_package_of(name)
         if name in known.store.fielddefs:
             parts[attribute] = make(name)
     impl = type("Impl", (), {"__module__": __name__, **parts})
@@ -134,7 +137,7 @@ class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         if len(parts) == 4 and parts[3] not in ("msg", "srv", "action"):
             return None
         package = parts[2]
-        if not any(n.startswith(f"{package}/") for n in default_types().store.fielddefs):
+        if not default_types().has_package(package):
             return None  # an ImportError: no such interface package
         return importlib.machinery.ModuleSpec(fullname, self, is_package=len(parts) == 3)
 

@@ -243,11 +243,36 @@ class MessageTypes:
             self.register_service(name, request, response)
         if extra_msgs:
             self.register_msgs(extra_msgs)
+        #: the shipped packages not read yet, by name: each is read and registered when one
+        #: of its types is first asked for (:meth:`load_package_of`), since parsing all of
+        #: them (control_msgs, controller_manager_msgs, ...) would add about half a second to
+        #: every servolab process, most of which use none of them
+        self._unread: dict[str, Path] = {folder.name: folder
+                                         for folder in find_packages([SHIPPED_INTERFACES])}
         roots = environment_roots() if interface_path is None else list(interface_path)
-        for folder in find_packages([SHIPPED_INTERFACES, *roots]):
-            self.register_package(read_package(folder))
+        for folder in find_packages(roots):  # a lab's own: read now, so a bad file is an
+            package = read_package(folder)    # error before anything moves
+            self.load_package_of(f"{package.name}/")  # a shipped one of that name first
+            self.register_package(package)
 
     # -- registering ------------------------------------------------------------------------
+
+    def load_package_of(self, type_name: str) -> None:
+        """Read and register the shipped package ``type_name`` belongs to (``pkg/...``), if it
+        has not been yet; anything else is left as it is."""
+        folder = self._unread.pop(type_name.split("/", 1)[0], None)
+        if folder is not None:
+            self.register_package(read_package(folder))
+
+    def load_all(self) -> None:
+        """Read every shipped package not read yet: for what lists every type."""
+        for package in list(self._unread):
+            self.load_package_of(f"{package}/")
+
+    def has_package(self, package: str) -> bool:
+        """Whether any type of ``package`` is known (shipped, read or not yet)."""
+        return package in self._unread or any(n.startswith(f"{package}/")
+                                              for n in self.store.fielddefs)
 
     def _register(self, types: Any) -> None:
         """Register types with the store, and check assignments to their fields
@@ -338,6 +363,9 @@ class MessageTypes:
         for name, (_, definition) in types.items():
             for field_name, desc in definition:
                 for ref in _references(desc):
+                    if ref not in known and ref.split("/", 1)[0] in self._unread:
+                        self.load_package_of(ref)   # a shipped package this one uses
+                        known |= set(self.store.fielddefs)
                     if ref not in known:
                         short = ref.rsplit("/", 1)[-1]
                         why = (" (wstring fields are not supported: rosbags' .msg parser does "
@@ -360,6 +388,7 @@ class MessageTypes:
 
     def action_names(self) -> list[str]:
         """Every known action type name (``pkg/action/Name``), sorted."""
+        self.load_all()
         return sorted(n for n in self.store.fielddefs
                       if "/action/" in n and f"{n}_SendGoal" in self.store.fielddefs)
 
@@ -394,10 +423,12 @@ class MessageTypes:
 
     def names(self) -> list[str]:
         """Every known message type name, sorted."""
+        self.load_all()
         return sorted(n for n in self.store.fielddefs if "/msg/" in n)
 
     def service_names(self) -> list[str]:
         """Every known service type name (``pkg/srv/Name``), sorted."""
+        self.load_all()
         return sorted(n for n in self.store.fielddefs
                       if "/srv/" in n and f"{n}_Request" in self.store.fielddefs)
 
@@ -410,6 +441,7 @@ class MessageTypes:
         parts = name.split("/")
         if len(parts) == 2 and all(parts):
             name = f"{parts[0]}/srv/{parts[1]}"
+        self.load_package_of(name)
         if name in self.store.fielddefs and f"{name}_Request" in self.store.fielddefs:
             return ServiceType(name)
         known = self.service_names()
@@ -434,6 +466,7 @@ class MessageTypes:
     def check(self, name: str) -> str:
         """The canonical name of a known message type, or a one-line :class:`MessageError`."""
         full = canonical_name(name)
+        self.load_package_of(full)
         if full not in self.store.fielddefs:
             hint = [n for n in self.names() if n.rsplit("/", 1)[-1] == full.rsplit("/", 1)[-1]]
             also = f" (did you mean {hint[0]}?)" if hint else ""
@@ -452,7 +485,9 @@ class MessageTypes:
         """CDR (little-endian, with its 4-byte encapsulation header), as rmw and rosbag2 use:
         :mod:`.fast_cdr`'s code generated for the type, which writes rosbags' bytes (and
         leaves to rosbags whatever it does not take) several times faster."""
-        return self.cdr.serialize(msg, name or self.type_of(msg))
+        name = name or self.type_of(msg)
+        self.load_package_of(name)  # a message another MessageTypes built, of a package unread
+        return self.cdr.serialize(msg, name)
 
     def writer(self, name: str) -> Callable[[Any], bytes]:
         """:meth:`serialize` for one type, as one function (what a publisher calls for every
@@ -493,6 +528,7 @@ class MessageTypes:
 
     def rihs01(self, name: str) -> str:
         """The REP-2016 type hash, ``RIHS01_<sha256>``."""
+        self.load_package_of(name)
         return self.store.hash_rihs01(name)
 
     @staticmethod

@@ -222,6 +222,8 @@ class BagReader:
         type, then each type it uses after a ``===`` line and ``MSG: pkg/Name``)."""
         store = self.types.store
         for schema in self._index.schemas.values():
+            if schema.name:
+                self.types.load_package_of(schema.name)  # servolab's own, when it ships it
             if not schema.name or schema.name in store.fielddefs:
                 continue
             try:
