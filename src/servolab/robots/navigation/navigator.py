@@ -42,8 +42,16 @@ controller cycle (``controller_frequency``, move_base's) hands the plan to DWA
 (:func:`~servolab.planning.dwa.compute_velocity`, the D.3 parameters), which also stops the
 robot and turns it to the goal's heading within the goal tolerances, latched as
 base_local_planner's ``LatchedStopRotateController`` latches. DWA's oscillation flags and the
-latches are kept here and cleared every ``1 / planner_frequency`` s, when move_base would hand
-DWA a new global plan (``DWAPlanner::setPlan``; 0: only at the start).
+latches are kept by the goal's state machine and cleared every ``1 / planner_frequency`` s,
+when move_base would hand DWA a new global plan (``DWAPlanner::setPlan``; 0: only at the
+start).
+
+**Who decides**: what becomes of the goal -- waiting, driving, recovering, reached, aborted,
+canceled, preempted, and the goal checker on the requested pose -- is decided by
+:class:`~.goal_state.GoalStateMachine`, which reads no clock and publishes nothing. This node
+subscribes, reads the clock, keeps the costmap and D* Lite, runs DWA, hands the machine what it
+saw each controller cycle and carries out what it decides (``/cmd_vel``, the feedback, the
+action goal's succeed, abort or canceled).
 
 **Before driving**, from the first map and pose, a goal is refused (``ABORTED`` with
 :attr:`NavigatorNode.refused` set, the wheels never commanded) when it is outside the map, in
@@ -71,13 +79,12 @@ the camera has lost the robot, its covariance growing, for up to the localiser's
 
 from __future__ import annotations
 
-import enum
 import functools
 import math
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, TypeVar
 
 import numpy as np
@@ -86,10 +93,11 @@ import numpy.typing as npt
 from ...middleware.context import Context
 from ...middleware.messages import time_of
 from ...middleware.node import Node
+from ...middleware.publisher import Publisher
 from ...planning.approach import dry_run
 from ...planning.costmap import inflate, traversal_costs
 from ...planning.dstar_lite import DStarLite
-from ...planning.dwa import DwaConfig, DwaStatus, GoalLatch, OscillationFlags, compute_velocity
+from ...planning.dwa import DwaConfig, compute_velocity
 from ...planning.errors import NoPath
 from ...rclpy.action import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
 from ...rclpy.action.server import ActionError
@@ -105,10 +113,33 @@ from .display import (
     path_fields,
     pose_fields,
 )
+from .goal_state import (
+    MOVE_BASE_PATIENCE,
+    Decision,
+    Drive,
+    End,
+    Feedback,
+    GoalChecker,
+    GoalRules,
+    GoalStateMachine,
+    NavigationStatus,
+    Patience,
+    Pose,
+    Recover,
+    Recovery,
+    Sensed,
+    Stop,
+    TurnTimedOut,
+    Wait,
+)
 from .params import CLEAR_COSTMAP_RECOVERY, CostmapParams, RecoveryBehavior
-from .recovery import ROTATE_TIMEOUT, RotateRecovery, can_rotate_in_place
+from .recovery import can_rotate_in_place
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID, occupancy_of
 
+#: NavigationStatus, Patience and Recovery are the goal state machine's, named from here too
+__all__ = ["ACTION_NAME", "FEEDBACK_TOPIC", "NAVIGATE_TO_POSE", "ODOMETRY", "PATH", "POSE",
+           "STATUS_TOPIC", "TWIST", "CostGrid", "DrivenPath", "NavigationStatus", "NavigatorNode",
+           "Patience", "Recovery", "Repair"]
 POSE = "geometry_msgs/msg/PoseStamped"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TWIST = "geometry_msgs/msg/Twist"
@@ -134,16 +165,6 @@ def _one_at_a_time(method: _Method) -> _Method:
     return locked  # type: ignore[return-value]
 
 
-class NavigationStatus(enum.Enum):
-    """Where the goal stands, as move_base's action reports it."""
-
-    WAITING = "waiting for a goal, a map and a pose"
-    ACTIVE = "driving"
-    SUCCEEDED = "goal reached"
-    ABORTED = "aborted"
-    CANCELED = "canceled"
-
-
 @dataclass(frozen=True)
 class Repair:
     """One map change the planner repaired: when (s), how many cells changed, and the host
@@ -155,30 +176,106 @@ class Repair:
 
 
 @dataclass(frozen=True)
-class Patience:
-    """move_base's patience: ``planner`` s without a plan, ``controller`` s without a valid
-    command, or ``oscillation_timeout`` s (0: never) without moving ``oscillation_distance``
-    m, before the next recovery behaviour runs (and the goal is given up after the last)."""
+class CostGrid:
+    """One map as the planner sees it, ``[row, col]``: the camera's ``occupied`` cells,
+    costmap_2d's inflated ``costmap`` and navfn's traversal ``costs`` (inf: not to be entered),
+    with the map's ``resolution`` (m) and ``origin`` (the first cell's corner, m)."""
 
-    planner: float = 5.0
-    controller: float = 15.0
-    oscillation_timeout: float = 0.0
-    oscillation_distance: float = 0.5
+    occupied: npt.NDArray[np.bool_]
+    costmap: npt.NDArray[np.uint8]
+    costs: FloatArray
+    resolution: float
+    origin: tuple[float, float]
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int] | None:
+        """The ``(row, col)`` of a map point, None outside the map."""
+        col = math.floor((x - self.origin[0]) / self.resolution)
+        row = math.floor((y - self.origin[1]) / self.resolution)
+        rows, cols = self.costs.shape
+        return (row, col) if 0 <= row < rows and 0 <= col < cols else None
+
+    def points_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
+        """Map points (cell centres) of ``(row, col)`` cells, ``(N, 2)`` as ``(x, y)``."""
+        return np.asarray(np.asarray(self.origin) + (cells[:, ::-1] + 0.5) * self.resolution,
+                          dtype=np.float64)
+
+    def plan_points(self, cells: npt.NDArray[np.int64], goal: tuple[float, float]) -> FloatArray:
+        """The plan through ``cells`` as map points, ending at the goal as it was asked for:
+        navfn appends the exact goal to the cell centres it found (``NavFn::makePlan``), and
+        DWA brakes and turns within xy_goal_tolerance of the plan's last pose, so it settles
+        where the goal checker looks: at the requested goal, never at its cell's centre."""
+        return np.vstack([self.points_of(cells), np.asarray([goal], dtype=np.float64)])
+
+    def obstacle_distance(self, cell: tuple[int, int]) -> float:
+        """The distance (m) from a cell's centre to the nearest occupied cell's centre."""
+        occupied = np.argwhere(self.occupied)
+        if not len(occupied):
+            return math.inf
+        return float(np.min(np.hypot(*(occupied - np.asarray(cell)).T)) * self.resolution)
+
+
+@dataclass
+class _Planning:
+    """D* Lite for the goal being driven to, the map changes it repaired that no plan has
+    followed yet (their cells and host seconds, which the next plan's :class:`Repair` counts),
+    and the plan last published."""
+
+    planner: DStarLite
+    changed: int = 0
+    seconds: float = 0.0
+    last_plan: FloatArray | None = None
+
+
+@dataclass
+class _Robot:
+    """The robot as last heard of: its pose (x, y, yaw in the map frame), when it came (the
+    node's clock, which the pose's age is measured on) and its stamp, and its velocity from
+    odometry."""
+
+    pose: Pose | None = None
+    at: float | None = None
+    stamp: Any = None
+    velocity: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass
+class DrivenPath:
+    """The robot's poses so far as ``/path`` shows them, each with its stamp: a pose is kept
+    once it is :data:`~.display.PATH_SPACING` m from the last."""
+
+    poses: list[Pose] = field(default_factory=list)
+    stamps: list[Any] = field(default_factory=list)
+
+    def add(self, pose: Pose, stamp: Any) -> bool:
+        """Keep ``pose`` if it is far enough from the last; whether it was kept."""
+        if self.poses and math.hypot(pose[0] - self.poses[-1][0],
+                                     pose[1] - self.poses[-1][1]) < PATH_SPACING:
+            return False
+        self.poses.append(pose)
+        self.stamps.append(stamp)
+        return True
 
 
 @dataclass(frozen=True)
-class Recovery:
-    """One recovery behaviour that ran: when (s), which, and why (move_base's trigger)."""
+class _ActionGoal:
+    """The goal being driven to as nav2's action server holds it: its handle, the future its
+    execution ends with, and its stamp (``/goal_pose`` echoes it)."""
 
-    t: float
-    name: str
-    type: str
-    trigger: str
+    handle: ServerGoalHandle
+    ending: Future
+    stamp: dict[str, int]
 
 
-#: move_base's recovery triggers, and what it says when every behaviour has run in vain
-_GIVEN_UP = {"planning": "no plan to the goal", "controlling": "no valid trajectory",
-             "oscillation": "oscillating"}
+@dataclass(frozen=True)
+class _Topics:
+    """What the node publishes besides its action (module docstring)."""
+
+    cmd_vel: Publisher
+    plan: Publisher
+    costmap: Publisher
+    local_plan: Publisher
+    driven_path: Publisher
+    goal: Publisher
 
 
 class NavigatorNode(Node):
@@ -186,11 +283,13 @@ class NavigatorNode(Node):
     the heading to end with (rad; None: any); without a goal the node waits for one on its
     goal topics. ``recovery``: the behaviours to run, in order (``MoveBaseParams.behaviors``;
     none: give up at once, as before move_base had them). DWA checks each trajectory with the
-    costmap file's ``footprint`` polygon, or a round robot's centre cell."""
+    costmap file's ``footprint`` polygon, or a round robot's centre cell. What the goal's
+    state machine keeps -- :attr:`status`, :attr:`reason`, :attr:`refused`,
+    :attr:`warnings`, :attr:`recoveries`, ... -- reads as the node's own."""
 
     def __init__(self, context: Context, goal: tuple[float, float] | None = None, *,
                  costmap: CostmapParams, dwa: DwaConfig, goal_yaw: float | None = None,
-                 patience: Patience = Patience(),
+                 patience: Patience = MOVE_BASE_PATIENCE,
                  recovery: Sequence[RecoveryBehavior] = (),
                  planner_frequency: float = 0.0, pose_timeout: float = 0.5,
                  start_timeout: float | None = None, pose_topic: str = "/fused_pose",
@@ -200,79 +299,38 @@ class NavigatorNode(Node):
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
         self._lock = threading.RLock()
-        self.params, self.dwa, self.patience = costmap, dwa, patience
+        self.params, self.dwa = costmap, dwa
         #: the polygon DWA checks each trajectory pose with (base_local_planner's
         #: footprintCost); a round robot (robot_radius) has its centre cell checked instead,
         #: which the inflation's inscribed band already makes exact
         self.footprint = None if costmap.footprint is None else \
             np.asarray(costmap.footprint_polygon, dtype=np.float64)
-        self.behaviors = tuple(recovery)
-        if not (math.isfinite(planner_frequency) and planner_frequency >= 0):
-            raise RobotValueError(f"planner_frequency {planner_frequency!r} must be >= 0 Hz")
-        self.planner_frequency = planner_frequency
-        if not (math.isfinite(pose_timeout) and pose_timeout > 0):
-            raise RobotValueError(f"pose_timeout {pose_timeout!r} must be > 0 s")
-        self.pose_timeout = pose_timeout
-        self.start_timeout = patience.controller if start_timeout is None else start_timeout
-        if not (math.isfinite(self.start_timeout) and self.start_timeout > 0):
-            raise RobotValueError(f"start_timeout {start_timeout!r} must be > 0 s")
-        #: the goal being driven to, as nav2's action server holds it, and what its
-        #: execution ends with
-        self._handle: ServerGoalHandle | None = None
-        self._ending: Future | None = None
-        #: how many goals the node has taken (each preempting the one before)
-        self.goal_count = 0
-        self._pose_at = -math.inf
-        self._stale_since: float | None = None
-        #: controller cycles skipped, the wheels stopped, because the pose was too old
-        self.stale_cycles = 0
-        #: DWA's oscillation critic; cleared whenever move_base would hand over a new plan
-        self.oscillation = OscillationFlags()
-        #: LatchedStopRotateController's latches; cleared with the oscillation flags
-        self.latch = GoalLatch()
-        self.goal: tuple[float, float] | None = None
-        self.goal_yaw: float | None = None
-        self.status = NavigationStatus.WAITING
-        self.reason = ""
-        #: the goal was refused before the wheels were ever commanded
-        self.refused = False
-        #: warnings about the goal given before driving (a goal in the inflated band)
-        self.warnings: list[str] = []
-        self.pose: tuple[float, float, float] | None = None
-        self.velocity = (0.0, 0.0)
-        self.occupied: npt.NDArray[np.bool_] | None = None
-        self.costmap: npt.NDArray[np.uint8] | None = None
-        self.costs: FloatArray | None = None
-        self.resolution = 0.0
-        self.origin = (0.0, 0.0)
-        self.planner: DStarLite | None = None
+        self.goal_state = GoalStateMachine(GoalRules(
+            GoalChecker.of(dwa), patience, tuple(recovery), planner_frequency, pose_timeout,
+            start_timeout))
+        self.robot = _Robot()
+        self.grid: CostGrid | None = None
+        self._planning: _Planning | None = None
         #: every plan (t, (N, 2) map points), the first and each one that differed
         self.plans: list[tuple[float, FloatArray]] = []
         self.repairs: list[Repair] = []
-        #: every recovery behaviour that ran
-        self.recoveries: list[Recovery] = []
         #: (t, x, y, yaw, v, omega, DWA status) of every controller cycle that drove
         self.cycles: list[tuple[float, float, float, float, float, float, str]] = []
-        self._pending_change = 0
-        self._pending_seconds = 0.0
-        #: the stamp of the pose last taken (builtin_interfaces/Time fields)
-        self._pose_stamp: Any = None
-        #: the driven path: (x, y, yaw) poses and their stamps, as published on /path
-        self.driven: list[tuple[float, float, float]] = []
-        self._driven_stamps: list[Any] = []
+        self.driven = DrivenPath()
+        self._goal: _ActionGoal | None = None
         #: the goal message this node published last, to know its echo on /goal_pose
         self._goal_echo: tuple[Any, ...] | None = None
-        self._reset_goal_state(self.now())
-        self.cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
-        self.plan_publisher = self.create_publisher(PATH, "/plan", LATCHED)
+        cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
+        plan = self.create_publisher(PATH, "/plan", LATCHED)
         self.action_server = ActionServer(
             self, NAVIGATE_TO_POSE, ACTION_NAME, self._execute,
             goal_callback=self._check_goal, handle_accepted_callback=self._accepted,
             cancel_callback=lambda _goal: CancelResponse.ACCEPT)
-        self.costmap_publisher = self.create_publisher(OCCUPANCY_GRID, COSTMAP_TOPIC, LATCHED)
-        self.local_plan_publisher = self.create_publisher(PATH, LOCAL_PLAN_TOPIC, 10)
-        self.driven_path_publisher = self.create_publisher(PATH, DRIVEN_PATH_TOPIC, 10)
-        self.goal_publisher = self.create_publisher(POSE, GOAL_TOPIC, LATCHED)
+        self.topics = _Topics(
+            cmd_vel, plan, self.create_publisher(OCCUPANCY_GRID, COSTMAP_TOPIC, LATCHED),
+            self.create_publisher(PATH, LOCAL_PLAN_TOPIC, 10),
+            self.create_publisher(PATH, DRIVEN_PATH_TOPIC, 10),
+            self.create_publisher(POSE, GOAL_TOPIC, LATCHED))
         self.create_subscription(OCCUPANCY_GRID, "/map", self._on_map, LATCHED)
         self.create_subscription(POSE, pose_topic, self._on_pose, 10)
         self.create_subscription(ODOMETRY, "/odom", self._on_odom, 10)
@@ -282,32 +340,57 @@ class NavigatorNode(Node):
         if goal is not None:
             self.set_goal(*goal, goal_yaw)
 
+    # -- the goal's record, as its state machine keeps it --------------------------------------
+
+    @property
+    def status(self) -> NavigationStatus:
+        return self.goal_state.status
+
     @property
     def done(self) -> bool:
-        return self.status in (NavigationStatus.SUCCEEDED, NavigationStatus.ABORTED,
-                               NavigationStatus.CANCELED)
+        return self.goal_state.done
+
+    @property
+    def goal(self) -> tuple[float, float] | None:
+        return self.goal_state.goal
+
+    @property
+    def goal_yaw(self) -> float | None:
+        return self.goal_state.goal_yaw
+
+    @property
+    def reason(self) -> str:
+        return self.goal_state.reason
+
+    @property
+    def refused(self) -> bool:
+        return self.goal_state.refused
+
+    @property
+    def warnings(self) -> list[str]:
+        return self.goal_state.warnings
+
+    @property
+    def recoveries(self) -> list[Recovery]:
+        return self.goal_state.recoveries
+
+    @property
+    def stale_cycles(self) -> int:
+        return self.goal_state.stale_cycles
+
+    @property
+    def goal_count(self) -> int:
+        return self.goal_state.goal_count
+
+    @property
+    def pose(self) -> Pose | None:
+        return self.robot.pose
+
+    @property
+    def costmap(self) -> npt.NDArray[np.uint8] | None:
+        return None if self.grid is None else self.grid.costmap
 
     # -- goals ---------------------------------------------------------------------------------
-
-    def _reset_goal_state(self, now: float) -> None:
-        self.planner = None
-        self.oscillation.reset()
-        self.latch.reset()
-        self._handed_over: float | None = None
-        self._stuck_since: float | None = None
-        self._no_plan_since: float | None = None
-        #: (t, x, y) where the robot last had moved oscillation_distance
-        self._moved: tuple[float, float, float] | None = None
-        self._goal_at = now
-        self._driven = False
-        self._recovery_index = 0
-        self._trigger = ""
-        self._rotation: RotateRecovery | None = None
-        self._rotation_since = now
-        #: recoveries of earlier goals: this goal's are the ones after them
-        self._recoveries_before = len(self.recoveries)
-        self._pending_change, self._pending_seconds = 0, 0.0
-        self._last_plan: FloatArray | None = None
 
     @_one_at_a_time
     def set_goal(self, x: float, y: float, yaw: float | None = None) -> None:
@@ -342,21 +425,17 @@ class NavigatorNode(Node):
     def _take(self, handle: ServerGoalHandle, goal: tuple[float, float],
               yaw: float | None) -> None:
         """Make ``handle`` the goal driven to, preempting the one driven to before."""
-        if self._handle is not None and self._handle.is_active:
+        preempted = self.goal_state.take_goal(self.now(), goal, yaw)
+        if preempted is not None and self._goal is not None and self._goal.handle.is_active:
             # nav2's SimpleActionServer::accept_pending_goal aborts the goal it preempts
             self.get_logger().info("goal preempted by a new one")
             self._stop()
-            self._end(self._handle.abort, "preempted by a new goal")
-        self._handle, self._ending = handle, Future(executor=self.context.executor)
-        self.goal_count += 1
-        self.goal, self.goal_yaw = goal, yaw
-        self.status, self.reason, self.refused = NavigationStatus.WAITING, "", False
-        self.warnings = []
-        self._goal_id = bytes(bytearray(handle.goal_id.uuid))
+            self._end(self._goal.handle.abort, preempted.reason)
+        ending = Future(executor=self.context.executor)
         stamp = handle.goal_info.stamp
-        self._goal_stamp = {"sec": int(stamp.sec), "nanosec": int(stamp.nanosec)}
-        self._reset_goal_state(self.now())
-        ending = self._ending
+        self._goal = _ActionGoal(handle, ending, {"sec": int(stamp.sec),
+                                                  "nanosec": int(stamp.nanosec)})
+        self._planning = None
 
         def execution(_handle: ServerGoalHandle) -> Future:
             return ending  # ended by _end, from the controller's loop
@@ -370,14 +449,14 @@ class NavigatorNode(Node):
     def _end(self, terminate: Callable[[], None], message: str) -> None:
         """End the goal being driven to (``terminate``: its handle's succeed, abort or
         canceled) with nav2's result: no error code but NONE in Jazzy, the reason."""
-        handle, ending = self._handle, self._ending
-        if handle is None or ending is None or not handle.is_active:
+        if self._goal is None or not self._goal.handle.is_active:
             return
         try:
             terminate()
         except ActionError:  # it ended another way meanwhile (a client's cancel went first)
             return
-        ending.set_result(self.message(f"{NAVIGATE_TO_POSE}_Result", error_msg=message))
+        self._goal.ending.set_result(self.message(f"{NAVIGATE_TO_POSE}_Result",
+                                                  error_msg=message))
 
     def _pose_of(self, pose: Any) -> tuple[float, float, float]:
         """``(x, y, yaw)`` of a PoseStamped goal, or a one-line error saying what is wrong."""
@@ -396,12 +475,12 @@ class NavigatorNode(Node):
         return x, y, yaw
 
     def _publish_goal(self) -> None:
-        assert self.goal is not None
+        assert self.goal is not None and self._goal is not None
         pose = pose_fields(*self.goal, self.goal_yaw or 0.0)
-        stamp = self._goal_stamp
+        stamp = self._goal.stamp
         q = pose["orientation"]
         self._goal_echo = (stamp["sec"], stamp["nanosec"], *self.goal, q["z"], q["w"])
-        self.goal_publisher.publish(self.message(
+        self.topics.goal.publish(self.message(
             POSE, header={"stamp": stamp, "frame_id": MAP_FRAME}, pose=pose))
 
     def _is_echo(self, msg: Any) -> bool:
@@ -431,37 +510,37 @@ class NavigatorNode(Node):
         except RobotValueError as error:
             self.get_logger().error(str(error))
             return
-        if self.costs is not None and self.planner is not None and not self.done and (
-                occupied.shape != self.costs.shape or resolution != self.resolution
-                or origin != self.origin):
-            self._abort("the map changed its size or frame mid-run")
+        grid = self.grid
+        if grid is not None and self._planning is not None and not self.done and (
+                occupied.shape != grid.costs.shape or resolution != grid.resolution
+                or origin != grid.origin):
+            self._finish(self.goal_state.abort("the map changed its size or frame mid-run"))
             return
         self._take_map(occupied, resolution, origin, stamp=msg.header.stamp)
 
     def _take_map(self, occupied: npt.NDArray[np.bool_], resolution: float,
                   origin: tuple[float, float], *, stamp: Any = None) -> None:
-        p = self.params
+        p, old = self.params, self.grid
         costmap = inflate(occupied, resolution, p.inflation_radius, p.cost_scaling_factor,
                           p.inscribed_radius)
-        if self.costmap is None or not np.array_equal(costmap, self.costmap) or (
-                resolution, origin) != (self.resolution, self.origin):
+        if old is None or not np.array_equal(costmap, old.costmap) or (
+                resolution, origin) != (old.resolution, old.origin):
             self._publish_costmap(costmap, resolution, origin,
                                   self.stamp() if stamp is None else stamp)
         costs = traversal_costs(costmap)
-        if self.costs is not None and self.planner is not None:
-            changed = np.argwhere(costs != self.costs)
+        if old is not None and self._planning is not None:
+            changed = np.argwhere(costs != old.costs)
             if len(changed):
                 started = time.perf_counter()
-                self.planner.update_cells(changed, costs[changed[:, 0], changed[:, 1]])
-                self._pending_seconds += time.perf_counter() - started
-                self._pending_change += len(changed)
-        self.occupied, self.costmap, self.costs = occupied, costmap, costs
-        self.resolution, self.origin = resolution, origin
+                self._planning.planner.update_cells(changed, costs[changed[:, 0], changed[:, 1]])
+                self._planning.seconds += time.perf_counter() - started
+                self._planning.changed += len(changed)
+        self.grid = CostGrid(occupied, costmap, costs, resolution, origin)
 
     def _publish_costmap(self, costmap: npt.NDArray[np.uint8], resolution: float,
                          origin: tuple[float, float], stamp: Any) -> None:
         rows, cols = costmap.shape
-        self.costmap_publisher.publish(self.message(
+        self.topics.costmap.publish(self.message(
             OCCUPANCY_GRID, header={"stamp": stamp, "frame_id": MAP_FRAME},
             info={"map_load_time": stamp, "resolution": float(resolution), "width": cols,
                   "height": rows, "origin": pose_fields(*origin)},
@@ -474,143 +553,167 @@ class NavigatorNode(Node):
         if not all(math.isfinite(v) for v in pose):
             self.get_logger().error(f"pose refused: {pose} is not finite")
             return
-        self.pose = pose
-        self._pose_at = self.now()
-        self._pose_stamp = msg.header.stamp
-        if not self.driven or math.hypot(pose[0] - self.driven[-1][0],
-                                         pose[1] - self.driven[-1][1]) >= PATH_SPACING:
-            self.driven.append(pose)
-            self._driven_stamps.append(msg.header.stamp)
-            self.driven_path_publisher.publish(self.message(PATH, **path_fields(
-                self.driven, msg.header.stamp, MAP_FRAME, self._driven_stamps)))
+        self.robot.pose, self.robot.at, self.robot.stamp = pose, self.now(), msg.header.stamp
+        if self.driven.add(pose, msg.header.stamp):
+            self.topics.driven_path.publish(self.message(PATH, **path_fields(
+                self.driven.poses, msg.header.stamp, MAP_FRAME, self.driven.stamps)))
 
     @_one_at_a_time
     def _on_odom(self, msg: Any) -> None:
         v, omega = float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z)
         if math.isfinite(v) and math.isfinite(omega):
-            self.velocity = (v, omega)
+            self.robot.velocity = (v, omega)
 
-    # -- where things are ----------------------------------------------------------------------
-
-    def cell_of(self, x: float, y: float) -> tuple[int, int] | None:
-        """The ``(row, col)`` of a map point, None outside the map."""
-        if self.costs is None:
+    def _goal_covered(self) -> str | None:
+        """Why the current map covers the goal (an obstacle put on it after it was given);
+        None while it does not."""
+        grid, goal = self.grid, self.goal
+        cell = None if grid is None or goal is None else grid.cell_of(*goal)
+        if grid is None or goal is None or cell is None or math.isfinite(grid.costs[cell]):
             return None
-        col = math.floor((x - self.origin[0]) / self.resolution)
-        row = math.floor((y - self.origin[1]) / self.resolution)
-        rows, cols = self.costs.shape
-        return (row, col) if 0 <= row < rows and 0 <= col < cols else None
+        return (f"goal ({goal[0]:g}, {goal[1]:g}) is inside an obstacle or within the robot's "
+                f"inscribed radius {self.params.inscribed_radius:.3g} m of one on the current "
+                f"map (costmap {int(grid.costmap[cell])}): the map covered it after the goal "
+                "was given")
 
-    def points_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
-        """Map points (cell centres) of ``(row, col)`` cells, ``(N, 2)`` as ``(x, y)``."""
-        return np.asarray(np.asarray(self.origin) + (cells[:, ::-1] + 0.5) * self.resolution,
-                          dtype=np.float64)
+    # -- carrying out what the goal's state machine decides ------------------------------------
 
-    def plan_points(self, cells: npt.NDArray[np.int64]) -> FloatArray:
-        """The plan through ``cells`` as map points, ending at the goal as it was asked for:
-        navfn appends the exact goal to the cell centres it found (``NavFn::makePlan``), and
-        base_local_planner judges "goal reached" on the plan's last pose, so the goal checker
-        measures xy_goal_tolerance from the requested goal, never from its cell's centre."""
-        assert self.goal is not None
-        points = self.points_of(cells)
-        return np.vstack([points, np.asarray([self.goal], dtype=np.float64)])
-
-    def obstacle_distance(self, cell: tuple[int, int]) -> float:
-        """The distance (m) from a cell's centre to the nearest occupied cell's centre."""
-        assert self.occupied is not None
-        occupied = np.argwhere(self.occupied)
-        if not len(occupied):
-            return math.inf
-        return float(np.min(np.hypot(*(occupied - np.asarray(cell)).T)) * self.resolution)
-
-    # -- endings -------------------------------------------------------------------------------
+    def _carry_out(self, decision: Decision) -> None:
+        match decision:
+            case Drive(v, omega):
+                self.topics.cmd_vel.publish(self.message(TWIST, linear={"x": v},
+                                                         angular={"z": omega}))
+            case Stop():
+                self._stop()
+            case End():
+                self._finish(decision)
+            case Recover():
+                self._recover(decision)
+            case Wait():
+                pass  # nothing to act on yet: no command, the wheels as they are
 
     def _stop(self) -> None:
-        self.cmd_vel.publish(self.message(TWIST))
+        self.topics.cmd_vel.publish(self.message(TWIST))
 
-    def _abort(self, reason: str) -> None:
-        self.status, self.reason = NavigationStatus.ABORTED, reason
-        self.planner = None
-        self.refused = not self._driven
-        self.get_logger().error(("goal refused before driving: " if self.refused
-                                 else "goal aborted: ") + reason)
+    def _finish(self, end: End) -> None:
+        """The goal ended: the wheels stopped, its action goal ended as ``end`` says (the
+        reason is an aborted goal's ``error_msg`` only, as nav2 answers)."""
+        self._planning = None
+        aborted = end.status is NavigationStatus.ABORTED
+        if aborted:
+            self.get_logger().error(("goal refused before driving: " if end.refused
+                                     else "goal aborted: ") + end.reason)
         self._stop()
-        if self._handle is not None:
-            self._end(self._handle.abort, reason)
+        if end.status is NavigationStatus.CANCELED:
+            self.get_logger().info("goal canceled")
+        if self._goal is not None:
+            handle = self._goal.handle
+            terminate = {NavigationStatus.ABORTED: handle.abort,
+                         NavigationStatus.CANCELED: handle.canceled}.get(end.status,
+                                                                         handle.succeed)
+            self._end(terminate, end.reason if aborted else "")
 
-    def _succeed(self) -> None:
-        self.status, self.reason = NavigationStatus.SUCCEEDED, "goal reached"
-        self.planner = None
+    def _recover(self, trouble: Recover) -> None:
+        """move_base's CLEARING: the wheels stopped, then the behaviour (or the goal given
+        up)."""
         self._stop()
-        if self._handle is not None:
-            self._end(self._handle.succeed, "")
+        if trouble.give_up is not None:
+            self._finish(trouble.give_up)
+            return
+        assert trouble.behavior is not None and self.pose is not None and self.grid is not None
+        self.get_logger().warning(trouble.message)
+        x, y, _ = self.pose
+        if trouble.behavior.type == CLEAR_COSTMAP_RECOVERY:
+            # what the clearing forgets, the camera re-marks at once (it sees the whole floor
+            # every frame): what is left of the behaviour is a search from scratch
+            self._restart_planner(x, y)
+            return
+        grid, cell = self.grid, self.grid.cell_of(x, y)
+        if cell is not None and can_rotate_in_place(
+                grid.costmap, cell, (x, y), self.footprint, grid.resolution, grid.origin):
+            self.goal_state.start_turn()
+        else:
+            self.get_logger().error("rotate recovery can't rotate in place because there "
+                                    "is a potential collision")
 
-    def _cancel(self) -> None:
-        """A client canceled the goal: the wheels stop, the goal ends CANCELED."""
-        self.status, self.reason = NavigationStatus.CANCELED, "canceled by its client"
-        self.planner = None
-        self._stop()
-        self.get_logger().info("goal canceled")
-        if self._handle is not None:
-            self._end(self._handle.canceled, "")
+    def _restart_planner(self, x: float, y: float) -> None:
+        """A new D* Lite search from the robot's cell on the current map, its repairs'
+        history dropped (a clearing recovery)."""
+        grid, planning, goal = self.grid, self._planning, self.goal
+        assert grid is not None and goal is not None and planning is not None
+        cell = grid.cell_of(x, y)
+        start = cell if cell is not None and math.isfinite(grid.costs[cell]) \
+            else planning.planner.start
+        covered = self._goal_covered()
+        if covered is not None:
+            # an obstacle covers the goal now: a search from scratch cannot reach it either
+            # (the planner keeps its repairs, and finds the goal again if the obstacle goes)
+            self.get_logger().warning(covered)
+            return
+        goal_cell = grid.cell_of(*goal)
+        assert goal_cell is not None
+        planning.planner = DStarLite(grid.costs, start, goal_cell)
+        planning.changed, planning.seconds = 0, 0.0
 
-    def _publish_feedback(self, now: float, x: float, y: float, yaw: float) -> None:
-        assert self.goal is not None and self._handle is not None
+    def _publish_feedback(self, now: float, feedback: Feedback) -> None:
+        assert self._goal is not None
         stamp = self.stamp(now)
-        elapsed = time_of(now - self._goal_at)  # a duration
-        self._handle.publish_feedback(self.message(
+        x, y, yaw = feedback.pose
+        self._goal.handle.publish_feedback(self.message(
             f"{NAVIGATE_TO_POSE}_Feedback",
             current_pose={"header": {"stamp": stamp, "frame_id": MAP_FRAME}, "pose": {
                 "position": {"x": x, "y": y},
                 "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
-            navigation_time=elapsed,
-            number_of_recoveries=len(self.recoveries) - self._recoveries_before,
-            distance_remaining=math.hypot(self.goal[0] - x, self.goal[1] - y)))
+            navigation_time=time_of(feedback.navigation_time),  # a duration
+            number_of_recoveries=feedback.number_of_recoveries,
+            distance_remaining=feedback.distance_remaining))
 
     # -- before driving ------------------------------------------------------------------------
 
-    def _start_planner(self, start: tuple[int, int], pose: tuple[float, float, float]) -> bool:
+    def _start_planner(self, grid: CostGrid, start: tuple[int, int], pose: Pose) -> bool:
         """The checks of the module docstring's "before driving", then D* Lite's first plan."""
-        assert self.costs is not None and self.costmap is not None and self.goal is not None
+        assert self.goal is not None
+
+        def refuse(reason: str) -> bool:
+            self._finish(self.goal_state.abort(reason))
+            return False
+
         gx, gy = self.goal
-        goal = self.cell_of(gx, gy)
+        goal = grid.cell_of(gx, gy)
         if goal is None:
-            rows, cols = self.costs.shape
-            x0, y0 = self.origin
-            x1, y1 = x0 + cols * self.resolution, y0 + rows * self.resolution
-            self._abort(f"goal ({gx:g}, {gy:g}) is outside the map (x {x0:g}..{x1:g}, "
-                        f"y {y0:g}..{y1:g} m)")
-            return False
-        if not math.isfinite(self.costs[goal]):
-            self._abort(f"goal ({gx:g}, {gy:g}) is inside an obstacle or within the robot's "
-                        f"inscribed radius {self.params.inscribed_radius:.3g} m of one "
-                        f"(costmap {int(self.costmap[goal])})")
-            return False
-        if not math.isfinite(self.costs[start]):
-            self._abort(f"the robot at cell {start} stands within its inscribed radius of an "
-                        f"obstacle (costmap {int(self.costmap[start])}): it cannot start")
-            return False
-        planner = DStarLite(self.costs, start, goal)
+            rows, cols = grid.costs.shape
+            x0, y0 = grid.origin
+            x1, y1 = x0 + cols * grid.resolution, y0 + rows * grid.resolution
+            return refuse(f"goal ({gx:g}, {gy:g}) is outside the map (x {x0:g}..{x1:g}, "
+                          f"y {y0:g}..{y1:g} m)")
+        if not math.isfinite(grid.costs[goal]):
+            return refuse(f"goal ({gx:g}, {gy:g}) is inside an obstacle or within the robot's "
+                          f"inscribed radius {self.params.inscribed_radius:.3g} m of one "
+                          f"(costmap {int(grid.costmap[goal])})")
+        if not math.isfinite(grid.costs[start]):
+            return refuse(f"the robot at cell {start} stands within its inscribed radius of an "
+                          f"obstacle (costmap {int(grid.costmap[start])}): it cannot start")
+        planner = DStarLite(grid.costs, start, goal)
         try:
             cells = planner.path()
         except NoPath:
-            self._abort(f"no path from the robot to goal ({gx:g}, {gy:g}) on the first map: "
-                        "obstacles enclose the goal or the robot")
-            return False
-        cost = int(self.costmap[goal])
+            return refuse(f"no path from the robot to goal ({gx:g}, {gy:g}) on the first map: "
+                          "obstacles enclose the goal or the robot")
+        warnings: list[str] = []
+        cost = int(grid.costmap[goal])
         if cost > 0:
-            clear = self.obstacle_distance(goal) - self.resolution / 2
+            clear = grid.obstacle_distance(goal) - grid.resolution / 2
             band = (f"goal ({gx:g}, {gy:g}) lies in the inflated band of an obstacle about "
                     f"{clear:.2f} m away: costmap cost {cost} of 252 (inflation_radius "
                     f"{self.params.inflation_radius:g} m)")
-            plan = self.plan_points(cells)
+            plan = grid.plan_points(cells, self.goal)
             length = float(np.sum(np.hypot(*np.diff(plan, axis=0).T)))
             def rehearse(dwa: DwaConfig) -> Any:
-                assert self.costmap is not None
-                return dry_run(self.costmap, plan, dwa, resolution=self.resolution,
-                               origin=self.origin, goal_yaw=self.goal_yaw, start=pose,
+                return dry_run(grid.costmap, plan, dwa, resolution=grid.resolution,
+                               origin=grid.origin, goal_yaw=self.goal_yaw, start=pose,
                                footprint=self.footprint,
-                               stall_time=self.patience.oscillation_timeout or 10.0,
+                               stall_time=self.goal_state.rules.patience.oscillation_timeout
+                               or 10.0,
                                max_time=30.0 + 3.0 * length / max(dwa.max_vel_x, 0.01))
 
             check = rehearse(self.dwa)
@@ -622,13 +725,12 @@ class NavigatorNode(Node):
                          + self.dwa.xy_goal_tolerance else
                          f"stops on the way, at ({x:.2f}, {y:.2f}), {check.distance:.2f} m "
                          f"before it (costmap cost {check.cost} there)")
-                self._abort(f"{band}; a dry run of DWA on this map {where} "
-                            f"({check.status}): {self._deciding(rehearse)}")
-                return False
-            self.warnings.append(band)
+                return refuse(f"{band}; a dry run of DWA on this map {where} "
+                              f"({check.status}): {self._deciding(rehearse)}")
+            warnings.append(band)
             self.get_logger().warning(band + "; DWA's dry run reaches it")
-        self.planner = planner
-        self.status = NavigationStatus.ACTIVE
+        self._planning = _Planning(planner)
+        self.goal_state.start_driving(warnings)
         return True
 
     def _deciding(self, rehearse: Callable[[DwaConfig], Any]) -> str:
@@ -652,222 +754,89 @@ class NavigatorNode(Node):
                 "with each at 0 does not reach it either). Move the goal away from the "
                 "obstacle")
 
-    def _waited_too_long(self, now: float) -> bool:
-        """A goal with no map or no pose of the robot for ``start_timeout`` s is refused."""
-        if now - self._goal_at < self.start_timeout:
-            return False
-        missing = "map" if self.costs is None else "pose of the robot (the camera does not " \
-            "see it)"
-        self._abort(f"no {missing} for {self.start_timeout:g} s after the goal")
-        return True
-
-    # -- move_base's troubles and recoveries ---------------------------------------------------
+    # -- the loop ------------------------------------------------------------------------------
 
     def _plan(self, now: float) -> FloatArray | None:
-        """The plan from the robot's cell, repaired for what changed; None if there is none
-        (and after ``planner_patience`` the next recovery)."""
-        assert self.planner is not None
+        """The plan from the robot's cell, repaired for what changed; None if there is none."""
+        planning, grid = self._planning, self.grid
+        assert planning is not None and grid is not None and self.goal is not None
         started = time.perf_counter()
         try:
-            cells = self.planner.path()
+            cells = planning.planner.path()
         except NoPath:
-            self._no_plan_since = self._no_plan_since if self._no_plan_since is not None \
-                else now
-            if now - self._no_plan_since >= self.patience.planner:
-                self._recover(now, "planning", f"no path to the goal for "
-                              f"{self.patience.planner:g} s")
             return None
-        self._no_plan_since = None
-        if self._trigger == "planning":
-            self._recovery_index = 0
-        if self._pending_change:
-            self.repairs.append(Repair(now, self._pending_change, self._pending_seconds
+        if planning.changed:
+            self.repairs.append(Repair(now, planning.changed, planning.seconds
                                        + time.perf_counter() - started))
-            self._pending_change, self._pending_seconds = 0, 0.0
-        plan = self.plan_points(cells)
-        if self._last_plan is None or not np.array_equal(self._last_plan, plan):
-            self._last_plan = plan
+            planning.changed, planning.seconds = 0, 0.0
+        plan = grid.plan_points(cells, self.goal)
+        if planning.last_plan is None or not np.array_equal(planning.last_plan, plan):
+            planning.last_plan = plan
             self.plans.append((now, plan))
             stamp = self.stamp(now)
-            self.plan_publisher.publish(self.message(
+            self.topics.plan.publish(self.message(
                 PATH, header={"stamp": stamp, "frame_id": MAP_FRAME},
                 poses=[{"header": {"stamp": stamp, "frame_id": MAP_FRAME},
                         "pose": {"position": {"x": float(x), "y": float(y)},
                                  "orientation": {"w": 1.0}}} for x, y in plan]))
         return plan
 
-    def _oscillating(self, now: float, x: float, y: float) -> bool:
-        """move_base's oscillation check; True (and a recovery started) when it fires."""
-        p = self.patience
-        if self._moved is None or math.hypot(x - self._moved[1], y - self._moved[2]) \
-                >= p.oscillation_distance:
-            self._moved = (now, x, y)
-            if self._trigger == "oscillation":
-                self._recovery_index = 0
-            return False
-        if p.oscillation_timeout > 0 and now - self._moved[0] >= p.oscillation_timeout:
-            self._recover(now, "oscillation", f"moved less than {p.oscillation_distance:g} m "
-                          f"in {p.oscillation_timeout:g} s")
-            return True
-        return False
-
-    def _recover(self, now: float, trigger: str, why: str) -> None:
-        """move_base's CLEARING state: the next recovery behaviour, or give up."""
-        self._stop()
-        if self._recovery_index >= len(self.behaviors):
-            after = (f", even after {len(self.behaviors)} recovery behaviour(s)"
-                     if self.behaviors else "")
-            goal = None if self.goal is None else self.cell_of(*self.goal)
-            covered = (f"; {self._goal_covered()}" if self.costs is not None
-                       and goal is not None and not math.isfinite(self.costs[goal]) else "")
-            self._abort(f"{_GIVEN_UP[trigger]}: {why}{after}{covered}")
-            return
-        behavior = self.behaviors[self._recovery_index]
-        self._recovery_index += 1
-        self._trigger = trigger
-        self.recoveries.append(Recovery(now, behavior.name, behavior.type, trigger))
-        self.get_logger().warning(
-            f"recovery {self._recovery_index} of {len(self.behaviors)}: {behavior.name} "
-            f"({behavior.type}) because of {_GIVEN_UP[trigger]} ({why})")
-        assert self.pose is not None
-        x, y, yaw = self.pose
-        if behavior.type == CLEAR_COSTMAP_RECOVERY:
-            # what the clearing forgets, the camera re-marks at once (it sees the whole floor
-            # every frame): what is left of the behaviour is a search from scratch
-            self._restart_planner(x, y)
-        else:
-            cell = self.cell_of(x, y)
-            assert self.costmap is not None
-            if cell is not None and can_rotate_in_place(
-                    self.costmap, cell, (x, y), self.footprint, self.resolution, self.origin):
-                self._rotation = RotateRecovery(yaw)
-                self._rotation_since = now
-            else:
-                self.get_logger().error("rotate recovery can't rotate in place because there "
-                                        "is a potential collision")
-        # what move_base resets on leaving CLEARING: the oscillation timer only (a planner or
-        # controller still failing starts the next behaviour at once)
-        self._moved = (now, x, y)
-
-    def _restart_planner(self, x: float, y: float) -> None:
-        """A new D* Lite search from the robot's cell on the current map, its repairs'
-        history dropped (a clearing recovery)."""
-        assert self.costs is not None and self.goal is not None and self.planner is not None
-        cell = self.cell_of(x, y)
-        start = cell if cell is not None and math.isfinite(self.costs[cell]) \
-            else self.planner.start
-        goal = self.cell_of(*self.goal)
-        assert goal is not None
-        if not math.isfinite(self.costs[goal]):
-            # an obstacle covers the goal now: a search from scratch cannot reach it either
-            # (the planner keeps its repairs, and finds the goal again if the obstacle goes)
-            self.get_logger().warning(self._goal_covered())
-            return
-        self.planner = DStarLite(self.costs, start, goal)
-        self._pending_change, self._pending_seconds = 0, 0.0
-
-    def _goal_covered(self) -> str:
-        assert self.goal is not None and self.costmap is not None
-        goal = self.cell_of(*self.goal)
-        assert goal is not None
-        return (f"goal ({self.goal[0]:g}, {self.goal[1]:g}) is inside an obstacle or within "
-                f"the robot's inscribed radius {self.params.inscribed_radius:.3g} m of one on "
-                f"the current map (costmap {int(self.costmap[goal])}): the map covered it "
-                "after the goal was given")
-
-    def _stale(self, now: float) -> bool:
-        """True (the wheels stopped) while the pose is older than ``pose_timeout``, as a ROS
-        controller refuses a transform that old; aborted after ``controller_patience``."""
-        if now - self._pose_at <= self.pose_timeout:
-            self._stale_since = None
-            return False
-        self.stale_cycles += 1
-        self._stale_since = self._stale_since if self._stale_since is not None else now
-        if now - self._stale_since >= self.patience.controller:
-            self._abort(f"no pose newer than {self.pose_timeout:g} s for "
-                        f"{self.patience.controller:g} s")
-        else:
-            self._stop()
-        return True
-
-    # -- the loop ------------------------------------------------------------------------------
-
     @_one_at_a_time
     def _cycle(self) -> None:
-        if self.done or self.goal is None:
-            return
-        if self._handle is not None and self._handle.is_cancel_requested:
-            self._cancel()
+        """One controller cycle: the steps of :mod:`~.goal_state`, in its order."""
+        machine, robot, grid = self.goal_state, self.robot, self.grid
+        if not machine.live:
             return
         now = self.now()
-        if self.pose is None or self.costs is None or (
-                self.planner is None and now - self._pose_at > self.pose_timeout):
-            self._waited_too_long(now)
+        decision = machine.begin_cycle(Sensed(
+            now, robot.pose, robot.at, robot.velocity, have_map=grid is not None,
+            cancel_requested=self._goal is not None and self._goal.handle.is_cancel_requested,
+            goal_covered=self._goal_covered() or ""))
+        if decision is not None:
+            self._carry_out(decision)
             return
-        if self._stale(now):
-            return
-        x, y, yaw = self.pose
-        cell = self.cell_of(x, y)
+        assert robot.pose is not None and grid is not None
+        x, y, yaw = robot.pose
+        cell = grid.cell_of(x, y)
         if cell is None:
-            self._abort(f"the robot at ({x:.3f}, {y:.3f}) is outside the map")
+            self._finish(machine.abort(f"the robot at ({x:.3f}, {y:.3f}) is outside the map"))
             return
-        if self.planner is None and not self._start_planner(cell, (x, y, yaw)):
+        if self._planning is None and not self._start_planner(grid, cell, robot.pose):
             return
-        assert self.planner is not None and self.costmap is not None and self.costs is not None
-        self._publish_feedback(now, x, y, yaw)
-        if self._rotation is not None:
-            rate = self._rotation.command(yaw)
-            if rate is not None and now - self._rotation_since > ROTATE_TIMEOUT:
-                self.get_logger().error(f"rotate recovery: the turn took over "
-                                        f"{ROTATE_TIMEOUT:g} s; ended")
-                rate = None
-            if rate is not None:
-                self._driven = True
-                self.cmd_vel.publish(self.message(TWIST, angular={"z": rate}))
-                return
-            self._rotation = None
-            self._moved = (now, x, y)
-        if self._oscillating(now, x, y):
+        assert self._planning is not None
+        self._publish_feedback(now, machine.feedback())
+        turn = machine.turn()
+        if isinstance(turn, Drive):
+            self._carry_out(turn)
             return
-        if cell != self.planner.start and math.isfinite(self.costs[cell]):
-            self.planner.move_to(cell)
+        if isinstance(turn, TurnTimedOut):
+            self.get_logger().error(turn.message)
+        trouble = machine.watch_oscillation()
+        if trouble is not None:
+            self._recover(trouble)
+            return
+        if cell != self._planning.planner.start and math.isfinite(grid.costs[cell]):
+            self._planning.planner.move_to(cell)
         plan = self._plan(now)
+        trouble = machine.planned(plan is not None)
+        if trouble is not None:
+            self._recover(trouble)
         if plan is None:
             self._stop()
             return
-        if self._handed_over is None or (
-                self.planner_frequency > 0
-                and now - self._handed_over >= 1.0 / self.planner_frequency - 1e-9):
-            self.oscillation.reset()  # DWAPlanner::setPlan, at move_base's planner_frequency
-            self.latch.reset()
-            self._handed_over = now
-        result = compute_velocity((x, y, yaw), self.velocity, self.costmap, plan, self.dwa,
-                                  resolution=self.resolution, origin=self.origin,
-                                  goal_yaw=self.goal_yaw, oscillation=self.oscillation,
-                                  latch=self.latch, footprint=self.footprint)
+        result = compute_velocity((x, y, yaw), robot.velocity, grid.costmap, plan, self.dwa,
+                                  resolution=grid.resolution, origin=grid.origin,
+                                  goal_yaw=self.goal_yaw, oscillation=machine.oscillation,
+                                  latch=machine.latch, footprint=self.footprint)
         self.cycles.append((now, x, y, yaw, result.v, result.omega, result.status.name))
         self._publish_local_plan(result.trajectory if len(result.trajectory)
                                  else np.array([(x, y, yaw)]), now)
-        if result.status is DwaStatus.GOAL_REACHED:
-            self._succeed()
-            return
-        if result.status is DwaStatus.NO_VALID_TRAJECTORY:
-            self._stuck_since = self._stuck_since if self._stuck_since is not None else now
-            if now - self._stuck_since >= self.patience.controller:
-                self._recover(now, "controlling", f"none for {self.patience.controller:g} s")
-                return
-        else:
-            self._stuck_since = None
-            if self._trigger == "controlling":
-                self._recovery_index = 0
-        self._driven = self._driven or result.v != 0.0 or result.omega != 0.0
-        self.cmd_vel.publish(self.message(TWIST, linear={"x": result.v},
-                                          angular={"z": result.omega}))
+        self._carry_out(machine.controlled(result.status, result.v, result.omega))
 
     def _publish_local_plan(self, poses: FloatArray, now: float) -> None:
         """DWA's chosen trajectory, stamped as the pose it starts from (module docstring)."""
-        stamp = self.stamp(now) if self._pose_stamp is None else self._pose_stamp
-        self.local_plan_publisher.publish(self.message(PATH, **path_fields(
+        stamp = self.stamp(now) if self.robot.stamp is None else self.robot.stamp
+        self.topics.local_plan.publish(self.message(PATH, **path_fields(
             poses, stamp, MAP_FRAME)))
 
     def destroy(self) -> None:
@@ -875,7 +844,7 @@ class NavigatorNode(Node):
             if self.context.ok():
                 self._stop()
                 with self._lock:  # a client waiting for the result hears why it ended
-                    if self._handle is not None:
-                        self._end(self._handle.abort, "the navigator shut down")
+                    if self._goal is not None:
+                        self._end(self._goal.handle.abort, "the navigator shut down")
         finally:
             super().destroy()
