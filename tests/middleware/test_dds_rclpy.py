@@ -21,7 +21,7 @@ import pytest
 
 from servolab.middleware.context import Context
 from servolab.middleware.node import Node
-from servolab.middleware.qos import DurabilityPolicy, QoSProfile
+from servolab.middleware.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from servolab.middleware.transport import TransportOptions
 from tests.clirun import servolab
 from tests.processes import started
@@ -287,3 +287,54 @@ def test_the_oracle_is_the_real_rclpy_on_fast_dds(domain: int) -> None:
                          env=ros_env(domain), capture_output=True, text=True, timeout=60,
                          check=True).stdout
     assert out.strip() == "rmw_fastrtps_cpp"
+
+
+ROS_QOS = """
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node("ros_qos")
+node.create_publisher(String, "/best_effort_talk",
+                      QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+node.create_subscription(String, "/reliable_listen", lambda m: None, 10)  # RELIABLE
+print("ready", flush=True)
+while True:
+    rclpy.spin_once(node, timeout_sec=0.1)
+"""
+
+INCOMPATIBLE = "incompatible QoS"
+
+
+def test_an_incompatible_qos_is_reported_as_rclpy_reports_it(
+        ctx: Context, domain: int, caplog: pytest.LogCaptureFixture) -> None:
+    """A reliable subscription and a best-effort publisher never match in DDS; rclpy's default
+    incompatible-QoS callbacks (rclpy/event_handler.py, Jazzy) say so on the node's logger,
+    on both sides. The real rclpy here (Fast DDS) and servolab (Cyclone DDS) each hold one
+    such pair with the other, the other way round: each side's lines are the other's, topic
+    for topic."""
+    node = Node(ctx, "servolab_qos")
+    node.create_subscription("std_msgs/msg/String", "/best_effort_talk", lambda m: None, 10)
+    node.create_publisher("std_msgs/msg/String", "/reliable_listen",
+                          QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT))
+    caplog.set_level(logging.WARNING, logger="servolab.node")
+    with started(ros(ROS_QOS, domain), env=ros_env(domain), stderr_to_stdout=True) as proc:
+        real = wait_for_line(proc, "ready", timeout=30)
+        assert wait_until(lambda: sum(INCOMPATIBLE in r.getMessage()
+                                      for r in caplog.records) >= 2, timeout=20)
+        while sum(INCOMPATIBLE in line for line in real) < 2:
+            real += wait_for_line(proc, INCOMPATIBLE, timeout=20)
+    ours = sorted(r.getMessage() for r in caplog.records if INCOMPATIBLE in r.getMessage())
+    assert all(r.name == "servolab.node/servolab_qos" for r in caplog.records
+               if INCOMPATIBLE in r.getMessage())
+    # rclpy's line: "[WARN] [<time>] [ros_qos]: <text>"
+    theirs = sorted(line.split("]: ", 1)[1] for line in real if INCOMPATIBLE in line)
+    swap = {"/best_effort_talk": "/reliable_listen", "/reliable_listen": "/best_effort_talk"}
+    assert ours == sorted(
+        text.replace(f"'{a}'", f"'{b}'", 1) for text in theirs for a, b in swap.items()
+        if f"'{a}'" in text)
+    assert ours == [
+        "New publisher discovered on topic '/best_effort_talk', offering incompatible QoS. "
+        "No messages will be received from it. Last incompatible policy: RELIABILITY",
+        "New subscription discovered on topic '/reliable_listen', requesting incompatible "
+        "QoS. No messages will be sent to it. Last incompatible policy: RELIABILITY"]

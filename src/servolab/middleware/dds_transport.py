@@ -92,6 +92,12 @@ from .transport import (
 
 log = logging.getLogger(__name__)
 
+#: DDS's QoS policy ids (DDS 1.4, 2.2.3: DURABILITY 2, DEADLINE 4, LIVELINESS 8, RELIABILITY
+#: 11, HISTORY 13, LIFESPAN 21) by the name rclpy gives the policy (``QoSPolicyKind``), as
+#: rmw_cyclonedds maps them (``dds_qos_policy_to_rmw_qos_policy``); any other is INVALID
+POLICY_NAMES = {2: "DURABILITY", 4: "DEADLINE", 8: "LIVELINESS", 11: "RELIABILITY",
+                13: "HISTORY", 21: "LIFESPAN"}
+
 _ANY = SampleState.Any | ViewState.Any | InstanceState.Any
 #: rmw_cyclonedds' request header: client id (uint64), sequence number (int64), little-endian
 #: after the encapsulation header, as the CDR stream it is part of.
@@ -606,7 +612,8 @@ class DdsTransport(Transport):
     def advertise(self, node: NodeInfo, topic: str, type_name: str,
                   qos: QoSProfile) -> DdsPublisher:
         writer = self._writer(topic_name(topic), type_name, qos)
-        return DdsPublisher(self, writer, type_name, self._own(node, writers=(writer,)))
+        return DdsPublisher(self, writer, type_name, self._watch_qos(
+            node, topic, writer, self._own(node, writers=(writer,))))
 
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
                   wake: Wake, *, raw: bool = False) -> QueueInbox:
@@ -618,8 +625,40 @@ class DdsTransport(Transport):
                 inbox.put(data, MessageInfo(info.source_timestamp, now))
 
         reader = self._reader(topic_name(topic), type_name, qos, on_data)
-        inbox.on_close(self._own(node, readers=(reader,)))
+        inbox.on_close(self._watch_qos(node, topic, reader, self._own(node, readers=(reader,))))
         return inbox
+
+    def _watch_qos(self, node: NodeInfo, topic: str, entity: DataReader[Any] | DataWriter[Any],
+                   undo: Callable[[], None]) -> Callable[[], None]:
+        """Say on the node's logger, as rclpy's default incompatible-QoS callbacks say it
+        (rclpy ``event_handler.py``, Jazzy), each time an endpoint of the topic is found
+        whose QoS cannot match this one's (a reliable subscription and a best-effort
+        publisher, transient local asked of a volatile one): DDS then carries nothing
+        between them, and without a word a user sees only silence. Checked with the
+        transport's periodic checks; ``undo`` (the entity's) also stops the watching."""
+        status: Callable[[], Any]
+        if isinstance(entity, DataReader):
+            status = entity.get_requested_incompatible_qos_status
+            text = ("New publisher discovered on topic '{}', offering incompatible QoS. No "
+                    "messages will be received from it. Last incompatible policy: {}")
+        else:
+            status = entity.get_offered_incompatible_qos_status
+            text = ("New subscription discovered on topic '{}', requesting incompatible QoS. "
+                    "No messages will be sent to it. Last incompatible policy: {}")
+        logger = logging.getLogger(node.logger_name)
+
+        def incompatible() -> None:
+            found = status()  # type: ignore[no-untyped-call]
+            if found.total_count_change > 0:
+                logger.warning(text.format(
+                    topic, POLICY_NAMES.get(found.last_policy_id, "INVALID")))
+
+        self._checks.append(incompatible)
+
+        def close() -> None:
+            self._checks.remove(incompatible)
+            undo()
+        return close
 
     # -- services ----------------------------------------------------------------------------
 

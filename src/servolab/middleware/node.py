@@ -42,13 +42,12 @@ from .qos import QoSProfile, as_profile
 from .rate import Rate
 from .service import Service
 from .subscription import Subscription
-from .transport import NodeInfo
+from .transport import LOGGER_PREFIX, NodeInfo
 
 if TYPE_CHECKING:
     from .context import Context
 
-#: Node loggers are ``<prefix><fully qualified name>``: ``servolab.node/robot/talker``.
-LOGGER_PREFIX = "servolab.node"
+__all__ = ["LOGGER_PREFIX", "Node"]
 
 
 class Node:
@@ -86,8 +85,7 @@ class Node:
         self._on_set: list[Callable[[str, Any], None]] = []
         self._on_set_parameters: list[Callable[[list[Parameter]], Any]] = []
         self._entities: list[Any] = []
-        self._logger = NodeLogger(
-            logging.getLogger(f"{LOGGER_PREFIX}{self.fully_qualified_name}"))
+        self._logger = NodeLogger(logging.getLogger(self.info.logger_name))
         self._entities.append(context.transport.announce_node(self.info))
         context.add_node(self)
         self._parameter_services()

@@ -55,6 +55,10 @@ class Endpoint:
     qos: QoSProfile | None = field(default=None, compare=False)
 
 
+#: Node loggers are ``<prefix><fully qualified name>``: ``servolab.node/robot/talker``.
+LOGGER_PREFIX = "servolab.node"
+
+
 @dataclass(frozen=True)
 class NodeInfo:
     """The node an entity belongs to, as the transport announces it."""
@@ -66,6 +70,12 @@ class NodeInfo:
     @property
     def fully_qualified_name(self) -> str:
         return f"{self.namespace.rstrip('/')}/{self.name}"
+
+    @property
+    def logger_name(self) -> str:
+        """The node's :mod:`logging` logger, where a transport says what concerns one of
+        its entities (an incompatible QoS), as rmw's events reach rclpy's node logger."""
+        return f"{LOGGER_PREFIX}{self.fully_qualified_name}"
 
 
 class Closeable(Protocol):
