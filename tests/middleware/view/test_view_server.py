@@ -386,6 +386,23 @@ def test_topics_and_services_are_advertised_as_they_come_and_go(graph: Graph,
     assert client.op("unadvertiseServices")["serviceIds"] == [service["id"]]
 
 
+def test_a_tools_topics_are_shown_and_only_hidden_names_are_hidden(graph: Graph,
+                                                                   client: SpecClient) -> None:
+    """As foxglove_bridge lists a ROS 2 graph (``get_topic_names_and_types``, every node's) and
+    ``ros2 topic list`` hides (a name any part of which starts with ``_``): a topic is hidden
+    by its own name, never by its node's — ``servolab topic pub`` and ``servolab bag play``
+    publish from hidden tool nodes (``_servolab_...``), and what they publish is what the
+    user came to watch."""
+    tool = Node(graph.ctx, "_servolab_topic_pub_1")
+    tool.create_publisher("std_msgs/msg/Float64", "/from_a_tool", 10)
+    graph.talker.create_publisher("std_msgs/msg/Float64", "/robot/_internal", 10)
+    graph.talker.create_publisher("std_msgs/msg/Float64", "/after", 10)
+    assert client.channel("/from_a_tool")["schemaName"] == "std_msgs/msg/Float64"
+    client.channel("/after")   # advertised after the hidden one would have been
+    assert "/robot/_internal" not in client.channels
+    tool.destroy()
+
+
 def test_a_second_viewer_of_a_latched_topic_gets_what_it_kept(graph: Graph) -> None:
     """Two apps open at once (Foxglove and Lichtblick, two tabs): the view's one subscription
     replays the latched description to the first viewer only; the second gets it too, from

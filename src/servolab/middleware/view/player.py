@@ -72,7 +72,7 @@ POLL_PERIOD = 0.01
 #: Topics latched by convention, taken as latched when the bag recorded no QoS for them (a
 #: topic named with ``--type`` before its publisher appeared): (depth kept for late viewers).
 LATCHED_BY_NAME: Mapping[str, int] = {"/robot_description": 1, "/map": 1, "/tf_static": 100}
-#: The player's node (not hidden: a hidden node's topics are hidden from the viewer).
+#: The player's node, named as rosbag2's player names its own (not hidden, as it plays for all).
 NODE_NAME = "servolab_player"
 
 

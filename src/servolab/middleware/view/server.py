@@ -535,9 +535,12 @@ class ViewServer:
             await asyncio.sleep(self.config.parameter_period)
 
     def _shown(self, e: Endpoint) -> bool:
+        """Every node's topics and services but the view's own, hidden only by their own
+        names as ``ros2 topic list`` hides them: a hidden tool node's (``servolab topic pub``,
+        ``bag play``) are what the user came to watch."""
         if e.node == self.node.fully_qualified_name:
             return False
-        return self.config.include_hidden or not (_hidden(e.node) or _hidden(e.name))
+        return self.config.include_hidden or not _hidden(e.name)
 
     def _update_graph(self, endpoints: list[Endpoint]) -> None:
         shown = [e for e in endpoints if self._shown(e)]
