@@ -158,3 +158,66 @@ def test_a_shipped_package_is_read_when_first_used(tmp_path: Path) -> None:
     (lab / "Limits.msg").write_text("control_msgs/JointTolerance[] per_joint\n")
     labs = MessageTypes(interface_path=[tmp_path])
     assert labs.rihs01("arm_msgs/msg/Limits").startswith("RIHS01_")
+
+
+DEFAULTS = """float64 gain 1.5   # a gain
+int8 mode -1
+uint8 flags 0x10
+bool enabled true
+string label 'a b'
+string word plain
+int32[3] offsets [1, -2, 3]
+float32[] weights [0.5, 1.5]
+string[] names ["x,y", z]
+int32 plain
+int8 LIMIT=7
+"""
+
+ROSIDL_DEFAULTS = """
+import json, sys
+from rosidl_adapter.parser import parse_message_string
+spec = parse_message_string("lab_msgs", "Defaults", sys.stdin.read())
+print(json.dumps({f.name: f.default_value for f in spec.fields}))
+"""
+
+
+def test_a_fields_default_value_is_rosidls(tmp_path: Path) -> None:
+    """``type name default`` lines (rosbags' parser drops the default): a message built
+    without the field has the value rosidl_adapter's own parser (Jazzy, the oracle venv)
+    reads from the same file, in a message, a service's parts and an action's."""
+    files = {"msg/Defaults.msg": DEFAULTS,
+             "srv/Tune.srv": "float64 gain 2.5\n---\nstring answer 'ok'\n",
+             "action/Reach.action": "float64 speed 0.25\n---\nint8 code -3\n---\n"
+                                    "float64 left 1.0\n"}
+    types = MessageTypes(interface_path=[_package(tmp_path, files=files)])
+    rosidl = json.loads(subprocess.run([str(ros_python()), "-c", ROSIDL_DEFAULTS],
+                                       input=DEFAULTS, capture_output=True, text=True,
+                                       check=True, timeout=60).stdout)
+    built = types.to_value(types.default("lab_msgs/msg/Defaults"))
+    assert built == {field: 0 if value is None else value for field, value in rosidl.items()}
+    assert built["label"] == "a b" and built["names"] == ["x,y", "z"]  # not merely None == 0
+    given = types.from_value("lab_msgs/msg/Defaults", {"gain": 3.0})
+    assert given.gain == 3.0 and given.mode == -1       # the rest keep their defaults
+    assert types.default("lab_msgs/srv/Tune_Request").gain == 2.5
+    assert types.default("lab_msgs/srv/Tune_Response").answer == "ok"
+    assert types.default("lab_msgs/action/Reach_Goal").speed == 0.25
+    assert types.default("lab_msgs/action/Reach_Result").code == -3
+    assert types.default("lab_msgs/action/Reach_Feedback").left == 1.0
+    # each message its own array, as rosidl's classes build one per instance
+    first, second = (types.default("lab_msgs/msg/Defaults") for _ in range(2))
+    first.offsets[0] = 99
+    assert second.offsets[0] == 1
+
+
+@pytest.mark.parametrize(("line", "words"), [
+    ("int8 mode 300", "lab_msgs/msg/Bad.mode"),
+    ("bool on maybe", "a bool's default is true, false, 1 or 0"),
+    ("int32[2] pair [1, 2, 3]", "needs exactly 2 values"),
+    ("geometry_msgs/Point p 1", "allowed on a number, bool or string field"),
+])
+def test_a_bad_default_is_one_line_naming_the_file_and_field(tmp_path: Path, line: str,
+                                                               words: str) -> None:
+    with pytest.raises(MessageError) as error:
+        MessageTypes(interface_path=[_package(tmp_path, files={"msg/Bad.msg": line + "\n"})])
+    text = str(error.value)
+    assert "\n" not in text and "Bad.msg" in text and words in text

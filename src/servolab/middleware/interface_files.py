@@ -20,6 +20,7 @@ import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .errors import MessageError
 
@@ -141,3 +142,81 @@ def split_parts(text: str, count: int, file: str | Path = "<text>") -> tuple[str
         raise MessageError(f"{file}: {kind} has {count} parts separated by '---' lines; "
                            f"found {len(parts)}")
     return tuple("\n".join(lines) + "\n" if lines else "" for lines in parts)
+
+
+# -- default values --------------------------------------------------------------------------
+# rosbags' .msg parser reads a field's default value and drops it; rosidl keeps it, and a
+# message built without that field has it. These read it as rosidl_adapter's parser does
+# (``parse_message_string``, ``parse_value_string``, Jazzy): a line is cut at its first ``#``;
+# ``type name default`` is a field with a default, ``type NAME=value`` a constant.
+
+#: one element of a string array's default: quoted (with its escaped quotes) or up to a comma
+_ELEMENT = re.compile(r"""\s*("(?:[^"\\]|\\.)*"|'(?:[^'\\]|\\.)*'|[^,]*)\s*(,|\Z)""")
+
+
+def field_defaults(text: str) -> dict[str, str]:
+    """Each field's default value as written (``{"gain": "1.5"}``), for the fields that
+    have one."""
+    defaults: dict[str, str] = {}
+    for raw in text.splitlines():
+        line = raw.split("#", 1)[0].strip()
+        _, _, rest = line.partition(" ")
+        rest = rest.lstrip()
+        if not rest or "=" in rest:
+            continue
+        name, _, default = rest.partition(" ")
+        if default.strip():
+            defaults[name] = default.strip()
+    return defaults
+
+
+def parse_default(base: str, text: str, sequence: bool) -> Any:
+    """A default value's text as the value of a field of base type ``base`` (a sequence or
+    array of them when ``sequence``), or a :class:`~.errors.MessageError` saying why not."""
+    if not sequence:
+        return _parse_scalar(base, text)
+    if not (text.startswith("[") and text.endswith("]")):
+        raise MessageError(f"{text!r}: an array's default starts with '[' and ends with ']'")
+    inner = text[1:-1].strip()
+    if not inner:
+        return []
+    items = _string_elements(inner) if base in ("string", "wstring") \
+        else [item.strip() for item in inner.split(",")]
+    return [_parse_scalar(base, item) for item in items]
+
+
+def _string_elements(inner: str) -> list[str]:
+    """A string array's elements, where a quoted one may hold commas."""
+    items, at = [], 0
+    while at < len(inner):
+        match = _ELEMENT.match(inner, at)
+        if match is None or match.end() == at:
+            raise MessageError(f"[{inner}]: a string array's default is quoted strings "
+                               "separated by commas")
+        items.append(match.group(1))
+        at = match.end()
+    return items
+
+
+def _parse_scalar(base: str, text: str) -> Any:
+    if base == "bool":
+        if text.lower() not in ("true", "1", "false", "0"):
+            raise MessageError(f"{text!r}: a bool's default is true, false, 1 or 0")
+        return text.lower() in ("true", "1")
+    if base in ("string", "wstring"):
+        for quote in ('"', "'"):
+            if len(text) >= 2 and text.startswith(quote) and text.endswith(quote):
+                return text[1:-1].replace("\\" + quote, quote)
+        return text
+    if base.startswith("float"):
+        try:
+            return float(text)
+        except ValueError:
+            raise MessageError(f"{text!r}: a {base}'s default is a number with '.' as its "
+                               "separator") from None
+    for radix in (10, 0):  # as rosidl: decimal, then with a 0x / 0o / 0b prefix
+        try:
+            return int(text, radix)
+        except ValueError:
+            pass
+    raise MessageError(f"{text!r}: a {base}'s default is a whole number")

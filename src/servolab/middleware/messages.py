@@ -32,7 +32,14 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from .errors import MessageError
 from .fast_cdr import FastCdr
-from .interface_files import InterfacePackage, environment_roots, find_packages, read_package
+from .interface_files import (
+    InterfacePackage,
+    environment_roots,
+    field_defaults,
+    find_packages,
+    parse_default,
+    read_package,
+)
 
 if TYPE_CHECKING:
     from rosbags.interfaces.typing import BaseDesc, FieldDesc, NameDesc
@@ -235,6 +242,9 @@ class MessageTypes:
         #: the store's CDR code, generated per type on first use (rosbags stays the oracle)
         self.cdr = FastCdr(self.store)
         self._readers: dict[str, Callable[[bytes | memoryview], Any]] = {}
+        #: per type, its fields' default values (from ``type name default`` lines), as plain
+        #: values: rosbags' parser drops them
+        self._defaults: dict[str, dict[str, Any]] = {}
         self._fix_service_event_info()
         self._register({})
         self.register_msgs(DYNAMIXEL_MSGS)
@@ -310,6 +320,36 @@ class MessageTypes:
                 raise MessageError(f"message definition {name}: {exc}") from None
         self._check_references(types)
         self._register(_as_rosidl(types))
+        for name, text in texts.items():
+            self._keep_defaults(canonical_name(name), text)
+
+    def _keep_defaults(self, name: str, text: str) -> None:
+        """The default values ``text`` gives ``name``'s fields, each checked as a value of
+        its field (a one-line :class:`MessageError` naming the field), as rosidl allows them:
+        on numbers, bools, strings and their arrays."""
+        written = field_defaults(text)
+        if not written:
+            return
+        fields = dict(self.store.fielddefs[name][1])
+        kept: dict[str, Any] = {}
+        for field, raw in written.items():
+            where = f"{name}.{field}"
+            desc = fields.get(field)
+            if desc is not None and desc[0] == Nodetype.BASE:
+                base, sequence = desc[1][0], False
+            elif desc is not None and desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE) \
+                    and desc[1][0][0] == Nodetype.BASE:
+                base, sequence = desc[1][0][1][0], True
+            else:
+                raise MessageError(f"{where}: a default value ({raw}) is allowed on a number, "
+                                   "bool or string field or an array of them")
+            try:
+                value = parse_default(base, raw, sequence)
+            except MessageError as exc:
+                raise MessageError(f"{where}: default {exc}") from None
+            self._field(desc, value, f"{where} (its default)")
+            kept[field] = value
+        self._defaults[name] = kept
 
     def register_service(self, name: str, request: str, response: str) -> ServiceType:
         """Register a service from its request and response text, as rosidl generates it:
@@ -345,6 +385,8 @@ class MessageTypes:
                 raise MessageError(f"action definition {name}: {exc}") from None
         self._check_references(types, also=(f"{name}_Feedback",))
         self._register(_as_rosidl(types))
+        for part, text in (("_Goal", goal), ("_Result", result), ("_Feedback", feedback)):
+            self._keep_defaults(f"{name}{part}", text)
         self._register_service(f"{name}_SendGoal", f"{uuid}{name}_Goal goal\n",
                                "bool accepted\nbuiltin_interfaces/Time stamp\n")
         self._register_service(f"{name}_GetResult", uuid,
@@ -418,6 +460,8 @@ class MessageTypes:
         types = {srv(k): srv(v) for k, v in types.items()}
         self._check_references(types)
         self._register(_as_rosidl(types))
+        self._keep_defaults(f"{name}_Request", request)
+        self._keep_defaults(f"{name}_Response", response)
 
     # -- looking up -------------------------------------------------------------------------
 
@@ -582,10 +626,13 @@ class MessageTypes:
                 raise MessageError(f"{_join(path, str(key))}: {name} has no field {key!r} "
                                    f"(it has {', '.join(sorted(known)) or 'none'})")
         kwargs = {}
+        defaults = self._defaults.get(name, {})
         for field, desc in fields:
             where = _join(path, field)
             if field in value:
                 kwargs[field] = self._field(desc, value[field], where)
+            elif field in defaults:   # the .msg file's own default, as rosidl's classes have
+                kwargs[field] = self._field(desc, defaults[field], where)
             else:
                 kwargs[field] = self._field_default(desc, where)
         return _built(self.store.types[name], kwargs)
