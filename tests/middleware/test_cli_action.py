@@ -103,9 +103,11 @@ def test_bad_goals_are_refused_before_the_graph_is_joined() -> None:
 
 def test_ctrl_c_cancels_the_goal() -> None:
     """(Its own action name: Zenoh peers on loopback find each other through the one they
-    connect to, so the module's server, if it runs, would serve "/fibonacci" too.)"""
+    connect to, so the module's server, if it runs, would serve "/fibonacci" too. A step a
+    second: the goal runs 40 s, so a busy machine's slow client still cancels it before it
+    ends, and the cancel ends it within a step.)"""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with started([sys.executable, "-c", SERVER, endpoint, "0.2", "/slow_fibonacci"]) as proc:
+    with started([sys.executable, "-c", SERVER, endpoint, "1.0", "/slow_fibonacci"]) as proc:
         wait_for_line(proc, "ready", timeout=30.0)
         with started([*SERVOLAB, "action", "send_goal", "/slow_fibonacci",
                       "test_msgs/action/Fibonacci", "{order: 40}", "--feedback", "--connect",

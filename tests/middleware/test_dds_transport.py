@@ -75,6 +75,19 @@ def test_twist_crosses_participants_with_every_value(dds_pair) -> None:
     assert all(info.source_timestamp_ns <= info.received_timestamp_ns for _, info in got)
 
 
+def test_a_publisher_and_subscription_destroyed_then_their_node(dds_pair) -> None:
+    """Destroying an entity, then its node (which destroys what it still holds), closes each
+    once: the incompatible-QoS watch an entity carries goes with its first close."""
+    a, _ = dds_pair
+    node = Node(a, "short_lived")
+    pub = node.create_publisher(TWIST, "cmd_vel")
+    sub = node.create_subscription(TWIST, "cmd_vel", lambda m: None)
+    node.destroy_publisher(pub)
+    node.destroy_subscription(sub)
+    pub.destroy()
+    node.destroy()
+
+
 def test_a_latched_message_reaches_a_late_subscription(dds_pair) -> None:
     """TRANSIENT_LOCAL is DDS's own durability: the writer keeps its last ``depth``."""
     a, b = dds_pair

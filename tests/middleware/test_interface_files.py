@@ -221,3 +221,34 @@ def test_a_bad_default_is_one_line_naming_the_file_and_field(tmp_path: Path, lin
         MessageTypes(interface_path=[_package(tmp_path, files={"msg/Bad.msg": line + "\n"})])
     text = str(error.value)
     assert "\n" not in text and "Bad.msg" in text and words in text
+
+
+def test_shipped_packages_read_from_many_threads_at_once() -> None:
+    """A shipped package is read on whichever thread first asks (an executor's, the DDS
+    dispatcher's, the view's): eight threads asking at once for its types each get them."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    types = MessageTypes()
+    names = ["control_msgs/msg/JointJog", "control_msgs/msg/JointTolerance",
+             "control_msgs/action/FollowJointTrajectory_Goal",
+             "controller_manager_msgs/msg/ControllerState"] * 2
+    with ThreadPoolExecutor(8) as pool:
+        assert list(pool.map(types.check, names)) == names
+    assert types.is_action("control_msgs/action/GripperCommand")
+    assert not types.is_action("control_msgs/msg/JointJog")
+
+
+def test_an_extra_message_naming_an_unknown_type_is_one_line() -> None:
+    with pytest.raises(MessageError, match="lab_msgs/msg/Odd: field 'x' uses"):
+        MessageTypes(extra_msgs={"lab_msgs/msg/Odd": "no_such_msgs/Thing x\n"})
+    # one that names a shipped package's type reads it first
+    types = MessageTypes(extra_msgs={"lab_msgs/msg/Jog": "control_msgs/JointJog jog\n"})
+    assert types.default("lab_msgs/msg/Jog").jog.joint_names == []
+
+
+def test_tabs_separate_as_spaces_do(tmp_path: Path) -> None:
+    """rosidl_adapter turns a line's tabs into spaces before it splits it."""
+    files = {"msg/Tabbed.msg": "float64\tgain\t1.5\nuint8[]\tdata [1, 2]\nstring[] s [a , b]\n"}
+    types = MessageTypes(interface_path=[_package(tmp_path, files=files)])
+    assert types.to_value(types.default("lab_msgs/msg/Tabbed")) == {
+        "gain": 1.5, "data": [1, 2], "s": ["a", "b"]}

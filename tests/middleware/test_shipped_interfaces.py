@@ -47,6 +47,7 @@ from servolab.middleware.messages import SHIPPED_INTERFACES, MessageTypes
 from tests.rosoracle import ros_python, ros_venv
 
 TYPES = MessageTypes()
+TYPES.load_all()  # read on first use otherwise; every test here sees every shipped type
 PACKAGES = [read_package(folder) for folder in find_packages([SHIPPED_INTERFACES])]
 SHIPPED = sorted(name for package in PACKAGES
                  for name in (*package.msgs, *package.srvs, *package.actions))

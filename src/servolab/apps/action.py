@@ -101,7 +101,7 @@ def action_info(ctx: Context, name: str, say: Say, *, show_types: bool = False) 
 def parse_goal(types: MessageTypes, type_name: str, values: str) -> Any:
     """The goal ``values`` (YAML) make for the action ``type_name``, or a one-line error
     naming the type, field or value."""
-    if type_name not in types.action_names():
+    if not types.is_action(type_name):
         near = [n for n in types.action_names()
                 if n.rsplit("/", 1)[-1] == type_name.rsplit("/", 1)[-1]]
         hint = f" (did you mean {near[0]}?)" if near else ""

@@ -126,7 +126,7 @@ def interface_show(types: MessageTypes, name: str, say: Say) -> list[str]:
         lines = [*definition_lines(types, srv.request), SERVICE_SEPARATOR,
                  *definition_lines(types, srv.response)]
     elif len(parts) == 3 and parts[1] == "action":
-        if name.strip() not in types.action_names():
+        if not types.is_action(name.strip()):
             raise MessageError(f"unknown action type {name!r} ('servolab interface list -a')")
         action = name.strip()
         lines = [*definition_lines(types, f"{action}_Goal"), SERVICE_SEPARATOR,

@@ -112,7 +112,7 @@ class _Kind(pytypes.ModuleType):
                 known.service(type_name)
                 cls = service_class(type_name)
             elif self._kind == "action":
-                if type_name not in known.action_names():
+                if not known.is_action(type_name):
                     raise MessageError(f"unknown action type {type_name!r}")
                 cls = action_class(type_name)
             else:

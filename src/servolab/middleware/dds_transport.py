@@ -655,8 +655,9 @@ class DdsTransport(Transport):
 
         self._checks.append(incompatible)
 
-        def close() -> None:
-            self._checks.remove(incompatible)
+        def close() -> None:  # as undo, harmless twice (a publisher, then its node)
+            if incompatible in self._checks:
+                self._checks.remove(incompatible)
             undo()
         return close
 

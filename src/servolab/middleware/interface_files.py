@@ -159,7 +159,7 @@ def field_defaults(text: str) -> dict[str, str]:
     have one."""
     defaults: dict[str, str] = {}
     for raw in text.splitlines():
-        line = raw.split("#", 1)[0].strip()
+        line = raw.replace("\t", " ").split("#", 1)[0].strip()   # rosidl: tabs are spaces
         _, _, rest = line.partition(" ")
         rest = rest.lstrip()
         if not rest or "=" in rest:
@@ -193,7 +193,7 @@ def _string_elements(inner: str) -> list[str]:
         if match is None or match.end() == at:
             raise MessageError(f"[{inner}]: a string array's default is quoted strings "
                                "separated by commas")
-        items.append(match.group(1))
+        items.append(match.group(1).strip())
         at = match.end()
     return items
 
@@ -206,7 +206,11 @@ def _parse_scalar(base: str, text: str) -> Any:
     if base in ("string", "wstring"):
         for quote in ('"', "'"):
             if len(text) >= 2 and text.startswith(quote) and text.endswith(quote):
-                return text[1:-1].replace("\\" + quote, quote)
+                inner = text[1:-1]
+                if re.search(rf"(?<!\\){quote}", inner):
+                    raise MessageError(f"{text}: a quote inside a quoted string is escaped "
+                                       f"(\\{quote})")
+                return inner.replace("\\" + quote, quote)
         return text
     if base.startswith("float"):
         try:

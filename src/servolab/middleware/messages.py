@@ -19,6 +19,7 @@ import array
 import difflib
 import re
 import struct
+import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, fields
@@ -245,6 +246,17 @@ class MessageTypes:
         #: per type, its fields' default values (from ``type name default`` lines), as plain
         #: values: rosbags' parser drops them
         self._defaults: dict[str, dict[str, Any]] = {}
+        #: the shipped packages not read yet, by name: each is read and registered when one
+        #: of its types is first asked for (:meth:`load_package_of`), since parsing all of
+        #: them (control_msgs, controller_manager_msgs, ...) would add about half a second to
+        #: every servolab process, most of which use none of them
+        self._unread: dict[str, Path] = {folder.name: folder
+                                         for folder in find_packages([SHIPPED_INTERFACES])}
+        #: held while types are registered or listed: a shipped package is read on whichever
+        #: thread first asks (an executor's, the DDS dispatcher's, the view's), and rosbags'
+        #: store is plain dicts (re-entrant: registering one package may read another)
+        self._registering = threading.RLock()
+        self._reading: set[str] = set()   # the shipped packages being read now
         self._fix_service_event_info()
         self._register({})
         self.register_msgs(DYNAMIXEL_MSGS)
@@ -253,12 +265,6 @@ class MessageTypes:
             self.register_service(name, request, response)
         if extra_msgs:
             self.register_msgs(extra_msgs)
-        #: the shipped packages not read yet, by name: each is read and registered when one
-        #: of its types is first asked for (:meth:`load_package_of`), since parsing all of
-        #: them (control_msgs, controller_manager_msgs, ...) would add about half a second to
-        #: every servolab process, most of which use none of them
-        self._unread: dict[str, Path] = {folder.name: folder
-                                         for folder in find_packages([SHIPPED_INTERFACES])}
         roots = environment_roots() if interface_path is None else list(interface_path)
         for folder in find_packages(roots):  # a lab's own: read now, so a bad file is an
             package = read_package(folder)    # error before anything moves
@@ -270,9 +276,19 @@ class MessageTypes:
     def load_package_of(self, type_name: str) -> None:
         """Read and register the shipped package ``type_name`` belongs to (``pkg/...``), if it
         has not been yet; anything else is left as it is."""
-        folder = self._unread.pop(type_name.split("/", 1)[0], None)
-        if folder is not None:
-            self.register_package(read_package(folder))
+        package = type_name.split("/", 1)[0]
+        if package not in self._unread:
+            return
+        with self._registering:
+            folder = self._unread.get(package)
+            if folder is None or package in self._reading:
+                return   # read meanwhile by another thread, or being read by this one
+            self._reading.add(package)
+            try:
+                self.register_package(read_package(folder))
+                del self._unread[package]   # only once all of it is there
+            finally:
+                self._reading.discard(package)
 
     def load_all(self) -> None:
         """Read every shipped package not read yet: for what lists every type."""
@@ -281,8 +297,16 @@ class MessageTypes:
 
     def has_package(self, package: str) -> bool:
         """Whether any type of ``package`` is known (shipped, read or not yet)."""
-        return package in self._unread or any(n.startswith(f"{package}/")
-                                              for n in self.store.fielddefs)
+        with self._registering:
+            return package in self._unread or any(n.startswith(f"{package}/")
+                                                  for n in self.store.fielddefs)
+
+    def is_action(self, name: str) -> bool:
+        """Whether ``name`` (``pkg/action/Name``) is a known action type; reads its shipped
+        package only, not every one (as :meth:`action_names` must)."""
+        self.load_package_of(name)
+        with self._registering:
+            return name in self.store.fielddefs and f"{name}_SendGoal" in self.store.fielddefs
 
     def _register(self, types: Any) -> None:
         """Register types with the store, and check assignments to their fields
@@ -290,10 +314,11 @@ class MessageTypes:
         the check is on every user of that class in the process (rosbags' own reader too,
         which servolab calls only for what its generated code leaves to it), bound to the
         first :class:`MessageTypes` that registered it."""
-        self.store.register(types)
-        for name, cls in self.store.types.items():
-            if "__setattr__" not in vars(cls):
-                cls.__setattr__ = _field_setter(self, name)  # type: ignore[method-assign]
+        with self._registering:
+            self.store.register(types)
+            for name, cls in self.store.types.items():
+                if "__setattr__" not in vars(cls):
+                    cls.__setattr__ = _field_setter(self, name)  # type: ignore[method-assign]
 
     def _fix_service_event_info(self) -> None:
         """rosbags 0.11 declares ``ServiceEventInfo.client_gid`` as ``char[16]``; ROS 2 Jazzy's
@@ -431,8 +456,9 @@ class MessageTypes:
     def action_names(self) -> list[str]:
         """Every known action type name (``pkg/action/Name``), sorted."""
         self.load_all()
-        return sorted(n for n in self.store.fielddefs
-                      if "/action/" in n and f"{n}_SendGoal" in self.store.fielddefs)
+        with self._registering:
+            return sorted(n for n in self.store.fielddefs
+                          if "/action/" in n and f"{n}_SendGoal" in self.store.fielddefs)
 
     def _register_service(self, name: str, request: str, response: str) -> None:
         texts = {
@@ -468,13 +494,15 @@ class MessageTypes:
     def names(self) -> list[str]:
         """Every known message type name, sorted."""
         self.load_all()
-        return sorted(n for n in self.store.fielddefs if "/msg/" in n)
+        with self._registering:
+            return sorted(n for n in self.store.fielddefs if "/msg/" in n)
 
     def service_names(self) -> list[str]:
         """Every known service type name (``pkg/srv/Name``), sorted."""
         self.load_all()
-        return sorted(n for n in self.store.fielddefs
-                      if "/srv/" in n and f"{n}_Request" in self.store.fielddefs)
+        with self._registering:
+            return sorted(n for n in self.store.fielddefs
+                          if "/srv/" in n and f"{n}_Request" in self.store.fielddefs)
 
     def service(self, name: str) -> ServiceType:
         """The service type of that name (``pkg/srv/Name``, or ``pkg/Name`` as ``ros2 service
@@ -584,7 +612,8 @@ class MessageTypes:
     # -- values -----------------------------------------------------------------------------
 
     def default(self, name: str) -> Any:
-        """A message with every field zero, empty or false, as ROS constructs one."""
+        """A message as ROS constructs one: each field its definition's default value where
+        the file gives one, else zero, empty or false."""
         return self.from_value(name, {})
 
     def from_yaml(self, name: str, text: str) -> Any:
@@ -806,6 +835,7 @@ class MessageTypes:
         (``structure_needs_at_least_one_member``), shows a sequence of numbers as a list and a
         fixed array as numpy shows it."""
         name = self.type_of(msg)
+        self.load_package_of(name)
         _, fields = self.store.fielddefs[name]
         if [f for f, _ in fields] == ["structure_needs_at_least_one_member"]:
             fields = []
@@ -830,6 +860,7 @@ class MessageTypes:
         """Plain values (dicts, lists, numbers, strings) for a message: what ``echo`` prints and
         what :meth:`from_value` takes back."""
         if hasattr(msg, "__msgtype__"):
+            self.load_package_of(msg.__msgtype__)  # another MessageTypes may have built it
             _, fields = self.store.fielddefs[msg.__msgtype__]
             return {f: self.to_value(getattr(msg, f)) for f, _ in fields}
         if isinstance(msg, np.ndarray | array.array):

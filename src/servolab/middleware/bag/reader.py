@@ -235,6 +235,8 @@ class BagReader:
                 else:
                     raise BagError(f"its schema is {schema.encoding or 'missing'}, "
                                    f"not ros2msg")
+                for name in parsed:  # servolab's own definitions first, where it ships them
+                    self.types.load_package_of(name)
                 store.register({k: v for k, v in parsed.items() if k not in store.fielddefs})
             except Exception as exc:  # rosbags raises its own parser errors
                 reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

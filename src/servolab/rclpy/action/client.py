@@ -94,7 +94,7 @@ class ActionClient:
         self.type_name = action_type_name(action_type)
         self._action_type = action_type
         types = node.context.types
-        if self.type_name not in types.action_names():
+        if not types.is_action(self.type_name):
             raise TypeError(f"unknown action type {self.type_name!r}")
         self.name = node.resolve(action_name)
         names = action_names(self.name)

@@ -252,7 +252,7 @@ class ActionServer:
         self.type_name = action_type_name(action_type)
         self._action_type = action_type
         types = node.context.types
-        if self.type_name not in types.action_names():
+        if not types.is_action(self.type_name):
             raise TypeError(f"unknown action type {self.type_name!r}")
         self.name = node.resolve(action_name)
         self._execute_callback = execute_callback

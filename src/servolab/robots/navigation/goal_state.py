@@ -20,8 +20,9 @@ SUCCEEDED, ABORTED, CANCELED: the goal has ended           PLANNING (a new goal)
 ========== =============================================== =====================================
 
 From every live state (PLANNING, DRIVING, RECOVERING) a new goal preempts (the old one ABORTED,
-the new one PLANNING), a cancel ends CANCELED, and an old pose (``pose_timeout``) stops the
-wheels until a new one comes, ABORTED after ``controller_patience``.
+the new one PLANNING) and a cancel ends CANCELED. An old pose (``pose_timeout``) while driving
+stops the wheels until a new one comes, ABORTED after ``controller_patience``; while planning
+the goal waits for a fresh one, ABORTED after ``start_timeout``.
 
 A trouble -- no plan for ``planner_patience``, no valid command for ``controller_patience``, less
 than ``oscillation_distance`` in ``oscillation_timeout`` -- runs the next recovery behaviour, the
