@@ -64,6 +64,7 @@ and 2.0, on the virtual wire with the adapter's latency timer taken as 16 ms: it
 beside the SDK's own search of the same bus on the same wire in the same run (2.0
 ``broadcastPing``, then 1.0 ``ping`` of every ID, each allowed the SDK's packet timeout), as a
 ratio; and the same scan through a pty at real wire speed (wall clock; not with ``--no-pty``).
+``--quick`` scans IDs 0..31 only, the same way, which hold all eight motors.
 
 Goals: host CPU at or below the SDK's for every operation; a cycle rate >= 95 % of the wire
 limit on every bus (return delay 0, the hardest case); the pty server hands 99 % of its replies
@@ -1032,20 +1033,25 @@ class PtyClient:
 
 
 class PtyServerProcess:
-    """A server in a process of its own: the bare responder or ``servolab sim``."""
+    """A server in a process of its own: the bare responder or ``servolab sim``. Started
+    here; :meth:`wait_ready` waits for its device, so that several start side by side."""
 
     def __init__(self, key: str, argv: list[str], out: Path | None) -> None:
         import subprocess
 
         self.key, self.out = key, out
+        self.device = ""
         self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.PIPE, text=True)
+
+    def wait_ready(self) -> None:
+        """Wait for the server to name its pty (it serves from then on)."""
         assert self.proc.stdout is not None
         self.device = self.proc.stdout.readline().strip()
         if not self.device:
             self.proc.kill()
             _, err = self.proc.communicate()
-            raise BenchmarkError(f"pty server {key} did not start: {err.strip()}")
+            raise BenchmarkError(f"pty server {self.key} did not start: {err.strip()}")
 
     def stop(self) -> dict[str, Any]:
         """Stop it; what it says of its own replies: lateness (s) for the bare responder,
@@ -1097,6 +1103,8 @@ def pty_latency(pings: int, blocks: int, load: int, workdir: Path) -> dict[str, 
         servers.append(PtyServerProcess("sim", [
             sys.executable, "-m", "servolab", "sim", "--pty", "--motors", PTY_MOTORS,
             "--baud", str(PTY_BAUD), "--out", str(workdir / "sim")], workdir / "sim"))
+        for server in servers:      # started side by side, then each waited for
+            server.wait_ready()
         clients = {s.key: PtyClient(s.device, PTY_BAUD) for s in servers}
         # The client at real-time priority where allowed, so that what it sees is the
         # servers' doing rather than its own wake-up on a loaded machine.
@@ -1214,6 +1222,9 @@ def pty_goals(pty: dict[str, Any]) -> list[str]:
 SCAN_MOTORS = (("XM430-W210", 1), ("XM430-W210", 2), ("XL430-W250", 3), ("XL-320", 4),
                ("RX-28", 11), ("RX-28", 12), ("MX-28", 30), ("AX-12A", 21))
 SCAN_GOAL_S = 10.0
+#: ``--quick``: the scan of IDs 0..31 only (every motor of SCAN_MOTORS is among them), the same
+#: way (2.0 by broadcast PING, 1.0 by a PING per ID), in a fraction of the default scan's time
+SCAN_QUICK_IDS = tuple(range(32))
 #: A USB adapter's latency timer as FTDI ships it (16 ms): what the SDK's timeouts always
 #: allow (LATENCY_TIMER), and what servolab's allow on a port whose timer it cannot read.
 SCAN_LATENCY = SDK_LATENCY_TIMER_MS / 1000.0
@@ -1253,9 +1264,10 @@ def _scan_expected() -> set[tuple[int, int]]:
     return {(motor_id, model(name).protocol) for name, motor_id in SCAN_MOTORS}
 
 
-def scan_ours_virtual() -> dict[str, Any]:
+def scan_ours_virtual(ids: Sequence[int] | None = None) -> dict[str, Any]:
     """``servolab scan`` with no options (both protocols at the factory rates) on the virtual
-    wire, the adapter taken to have a 16 ms latency timer: simulated seconds, instructions."""
+    wire, the adapter taken to have a 16 ms latency timer: simulated seconds, instructions.
+    ``ids`` (``--quick``): those IDs only, Protocol 2.0 still by broadcast PING."""
     from servolab.apps.scan import scan_plan
 
     simulation, emulator = scan_bus()
@@ -1263,9 +1275,11 @@ def scan_ours_virtual() -> dict[str, Any]:
     port.latency = SCAN_LATENCY
     bus = Bus(port)
     plan = scan_plan([2, 1], None)
-    estimate = sum(bus.scan_time(None, [rate], protocols=versions) for rate, versions in plan)
+    estimate = sum(bus.scan_time(ids, [rate], protocols=versions, broadcast=True)
+                   for rate, versions in plan)
     started, wall = simulation.now(), time.perf_counter()
-    found = [r for rate, versions in plan for r in bus.scan(None, [rate], protocols=versions)]
+    found = [r for rate, versions in plan
+             for r in bus.scan(ids, [rate], protocols=versions, broadcast=True)]
     took = simulation.now() - started
     got = {(r.id, r.protocol or 0) for r in found}
     if got != _scan_expected():
@@ -1275,11 +1289,11 @@ def scan_ours_virtual() -> dict[str, Any]:
             "plan": [[rate, versions] for rate, versions in plan]}
 
 
-def scan_sdk_virtual() -> dict[str, Any]:
+def scan_sdk_virtual(ids: Sequence[int] | None = None) -> dict[str, Any]:
     """The anchor: the ROBOTIS SDK finding the same motors on the same virtual wire, as its
     own examples and the Dynamixel Wizard do: at each factory rate a 2.0 ``broadcastPing``,
-    then a 1.0 ``ping`` (PING, and READ of the model number) of every ID 0..253, each
-    waiting the SDK's packet timeout (wire time + 2 x LATENCY_TIMER + 2 ms)."""
+    then a 1.0 ``ping`` (PING, and READ of the model number) of every ID 0..253 (or of
+    ``ids``), each waiting the SDK's packet timeout (wire time + 2 x LATENCY_TIMER + 2 ms)."""
     simulation, emulator = scan_bus()
     mem = MemoryPort(emulator, 57600, clock=simulation, lock=simulation.lock)
     port = SdkPort(mem)
@@ -1291,7 +1305,7 @@ def scan_sdk_virtual() -> dict[str, Any]:
         port.setBaudRate(rate)
         found, _ = v2.broadcastPing(port)
         got |= {(motor_id, 2) for motor_id in found}
-        for motor_id in range(254):
+        for motor_id in range(254) if ids is None else ids:
             _, result, _ = v1.ping(port, motor_id)
             if result == sdk.COMM_SUCCESS:
                 got.add((motor_id, 1))
@@ -1302,7 +1316,7 @@ def scan_sdk_virtual() -> dict[str, Any]:
             "instructions": emulator.instructions_seen, "found": len(got)}
 
 
-def scan_ours_pty() -> dict[str, Any]:
+def scan_ours_pty(ids: Sequence[int] | None = None) -> dict[str, Any]:
     """The same scan through a pseudo-terminal at real wire speed: the mixed bus served by a
     process of its own (a real-time simulation behind a ``PtyServer``), scanned from here on
     the wall clock, as ``servolab scan --port PTY`` does."""
@@ -1319,11 +1333,11 @@ def scan_ours_pty() -> dict[str, Any]:
             raise BenchmarkError("the mixed bus's pty server did not start")
         with Bus.open(device, retries=0) as bus:
             plan = scan_plan([2, 1], None)
-            estimate = sum(bus.scan_time(None, [rate], protocols=versions)
+            estimate = sum(bus.scan_time(ids, [rate], protocols=versions, broadcast=True)
                            for rate, versions in plan)
             started = time.perf_counter()
             found = [r for rate, versions in plan
-                     for r in bus.scan(None, [rate], protocols=versions)]
+                     for r in bus.scan(ids, [rate], protocols=versions, broadcast=True)]
             took = time.perf_counter() - started
             latency = bus.port.latency
         server.stdin.close()
@@ -1335,23 +1349,29 @@ def scan_ours_pty() -> dict[str, Any]:
             "port_latency_s": latency}
 
 
-def mixed_scan(pty: bool) -> dict[str, Any]:
-    ours, theirs = scan_ours_virtual(), scan_sdk_virtual()
+def mixed_scan(pty: bool, ids: Sequence[int] | None = None) -> dict[str, Any]:
+    """The scan on the virtual wire, the SDK's beside it, and through a pty (``pty``); of
+    every ID, or of ``ids`` only (``--quick``: then not the default scan the goal is for)."""
+    ours, theirs = scan_ours_virtual(ids), scan_sdk_virtual(ids)
     figures: dict[str, Any] = {
         "motors": [[name, motor_id] for name, motor_id in SCAN_MOTORS],
+        "ids": None if ids is None else [min(ids), max(ids)],
         "adapter_latency_s": SCAN_LATENCY, "goal_s": SCAN_GOAL_S,
         "ours": ours, "sdk": theirs, "ratio_ours_sdk": ours["wire_s"] / theirs["wire_s"],
         "pty": None}
     if pty:
-        figures["pty"] = through = scan_ours_pty()
+        figures["pty"] = through = scan_ours_pty(ids)
         figures["ratio_pty_virtual"] = through["wall_s"] / ours["wire_s"]
     return figures
 
 
 def scan_report(scan: dict[str, Any]) -> list[str]:
     ours, theirs, through = scan["ours"], scan["sdk"], scan["pty"]
+    how = ("'servolab scan' with no options" if scan["ids"] is None else
+           "'servolab scan' as with no options but of IDs {}-{} only (--quick)".format(
+               *scan["ids"]))
     lines = ["", f"5. Scan of a mixed bus ({len(scan['motors'])} motors: 2.0 and 1.0, at 57600 "
-             "and 1000000 bps), 'servolab scan' with no options, on the",
+             f"and 1000000 bps), {how}, on the",
              "   virtual wire (every byte its wire time; the adapter's latency timer taken "
              f"as {scan['adapter_latency_s'] * 1e3:.0f} ms):",
              f"   servolab   {ours['wire_s']:6.2f} s of wire time, {ours['instructions']} "
@@ -1371,12 +1391,14 @@ def scan_goals(scan: dict[str, Any]) -> list[str]:
     ours, through, goal = scan["ours"], scan["pty"], scan["goal_s"]
     taken = through["wall_s"] if through is not None else ours["wire_s"]
     where = "through the pty" if through is not None else "on the virtual wire"
+    which = ("the default scan" if scan["ids"] is None else
+             "the scan of IDs {}-{} (--quick: not the default scan)".format(*scan["ids"]))
     if taken < goal and (through is None or through["all_found"]):
-        return [f"  met: the default scan of a mixed bus takes {taken:.1f} s {where} "
+        return [f"  met: {which} of a mixed bus takes {taken:.1f} s {where} "
                 f"(goal under {goal:g} s)"]
     why = ("it missed motors: " + str(through["found"]) if through is not None
            and not through["all_found"] else f"{taken:.1f} s")
-    return [f"  NOT met: the default scan of a mixed bus {where}: {why} (goal all motors "
+    return [f"  NOT met: {which} of a mixed bus {where}: {why} (goal all motors "
             f"under {goal:g} s)"]
 
 
@@ -1545,8 +1567,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--no-pty", action="store_true", help="leave the pty out")
     parser.add_argument("--no-scan", action="store_true", help="leave the mixed-bus scan out")
     parser.add_argument("--quick", action="store_true",
-                        help="3 calls, 1 round, 1 warm-up, 20 PINGs: a smoke test, not a "
-                        "measurement")
+                        help="3 calls, 1 round, 1 warm-up, 20 PINGs, the scan of IDs 0-31: a "
+                        "smoke test, not a measurement")
     parser.add_argument("--json", type=Path, metavar="PATH", help="also write the figures here")
     args = parser.parse_args(argv)
     if args.quick:
@@ -1577,7 +1599,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_pty:
         with tempfile.TemporaryDirectory(prefix="bus_cycle_pty_") as workdir:
             pty = pty_latency(args.pty_pings, args.pty_blocks, args.load, Path(workdir))
-    scan = None if args.no_scan else mixed_scan(pty=not args.no_pty)
+    scan = None if args.no_scan else mixed_scan(
+        pty=not args.no_pty, ids=SCAN_QUICK_IDS if args.quick else None)
     text = report(results, replay, args, pty)
     print(text if scan is None else with_scan(text, scan))
     if args.json:

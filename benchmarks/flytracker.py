@@ -58,7 +58,7 @@ others still run, and the benchmark exits 1.
 
 Run: ``.venv/bin/python benchmarks/flytracker.py [--quick] [--no-pty] [--pty-out DIR]
 [--json PATH]``. ``--quick`` uses fewer frames and repeats, and the real-time loop on an idle
-CPU only (about ten seconds); the full run takes about a minute. ``--no-pty`` leaves the
+CPU only (under ten seconds); the full run takes about a minute. ``--no-pty`` leaves the
 real-time part out (a few seconds, or a second or two with ``--quick``).
 """
 
@@ -334,7 +334,7 @@ def report(fig: dict[str, Any]) -> list[str]:
 # -- the real-time loop on `servolab sim --pty` (issue 28) --------------------------------------
 
 ROOT = Path(__file__).resolve().parents[1]
-FULL_LIVE_FRAMES, QUICK_LIVE_FRAMES = 400, 132   # 6 s and 2 s at 66 frames/s
+FULL_LIVE_FRAMES, QUICK_LIVE_FRAMES = 400, 66    # 6 s and 1 s at 66 frames/s
 LIVE_SEED = 28
 WHEELS = f"xm430-w210:{TREADMILL_IDS[0]}-{TREADMILL_IDS[-1]}"
 EMULATED_PORT = f"emu://{WHEELS}"

@@ -100,12 +100,21 @@ class Sizes:
     warmup: int
     flood: int
     rounds: int
+    #: s to wait once the echo first answers, for answers to earlier pings (not timed)
+    settle: float = 0.3
+    #: calls per timing of the Python work alone (python_costs, publish_costs), and repeats
+    number: int = 2000
+    repeat: int = 5
 
 
 FULL = {TWIST: Sizes(pings=5000, warmup=500, flood=20000, rounds=5),
-        IMAGE: Sizes(pings=1000, warmup=100, flood=1000, rounds=5)}
-QUICK = {TWIST: Sizes(pings=60, warmup=10, flood=100, rounds=1),
-         IMAGE: Sizes(pings=15, warmup=3, flood=10, rounds=1)}
+        IMAGE: Sizes(pings=1000, warmup=100, flood=1000, rounds=5, number=200)}
+# --quick checks that every setup runs and what the report says, not how fast: a few messages,
+# a short settle (the warm-up pings take any late answer), the Python work timed briefly
+QUICK = {TWIST: Sizes(pings=60, warmup=10, flood=100, rounds=1, settle=0.05, number=200,
+                      repeat=2),
+         IMAGE: Sizes(pings=15, warmup=3, flood=10, rounds=1, settle=0.05, number=20,
+                      repeat=2)}
 SHORT_NAMES = {TWIST: "Twist", IMAGE: "Image"}
 
 
@@ -130,7 +139,7 @@ def same_message(a: Any, b: Any) -> bool:
     return all(same_message(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
 
 
-def python_costs(types: MessageTypes, type_name: str) -> dict[str, float]:
+def python_costs(types: MessageTypes, type_name: str, sizes: Sizes) -> dict[str, float]:
     """Microseconds per message of the Python work servolab adds, each timed alone: CDR
     serialization (every publish over Zenoh), deserialization (every message received over
     Zenoh, from a memoryview as the transport hands it over) and the copy each in-process
@@ -139,24 +148,24 @@ def python_costs(types: MessageTypes, type_name: str) -> dict[str, float]:
     codec, and still the oracle it is tested against)."""
     msg = sample_message(types, type_name)
     cdr = memoryview(types.serialize(msg, type_name))
-    number = 2000 if type_name == TWIST else 200
+    number = sizes.number
     store = types.store
     work = {"serialize_us": lambda: types.serialize(msg, type_name),
             "deserialize_us": lambda: types.deserialize(cdr, type_name),
             "copy_us": lambda: copy_message(msg),
             "rosbags_serialize_us": lambda: bytes(store.serialize_cdr(msg, type_name)),
             "rosbags_deserialize_us": lambda: store.deserialize_cdr(cdr, type_name)}
-    return {name: min(timeit.repeat(f, number=number, repeat=5)) / number * 1e6
+    return {name: min(timeit.repeat(f, number=number, repeat=sizes.repeat)) / number * 1e6
             for name, f in work.items()}
 
 
-def publish_costs(types: MessageTypes) -> dict[str, float]:
+def publish_costs(types: MessageTypes, quick: bool = False) -> dict[str, float]:
     """Microseconds per publish of a Twist over Zenoh, each timed alone in one session with
     a subscriber of its own (so that Zenoh routes every put): a bare ``put`` of the CDR
     bytes, the same with rmw_zenoh's 33-byte attachment (what every ROS 2 peer expects), and
     servolab's whole ``Publisher.publish`` (serializing, packing the attachment, the put)."""
     options = TransportOptions("zenoh", listen=[_loopback()])
-    number, costs = 5000, {}
+    number, repeat, costs = (500, 2, {}) if quick else (5000, 5, {})
     with Context.open(options, types=types) as context:
         node = Node(context, "bench_publish_costs")
         pub = node.create_publisher(TWIST, PING, 0)
@@ -175,7 +184,7 @@ def publish_costs(types: MessageTypes) -> dict[str, float]:
         try:
             for name, f in work.items():
                 best = math.inf
-                for _ in range(5):
+                for _ in range(repeat):
                     best = min(best, timeit.timeit(f, number=number) / number * 1e6)
                     for channel in (sink.handler, own.handler):
                         while channel.try_recv() is not None:
@@ -346,13 +355,13 @@ class Figures:
     throughput_mb_s: float
 
 
-def connect(main: MainSide, label: str) -> None:
+def connect(main: MainSide, label: str, settle: float) -> None:
     """Ping until the echo answers (a child needs time to start and to find us)."""
     deadline = time.monotonic() + CONNECT_TIMEOUT
     while time.monotonic() < deadline:
         main.send_ping()
         if main.wait_pong(0.2):
-            main.settle(0.3)  # let answers to earlier pings arrive before timing starts
+            main.settle(settle)  # let answers to earlier pings arrive before timing starts
             if not main.last_pong_matches():
                 raise RuntimeError(f"{label}: the echo came back different from what was sent")
             return
@@ -361,7 +370,7 @@ def connect(main: MainSide, label: str) -> None:
 
 def measure(main: MainSide, label: str, sizes: Sizes) -> tuple[list[float], list[float]]:
     """Half round trips (s) of ``sizes.pings`` pings, and the floods' messages per second."""
-    connect(main, label)
+    connect(main, label, sizes.settle)
     for _ in range(sizes.warmup):
         main.send_ping()
         if not main.wait_pong(ANSWER_TIMEOUT):
@@ -611,7 +620,7 @@ def main(argv: Sequence[str] | None = None,
 
     print()
     print("Python work per message, each timed alone (us):")
-    costs = {SHORT_NAMES[t]: python_costs(types, t) for t in (TWIST, IMAGE)}
+    costs = {SHORT_NAMES[t]: python_costs(types, t, sizes[t]) for t in (TWIST, IMAGE)}
     for message, c in costs.items():
         one = next(r for r in rows if (r.message, r.engine, r.processes)
                    == (message, "servolab", 1))
@@ -632,7 +641,7 @@ def main(argv: Sequence[str] | None = None,
         print(f"  two processes: servolab {1e6 / two.throughput_msg_s:.1f} us per message "
               f"one way, bare zenoh {1e6 / bare.throughput_msg_s:.1f} us; CDR alone "
               f"(serialize + deserialize) is {c['serialize_us'] + c['deserialize_us']:.1f} us")
-    sending = publish_costs(types)
+    sending = publish_costs(types, quick=args.quick)
     print(f"Twist publish over Zenoh: bare put {sending['put_us']:.2f} us, with rmw_zenoh's "
           f"attachment {sending['put_attachment_us']:.2f} us; servolab's publish "
           f"{sending['publish_us']:.2f} us (CDR, attachment, put)")

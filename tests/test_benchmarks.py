@@ -56,8 +56,8 @@ REPLAY_OPS = [f"{p} {op}" for p in ("1.0", "2.0") for op in ("READ", "SYNC_WRITE
 def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bench = _load()
     out_json = tmp_path / "figures.json"
-    assert bench.main(["--cycles", "3", "--rounds", "1", "--warmup", "1", "--pty-pings", "20",
-                       "--pty-blocks", "1", "--json", str(out_json)]) == 0
+    # --quick: 3 calls, 1 round, 1 warm-up, 20 PINGs per pty server, the scan of IDs 0..31
+    assert bench.main(["--quick", "--json", str(out_json)]) == 0
     out = capsys.readouterr().out
     figures = json.loads(out_json.read_text())
     assert (figures["cycles"], figures["rounds"], figures["warmup"]) == (3, 1, 1)
@@ -71,9 +71,11 @@ def test_bus_cycle_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str])
         assert seen["n"] == 20 and 0 <= seen["p50_ms"] <= seen["p99_ms"] <= seen["max_ms"]
         assert server["seen_p99_vs_bare"] == pytest.approx(
             seen["p99_ms"] / pty["servers"]["bare"]["seen"]["p99_ms"])
-    # and the default scan of a mixed 1.0 + 2.0 bus: every motor found, on the virtual wire
-    # as estimated beforehand, and through a pty; against the SDK's way on the same wire
+    # and the scan of a mixed 1.0 + 2.0 bus (--quick: of IDs 0..31, which hold every motor,
+    # done as the default scan is): every motor found, on the virtual wire as estimated
+    # beforehand, and through a pty; against the SDK's way on the same wire and IDs
     scan = figures["scan"]
+    assert scan["ids"] == [0, 31]
     assert scan["ours"]["found"] == scan["sdk"]["found"] == len(scan["motors"]) == 8
     assert scan["ours"]["wire_s"] == pytest.approx(scan["ours"]["estimate_s"], rel=0.03)
     assert scan["ours"]["wire_s"] < scan["goal_s"]
