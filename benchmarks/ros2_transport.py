@@ -101,6 +101,14 @@ def lost(talker: list[str], talker_env: dict[str, str], domain: int) -> int:
     return int(out.split()[-1])
 
 
+def environments(domain: int) -> dict[str, dict[str, str]]:
+    """Each side's environment, in the order they run: the real rclpy (the anchor), servolab
+    on ``--transport ros2`` (the oracle's rmw), servolab on ``--transport dds``."""
+    return {"real rclpy": ros_env(domain), "servolab ros2": servolab_on_ros_env(domain),
+            "servolab dds": {**ros_env(domain), "SERVOLAB_TRANSPORT": "dds",
+                             "LD_LIBRARY_PATH": os.environ.get("LD_LIBRARY_PATH", "")}}
+
+
 def udp_receive_buffer_errors() -> int:
     lines = [line.split() for line in Path("/proc/net/snmp").read_text().splitlines()
              if line.startswith("Udp:")]
@@ -136,11 +144,8 @@ def large_frames(runs: int) -> None:
         "real rclpy": [], "servolab ros2": [], "servolab dds": []}
     for _ in range(runs):
         domain = free_domain_id()
-        rows["real rclpy"].append(frames(real, ros_env(domain), domain))
-        rows["servolab ros2"].append(frames(ours, servolab_on_ros_env(domain), domain))
-        dds = {**ros_env(domain), "SERVOLAB_TRANSPORT": "dds",
-               "LD_LIBRARY_PATH": os.environ.get("LD_LIBRARY_PATH", "")}
-        rows["servolab dds"].append(frames(ours, dds, domain))
+        for name, env in environments(domain).items():
+            rows[name].append(frames(real if name == "real rclpy" else ours, env, domain))
     rmem = Path("/proc/sys/net/core/rmem_default").read_text().strip()
     anchor = statistics.median(got for got, _, _ in rows["real rclpy"])
     print(f"150 Image frames 640x480 at 30 Hz -> a real subscriber ({runs} runs each; "
@@ -149,7 +154,8 @@ def large_frames(runs: int) -> None:
         got = statistics.median(g for g, _, _ in results)
         print(f"  {name:14s} frames {[g for g, _, _ in results]}  over "
               f"{[s for _, s, _ in results]} s  UDP RcvbufErrors {[e for _, _, e in results]}"
-              f"  median x{got / anchor:.2f} of the real publisher's")
+              + (f"  median x{got / anchor:.2f} of the real publisher's" if anchor
+                 else "  (the real publisher delivered none: no ratio)"))
 
 
 def main() -> None:
@@ -164,11 +170,8 @@ def main() -> None:
     results: dict[str, list[int]] = {"real rclpy": [], "servolab ros2": [], "servolab dds": []}
     for _ in range(args.runs):
         domain = free_domain_id()
-        results["real rclpy"].append(lost(real, ros_env(domain), domain))
-        results["servolab ros2"].append(lost(ours, servolab_on_ros_env(domain), domain))
-        dds = {**ros_env(domain), "SERVOLAB_TRANSPORT": "dds",
-               "LD_LIBRARY_PATH": os.environ.get("LD_LIBRARY_PATH", "")}
-        results["servolab dds"].append(lost(ours, dds, domain))
+        for name, env in environments(domain).items():
+            results[name].append(lost(real if name == "real rclpy" else ours, env, domain))
     anchor = statistics.median(results["real rclpy"])
     print(f"messages lost at start-up, 10 Hz talker -> real listener ({args.runs} runs each; "
           "a run's outlier shows in the mean, the median is compared)")

@@ -213,8 +213,7 @@ def test_the_served_biped_hangs_in_its_harness_until_every_servo_has_torque() ->
     from servolab.sim import Simulation
 
     served = ROBOTS[0].served(None)
-    assert served.place is not None
-    simulation, emulator, physics = served.place(build_emulator(served.spec))
+    simulation, emulator, physics = served.place(build_emulator(served.spec))  # type: ignore[misc]
     simulation.advance(18.0)
     world = physics.world
     assert world.fell_at is None and world.released_at is None
