@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import socket
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -35,3 +36,15 @@ def zenoh_pair(types: MessageTypes) -> Iterator[tuple[Context, Context, int]]:
     finally:
         b.close()
         a.close()
+
+
+def foreign_zenoh_peer(endpoint: str) -> Any:
+    """A plain Zenoh session connected to ``endpoint``: a peer that is no ROS node and no
+    servolab (issue 45's attacker), which the caller closes."""
+    import zenoh
+
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("connect/endpoints", f'["{endpoint}"]')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    return zenoh.open(config)

@@ -276,6 +276,31 @@ def test_the_view_is_served_while_the_run_runs_and_closed_after(tmp_path: Path) 
     assert seen == [False]  # no view asked: none served
 
 
+def test_what_the_graph_dropped_as_malformed_is_in_the_summary(tmp_path: Path) -> None:
+    """A robot's nodes that received bytes not of their topic's type (issue 45,
+    servolab.middleware.malformed): the run goes on and its summary counts them per topic
+    and publisher; a run whose graph dropped nothing says so with an empty table."""
+    from servolab.middleware.context import Context
+
+    class WithGraph(Recording):
+        def __init__(self, context: Context, *, dropped: int) -> None:
+            super().__init__([], lambda: [context.malformed.count("/cmd_vel", b"\x02" * 16)
+                                          for _ in range(dropped)])
+            self.context = context
+
+        def graph(self) -> Context:
+            return self.context
+
+    with Context.open() as context:
+        run_task(folder := RunFolder.create("test", tmp_path), WithGraph(context, dropped=3),
+                 say=lambda _: None)
+    assert _summary(folder)["malformed_messages"] == {"/cmd_vel": {".".join(["02"] * 16): 3}}
+    with Context.open() as context:
+        run_task(folder := RunFolder.create("test", tmp_path / "clean"),
+                 WithGraph(context, dropped=0), say=lambda _: None)
+    assert _summary(folder)["malformed_messages"] == {}
+
+
 def test_replaced_frees_the_path_of_an_earlier_bag(tmp_path: Path) -> None:
     bag = tmp_path / "walk_bag"
     bag.mkdir()

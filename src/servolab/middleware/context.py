@@ -24,6 +24,7 @@ from servolab.signals import on_stop_signals
 from .errors import TransportError
 from .executor import Executor
 from .local import LocalTransport
+from .malformed import MalformedMessages
 from .messages import MessageTypes
 from .parameters import ParameterOverrides
 from .transport import Transport, TransportOptions
@@ -65,6 +66,8 @@ class Context:
         self._closed = False
         #: the stop signal that shut this context down, if one did (:meth:`stop_on_signals`)
         self.stopped_by: int | None = None
+        #: messages and requests from outside that did not deserialize, per publisher
+        self.malformed = MalformedMessages()
 
     @classmethod
     def open(cls, options: TransportOptions | None = None, *, types: MessageTypes | None = None,

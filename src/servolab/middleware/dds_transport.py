@@ -60,6 +60,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from ..listening import ListeningSocket, beyond_loopback, listening
 from .dds_types import DdsTypes
 from .errors import ServiceError, TransportError
 from .inbox import QueueInbox, Wake
@@ -221,6 +222,46 @@ def _take(reader: DataReader[Any], batch: int = 256) -> list[tuple[bytes, Any]]:
         samples.extend((data, info) for data, info in taken if info.valid_data)
         if len(taken) < batch:
             return samples
+
+
+def _say_sockets(domain_id: int, range_: str, opened: list[ListeningSocket]) -> None:
+    """Name the sockets a new DDS domain opened, as the kernel lists them. Cyclone DDS binds
+    its unicast discovery and data ports to every interface when it uses one interface
+    (``ddsi_init.c``, ``make_uc_sockets``: ``m_bind_to_any = !per_interface_uc``), and no
+    setting of its configuration changes that: in LOCALHOST it announces and sends on
+    127.0.0.1 only, but another computer that knows the port can still send to it. Said, not
+    hidden (docs/middleware.md)."""
+    if not opened:
+        return
+    wide = beyond_loopback(opened)
+    caveat = ""
+    if wide and range_ == "LOCALHOST":
+        caveat = (f" ({', '.join(map(str, wide))} on every interface: Cyclone DDS cannot bind "
+                  "one interface's unicast ports alone; it announces and sends on 127.0.0.1 "
+                  "only; a firewall keeps other computers from sending to them)")
+    log.info("DDS domain %d listens on %s%s", domain_id, ", ".join(map(str, opened)), caveat)
+
+
+class _WriterGids:
+    """The GUID of the writer behind a sample's ``publication_handle``, what rmw_cyclonedds
+    gives as a message's ``publisher_gid``: asked of DDS once per writer (the matched
+    publication's key), then kept. A subscription names the publisher of a malformed message
+    with it (:mod:`.malformed`)."""
+
+    def __init__(self) -> None:
+        self._known: dict[int, bytes] = {}
+
+    def of(self, reader: DataReader[Any], handle: int) -> bytes:
+        gid = self._known.get(handle)
+        if gid is None:
+            try:
+                endpoint = reader.get_matched_publication_data(handle)
+            except Exception:  # the writer left between the sample and the question
+                endpoint = None
+            gid = b"" if endpoint is None else endpoint.key.bytes
+            if gid:
+                self._known[handle] = gid
+        return gid
 
 
 class DdsPublisher(TransportPublisher):
@@ -410,12 +451,14 @@ class DdsTransport(Transport):
             raise TransportError("--listen is Zenoh's: a DDS participant listens on the ports "
                                  "its domain (ROS_DOMAIN_ID) gives it")
         range_, peers = discovery_from_environment(self.options.connect)
+        before = set(listening())
         domain = _DOMAINS.acquire(self.domain_id, cyclone_config(range_, peers))
         try:
             self.participant = DomainParticipant(self.domain_id)
         except BaseException:
             _DOMAINS.release(self.domain_id)
             raise
+        _say_sockets(self.domain_id, range_, [s for s in listening() if s not in before])
         try:
             self._open(types, domain)
         except BaseException:  # leave nothing running: the thread, the participant, the domain
@@ -618,11 +661,13 @@ class DdsTransport(Transport):
     def subscribe(self, node: NodeInfo, topic: str, type_name: str, qos: QoSProfile,
                   wake: Wake, *, raw: bool = False) -> QueueInbox:
         inbox = QueueInbox(qos.queue_depth, wake)
+        gids = _WriterGids()
 
         def on_data(reader: DataReader[Any]) -> None:
             now = time.time_ns()
             for data, info in _take(reader):
-                inbox.put(data, MessageInfo(info.source_timestamp, now))
+                inbox.put(data, MessageInfo(info.source_timestamp, now, 0,
+                                            gids.of(reader, info.publication_handle)))
 
         reader = self._reader(topic_name(topic), type_name, qos, on_data)
         inbox.on_close(self._watch_qos(node, topic, reader, self._own(node, readers=(reader,))))

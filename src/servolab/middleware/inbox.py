@@ -45,6 +45,11 @@ class Inbox(Protocol):
     def pending(self) -> int:
         """Messages waiting, where the inbox can count them (else 0)."""
 
+    def last_info(self) -> MessageInfo:
+        """The :class:`MessageInfo` of the message :meth:`take` gave last, even when it was
+        taken with ``info=False`` (a subscription names the publisher of a message that did
+        not deserialize: :mod:`.malformed`)."""
+
     def close(self) -> None:
         """Stop receiving; what waits may still be taken."""
 
@@ -60,6 +65,7 @@ class QueueInbox:
         self._wake = wake
         self._armed = True  # the consumer found it empty: the next put wakes it
         self._on_close: Callable[[], None] | None = None
+        self._last: MessageInfo = NO_INFO
 
     def put(self, data: Any, info: MessageInfo) -> None:
         """From any thread: keep the message; wake the consumer if it was waiting for one."""
@@ -74,13 +80,18 @@ class QueueInbox:
     def take(self, info: bool = True) -> Taken | None:
         with self._lock:
             if self._queue:
-                return self._queue.popleft()
+                taken = self._queue.popleft()
+                self._last = taken[1]
+                return taken
             self._armed = True
             return None
 
     @property
     def pending(self) -> int:
         return len(self._queue)
+
+    def last_info(self) -> MessageInfo:
+        return self._last
 
     def on_close(self, undo: Callable[[], None]) -> None:
         """What :meth:`close` does to stop the transport putting (once)."""

@@ -13,6 +13,10 @@ reply and would wait for ever (``rmw_client_data.cpp``, ``ClientData::send_reque
 (:func:`~.rmw_zenoh.error_encoding`), which rmw_zenoh never reads
 (``ClientData::take_response`` reads payload and attachment only); servolab's client sees it
 (:func:`~.rmw_zenoh.error_reason`) and raises ServiceError with the reason.
+
+A request whose bytes are not the service's request type comes from outside: it is answered
+with the error too, counted in the context's :class:`~.malformed.MalformedMessages`, and
+said once per service, not once per request (a peer cannot fill the log).
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from .errors import ServiceError
+from .fast_cdr import CdrError
 from .messages import ServiceType
 
 if TYPE_CHECKING:
@@ -54,9 +59,18 @@ class Service:
 
     def _run(self, request: Any, reply: Callable[[Any], None]) -> None:
         types = self.node.context.types
-        try:
-            if isinstance(request, bytes | memoryview):
+        if isinstance(request, bytes | memoryview):
+            try:
                 request = types.deserialize(request, self.srv.request)
+            except CdrError as exc:  # from outside: answered, counted, said once
+                if self.node.context.malformed.count(self.name) == 1:
+                    self.node.get_logger().error(
+                        "service %s: a request that is not a %s: %s (answered with the "
+                        "error; the next are counted, not said again)", self.name,
+                        self.srv.request, exc)
+                reply(exc)
+                return
+        try:
             if self._answers_later:
                 respond = self._checked(reply)
                 try:

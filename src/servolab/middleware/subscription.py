@@ -8,7 +8,9 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from .inbox import Taken
+from .fast_cdr import CdrError
+from .inbox import NO_INFO, Taken
+from .malformed import publisher_name
 from .qos import QoSProfile
 
 if TYPE_CHECKING:
@@ -31,6 +33,11 @@ class Subscription:
     wait. So due timers still come first, and subscriptions with messages waiting take turns,
     one callback each, as in rclpy's executor.
 
+    Bytes that are not the topic's type are dropped, not a crash: counted against their
+    publisher in the context's :class:`~.malformed.MalformedMessages` and said once per
+    publisher on the node's logger (:mod:`.malformed`), and the next good message is
+    delivered. :attr:`malformed` counts them for this subscription.
+
     The callback's signature is said, not guessed: a callback that needs two arguments
     without ``with_info=True`` is refused when the subscription is made, not when the first
     message comes.
@@ -46,6 +53,8 @@ class Subscription:
         self.raw = raw
         #: messages whose callback has run
         self.received = 0
+        #: messages dropped because they did not deserialize (:mod:`.malformed`)
+        self.malformed = 0
         self._callback = callback
         self._with_info = with_info
         self._submit = node.context.executor.submit
@@ -105,13 +114,30 @@ class Subscription:
 
     def _run(self, taken: Taken) -> None:
         data, info = taken
-        self.received += 1
         if not self.raw and isinstance(data, _CDR):
-            data = self._deserialize(data)
+            try:
+                data = self._deserialize(data)
+            except CdrError as error:
+                self._drop(info, error)
+                return
+        self.received += 1
         if self._with_info:
             self._callback(data, info)
         else:
             self._callback(data)
+
+    def _drop(self, info: Any, error: CdrError) -> None:
+        """A message from outside that is not the topic's type: counted, said once per
+        publisher, never raised into the executor (any peer could stop the node)."""
+        self.malformed += 1
+        if info is NO_INFO:  # taken without its info: the inbox still knows who sent it
+            info = self._inbox.last_info()
+        gid = info.publisher_gid
+        if self.node.context.malformed.count(self.topic, gid) == 1:
+            self.node.get_logger().error(
+                "dropped a malformed message on %s from publisher %s: %s (the next from "
+                "this publisher are dropped and counted, not said again)",
+                self.topic, publisher_name(gid), error)
 
     def drain(self) -> int:
         """Run the callback for every message still waiting (a recorder stopping keeps what

@@ -95,6 +95,7 @@ class ChannelInbox:
         self._depth = depth  # 0: KEEP_ALL
         self._lock = threading.Lock()
         self._held: zenoh.Sample | None = None  # what the watcher received
+        self._last: zenoh.Sample | None = None  # what take() gave last
         self._backlog: deque[zenoh.Sample] = deque(maxlen=depth or None)
         self._armed = threading.Event()  # the executor found it empty: the watcher waits
         self._armed.set()
@@ -130,8 +131,13 @@ class ChannelInbox:
                 sample = self._next()
         if sample is None:
             return None
+        self._last = sample  # one store; decoded only if the message turns out malformed
         return (sample.payload.to_bytes(),
                 message_info(sample.attachment, time.time_ns()) if info else NO_INFO)
+
+    def last_info(self) -> MessageInfo:
+        last = self._last
+        return NO_INFO if last is None else message_info(last.attachment, time.time_ns())
 
     def _next(self) -> zenoh.Sample | None:
         """The oldest sample waiting (under the lock), or None and the watcher armed."""

@@ -67,6 +67,12 @@ class Task:
         """The context ``--view`` serves (made only when a view is asked for), or None."""
         return None
 
+    def graph(self) -> Context | None:
+        """The context the robot's nodes run in, if it has one whatever the options: what it
+        received from outside that did not deserialize goes into the summary
+        (``malformed_messages``, :mod:`servolab.middleware.malformed`)."""
+        return None
+
     def run(self) -> None:
         """What the robot does; a stop signal or an error ends it."""
         raise NotImplementedError
@@ -99,6 +105,7 @@ def run_task(run_folder: RunFolder, task: Task, *, view: ViewRequest | None = No
         opened.close()
         raise
     viewer: ViewServer | None = None
+    context: Context | None = None
     interrupted: BaseException | None = None
     try:
         task.start()
@@ -123,6 +130,9 @@ def run_task(run_folder: RunFolder, task: Task, *, view: ViewRequest | None = No
         # done is still written, and what ended the run first is what is raised
         with ending.step("the verdict"):
             task.verdict(ended)
+        graph = task.graph() or context
+        if graph is not None:  # {topic: {publisher: dropped}}, {} when nothing was
+            task.summary["malformed_messages"] = graph.malformed.as_figures()
         run_folder.write_summary(task.summary, interrupted=ending.settle(late, task.summary))
     task.report(ending.error)
     ending.raise_if_ended()

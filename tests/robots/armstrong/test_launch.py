@@ -62,24 +62,60 @@ def test_robot_and_walker_in_two_processes_over_zenoh(tmp_path: Path) -> None:
 def test_move_a_joint_from_the_command_line() -> None:
     """docs/biped.md's walk-through: the robot side runs (configs/armstrong_robot.launch.yaml)
     and, from another process, `servolab topic pub /controller_m14/command ...` moves the
-    knee; its /controller_m14/state, heard over Zenoh, comes to the commanded 0.5 rad."""
+    knee; its /controller_m14/state, heard over Zenoh, comes to the commanded 0.5 rad.
+
+    Before it, a foreign Zenoh peer floods that command topic with 10 000 payloads that are
+    no Float64 (issue 45): the robot stays up, the good command after them moves the knee,
+    and /diagnostics counts the foreign publisher's drops (WARN "servolab: malformed
+    messages", under its GID). Fewer than 10 000 may be counted: the command subscription
+    keeps the last 10 (KEEP_LAST), and Zenoh's ring drops the rest before they are read."""
+    import time
+
+    from servolab.listening import beyond_loopback, listening
     from servolab.middleware.context import Context
+    from servolab.middleware.malformed import publisher_name
     from servolab.middleware.node import Node
+    from servolab.middleware.rmw_zenoh import encode_attachment
     from servolab.middleware.transport import TransportOptions
+    from tests.middleware.conftest import foreign_zenoh_peer
     from tests.waiting import wait_for_line
 
+    cdr = b"\x00\x01\x00\x00"
+    not_a_float64 = [cdr + b"\x00\x00", b"", b"\x07\x07\x00\x00" + bytes(8), cdr]
+    gid = bytes(range(16, 32))
     with launched(ROOT / "configs" / "armstrong_robot.launch.yaml") as (robot, endpoint):
         wait_for_line(robot, "started armstrong (in process", timeout=60.0)
         with Context.open(TransportOptions("zenoh", connect=[endpoint])) as ctx:
             heard: list[float] = []
-            Node(ctx, "probe").create_subscription(
+            dropped: dict[str, int] = {}
+            probe = Node(ctx, "probe")
+            probe.create_subscription(
                 "dynamixel_msgs/msg/JointState", "/controller_m14/state",
                 lambda msg: heard.append(msg.current_pos))
+            probe.create_subscription(
+                "diagnostic_msgs/msg/DiagnosticArray", "/diagnostics",
+                lambda msg: dropped.update({v.key: int(v.value) for s in msg.status
+                                            if s.name == "servolab: malformed messages"
+                                            for v in s.values}))
+            key = ctx.transport._key(  # type: ignore[attr-defined]
+                "/controller_m14/command", "std_msgs/msg/Float64")
+            foreign = foreign_zenoh_peer(endpoint)
+            try:
+                put = foreign.declare_publisher(key)
+                for i in range(10_000):
+                    put.put(not_a_float64[i % 4],
+                            attachment=encode_attachment(i, time.time_ns(), gid))
+            finally:
+                foreign.close()
             pub = servolab("topic", "pub", "/controller_m14/command", "std_msgs/msg/Float64",
                            "{data: 0.5}", "--once", "--connect", endpoint, timeout=60)
             assert pub.returncode == 0, pub.stderr
             assert ctx.spin_until(lambda: bool(heard) and abs(heard[-1] - 0.5) < 0.006,
                                   timeout=30.0), heard[-3:]
+            counted = f"/controller_m14/command from {publisher_name(gid)}"
+            assert ctx.spin_until(lambda: dropped.get(counted, 0) > 0, timeout=30.0), dropped
+        assert robot.poll() is None  # still running: nothing from outside stopped it
+        assert beyond_loopback(listening(robot.pid)) == []  # and it listens on loopback only
 
 
 def test_the_walker_ends_in_double_support_on_an_error_in_diagnostics() -> None:

@@ -152,6 +152,9 @@ class WalkTask(Task):
     def served(self) -> Context:
         return self.robot.context
 
+    def graph(self) -> Context:
+        return self.robot.context
+
     def run(self) -> None:
         robot, motion, walk, say = self.robot, self.motion, self.walk, self.say
         clock = robot.context.clock

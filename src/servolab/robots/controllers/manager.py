@@ -374,12 +374,18 @@ class DynamixelManager(Node):
         self.updates += 1
 
     def publish_diagnostics(self) -> None:
-        """One ``/diagnostics`` message from what the last sweeps read (no bus time)."""
-        self.diagnostics.publish(self.message(DIAGNOSTIC_ARRAY, **diagnostics(
+        """One ``/diagnostics`` message from what the last sweeps read (no bus time), and,
+        once any came, what the process dropped as malformed (:mod:`servolab.middleware.
+        malformed`: a peer that floods a command topic with garbage is seen here)."""
+        fields = diagnostics(
             self.port, baud_rate=self.bus.baudrate, actual_rate=self.sweep_rate,
             models=self.motors, health=self.health, readings=self.latest,
             now=self.context.clock.now(), since=self.started,
-            stamp_ns=int(self._now() * 1e9))))
+            stamp_ns=int(self._now() * 1e9))
+        dropped = self.context.malformed.diagnostic_status(self.get_fully_qualified_name())
+        if dropped is not None:
+            fields["status"] = [*fields["status"], dropped]  # type: ignore[misc]
+        self.diagnostics.publish(self.message(DIAGNOSTIC_ARRAY, **fields))
 
     def error_counts(self) -> dict[int, dict[str, object]]:
         """Per motor with any: the reads sent again, the errors of those that failed every

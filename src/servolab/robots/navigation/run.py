@@ -280,6 +280,9 @@ class NavigateTask(Task):
     def served(self) -> Context:
         return self.context
 
+    def graph(self) -> Context:
+        return self.context
+
     def run(self) -> None:
         world, (gx, gy, _) = self.navigation.world, self.navigation.goal
         self.say(f"navigating from ({world.start[0]:g}, {world.start[1]:g}) to ({gx:g}, "

@@ -135,6 +135,9 @@ class TreadmillTask(Task):
     def served(self) -> Context:
         return self.context
 
+    def graph(self) -> Context:
+        return self.context
+
     def way_out(self, ended: BaseException | None) -> list[Step]:
         return [Step("closing the logs, the video, the bag and the ports", self.opened.close),
                 Step("analysing", lambda: self.summary.update(analysed_run(
