@@ -41,6 +41,7 @@ from .interface_files import (
     parse_default,
     read_package,
 )
+from .message_build import Builder, Slow, compile_builder
 
 if TYPE_CHECKING:
     from rosbags.interfaces.typing import BaseDesc, FieldDesc, NameDesc
@@ -246,6 +247,8 @@ class MessageTypes:
         #: per type, its fields' default values (from ``type name default`` lines), as plain
         #: values: rosbags' parser drops them
         self._defaults: dict[str, dict[str, Any]] = {}
+        #: from_value's fast path per type (message_build); forgotten when types change
+        self._builders: dict[str, Builder] = {}
         #: the shipped packages not read yet, by name: each is read and registered when one
         #: of its types is first asked for (:meth:`load_package_of`), since parsing all of
         #: them (control_msgs, controller_manager_msgs, ...) would add about half a second to
@@ -316,6 +319,7 @@ class MessageTypes:
         first :class:`MessageTypes` that registered it."""
         with self._registering:
             self.store.register(types)
+            self._builders.clear()
             for name, cls in self.store.types.items():
                 if "__setattr__" not in vars(cls):
                     cls.__setattr__ = _field_setter(self, name)  # type: ignore[method-assign]
@@ -375,6 +379,7 @@ class MessageTypes:
             self._field(desc, value, f"{where} (its default)")
             kept[field] = value
         self._defaults[name] = kept
+        self._builders.clear()  # a builder made before knew none of these defaults
 
     def register_service(self, name: str, request: str, response: str) -> ServiceType:
         """Register a service from its request and response text, as rosidl generates it:
@@ -631,9 +636,25 @@ class MessageTypes:
         except MessageError as exc:
             raise MessageError(f"{name} {exc}") from None
 
+    def builder(self, name: str) -> Builder:
+        """The fast path of :meth:`from_value` for one type (:mod:`.message_build`), made
+        once."""
+        build = self._builders.get(name)
+        if build is None:
+            canonical = self.check(name)
+            build = self._builders.get(canonical) or compile_builder(self, canonical)
+            self._builders[canonical] = self._builders[name] = build
+        return build
+
     def from_value(self, name: str, value: Any, path: str = "") -> Any:
         """A message of type ``name`` from plain values; every field is checked and a
-        missing one takes its default."""
+        missing one takes its default. What the type's builder takes (:mod:`.message_build`)
+        is built at once; anything else, and every error, takes the walk below, which names
+        the field's path."""
+        try:
+            return self.builder(name)(value)
+        except Slow:
+            pass
         name = self.check(name)
         _, fields = self.store.fielddefs[name]
         given = getattr(value, "__msgtype__", None)
