@@ -21,6 +21,11 @@ from tests.clirun import refusal
     (["view", "run_bag", "--connect", "tcp/127.0.0.1:1"], "--listen and --connect go without"),
     (["view", "--ws-port", "-1"], "'-1' is not a TCP port"),
     (["view", "--rate", "-1", "run_bag"], "must be a number >= 0"),
+    (["view", "--ws-allow-origin", "https://lab.example/app"], "an origin has no path"),
+    (["view", "--ws-allow-origin", "lab.example"], "is not an origin"),
+    (["view", "--ws-token", "short"], "at least 8 characters"),
+    (["walk", "--ws-read-only"], "--ws-read-only goes with --view"),
+    (["walk", "--ws-allow-origin", "https://lab.example"], "--ws-allow-origin goes with --view"),
 ])
 def test_a_bad_view_option_is_refused_before_anything_runs(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str],

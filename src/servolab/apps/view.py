@@ -10,7 +10,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from servolab.errors import UsageError
 from servolab.middleware.view.defaults import DEFAULT_HOST, DEFAULT_PORT
@@ -24,14 +24,62 @@ if TYPE_CHECKING:
 
 
 def add_view_arguments(p: argparse.ArgumentParser) -> None:
-    """``--ws-port`` and ``--ws-host`` of a command that serves the view (``--port`` is a
+    """``--ws-port``, ``--ws-host`` and who may do what (``--ws-allow-origin``,
+    ``--ws-read-only``, ``--ws-token``) of a command that serves the view (``--port`` is a
     serial port in every servolab command)."""
     p.add_argument("--ws-port", type=tcp_port, default=DEFAULT_PORT, metavar="PORT",
                    help=f"TCP port to serve on (default {DEFAULT_PORT}, Foxglove's; 0: any free "
                    "one, printed)")
     p.add_argument("--ws-host", default=DEFAULT_HOST, metavar="ADDRESS",
                    help=f"address to listen on (default {DEFAULT_HOST}: this computer only; "
-                   "0.0.0.0 lets other computers watch)")
+                   "0.0.0.0 lets other computers watch, and control with the token printed "
+                   "at start)")
+    add_access_arguments(p)
+    p.add_argument("--ws-token", type=view_token, default=None, metavar="TOKEN",
+                   help="beyond this computer, the token that gives control (default: "
+                   "$SERVOLAB_VIEW_TOKEN, else a random one, printed; the environment "
+                   "variable keeps it out of the process list); given on 127.0.0.1, "
+                   "control needs it there too")
+
+
+def add_access_arguments(p: argparse.ArgumentParser) -> None:
+    """``--ws-allow-origin`` and ``--ws-read-only``: which web pages may connect, and whether
+    any client may control."""
+    p.add_argument("--ws-allow-origin", type=view_origin, action="append", default=None,
+                   metavar="ORIGIN",
+                   help="also let in web pages from ORIGIN (scheme://host[:port]; repeatable; "
+                   "null: a page opened from a file may control too; *: any page). "
+                   "Foxglove's and Lichtblick's web apps, localhost, the desktop apps and "
+                   "programs that send no origin are let in; other pages are refused")
+    p.add_argument("--ws-read-only", action="store_true", default=None,
+                   help="clients may watch, not set parameters, call services or control "
+                   "playback")
+
+
+def view_origin(text: str) -> str:
+    from servolab.middleware.view.access import check_origin
+
+    try:
+        return check_origin(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def view_token(text: str) -> str:
+    from servolab.middleware.view.access import check_token
+
+    try:
+        return check_token(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def access_options(args: argparse.Namespace) -> dict[str, Any]:
+    """What ``--ws-allow-origin``, ``--ws-read-only`` and ``--ws-token`` asked for, as
+    :class:`~servolab.middleware.view.ViewConfig` fields."""
+    return {"allow_origins": tuple(getattr(args, "ws_allow_origin", None) or ()),
+            "read_only": bool(getattr(args, "ws_read_only", None)),
+            "token": getattr(args, "ws_token", None)}
 
 
 def tcp_port(text: str) -> int:
@@ -74,18 +122,24 @@ def add_view_flag(p: argparse.ArgumentParser) -> None:
                    "run waits for the first viewer, then keeps to real time")
     p.add_argument("--view-speed", type=view_speed, default=None, metavar="X",
                    help="with --view, a simulated run: X times real time (default 1)")
+    add_access_arguments(p)
 
 
 def view_request(args: argparse.Namespace) -> ViewRequest | None:
     """What ``--view`` asked for, or None (also for a subcommand without it)."""
     port, speed = getattr(args, "view", None), getattr(args, "view_speed", None)
     if port is None:
-        if speed is not None:
-            raise UsageError("--view-speed goes with --view")
+        for given, option in ((speed, "--view-speed"),
+                              (getattr(args, "ws_allow_origin", None), "--ws-allow-origin"),
+                              (getattr(args, "ws_read_only", None), "--ws-read-only")):
+            if given is not None:
+                raise UsageError(f"{option} goes with --view")
         return None
     from servolab.middleware.view.run_view import ViewRequest
 
-    return ViewRequest(port=port, speed=speed or 1.0)
+    access = access_options(args)
+    return ViewRequest(port=port, speed=speed or 1.0, allow_origins=access["allow_origins"],
+                       read_only=access["read_only"])
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
@@ -129,9 +183,12 @@ def serve_graph(args: argparse.Namespace) -> int:
     from servolab.middleware.view import ViewConfig, ViewServer
 
     with Context.open(transport_options(args)) as ctx, \
-            ViewServer(ctx, ViewConfig(host=args.ws_host, port=args.ws_port)) as view:
-        print(f"serving the graph on {view.url}: open it in Foxglove or Lichtblick "
+            ViewServer(ctx, ViewConfig(host=args.ws_host, port=args.ws_port,
+                                       **access_options(args))) as view:
+        print(f"serving the graph on {view.control_url}: open it in Foxglove or Lichtblick "
               "(Open connection > Foxglove WebSocket); Ctrl-C stops", flush=True)
+        for line in view.access:
+            print(f"  {line}", flush=True)
         with ctx.stop_on_signals():
             ctx.spin()
     return 0
@@ -151,7 +208,7 @@ def _run(args: argparse.Namespace) -> int:
         from servolab.middleware.view.player import serve_bag
 
         serve_bag(args.bag, host=args.ws_host, port=args.ws_port, rate=args.rate,
-                  loop=args.loop, keep_serving=True)
+                  loop=args.loop, keep_serving=True, **access_options(args))
         return 0
     return serve_graph(args)
 

@@ -587,11 +587,14 @@ def _wait(done: Callable[[], bool], ok: Callable[[], bool], timeout: float | Non
 def serve_bag(path: str, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, rate: float = 1.0,
               loop: bool = False, say: Callable[[str], None] = print,
               wait_for_viewer: bool = True, types: MessageTypes | None = None,
-              keep_serving: bool = False) -> int:
+              keep_serving: bool = False, allow_origins: tuple[str, ...] = (),
+              read_only: bool = False, token: str | None = None) -> int:
     """Serve the bag at ``path`` to Foxglove or Lichtblick on ``ws://host:port`` as its run was
     shown live: wait for the first viewer (and up to :data:`SUBSCRIBE_WAIT` s for it to
     subscribe), play at ``rate`` to the end (for ever with ``loop``) or until SIGINT or
-    SIGTERM; returns the messages played. A bag that cannot be read raises
+    SIGTERM; returns the messages played. ``allow_origins``, ``read_only`` and ``token``:
+    who may connect and control, as :class:`.server.ViewConfig` has them. A bag that cannot be
+    read raises
     :class:`~servolab.middleware.errors.BagError` naming it, before anything listens."""
     from .server import ViewConfig, ViewServer
 
@@ -599,12 +602,15 @@ def serve_bag(path: str, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, 
         ctx = player.context
         for topic, reason in sorted(player.skipped.items()):
             say(f"not playing {topic}: {reason}")
-        with ViewServer(ctx, ViewConfig(host=host, port=port), playback=player) as view, \
-                ctx.stop_on_signals():
+        config = ViewConfig(host=host, port=port, allow_origins=allow_origins,
+                            read_only=read_only, token=token)
+        with ViewServer(ctx, config, playback=player) as view, ctx.stop_on_signals():
             info = player.info
             say(f"serving {path} ({info.message_count} message(s), {info.duration_s:.1f} s) "
-                f"on {view.url}: open it in Foxglove or Lichtblick (Open connection > "
+                f"on {view.control_url}: open it in Foxglove or Lichtblick (Open connection > "
                 "Foxglove WebSocket); Ctrl-C stops")
+            for line in view.access:
+                say(f"  {line}")
             if wait_for_viewer:
                 say("waiting for a viewer")
                 _wait(lambda: view.viewers > 0, ctx.ok)

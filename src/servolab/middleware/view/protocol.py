@@ -16,7 +16,9 @@ from __future__ import annotations
 import base64
 import json
 import math
+import reprlib
 import struct
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -68,6 +70,32 @@ _U64_MAX = 0xFFFF_FFFF_FFFF_FFFF
 
 class ClientMessageError(MiddlewareValueError):
     """A client's message the spec does not allow: one line, naming the field at fault."""
+
+
+#: The most of a client's own text an answer quotes back: a 5 MB request earns a short error,
+#: not a 5 MB one (which a client that never reads would make the server keep).
+ECHO_LIMIT = 200
+#: The longest status or failure message sent, whatever it quotes (a node's reason, an error).
+MESSAGE_LIMIT = 1000
+
+
+def cut(text: str, limit: int) -> str:
+    """``text``, cut to ``limit`` characters with "…" when longer."""
+    return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
+_ECHO = reprlib.Repr()
+_ECHO.maxstring = ECHO_LIMIT   # reprlib keeps the end of a string too: "'abc...xyz'"
+_ECHO.maxother = ECHO_LIMIT
+_ECHO.maxlevel = 4             # deeply nested values: "[[[[...]]]]", no recursion
+_ECHO.maxlist = _ECHO.maxtuple = _ECHO.maxdict = _ECHO.maxset = 10
+_ECHO.maxlong = 40
+
+
+def echo(value: Any) -> str:
+    """A client's value as an error message quotes it: its repr, cut to :data:`ECHO_LIMIT`
+    characters with "…" (built without ever making the whole repr of a huge value)."""
+    return cut(_ECHO.repr(value), ECHO_LIMIT)
 
 
 # -- what the server describes -------------------------------------------------------------
@@ -151,10 +179,10 @@ def server_info(name: str, capabilities: Sequence[str], *,
 
 
 def status(level: int, message: str, status_id: str | None = None) -> str:
-    """``status``: 0 info, 1 warning, 2 error."""
+    """``status``: 0 info, 1 warning, 2 error; the message cut to :data:`MESSAGE_LIMIT`."""
     if level not in (INFO, WARNING, ERROR):
         raise MiddlewareValueError(f"status level {level!r}: 0 (info), 1 (warning) or 2 (error)")
-    fields: dict[str, Any] = {"level": level, "message": message}
+    fields: dict[str, Any] = {"level": level, "message": cut(message, MESSAGE_LIMIT)}
     if status_id is not None:
         fields["id"] = status_id
     return _text("status", **fields)
@@ -183,7 +211,8 @@ def unadvertise_services(service_ids: Sequence[int]) -> str:
 
 
 def service_call_failure(service_id: int, call_id: int, message: str) -> str:
-    return _text("serviceCallFailure", serviceId=service_id, callId=call_id, message=message)
+    return _text("serviceCallFailure", serviceId=service_id, callId=call_id,
+                 message=cut(message, MESSAGE_LIMIT))
 
 
 def parameter_json(param: ParameterValue) -> dict[str, Any]:
@@ -319,19 +348,19 @@ _NOT_OFFERED = {"advertise": "clientPublish", "unadvertise": "clientPublish",
 
 def _field(obj: Mapping[str, Any], key: str, where: str) -> Any:
     if key not in obj:
-        raise ClientMessageError(f"{where}: missing field {key!r}")
+        raise ClientMessageError(f"{where}: missing field {echo(key)}")
     return obj[key]
 
 
 def _uint(value: Any, where: str, limit: int = _U32_MAX) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= limit:
-        raise ClientMessageError(f"{where}: {value!r} is not an unsigned 32-bit integer")
+        raise ClientMessageError(f"{where}: {echo(value)} is not an unsigned 32-bit integer")
     return value
 
 
 def _array(value: Any, where: str) -> list[Any]:
     if not isinstance(value, list):
-        raise ClientMessageError(f"{where}: {value!r} is not an array")
+        raise ClientMessageError(f"{where}: {echo(value)} is not an array")
     return value
 
 
@@ -339,14 +368,14 @@ def _strings(value: Any, where: str) -> tuple[str, ...]:
     items = _array(value, where)
     for i, item in enumerate(items):
         if not isinstance(item, str):
-            raise ClientMessageError(f"{where}[{i}]: {item!r} is not a string")
+            raise ClientMessageError(f"{where}[{i}]: {echo(item)} is not a string")
     return tuple(items)
 
 
 def _request_id(obj: Mapping[str, Any], op: str) -> str | None:
     value = obj.get("id")
     if value is not None and not isinstance(value, str):
-        raise ClientMessageError(f"{op}.id: {value!r} is not a string")
+        raise ClientMessageError(f"{op}.id: {echo(value)} is not a string")
     return value
 
 
@@ -354,10 +383,10 @@ def parameter_from_json(entry: Any, where: str) -> ParameterValue:
     """A ``setParameters`` entry as a Python value: ``byte_array`` base64-decoded to bytes,
     ``float64`` / ``float64_array`` made floats (JSON may write 3.0 as 3)."""
     if not isinstance(entry, dict):
-        raise ClientMessageError(f"{where}: {entry!r} is not an object")
+        raise ClientMessageError(f"{where}: {echo(entry)} is not an object")
     name = _field(entry, "name", where)
     if not isinstance(name, str) or not name:
-        raise ClientMessageError(f"{where}.name: {name!r} is not a parameter name")
+        raise ClientMessageError(f"{where}.name: {echo(name)} is not a parameter name")
     value = entry.get("value")
     kind = entry.get("type")
     try:
@@ -375,12 +404,12 @@ def parameter_from_json(entry: Any, where: str) -> ParameterValue:
                 raise ValueError
             value = [float(v) for v in value]
         elif kind is not None:
-            raise ClientMessageError(f"{where}.type: {kind!r} is not byte_array, float64 or "
+            raise ClientMessageError(f"{where}.type: {echo(kind)} is not byte_array, float64 or "
                                      "float64_array")
     except (ValueError, TypeError) as exc:
         if isinstance(exc, ClientMessageError):
             raise
-        raise ClientMessageError(f"{where}.value: {value!r} is not a {kind}") from None
+        raise ClientMessageError(f"{where}.value: {echo(value)} is not a {kind}") from None
     return ParameterValue(name, value)
 
 
@@ -390,6 +419,9 @@ def parse_text(text: str) -> ClientOp:
         obj = json.loads(text)
     except ValueError as exc:
         raise ClientMessageError(f"not JSON: {exc}") from None
+    except RecursionError:  # "[" x 100 000: Python's parser recurses once a level
+        raise ClientMessageError("not JSON this server reads: nested deeper than "
+                                 f"{sys.getrecursionlimit()} levels") from None
     if not isinstance(obj, dict):
         raise ClientMessageError("a text message must be a JSON object with an 'op'")
     op = _field(obj, "op", "message")
@@ -399,7 +431,7 @@ def parse_text(text: str) -> ClientOp:
                                        "subscribe.subscriptions")):
             where = f"subscribe.subscriptions[{i}]"
             if not isinstance(sub, dict):
-                raise ClientMessageError(f"{where}: {sub!r} is not an object")
+                raise ClientMessageError(f"{where}: {echo(sub)} is not an object")
             pairs.append((_uint(_field(sub, "id", where), f"{where}.id"),
                           _uint(_field(sub, "channelId", where), f"{where}.channelId")))
         return Subscribe(tuple(pairs))
@@ -419,9 +451,9 @@ def parse_text(text: str) -> ClientOp:
         return (SubscribeParameterUpdates(names) if op == "subscribeParameterUpdates"
                 else UnsubscribeParameterUpdates(names))
     if isinstance(op, str) and op in _NOT_OFFERED:
-        raise ClientMessageError(f"op {op!r} needs capability {_NOT_OFFERED[op]!r}, which "
+        raise ClientMessageError(f"op {echo(op)} needs capability {_NOT_OFFERED[op]!r}, which "
                                  "this server does not offer")
-    raise ClientMessageError(f"op: unknown op {op!r}")
+    raise ClientMessageError(f"op: unknown op {echo(op)}")
 
 
 def parse_binary(data: bytes) -> ClientOp:
@@ -461,7 +493,7 @@ def _playback_request(data: bytes) -> PlaybackControlRequest:
         raise ClientMessageError(f"{where}.playbackCommand {command} is not 0 (play) or 1 "
                                  "(pause)")
     if not (math.isfinite(speed) and speed > 0):
-        raise ClientMessageError(f"{where}.playbackSpeed {speed!r} is not a number > 0")
+        raise ClientMessageError(f"{where}.playbackSpeed {echo(speed)} is not a number > 0")
     if had_seek not in (0, 1):
         raise ClientMessageError(f"{where}.hadSeek {had_seek} is not 0 or 1")
     if _PLAYBACK_REQUEST.size + length != len(data):
@@ -487,5 +519,5 @@ def split_parameter_name(full: str) -> tuple[str, str]:
     first one ends it; a parameter name may have more."""
     node, dot, name = full.partition(".")
     if not dot or not node.startswith("/") or not name or len(node) < 2:
-        raise ClientMessageError(f"parameter name {full!r} is not '/<node>.<parameter>'")
+        raise ClientMessageError(f"parameter name {echo(full)} is not '/<node>.<parameter>'")
     return node, name

@@ -22,12 +22,15 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class ViewRequest:
-    """What a robot command's ``--view [PORT]`` (and ``--view-speed X``) asked for."""
+    """What a robot command's ``--view [PORT]`` (and ``--view-speed X``,
+    ``--ws-allow-origin ORIGIN``, ``--ws-read-only``) asked for."""
 
     port: int = DEFAULT_PORT
     host: str = DEFAULT_HOST
     speed: float = 1.0
     wait_for_viewer: bool = True
+    allow_origins: tuple[str, ...] = ()
+    read_only: bool = False
 
 
 def serve_run(context: Context, request: ViewRequest, say: Callable[[str], None], *,
@@ -35,10 +38,14 @@ def serve_run(context: Context, request: ViewRequest, say: Callable[[str], None]
     """Serve ``context``'s graph on ``ws://host:port``; in a virtual run, wait (until a stop
     signal) for the first viewer unless told not to. The caller closes the server."""
     pacer = Pacer(context.clock, PaceConfig(speed=request.speed))
-    server = ViewServer(context, ViewConfig(host=request.host, port=request.port, name=name),
+    server = ViewServer(context, ViewConfig(host=request.host, port=request.port, name=name,
+                                            allow_origins=request.allow_origins,
+                                            read_only=request.read_only),
                         pacer=pacer)
-    say(f"serving the run on {server.url}: open it in Foxglove or Lichtblick "
+    say(f"serving the run on {server.control_url}: open it in Foxglove or Lichtblick "
         "(Open connection > Foxglove WebSocket)")
+    for line in server.access:  # who may connect, and control
+        say(f"  {line}")
     if context.clock.virtual and request.wait_for_viewer:
         say("waiting for a viewer to connect; the simulated run then keeps to real time"
             + (f" x{request.speed:g}" if request.speed != 1.0 else ""))

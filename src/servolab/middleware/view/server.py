@@ -15,6 +15,18 @@ Two threads meet here, and never wait on each other:
   is full the oldest frame is dropped and counted (:attr:`ViewServer.dropped`), as a
   KEEP_LAST subscription would.
 
+Nothing a client sends makes the server hold more than a bound (:class:`ViewConfig`): a data
+queue drops its oldest frames past ``send_queue`` frames or ``send_bytes`` bytes; frames that
+must arrive (answers, advertisements) are never dropped, so a client that owes more than
+``control_queue`` of them or ``control_bytes`` bytes is disconnected (close code 1008 with the
+reason), as foxglove-sdk disconnects a client whose control-plane queue fills (its
+``message_backlog_size``, 1024 by default): dropping an answer or an advertisement would leave
+the app with a wrong picture of the graph, and a client that stopped reading gets it whole
+again when it reconnects. An answer quotes at most 200 characters of the request
+(:func:`.protocol.echo`); a client may have ``in_flight`` requests served at once (foxglove-sdk:
+32 service calls), the rest are refused; a bad message is logged once per client, the rest
+counted. Who may connect and who may control: :mod:`.access`.
+
 The graph is polled (``transport.graph``): topics with a publisher become channels as they
 appear and are unadvertised as they go; servers become services. Parameters go through each
 node's rclpy-style parameter services, named ``/<node>.<param>`` as foxglove_bridge names them.
@@ -27,6 +39,7 @@ import contextlib
 import itertools
 import logging
 import math
+import os
 import threading
 import time
 from collections import deque
@@ -38,12 +51,15 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
+from websockets.frames import CloseCode
+from websockets.http11 import Request, Response
 from websockets.typing import Subprotocol
 
 from ..errors import MiddlewareError
 from ..node import Node
 from ..parameters import from_parameter_value, to_parameter_value
 from ..qos import DurabilityPolicy, QoSProfile, adapted_policies
+from . import access as a
 from . import protocol as p
 from .defaults import DEFAULT_HOST, DEFAULT_PORT
 from .pacing import MAX_SPEED, MIN_SPEED, Pacer
@@ -99,6 +115,23 @@ class ViewConfig:
     time_period: float = 0.05         # s between time ops (virtual clocks only)
     parameter_period: float = 0.5     # s between looks at subscribed parameters
     send_queue: int = 1000            # data frames a viewer may owe before the oldest drops
+    send_bytes: int = 32 * 2**20      # ... and their bytes (one frame larger still goes)
+    #: frames that must arrive (answers, advertisements) a viewer may owe, and their bytes:
+    #: one more and it is disconnected, as foxglove-sdk does (see the module's docstring)
+    control_queue: int = 1000
+    control_bytes: int = 32 * 2**20
+    in_flight: int = 32               # requests of one viewer served at once (foxglove-sdk's)
+    max_message: int = 16 * 2**20     # the largest message a client may send, bytes
+    #: pages let in besides :data:`.access.DEFAULT_ORIGINS` and localhost's ("null": a local
+    #: file's page may control too; "*": any page)
+    allow_origins: tuple[str, ...] = ()
+    read_only: bool = False           # every client may watch only
+    #: the token that gives control; None: $SERVOLAB_VIEW_TOKEN, else a random one made at
+    #: start when one is needed
+    token: str | None = None
+    #: whether control needs the token; None: when the host is not a loopback address (or a
+    #: token was given)
+    require_token: bool | None = None
     call_timeout: float = 5.0         # s a service or parameter call may take
     include_hidden: bool = False      # also show nodes, topics, services named _...
     start_timeout: float = 10.0       # s to wait for the socket to listen
@@ -107,32 +140,79 @@ class ViewConfig:
 
 @dataclass(eq=False)
 class _Viewer:
-    """One connected client: its queues, its subscriptions, its parameter subscriptions."""
+    """One connected client: its queues, its subscriptions, its parameter subscriptions,
+    what it may do."""
 
     ws: ServerConnection
-    send_queue: int
+    limits: ViewConfig
+    #: called once when the control queue overflows: the server disconnects the viewer
+    on_overflow: Callable[[_Viewer], None]
+    address: str = "?"
+    #: why this client may only watch; "": it may control too
+    watch_only: str = ""
     control: deque[str | bytes] = field(default_factory=deque)
+    control_bytes: int = 0
     data: deque[bytes] = field(default_factory=deque)
+    data_bytes: int = 0
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     subscriptions: dict[int, int] = field(default_factory=dict)  # subscription id -> channel
     parameters: set[str] = field(default_factory=set)
     dropped: int = 0
     last_time: int = -1               # the last time op's value it was sent
+    in_flight: int = 0                # its requests being served
+    bad_messages: int = 0             # messages the protocol does not allow (logged once)
+    failures: int = 0                 # messages the server failed on (logged once)
+    #: why the server is dropping it ("": it is not); then nothing more is queued
+    closing: str = ""
 
     def send(self, frame: str | bytes) -> None:
-        """A frame that must arrive (advertisements, answers): never dropped."""
+        """A frame that must arrive (advertisements, answers): never dropped. One past the
+        limits (with something queued already: one large answer still goes) and the viewer
+        is disconnected instead."""
+        if self.closing:
+            return
+        size = len(frame)  # JSON is ASCII here (json.dumps escapes the rest): bytes
+        if self.control and (len(self.control) >= self.limits.control_queue
+                             or self.control_bytes + size > self.limits.control_bytes):
+            self.closing = (f"it reads too slowly: it owes {len(self.control)} frames "
+                            f"({self.control_bytes} bytes) that must arrive (limits "
+                            f"{self.limits.control_queue} frames, "
+                            f"{self.limits.control_bytes} bytes)")
+            self.control.clear()
+            self.data.clear()
+            self.control_bytes = self.data_bytes = 0
+            self.on_overflow(self)
+            return
         self.control.append(frame)
+        self.control_bytes += size
         self.wake.set()
 
-    def send_data(self, frame: bytes) -> bool:
-        """A data frame; False if the queue was full and the oldest one was dropped."""
-        dropped = len(self.data) >= self.send_queue
-        if dropped:
-            self.data.popleft()
-            self.dropped += 1
+    def send_data(self, frame: bytes) -> int:
+        """A data frame; how many older ones were dropped to keep to the queue's limits."""
+        if self.closing:
+            return 0
+        dropped = 0
+        while self.data and (len(self.data) >= self.limits.send_queue
+                             or self.data_bytes + len(frame) > self.limits.send_bytes):
+            self.data_bytes -= len(self.data.popleft())
+            dropped += 1
+        self.dropped += dropped
         self.data.append(frame)
+        self.data_bytes += len(frame)
         self.wake.set()
-        return not dropped
+        return dropped
+
+    def next_frame(self) -> str | bytes | None:
+        """The next frame to send, control frames first; None when nothing is owed."""
+        if self.control:
+            frame: str | bytes = self.control.popleft()
+            self.control_bytes -= len(frame)
+            return frame
+        if self.data:
+            data = self.data.popleft()
+            self.data_bytes -= len(data)
+            return data
+        return None
 
 
 @dataclass(eq=False)
@@ -177,11 +257,30 @@ class ViewServer:
         #: the player of recorded data the app's play, pause and seek controls drive
         self.playback = playback
         self._last_status: str | None = None
+        config = self.config
+        for origin in config.allow_origins:
+            a.check_origin(origin)
+        token = config.token if config.token is not None else os.environ.get(a.TOKEN_ENV) or None
+        if token is not None:
+            a.check_token(token)
+        #: whether control needs the token (beyond loopback, or when one was given; never
+        #: read-only, where nothing gives control)
+        self.token_required = not config.read_only and (
+            config.require_token if config.require_token is not None
+            else token is not None or not a.is_loopback(config.host))
+        if self.token_required and token is None:
+            token = a.new_token()
+        #: the token that gives control (None where none is needed)
+        self.token = token if self.token_required else None
+        self._origins = a.handshake_origins(config.allow_origins)
+        self._trust_null = a.trusted_null(config.allow_origins)
+        self._refused_origins: set[str] = set()
         self.node = Node(context, self.config.node_name)
         self.session_id = str(time.time_ns())
         self._virtual = bool(context.clock.virtual)
         self._closed = False
         self._ids = itertools.count(1)
+        self._graph_seen = 0.0  # monotonic time of the last look at the graph
         # State below is the loop's: only code running on the loop touches it.
         self._channels: dict[int, p.Channel] = {}
         self._channel_types: dict[int, str] = {}
@@ -211,6 +310,8 @@ class ViewServer:
             self.close()
             raise MiddlewareError(f"view server could not listen on {self.config.host}:"
                                   f"{self.config.port}: {error or 'timed out'}") from error
+        for line in self.access:
+            _log.info("view: %s", line)
 
     # -- what a caller may read --------------------------------------------------------------
 
@@ -222,6 +323,37 @@ class ViewServer:
     @property
     def url(self) -> str:
         return f"ws://{self.config.host}:{self._port}"
+
+    @property
+    def control_url(self) -> str:
+        """The URL to connect to with control: :attr:`url` with the token where one is
+        needed (``ws://0.0.0.0:8765/?token=...``), else :attr:`url` itself."""
+        return self.url if self.token is None else a.with_token(self.url, self.token)
+
+    @property
+    def access(self) -> list[str]:
+        """What a client of this server may do, in lines to print at start (no token in
+        them)."""
+        where = (f"on {self.config.host}, this computer only" if a.is_loopback(self.config.host)
+                 else f"on {self.config.host or 'every address'}, beyond this computer (from "
+                 "another, connect to this computer's address): anyone who can reach this "
+                 "port may watch every topic and parameter")
+        pages = ("any web page" if self._origins is None
+                 else "pages of Foxglove (app.foxglove.dev), Lichtblick "
+                 "(lichtblick-suite.github.io), localhost and the desktop apps"
+                 + "".join(f", {o}" for o in self.config.allow_origins)
+                 + ", and programs; other web pages are refused")
+        if self.config.read_only:
+            control = ("read-only (--ws-read-only): clients may watch, not set parameters, "
+                       "call services or control playback")
+        elif self.token_required:
+            control = ("setting parameters, calling services and playback control need the "
+                       f"token (?{a.TOKEN_PARAMETER}=... in the URL); without it a client "
+                       "may only watch")
+        else:
+            control = ("every client it lets in may also set parameters, call services and "
+                       "control playback: drive the robot")
+        return [f"listening {where}", f"it lets in {pages}", control]
 
     @property
     def dropped(self) -> int:
@@ -272,9 +404,12 @@ class ViewServer:
         self._stop = asyncio.Event()
         async with serve(self._handle, self.config.host, self.config.port,
                          subprotocols=[Subprotocol(s) for s in p.SUBPROTOCOLS],
+                         # a page from elsewhere is refused at the handshake, HTTP 403
+                         origins=self._origins,
+                         process_response=self._said_refusal,
                          # no permessage-deflate: a camera frame compressed per viewer
                          # costs the robot's process more than loopback saves
-                         compression=None, max_size=64 * 2**20,
+                         compression=None, max_size=self.config.max_message,
                          close_timeout=self.config.close_timeout) as server:
             self._port = _port_of(server)
             if self._closed:
@@ -316,8 +451,64 @@ class ViewServer:
 
     # -- connections -------------------------------------------------------------------------
 
+    def _said_refusal(self, ws: ServerConnection, request: Request,
+                      response: Response) -> None:
+        """Log a page refused for its origin, once an origin (the library answers 403)."""
+        if response.status_code != 403:
+            return
+        origin = request.headers.get("Origin", "")
+        if origin in self._refused_origins or len(self._refused_origins) >= 64:
+            return
+        self._refused_origins.add(origin)
+        _log.warning("view: refused a connection from a page at %s: not an origin this view "
+                     "lets in (--ws-allow-origin ORIGIN lets one in)", p.echo(origin))
+
+    def _rights(self, ws: ServerConnection) -> str:
+        """Why the client of ``ws`` may only watch; "" when it may control too."""
+        if self.config.read_only:
+            return "the view is read-only (--ws-read-only)"
+        request = ws.request
+        given = a.token_in(request.path) if request is not None else None
+        if a.token_matches(given, self.token):
+            return ""
+        if self.token_required:
+            return ("this view listens beyond this computer: control needs its token, "
+                    f"given as ?{a.TOKEN_PARAMETER}=... in the URL"
+                    + (" (the one given is not it)" if given is not None else ""))
+        origin = request.headers.get("Origin") if request is not None else None
+        if origin == a.NULL_ORIGIN and not self._trust_null:
+            return ("the page has no origin of its own (Origin: null: a local file, or a "
+                    "sandboxed frame of any web site); --ws-allow-origin null trusts it")
+        return ""
+
+    @staticmethod
+    def _address(ws: ServerConnection) -> str:
+        try:
+            host, port = ws.remote_address[:2]
+        except (TypeError, ValueError):
+            return "?"
+        return f"[{host}]:{port}" if ":" in str(host) else f"{host}:{port}"
+
+    def _overflowed(self, viewer: _Viewer) -> None:
+        """The viewer's control queue overflowed: disconnect it, saying why (on the loop)."""
+        _log.warning("view: disconnecting client %s: %s", viewer.address, viewer.closing)
+        self._spawn(self._disconnect(viewer.ws, CloseCode.POLICY_VIOLATION,
+                                     "servolab view: message backlog full (client not "
+                                     "reading)"))
+
+    async def _disconnect(self, ws: ServerConnection, code: int, reason: str) -> None:
+        """Close with ``code`` and ``reason``; a client that reads nothing cannot hold it up
+        beyond ``close_timeout`` (the close frame waits behind what it did not read)."""
+        try:
+            await asyncio.wait_for(ws.close(code, reason), self.config.close_timeout)
+        except (TimeoutError, ConnectionClosed):
+            pass
+        finally:
+            ws.transport.abort()
+
     async def _handle(self, ws: ServerConnection) -> None:
-        viewer = _Viewer(ws, self.config.send_queue)
+        viewer = _Viewer(ws, self.config, self._overflowed, address=self._address(ws),
+                         watch_only=self._rights(ws))
         self._viewers.add(viewer)
         self._viewer_count = len(self._viewers)
         if self.pacer is not None:
@@ -331,6 +522,9 @@ class ViewServer:
         viewer.send(p.advertise(list(self._channels.values())))
         if self._services:
             viewer.send(p.advertise_services(list(self._services.values())))
+        if viewer.watch_only:
+            viewer.send(p.status(p.WARNING, a.refused_ops(viewer.watch_only),
+                                 "servolab.watch_only"))
         writer = asyncio.get_running_loop().create_task(self._write(viewer))
         try:
             async for message in ws:
@@ -338,6 +532,13 @@ class ViewServer:
         except ConnectionClosed:
             pass
         finally:
+            viewer.closing = viewer.closing or "it left"
+            viewer.control.clear()
+            viewer.data.clear()
+            if viewer.bad_messages > 1 or viewer.failures > 1:
+                _log.info("view: client %s sent %d bad message(s) in all%s", viewer.address,
+                          viewer.bad_messages, f" and {viewer.failures} the server failed on"
+                          if viewer.failures else "")
             self._viewers.discard(viewer)
             self._viewer_count = len(self._viewers)
             if self.pacer is not None:
@@ -353,25 +554,48 @@ class ViewServer:
         """Send what the viewer is owed, control frames first, one at a time (websockets
         waits while the socket's buffer is full: the queue, not the robot, absorbs it)."""
         with contextlib.suppress(ConnectionClosed):
-            while True:
+            while not viewer.closing:
                 await viewer.wake.wait()
                 viewer.wake.clear()
-                while viewer.control or viewer.data:
-                    frame = viewer.control.popleft() if viewer.control else viewer.data.popleft()
+                while (frame := viewer.next_frame()) is not None:
                     await viewer.ws.send(frame)
 
     def _on_message(self, viewer: _Viewer, message: str | bytes) -> None:
-        """Act on one client message; a bad one earns a status error, never a crash."""
+        """Act on one client message; a bad one earns a status error, never a crash. The
+        first bad message of a client is logged in one line, the rest counted (said when it
+        leaves): a client cannot fill the log."""
         try:
             op = p.parse_text(message) if isinstance(message, str) else p.parse_binary(message)
             self._dispatch(viewer, op)
-        except p.ClientMessageError as exc:
-            viewer.send(p.status(p.ERROR, str(exc)))
+        except (p.ClientMessageError, RecursionError) as exc:
+            text = (str(exc) if isinstance(exc, p.ClientMessageError)
+                    else "nested too deeply to read")
+            viewer.bad_messages += 1
+            if viewer.bad_messages == 1:
+                _log.warning("view: client %s sent a message the protocol does not allow "
+                             "(%s); more from it are answered, counted, not logged",
+                             viewer.address, text)
+            viewer.send(p.status(p.ERROR, text))
         except Exception as exc:
-            _log.exception("view: a client message failed")
+            viewer.failures += 1
+            if viewer.failures == 1:
+                _log.exception("view: a message of client %s failed (more are counted, not "
+                               "logged)", viewer.address)
             viewer.send(p.status(p.ERROR, f"{type(exc).__name__}: {exc}"))
 
     def _dispatch(self, viewer: _Viewer, op: p.ClientOp) -> None:
+        if viewer.watch_only and self._refuse_control(viewer, op):
+            return
+        if isinstance(op, p.ServiceCallRequest | p.PlaybackControlRequest | p.GetParameters
+                      | p.SetParameters | p.SubscribeParameterUpdates) \
+                and viewer.in_flight >= self.config.in_flight:
+            reason = (f"too many requests in flight ({viewer.in_flight}, at most "
+                      f"{self.config.in_flight} a client): wait for their answers")
+            if isinstance(op, p.ServiceCallRequest):
+                viewer.send(p.service_call_failure(op.service_id, op.call_id, reason))
+            else:
+                viewer.send(p.status(p.ERROR, reason))
+            return
         if isinstance(op, p.Subscribe):
             for subscription_id, channel_id in op.subscriptions:
                 self._subscribe(viewer, subscription_id, channel_id)
@@ -383,11 +607,44 @@ class ViewServer:
                 else:
                     self._unsubscribe(viewer, subscription_id)
         elif isinstance(op, p.ServiceCallRequest):
-            self._spawn(self._call_service(viewer, op))
+            self._serve(viewer, self._call_service(viewer, op))
         elif isinstance(op, p.PlaybackControlRequest):
-            self._spawn(self._guarded(viewer, self._playback_control(op)))
+            self._serve(viewer, self._guarded(viewer, self._playback_control(op)))
         else:
-            self._spawn(self._guarded(viewer, self._parameter_op(viewer, op)))
+            self._serve(viewer, self._guarded(viewer, self._parameter_op(viewer, op)))
+
+    def _serve(self, viewer: _Viewer, work: Any) -> None:
+        """Run a request of the viewer's, counted while in flight."""
+        viewer.in_flight += 1
+        task: asyncio.Task[None] = asyncio.get_running_loop().create_task(work)
+        self._tasks.add(task)
+
+        def done(task: asyncio.Task[None]) -> None:
+            self._tasks.discard(task)
+            viewer.in_flight -= 1
+
+        task.add_done_callback(done)
+
+    def _refuse_control(self, viewer: _Viewer, op: p.ClientOp) -> bool:
+        """Refuse an op that changes the robot or the playback, to a client that may only
+        watch (the spec's answer to a call, ``serviceCallFailure``; a ``status`` error to the
+        rest); whether it was refused. Subscribing and reading parameters stay open."""
+        if isinstance(op, p.ServiceCallRequest):
+            viewer.send(p.service_call_failure(op.service_id, op.call_id,
+                                               f"callService refused: {viewer.watch_only}"))
+        elif isinstance(op, p.SetParameters):
+            viewer.send(p.status(p.ERROR, f"setParameters refused: {viewer.watch_only}"))
+        elif isinstance(op, p.PlaybackControlRequest):
+            viewer.send(p.status(p.ERROR,
+                                 f"playbackControlRequest refused: {viewer.watch_only}"))
+            if self.playback is not None:  # the app's request gets its answer: as it is
+                state = self.playback.state()
+                viewer.send(p.playback_state(_STATUS[state.status], state.current_ns,
+                                             state.rate if math.isfinite(state.rate)
+                                             else MAX_SPEED, False, op.request_id))
+        else:
+            return False
+        return True
 
     def _data_range(self) -> tuple[int, int] | None:
         if self.playback is None:
@@ -505,8 +762,7 @@ class ViewServer:
         if feed.kept is not None:
             feed.kept.append((stamp, cdr))
         for viewer, subscription_id in feed.receivers.items():
-            if not viewer.send_data(p.message_data(subscription_id, stamp, cdr)):
-                self._dropped += 1
+            self._dropped += viewer.send_data(p.message_data(subscription_id, stamp, cdr))
 
     def _broadcast(self, frame: str | bytes) -> None:
         for viewer in self._viewers:
@@ -515,15 +771,18 @@ class ViewServer:
     # -- the graph ---------------------------------------------------------------------------
 
     async def _watch_graph(self) -> None:
-        loop = asyncio.get_running_loop()
         while True:
             try:
-                endpoints = await loop.run_in_executor(None, self.context.transport.graph,
-                                                       self.config.graph_timeout)
-                self._update_graph(endpoints)
+                await self._look_at_graph()
             except Exception:
                 _log.debug("view: looking at the graph failed", exc_info=True)
             await asyncio.sleep(self.config.graph_period)
+
+    async def _look_at_graph(self) -> None:
+        self._graph_seen = time.monotonic()
+        endpoints = await asyncio.get_running_loop().run_in_executor(
+            None, self.context.transport.graph, self.config.graph_timeout)
+        self._update_graph(endpoints)
 
     async def _watch_parameters(self) -> None:
         """Apart from the graph's task: a node slow to answer delays updates, not topics."""
@@ -628,8 +887,7 @@ class ViewServer:
             for viewer in self._viewers:
                 if viewer.last_time != now:  # a new viewer gets the time it joined at
                     viewer.last_time = now
-                    if not viewer.send_data(p.time_op(now)):
-                        self._dropped += 1
+                    self._dropped += viewer.send_data(p.time_op(now))
             await asyncio.sleep(self.config.time_period)
 
     # -- services ----------------------------------------------------------------------------
@@ -653,7 +911,7 @@ class ViewServer:
             return
         if op.encoding != p.ENCODING:
             viewer.send(p.service_call_failure(op.service_id, op.call_id,
-                                               f"encoding {op.encoding!r} is not supported "
+                                               f"encoding {p.echo(op.encoding)} is not supported "
                                                f"(only {p.ENCODING!r})"))
             return
         try:
@@ -670,7 +928,19 @@ class ViewServer:
 
     # -- parameters --------------------------------------------------------------------------
 
+    async def _has_parameters(self, node: str) -> bool:
+        """Whether ``node`` is in the graph with parameter services; a node not seen yet is
+        looked for once more (at most ten looks a second)."""
+        if node not in self._parameter_nodes and time.monotonic() - self._graph_seen > 0.1:
+            await self._look_at_graph()
+        return node in self._parameter_nodes
+
     async def _parameter_call(self, node: str, service: str, **fields: Any) -> Any:
+        """Call one of ``node``'s parameter services; only a node the graph has: a client
+        naming nodes that do not exist must not make the server a service client for each
+        (they would stay, one graph entity each, as long as the server)."""
+        if not await self._has_parameters(node):
+            raise p.ClientMessageError(f"no node {p.echo(node)} with parameters in the graph")
         srv = "".join(part.capitalize() for part in service.split("_"))
         client = self._client(f"{node}/{service}", f"rcl_interfaces/srv/{srv}")
         return await self._call(client, client.request(**fields))
@@ -721,7 +991,7 @@ class ViewServer:
             values = await self._get_parameters(op.names)
             for value in values:
                 self._parameter_cache[value.name] = value.value
-            viewer.parameters.update(op.names or [v.name for v in values])
+            viewer.parameters.update(v.name for v in values)  # only those that exist
         elif isinstance(op, p.UnsubscribeParameterUpdates):
             if op.names:
                 viewer.parameters.difference_update(op.names)
@@ -740,7 +1010,8 @@ class ViewServer:
                     {"name": q.name, "value": to_parameter_value(types, q.value)}
                     for q in params])
             except Exception as exc:
-                viewer.send(p.status(p.ERROR, f"setParameters: {node}: {exc or type(exc)}"))
+                viewer.send(p.status(p.ERROR, f"setParameters: {p.cut(node, p.ECHO_LIMIT)}: "
+                                              f"{exc or type(exc)}"))
                 continue
             for param, result in zip(params, answer.results, strict=False):
                 if not result.successful:
