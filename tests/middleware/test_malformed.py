@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 import zenoh
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from servolab.middleware.context import Context
@@ -33,6 +33,7 @@ from servolab.middleware.qos import HistoryPolicy, QoSProfile
 from servolab.middleware.rmw_zenoh import decode_attachment, encode_attachment
 from servolab.middleware.transport import TransportOptions
 from servolab.middleware.zenoh_inbox import message_info
+from tests.fuzzing import fuzzing
 from tests.middleware.conftest import foreign_zenoh_peer, free_port
 from tests.waiting import wait_for_subscriber
 
@@ -207,13 +208,15 @@ def _read_or_refuse(types: MessageTypes, name: str, data: bytes) -> None:
         assert "\n" not in str(error)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@pytest.mark.fuzz
+@fuzzing(60)
 @given(name=st.sampled_from(ROBOT_TYPES), data=st.binary(max_size=256))
 def test_fuzz_random_bytes_are_read_or_refused_in_one_line(name: str, data: bytes) -> None:
     _read_or_refuse(_TYPES, name, data)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@pytest.mark.fuzz
+@fuzzing(120)
 @given(name=st.sampled_from(ROBOT_TYPES), flips=st.lists(
     st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=4),
     cut=st.integers(0, 10_000))
@@ -227,7 +230,8 @@ def test_fuzz_mutated_messages_are_read_or_refused_in_one_line(
     _read_or_refuse(_TYPES, name, bytes(good[:max(1, cut % (len(good) + 1))]))
 
 
-@settings(max_examples=100, deadline=None)
+@pytest.mark.fuzz
+@fuzzing(100)
 @given(data=st.binary(max_size=64))
 def test_fuzz_zenoh_attachments_are_read_or_refused(data: bytes) -> None:
     """rmw_zenoh's 33-byte attachment (``rmw_zenoh_cpp/src/detail/attachment_helpers.cpp``):

@@ -12,13 +12,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from rosbags.interfaces import Nodetype
 
 from servolab.middleware.errors import MessageError
 from servolab.middleware.message_build import Slow
 from servolab.middleware.messages import MessageTypes
+from tests.fuzzing import fuzzing
 from tests.middleware.test_malformed import ROBOT_TYPES
 
 TYPES = MessageTypes()
@@ -68,7 +69,8 @@ def _message(data: st.DataObject, name: str, depth: int = 0) -> dict[str, Any]:
             if depth > 4 or data.draw(st.booleans())}
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@pytest.mark.fuzz
+@fuzzing(150)
 @given(name=st.sampled_from(ROBOT_TYPES), data=st.data())
 def test_the_fast_path_builds_what_the_walk_builds(name: str, data: st.DataObject) -> None:
     value = _message(data, name)
@@ -106,3 +108,18 @@ def test_what_only_the_walk_takes_still_builds() -> None:
     assert odometry.pose.covariance[0] == 0.0
     header = TYPES.from_value("std_msgs/msg/Header", {"frame_id": "map"})
     assert TYPES.from_value("geometry_msgs/msg/PoseStamped", {"header": header}).header is header
+
+
+def test_a_byte_above_127_is_held_as_the_byte_reads_back() -> None:
+    """ROS 2's ``byte`` is an octet (0..255: the ROS 2 interface docs, "Field types"); rosbags
+    reads and packs it signed (struct code ``b``). Found by the fuzzer above: a level of 128
+    was accepted and then failed to serialize (struct.error). Built, assigned or received, a
+    byte of 200 is now -56, and its CDR is the byte 0xC8, as rosbags' own serializer writes."""
+    status = TYPES.from_value("diagnostic_msgs/msg/DiagnosticStatus", {"level": 200})
+    assert status.level == -56
+    data = TYPES.serialize(status)
+    assert data == bytes(TYPES.store.serialize_cdr(status, "diagnostic_msgs/msg/DiagnosticStatus"))
+    assert data[4] == 0xC8
+    assert TYPES.deserialize(data, "diagnostic_msgs/msg/DiagnosticStatus").level == -56
+    status.level = 255
+    assert status.level == -1

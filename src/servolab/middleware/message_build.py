@@ -170,7 +170,8 @@ def _scalar(kind: str, bound: int, floats: set[str],
             raise Slow
         return real
     if kind in int_ranges:
-        low, high = int_ranges[kind]
+        # a byte above 127 is held signed (messages._signed_octet): the walk converts it
+        low, high = (0, 127) if kind == "byte" else int_ranges[kind]
 
         def integer(value: Any) -> Any:
             if type(value) is int and low <= value <= high:

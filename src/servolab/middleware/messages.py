@@ -763,7 +763,7 @@ class MessageTypes:
                     if isinstance(value, bool) or not isinstance(value, int | np.integer) \
                             or not -128 <= int(value) <= 255:
                         raise MessageError(f"{where}: {value!r} is not a byte (0..255)")
-                    return int(value)
+                    return _signed_octet(int(value))
                 return octet
             return lambda value: self._scalar(kind, value, where, bound)
         if desc[0] == Nodetype.NAME:
@@ -846,6 +846,8 @@ class MessageTypes:
             low, high = _INT_RANGES[kind]
             if not low <= int(value) <= high:
                 raise MessageError(f"{where}: {value} is outside {kind}'s range {low}..{high}")
+            if kind == "byte":
+                return _signed_octet(int(value))
             return int(value)
         raise MessageError(f"{where}: unsupported field type {kind}")
 
@@ -955,6 +957,13 @@ def _repr_scalar(kind: str, value: Any) -> str:
     if kind in _FLOATS:
         return repr(float(value))
     return repr(value)
+
+
+def _signed_octet(value: int) -> int:
+    """A ``byte`` (an octet: ROS writes 0..255) as rosbags holds and packs it, signed: 200
+    is -56, the value the same byte reads back as (rosbags' ``struct`` code ``b``). Kept
+    unsigned, 128..255 would be accepted and then fail to serialize."""
+    return value - 256 if value > 127 else value
 
 
 def _join(path: str, field: str) -> str:
