@@ -68,7 +68,10 @@ class NoResponse(CommError):
 
 
 class CorruptResponse(CommError):
-    """Bytes arrived but no valid status packet from the expected motor could be found."""
+    """Bytes arrived but no valid status packet from the expected motor could be found: none
+    with a right checksum/CRC, or only ones whose content cannot be true (an error bit the
+    protocol keeps at 0, a read value outside what its register holds), which passed the
+    checksum by chance (see :class:`~.bus.link.Link`)."""
 
 
 class MotorError(DynamixelError):

@@ -356,6 +356,76 @@ def supports(model: Model, instruction: str) -> bool:
     return instruction in model.instruction_set
 
 
+# -- what a register can hold when it is read ----------------------------------------------------
+
+#: Moving Status(123) of the X-series and MX(2.0): bit 0 In-Position, bit 1 Profile Ongoing,
+#: bit 3 Following Error, bits 4-5 the velocity profile; bits 2, 6 and 7 are unused, always 0
+#: (e-Manual, en/dxl/control_table_movingstatus.md).
+MOVING_STATUS_RESERVED = 0xC4
+
+
+def width_range(reg: Register) -> tuple[int, int]:
+    """Every raw value the register's bytes can hold (two's complement where signed)."""
+    bits = 8 * reg.size
+    return (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if reg.signed else (0, (1 << bits) - 1)
+
+
+def read_limits(m: Model, reg: Register) -> tuple[int, int, int] | None:
+    """What ``reg`` of ``m`` can hold when it is read, by the e-Manual: ``(lowest, highest,
+    reserved)``, its raw value within lowest..highest with none of the ``reserved`` bits set;
+    None when that is anything its bytes hold (nothing to check). The bus takes a read value
+    outside it for a corrupt reply (:mod:`.bus.reads`).
+
+    Not the range a host may *write* where the firmware itself sets more: Bus Watchdog(98)
+    is set to -1 by the motor when it trips (control_table_buswatchdog.md), and Goal Position
+    is set to Present Position at power-up (so it can hold what Present Position can).
+
+    A read-only register with no range in its table: Present Position of a model whose
+    position sensor counts within one turn reads 0 .. resolution - 1 (AX, RX, XL-320: "0 ~
+    1,023"; MX in 1.0: "0 ~ 4,095", and in multi-turn mode Goal Position's -28,672 ~ 28,672,
+    e-Manual MX-28 Present Position and Multi-turn), Hardware Error Status only the bits the
+    model names (control_table_hardwareerrorstatus.md), Moving Status none of
+    :data:`MOVING_STATUS_RESERVED`, a speed or load with a direction bit (XL-320 Present
+    Speed and Load: "0 ~ 2,047", bit 10 the direction) 0 .. 2,047, a flag (Moving,
+    Registered Instruction) 0 .. 1. The others are left unchecked (None), for want of a
+    figure: the model number and firmware, present voltage and temperature, present PWM,
+    current and velocity, the trajectories, a multi-turn or 16-bit (EX-106+ wheel mode)
+    Present Position, which can be any value its bytes hold."""
+    width = width_range(reg)
+    low, high = width
+    reserved = 0
+    if reg.name == "hardware_error_status":
+        known = 0
+        for bit in m.hardware_error_bits():
+            known |= bit
+        reserved = ((1 << (8 * reg.size)) - 1) & ~known
+    elif reg.name == "moving_status":
+        reserved = MOVING_STATUS_RESERVED
+    elif reg.maximum is not None:
+        low, high = reg.raw_min, reg.raw_max
+        if reg.name == "bus_watchdog":
+            low = min(low, -1)
+        elif reg.name == "goal_position" and m.has("present_position"):
+            present = read_limits(m, m.register("present_position"))
+            held = present[:2] if present is not None else width_range(
+                m.register("present_position"))
+            low, high = min(low, held[0]), max(high, held[1])
+    elif (reg.access == "R" and reg.unit == "position" and not m.multi_turn
+          and m.wheel_position != "encoder16" and reg.name == "present_position"):
+        low, high = 0, m.resolution - 1
+        goal = m.register("goal_position") if m.has("goal_position") else None
+        if goal is not None and goal.signed and goal.maximum is not None:
+            low, high = min(low, goal.raw_min), max(high, goal.raw_max)
+    elif reg.unit in ("speed_sign_bit", "load_sign_bit"):
+        low, high = 0, 0x7FF       # 10 bits of magnitude and the direction, bit 10
+    elif reg.unit == "bool":
+        low, high = 0, 1
+    low, high = max(low, width[0]), min(high, width[1])
+    if (low, high) == width and not reserved:
+        return None
+    return low, high, reserved
+
+
 # -- reading a model file -----------------------------------------------------------------------
 
 _TOP_KEYS = ("servolab_model", "name", "number", "protocol", "source", "firmware",

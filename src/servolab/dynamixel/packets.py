@@ -219,6 +219,12 @@ class Protocol(ABC):
         """The bits of a status error byte that report the motor's hardware state (overload,
         overheating, ...): they come with an instruction carried out and valid data."""
 
+    def implausible_error(self, error: int) -> str | None:
+        """What no motor sends in a status error byte, said in words (a bit the protocol
+        keeps at 0, an error number it does not define), or None: a status that carries it
+        passed its checksum/CRC by chance and is corrupt."""
+        return None
+
     def decode_instruction(self, data: bytes) -> Instruction:
         return self.as_instruction(self._one_frame(data))
 

@@ -133,6 +133,10 @@ class Protocol1(Protocol):
     def alert(self, error: int) -> int:
         return error & HARDWARE_ERRORS
 
+    def implausible_error(self, error: int) -> str | None:
+        # e-Manual, Protocol 1.0, "Status Packet", Error: bits 0-6 are named, bit 7 is 0.
+        return "error bit 7, which Protocol 1.0 keeps at 0" if error & 0x80 else None
+
     # -- builders ------------------------------------------------------------------------------
     def reset(self, motor_id: int) -> Instruction:
         self.check_id(motor_id, broadcast=True)

@@ -320,6 +320,12 @@ class Protocol2(Protocol):
         # cause of the problem" (ibid.): bit 7, which says nothing about the instruction.
         return error & ALERT
 
+    def implausible_error(self, error: int) -> str | None:
+        # e-Manual, Protocol 2.0, "Status Packet", Error: the numbers 0x01-0x07 are defined.
+        number = error & 0x7F
+        return (f"error number {number}, which Protocol 2.0 does not define"
+                if number > ACCESS else None)
+
     def error_names(self, error: int) -> tuple[str, ...]:
         names = []
         number = error & 0x7F

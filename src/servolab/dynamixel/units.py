@@ -157,6 +157,8 @@ def reading(model: Model, register: Register, value: float) -> int:
     bits = 8 * register.size  # what the register can hold, not what a host may write to it
     low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if register.signed else (
         0, (1 << bits) - 1)
+    if register.maximum is not None:  # a sensor with a range of its own: Present Load's
+        low, high = max(low, register.raw_min), min(high, register.raw_max)  # -1000 ~ 1000
     return max(low, min(high, raw))
 
 

@@ -23,7 +23,14 @@ no valid answer, the next one first waits out the time in which the late answer 
 come (return delay and wire time) and throws away whatever came: a late answer is never read
 as the answer to the next request. Hardware errors (overload, overheating, ...) are not failed
 instructions: the data comes back, and the motor is named in :attr:`Bus.alerts` (and logged);
-only an instruction error (checksum, range, access, ...) raises :class:`MotorError`.
+only an instruction error (checksum, range, access, ...) raises :class:`MotorError`. A status
+that passed its checksum/CRC is still checked for what no motor sends (an error bit its
+protocol keeps at 0, a read value its register cannot hold, :func:`~..models.read_limits`):
+Protocol 1.0's 8-bit additive checksum lets two flips that cancel in its sum through, which
+Protocol 2.0's CRC-16 does not. Such a reply is counted in :attr:`BusStats.implausible`,
+retried, and raises :class:`CorruptResponse` when the retries run out; it is never returned.
+A flip pair that leaves a value in range only a second reply can catch:
+:attr:`Bus.confirm_reads`.
 
 **Fast.** What a read or a write of the same registers of the same motors repeats is worked
 out once and kept (a *plan*): the instruction packet, the status packets it is answered with

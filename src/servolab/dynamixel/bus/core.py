@@ -72,6 +72,15 @@ class BusCore:
     ``timeout`` (s), when given, replaces the computed wait for a reply (wire time of the
     expected bytes + return delays + twice the adapter latency + 2 ms); a broadcast ping
     listens at least :meth:`broadcast_ping_wait` all the same.
+
+    ``confirm_reads``: a read (:meth:`read`, :meth:`sync_read`, :meth:`bulk_read` and the
+    fast forms) returns only data that two replies in a row brought alike, at the price of
+    a second transaction. Every reply is checked for what it cannot hold (a value outside
+    its register's range: :class:`~.link.Link`), but a corrupt Protocol 1.0 reply whose
+    paired flips cancel in its 8-bit checksum and leave a value in range cannot be told
+    from a good one; two alike can. For values that hold still between two reads (settings,
+    a motor at rest): a moving motor's present values may differ from one read to the next,
+    and such a read fails with :class:`CorruptResponse` when no two agree.
     """
 
     port: Port
@@ -80,6 +89,7 @@ class BusCore:
     timeout: float | None = None
     motors: dict[int, Model] = field(default_factory=dict)
     stats: BusStats = field(default_factory=BusStats)
+    confirm_reads: bool = False
 
     def __post_init__(self) -> None:
         if self.protocol is None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol as TypingProtocol
 
@@ -33,7 +33,11 @@ from .common import MAX_RETURN_DELAY, log
 
 @dataclass
 class BusStats:
-    """Counters a user can print to see how healthy the wire is."""
+    """Counters a user can print to see how healthy the wire is.
+
+    ``corrupt`` counts the replies that failed their checksum/CRC or their framing,
+    ``implausible`` those that passed it but could not be true (see :class:`Link`); both
+    are retried, so a read that ends well may have counted some."""
 
     transactions: int = 0
     retries: int = 0
@@ -44,7 +48,15 @@ class BusStats:
     #: status packets thrown away: late answers to an earlier instruction, answers from a
     #: motor not asked or of the wrong length
     stale: int = 0
+    #: replies whose checksum/CRC was right but whose content no motor sends: a read value
+    #: outside what its register can hold, an error byte with a bit its protocol keeps at 0
+    implausible: int = 0
 
+
+#: What a read checks of the reply's data: given the reply bytes, where each motor's data
+#: starts and the error bytes, None, or the motor whose data cannot be true and a sentence
+#: that says why.
+Plausible = Callable[[bytes, Sequence[int], Sequence[int]], "tuple[int, str] | None"]
 
 
 def statuses_in(chunk: bytes, parser: StreamParser, proto: Protocol, stats: BusStats
@@ -116,7 +128,25 @@ class Link:
     """One port's transactions for the bus that owns it (see the module's docstring).
 
     ``alerts`` is the bus's record of motors reporting a hardware error (ID -> error bits),
-    which every status taken here updates."""
+    which every status taken here updates.
+
+    **Only plausible replies.** A status is taken only from a motor asked, with the length
+    asked for (else it is stale), and only when its checksum/CRC is right. That is not
+    enough on Protocol 1.0: its checksum is the complement of an 8-bit *sum* (e-Manual,
+    Protocol 1.0, Status Packet: ``~(ID + Length + Error + Parameter1 + ... + Parameter N)``),
+    so two flips that cancel in the sum pass it: a bit k set in one byte and cleared in
+    another, bit 7 set in two bytes (+256 = 0), or a data bit and the same bit of the
+    checksum itself. Protocol 2.0's CRC-16 (polynomial 0x8005) catches every such pair and
+    any burst of up to 16 bits, so far fewer corrupt replies get through. A reply whose
+    checksum/CRC passed is therefore still checked for what no motor sends: an error byte
+    with a bit its protocol keeps at 0 (:meth:`~.packets.Protocol.implausible_error`), and
+    for a read, each value against what its register can hold (``plausible``, see
+    :func:`~..models.read_limits`). Such a reply is counted in
+    :attr:`BusStats.implausible` and retried as a checksum failure is; when the retries run
+    out, :class:`CorruptResponse` is raised, and the value is never returned. What this
+    cannot catch is a corrupt value that is still one the register can hold: paired flips in
+    a Protocol 1.0 reply that stay in range come through (docs/dynamixel.md, "Corrupt
+    replies")."""
 
     def __init__(self, owner: LinkOwner, alerts: dict[int, int]) -> None:
         self._owner = owner
@@ -175,17 +205,25 @@ class Link:
 
     def exchange(self, data: bytes, name: str, replies: Replies, check: bool,
                  retries: int | None, statuses: dict[int, Status] | None = None, *,
-                 alerts: bool = True) -> tuple[bytes, Sequence[int], Sequence[int]]:
+                 alerts: bool = True, plausible: Plausible | None = None,
+                 confirm: bool = False) -> tuple[bytes, Sequence[int], Sequence[int]]:
         """Send ``data`` and take the status packets ``replies`` describes: returns the reply
         bytes, where each motor's data starts in them, and the error bytes (``()`` when all
         are 0). The fast path reads exactly the bytes expected and checks them in place; when
         they are not as expected, the stream parser looks for the packets until the timeout
         (``statuses``, when given, receives them as found). ``alerts`` False: the statuses'
-        hardware-error bits are not the motors' state now (see :meth:`.Bus.reboot`)."""
+        hardware-error bits are not the motors' state now (see :meth:`.Bus.reboot`).
+        ``plausible``: what a read checks of its data (see the class docstring); a reply it
+        refuses is retried, and raises :class:`CorruptResponse` when the retries run out.
+        ``confirm``: a reply is taken only when the next one brings the same data and error
+        bytes (:attr:`.Bus.confirm_reads`); one more transaction than ``retries`` allows
+        for it, and a pair that differs counts as implausible and is retried."""
         owner = self._owner
         port, stats, proto = owner.port, owner.stats, owner.proto
         total = replies.total
-        attempts = 1 + (owner.retries if retries is None else retries)
+        attempts = 1 + (owner.retries if retries is None else retries) + confirm
+        kept: tuple[tuple[bytes, ...], tuple[int, ...]] | None = None  # to be confirmed
+        doubts: set[tuple[int, str]] = set()  # what the implausible replies said
         with self.lock:
             # How long after sending the answers can take at most: the wire time of the bytes
             # both ways, each answer's longest return delay (254 x 2 us), twice the adapter's
@@ -204,7 +242,7 @@ class Link:
                 stats.transactions += 1
                 stats.bytes_out += len(data)
                 stats.bytes_in += len(buf)
-                if attempt:
+                if attempt and kept is None:
                     stats.retries += 1
                 errors: Sequence[int] | None = None
                 if len(buf) == total:
@@ -224,16 +262,66 @@ class Link:
                     except CommError:
                         # its answer may still be on its way: keep it from the next request
                         self.quiet_until = sent + longest
+                        kept = None
                         if attempt + 1 == attempts:
                             raise
                         continue
-                    if statuses is not None:
-                        statuses.update(found)
                     buf, errors = self._lay_out(found, replies)
+                    if statuses is not None:
+                        statuses.clear()
+                        statuses.update(found)
+                doubt = self._implausible(replies, errors) if errors else None
+                if doubt is None and plausible is not None:
+                    doubt = plausible(buf, replies.data_at, errors)
+                if doubt is not None:
+                    kept = None
+                    stats.implausible += 1
+                    doubts.add(doubt)
+                    log.debug("%s: motor %d: %s (attempt %d of %d)", name, *doubt,
+                              attempt + 1, attempts)
+                    if attempt + 1 == attempts:
+                        # The same each time is no noise: the motor holds it, beyond what
+                        # its model file says it can.
+                        same = (f"; the same {attempts} times: if motor {doubt[0]} does hold "
+                                "it, its model file's range is narrower than the motor's "
+                                "(read_address reads it unchecked)"
+                                if len(doubts) == 1 and attempts > 1 else "")
+                        raise CorruptResponse(
+                            f"motor {doubt[0]}: {name} got {doubt[1]}: a corrupt status that "
+                            f"passed its {'checksum' if proto.version == 1 else 'CRC'} at "
+                            f"{port.baudrate} bps{same}", motor_id=doubt[0], instruction=name)
+                    continue
+                if confirm:
+                    reply = (tuple(buf[at:at + n] for at, n in zip(replies.data_at,
+                                                                   replies.counts,
+                                                                   strict=True)),
+                             tuple(errors))
+                    if reply != kept:
+                        if kept is not None:
+                            stats.implausible += 1  # one of the two was corrupt
+                        kept = reply
+                        if attempt + 1 == attempts:
+                            raise CorruptResponse(
+                                f"motor {', '.join(map(str, replies.ids))}: {name} got no two "
+                                f"replies alike in {attempts} (confirm_reads) at "
+                                f"{port.baudrate} bps: corrupt replies, or data that changes "
+                                "from one read to the next", motor_id=replies.ids[0],
+                                instruction=name)
+                        continue
                 if errors or self.alerts:
                     self._record_hardware_errors(replies.ids, errors, name, check, alerts)
                 return buf, replies.data_at, errors
         raise AssertionError("unreachable")  # pragma: no cover
+
+    def _implausible(self, replies: Replies, errors: Sequence[int]) -> tuple[int, str] | None:
+        """An error byte no motor sends in a reply that passed its checksum/CRC: the motor
+        and what, or None."""
+        proto = self._owner.proto
+        for motor_id, error in zip(replies.ids, errors, strict=True):
+            doubt = proto.implausible_error(error)
+            if doubt is not None:
+                return motor_id, doubt
+        return None
 
     def _record_hardware_errors(self, ids: Sequence[int], errors: Sequence[int], name: str,
                                 check: bool, record: bool = True) -> None:

@@ -18,11 +18,11 @@ from typing import Any
 
 from .. import units
 from ..errors import ConfigError
-from ..models import FAST_READ_FIRMWARE, Model, Register, supports
+from ..models import FAST_READ_FIRMWARE, Model, Register, read_limits, supports
 from ..packets import Protocol
 from ..protocol2 import Protocol2, crc16_at
 from .common import Names, Value
-from .link import Replies
+from .link import Plausible, Replies
 from .model_checks import TORQUE_GOALS, register_of
 
 #: plans kept per bus before the cache starts again (a robot uses a handful)
@@ -42,8 +42,8 @@ class Fields:
     the caller then says which mode the motor is in, and ``wheel_convert`` serves wheel mode.
     """
 
-    __slots__ = ("_order", "_struct", "convert", "length", "moded", "names", "regs", "single",
-                 "start", "wheel_convert")
+    __slots__ = ("_order", "_struct", "convert", "holds", "length", "limits", "moded",
+                 "model_name", "names", "regs", "single", "start", "wheel_convert")
 
     def __init__(self, m: Model, names: Names) -> None:
         self.single = isinstance(names, str)
@@ -51,6 +51,11 @@ class Fields:
         self.regs = [register_of(m, n) for n in self.names]  # ConfigError: unknown name
         if not self.regs:
             raise ConfigError(f"{m.name}: no register named to read")
+        self.model_name = m.name
+        #: (place among the values, lowest, highest, reserved bits) of each register whose
+        #: value can be checked when it is read (:func:`.models.read_limits`)
+        self.limits = [(k, *held) for k, reg in enumerate(self.regs)
+                       if (held := read_limits(m, reg)) is not None]
         self.start, self.length = m.span(self.names)
         self.convert = [si_decoder(m, r) for r in self.regs]
         self.moded = m.wheel_output_ratio and any(r.unit == "speed_sign_bit"
@@ -71,6 +76,9 @@ class Fields:
         # the struct gives values in address order; the caller wants them in its own
         self._order = (None if by_address == sorted(by_address)
                        else [by_address.index(k) for k in range(len(by_address))])
+        #: whether the block at ``buf[at]`` holds only values its registers can hold:
+        #: ``holds(buf, at)``, one unpack of the registers checked (None: nothing to check)
+        self.holds = self._holds() if self.limits else None
 
     def raw(self, buf: bytes, at: int) -> Sequence[int]:
         """The raw values (in the order named) of the block that starts at ``buf[at]``."""
@@ -78,6 +86,70 @@ class Fields:
             return [r.decode(buf[at + r.address - self.start:]) for r in self.regs]
         values = self._struct.unpack_from(buf, at)
         return values if self._order is None else [values[k] for k in self._order]
+
+    def _holds(self) -> Callable[[bytes, int], bool]:
+        """:attr:`holds`, as fast as it can be: what every read of the plan pays. A range
+        0 .. 2^n - 1 (most: 1023, 2047, a flag's 0..1) and reserved bits are bits that must be
+        0, all tested at once on the block as one integer; other ranges are compared."""
+        forbidden = bytearray(self.length)
+        ranged = []
+        for k, low, high, reserved in self.limits:
+            reg = self.regs[k]
+            if low == 0 and high >= 0 and not high & (high + 1):
+                at = reg.address - self.start
+                bits = ((1 << 8 * reg.size) - 1) & ~high | reserved
+                for i, byte in enumerate(bits.to_bytes(reg.size, "little")):
+                    forbidden[at + i] |= byte
+            else:
+                ranged.append((k, low, high, reserved))
+        mask, length = int.from_bytes(forbidden, "little"), self.length
+        compare = self._compare(ranged) if ranged else None
+        if compare is None:
+            return lambda buf, at: not int.from_bytes(buf[at:at + length], "little") & mask
+        if not mask:
+            return compare
+        return lambda buf, at: (not int.from_bytes(buf[at:at + length], "little") & mask
+                                and compare(buf, at))
+
+    def _compare(self, limits: list[tuple[int, int, int, int]]) -> Callable[[bytes, int], bool]:
+        """Whether the block at ``buf[at]`` holds the ``limits``' registers within their
+        ranges: one unpack of those registers, compared."""
+        fmt, at = "<", self.start
+        bounds = []
+        for k, low, high, reserved in sorted(limits, key=lambda lim: self.regs[lim[0]].address):
+            reg = self.regs[k]
+            code = STRUCT_CODES.get((reg.size, reg.signed))
+            if code is None or reg.address < at:   # no struct code, or overlapping registers
+                return lambda buf, at: self.implausible(buf, at) is None
+            fmt += (f"{reg.address - at}x" if reg.address > at else "") + code
+            at = reg.address + reg.size
+            bounds.append((low, high, reserved))
+        unpack = struct.Struct(fmt).unpack_from
+        if len(bounds) == 1 and not bounds[0][2]:
+            low, high, _ = bounds[0]
+            return lambda buf, at: low <= unpack(buf, at)[0] <= high
+
+        def within(buf: bytes, at: int) -> bool:
+            for value, (low, high, reserved) in zip(unpack(buf, at), bounds, strict=True):
+                if not low <= value <= high or value & reserved:
+                    return False
+            return True
+
+        return within
+
+    def implausible(self, buf: bytes, at: int) -> str | None:
+        """What cannot be true of the block that starts at ``buf[at]``: a value outside what
+        its register can hold (:attr:`limits`), in words; None when every value can be."""
+        raws = self.raw(buf, at)
+        for k, low, high, reserved in self.limits:
+            value = raws[k]
+            if value & reserved:
+                return (f"{self.names[k]} 0x{value:02X}, whose bits 0x{value & reserved:02X} "
+                        f"the {self.model_name} keeps at 0")
+            if not low <= value <= high:
+                return (f"{self.names[k]} {value}, outside {low}..{high}, what it holds on the "
+                        f"{self.model_name}")
+        return None
 
     def values(self, buf: bytes, at: int, raw: bool, wheel: bool = False) -> Any:
         """One value (one name given as a str) or {name: value}, raw or in SI units (those
@@ -92,13 +164,27 @@ class Fields:
 class Read:
     """One READ of named registers of one motor: instruction bytes, reply layout, decoder."""
 
-    __slots__ = ("fields", "model", "motor_id", "proto", "replies", "request")
+    __slots__ = ("fields", "model", "motor_id", "plausible", "proto", "replies", "request")
 
     def __init__(self, proto: Protocol, motor_id: int, m: Model, fields: Fields) -> None:
         self.proto, self.motor_id, self.model, self.fields = proto, motor_id, m, fields
         self.request = proto.encode_instruction(proto.read(motor_id, fields.start,
                                                            fields.length))
         self.replies = Replies(proto, {motor_id: fields.length})
+        #: what the link checks of a reply (:class:`.link.Plausible`); None: nothing to
+        #: check (every value the registers' bytes hold can be true)
+        self.plausible: Plausible | None = None
+        holds, failed = fields.holds, proto.failed
+        if holds is not None:
+            def plausible(buf: bytes, data_at: Sequence[int], errors: Sequence[int]
+                          ) -> tuple[int, str] | None:
+                at = data_at[0]
+                if holds(buf, at) or (errors and failed(errors[0])):  # (failed: no data)
+                    return None
+                doubt = fields.implausible(buf, at)
+                return None if doubt is None else (motor_id, doubt)
+
+            self.plausible = plausible
 
 
 class MultiRead:
@@ -108,13 +194,18 @@ class MultiRead:
     anything is sent) where a motor lacks it, None takes it where every motor has it, False
     never."""
 
-    __slots__ = ("fields", "ids", "moded", "models", "name", "proto", "reads", "replies",
-                 "request")
+    __slots__ = ("_checked", "fields", "ids", "moded", "models", "name", "plausible", "proto",
+                 "reads", "replies", "request")
 
     def __init__(self, proto: Protocol, ids: tuple[int, ...], models: list[Model],
                  fields: list[Fields], *, allow_sync: bool, fast: bool | None = False
                  ) -> None:
         self.proto, self.ids, self.models, self.fields = proto, ids, models, fields
+        #: (place, motor, its fields, their check) of each motor whose data can be checked
+        self._checked = [(k, motor_id, f, f.holds) for k, (motor_id, f) in
+                         enumerate(zip(ids, fields, strict=True)) if f.holds is not None]
+        #: as :attr:`Read.plausible`, for the one instruction (``reads`` have their own)
+        self.plausible: Plausible | None = self._plausible if self._checked else None
         #: the motors whose SI values depend on their mode (see Fields.moded)
         self.moded = tuple(i for i, f in zip(ids, fields, strict=True) if f.moded)
         spans = {(f.start, f.length) for f in fields}
@@ -161,6 +252,18 @@ class MultiRead:
             self.reads = [Read(proto, i, m, f)
                           for i, m, f in zip(ids, models, fields, strict=True)]
         self.replies = Replies(proto, {i: f.length for i, f in zip(ids, fields, strict=True)})
+
+    def _plausible(self, buf: bytes, data_at: Sequence[int], errors: Sequence[int]
+                   ) -> tuple[int, str] | None:
+        failed = self.proto.failed
+        for k, motor_id, fields, holds in self._checked:
+            at = data_at[k]
+            if holds(buf, at) or (errors and failed(errors[k])):  # (failed: no data)
+                continue
+            doubt = fields.implausible(buf, at)
+            if doubt is not None:
+                return motor_id, doubt
+        return None
 
 
 def si_decoder(m: Model, reg: Register, *, wheel: bool = False

@@ -55,7 +55,10 @@ class RawAccess(Commissioning):
         """``size`` raw bytes of ``motor_id``'s control table from ``address`` (one READ),
         whatever registers are there, or none servolab knows (a model it has no table for).
         The address and size are checked against the protocol first
-        (:func:`raw_access_limits`); the motor answers for the rest."""
+        (:func:`raw_access_limits`); the motor answers for the rest. The bytes come as the
+        status brought them, checksum/CRC checked but not held to any register's range (as
+        :meth:`read` holds them): the way to see a value that :meth:`read` refuses as
+        implausible time after time."""
         self._check_raw_span(address, size, write=False)
         self.proto.check_id(motor_id)
         if 0 in self._memory.levels.values():

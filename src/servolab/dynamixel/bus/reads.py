@@ -84,7 +84,9 @@ class Reads(Guard):
             self._refuse_reads_at_level_0((motor_id,))
         # moving/present speed in wheel mode on AX/RX/EX: the motor's mode decides the unit
         wheel = not raw and plan.fields.moded and self._in_wheel_mode(motor_id)
-        buf, data_at, _ = self._link.exchange(plan.request, "READ", plan.replies, check, retries)
+        buf, data_at, _ = self._link.exchange(plan.request, "READ", plan.replies, check, retries,
+                                              plausible=plan.plausible,
+                                              confirm=self.confirm_reads)
         return plan.fields.values(buf, data_at[0], raw, wheel)  # type: ignore[no-any-return]
 
     @overload
@@ -175,11 +177,14 @@ class Reads(Guard):
             out = {}
             for read in plan.reads:
                 buf, data_at, _ = self._link.exchange(read.request, "READ", read.replies, check,
-                                                      None)
+                                                      None, plausible=read.plausible,
+                                                      confirm=self.confirm_reads)
                 out[read.motor_id] = read.fields.values(
                     buf, data_at[0], raw, wheel is not None and read.motor_id in wheel)
             return out
-        buf, data_at, _ = self._link.exchange(plan.request, plan.name, plan.replies, check, None)
+        buf, data_at, _ = self._link.exchange(plan.request, plan.name, plan.replies, check, None,
+                                              plausible=plan.plausible,
+                                              confirm=self.confirm_reads)
         if wheel:
             return {i: f.values(buf, at, raw, i in wheel)
                     for i, f, at in zip(plan.ids, plan.fields, data_at, strict=True)}
