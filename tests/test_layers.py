@@ -15,7 +15,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "servolab"
 ALGORITHMS = ("kinematics", "gait", "planning", "estimation", "vision")
-CORE = ("clock", "configfile", "errors", "runs", "signals", "harness")
+CORE = ("clock", "configfile", "errors", "limits", "runs", "signals", "harness")
 
 
 def _module(path: Path) -> str:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Collection, Iterator
 from datetime import date
@@ -36,6 +37,7 @@ import yaml
 from yaml.constructor import SafeConstructor
 
 from .errors import ConfigFileError
+from .limits import ECHO_WIDTH, InputLimits, clip, quoted, read_limited
 
 #: What a scalar can hold: what ``yaml.safe_load`` makes of one (``!!binary`` gives bytes,
 #: a timestamp a date or datetime).
@@ -61,7 +63,7 @@ def suggest(name: str, choices: Collection[str]) -> str | None:
 def unknown_key(name: str, allowed: Collection[str]) -> str:
     """``unknown key 'x'``, with ``(did you mean 'y'?)`` when an allowed key is close."""
     close = suggest(name, allowed)
-    return f"unknown key {name!r}" + (f" (did you mean {close!r}?)" if close else "")
+    return f"unknown key {quoted(name)}" + (f" (did you mean {close!r}?)" if close else "")
 
 
 class ConfigValue(ABC):
@@ -105,7 +107,7 @@ class ConfigValue(ABC):
     def _subject(self, what: str | None) -> str:
         if what is not None:
             return what
-        return f"key {self.key!r}" if self.key else "the file"
+        return f"key {quoted(self.key)}" if self.key else "the file"
 
     def _wrong(self, what: str | None, wanted: str) -> ConfigFileError:
         return self.error(f"{self._subject(what)}: must be {wanted}, not {self.describe()}")
@@ -154,14 +156,16 @@ class ConfigScalar(ConfigValue):
         self.text = text
 
     def describe(self) -> str:
+        if not self.key:  # the whole file is this one value: say what kind, not what
+            return ("nothing" if self.value is None else "text"
+                    if isinstance(self.value, str) else "a single value")
         if isinstance(self.value, str):
-            shown = self.value if len(self.value) <= 40 else self.value[:37] + "..."
-            return repr(shown)
+            return quoted(self.value, 42)
         if self.value is None:
-            return self.text or "nothing"
+            return clip(self.text, 42) or "nothing"
         if isinstance(self.value, bytes):
             return "binary data"
-        return self.text
+        return clip(self.text, 42)
 
     def plain(self) -> ScalarValue:
         return self.value
@@ -267,7 +271,7 @@ class ConfigMapping(ConfigValue):
         then any key of ``required`` that is missing (at the mapping)."""
         for name, (key, _) in self._entries.items():
             if name not in allowed:
-                close = suggest(name, allowed)
+                close = suggest(name, allowed) if len(name) <= ECHO_WIDTH else None
                 hint = f" (did you mean {close!r}?)" if close else ""
                 raise key.error(self._key_message(what, name, "unknown key {}") + hint)
         for name in required:
@@ -284,8 +288,8 @@ class ConfigMapping(ConfigValue):
 
     def _key_message(self, what: str | None, name: str, template: str) -> str:
         if what is not None:
-            return f"{what}: " + template.format(repr(name))
-        return template.format(repr(self.child_key(name)))
+            return f"{what}: " + template.format(quoted(name))
+        return template.format(quoted(self.child_key(name)))
 
 
 # -- loading ---------------------------------------------------------------------------------
@@ -306,54 +310,99 @@ def shipped(package: str, name: str) -> Path:
 
 
 def load(path: str | Path, *, what: str = "configuration file",
-         error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
+         error: type[ConfigFileError] = ConfigFileError, kind: str | None = None,
+         limits: InputLimits | None = None) -> ConfigValue:
     """Read and compose a YAML file; ``what`` names the kind of file in the error when it
     cannot be read, ``error`` is the class every error of this file is raised as.
 
+    A file larger than the YAML limit (:class:`servolab.limits.InputLimits`, ``yaml_mb``) is
+    refused before it is read. With ``kind`` (``"parameter file"``), a file that is not
+    UTF-8 YAML text is refused as ``not a <kind>``, with where the reader stopped and
+    nothing of what it holds (a launch file naming ``/etc/shadow`` as its parameters echoes
+    none of it); see :func:`load_text`.
+
     An empty file (or one of comments only) is a null scalar on line 1.
     """
+    def too_big(message: str) -> ConfigFileError:
+        return error(path, 0, "", message)
+
     try:
-        data = Path(path).read_bytes()
+        data = read_limited(path, "yaml_mb", what, too_big, limits)
     except OSError as exc:
         raise error(path, 0, "", f"cannot read {what} ({exc.strerror or exc})") from None
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = data.count(b"\n", 0, exc.start) + 1
+        if kind is not None:
+            raise error(path, line, "", f"not UTF-8 text: not {_a(kind)}") from None
         raise error(path, line, "", f"not UTF-8 text (byte 0x{data[exc.start]:02x}; "
                     f"is this a {what}?)") from None
-    return load_text(text, str(path), error=error)
+    return load_text(text, str(path), error=error, kind=kind)
+
+
+def _a(noun: str) -> str:
+    return f"an {noun}" if noun[:1] in "aeiou" else f"a {noun}"
 
 
 def load_text(text: str, source: str = "<text>", *,
-              error: type[ConfigFileError] = ConfigFileError) -> ConfigValue:
-    """Compose YAML text; ``source`` stands for the path in errors."""
+              error: type[ConfigFileError] = ConfigFileError,
+              kind: str | None = None) -> ConfigValue:
+    """Compose YAML text; ``source`` stands for the path in errors.
+
+    A syntax error is ``not valid YAML (<PyYAML's problem>) at column C`` on its line,
+    without the characters PyYAML would quote from the text; with ``kind``, it ends
+    ``: not a <kind>``."""
+    suffix = f": not {_a(kind)}" if kind is not None else ""
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.YAMLError as exc:
-        line, problem = _yaml_problem(exc, text)
-        raise error(source, line, "", f"not valid YAML ({problem})") from None
+        line, column, problem = _yaml_problem(exc, text)
+        at = f" at column {column}" if column else ""
+        raise error(source, line, "", f"not valid YAML ({problem}){at}{suffix}") from None
     except RecursionError:
-        raise error(source, 0, "", "not valid YAML (nested too deeply)") from None
+        raise error(source, 0, "", f"not valid YAML (nested too deeply){suffix}") from None
     if root is None:
         return ConfigScalar(source, 1, "", error, None, "")
     try:
-        return _Builder(source, error).build(root, "", frozenset())
+        return _Builder(source, error, suffix).build(root, "", frozenset())
     except RecursionError:
         raise error(source, 0, "", "nested too deeply") from None
 
 
-def _yaml_problem(exc: yaml.YAMLError, text: str) -> tuple[int, str]:
-    """The line and one-line description of a YAML syntax error."""
+#: What PyYAML quotes of the text in a problem (a character, a tag, an escape): left out
+#: of errors, which name the line and column instead.
+_QUOTED = re.compile(r""" ?(?:'(?:[^'\\]|\\.)*'|"(?:[^"\\]|\\.)*"|#x[0-9a-fA-F]+)""")
+
+
+_SYNTAX = {f"'{c}'" for c in ",[]{}:?-"}
+
+
+def _unquoted(problem: str) -> str:
+    def shown(match: re.Match[str]) -> str:
+        quote = match.group().strip()
+        if (quote.startswith("'<") and quote.endswith(">'")) or quote in _SYNTAX:
+            return match.group()  # a token ('<stream end>') or YAML's own punctuation
+        return " (a tab)" if quote == "'\\t'" else ""
+
+    return clip(" ".join(_QUOTED.sub(shown, problem).split()))
+
+
+def _yaml_problem(exc: yaml.YAMLError, text: str) -> tuple[int, int, str]:
+    """The line, column (both from 1; 0 if unknown) and one-line description of a YAML syntax
+    error, without the text PyYAML quotes."""
     if isinstance(exc, yaml.reader.ReaderError):  # a character YAML does not allow
-        return text.count("\n", 0, exc.position) + 1, str(exc).splitlines()[0]
+        start = text.rfind("\n", 0, exc.position) + 1
+        return (text.count("\n", 0, exc.position) + 1, exc.position - start + 1,
+                _unquoted(str(exc).splitlines()[0]))
     mark = getattr(exc, "problem_mark", None)
     line = mark.line + 1 if mark is not None else 1
-    problem = str(getattr(exc, "problem", None) or str(exc).splitlines()[0])
+    column = mark.column + 1 if mark is not None else 0
+    problem = _unquoted(str(getattr(exc, "problem", None) or str(exc).splitlines()[0]))
     context, context_mark = getattr(exc, "context", None), getattr(exc, "context_mark", None)
     if context and context_mark is not None and context_mark.line + 1 != line:
-        problem += f"; {context} on line {context_mark.line + 1}"  # e.g. an unclosed [
-    return line, problem
+        problem += f"; {_unquoted(context)} on line {context_mark.line + 1}"  # an unclosed [
+    return line, column, problem
 
 
 class _Builder:
@@ -366,7 +415,9 @@ class _Builder:
     #: billions of values (the "billion laughs").
     MAX_VALUES = 200_000
 
-    def __init__(self, source: str, error: type[ConfigFileError]) -> None:
+    def __init__(self, source: str, error: type[ConfigFileError], suffix: str = "") -> None:
+        #: ``": not a <kind>"`` when the file was read as one kind: its values are not quoted
+        self.suffix = suffix
         self.source = source
         self.error = error
         self.constructor = SafeConstructor()
@@ -374,6 +425,10 @@ class _Builder:
 
     def fail(self, node: yaml.Node, key: str, message: str) -> ConfigFileError:
         return self.error(self.source, node.start_mark.line + 1, key, message)
+
+    def tag(self, node: yaml.Node) -> str:
+        """The node's tag for an error: quoted, unless the file was read as one kind."""
+        return "a tag" if self.suffix else f"tag {quoted(node.tag)}"
 
     def build(self, node: yaml.Node, key: str, parents: frozenset[int]) -> ConfigValue:
         line = node.start_mark.line + 1
@@ -388,13 +443,13 @@ class _Builder:
         parents = parents | {id(node)}
         if isinstance(node, yaml.SequenceNode):
             if node.tag != _SEQ_TAG:
-                raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+                raise self.fail(node, key, f"{self.tag(node)} is not supported here{self.suffix}")
             items = tuple(self.build(item, f"{key}[{index}]", parents)
                           for index, item in enumerate(node.value))
             return ConfigList(self.source, line, key, self.error, items)
         assert isinstance(node, yaml.MappingNode)
         if node.tag != _MAP_TAG:
-            raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+            raise self.fail(node, key, f"{self.tag(node)} is not supported here{self.suffix}")
         entries: dict[str, tuple[ConfigScalar, ConfigValue]] = {}
         for key_node, value_node in node.value:
             if not isinstance(key_node, yaml.ScalarNode) or not key_node.value:
@@ -406,8 +461,8 @@ class _Builder:
                                 "the keys out")
             if name in entries:
                 first = entries[name][0].line
-                raise self.fail(key_node, child, f"duplicate key {child!r} (first on line "
-                                f"{first}, again on line {key_node.start_mark.line + 1})")
+                raise self.fail(key_node, child, f"duplicate key {quoted(child)} (first on "
+                                f"line {first}, again on line {key_node.start_mark.line + 1})")
             located = ConfigScalar(self.source, key_node.start_mark.line + 1, child,
                                    self.error, name, name)
             entries[name] = (located, self.build(value_node, child, parents))
@@ -423,12 +478,15 @@ class _Builder:
                 value = self.constructor.construct_object(node, deep=True)
             except yaml.YAMLError as exc:
                 raise self.fail(node, key, "not valid YAML "
-                                f"({getattr(exc, 'problem', None) or exc})") from None
+                                f"({_unquoted(str(getattr(exc, 'problem', None) or exc))})"
+                                + self.suffix) from None
             except (ValueError, TypeError):  # an explicit tag that does not fit: !!int x
-                raise self.fail(node, key, f"not valid YAML ({text!r} is not a "
-                                f"{node.tag.rsplit(':', 1)[-1]})") from None
+                kind = clip(node.tag.rsplit(":", 1)[-1], 40)
+                shown = "a value" if self.suffix else quoted(text, 40)
+                raise self.fail(node, key, f"not valid YAML ({shown} is not a {kind})"
+                                + self.suffix) from None
         if not isinstance(value, _SCALAR_TYPES):
-            raise self.fail(node, key, f"tag {node.tag!r} is not supported here")
+            raise self.fail(node, key, f"{self.tag(node)} is not supported here{self.suffix}")
         return ConfigScalar(self.source, node.start_mark.line + 1, key, self.error, value, text)
 
 
@@ -436,7 +494,7 @@ def positive_float(value: ConfigValue) -> float:
     """The value as a finite number > 0, or the file's error at its line."""
     number = value.as_float()
     if number <= 0:
-        raise value.error(f"key {value.key!r}: must be > 0, not {number:g}")
+        raise value.error(f"key {quoted(value.key)}: must be > 0, not {number:g}")
     return number
 
 
@@ -444,7 +502,7 @@ def nonnegative_float(value: ConfigValue) -> float:
     """The value as a finite number >= 0, or the file's error at its line."""
     number = value.as_float()
     if number < 0:
-        raise value.error(f"key {value.key!r}: must be >= 0, not {number:g}")
+        raise value.error(f"key {quoted(value.key)}: must be >= 0, not {number:g}")
     return number
 
 
@@ -466,7 +524,7 @@ def overridden(root: ConfigValue, assignments: Collection[str], *,
     for assignment in assignments:
         name, equals, text = assignment.partition("=")
         parts = name.strip().split(".")
-        source = f"--set {assignment}"
+        source = f"--set {clip(assignment)}"
         if not equals or not all(part.strip() for part in parts):
             raise error(source, 0, name, "must be KEY.PATH=VALUE, as in "
                         "--set tracker.threshold=60")

@@ -29,6 +29,11 @@ What is accepted, precisely:
   ``\\r\\n`` line ends; blank lines at the end of the file are ignored, a blank line between
   poses is refused (it may be a pose that was lost).
 * at least one pose after the header.
+* at most :class:`servolab.limits.InputLimits`' ``motion_mb`` (64 MB) and ``motion_rows``
+  (100 000 poses: 6.2 h at the seed's 4.5 rows a second, 2.8 h at the ZMP walk's 10),
+  checked before the file is parsed: the size with ``os.stat`` before a byte is read, the
+  lines by counting line ends. ``SERVOLAB_MAX_MOTION_MB`` and ``SERVOLAB_MAX_MOTION_ROWS``
+  raise them. An error quotes at most 80 characters of a cell (cut with "…").
 
 A file without a header, as MATLAB's ``csvwrite`` writes one (Appendix E line 89: plain
 numbers, comma-separated), is recognised by its first line being all numbers, and read in the
@@ -59,7 +64,7 @@ import io
 import math
 import re
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -69,6 +74,7 @@ import numpy.typing as npt
 
 from ..configfile import suggest
 from ..errors import ConfigFileError
+from ..limits import ECHO_WIDTH, InputLimits, clip, quoted, read_limited
 from .errors import GaitValueError, UnknownMotorError
 
 __all__ = ["SEED_COLUMNS", "MotionFile", "MotionFileError", "MotionFileWarning",
@@ -90,6 +96,9 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 #: Angles as read: float64, one row per pose.
 Angles = npt.NDArray[np.float64]
+#: The seed's playback rate (rows a second; :data:`servolab.gait.walking.PLAY_RATE`), to say
+#: how long the row limit is.
+_SEED_RATE = 4.5
 
 
 class MotionFileError(ConfigFileError, GaitValueError):
@@ -178,7 +187,8 @@ class MotionFile:
 def read_motion_file(path: str | Path,
                      limits: Mapping[str, tuple[float, float]] | None = None,
                      required: Sequence[str] | None = None, *,
-                     headerless: Literal["seed", "refuse"] = "seed") -> MotionFile:
+                     headerless: Literal["seed", "refuse"] = "seed",
+                     input_limits: InputLimits | None = None) -> MotionFile:
     """Read and check a motion file.
 
     ``required``: the motors the file must have; the result's columns are in this order
@@ -193,6 +203,10 @@ def read_motion_file(path: str | Path,
     writes no header): ``"seed"`` reads it in the seed's column order :data:`SEED_COLUMNS`
     and warns (:class:`MotionFileWarning`), ``"refuse"`` refuses it; see the module docstring.
 
+    ``input_limits``: the largest file and the most poses taken (default
+    :meth:`InputLimits.current() <servolab.limits.InputLimits.current>`); a file over them
+    is refused before it is parsed.
+
     Raises :class:`MotionFileError` for the first problem in the file, top to bottom.
     """
     if headerless not in ("seed", "refuse"):
@@ -203,13 +217,16 @@ def read_motion_file(path: str | Path,
     source = str(path)
 
     def fail(line: int, column: str, message: str) -> MotionFileError:
-        where = f"column {column}: " if column else ""
+        where = f"column {clip(column)}: " if column else ""
         return MotionFileError(source, line, column, where + message)
 
+    size_limits = InputLimits.current() if input_limits is None else input_limits
     try:
-        data = Path(path).read_bytes()
+        data = read_limited(path, "motion_mb", "motion file", lambda m: fail(0, "", m),
+                            size_limits)
     except OSError as exc:
         raise fail(0, "", f"cannot read motion file ({exc.strerror or exc})") from None
+    _check_rows(data, size_limits, fail)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -239,7 +256,7 @@ def read_motion_file(path: str | Path,
                        f"{first_at[name]} and {index})")
         first_at[name] = index
         if known is not None and name not in known:
-            close = suggest(name, known)
+            close = suggest(name, known) if len(name) <= ECHO_WIDTH else None
             hint = f" (did you mean {close!r}?)" if close else ""
             raise fail(header_line, name, f"unknown motor{hint}")
     for name in wanted or ():
@@ -255,21 +272,21 @@ def read_motion_file(path: str | Path,
                        f"cell{'' if len(cells) == 1 else 's'}, the header {len(header)})")
         if len(cells) > len(header):
             raise fail(line, "", f"{len(cells)} cells, but the header names {len(header)} "
-                       f"motors (extra cell {cells[len(header)].strip()!r})")
+                       f"motors (extra cell {quoted(cells[len(header)].strip())})")
         for index, (name, cell) in enumerate(zip(header, cells, strict=True)):
             written = cell.strip()
             if not written:
                 raise fail(line, name, "empty cell, not a number")
             angle = _number(written)
             if angle is None:
-                raise fail(line, name, f"{written!r} is not a number")
+                raise fail(line, name, f"{quoted(written)} is not a number")
             if not math.isfinite(angle):
-                raise fail(line, name, f"{written!r} is not a finite number")
+                raise fail(line, name, f"{quoted(written)} is not a finite number")
             if bounds is not None and name in bounds:
                 low, high = bounds[name]
                 if not low <= angle <= high:
-                    raise fail(line, name, f"{written} degrees is outside the joint's limits "
-                               f"[{low:g}, {high:g}]")
+                    raise fail(line, name, f"{clip(written)} degrees is outside the joint's "
+                               f"limits [{low:g}, {high:g}]")
             values[pose, index] = angle
     if values.shape[0] == 0:
         raise fail(header_line + 1, "", "no poses after the header")
@@ -297,6 +314,21 @@ def write_motion_file(path: str | Path, motion: MotionFile) -> None:
 
 
 # -- helpers ---------------------------------------------------------------------------------
+
+
+def _check_rows(data: bytes, limits: InputLimits,
+                fail: Callable[[int, str, str], MotionFileError]) -> None:
+    """Refuse, before parsing, a file of more poses than ``limits.motion_rows``: counted as
+    its line ends (``\\n``, or ``\\r`` alone) less the header's, a blank line counting
+    too."""
+    ends = max(data.count(b"\n"), data.count(b"\r"))
+    lines = ends + (0 if not data or data.endswith((b"\n", b"\r")) else 1)
+    if lines - 1 > limits.motion_rows:
+        hours = limits.motion_rows / _SEED_RATE / 3600
+        raise fail(0, "", limits.over("motion_rows", lines - 1, "rows", "motion file",
+                                         done="not parsed")
+                   + f"; {limits.motion_rows:g} rows play {hours:.1f} h at the seed's "
+                   f"{_SEED_RATE:g} rows a second")
 
 
 def _seed_columns(source: str, rows: list[tuple[int, list[str]]],

@@ -36,6 +36,7 @@ from pathlib import Path
 from types import FrameType
 
 from servolab.harness import signal_status
+from servolab.limits import clip
 from servolab.signals import on_stop_signals
 
 from .context import Context
@@ -210,7 +211,11 @@ def _run_nodes(launch: LaunchFile, entries: Sequence[NodeEntry], options: Transp
                         build_node(launch, entry, cls, context)
                     except MiddlewareError as exc:
                         key = "parameters" if isinstance(exc, ParameterError) else None
-                        raise launch.error(entry, key, str(exc)) from None
+                        raise launch.error(entry, key, clip(str(exc), 200)) from None
+                    except ArithmeticError as exc:  # 1.0 / rate, with a rate of 0
+                        raise launch.error(entry, "parameters" if entry.parameters else None,
+                                           f"{entry.node} could not be built: {one_line(exc)} "
+                                           "(is a rate or period 0?)") from None
                     started.append(entry)
                     out(f"[launch] started {entry.name} (in process {os.getpid()})")
                 if view is not None and context.ok():

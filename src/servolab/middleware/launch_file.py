@@ -47,6 +47,7 @@ from ..configfile import (
     load,
     unknown_key,
 )
+from ..limits import InputLimits, clip, quoted
 from .errors import LaunchError, LaunchFileError, NameValidationError, ParameterError
 from .names import check_node_name, node_namespace
 from .names import fully_qualified_name as resolve_name
@@ -142,8 +143,8 @@ class LaunchFile:
         checks made after parsing (such as importing the node classes)."""
         lines = entry.lines if entry is not None else self.lines
         line = lines.get(key or "", entry.line if entry is not None else 1)
-        where = f"node {entry.name!r}: " if entry is not None else ""
-        what = f"key {key!r}: " if key else ""
+        where = f"node {quoted(entry.name)}: " if entry is not None else ""
+        what = f"key {quoted(key)}: " if key else ""
         index = next((i for i, e in enumerate(self.nodes) if e is entry), None)
         key_path = f"nodes[{index}]" if index is not None else ""
         if key:
@@ -168,7 +169,7 @@ class LaunchFile:
         or on one whose address is this computer's."""
         if machine is not None:
             if machine not in self.machines:
-                raise LaunchError(f"{self.path}: no machine {machine!r} "
+                raise LaunchError(f"{self.path}: no machine {quoted(machine)} "
                                   f"(machines: {', '.join(self.machines) or 'none'})")
             return [e for e in self.nodes if e.machine == machine]
         return [e for e in self.nodes
@@ -189,7 +190,7 @@ class LaunchFile:
             return TransportOptions("dds", list(override.listen), list(override.connect),
                                     override.domain_id)
         if override.kind != "zenoh":
-            raise LaunchError(f"unknown transport {override.kind!r} (local, zenoh or dds)")
+            raise LaunchError(f"unknown transport {quoted(override.kind)} (local, zenoh or dds)")
         if override.listen or override.connect:
             return TransportOptions("zenoh", list(override.listen), list(override.connect),
                                     override.domain_id)
@@ -208,17 +209,25 @@ def is_local_address(address: str) -> bool:
 # -- parsing ---------------------------------------------------------------------------------
 
 
-def load_launch(path: str | Path) -> LaunchFile:
+def load_launch(path: str | Path, *, limits: InputLimits | None = None) -> LaunchFile:
     """Read and check a launch file; errors are one :class:`LaunchFileError` line naming the
-    file, line and key. Node classes are imported later, by :func:`check_entries`, because a
-    machine need only have the classes of the nodes it runs."""
+    file, line and key, quoting at most :data:`servolab.limits.ECHO_WIDTH` characters of a
+    value. Node classes are imported later, by :func:`check_entries`, because a machine need
+    only have the classes of the nodes it runs.
+
+    The launch file and the parameter files it names are YAML files, refused unread over
+    the YAML size limit (:mod:`servolab.limits`, ``SERVOLAB_MAX_YAML_MB``); a file that is
+    not a launch file, or named as parameters and not a parameter file, is refused as such
+    with its line and column and nothing of its content."""
     path = Path(path)
-    return _Parser(path).parse(load(path, what="launch file", error=LaunchFileError))
+    return _Parser(path, limits).parse(load(path, what="launch file", error=LaunchFileError,
+                                            kind="launch file", limits=limits))
 
 
 class _Parser:
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, limits: InputLimits | None = None) -> None:
         self.path = path
+        self.limits = limits
         self.directory = path.parent
         self.entry_fields: list[ConfigMapping] = []  # of each entry of launch.nodes
 
@@ -238,7 +247,7 @@ class _Parser:
 
     @staticmethod
     def subject(where: str, key: str) -> str:
-        return f"{where + ': ' if where else ''}key {key!r}"
+        return f"{where + ': ' if where else ''}key {quoted(key)}"
 
     def text(self, node: ConfigValue, where: str, key: str) -> str:
         return node.as_str(self.subject(where, key), nonempty=True)
@@ -260,7 +269,7 @@ class _Parser:
         if (value := fields.get("transport")) is not None:
             launch.transport = self.text(value, "", "transport")
             if launch.transport not in ("local", "zenoh", "dds"):
-                raise self.error(value, "", f"key 'transport': {launch.transport!r} is not "
+                raise self.error(value, "", f"key 'transport': {quoted(launch.transport)} is not "
                                  "local, zenoh or dds")
         if "zenoh" in fields:
             self.zenoh(fields, launch)
@@ -289,15 +298,15 @@ class _Parser:
             found = [] if empty else self.texts(endpoints, "zenoh", name)
             for item, endpoint in found:
                 if not _ENDPOINT.fullmatch(endpoint):
-                    raise self.error(item, "zenoh", f"key {name!r}: {endpoint!r} is not a "
-                                     "Zenoh endpoint such as tcp/127.0.0.1:7447")
+                    raise self.error(item, "zenoh", f"key {quoted(name)}: {quoted(endpoint)} "
+                                     "is not a Zenoh endpoint such as tcp/127.0.0.1:7447")
             getattr(launch, name).extend(endpoint for _, endpoint in found)
 
     def machines(self, node: ConfigValue, launch: LaunchFile) -> None:
         machines = self.mapping(node, "", "key 'machines'", ())
         for name, value in machines.items():
             key = machines.key_of(name)
-            where = f"machine {name!r}"
+            where = f"machine {quoted(name)}"
             fields = self.mapping(value, where, "a machine", _MACHINE_KEYS)
             if "address" not in fields:
                 raise self.error(key, where, "key 'address' missing")
@@ -306,18 +315,23 @@ class _Parser:
             if default and (other := next((m for m in launch.machines.values() if m.default),
                                           None)):
                 raise self.error(fields.key_of("default"), where, "key 'default': only one "
-                                 f"machine can be the default ({other.name!r} is)")
+                                 f"machine can be the default ({quoted(other.name)} is)")
             launch.machines[name] = Machine(
                 name, self.text(fields.require("address"), where, "address"), default,
                 key.line)
 
     def parameter_file(self, node: ConfigValue, where: str, name: str) -> ParameterOverrides:
         path = self.directory / name
-        if not path.is_file():
-            raise self.error(node, where, f"key 'parameters': file {name!r} not found "
-                             f"(looked for {path})")
         try:
-            return ParameterOverrides.from_file(path)
+            found = path.is_file()
+        except (OSError, ValueError):  # a name too long for the file system
+            found = False
+        if not found:
+            looked = path if len(name) <= 80 else f"it in {path.parent}"
+            raise self.error(node, where, f"key 'parameters': file {quoted(name)} not found "
+                             f"(looked for {looked})")
+        try:
+            return ParameterOverrides.from_file(path, limits=self.limits)
         except ParameterError as exc:
             raise self.error(node, where, f"key 'parameters': {exc}") from None
 
@@ -329,11 +343,11 @@ class _Parser:
         fields = self.mapping(item, where, "a node entry", ())
         name_node = fields.require("name", where)
         name = self.text(name_node, where, "name")
-        where = f"node {name!r}"
         try:
             check_node_name(name)
         except NameValidationError as exc:  # one line, as every launch file error
-            raise self.error(name_node, where, f"key 'name': {exc.summary}") from None
+            raise self.error(name_node, where, f"key 'name': {_summary(exc)}") from None
+        where = f"node {quoted(name)}"
         if "node" in fields and "exec" in fields:
             raise self.error(fields.key_of("exec"), where, "key 'exec': give 'node' or "
                              "'exec', not both")
@@ -343,7 +357,7 @@ class _Parser:
         allowed = _EXEC_KEYS if "exec" in fields else _NODE_KEYS
         for key in fields:
             if key not in allowed:
-                message = (f"key {key!r} is for node entries, not exec ones"
+                message = (f"key {quoted(key)} is for node entries, not exec ones"
                            if key in _NODE_KEYS else unknown_key(key, allowed))
                 raise self.error(fields.key_of(key), where, message)
         entry = NodeEntry(name, line=fields.line,
@@ -357,7 +371,7 @@ class _Parser:
             entry.machine = self.text(machine_node, where, "machine")
             if entry.machine not in launch.machines:
                 raise self.error(machine_node, where, f"key 'machine': no machine "
-                                 f"{entry.machine!r} (machines: "
+                                 f"{quoted(entry.machine)} (machines: "
                                  f"{', '.join(launch.machines) or 'none'})")
         else:
             entry.machine = default_machine
@@ -370,7 +384,7 @@ class _Parser:
         value = fields.require("node", where)
         entry.node = self.text(value, where, "node")
         if not _CLASS_PATH.fullmatch(entry.node):
-            raise self.error(value, where, f"key 'node': {entry.node!r} is not module:Class "
+            raise self.error(value, where, f"key 'node': {quoted(entry.node)} is not module:Class "
                              "(e.g. servolab.middleware.demo_nodes:Talker)")
         if (namespace_node := fields.get("namespace")) is not None:
             namespace = self.text(namespace_node, where, "namespace")
@@ -378,11 +392,11 @@ class _Parser:
                 entry.namespace = node_namespace(namespace, entry.name)
             except NameValidationError as exc:
                 raise self.error(namespace_node, where,
-                                 f"key 'namespace': {exc.summary}") from None
+                                 f"key 'namespace': {_summary(exc)}") from None
         if (process := fields.get("process")) is not None:
             entry.process = self.text(process, where, "process")
             if not _PROCESS_NAME.fullmatch(entry.process):
-                raise self.error(process, where, f"key 'process': {entry.process!r} is not a "
+                raise self.error(process, where, f"key 'process': {quoted(entry.process)} is not a "
                                  "name (letters, digits, '_', '.', '-')")
         if (remappings := fields.get("remappings")) is not None:
             remaps = self.mapping(remappings, where, "key 'remappings'", ())
@@ -393,7 +407,7 @@ class _Parser:
                     resolve_name(target, entry.namespace, entry.name)
                 except NameValidationError as exc:
                     raise self.error(target_node, where,
-                                     f"key 'remappings': {exc.summary}") from None
+                                     f"key 'remappings': {_summary(exc)}") from None
                 entry.remappings[source] = target
         if (parameters := fields.get("parameters")) is not None:
             for item in parameters.one_or_many():
@@ -417,9 +431,10 @@ class _Parser:
             data = value.plain()
             try:
                 type_of(data)
-            except ParameterError as exc:
-                raise self.error(value, where, f"key 'parameters': {prefix}{name}: "
-                                 f"{exc}") from None
+            except ParameterError:
+                raise self.error(value, where, f"key 'parameters': {clip(prefix + name)}: "
+                                 f"{quoted(data)} is not a parameter value (bool, int, float, "
+                                 "str or a list of one of them)") from None
             out[f"{prefix}{name}"] = data
 
     def command(self, node: ConfigValue, where: str, launch: LaunchFile) -> list[str]:
@@ -438,7 +453,7 @@ class _Parser:
         for arg in argv:
             rest = arg.replace(ZENOH_ENDPOINT, "")
             if "$(" in rest:
-                raise self.error(node, where, f"key 'exec': unknown substitution in {arg!r} "
+                raise self.error(node, where, f"key 'exec': unknown substitution in {quoted(arg)} "
                                  f"(only {ZENOH_ENDPOINT})")
             if rest != arg and launch.transport != "zenoh":
                 raise self.error(node, where, f"key 'exec': {ZENOH_ENDPOINT} needs "
@@ -452,7 +467,7 @@ class _Parser:
         machine_of: dict[str, NodeEntry] = {}
         processes: set[tuple[str, str | None]] = set()
         for entry, fields in zip(launch.nodes, self.entry_fields, strict=True):
-            where = f"node {entry.name!r}"
+            where = f"node {quoted(entry.name)}"
             fqn = entry.fully_qualified_name
             if fqn in seen:
                 raise self.error(fields.key_of("name"), where, f"key 'name': duplicate name "
@@ -466,16 +481,21 @@ class _Parser:
             at: ConfigValue = fields.key_of(key) if key in fields else fields
             processes.add((entry.process or f"exec {entry.name}", entry.machine))
             if len(processes) > 1 and launch.transport == "local":
-                raise self.error(at, where, f"key {key!r}: a second process needs "
+                raise self.error(at, where, f"key {quoted(key)}: a second process needs "
                                  "transport: zenoh (transport is local)")
             if not entry.is_exec:
                 first = machine_of.setdefault(entry.process, entry)
                 if first.machine != entry.machine:
                     at = fields.key_of("process") if "process" in fields else fields
-                    raise self.error(at, where, f"key 'process': process {entry.process!r} "
+                    raise self.error(at, where, f"key 'process': process {quoted(entry.process)} "
                                      f"has nodes on machines {_machine(first.machine)} and "
                                      f"{_machine(entry.machine)}; give them different "
                                      "processes")
+
+
+def _summary(exc: NameValidationError) -> str:
+    """The error's one-line summary, quoting at most ECHO_WIDTH characters of the name."""
+    return f"invalid {exc.kind} {quoted(exc.name)}: {exc.reason} (index {exc.index})"
 
 
 def _machine(name: str | None) -> str:
@@ -493,18 +513,18 @@ def import_node_class(launch: LaunchFile, entry: NodeEntry) -> type[Node]:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
         if exc.name and (module_name + ".").startswith(exc.name + "."):
-            raise launch.error(entry, "node", f"no module named {exc.name!r}") from None
-        raise launch.error(entry, "node", f"importing {module_name!r} failed: "
+            raise launch.error(entry, "node", f"no module named {quoted(exc.name)}") from None
+        raise launch.error(entry, "node", f"importing {quoted(module_name)} failed: "
                            f"{one_line(exc)}") from None
     except Exception as exc:  # the module itself is broken: say how, in one line
-        raise launch.error(entry, "node", f"importing {module_name!r} failed: "
+        raise launch.error(entry, "node", f"importing {quoted(module_name)} failed: "
                            f"{one_line(exc)}") from None
     found: Any = module
     for part in attribute.split("."):
         found = getattr(found, part, None)
         if found is None:
-            raise launch.error(entry, "node", f"module {module_name!r} has no class "
-                               f"{attribute!r}")
+            raise launch.error(entry, "node", f"module {quoted(module_name)} has no class "
+                               f"{quoted(attribute)}")
     if not (isinstance(found, type) and issubclass(found, Node)):
         raise launch.error(entry, "node", f"{entry.node} is not a Node subclass")
     return found
@@ -620,9 +640,9 @@ def check_entries(launch: LaunchFile, entries: Sequence[NodeEntry]) -> None:
         if not entry.is_exec:
             node_call(launch, entry, import_node_class(launch, entry))
         elif entry.command[0] != "servolab" and shutil.which(entry.command[0]) is None:
-            raise launch.error(entry, "exec", f"command {entry.command[0]!r} not found")
+            raise launch.error(entry, "exec", f"command {quoted(entry.command[0])} not found")
 
 
 def one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+    return f"{type(exc).__name__}: {clip(text[0], 160)}" if text else type(exc).__name__

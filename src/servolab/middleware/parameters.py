@@ -24,6 +24,7 @@ from typing import Any
 import yaml
 
 from ..configfile import ConfigMapping, ConfigScalar, ConfigValue, load, load_text
+from ..limits import InputLimits, clip, quoted
 from .errors import ParameterError, ParameterFileError
 
 # rcl_interfaces/msg/ParameterType
@@ -177,15 +178,24 @@ class ParameterOverrides:
         return overrides
 
     @classmethod
-    def from_file(cls, path: str | Path) -> ParameterOverrides:
+    def from_file(cls, path: str | Path, *,
+                  limits: InputLimits | None = None) -> ParameterOverrides:
         """Read a ROS 2 parameter file; errors (:class:`ParameterFileError`) name the file,
-        line and key."""
-        return cls._from_root(load(path, what="parameter file", error=ParameterFileError))
+        line and key.
+
+        A file over the YAML size limit (:mod:`servolab.limits`, ``SERVOLAB_MAX_YAML_MB``) is
+        refused unread, and one that is not a parameter file (not UTF-8 YAML, or YAML that
+        is no mapping of node names to ``{ros__parameters: ...}``) is refused as ``not a
+        parameter file`` with its line and column, quoting nothing of it: a launch file may
+        name any file as its parameters, ``/etc/shadow`` too."""
+        return cls._from_root(load(path, what="parameter file", error=ParameterFileError,
+                                   kind="parameter file", limits=limits))
 
     @classmethod
     def from_text(cls, text: str, source: str = "<parameters>") -> ParameterOverrides:
         """Read the text of a ROS 2 parameter file; ``source`` stands for its path in errors."""
-        return cls._from_root(load_text(text, source, error=ParameterFileError))
+        return cls._from_root(load_text(text, source, error=ParameterFileError,
+                                        kind="parameter file"))
 
     @classmethod
     def _from_root(cls, root: ConfigValue) -> ParameterOverrides:
@@ -194,17 +204,21 @@ class ParameterOverrides:
             return overrides  # an empty file sets nothing
         if not isinstance(root, ConfigMapping):
             raise root.error("a parameter file is a mapping of node names to "
-                             "{ros__parameters: ...}")
+                             f"{{ros__parameters: ...}}: this is {root.describe()}, not a "
+                             "parameter file")
         for node, node_value in root.items():
             key = root.key_of(node)
-            if not isinstance(node_value, ConfigMapping):
-                raise key.error(f"node {node!r} needs a mapping with ros__parameters")
+            if not isinstance(node_value, ConfigMapping):  # the name is not echoed: this
+                raise key.error(  # may be any file that reads as YAML (/proc/meminfo)
+                    "not a parameter file: each node name maps to {ros__parameters: ...}, "
+                    "and the one here does not")
             if "ros__parameters" not in node_value:
-                raise key.error(f"key 'ros__parameters' missing under {node!r}")
+                raise key.error(f"key 'ros__parameters' missing under {quoted(node)}")
             for other in node_value:
                 if other != "ros__parameters":
                     raise node_value.key_of(other).error(
-                        f"unexpected key {other!r} under {node!r} (only ros__parameters)")
+                        f"unexpected key {quoted(other)} under {quoted(node)} (only "
+                        "ros__parameters)")
             values: dict[str, Any] = {}
             _flatten(node_value.require("ros__parameters"), "", values)
             overrides.by_node.setdefault(_node_key(node), {}).update(values)
@@ -223,8 +237,9 @@ def _flatten(node: ConfigValue, prefix: str, out: dict[str, Any]) -> None:
         data = value.plain()
         try:
             type_of(data)
-        except ParameterError as exc:
-            raise value.error(f"{name}: {exc}") from None
+        except ParameterError:
+            raise value.error(f"{clip(name)}: {quoted(data)} is not a parameter value (bool, "
+                              "int, float, str or a list of one of them)") from None
         out[name] = data
 
 

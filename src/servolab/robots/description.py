@@ -37,6 +37,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..configfile import suggest
+from ..limits import InputLimits, clip, quoted
 from .errors import RobotValueError
 
 Vec3 = tuple[float, float, float]
@@ -398,7 +399,7 @@ class _Reader:
         except ValueError:
             values = ()
         if len(values) != count or not all(math.isfinite(v) for v in values):
-            raise self.fail(where, f"{attribute}={text!r} is not {count} finite number"
+            raise self.fail(where, f"{attribute}={quoted(text)} is not {count} finite number"
                                    f"{'s' if count > 1 else ''}")
         return values
 
@@ -422,7 +423,7 @@ class _Reader:
               visual: bool) -> Shape:
         kind = element.tag
         name = element.get("name") or f"{link}_{kind}{index}"
-        where = f"link {link!r} <{kind}>"
+        where = f"link {quoted(link)} <{kind}>"
         pos, rpy = self.origin(element, where)
         material_el = element.find("material")
         material = "" if material_el is None else material_el.get("name", "")
@@ -461,7 +462,7 @@ class _Reader:
         name = element.get("name")
         if not name:
             raise self.fail("<link>", "needs a name=")
-        where = f"link {name!r}"
+        where = f"link {quoted(name)}"
         inertial = None
         node = element.find("inertial")
         if node is not None:
@@ -496,11 +497,11 @@ class _Reader:
         name = element.get("name")
         if not name:
             raise self.fail("<joint>", "needs a name=")
-        where = f"joint {name!r}"
+        where = f"joint {quoted(name)}"
         kind = element.get("type", "")
         if kind not in JOINT_KINDS:
-            raise self.fail(where, f"type={kind!r} is not one servolab's worlds can drive: one "
-                                   f"of {', '.join(JOINT_KINDS)}")
+            raise self.fail(where, f"type={quoted(kind)} is not one servolab's worlds can "
+                                   f"drive: one of {', '.join(JOINT_KINDS)}")
         ends = []
         for tag in ("parent", "child"):
             node = element.find(tag)
@@ -509,8 +510,8 @@ class _Reader:
                 raise self.fail(where, f"needs <{tag} link=...>")
             if link not in links:
                 close = suggest(link, list(links))
-                raise self.fail(f"{where} <{tag}>", f"link={link!r} is not a <link> of the "
-                                f"robot" + (f" (did you mean {close!r}?)" if close else ""))
+                raise self.fail(f"{where} <{tag}>", f"link={quoted(link)} is not a <link> of the "
+                                f"robot" + (f" (did you mean {quoted(close)}?)" if close else ""))
             ends.append(link)
         origin, rpy = self.origin(element, where)
         axis = vec3(self.floats(element.find("axis"), "xyz", 3, (1.0, 0.0, 0.0),
@@ -549,14 +550,20 @@ class _Reader:
 def read_urdf(text: str, source: str = "<urdf>") -> Description:
     """The description a URDF's text states; ``source`` names it in errors (its file). Bad
     input is refused in one line naming the source and the element; ``<ros2_control>``,
-    ``<transmission>`` and ``<gazebo>`` are left for the code that reads them."""
+    ``<transmission>`` and ``<gazebo>`` are left for the code that reads them. A text over
+    the URDF limit (:mod:`servolab.limits`, ``SERVOLAB_MAX_URDF_MB``) is refused unparsed;
+    errors quote at most 80 characters of a value."""
     reader = _Reader(source)
+    limits = InputLimits.current()
+    if len(text) > limits.bytes("urdf_mb"):  # characters: at least as many bytes
+        raise RobotValueError(f"{source}: " + limits.over("urdf_mb", len(text), "MB", "URDF",
+                                                          done="not parsed"))
     try:
         root = ET.fromstring(text)
     except ET.ParseError as error:
         raise RobotValueError(f"{source}: not XML: {error}") from None
     if root.tag != "robot":
-        raise reader.fail(f"<{root.tag}>", "the root element must be <robot>")
+        raise reader.fail(f"<{clip(root.tag)}>", "the root element must be <robot>")
     # only <link>, <joint> and <material> are read: <ros2_control>, <transmission> and
     # <gazebo> (and anything else) are other code's
     materials: dict[str, RGBA] = {}
@@ -564,13 +571,13 @@ def read_urdf(text: str, source: str = "<urdf>") -> Description:
         color = node.find("color")
         name = node.get("name")
         if name and color is not None:
-            r, g, b, a = reader.floats(color, "rgba", 4, None, f"material {name!r} <color>")
+            r, g, b, a = reader.floats(color, "rgba", 4, None, f"material {quoted(name)} <color>")
             materials.setdefault(name, (r, g, b, a))
     links: list[Link] = []
     for element in root.findall("link"):
         link = reader.link(element)
         if any(k.name == link.name for k in links):
-            raise reader.fail(f"link {link.name!r}", "is declared twice")
+            raise reader.fail(f"link {quoted(link.name)}", "is declared twice")
         links.append(link)
     if not links:
         raise reader.fail("<robot>", "has no <link>")
@@ -580,10 +587,11 @@ def read_urdf(text: str, source: str = "<urdf>") -> Description:
     for element in root.findall("joint"):
         joint = reader.joint(element, names)
         if any(j.name == joint.name for j in joints):
-            raise reader.fail(f"joint {joint.name!r}", "is declared twice")
+            raise reader.fail(f"joint {quoted(joint.name)}", "is declared twice")
         if joint.child in parent_of:
-            raise reader.fail(f"joint {joint.name!r} <child>", f"link {joint.child!r} already "
-                              f"hangs from joint {parent_of[joint.child]!r}")
+            raise reader.fail(f"joint {quoted(joint.name)} <child>",
+                              f"link {quoted(joint.child)} already hangs from joint "
+                              f"{quoted(parent_of[joint.child])}")
         parent_of[joint.child] = joint.name
         joints.append(joint)
     by_name = {j.name: j for j in joints}
@@ -592,8 +600,8 @@ def read_urdf(text: str, source: str = "<urdf>") -> Description:
             leader = by_name.get(joint.mimic.joint)
             if leader is None or not leader.movable or leader.mimic is not None \
                     or leader.name == joint.name:
-                raise reader.fail(f"joint {joint.name!r} <mimic>",
-                                  f"joint={joint.mimic.joint!r} is not a movable joint that "
+                raise reader.fail(f"joint {quoted(joint.name)} <mimic>",
+                                  f"joint={quoted(joint.mimic.joint)} is not a movable joint that "
                                   "is not itself a mimic")
     roots = [k.name for k in links if k.name not in parent_of]
     if len(roots) != 1:
@@ -618,8 +626,8 @@ def _check_tree(reader: _Reader, root: str, joints: Iterable[Joint],
                 todo.append(child)
     lost = sorted(set(links) - seen)
     if lost:
-        raise reader.fail(f"link {lost[0]!r}", f"is not reached from the root link {root!r} "
-                          "(its joints form a loop)")
+        raise reader.fail(f"link {quoted(lost[0])}", "is not reached from the root link "
+                          f"{quoted(root)} (its joints form a loop)")
 
 
 # -- writing ------------------------------------------------------------------------------------

@@ -29,6 +29,7 @@ from pathlib import Path
 from ..configfile import ConfigMapping, ConfigValue
 from ..configfile import load as load_yaml
 from ..errors import ConfigFileError
+from ..limits import InputLimits, read_limited, too_big
 from .errors import RobotValueError
 from .plugin import RobotPlugin, ShownFile
 from .urdf_robot import ON_STOP, urdf_plugin
@@ -122,14 +123,24 @@ def read_metadata(folder: Path) -> FolderMetadata:
         tuple(aliases.as_strings(nonempty=True)) if aliases is not None else ())
 
 
-def urdf_text(path: Path, xacro_args: Mapping[str, str] | None = None) -> str:
+def urdf_text(path: Path, xacro_args: Mapping[str, str] | None = None, *,
+              limits: InputLimits | None = None) -> str:
     """The URDF in ``path``: read, or expanded by ``xacro`` (ROS's own, from the package
-    index) when its name ends in ``.xacro``, with ``xacro_args`` as its ``name:=value``s."""
+    index) when its name ends in ``.xacro``, with ``xacro_args`` as its ``name:=value``s.
+    A file over the URDF limit (:mod:`servolab.limits`, ``SERVOLAB_MAX_URDF_MB``) is refused
+    before it is read (what xacro makes is checked again, by :func:`.description.read_urdf`)."""
+    limits = InputLimits.current() if limits is None else limits
+
+    def too_large(message: str) -> RobotDescriptionError:
+        return RobotDescriptionError(f"{path}: {message}")
+
     if not path.name.endswith(".xacro"):
         try:
-            return path.read_text(encoding="utf-8")
+            return read_limited(path, "urdf_mb", "URDF", too_large, limits).decode("utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise RobotDescriptionError(f"{path}: cannot read the URDF ({exc})") from None
+    if (message := too_big(path, "urdf_mb", "URDF", limits)) is not None:
+        raise too_large(message)
     import xacro
 
     try:

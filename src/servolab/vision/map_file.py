@@ -20,6 +20,11 @@ static layer is one of them, so a rotated map would be planned on unrotated.
 channels are averaged as map_server does. A missing or unreadable image is one line naming the
 yaml (at its ``image:`` line) and the image.
 
+**Limits** (:mod:`servolab.limits`): the map.yaml is a YAML file (``SERVOLAB_MAX_YAML_MB``,
+1 MB); the image may have at most ``SERVOLAB_MAX_MAP_MB`` (32) MB and as many million pixels
+(a 5657-pixel square: 283 m at 5 cm a cell), both checked before it is decoded: its size with
+``os.stat``, its width and height from its header (a small PNG can hold a huge blank image).
+
 **Writing** (map_server/src/map_saver.cpp): ``<name>.pgm``, binary P5 with map_saver's comment
 ``# CREATOR: map_saver.cpp 0.050 m/pix``, 0 occupied, 254 free, 205 unknown, and ``<name>.yaml``
 with map_saver's exact text (``resolution: %f``, ``origin: [%f, %f, %f]``, ``negate: 0``,
@@ -42,6 +47,7 @@ import numpy.typing as npt
 from ..configfile import ConfigMapping, ConfigValue, positive_float
 from ..configfile import load as load_config
 from ..errors import ConfigFileError
+from ..limits import InputLimits, too_big
 from ..planning.errors import PlanningValueError
 from ..planning.occupancy_grid import (
     MODES,
@@ -113,9 +119,12 @@ class OccupancyMap:
         return cell_to_world(col, row, self.xy, self.resolution)
 
 
-def load_map(path: str | Path) -> OccupancyMap:
-    """Read a map.yaml and its image as map_server does (see the module)."""
-    top = load_config(path, what="map file (map.yaml)", error=MapFileError)
+def load_map(path: str | Path, *, limits: InputLimits | None = None) -> OccupancyMap:
+    """Read a map.yaml and its image as map_server does (see the module); files over the
+    limits (``limits``, default :meth:`InputLimits.current()
+    <servolab.limits.InputLimits.current>`) are refused before they are read."""
+    limits = InputLimits.current() if limits is None else limits
+    top = load_config(path, what="map file (map.yaml)", error=MapFileError, limits=limits)
     if top.plain() is None:
         raise top.error("empty file: expected a map_server map.yaml")
     m = top.as_mapping("a map_server map.yaml")
@@ -145,7 +154,7 @@ def load_map(path: str | Path) -> OccupancyMap:
             raise mode_value.error(f"key 'mode': must be one of {', '.join(MODES)} (map_server"
                                    f"'s modes), not {mode!r}")
     image_path = _image_path(m, Path(path))
-    pixels = _read_image(image_path, m.require("image"))
+    pixels = _read_image(image_path, m.require("image"), limits)
     try:
         occupancy = occupancy_from_pixels(pixels, negate=negate, occupied_thresh=occupied_thresh,
                                           free_thresh=free_thresh, mode=mode)
@@ -180,13 +189,23 @@ def _image_path(m: ConfigMapping, yaml_path: Path) -> Path:
     return given if given.is_absolute() else yaml_path.parent / given
 
 
-def _read_image(image_path: Path, value: ConfigValue) -> npt.NDArray[np.uint8]:
+def _read_image(image_path: Path, value: ConfigValue,
+                limits: InputLimits) -> npt.NDArray[np.uint8]:
     """The image, as OpenCV reads it unchanged; errors at the yaml's ``image:`` line."""
     import cv2
 
     if not image_path.is_file():
         why = "is a folder" if image_path.is_dir() else "does not exist"
         raise value.error(f"key 'image': the map's image {str(image_path)!r} {why}")
+    message = too_big(image_path, "map_mb", "map image", limits)
+    if message is None and (size := _image_size(image_path)) is not None:
+        width, height = size
+        if width * height > limits.map_mb * 1e6:
+            shown = f"{width} x {height} pixels" if width else "too many pixels for Pillow"
+            message = (f"{shown}: over the limit of {limits.map_mb:g} million pixels for a "
+                       f"map image (not decoded; {limits.variable('map_mb')} raises it)")
+    if message is not None:
+        raise value.error(f"key 'image': the map's image {str(image_path)!r}: {message}")
     image = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
     if image is None or image.size == 0:
         raise value.error(f"key 'image': the map's image {str(image_path)!r} cannot be read "
@@ -195,6 +214,25 @@ def _read_image(image_path: Path, value: ConfigValue) -> npt.NDArray[np.uint8]:
         raise value.error(f"key 'image': the map's image {str(image_path)!r} has "
                           f"{image.dtype} pixels; map_server reads 8-bit images")
     return np.asarray(image, dtype=np.uint8)
+
+
+def _image_size(path: Path) -> tuple[int, int] | None:
+    """``(width, height)`` from the image's header, without decoding it (Pillow, which
+    matplotlib brings, reads only the header here), or None if it cannot tell."""
+    import warnings
+
+    from PIL import Image
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as image:
+                width, height = image.size
+    except Image.DecompressionBombError:  # over twice Pillow's own limit, 179 M pixels
+        return 0, 2 * (Image.MAX_IMAGE_PIXELS or 0) + 1
+    except Exception:  # not an image Pillow knows: OpenCV says what it makes of it
+        return None
+    return int(width), int(height)
 
 
 def save_map(path_prefix: str | Path, occupancy: npt.ArrayLike, resolution: float,

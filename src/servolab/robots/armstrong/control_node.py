@@ -38,6 +38,7 @@ from ..controllers.manager import DynamixelManager
 from ..errors import RobotError, RobotValueError
 from . import hardware as armstrong
 from .poses import MOTORS, POSES, STAND_POSE, Pose, interpolate, joint_pose, radians
+from .series import Series
 from .supervisor import FINISH_DURATION, SafetySupervisor
 
 if TYPE_CHECKING:
@@ -63,7 +64,10 @@ def controller_of(motor: str) -> str:
 class BipedNode(Node):
     """Sends poses (degrees per motor column) to the joint controllers; keeps each joint's
     present angle from its state, and, with ``history``, what it sent and heard when (for
-    the run's plot)."""
+    the run's plot) in bounded :class:`~.series.Series` (``sent[motor]``, ``heard[motor]``:
+    a run of any length keeps at most their capacity), and each joint's largest tracking
+    error from the first row played on (``tracking[motor]``, degrees: the present angle of
+    a state against the last angle sent before it)."""
 
     def __init__(self, context: Context, motors: Sequence[str] = MOTORS, *,
                  name: str = "biped", namespace: str = "/", history: bool = False,
@@ -78,8 +82,11 @@ class BipedNode(Node):
         self.commanded: dict[str, float] = {}
         self.present: dict[str, float] = {}
         self.history = history
-        self.sent: list[tuple[float, str, float]] = []      # (t, motor, degrees)
-        self.heard: list[tuple[float, str, float]] = []     # (t, motor, present degrees)
+        self.sent: dict[str, Series] = {m: Series() for m in self.motors} if history else {}
+        self.heard: dict[str, Series] = {m: Series() for m in self.motors} if history else {}
+        #: when the tracking errors start to count (the first row played), and the largest
+        self.track_from: float | None = None
+        self.tracking: dict[str, float] = {}
         for m in self.motors:
             self.create_subscription(JOINT_STATE, f"/{controller_of(m)}/state",
                                      lambda msg, m=m: self._on_state(m, msg), 10)
@@ -88,7 +95,11 @@ class BipedNode(Node):
         angle = math.degrees(float(msg.current_pos))
         self.present[motor] = angle
         if self.history:
-            self.heard.append((self.now(), motor, angle))
+            now = self.now()
+            self.heard[motor].append(now, angle)
+            sent = self.commanded.get(motor)
+            if self.track_from is not None and now >= self.track_from and sent is not None:
+                self.tracking[motor] = max(self.tracking.get(motor, 0.0), abs(angle - sent))
 
     def send(self, pose: Pose) -> None:
         """Send each motor of ``pose`` its angle (degrees) once."""
@@ -102,7 +113,7 @@ class BipedNode(Node):
             self._publishers[motor].publish(self.message(FLOAT64, data=radians(degrees)))
             self.commanded[motor] = float(degrees)
             if self.history:
-                self.sent.append((now, motor, float(degrees)))
+                self.sent[motor].append(now, float(degrees))
 
     def where(self) -> dict[str, float]:
         """Each motor's angle now, as best known: the last sent, else the last heard, else 0
@@ -140,6 +151,8 @@ class BipedNode(Node):
             raise RobotValueError(f"the motion moves {', '.join(unknown)}, which this robot has "
                                   "not")
         total = steps * motion.poses
+        if self.history and self.track_from is None:
+            self.track_from = self.now()
         ticker = self.create_rate(rate)
         sent = 0
         for _ in range(steps):

@@ -21,6 +21,7 @@ robot, the control node beside them or on another machine).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -100,7 +101,8 @@ class Walker(BipedNode):
         config = str(self._param("config", ""))
         self.stand_duration = float(self._param("stand_duration", 2.0))
         self.wait_for_states = float(self._param("wait_for_states", 10.0))
-        if steps < 1 or not rate > 0 or not self.stand_duration > 0:
+        if steps < 1 or not (math.isfinite(rate) and rate > 0) or not (
+                math.isfinite(self.stand_duration) and self.stand_duration > 0):
             raise RobotValueError(f"walker: steps {steps} must be >= 1, rate {rate:g} and "
                                   f"stand_duration {self.stand_duration:g} > 0")
         # checked whole, against the robot's joint limits, before anything moves
@@ -112,6 +114,7 @@ class Walker(BipedNode):
         self._finishing = False
         self._started = self.now()
         self._queue: list[dict[str, float]] = []
+        self._rows = 0  # of the gait, to play: steps x the motion's (none are queued)
         self._timer = self.create_timer(0.1, self._wait_for_states)
         self.create_subscription(DIAGNOSTIC_ARRAY, "/diagnostics", self._on_diagnostics, 10)
 
@@ -147,15 +150,14 @@ class Walker(BipedNode):
             self.send(self._queue.pop(0))
             return
         self._timer.cancel()
-        names = self.motion.names
-        self._queue = [dict(zip(names, row.tolist(), strict=True))
-                       for _ in range(self.steps) for row in self.motion.angles]
-        self.get_logger().info(f"standing; playing {len(self._queue)} rows at {self.rate:g} Hz")
+        self._rows = self.steps * self.motion.poses
+        self.get_logger().info(f"standing; playing {self._rows} rows at {self.rate:g} Hz")
         self._timer = self.create_timer(1.0 / self.rate, self._play)
 
     def _play(self) -> None:
-        if self._queue:
-            self.send(self._queue.pop(0))
+        if self.rows_played < self._rows:  # row by row: a long walk queues nothing
+            row = self.motion.angles[self.rows_played % self.motion.poses]
+            self.send(dict(zip(self.motion.names, row.tolist(), strict=True)))
             self.rows_played += 1
             return
         self._timer.cancel()

@@ -23,8 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from ...gait.motionfile import MotionFile
 from ...middleware.view.run_view import ViewRequest
 from ..errors import RobotValueError
@@ -276,21 +274,10 @@ class WalkTask(Task):
 
 def tracking_errors(robot: Armstrong) -> dict[str, float]:
     """Per leg motor: the largest difference (degrees) between the last command sent before a
-    state and that state's present angle, over the run's second half (after the stand)."""
-
-    out: dict[str, float] = {}
-    node = robot.node
-    for motor in MOTORS[:12]:
-        sent = [(t, a) for t, m, a in node.sent if m == motor]
-        heard = [(t, a) for t, m, a in node.heard if m == motor]
-        if not sent or not heard:
-            continue
-        ts = np.array([t for t, _ in sent])
-        half = heard[len(heard) // 2:]
-        gaps = [abs(a - sent[int(np.searchsorted(ts, t, side="right")) - 1][1])
-                for t, a in half if t >= ts[0]]
-        out[motor] = float(max(gaps)) if gaps else 0.0
-    return out
+    state and that state's present angle, from the gait's first row on (after the stand),
+    as :class:`~.control_node.BipedNode` measured it while the states came."""
+    tracking = robot.node.tracking
+    return {motor: float(tracking[motor]) for motor in MOTORS[:12] if motor in tracking}
 
 
 def plot_tracking(robot: Armstrong, path: Path) -> Path:
@@ -306,13 +293,12 @@ def plot_tracking(robot: Armstrong, path: Path) -> Path:
                               (axes[1], MOTORS[6:12], "Right leg")):
         for k, motor in enumerate(motors):
             colour = f"C{k}"
-            sent = [(t, a) for t, m, a in node.sent if m == motor]
-            heard = [(t, a) for t, m, a in node.heard if m == motor]
+            sent, heard = node.sent.get(motor), node.heard.get(motor)
             if sent:
-                ax.step(*zip(*sent, strict=True), where="post", color=colour, alpha=0.5,
+                ax.step(sent.t, sent.values(), where="post", color=colour, alpha=0.5,
                         linestyle="--")
             if heard:
-                ax.plot(*zip(*heard, strict=True), color=colour, label=motor)
+                ax.plot(heard.t, heard.values(), color=colour, label=motor)
         ax.set_title(f"{title}: commanded (dashed) and present (solid)")
         ax.set_ylabel("angle [deg]")
         ax.grid(True, alpha=0.3)
@@ -340,20 +326,18 @@ def plot_alarms(robot: Armstrong, path: Path) -> Path:
     temp, load, silent, joint = axes
     for k, motor in enumerate(motors):
         colour = f"C{k}"
-        rows = supervisor.history.get(motor, [])
-        t = [r[0] for r in rows]
-        temp.plot(t, [np.nan if r[1] is None else r[1] for r in rows], color=colour,
-                  label=f"motor {motor}")
-        load.plot(t, [np.nan if r[2] is None else r[2] for r in rows], color=colour)
-        silent.plot(t, [r[3] for r in rows], color=colour)
+        rows = supervisor.history.get(motor)
+        if rows:
+            temp.plot(rows.t, rows.values(0), color=colour, label=f"motor {motor}")
+            load.plot(rows.t, rows.values(1), color=colour)
+            silent.plot(rows.t, rows.values(2), color=colour)
         name = f"m{motor}"
-        sent = [(s - supervisor.started, a) for s, m, a in robot.node.sent if m == name]
-        heard = [(s - supervisor.started, a) for s, m, a in robot.node.heard if m == name]
+        sent, heard = robot.node.sent.get(name), robot.node.heard.get(name)
         if sent:
-            joint.step(*zip(*sent, strict=True), where="post", color=colour, alpha=0.5,
-                       linestyle="--")
+            joint.step(sent.t - supervisor.started, sent.values(), where="post", color=colour,
+                       alpha=0.5, linestyle="--")
         if heard:
-            joint.plot(*zip(*heard, strict=True), color=colour, label=name)
+            joint.plot(heard.t - supervisor.started, heard.values(), color=colour, label=name)
     temp.axhline(port.warn_level_temp, color="orange", linestyle=":", label="warn_level_temp")
     temp.axhline(port.error_level_temp, color="red", linestyle=":", label="error_level_temp")
     silent.axhline(port.silent_timeout, color="red", linestyle=":", label="silent_timeout")

@@ -32,6 +32,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .series import Series
+
 if TYPE_CHECKING:
     from collections.abc import Iterable
 
@@ -70,9 +72,9 @@ class SafetySupervisor:
         self.port = manager.port
         self.started = manager.context.clock.now()
         self.alarms: list[Alarm] = []
-        #: per watched motor, after every sweep: (s since start, deg C or None, load or None,
-        #: s since it last answered) — what the run's alarm plot shows
-        self.history: dict[int, list[tuple[float, float | None, float | None, float]]] = {}
+        #: per watched motor, after every sweep: (s since start; deg C, load (None: NaN) and
+        #: s since it last answered) — what the run's alarm plot shows, in a bounded series
+        self.history: dict[int, Series] = {}
         self._raised: set[tuple[int, str]] = set()
         self._warned: set[int] = set()
         self._log = manager.get_logger()
@@ -99,9 +101,11 @@ class SafetySupervisor:
                 continue
             silent = health.silent_for(now, self.manager.started)
             reading = self.manager.latest.get(motor_id)
-            self.history.setdefault(motor_id, []).append(
-                (now - self.started, health.temperature,
-                 None if reading is None else reading.load, silent))
+            series = self.history.get(motor_id)
+            if series is None:
+                series = self.history[motor_id] = Series(3)
+            series.append(now - self.started, health.temperature,
+                          None if reading is None else reading.load, silent)
             if silent > port.silent_timeout:
                 new += self._raise(now, motor_id, "silent",
                                    f"no answer for {silent:.2f} s (silent_timeout "

@@ -46,6 +46,7 @@ from ...configfile import (
 )
 from ...configfile import load as load_config
 from ...errors import ConfigFileError
+from ...limits import read_limited
 from ...planning.costmap import footprint_distances, footprint_from_radius, pad_footprint
 from ...planning.dwa import DwaConfig
 
@@ -530,8 +531,8 @@ def _count(value: ConfigValue) -> int:
 def _load(path: str | Path, what: str) -> tuple[ConfigValue, tuple[str, ...]]:
     """Compose the file through servolab.configfile, reading a key written twice with the same
     value once (and noting it); every other error is configfile's."""
-    try:
-        data = Path(path).read_bytes()
+    try:  # no larger than any YAML file (servolab.limits): refused unread, as configfile does
+        data = read_limited(path, "yaml_mb", what, lambda m: NavParamsError(path, 0, "", m))
         text = data.decode("utf-8-sig")
     except (OSError, UnicodeDecodeError):
         return load_config(path, what=what, error=NavParamsError), ()  # its error

@@ -1,0 +1,149 @@
+"""Whether ``servolab walk`` holds its memory flat over a long walk: the resident set's slope
+per row played.
+
+``servolab walk --steps N --no-progress`` runs in a child process on the emulated Armstrong,
+in virtual time (the simulation's clock: as fast as the host computes it, about 20 rows a
+second). Each time the child says ``step k of N played``, its resident set (``VmRSS`` of
+``/proc/PID/status``) is read, so each sample is (rows played, RSS). The slope is the least
+squares line through the samples after the first quarter of the walk (imports, the first
+plots' fonts and the allocator's first arenas are warm-up, not growth), in kB a row and kB
+a step (17 rows).
+
+The anchor, measured in the same run: what the walk writes to its bag per row, in kB (the
+bag's size at the end over the rows played). Everything the walk records goes to the bag,
+so a process that kept what it records would grow about that much a row (more: Python
+objects are larger than CDR); the ratio slope / anchor says what share of it stays in
+memory. What is left is the MCAP writer's chunk index (``mcap.writer``: one record a chunk,
+with an offset per channel, kept until the bag is closed to write its summary; the recorder
+ends a chunk every second), in the bag layer's code, not the walk's.
+
+Measured on the development machine (Python 3.11, x86_64, shared with other work: 8 rows
+a second), ``benchmarks/soak.py --steps 120`` (2040 rows), the bag 3.6 kB a row in both:
+
+- before (the walk's samples in Python lists: every command, every joint state, every
+  motor's temperature and load after each sweep): 14.0 kB a row (238 kB a step; RSS 100 ->
+  128 MB), x3.9 of what the bag takes;
+- after (:mod:`servolab.robots.armstrong.series`: at most 2048 samples a series, decimated
+  evenly; the largest tracking error measured as the states come): 1.2 kB a row (20 kB a
+  step; RSS 102 -> 105 MB), x0.33: tracemalloc finds it all in the MCAP writer's chunk
+  index, about 5 kB a chunk, one chunk a second.
+
+Run: ``.venv/bin/python benchmarks/soak.py [--quick] [--steps N] [--json PATH]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+STEPS = 120
+QUICK_STEPS = 6
+#: the share of the walk left out of the fit as warm-up
+WARM_UP = 0.25
+_PLAYED = re.compile(r"step (\d+) of (\d+) played")
+_ROWS = re.compile(r"playing (\d+) rows")
+
+
+def rss_kb(pid: int) -> int | None:
+    """The resident set of process ``pid`` in kB, or None once it is gone."""
+    try:
+        with open(f"/proc/{pid}/status") as status:
+            for line in status:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1])
+    except OSError:
+        return None
+    return None
+
+
+def folder_bytes(folder: Path) -> int:
+    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+
+
+def walk(steps: int, out: Path) -> dict[str, Any]:
+    """``servolab walk --steps N`` in a child, its RSS read at each step played."""
+    command = [sys.executable, "-m", "servolab", "walk", "--steps", str(steps), "--out",
+               str(out), "--no-progress"]
+    started = time.perf_counter()
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    samples: list[tuple[int, int]] = []
+    rows_per_step = 0
+    lines: list[str] = []
+    assert child.stdout is not None
+    for line in child.stdout:
+        lines.append(line.rstrip())
+        if not rows_per_step and (match := _ROWS.search(line)):
+            rows_per_step = int(match.group(1))
+        if (match := _PLAYED.search(line)) and rows_per_step:
+            rss = rss_kb(child.pid)
+            if rss is not None:
+                samples.append((int(match.group(1)) * rows_per_step, rss))
+    status = child.wait()
+    seconds = time.perf_counter() - started
+    if status != 0:
+        raise SystemExit(f"servolab walk failed ({status}):\n" + "\n".join(lines[-20:]))
+    rows = steps * rows_per_step
+    bag = folder_bytes(out / "walk_bag")
+    return {"steps": steps, "rows_per_step": rows_per_step, "rows": rows,
+            "seconds": seconds, "samples": samples, "bag_bytes": bag}
+
+
+def slope(samples: Sequence[tuple[int, int]]) -> float:
+    """kB a row: the least squares line through the samples after the warm-up."""
+    rows = np.array([r for r, _ in samples], dtype=float)
+    rss = np.array([kb for _, kb in samples], dtype=float)
+    keep = rows >= WARM_UP * rows[-1]
+    if keep.sum() < 2:
+        keep[:] = True
+    return float(np.polyfit(rows[keep], rss[keep], 1)[0])
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help=f"{QUICK_STEPS} steps: that it runs")
+    parser.add_argument("--steps", type=int, help=f"steps to walk (default {STEPS})")
+    parser.add_argument("--json", type=Path, metavar="PATH", help="also write the figures here")
+    args = parser.parse_args(argv)
+    steps = args.steps or (QUICK_STEPS if args.quick else STEPS)
+    if steps < 2:
+        parser.error("--steps must be at least 2 (a slope needs two samples)")
+    print(f"servolab soak benchmark: Python {platform.python_version()}, {platform.machine()}; "
+          f"servolab walk --steps {steps} in virtual time")
+    with tempfile.TemporaryDirectory(prefix="servolab-soak-") as folder:
+        figures = walk(steps, Path(folder) / "run")
+    samples = figures["samples"]
+    per_row = slope(samples)
+    anchor = figures["bag_bytes"] / 1000 / figures["rows"]
+    rows_per_step = figures["rows_per_step"]
+    print(f"  {figures['rows']} rows in {figures['seconds']:.1f} s "
+          f"({figures['rows'] / figures['seconds']:.1f} rows/s); RSS {samples[0][1] / 1e3:.1f}"
+          f" MB after the first step, {samples[-1][1] / 1e3:.1f} MB after the last")
+    print(f"  RSS slope: {per_row:.2f} kB a row ({per_row * rows_per_step:.1f} kB a step), "
+          f"fitted over rows {WARM_UP * figures['rows']:.0f}..{figures['rows']}")
+    print(f"  anchor: the bag grows {anchor:.2f} kB a row; ratio slope / anchor "
+          f"x{per_row / anchor:.3f}")
+    if args.json:
+        out = {**figures, "slope_kb_per_row": per_row,
+               "slope_kb_per_step": per_row * rows_per_step, "anchor_bag_kb_per_row": anchor,
+               "ratio_slope_anchor": per_row / anchor, "warm_up": WARM_UP}
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
+        print(f"\nfigures written to {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
