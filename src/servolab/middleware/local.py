@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import ServiceError
+from .fast_cdr import CdrError
 from .inbox import QueueInbox, Wake
 from .messages import MessageTypes, ServiceType, copy_message
 from .qos import QoSProfile
@@ -100,7 +101,26 @@ class LocalPublisher(TransportPublisher):
             self.kept.append((copy_message(msg) if copy is None else copy, info))
 
     def publish_serialized(self, cdr: bytes) -> None:
-        self.publish(self._transport.types.deserialize(cdr, self.type_name))
+        """CDR bytes as they are (``bag play``): each subscription reads them itself, as
+        over Zenoh and DDS, so bytes that are not the type (a damaged bag) are dropped and
+        counted by each subscription (:mod:`.malformed`), never raised into the player, and a
+        raw subscription (a recorder) gets the very bytes. A latched topic keeps messages
+        for late subscriptions: there they are read once, and what does not read is not
+        kept."""
+        if self.kept is not None:
+            try:
+                message = self._transport.types.deserialize(cdr, self.type_name)
+            except CdrError:
+                pass  # delivered below as bytes, dropped and counted by each subscription
+            else:
+                self.publish(message)
+                return
+        now = time.time_ns()
+        info = MessageInfo(now, now, next(self._sequence))
+        data = bytes(cdr)
+        for sub in self._transport._subscribers.get(self.topic, ()):
+            if sub.type_name == self.type_name:
+                sub.inbox.put(data, info)
 
     def wait_for_subscription(self, timeout: float) -> bool:
         def matched() -> bool:
