@@ -17,7 +17,7 @@ import random
 from collections.abc import Iterable, Sequence
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from servolab.dynamixel.packets import Frame, Protocol, StreamParser
@@ -27,6 +27,7 @@ from tests.dynamixel.test_protocol1 import ref_checksum
 from tests.dynamixel.test_protocol1 import ref_packet as ref_packet_v1
 from tests.dynamixel.test_protocol2 import ref_crc16, ref_unstuff
 from tests.dynamixel.test_protocol2 import ref_packet as ref_packet_v2
+from tests.fuzzing import fuzzing
 
 PROTOCOLS: dict[int, Protocol] = {1: PROTOCOL1, 2: PROTOCOL2}
 V2_MAX_LENGTH = 1024  # the SDK's RXPACKET_MAX_LEN: a longer LEN is corruption
@@ -36,9 +37,10 @@ MAX_FRAME = {1: 0xFF + 4, 2: V2_MAX_LENGTH + 7}
 
 # Generating whole corrupted streams dominates the run time: 150 of them per property and
 # protocol keep the whole file within a few seconds.
-FUZZ = settings(max_examples=150, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-LIGHT = settings(FUZZ, max_examples=100)
+FUZZ = fuzzing(150)
+LIGHT = fuzzing(100)
+#: every test here fuzzes the status stream parser (benchmarks/fuzz.py runs them longer)
+pytestmark = pytest.mark.fuzz
 
 FRAGMENTS = {
     1: [b"\xff", b"\xff\xff", b"\xff\xff\x01", b"\xff\xff\x01\x04", b"\xff\xff\x01\x02\x01",
