@@ -26,8 +26,9 @@ from .arguments import add_transport, transport_options
 from .registry import Command
 
 if TYPE_CHECKING:
-    from servolab.middleware.bag import BagInfo
+    from servolab.middleware.bag import BagCheck, BagDamage, BagInfo
     from servolab.middleware.context import Context
+    from servolab.middleware.messages import MessageTypes
     from servolab.middleware.publisher import Publisher
 
 Say = Callable[[str], None]
@@ -96,17 +97,32 @@ def wait_for_subscriptions(publishers: Mapping[str, Publisher], timeout: float) 
                   if not pub.wait_for_subscription(max(0.0, end - time.monotonic())))
 
 
+def damage_warner(action: str, warn: Say | None = None) -> Callable[[BagDamage], None]:
+    """What a command does with each damaged part of a bag it reads: one line on stderr,
+    ``servolab bag ACTION: warning: FILE at byte N: ...``, and it goes on."""
+    from ._graph import warn as to_stderr
+
+    shown = warn or to_stderr
+
+    def report(damage: BagDamage) -> None:
+        shown(f"servolab bag {action}: warning: {damage}")
+
+    return report
+
+
 def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
-             topics: list[str] | None = None, wait_matching: float = 2.0) -> int:
+             topics: list[str] | None = None, wait_matching: float = 2.0,
+             warn: Say | None = None) -> int:
     """Publish a bag's messages on their topics at the bag's pace times ``rate``.
 
     Waits up to ``wait_matching`` s for a subscription on every topic played first (not a
     fixed time), so subscribers started just before lose no message; says so, and plays
-    anyway, for topics that have none by then."""
+    anyway, for topics that have none by then. A damaged chunk is said on stderr (``warn``)
+    and skipped; the rest plays."""
     from servolab.middleware.bag import BagReader, play
     from servolab.middleware.node import Node
 
-    reader = BagReader(path, ctx.types)
+    reader = BagReader(path, ctx.types, on_damage=damage_warner("play", warn))
     info = reader.info()
     chosen = [t for t in info.topics if topics is None or t.name in topics]
     node = Node(ctx, f"_servolab_player_{time.time_ns() % 1_000_000}")
@@ -133,7 +149,9 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
                           should_stop=lambda: not ctx.ok(), progress=progress)
     finally:
         node.destroy()
-    say(f"played {played} message(s)")
+    damaged = reader.damage
+    skipped = f"; the file has {len(damaged)} damaged part(s), said above" if damaged else ""
+    say(f"played {played} message(s){skipped}")
     return played
 
 
@@ -165,10 +183,15 @@ def format_info(info: BagInfo) -> str:
         f"{'End:':<{label}}{_stamp(info.end_ns)}",
         f"{'Messages:':<{label}}{info.message_count}",
     ]
-    if info.recovered:
+    if info.recovered and not info.damage:
         lines.append(f"{'Recovered:':<{label}}the recording was cut short; "
                      f"{info.message_count} messages read from its complete chunks, "
                      f"last {info.lost_bytes} bytes lost")
+    elif info.recovered:
+        lost = f", last {info.lost_bytes} bytes lost" if info.lost_bytes else ""
+        lines.append(f"{'Recovered:':<{label}}no usable summary; {info.message_count} "
+                     f"messages read record by record from its sound chunks{lost}")
+    lines.extend(_damage_lines("Damaged:", info.damage, label))
     name_w = max((len(t.name) for t in info.topics), default=0)
     type_w = max((len(t.type) for t in info.topics), default=0)
     rows = [f"Topic: {t.name:<{name_w}} | Type: {t.type:<{type_w}} | Count: {t.count} | "
@@ -178,17 +201,61 @@ def format_info(info: BagInfo) -> str:
     return "\n".join(lines)
 
 
-def reindex_bag(path: str, say: Say) -> None:
-    """Rewrite a cut-short bag as a complete one; a complete bag is left alone."""
+def _damage_lines(title: str, damage: tuple[BagDamage, ...], label: int) -> list[str]:
+    """One line a damaged part (its byte and what it is; the file is named above)."""
+    rows = [f"byte {d.offset}: {d.text}" for d in damage]
+    if not rows:
+        return []
+    return [f"{title:<{label}}{rows[0]}", *(" " * label + row for row in rows[1:])]
+
+
+def format_check(checked: BagCheck, listed: tuple[BagDamage, ...] = ()) -> str:
+    """What ``bag info --check`` found, below the bag's description (which lists ``listed``
+    already)."""
+    label = 19
+    head = (f"{'Check:':<{label}}{checked.chunks} sound chunk(s), {checked.messages} "
+            "message(s)")
+    if checked.sound:
+        return (head + "; every chunk's CRC matches, every record is whole, the summary "
+                "agrees with them")
+    head += f"; {len(checked.problems)} problem(s)"
+    more = tuple(d for d in checked.problems if d not in listed)
+    return "\n".join([head, *_damage_lines("Also:", more, label)])
+
+
+def check_bag(path: str, say: Say, types: MessageTypes | None = None) -> None:
+    """``bag info --check``: the description, then every damaged part; a damaged bag is a
+    one-line error (exit status 2) after the listing."""
+    from servolab.middleware.bag import BagReader
+    from servolab.middleware.errors import BagError
+    from servolab.middleware.messages import MessageTypes
+
+    reader = BagReader(path, types or MessageTypes(),
+                       on_damage=lambda damage: None)  # listed below
+    checked = reader.check()
+    info = reader.info()  # with every damaged part the check found
+    say(format_info(info))
+    say(format_check(checked, info.damage))
+    if not checked.sound:
+        raise BagError(f"{checked.path} is damaged: {len(checked.problems)} problem(s), "
+                       f"listed above; `servolab bag reindex {path}` keeps what is sound")
+
+
+def reindex_bag(path: str, say: Say, warn: Say | None = None,
+                types: MessageTypes | None = None) -> None:
+    """Rewrite a cut-short or damaged bag as a complete one; a sound bag is left alone."""
     from servolab.middleware.bag import reindex
     from servolab.middleware.messages import MessageTypes
 
-    found = reindex(path, MessageTypes())
+    found = reindex(path, types or MessageTypes(), on_damage=damage_warner("reindex", warn))
     if found is None:
-        say(f"{path} is complete (it has its summary and index); nothing to do")
+        say(f"{path} is complete and sound (every chunk checked); nothing to do")
         return
-    lost = f"; the last {found.lost_bytes} byte(s), an unfinished chunk, were dropped" if (
+    lost = f"; the last {found.lost_bytes} byte(s), an unfinished record, were dropped" if (
         found.lost_bytes) else ""
+    if found.damage:
+        lost += (f"; {len(found.damage)} damaged part(s) found (said above), the damaged "
+                 f"file kept as {found.path.name}.damaged")
     say(f"reindexed {found.path}: {found.message_count} message(s) kept{lost}")
 
 
@@ -220,8 +287,12 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     add_transport(p)
     p = actions.add_parser("info", help="topics, types, counts and duration of a bag")
     p.add_argument("path")
-    p = actions.add_parser("reindex", help="make a bag whose recording was killed a complete "
-                           "file (summary, index, metadata.yaml) that every MCAP reader opens")
+    p.add_argument("--check", action="store_true",
+                   help="also read the whole file: every chunk's CRC, every record, the "
+                   "summary against them; say what is damaged (exit status 2 if anything is)")
+    p = actions.add_parser("reindex", help="make a bag whose recording was killed, or whose "
+                           "file is damaged, a complete file (summary, index, metadata.yaml) of "
+                           "what is sound, that every MCAP reader opens")
     p.add_argument("path", help="bag folder or .mcap file")
 
 
@@ -233,7 +304,11 @@ def _run(args: argparse.Namespace) -> int:
     from ._graph import say
 
     if args.action == "info":
-        say(format_info(BagReader(args.path, MessageTypes()).info()))
+        if args.check:
+            check_bag(args.path, say)
+            return 0
+        reader = BagReader(args.path, MessageTypes(), on_damage=lambda damage: None)
+        say(format_info(reader.info()))  # with what opening found damaged
         return 0
     if args.action == "reindex":
         reindex_bag(args.path, say)
@@ -258,12 +333,13 @@ def _run(args: argparse.Namespace) -> int:
 COMMAND = Command(
     name="bag", group="graph", help="record, play and inspect MCAP bags",
     description="Record topics to an MCAP bag in the rosbag2 layout (Foxglove and ros2 bag "
-    "open it), play one back, show what is in one, or make a killed recording a complete "
-    "file again.",
+    "open it), play one back, show what is in one (--check: and whether it is damaged), or "
+    "make a killed recording or a damaged file a complete one again.",
     examples=("servolab bag record /cmd_vel /odom -o runs/drive1",
               "servolab bag record -a -o runs/everything",
               "servolab bag record -e '/robot/.*' -o runs/robot",
               "servolab bag info runs/drive1",
+              "servolab bag info --check runs/drive1",
               "servolab bag play runs/drive1 --rate 2",
               "servolab bag reindex runs/drive1"),
     add_arguments=_add_arguments, run=_run)

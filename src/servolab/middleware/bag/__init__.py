@@ -13,10 +13,14 @@ subscribes and hands bytes to :class:`BagWriter`; :func:`play` hands bytes to wh
 ``publish`` callable it is given. One module per job, so each can be read (and changed) alone:
 
 - :mod:`.layout` — what every part shares: the rosbag2/MCAP constants, :func:`qos_profile`,
-  and what a reader reports (:class:`TopicInfo`, :class:`BagMessage`, :class:`BagInfo`)
+  and what a reader reports (:class:`TopicInfo`, :class:`BagMessage`, :class:`BagInfo`,
+  :class:`BagDamage`, :class:`BagCheck`)
 - :mod:`.writer` — :class:`BagWriter`, which a killed process leaves readable
-- :mod:`.reader` — :class:`BagReader`, which recovers a cut-short file, and :func:`reindex`,
-  which rewrites one as a complete file
+- :mod:`.reader` — :class:`BagReader`, which recovers a cut-short file and reads past damage
+  (a damaged chunk reported as a :class:`BagDamage` and skipped), its ``check``, and
+  :func:`reindex`, which rewrites such a file as a complete one
+- :mod:`.scan` — a file read record by record, on past damaged records: what the ``mcap``
+  library's readers do not do
 - :mod:`.playback` — :func:`play`, at the bag's own pace on any clock
 
 How ``servolab bag info`` prints a bag is the app's business (:mod:`servolab.apps.bag`).
@@ -29,6 +33,8 @@ from .layout import (
     MCAP_MAGIC,
     METADATA_VERSION,
     ROS_DISTRO,
+    BagCheck,
+    BagDamage,
     BagInfo,
     BagMessage,
     TopicInfo,
@@ -39,6 +45,7 @@ from .reader import BagReader, reindex
 from .writer import BagWriter
 
 __all__ = [
-    "LIBRARY", "MCAP_MAGIC", "METADATA_VERSION", "ROS_DISTRO", "BagInfo", "BagMessage",
-    "BagReader", "BagWriter", "TopicInfo", "play", "qos_profile", "reindex",
+    "LIBRARY", "MCAP_MAGIC", "METADATA_VERSION", "ROS_DISTRO", "BagCheck", "BagDamage",
+    "BagInfo", "BagMessage", "BagReader", "BagWriter", "TopicInfo", "play", "qos_profile",
+    "reindex",
 ]

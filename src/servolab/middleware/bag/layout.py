@@ -3,7 +3,7 @@ a reader reports.
 
 The writer, the reader and playback each need some of these; keeping them here lets each of
 those modules import only what it uses and none of the others, and puts the numbers that must
-match rosbag2 Jazzy (metadata version, durations, opcodes) in one place to check.
+match rosbag2 Jazzy (metadata version, durations) in one place to check.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any
 import yaml
 
 from ... import __version__
+from ..errors import BagError
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 #: rosbag2 metadata version written: 9, as rosbag2 Jazzy writes it (``offered_qos_profiles`` a
@@ -27,10 +28,6 @@ _INFINITE = {"sec": 9223372036, "nsec": 854775807}
 #: The distribution whose message definitions (and RIHS01 hashes) servolab's types are.
 ROS_DISTRO = "jazzy"
 LIBRARY = f"servolab {__version__}"
-
-_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
-_OP_DATA_END = 0x0F
-_FOOTER_TAIL = 9 + 20 + len(MCAP_MAGIC)  # footer record (opcode, length, 3 fields) + magic
 
 
 def qos_profile(*, reliable: bool = True, transient_local: bool = False, keep_all: bool = False,
@@ -95,3 +92,45 @@ class BagInfo:
     size_bytes: int
     recovered: bool
     lost_bytes: int = 0
+    #: the damaged parts found so far, in file order (a summary's file has its chunks checked
+    #: as they are read, or all at once by :meth:`~.reader.BagReader.check`)
+    damage: tuple[BagDamage, ...] = ()
+
+
+class BagDamage(BagError):
+    """One damaged part of a bag file: where it is (``offset``, in bytes from the start of
+    ``path``) and what it is, in one line (``text``). ``lost`` is false when nothing was lost
+    by it (a damaged magic, a summary the records it indexes stand in for).
+
+    A reader reports it (to its ``on_damage``, or the log) and reads on past it; nothing raises
+    it, unless an ``on_damage`` that wants a damaged bag refused does: it is a
+    :class:`~servolab.middleware.errors.BagError` whose message names the file and offset."""
+
+    def __init__(self, path: Path, offset: int, text: str, *, lost: bool = True) -> None:
+        super().__init__(f"{path} at byte {offset}: {text}")
+        self.path = path
+        self.offset = offset
+        self.text = text
+        self.lost = lost
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return _damage, (self.path, self.offset, self.text, self.lost)
+
+
+def _damage(path: Path, offset: int, text: str, lost: bool) -> BagDamage:
+    return BagDamage(path, offset, text, lost=lost)
+
+
+@dataclass(frozen=True)
+class BagCheck:
+    """What :meth:`~.reader.BagReader.check` found: the sound chunks and the messages they
+    hold, and every problem (none: the bag is sound)."""
+
+    path: Path
+    chunks: int
+    messages: int
+    problems: tuple[BagDamage, ...]
+
+    @property
+    def sound(self) -> bool:
+        return not self.problems
