@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import contextlib
 import os
+import tempfile
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mcap.data_stream import RecordBuilder
 from mcap.writer import CompressionType, Writer
 
 from ...signals import signals_held
@@ -90,6 +92,44 @@ class _Topic:
     count: int = 0
 
 
+class _SpilledChunkIndexes:
+    """mcap's ``Writer`` keeps one ``ChunkIndex`` per chunk until ``finish`` writes the
+    summary: about 5 kB a chunk with the walk's 45 channels (an offset per channel), and the
+    recorder ends a chunk every second, so a ten-hour walk would hold 180 MB for it
+    (``benchmarks/soak.py``). Here each is serialized to an anonymous temporary file as its
+    chunk ends, and this one object, left in the writer's list in their place, writes them all
+    back into the summary (byte for byte what ``ChunkIndex.write`` writes). Hand-written:
+    the ``mcap`` library has no way to bound its summary's memory (rosbag2 bounds it by
+    splitting bags). The writer's list is private to ``mcap``: where a future version renames
+    it, nothing is spilled and the bag is still written whole."""
+
+    def __init__(self) -> None:
+        # closed by close(), when the bag is finished
+        self._file = tempfile.TemporaryFile(prefix="servolab-chunk-index-")  # noqa: SIM115
+        self.count = 0
+
+    def take(self, indexes: list[Any]) -> None:
+        """Move every ``ChunkIndex`` of ``indexes`` (mcap's list) to the file, leaving self."""
+        if len(indexes) == 1 and indexes[0] is self:
+            return
+        builder = RecordBuilder()
+        for index in indexes:
+            if index is not self:
+                index.write(builder)
+                self.count += 1
+        self._file.write(builder.end())
+        indexes[:] = [self]
+
+    def write(self, stream: RecordBuilder) -> None:
+        """What ``Writer.finish`` calls on each chunk index: all of them, in order."""
+        self._file.seek(0)
+        while block := self._file.read(1 << 20):
+            stream.write(block)
+
+    def close(self) -> None:
+        self._file.close()
+
+
 class BagWriter:
     """Writes a rosbag2 bag directory with one MCAP file.
 
@@ -139,6 +179,9 @@ class BagWriter:
         except OSError as exc:
             self._file.close()
             raise BagWriteError(f"cannot write bag {self.path}: {exc.strerror or exc}") from None
+        self._chunk_indexes: list[Any] | None = getattr(self._mcap, "_Writer__chunk_indices",
+                                                        None)
+        self._spilled = _SpilledChunkIndexes()
         self._lock = threading.Lock()
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
@@ -218,6 +261,7 @@ class BagWriter:
                 with signals_held():  # a stop signal must not leave half a record in a chunk
                     self._mcap.add_message(channel_id=entry.channel_id, log_time=log_time_ns,
                                            data=payload, publish_time=publish)
+                    self._spill()
             except OSError as exc:
                 raise BagWriteError(f"bag {self.path}: cannot write: "
                                     f"{exc.strerror or exc}") from None
@@ -234,6 +278,7 @@ class BagWriter:
             try:
                 with signals_held():
                     self._mcap.flush()
+                    self._spill()
                 if fsync:
                     self._file.fsync()
             except OSError as exc:
@@ -262,10 +307,18 @@ class BagWriter:
                     self._file.fsync()
                 finally:
                     self._file.close()
+                    self._spilled.close()
                 self._write_metadata()
             except OSError as exc:
                 raise BagWriteError(f"bag {self.path}: cannot finish: "
                                     f"{exc.strerror or exc}") from None
+
+    def _spill(self) -> None:
+        """Move the chunk indexes mcap holds to the temporary file (a chunk just ended)."""
+        indexes = self._chunk_indexes
+        if indexes is not None and (len(indexes) > 1 or (indexes and indexes[0] is not
+                                                             self._spilled)):
+            self._spilled.take(indexes)
 
     def _check_open(self) -> None:
         if self._closed:
