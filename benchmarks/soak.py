@@ -28,7 +28,11 @@ a second), ``benchmarks/soak.py --steps 120`` (2040 rows), the bag 3.6 kB a row 
   step; RSS 102 -> 105 MB), x0.33: tracemalloc finds it all in the MCAP writer's chunk
   index, about 5 kB a chunk, one chunk a second.
 
-Run: ``.venv/bin/python benchmarks/soak.py [--quick] [--steps N] [--json PATH]``.
+``--pty`` walks the biped that ``servolab sim --pty --robot armstrong`` simulates, over its
+pty at the real baud rate, in real time (``--steps 159``: ten minutes), and reads the
+simulated robot's RSS beside the walk's.
+
+Run: ``.venv/bin/python benchmarks/soak.py [--quick] [--steps N] [--pty] [--json PATH]``.
 """
 
 from __future__ import annotations
@@ -38,11 +42,14 @@ import json
 import os
 import platform
 import re
+import select
+import signal
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -72,14 +79,44 @@ def folder_bytes(folder: Path) -> int:
     return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
 
 
-def walk(steps: int, out: Path) -> dict[str, Any]:
-    """``servolab walk --steps N`` in a child, its RSS read at each step played."""
+@contextmanager
+def simulated_robot(out: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+    """``servolab sim --pty --robot armstrong``: the biped's bus at its real baud rate
+    (57 142 bps, seed 001), in real time; yields (its pty, the process), stopped at the end."""
+    out.mkdir(parents=True, exist_ok=True)
+    log = (out / "sim.log").open("w")  # what the simulated robot said, for an early end
+    sim = subprocess.Popen([sys.executable, "-m", "servolab", "sim", "--pty", "--robot",
+                            "armstrong", "--out", str(out)], stdout=subprocess.PIPE,
+                           stderr=log, stdin=subprocess.DEVNULL, text=True)
+    try:
+        assert sim.stdout is not None
+        ready, _, _ = select.select([sim.stdout], [], [], 60.0)
+        device = sim.stdout.readline().strip() if ready else ""
+        if not device:
+            raise SystemExit("servolab sim --pty printed no device within 60 s")
+        yield device, sim
+    finally:
+        if sim.poll() is None:
+            sim.send_signal(signal.SIGINT)
+            try:
+                sim.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                sim.kill()
+                sim.wait()
+        log.close()
+
+
+def walk(steps: int, out: Path, port: str | None = None,
+         also: subprocess.Popen[str] | None = None) -> dict[str, Any]:
+    """``servolab walk --steps N`` in a child, its RSS read at each step played (and the
+    RSS of ``also``, the simulated robot, when it walks on a pty)."""
     command = [sys.executable, "-m", "servolab", "walk", "--steps", str(steps), "--out",
-               str(out), "--no-progress"]
+               str(out), "--no-progress", *(["--port", port] if port else [])]
     started = time.perf_counter()
     child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                              text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     samples: list[tuple[int, int]] = []
+    robot: list[tuple[int, int]] = []  # the simulated robot's (rows, RSS), on a pty
     rows_per_step = 0
     lines: list[str] = []
     assert child.stdout is not None
@@ -91,14 +128,26 @@ def walk(steps: int, out: Path) -> dict[str, Any]:
             rss = rss_kb(child.pid)
             if rss is not None:
                 samples.append((int(match.group(1)) * rows_per_step, rss))
+            held = rss_kb(also.pid) if also is not None else None
+            if held is not None:
+                robot.append((int(match.group(1)) * rows_per_step, held))
     status = child.wait()
     seconds = time.perf_counter() - started
     if status != 0:
         raise SystemExit(f"servolab walk failed ({status}):\n" + "\n".join(lines[-20:]))
-    rows = steps * rows_per_step
+    played = samples[-1][0] // rows_per_step if samples else 0
+    if played < steps:  # an alarm or a signal ended the gait early: say what, from the run
+        summary = json.loads((out / "summary.json").read_text())
+        ended = {k: summary.get(k) for k in ("interrupted", "alarms", "reason") if k in summary}
+        print(f"  the walk played {played} of {steps} steps; its summary says {ended}")
+        said = out.parent / "sim" / "sim.log"
+        if said.exists():
+            print("  the simulated robot said, last:\n    " + "\n    ".join(
+                said.read_text().splitlines()[-8:]))
+    rows = played * rows_per_step
     bag = folder_bytes(out / "walk_bag")
-    return {"steps": steps, "rows_per_step": rows_per_step, "rows": rows,
-            "seconds": seconds, "samples": samples, "bag_bytes": bag}
+    return {"steps": played, "rows_per_step": rows_per_step, "rows": rows,
+            "seconds": seconds, "samples": samples, "robot_samples": robot, "bag_bytes": bag}
 
 
 def slope(samples: Sequence[tuple[int, int]]) -> float:
@@ -116,15 +165,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true",
                         help=f"{QUICK_STEPS} steps: that it runs")
     parser.add_argument("--steps", type=int, help=f"steps to walk (default {STEPS})")
+    parser.add_argument("--pty", action="store_true",
+                        help="walk the biped of 'servolab sim --pty --robot armstrong' over "
+                        "its pty, in real time (4.5 rows a second: --steps 159 is ten "
+                        "minutes), and read the simulated robot's RSS too")
     parser.add_argument("--json", type=Path, metavar="PATH", help="also write the figures here")
     args = parser.parse_args(argv)
     steps = args.steps or (QUICK_STEPS if args.quick else STEPS)
     if steps < 2:
         parser.error("--steps must be at least 2 (a slope needs two samples)")
+    how = "over the pty of servolab sim, in real time" if args.pty else "in virtual time"
     print(f"servolab soak benchmark: Python {platform.python_version()}, {platform.machine()}; "
-          f"servolab walk --steps {steps} in virtual time")
+          f"servolab walk --steps {steps} {how}")
     with tempfile.TemporaryDirectory(prefix="servolab-soak-") as folder:
-        figures = walk(steps, Path(folder) / "run")
+        if args.pty:
+            with simulated_robot(Path(folder) / "sim") as (device, sim):
+                figures = walk(steps, Path(folder) / "run", device, sim)
+        else:
+            figures = walk(steps, Path(folder) / "run")
     samples = figures["samples"]
     per_row = slope(samples)
     anchor = figures["bag_bytes"] / 1000 / figures["rows"]
@@ -136,6 +194,12 @@ def main(argv: Sequence[str] | None = None) -> int:
           f"fitted over rows {WARM_UP * figures['rows']:.0f}..{figures['rows']}")
     print(f"  anchor: the bag grows {anchor:.2f} kB a row; ratio slope / anchor "
           f"x{per_row / anchor:.3f}")
+    if figures["robot_samples"]:
+        held = figures["robot_samples"]
+        robot_slope = slope(held)
+        figures["robot_slope_kb_per_row"] = robot_slope
+        print(f"  the simulated robot (servolab sim --pty): RSS {held[0][1] / 1e3:.1f} -> "
+              f"{held[-1][1] / 1e3:.1f} MB, slope {robot_slope:.2f} kB a row")
     if args.json:
         out = {**figures, "slope_kb_per_row": per_row,
                "slope_kb_per_step": per_row * rows_per_step, "anchor_bag_kb_per_row": anchor,
