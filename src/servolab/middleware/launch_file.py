@@ -343,11 +343,11 @@ class _Parser:
         fields = self.mapping(item, where, "a node entry", ())
         name_node = fields.require("name", where)
         name = self.text(name_node, where, "name")
+        where = f"node {quoted(name)}"  # quoted: a long name is cut
         try:
             check_node_name(name)
         except NameValidationError as exc:  # one line, as every launch file error
             raise self.error(name_node, where, f"key 'name': {_summary(exc)}") from None
-        where = f"node {quoted(name)}"
         if "node" in fields and "exec" in fields:
             raise self.error(fields.key_of("exec"), where, "key 'exec': give 'node' or "
                              "'exec', not both")

@@ -705,7 +705,9 @@ class MessageTypes:
 
     def _field(self, desc: FieldDesc, value: Any, where: str) -> Any:
         if desc[0] == Nodetype.BASE:
-            return self._scalar(desc[1][0], value, where, desc[1][1])
+            scalar = self._scalar(desc[1][0], value, where, desc[1][1])
+            # a byte field holds its octet signed, as rosbags does; an array of them is uint8
+            return _signed_octet(scalar) if desc[1][0] == "byte" else scalar
         if desc[0] == Nodetype.NAME:
             name = desc[1]
             if name == "builtin_interfaces/msg/Time" and value == "now":
@@ -727,7 +729,11 @@ class MessageTypes:
             raise MessageError(f"{where}: needs exactly {count} values, got {len(value)}")
         if kind == Nodetype.SEQUENCE and count and len(value) > count:
             raise MessageError(f"{where}: holds at most {count} values, got {len(value)}")
-        items = [self._field(sub, v, f"{where}[{i}]") for i, v in enumerate(value)]
+        if sub[0] == Nodetype.BASE:  # numbers as they are: an array's dtype holds them
+            items = [self._scalar(sub[1][0], v, f"{where}[{i}]", sub[1][1])
+                     for i, v in enumerate(value)]
+        else:
+            items = [self._field(sub, v, f"{where}[{i}]") for i, v in enumerate(value)]
         if sub[0] == Nodetype.BASE and sub[1][0] in _DTYPES:
             return np.array(items, dtype=_DTYPES[sub[1][0]])
         return items
@@ -846,8 +852,6 @@ class MessageTypes:
             low, high = _INT_RANGES[kind]
             if not low <= int(value) <= high:
                 raise MessageError(f"{where}: {value} is outside {kind}'s range {low}..{high}")
-            if kind == "byte":
-                return _signed_octet(int(value))
             return int(value)
         raise MessageError(f"{where}: unsupported field type {kind}")
 

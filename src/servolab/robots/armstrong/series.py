@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ..errors import RobotValueError
+
 #: Samples a series keeps at most: a plot 10 inches wide at 100 dpi has 1000 pixels.
 CAPACITY = 2048
 
@@ -29,7 +31,7 @@ class Series:
 
     def __init__(self, columns: int = 1, capacity: int = CAPACITY) -> None:
         if capacity < 2 or capacity % 2:
-            raise ValueError(f"capacity must be even and >= 2, not {capacity}")
+            raise RobotValueError(f"series capacity must be even and >= 2, not {capacity}")
         # filled now: the memory is taken at the start, not page by page as the run goes on
         self._data = np.full((capacity, 1 + columns), np.nan, dtype=np.float64)
         self._kept = 0
