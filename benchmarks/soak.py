@@ -47,6 +47,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -94,6 +95,8 @@ def simulated_robot(out: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
         device = sim.stdout.readline().strip() if ready else ""
         if not device:
             raise SystemExit("servolab sim --pty printed no device within 60 s")
+        # whatever else it prints is read, so that a full pipe never blocks the robot
+        threading.Thread(target=sim.stdout.read, daemon=True).start()
         yield device, sim
     finally:
         if sim.poll() is None:

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -97,7 +98,8 @@ class InputLimits:
             if not value > 0:
                 raise ServolabValueError(f"{variable}={quoted(text, 40)}: must be a number > 0 "
                                          f"(or inf), the default is {getattr(cls, field.name):g}")
-            values[field.name] = value
+            # beyond what a file read can take (or hold), a limit is no limit
+            values[field.name] = math.inf if value * _MB > sys.maxsize / 2 else value
         return cls(**values)
 
     def bytes(self, name: str) -> float:

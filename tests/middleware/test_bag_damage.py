@@ -406,12 +406,15 @@ def test_the_command_line_says_damage_in_one_line_and_plays_the_rest(
     assert err.count("\n") == 1 and err.startswith(f"servolab bag info: error: {path} is "
                                                    "damaged: 1 problem(s)")
 
+    # what is sound is played; the exit status (2: bad input) tells a script it was damaged
     assert main(["bag", "play", str(path), "--transport", "local", "--rate", "0",
-                 "--wait-matching", "0"]) == 0
+                 "--wait-matching", "0"]) == 2
     out, err = capsys.readouterr()
     assert err.startswith(f"servolab bag play: warning: {path} at byte "
                           f"{chunk.chunk_start_offset}: chunk 6 is damaged (")
-    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.count("\n") == 2 and "Traceback" not in err
+    assert err.splitlines()[1] == (f"servolab bag play: error: {path}: 1 damaged part(s) "
+                                   "skipped (servolab bag reindex keeps what is sound)")
     played = 160 - len(bag.in_chunk(chunk))
     assert f"played {played} message(s); the file has 1 damaged part(s)" in out
 
@@ -419,7 +422,8 @@ def test_the_command_line_says_damage_in_one_line_and_plays_the_rest(
     warned: list[str] = []
     reindex_bag(str(path), said.append, warned.append, types)
     assert f"{played} message(s) kept" in said[0] and f"kept as {path.name}.damaged" in said[0]
-    assert warned == ["servolab bag reindex: warning: " + err.split("warning: ", 1)[1][:-1]]
+    assert warned == ["servolab bag reindex: warning: "
+                      + err.splitlines()[0].split("warning: ", 1)[1]]
     assert (tmp_path / "damaged.mcap.damaged").read_bytes() != path.read_bytes()
     # what is left is a sound file of every sound message, mcap's checking reader agrees
     assert mcap_reads(path, validate_crcs=True) == [

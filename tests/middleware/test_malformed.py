@@ -27,7 +27,12 @@ from hypothesis import strategies as st
 from servolab.middleware.context import Context
 from servolab.middleware.errors import MessageError, TransportError
 from servolab.middleware.fast_cdr import CdrError
-from servolab.middleware.malformed import MalformedMessages, publisher_name
+from servolab.middleware.malformed import (
+    MAX_PUBLISHERS,
+    OTHER_PUBLISHERS,
+    MalformedMessages,
+    publisher_name,
+)
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
 from servolab.middleware.qos import HistoryPolicy, QoSProfile
@@ -174,6 +179,31 @@ def test_a_malformed_service_request_is_answered_and_said_once(
     said = [r for r in caplog.records if "a request that is not" in r.getMessage()]
     assert len(said) == 1
     assert ctx.malformed.of("/enable") == 3 * len(MALFORMED)
+
+
+def test_forged_publisher_gids_cannot_flood_the_log_or_the_table(
+        listening: tuple[Context, int], caplog: pytest.LogCaptureFixture) -> None:
+    """The GID is the sender's own word (rmw_zenoh's attachment): a peer forging a new one
+    for each of 1 000 malformed messages gets MAX_PUBLISHERS lines and entries, the rest
+    counted together under "others" with one line more."""
+    ctx, port = listening
+    node = Node(ctx, "listener")
+    sub = node.create_subscription(STRING, "/chatter", lambda m: None, KEEP_ALL)
+    key = ctx.transport._key("/chatter", STRING)  # type: ignore[attr-defined]
+    foreign = foreign_zenoh_peer(f"tcp/127.0.0.1:{port}")
+    try:
+        wait_for_subscriber(ctx, "/chatter", STRING, "/listener")
+        put = foreign.declare_publisher(key)
+        for i in range(1_000):
+            put.put(MALFORMED[0], attachment=encode_attachment(i, time.time_ns(),
+                                                               i.to_bytes(16, "little")))
+        assert ctx.spin_until(lambda: sub.malformed == 1_000, timeout=60.0), sub.malformed
+    finally:
+        foreign.close()
+    figures = ctx.malformed.as_figures()["/chatter"]
+    assert len(figures) == MAX_PUBLISHERS + 1
+    assert figures[publisher_name(OTHER_PUBLISHERS)] == 1_000 - MAX_PUBLISHERS
+    assert len(_drops_said(caplog)) == MAX_PUBLISHERS + 1
 
 
 def test_the_counts_as_a_diagnostic_status() -> None:

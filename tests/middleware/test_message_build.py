@@ -123,3 +123,15 @@ def test_a_byte_above_127_is_held_as_the_byte_reads_back() -> None:
     assert TYPES.deserialize(data, "diagnostic_msgs/msg/DiagnosticStatus").level == -56
     status.level = 255
     assert status.level == -1
+
+
+def test_a_byte_field_reads_as_ros_writes_it_and_goes_back() -> None:
+    """What echo prints (to_value) is 0..255, as ROS shows a byte, and goes back through
+    from_value (echo's output fed to pub); repr (what `servolab service call` prints) shows
+    rosidl's bytes of length 1."""
+    status = TYPES.from_value("diagnostic_msgs/msg/DiagnosticStatus", {"level": 200})
+    assert TYPES.to_value(status)["level"] == 200
+    again = TYPES.from_value("diagnostic_msgs/msg/DiagnosticStatus", TYPES.to_value(status))
+    assert TYPES.serialize(again) == TYPES.serialize(status)
+    assert "level=b'\\xc8'" in TYPES.repr_of(status)
+    assert TYPES.from_value("diagnostic_msgs/msg/DiagnosticStatus", {"level": -56}).level == -56

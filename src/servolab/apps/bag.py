@@ -20,7 +20,7 @@ from datetime import datetime
 from typing import TYPE_CHECKING
 
 from servolab.errors import UsageError
-from servolab.middleware.errors import MessageError
+from servolab.middleware.errors import BagError, MessageError
 
 from .arguments import add_transport, transport_options
 from .registry import Command
@@ -112,8 +112,10 @@ def damage_warner(action: str, warn: Say | None = None) -> Callable[[BagDamage],
 
 def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
              topics: list[str] | None = None, wait_matching: float = 2.0,
-             warn: Say | None = None) -> int:
-    """Publish a bag's messages on their topics at the bag's pace times ``rate``.
+             warn: Say | None = None, strict: bool = False) -> int:
+    """Publish a bag's messages on their topics at the bag's pace times ``rate``. A damaged
+    part is said and skipped, the rest played; ``strict`` (the command line's) then ends in
+    a one-line :class:`BagError` (exit status 2), so that a script learns of the damage.
 
     Waits up to ``wait_matching`` s for a subscription on every topic played first (not a
     fixed time), so subscribers started just before lose no message; says so, and plays
@@ -152,6 +154,9 @@ def play_bag(ctx: Context, path: str, say: Say, *, rate: float = 1.0,
     damaged = reader.damage
     skipped = f"; the file has {len(damaged)} damaged part(s), said above" if damaged else ""
     say(f"played {played} message(s){skipped}")
+    if damaged and strict:  # what was sound was played; a script must learn it was damaged
+        raise BagError(f"{path}: {len(damaged)} damaged part(s) skipped (servolab bag "
+                       "reindex keeps what is sound)")
     return played
 
 
@@ -326,7 +331,7 @@ def _run(args: argparse.Namespace) -> int:
                    regex=args.regex, exclude=args.exclude_regex)
         elif args.action == "play":
             play_bag(ctx, args.path, say, rate=args.rate, topics=args.topics,
-                     wait_matching=args.wait_matching)
+                     wait_matching=args.wait_matching, strict=True)
     return 0
 
 

@@ -343,7 +343,7 @@ class _Parser:
         fields = self.mapping(item, where, "a node entry", ())
         name_node = fields.require("name", where)
         name = self.text(name_node, where, "name")
-        where = f"node {quoted(name)}"  # quoted: a long name is cut
+        where = f"node {quoted(name, 40)}"  # quoted: a long name is cut (it is said twice)
         try:
             check_node_name(name)
         except NameValidationError as exc:  # one line, as every launch file error

@@ -21,11 +21,18 @@ import threading
 #: what a count is kept under when the transport cannot say who published (a plain Zenoh put
 #: without rmw_zenoh's attachment)
 UNKNOWN_PUBLISHER = b""
+#: what the publishers past :data:`MAX_PUBLISHERS` of a topic are counted under together: a
+#: GID is the sender's own word (rmw_zenoh's attachment), and a peer that forged a new one for
+#: every message would otherwise earn a log line and a table entry each
+OTHER_PUBLISHERS = b"others"
+MAX_PUBLISHERS = 64
 
 
 def publisher_name(gid: bytes) -> str:
-    """A publisher's GID as ROS 2 prints one (``ros2 topic info -v``: dotted hex bytes), or
-    ``"unknown"`` when the transport gave none."""
+    """A publisher's GID as ROS 2 prints one (``ros2 topic info -v``: dotted hex bytes),
+    ``"unknown"`` when the transport gave none, ``"others"`` for those past the limit."""
+    if gid == OTHER_PUBLISHERS:
+        return f"others (past {MAX_PUBLISHERS} publishers, counted together)"
     return ".".join(f"{b:02x}" for b in gid) if gid else "unknown"
 
 
@@ -35,15 +42,22 @@ class MalformedMessages:
 
     def __init__(self) -> None:
         self._counts: dict[tuple[str, bytes], int] = {}
+        self._publishers: dict[str, int] = {}  # distinct publishers counted per name
         self._lock = threading.Lock()
 
-    def count(self, name: str, publisher: bytes = UNKNOWN_PUBLISHER) -> int:
-        """Count one dropped message on ``name`` from ``publisher``; returns how many that
-        publisher has sent there so far (1: the first, the one to log)."""
+    def count(self, name: str, publisher: bytes = UNKNOWN_PUBLISHER) -> tuple[int, bytes]:
+        """Count one dropped message on ``name`` from ``publisher``; returns how many have
+        been counted under its key so far (1: the first, the one to log) and that key: the
+        publisher, or :data:`OTHER_PUBLISHERS` past :data:`MAX_PUBLISHERS` of them."""
         key = (name, bytes(publisher))
         with self._lock:
+            if key not in self._counts:
+                if self._publishers.get(name, 0) >= MAX_PUBLISHERS:
+                    key = (name, OTHER_PUBLISHERS)
+                else:
+                    self._publishers[name] = self._publishers.get(name, 0) + 1
             n = self._counts[key] = self._counts.get(key, 0) + 1
-        return n
+        return n, key[1]
 
     @property
     def total(self) -> int:

@@ -850,6 +850,8 @@ class MessageTypes:
             if isinstance(value, bool) or not isinstance(value, int | np.integer):
                 raise MessageError(f"{where}: {value!r} is not an integer ({kind})")
             low, high = _INT_RANGES[kind]
+            if kind == "byte":  # an octet as ROS writes it (0..255) or as rosbags holds it
+                low = -128
             if not low <= int(value) <= high:
                 raise MessageError(f"{where}: {value} is outside {kind}'s range {low}..{high}")
             return int(value)
@@ -889,7 +891,8 @@ class MessageTypes:
         if hasattr(msg, "__msgtype__"):
             self.load_package_of(msg.__msgtype__)  # another MessageTypes may have built it
             _, fields = self.store.fielddefs[msg.__msgtype__]
-            return {f: self.to_value(getattr(msg, f)) for f, _ in fields}
+            return {f: int(getattr(msg, f)) & 0xFF if _is_byte(desc)  # 0..255, as ROS says
+                    else self.to_value(getattr(msg, f)) for f, desc in fields}
         if isinstance(msg, np.ndarray | array.array):
             return msg.tolist()
         if isinstance(msg, list | tuple):
@@ -955,12 +958,16 @@ def _repr_scalar(kind: str, value: Any) -> str:
     if isinstance(value, np.generic):
         value = value.item()
     if kind == "byte":
-        return repr(bytes([int(value)]))  # rosidl's byte is a bytes of length 1
+        return repr(bytes([int(value) & 0xFF]))  # rosidl's byte is a bytes of length 1
     if kind == "bool":
         return repr(bool(value))
     if kind in _FLOATS:
         return repr(float(value))
     return repr(value)
+
+
+def _is_byte(desc: Any) -> bool:
+    return bool(desc[0] == Nodetype.BASE and desc[1][0] == "byte")
 
 
 def _signed_octet(value: int) -> int:

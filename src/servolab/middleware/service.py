@@ -63,7 +63,7 @@ class Service:
             try:
                 request = types.deserialize(request, self.srv.request)
             except CdrError as exc:  # from outside: answered, counted, said once
-                if self.node.context.malformed.count(self.name) == 1:
+                if self.node.context.malformed.count(self.name)[0] == 1:
                     self.node.get_logger().error(
                         "service %s: a request that is not a %s: %s (answered with the "
                         "error; the next are counted, not said again)", self.name,

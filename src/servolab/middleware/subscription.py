@@ -132,12 +132,12 @@ class Subscription:
         self.malformed += 1
         if info is NO_INFO:  # taken without its info: the inbox still knows who sent it
             info = self._inbox.last_info()
-        gid = info.publisher_gid
-        if self.node.context.malformed.count(self.topic, gid) == 1:
+        n, counted_as = self.node.context.malformed.count(self.topic, info.publisher_gid)
+        if n == 1:
             self.node.get_logger().error(
                 "dropped a malformed message on %s from publisher %s: %s (the next from "
                 "this publisher are dropped and counted, not said again)",
-                self.topic, publisher_name(gid), error)
+                self.topic, publisher_name(counted_as), error)
 
     def drain(self) -> int:
         """Run the callback for every message still waiting (a recorder stopping keeps what

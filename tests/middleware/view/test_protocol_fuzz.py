@@ -54,17 +54,24 @@ def test_random_text_is_an_op_or_refused_in_one_line(text: str) -> None:
 
 
 @fuzzing(200)
-@given(base=st.sampled_from(VALID_TEXT), key=st.text(max_size=16), value=json_values,
-       drop=st.booleans())
-def test_mutated_ops_are_an_op_or_refused_in_one_line(base: dict[str, Any], key: str,
-                                                      value: Any, drop: bool) -> None:
-    """A valid op with one field replaced (or one added) by any JSON value, or one dropped."""
-    message = dict(base)
-    field = key if key and not drop else next(iter(message))
-    if drop:
+@given(base=st.sampled_from(VALID_TEXT), data=st.data(), value=json_values,
+       how=st.sampled_from(["replace", "replace inside", "drop", "add"]))
+def test_mutated_ops_are_an_op_or_refused_in_one_line(base: dict[str, Any], data: Any,
+                                                      value: Any, how: str) -> None:
+    """A valid op with one of its fields (or a field of its first element) replaced by any
+    JSON value, or dropped, or a field added."""
+    message = json.loads(json.dumps(base))  # a deep copy
+    field = data.draw(st.sampled_from(sorted(message)))
+    if how == "replace":
+        message[field] = value
+    elif how == "replace inside" and isinstance(message[field], list) and message[field] \
+            and isinstance(message[field][0], dict):
+        inner = message[field][0]
+        inner[data.draw(st.sampled_from(sorted(inner)))] = value
+    elif how == "drop":
         message.pop(field)
     else:
-        message[field if field in message and len(key) % 2 else key] = value
+        message[data.draw(st.text(max_size=12))] = value
     _parsed_or_refused(parse_text, json.dumps(message))
 
 

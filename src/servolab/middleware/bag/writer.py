@@ -98,14 +98,16 @@ class _SpilledChunkIndexes:
     recorder ends a chunk every second, so a ten-hour walk would hold 180 MB for it
     (``benchmarks/soak.py``). Here each is serialized to an anonymous temporary file as its
     chunk ends, and this one object, left in the writer's list in their place, writes them all
-    back into the summary (byte for byte what ``ChunkIndex.write`` writes). Hand-written:
+    back into the summary (byte for byte what ``ChunkIndex.write`` writes): memory is then
+    taken once, when the bag is closed, as mcap builds its summary. Hand-written:
     the ``mcap`` library has no way to bound its summary's memory (rosbag2 bounds it by
     splitting bags). The writer's list is private to ``mcap``: where a future version renames
     it, nothing is spilled and the bag is still written whole."""
 
-    def __init__(self) -> None:
-        # closed by close(), when the bag is finished
-        self._file = tempfile.TemporaryFile(prefix="servolab-chunk-index-")  # noqa: SIM115
+    def __init__(self, folder: Path) -> None:
+        # beside the bag, not in /tmp, which is memory (tmpfs) on many systems; unnamed, so
+        # nothing is left behind; closed by close(), when the bag is finished
+        self._file = tempfile.TemporaryFile(prefix=".chunk-index-", dir=folder)  # noqa: SIM115
         self.count = 0
 
     def take(self, indexes: list[Any]) -> None:
@@ -181,7 +183,7 @@ class BagWriter:
             raise BagWriteError(f"cannot write bag {self.path}: {exc.strerror or exc}") from None
         self._chunk_indexes: list[Any] | None = getattr(self._mcap, "_Writer__chunk_indices",
                                                         None)
-        self._spilled = _SpilledChunkIndexes()
+        self._spilled = _SpilledChunkIndexes(self.path)
         self._lock = threading.Lock()
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
