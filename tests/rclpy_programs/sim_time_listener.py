@@ -29,9 +29,12 @@ def main(args=None):
     log.info('simulated time reached 101 s: %s (clock type %s)' % (
         now >= target, now.clock_type.name))
     log.info('far from the system time: %s' % (now.nanoseconds < 10**12))
+    # /clock runs 25 times faster than the wall clock: a listener the CPU leaves waiting
+    # for half a second sees 12.5 simulated seconds go by, so the bound allows for a loaded
+    # machine (the three ticks themselves need 3 s)
     start = Time(seconds=100, clock_type=ClockType.ROS_TIME)
-    log.info('a 1 s timer ticked %d times in at most 5 simulated seconds: %s' % (
-        len(ticks), now - start <= Duration(seconds=5)))
+    log.info('a 1 s timer ticked %d times in at most 20 simulated seconds: %s' % (
+        len(ticks), now - start <= Duration(seconds=20)))
     node.destroy_node()
     rclpy.shutdown()
 

@@ -135,9 +135,10 @@ def move(start: float, velocity: float, goal: float, profile_velocity: float,
     # the e-Manual's test: triangular when the triangle's peak sqrt(A x distance) (from rest)
     # does not exceed the profile velocity; a move of no distance is the smallest triangle
     kind = ProfileType.TRIANGULAR
-    if distance:
-        # the peak speed of a triangle from `along` to rest over the distance, capped by V
-        peak = math.sqrt(a_max * abs(distance) + along * along / 2)
+    # the peak speed of a triangle from `along` to rest over the distance, capped by V; a
+    # distance so small that the peak underflows to 0 (5e-324 rad) is no move at all
+    peak = math.sqrt(a_max * abs(distance) + along * along / 2) if distance else 0.0
+    if peak > 0:
         if peak > v_max:
             kind, peak = ProfileType.TRAPEZOIDAL, v_max
         to_peak = (peak * peak - along * along) / (2 * a_max if peak >= along else -2 * a_max)
