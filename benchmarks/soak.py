@@ -13,9 +13,9 @@ The anchor, measured in the same run: what the walk writes to its bag per row, i
 bag's size at the end over the rows played). Everything the walk records goes to the bag,
 so a process that kept what it records would grow about that much a row (more: Python
 objects are larger than CDR); the ratio slope / anchor says what share of it stays in
-memory. What is left is the MCAP writer's chunk index (``mcap.writer``: one record a chunk,
-with an offset per channel, kept until the bag is closed to write its summary; the recorder
-ends a chunk every second), in the bag layer's code, not the walk's.
+memory. The MCAP writer's chunk indexes (``mcap.writer``: one record a chunk, with an offset
+per channel, kept until the bag is closed to write its summary; the recorder ends a chunk
+every second) wait in a file beside the bag (``bag/writer.py``), so nothing is left.
 
 Measured on the development machine (Python 3.11, x86_64, shared with other work: 8 rows
 a second), ``benchmarks/soak.py --steps 120`` (2040 rows), the bag 3.6 kB a row in both:
