@@ -14,7 +14,7 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "servolab"
-ALGORITHMS = ("kinematics", "gait", "planning", "estimation", "vision")
+ALGORITHMS = ("kinematics", "gait", "planning", "estimation", "vision", "trajectories")
 CORE = ("clock", "configfile", "errors", "limits", "runs", "signals", "harness")
 
 

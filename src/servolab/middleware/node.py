@@ -185,13 +185,14 @@ class Node:
     # -- parameters --------------------------------------------------------------------------
 
     def declare_parameter(self, name: str, default: Any, *, description: str = "",
-                          read_only: bool = False) -> Parameter:
+                          read_only: bool = False, kind: int | None = None) -> Parameter:
         """Declare a parameter; returns it as rclpy does (``.value`` is an override if one
-        was given, else ``default``)."""
+        was given, else ``default``). ``kind`` (a ParameterType) types it where the default
+        cannot say (``[]`` for a string array), as rclpy's descriptor does."""
         if name in self._parameters:
             raise ParameterError(f"parameter {name} of {self.fully_qualified_name} is "
                                  "already declared")
-        kind = type_of(default)
+        kind = type_of(default) if kind is None else kind
         value = coerce(name, kind, self._overrides.get(name, default))
         self._parameters[name] = Parameter(name, value, kind, description, read_only)
         return replace(self._parameters[name])

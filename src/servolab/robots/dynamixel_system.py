@@ -133,6 +133,13 @@ def dynamixel_system(urdf: str, source: str = "<urdf>", *,
     return _system(ours[0], joints, source, default_model)
 
 
+def block_system(urdf: str, block: HardwareInfo, source: str = "<urdf>", *,
+                 default_model: str | None = None) -> DynamixelSystem:
+    """The Dynamixel bus of one ``<ros2_control>`` block of the URDF text ``urdf``."""
+    joints = {j.name: j for j in Description.from_urdf(urdf, source).joints}
+    return _system(block, joints, source, default_model)
+
+
 def _system(block: HardwareInfo, urdf_joints: dict[str, Joint], source: str,
             default_model: str | None) -> DynamixelSystem:
     where = block.where(source)
