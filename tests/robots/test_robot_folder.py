@@ -109,7 +109,9 @@ def test_the_dynamixel_bus_of_a_block() -> None:
     (arm(joints=joint("tip_joint", param("id", 1))),
      r"""<joint name="tip_joint">: a fixed joint cannot be driven"""),
     (arm(joints=joint("j1", param("motor_type", "XM430-W350"))),
-     r"""<joint name="j1">: no Dynamixel ID; add <param name="id">1</param>$"""),
+     r"""<joint name="j1">: no Dynamixel ID; add <param name="id">1</param> \(or give the """
+     r"""motors as <gpio> elements with type dxl and ID, as dynamixel_hardware_interface """
+     r"""does\)$"""),
     (arm(joints=joint("j1", param("id", 300), param("model", "XM430-W350"))),
      r"""<joint name="j1">: ID 300 is outside 0\.\.252$"""),
     (arm(joints=joint("j1", param("id", 1))),

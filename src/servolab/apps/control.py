@@ -32,17 +32,17 @@ VERBS = ("run", "spawner", "list_controllers", "list_controller_types",
 
 # -- run --------------------------------------------------------------------------------------
 
-def robot_files(robot: str, params: str | None) -> tuple[str, str, Path | None]:
-    """(URDF text, its name for errors, the controllers file) of ``robot``: a URDF file
-    (``.urdf`` or ``.urdf.xacro``) or a robot's name (its URDF and, without ``--params``, its
-    own controllers file)."""
+def robot_files(robot: str, params: str | None) -> tuple[str, str, Path | None, Any]:
+    """(URDF text, its name for errors, the controllers file, the plug-in or None) of
+    ``robot``: a URDF file (``.urdf`` or ``.urdf.xacro``) or a robot's name (its URDF and,
+    without ``--params``, its own controllers file)."""
     from servolab.robots.control.bringup import load_urdf
 
     path = Path(robot)
     if path.suffix in (".urdf", ".xacro") or path.is_file():
         if not path.is_file():
             raise UsageError(f"{robot}: no such URDF file")
-        return load_urdf(path), str(path), Path(params) if params else None
+        return load_urdf(path), str(path), Path(params) if params else None, None
     from servolab.robots.registry import entry
 
     plugin = entry(robot)
@@ -54,22 +54,29 @@ def robot_files(robot: str, params: str | None) -> tuple[str, str, Path | None]:
         found = [v for k, v in shown.items() if k.endswith(".controllers")
                  and isinstance(v, Path)]
         controllers = found[0] if found else None
-    return plugin.description(), f"{plugin.name}.urdf", controllers
+    return plugin.description(), f"{plugin.name}.urdf", controllers, plugin
 
 
 def bring_up(args: argparse.Namespace) -> ControlSystem:
     from servolab.middleware.parameters import ParameterOverrides
     from servolab.robots.control.bringup import BringUpOptions, ControlSystem
 
-    urdf, source, controllers = robot_files(args.robot, args.params)
+    urdf, source, controllers, plugin = robot_files(args.robot, args.params)
     if controllers is None:
         raise UsageError("give the controllers file: --params CONTROLLERS.yaml (a ros2_control "
                          "controllers file: controller_manager: ros__parameters: ...)")
     parameters = ParameterOverrides.from_file(controllers)
     parameters.merge(ParameterOverrides.from_assignments(args.param or []))
+    place = None
+    if args.world == "robot":
+        if plugin is None:
+            raise UsageError("--world robot takes a robot's name (its plug-in has the world), "
+                             "not a URDF file")
+        place = plugin.serve(None).place
     options = BringUpOptions(port=args.port, world=args.world, spawn=tuple(args.spawn),
                              inactive=tuple(args.inactive), namespace=args.namespace,
-                             transport=transport_options(args))
+                             transport=transport_options(args), place=place,
+                             default_model=args.model)
     return ControlSystem(urdf, source, parameters, options)
 
 
@@ -81,7 +88,8 @@ def control_run(args: argparse.Namespace, say: Say) -> int:
     server = None
     try:
         manager = system.manager
-        where = args.port or (f"emulated motors{' in MuJoCo' if args.world == 'mujoco' else ''}")
+        where = args.port or {"emulated": "emulated motors", "mujoco": "emulated motors in "
+                              "MuJoCo", "robot": "emulated motors in the robot's world"}[args.world]
         say(f"controller manager {manager.get_fully_qualified_name()} at "
             f"{manager.update_rate:g} Hz on {where}")
         for controller in manager.controllers.values():
@@ -298,7 +306,7 @@ def spawner(remote: RemoteManager, names: list[str], say: Say, *, inactive: bool
 # -- the parser -------------------------------------------------------------------------------
 
 def _manager_options(p: argparse.ArgumentParser) -> None:
-    from servolab.robots.control.remote import CALL_TIMEOUT, DEFAULT_MANAGER
+    from servolab.robots.control.defaults import CALL_TIMEOUT, DEFAULT_MANAGER
 
     p.add_argument("-c", "--controller-manager", default=DEFAULT_MANAGER, metavar="NAME",
                    help=f"the controller manager's node name (default {DEFAULT_MANAGER})")
@@ -308,9 +316,14 @@ def _manager_options(p: argparse.ArgumentParser) -> None:
 
 
 def _add_arguments(parser: argparse.ArgumentParser) -> None:
+    verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+    _add_run(verbs)
+    _add_verbs(verbs)
+
+
+def _add_run(verbs: Any) -> None:
     from servolab.apps.view import add_view_flag
 
-    verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     p = verbs.add_parser("run", help="bring a robot up under ros2_control and serve it",
                          description="Bring a robot up from its URDF's <ros2_control> block "
                          "and a controllers file, as a launch file with ros2_control_node and "
@@ -326,14 +339,21 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--port", default=None,
                    help="the robot's serial port or pyserial URL (default: emulated motors); "
                    "'urdf' uses the port its <ros2_control> block names")
-    p.add_argument("--world", choices=("emulated", "mujoco"), default="emulated",
-                   help="emulated motors alone, or moving the URDF in MuJoCo (default: "
-                   "emulated)")
+    p.add_argument("--world", choices=("emulated", "mujoco", "robot"), default="emulated",
+                   help="emulated motors alone; the URDF moved in MuJoCo under them; or the "
+                   "robot's own world, as servolab sim --robot serves it (a base on its floor) "
+                   "(default: emulated)")
     p.add_argument("--namespace", default="/", help="the controller manager's namespace")
+    p.add_argument("--model", default=None, metavar="MODEL",
+                   help="the Dynamixel model of motors the URDF names no model for (ROBOTIS's "
+                   "dynamixel_hardware_interface files name none), e.g. XM430-W350")
     p.add_argument("-p", "--param", action="append", metavar="NODE:NAME:=VALUE",
                    help="a parameter, as --ros-args -p (e.g. controller_manager:update_rate:=200)")
     add_view_flag(p)
     add_transport(p)
+
+
+def _add_verbs(verbs: Any) -> None:
     p = verbs.add_parser("spawner", help="load, configure and activate controllers, as ros2 "
                          "run controller_manager spawner")
     p.add_argument("controller_names", nargs="+", metavar="NAME")

@@ -15,18 +15,20 @@ from servolab.robots.control.bringup import BringUpOptions, ControlSystem
 DATA = Path(__file__).parent / "data"
 #: the robot in the community dynamixel_hardware's words (usb_port, per-joint id)
 TWO_JOINT = DATA / "two_joint.urdf"
+#: the same robot in ROBOTIS's dynamixel_hardware_interface's words (gpio motors, matrices)
+TWO_JOINT_ROBOTIS = DATA / "two_joint_robotis.urdf"
 CONTROLLERS = DATA / "two_joint_controllers.yaml"
 
 
 def bring_up(urdf: Path = TWO_JOINT, *, spawn: tuple[str, ...] = (),
              inactive: tuple[str, ...] = (), params: str | None = None,
-             world: str = "emulated") -> ControlSystem:
+             world: str = "emulated", default_model: str | None = None) -> ControlSystem:
     overrides = ParameterOverrides.from_file(CONTROLLERS)
     if params:
         overrides.merge(ParameterOverrides.from_text(params))
     return ControlSystem(urdf.read_text(), urdf.name, overrides,
                          BringUpOptions(spawn=spawn, inactive=inactive, real_time=False,
-                                        world=world))
+                                        world=world, default_model=default_model))
 
 
 @pytest.fixture

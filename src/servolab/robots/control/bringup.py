@@ -19,8 +19,8 @@ spawner does), ``inactive`` ones loaded and configured only.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,8 +39,10 @@ if TYPE_CHECKING:
     from ...middleware.transport import TransportOptions
     from ...sim.simulation import Simulation
 
-#: the worlds an emulated Dynamixel robot runs in
-WORLDS = ("emulated", "mujoco")
+#: the worlds an emulated Dynamixel robot runs in: its motors alone, its URDF in MuJoCo under
+#: them, or the world its plug-in puts it in (``place``: the floor for a base, as ``servolab sim
+#: --robot NAME`` serves it)
+WORLDS = ("emulated", "mujoco", "robot")
 #: what ``port`` says to use the port the URDF's block names
 PORT_FROM_URDF = "urdf"
 
@@ -59,7 +61,11 @@ class BringUpOptions:
     real_time: bool = True
     transport: TransportOptions | None = None
     state_publisher: bool = True
-    extra: dict[str, Any] = field(default_factory=dict)
+    #: the model of the motors whose block names none (ROBOTIS's dialect names none)
+    default_model: str | None = None
+    #: with ``world="robot"``: how the robot's plug-in puts its emulated motors in its world
+    #: (:attr:`servolab.robots.plugin.ServedRobot.place`)
+    place: Callable[[Emulator], tuple[Simulation, Emulator, Any]] | None = None
 
 
 class ControlSystem:
@@ -125,7 +131,8 @@ class ControlSystem:
         from ..dynamixel_system import block_system
         from .dynamixel_hardware import DynamixelHardware
 
-        system = block_system(self.urdf, block, source)
+        system = block_system(self.urdf, block, source,
+                              default_model=self.options.default_model)
         port = self.options.port
         if port == PORT_FROM_URDF:
             if system.port_name is None:
@@ -161,7 +168,12 @@ class ControlSystem:
         except ConfigError as exc:
             raise RobotValueError(f"{source}: {exc}") from None
         emulator = build_emulator(spec)
-        if self.options.world == "mujoco":
+        if self.options.world == "robot":
+            if self.options.place is None:
+                raise RobotValueError(f"{source}: --world robot needs a robot whose plug-in "
+                                      "has a world of its own (servolab robots show NAME)")
+            simulation, emulator, self.world = self.options.place(emulator)
+        elif self.options.world == "mujoco":
             from ..urdf_world import mujoco_placement
 
             place = mujoco_placement(self.urdf, system, source)

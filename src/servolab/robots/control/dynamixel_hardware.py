@@ -19,7 +19,18 @@ position and effort                5 current-based position                 both
 A model without operating modes (AX, RX, EX, MX 1.0) takes position only. Effort is N·m
 through the model's torque constant (stall torque over stall current, the e-Manual's
 figures): an X-series' present current times it, a 1.0 model's present load (a fraction of
-its stall torque) times its stall torque.
+its stall torque) times its stall torque. (ROBOTIS's plugin gives a joint's effort as raw
+current units; servolab keeps SI above the Dynamixel layer.)
+
+A joint is ``scale`` x its horn + ``offset`` (:class:`~..dynamixel_system.DynamixelJoint`: a
+``mechanical_reduction``, a sign or ratio of the transmission matrix, a ``mechanical_offset``);
+velocities scale with it and efforts inversely. The control-table items the block gives each
+motor (``Profile_Velocity``, ``Position P Gain``, ``Operating Mode``, ...) are written, raw,
+with torque off, when the component is configured, as both plugins write them at start.
+A ``<gpio type="dxl">``'s state interfaces (``dxl1/Present Position``) are read each update
+in ROBOTIS's units (rad, rad/s, V; current and the rest raw); its command interfaces are not
+exported (the joints command the motors), and a ``<joint>`` with a ``mimic`` parameter gets
+the state of the joint it names times ``multiplier``.
 
 Changing a mode turns torque off for the write (Operating Mode is EEPROM, e-Manual
 control_table_operating_mode) and on again, with the position command set to where the
@@ -32,11 +43,12 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from ...dynamixel.errors import DynamixelError
+from ...dynamixel import units
+from ...dynamixel.errors import ConfigError, DynamixelError
 from ...dynamixel.models import OPERATING_MODES, Model
-from ..dynamixel_system import DynamixelJoint, DynamixelSystem
-from ..hardware_info import HardwareInfo
-from .hardware import EFFORT, POSITION, VELOCITY, SystemInterface
+from ..dynamixel_system import DynamixelJoint, DynamixelSystem, register_name
+from ..hardware_info import HardwareInfo, HardwareInfoError
+from .hardware import EFFORT, POSITION, VELOCITY, SystemInterface, initial_value
 
 if TYPE_CHECKING:
     from ...dynamixel.bus import Bus
@@ -50,6 +62,16 @@ MODES: dict[frozenset[str], str] = {
 }
 #: the goal register each command interface writes
 GOALS = {POSITION: "goal_position", VELOCITY: "goal_velocity", EFFORT: "goal_current"}
+
+
+#: the units in which a motor gpio's state interfaces are read, as dynamixel_hardware_interface
+#: gives them (its model files' "[unit info]": rad, rad/s, V; everything else raw)
+GPIO_SI_UNITS = ("position", "velocity", "voltage")
+
+
+def gpio_value(model: Model, register: str, raw: int) -> float:
+    found = model.register(register)
+    return float(units.to_si(model, found, raw)) if found.unit in GPIO_SI_UNITS else float(raw)
 
 
 def torque_constant(model: Model) -> float:
@@ -71,6 +93,10 @@ class DynamixelHardware(SystemInterface):
         #: joint -> the command interfaces it obeys now
         self.obeys: dict[str, frozenset[str]] = {j: frozenset({POSITION}) for j in self.joints}
         self._reads = self._read_groups()
+        self._gpio_reads = self._gpio_groups()
+        self._mimics = [(c.name, c.parameters["mimic"],
+                         float(c.parameters.get("multiplier", "1") or 1))
+                        for c in info.joints if "mimic" in c.parameters]
         #: the command interfaces of its joints that controllers hold now
         self.claimed: set[str] = set()
         #: (ID, command interface) -> the motor's limit for it, SI
@@ -91,7 +117,47 @@ class DynamixelHardware(SystemInterface):
             joints.append(joint.name)
         return [(list(names), ids, joints) for names, (ids, joints) in groups.items()]
 
+    def _gpio_groups(self) -> list[tuple[str, int, Model, list[tuple[str, str]]]]:
+        """(gpio, ID, model, [(state interface, register)]) of each motor gpio with state
+        interfaces."""
+        by_element = {j.element: j for j in self.system.joints}
+        found = []
+        for gpio in self.info.gpios:
+            joint = by_element.get(f'<gpio name="{gpio.name}">')
+            if joint is None or not gpio.state_interfaces:
+                continue
+            names = []
+            for interface in gpio.state_interfaces:
+                register = register_name(interface.name)
+                if not joint.model.has(register):
+                    raise HardwareInfoError(
+                        f'{self.name}: <gpio name="{gpio.name}"> <state_interface name='
+                        f'"{interface.name}">: the {joint.model.name} has no {register} register')
+                names.append((f"{gpio.name}/{interface.name}", register))
+            found.append((gpio.name, joint.id, joint.model, names))
+        return found
+
+    def export_command_interfaces(self) -> list[tuple[str, float]]:
+        """The joints' command interfaces (a motor gpio's are the joints' to write)."""
+        return [(f"{c.name}/{i.name}", initial_value(i.parameters))
+                for c in self.info.joints for i in c.command_interfaces]
+
     # -- lifecycle --------------------------------------------------------------------------
+
+    def on_configure(self) -> bool:
+        """Write each motor's control-table items from the block, torque off (EEPROM items
+        need it), in the order given."""
+        try:
+            for joint in self.system.joints:
+                if not joint.settings:
+                    continue
+                self.bus.write(joint.id, "torque_enable", 0)
+                for register, value in joint.settings:
+                    self.bus.write(joint.id, register, value, raw=True)
+        except (DynamixelError, ConfigError) as exc:
+            self.error = f"{self.name}: {' '.join(str(exc).split())}"
+            return False
+        return True
 
     def on_activate(self) -> bool:
         """Torque on; every command set to where its joint is, so nothing moves."""
@@ -179,7 +245,7 @@ class DynamixelHardware(SystemInterface):
         if mode in ("position", "current_based_position"):
             bus.write(joint.id, "goal_position", present)
         bus.write(joint.id, "torque_enable", 1)
-        self.states[f"{joint.name}/{POSITION}"] = present
+        self.states[f"{joint.name}/{POSITION}"] = joint.to_joint(present)
 
     # -- the update loop --------------------------------------------------------------------
 
@@ -191,13 +257,23 @@ class DynamixelHardware(SystemInterface):
                 for motor_id, joint in zip(ids, joints, strict=True):
                     row = values[motor_id]
                     position, velocity, load = (float(row[n]) for n in names)
-                    states[f"{joint}/{POSITION}"] = position
+                    motor = self.joints[joint]
+                    states[f"{joint}/{POSITION}"] = motor.to_joint(position)
                     key = f"{joint}/{VELOCITY}"
                     if key in states:
-                        states[key] = velocity
+                        states[key] = motor.scale * velocity
                     key = f"{joint}/{EFFORT}"
                     if key in states:
-                        states[key] = self._effort(self.joints[joint].model, names[2], load)
+                        states[key] = self._effort(motor.model, names[2], load) / motor.scale
+            for _gpio, motor_id, model_, interfaces in self._gpio_reads:
+                raw = self.bus.read(motor_id, [r for _, r in interfaces], raw=True)
+                for name, register in interfaces:
+                    states[name] = gpio_value(model_, register, int(raw[register]))
+            for joint, leader, multiplier in self._mimics:
+                for interface in (POSITION, VELOCITY, EFFORT):
+                    key, source = f"{joint}/{interface}", f"{leader}/{interface}"
+                    if key in states and source in states:
+                        states[key] = multiplier * states[source]
         except DynamixelError as exc:
             self.error = f"{self.name}: {' '.join(str(exc).split())}"
             return False
@@ -218,12 +294,16 @@ class DynamixelHardware(SystemInterface):
                 value = commands.get(f"{name}/{interface}", math.nan)
                 if not math.isfinite(value):
                     continue
-                if interface == EFFORT:
+                value = self._within(joint, interface, value)
+                if interface == POSITION:
+                    value = joint.to_horn(value)
+                elif interface == VELOCITY:
+                    value /= joint.scale
+                else:  # effort: the horn's torque, as a current
                     kt = torque_constant(joint.model)
                     if kt <= 0:
                         continue
-                    value /= kt
-                value = self._within(joint, interface, value)
+                    value = value * joint.scale / kt
                 goals.setdefault(GOALS[interface], {})[joint.id] = value
         try:
             for register, values in goals.items():
@@ -245,6 +325,10 @@ class DynamixelHardware(SystemInterface):
                 value = min(value, joint.upper)
             return value
         top = self._limits.get((joint.id, interface), math.inf)
+        if interface == VELOCITY:
+            top *= abs(joint.scale)
+        elif interface == EFFORT:
+            top *= torque_constant(joint.model) / abs(joint.scale)
         return min(max(value, -top), top)
 
     def _read_limits(self) -> None:

@@ -307,8 +307,9 @@ class JointTrajectoryController(ControllerInterface):
         self._holding = True
 
     def update(self, time: float, period: float) -> bool:
-        """One step, on the trajectories' time line: ROS time, as their header stamps."""
-        time = self.node.context.ros_time(time)
+        """One step, on the trajectories' time line: ROS time, as their header stamps
+        (``reading`` keeps the clock's, which the node stamps messages from)."""
+        reading, time = time, self.node.context.ros_time(time)
         goal = self._goal
         if goal is not None and goal.handle.is_cancel_requested:
             self.node.get_logger().info("Canceling active action goal because cancel "
@@ -325,7 +326,7 @@ class JointTrajectoryController(ControllerInterface):
                                           arrays.accelerations, start_time=stamp)
         trajectory = self._trajectory
         if trajectory is None:
-            self._publish(time, None, current)
+            self._publish(reading, None, current)
             return True
         if not trajectory.is_sampled_already:
             first = True
@@ -339,7 +340,7 @@ class JointTrajectoryController(ControllerInterface):
                                   search_monotonically_increasing=False)
         if desired.state is None or ahead.state is None or desired.end_index is None \
                 or desired.start_index is None:
-            self._publish(time, None, current)
+            self._publish(reading, None, current)
             return True
         wanted, next_command = desired.state, ahead.state
         count = len(trajectory.points)
@@ -370,7 +371,7 @@ class JointTrajectoryController(ControllerInterface):
             self._last_command = next_command
         log = self.node.get_logger()
         if goal is not None:
-            self._feedback(goal, time, current, wanted, error_p, error_v)
+            self._feedback(goal, reading, current, wanted, error_p, error_v)
             if violated_moving:
                 self._end(goal, "abort", PATH_TOLERANCE_VIOLATED,
                           "Aborted due to path tolerance violation")
@@ -393,7 +394,7 @@ class JointTrajectoryController(ControllerInterface):
         elif not before_last and not within_goal_time:
             log.error("Exceeded goal_time_tolerance: holding position...")
             self._hold(current.positions)
-        self._publish(time, wanted, current, error_p, error_v)
+        self._publish(reading, wanted, current, error_p, error_v)
         return True
 
     def _write(self, point: PointState, error: np.ndarray, *, hold: bool = False,

@@ -10,16 +10,13 @@ from typing import TYPE_CHECKING, Any
 
 from ...middleware.errors import MiddlewareError
 from ..errors import RobotError
+from .defaults import CALL_TIMEOUT, DEFAULT_MANAGER
 from .manager import SRV, STRICT
 
 if TYPE_CHECKING:
     from ...middleware.context import Context
     from ...middleware.node import Node
 
-#: the controller manager's default name, as ros2controlcli's ``-c`` defaults it
-DEFAULT_MANAGER = "/controller_manager"
-#: s a service call waits for its answer (the spawner's --service-call-timeout)
-CALL_TIMEOUT = 10.0
 
 
 class RemoteManager:
