@@ -45,12 +45,9 @@ import json
 import os
 import platform
 import re
-import select
-import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -58,6 +55,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from servolab.sim.pty_process import pty_process
 
 STEPS = 120
 QUICK_STEPS = 6
@@ -88,28 +87,9 @@ def simulated_robot(out: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     """``servolab sim --pty --robot armstrong``: the biped's bus at its real baud rate
     (57 142 bps, seed 001), in real time; yields (its pty, the process), stopped at the end."""
     out.mkdir(parents=True, exist_ok=True)
-    log = (out / "sim.log").open("w")  # what the simulated robot said, for an early end
-    sim = subprocess.Popen([sys.executable, "-m", "servolab", "sim", "--pty", "--robot",
-                            "armstrong", "--out", str(out)], stdout=subprocess.PIPE,
-                           stderr=log, stdin=subprocess.DEVNULL, text=True)
-    try:
-        assert sim.stdout is not None
-        ready, _, _ = select.select([sim.stdout], [], [], 60.0)
-        device = sim.stdout.readline().strip() if ready else ""
-        if not device:
-            raise SystemExit("servolab sim --pty printed no device within 60 s")
-        # whatever else it prints is read, so that a full pipe never blocks the robot
-        threading.Thread(target=sim.stdout.read, daemon=True).start()
-        yield device, sim
-    finally:
-        if sim.poll() is None:
-            sim.send_signal(signal.SIGINT)
-            try:
-                sim.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                sim.kill()
-                sim.wait()
-        log.close()
+    with (out / "sim.log").open("w") as log, \
+            pty_process("--robot", "armstrong", out_dir=out, stderr=log) as served:
+        yield served
 
 
 def walk(steps: int, out: Path, port: str | None = None,

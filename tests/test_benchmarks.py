@@ -600,3 +600,35 @@ def test_view_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert "foxglove-sdk" in out.splitlines()[0]
     assert not [t.name for t in threading.enumerate()
                 if t.name in ("servolab-view", "view-bench-client") and t.is_alive()]
+
+
+CONTROL = BENCHMARK.with_name("control.py")
+
+
+def test_control_wire_figure_is_the_packet_sizes() -> None:
+    """One update of 5 XM430 at 1 Mbps, return delay 0: SYNC_READ 10 + 4 + 5 = 19 bytes out,
+    5 statuses of 10 + 1 + 10 = 21 bytes in, SYNC_WRITE 10 + 4 + 5 x 5 = 39 bytes out
+    (e-Manual, Protocol 2.0: Sync Read / Sync Write), 163 bytes = 1.63 ms; the virtual wire
+    the emulated motors run on takes the same."""
+    bench = _load(CONTROL, "control_bench")
+    assert bench.analytic_wire(5, 0.0) == pytest.approx(163 * 10 / 1e6)
+    assert bench.analytic_wire(5, 0.5e-3) == pytest.approx(163 * 10 / 1e6 + 5 * 0.5e-3)
+    assert bench.virtual_wire(2, 0, updates=5) == pytest.approx(bench.analytic_wire(2, 0.0))
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(180)
+def test_control_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The update loop on a pty: the anchor, each asked rate's achieved rate and ratios."""
+    bench = _load(CONTROL, "control_bench")
+    out = tmp_path / "control.json"
+    assert bench.main(["--joints", "2", "--seconds", "0.5", "--rates", "50", "--load", "1",
+                       "--json", str(out)]) == 0
+    figures = json.loads(out.read_text())
+    assert set(figures["wire"]) == {"250", "0"}
+    assert _positive(figures["anchor_hz"]) and _positive(figures["wire_limit_hz"])
+    (row,) = figures["rates"]
+    assert row["asked_hz"] == 50
+    assert all(_positive(row[k]) for k in ("achieved_hz", "of_asked", "of_anchor"))
+    printed = capsys.readouterr().out
+    assert "of the wire limit" in printed and "of the anchor" in printed

@@ -146,7 +146,7 @@ def test_a_failed_read_deactivates_the_controllers_and_the_joints_hold(
     command(two_joint, "forward_position_controller", [0.3, 0.2])
     two_joint.context.spin_for(1.5)
     assert two_joint.emulator is not None
-    two_joint.emulator.unplug(2)
+    motor = two_joint.emulator.unplug(2)
     with caplog.at_level("ERROR"):
         two_joint.context.spin_for(0.3)
     text = caplog.text
@@ -163,6 +163,13 @@ def test_a_failed_read_deactivates_the_controllers_and_the_joints_hold(
     bus = two_joint.buses[0]
     assert float(bus.read(1, "present_position")) == pytest.approx(0.3, abs=0.01)
     assert float(bus.read(1, "goal_position")) == pytest.approx(0.3, abs=0.01)
+    # the cable back in: set_hardware_component_state active configures and activates the
+    # component again (hardware_component lifecycle: unconfigured -> inactive -> active)
+    two_joint.emulator.add(motor)
+    ok, message = manager.set_hardware_component_state("TwoJoint", ACTIVE)
+    assert ok, message
+    assert manager.components.by_name["TwoJoint"].state == ACTIVE
+    assert "joint1/position" in manager.interfaces.available_commands
 
 
 def test_hardware_component_states(two_joint: ControlSystem) -> None:
