@@ -69,15 +69,25 @@ def test_show_prints_the_shipped_file(name: str, capsys: pytest.CaptureFixture[s
 def test_show_prints_the_biped_description(name: str, root: str,
                                            capsys: pytest.CaptureFixture[str]) -> None:
     """The URDF and the MJCF, written from the one description (robots/armstrong/
-    description.py): the text the module writes, an XML document of the right kind."""
+    description.py): the text the module writes, an XML document of the right kind. The
+    URDF is the one ``servolab control run armstrong`` runs: the description with the
+    ``<ros2_control>`` block of the biped's bus (robots/armstrong/ros2_control.py) added."""
     import xml.etree.ElementTree as ET
 
     from servolab.robots.armstrong.description import model_file
 
     assert main(["robots", "show", name]) == 0
     printed = capsys.readouterr().out
-    assert printed == model_file(name.split(".")[1])
-    assert ET.fromstring(printed).tag == root
+    shown = ET.fromstring(printed)
+    assert shown.tag == root
+    if root == "robot":
+        blocks = shown.findall("ros2_control")
+        assert [b.get("name") for b in blocks] == ["armstrong"], "one <ros2_control> block"
+        shown.remove(blocks[0])
+        assert ET.canonicalize(ET.tostring(shown), strip_text=True) == ET.canonicalize(
+            model_file("urdf").split("?>", 1)[-1], strip_text=True)
+    else:
+        assert printed == model_file(name.split(".")[1])
 
 
 def test_show_of_something_not_shipped_is_one_line_and_exit_2(

@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from ...configfile import suggest
+from ...dynamixel import units
 from ...dynamixel.models import model
 from ...kinematics.leg import (
     ARMSTRONG_LEG,
@@ -455,6 +456,48 @@ def describe(assumptions: Assumptions | None = None,
     links = tuple(Link(name, tuple(parts)) for name, parts in boxes.items())
     return Description("armstrong", "pelvis", links, tuple(joints), drive, MATERIALS, _HEADER,
                        assumptions=a)
+
+
+@dataclass(frozen=True)
+class HornMap:
+    """How one joint turns its motor's horn: ``horn = offset + sign x joint angle`` (rad),
+    ``offset`` the motor's ``init`` as a horn angle (0 at the RX-28's centre tick, what the
+    firmware counts), ``sign`` its ``direction`` (the description's: motor angle = direction
+    x joint angle) times its controller's ``flip`` (the configuration's: horn = init + flip x
+    motor angle). The emulated robot's worlds turn their joints by it (:mod:`.physics`), and
+    the ``<ros2_control>`` block states it (:mod:`.ros2_control`)."""
+
+    joint: str
+    column: str
+    id: int
+    offset: float
+    direction: int
+    flip: int
+
+    @property
+    def sign(self) -> int:
+        return self.direction * self.flip
+
+
+def horn_maps(description: Description, config: RobotConfig) -> dict[str, HornMap]:
+    """Each joint whose motor is on the bus, by joint name, in the motion files' column
+    order: how its horn follows it, from ``description``'s directions and ``config``'s
+    ``init`` and flips."""
+    rx28 = model(MODEL)
+    position = rx28.register("goal_position")
+    controllers = {c.motor.id: c.motor for c in config.controllers}
+    maps = {}
+    for joint, motor in description.motors:
+        if not description.motor(joint).on_bus:
+            continue
+        if motor.id not in controllers:
+            raise RobotValueError(f"no controller for motor {motor.id} ({joint.name}) in "
+                                  f"{config.path or 'the configuration'}")
+        raw = controllers[motor.id]
+        maps[joint.name] = HornMap(joint.name, motor.actuator, motor.id,
+                                   float(units.to_si(rx28, position, raw.init)),
+                                   motor.direction, -1 if raw.flipped else 1)
+    return maps
 
 
 # -- the generated files ----------------------------------------------------------------------

@@ -21,13 +21,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...dynamixel import units
 from ...dynamixel.emulator import Emulator
 from ...sim.mujoco_world import MujocoWorld, ServoJoint
 from ...sim.simulation import Simulation
 from ..controllers.config import RobotConfig
 from ..errors import RobotValueError
-from .description import Assumptions, Description, describe, mjcf
+from .description import Assumptions, Description, describe, horn_maps, mjcf
 
 #: The worlds ``servolab walk`` can put the emulated robot in (the first is the default).
 WORLDS = ("kinematic", "mujoco")
@@ -63,23 +62,14 @@ def armstrong_world(simulation: Simulation, emulator: Emulator, config: RobotCon
     (:class:`~servolab.sim.mujoco_world.MujocoWorld`'s ``held_until_torque``), as served to a
     client that comes when it comes."""
     description = describe(assumptions, config)
-    init = {c.motor.id: c.motor for c in config.controllers}
     joints = []
-    for joint, motor in description.motors:
-        if not description.motor(joint).on_bus:
-            continue
-        if motor.id not in init:
-            raise RobotValueError(f"no controller for motor {motor.id} in "
-                                  f"{config.path or 'the configuration'}")
+    for horn in horn_maps(description, config).values():
         try:
-            servo = emulator.motor(motor.id)
+            servo = emulator.motor(horn.id)
         except Exception:
-            raise RobotValueError(f"motor {motor.id} ({joint.name}) is not on the emulated "
+            raise RobotValueError(f"motor {horn.id} ({horn.joint}) is not on the emulated "
                                   "bus") from None
-        raw = init[motor.id]
-        offset = units.to_si(servo.model, servo.model.register("goal_position"), raw.init)
-        flip = -1 if raw.flipped else 1
-        joints.append(ServoJoint(joint.name, servo, offset, flip * motor.direction))
+        joints.append(ServoJoint(horn.joint, servo, horn.offset, horn.sign))
     world = MujocoWorld(mjcf(description, drive="firmware"), joints, base=description.root,
                         feet=FEET, start=simulation.now(), held_until_torque=held)
     simulation.add(world)

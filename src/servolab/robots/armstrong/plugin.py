@@ -38,16 +38,20 @@ def _open(port: str | None) -> Any:
 
 
 def _urdf() -> str:
-    from .description import model_file
+    """The description's URDF with the ``<ros2_control>`` block of its bus: what ``servolab
+    control run armstrong`` brings up (with ``armstrong.controllers``)."""
+    from .ros2_control import control_urdf
 
-    return model_file("urdf")
+    return control_urdf()
 
 
 def _files() -> Mapping[str, ShownFile]:
     from .description import assumptions_table, model_file
+    from .ros2_control import CONTROLLERS
 
     return {"armstrong.mjcf": lambda: model_file("mjcf"),
-            "armstrong.assumptions": assumptions_table}
+            "armstrong.assumptions": assumptions_table,
+            "armstrong.controllers": CONTROLLERS}
 
 
 def _served(baudrate: int | None) -> ServedRobot:
@@ -68,6 +72,7 @@ def _layout() -> Layout:
 
 
 ROBOTS = (RobotPlugin(
-    "armstrong", "seed 001's 21-servo biped (20 on its bus), dynamixel_motor controllers",
+    "armstrong", "seed 001's 21-servo biped (20 on its bus), dynamixel_motor controllers "
+    "or ros2_control",
     bus=_bus, open=_open, on_stop=ON_STOP, config=_config, files=_files, description=_urdf,
     served=_served, layout=_layout, aliases=("seed001",), commands=("walk", "gait")),)

@@ -33,7 +33,6 @@ from typing import Any
 import numpy as np
 
 from ...rclpy.action import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
-from ...rclpy.action.server import GoalEvent
 from ...rclpy.task import Future
 from ...trajectories import (
     Constraints,
@@ -52,6 +51,7 @@ from ...trajectories import (
     validate_trajectory,
 )
 from .controller import INDIVIDUAL, ControllerError, ControllerInterface, InterfaceConfiguration
+from .goals import end_goal
 from .hardware import ACCELERATION, EFFORT, POSITION, VELOCITY
 
 ACTION = "control_msgs/action/FollowJointTrajectory"
@@ -276,13 +276,7 @@ class JointTrajectoryController(ControllerInterface):
 
     def _end(self, goal: _Goal, how: str, code: int, text: str) -> None:
         handle = goal.handle
-        if handle.is_active:
-            if how == "canceled" and not handle.is_cancel_requested:
-                # rcl_action cancels from CANCELING only: the goal is canceled by the
-                # controller itself (deactivation), as if asked
-                handle._update_state(GoalEvent.CANCEL_GOAL)
-            {"succeed": handle.succeed, "abort": handle.abort,
-             "canceled": handle.canceled}[how]()
+        end_goal(handle, how)
         goal.future.set_result(self.node.message(f"{ACTION}_Result", error_code=code,
                                                  error_string=text))
         if self._goal is goal:

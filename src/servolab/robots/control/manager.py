@@ -531,8 +531,12 @@ class ControllerManager(Node):
         for controller in self.controllers.values():
             if controller.is_active:
                 self._deactivate(controller)
+        now = self.context.clock.now()
         for component in self.components:
             if component.state == ACTIVE:
+                # what the controllers left on deactivation (a diff drive's zero wheel
+                # speeds) reaches the motors before the component stops them itself
+                component.system.write(now, 1.0 / self.update_rate)
                 component.system.on_deactivate()
                 component.state = INACTIVE
 

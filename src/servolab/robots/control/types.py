@@ -14,7 +14,8 @@ from .controller import ControllerInterface
 
 def standard_types() -> Mapping[str, type[ControllerInterface]]:
     """ros2_controllers' controllers that servolab ships, by type name."""
-    from . import forward_command, joint_state_broadcaster, joint_trajectory
+    from . import diff_drive, forward_command, joint_state_broadcaster, joint_trajectory
+    from .gripper_action import CONTROLLERS as GRIPPER_ACTION
 
     classes: list[type[ControllerInterface]] = [
         joint_state_broadcaster.JointStateBroadcaster,
@@ -24,5 +25,7 @@ def standard_types() -> Mapping[str, type[ControllerInterface]]:
         forward_command.JointGroupPositionController,
         forward_command.JointGroupVelocityController,
         forward_command.JointGroupEffortController,
+        diff_drive.DiffDriveController,
+        *GRIPPER_ACTION,
     ]
     return {c.TYPE: c for c in classes}
