@@ -36,6 +36,7 @@ _SEND_GOAL_TYPE = "_SendGoal"
 #: how long Ctrl-C waits for the server to answer the cancel, and then for the goal's end
 CANCEL_WAIT_S = 5.0
 STATUS_UNKNOWN = 0
+STATUS_SUCCEEDED = 4
 STATUS_NAMES = {0: "UNKNOWN", 1: "ACCEPTED", 2: "EXECUTING", 3: "CANCELING", 4: "SUCCEEDED",
                 5: "CANCELED", 6: "ABORTED"}
 
@@ -126,11 +127,22 @@ def _yaml(ctx: Context, msg: Any) -> str:
 def send_goal(ctx: Context, name: str, type_name: str, values: str, say: Say, *,
               feedback: bool = False, timeout: float = 30.0) -> int:
     """Send one goal and wait for its end; the final status (a GoalStatus number)."""
+    goal = parse_goal(ctx.types, type_name, values)  # refused before the graph is joined
+    return send_goal_message(ctx, name, type_name, goal, say, feedback=feedback,
+                             timeout=timeout)
+
+
+def send_goal_message(ctx: Context, name: str, type_name: str, goal: Any, say: Say, *,
+                      feedback: bool = False, timeout: float = 30.0,
+                      show_goal: bool = True) -> int:
+    """Send the goal message ``goal`` and wait for its end, printing as ``ros2 action
+    send_goal`` does (the goal itself only with ``show_goal``: a trajectory of hundreds of
+    points is not read on a terminal); Ctrl-C cancels it. The final status (a GoalStatus
+    number)."""
     from servolab.rclpy.action import ActionClient
 
     from ._graph import tool_node
 
-    goal = parse_goal(ctx.types, type_name, values)  # refused before the graph is joined
     node = tool_node(ctx, "action")
     client = ActionClient(node, type_name, name)
     say("Waiting for an action server to become available...")
@@ -139,7 +151,8 @@ def send_goal(ctx: Context, name: str, type_name: str, values: str, say: Say, *,
         listed = f"; the graph has {', '.join(there)}" if there else ""
         raise UsageError(f"no action server for {client.name} within {timeout:g} s "
                          f"(--timeout){listed}")
-    say(f"Sending goal:\n     {_yaml(ctx, goal)}\n")
+    if show_goal:
+        say(f"Sending goal:\n     {_yaml(ctx, goal)}\n")
 
     # feedback and the goal's answer come by different ways: feedback that comes first waits
     # until the acceptance is printed, so the output reads in the goal's order

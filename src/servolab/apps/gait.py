@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .arguments import add_out
 from .registry import Command
@@ -76,6 +76,59 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     c.add_argument("--rate", type=float, default=PLAY_RATE, metavar="HZ",
                    help=f"rows a second it will be played at (default {PLAY_RATE:g})")
     c.add_argument("--config", metavar="YAML", help=CONFIG_HELP)
+    _add_send(sub)
+
+
+def _add_send(sub: Any) -> None:
+    from ..gait.walking import PLAY_RATE
+    from .arguments import add_transport, positive_float
+
+    s = sub.add_parser("send", help="send a motion to Armstrong's legs_controller as one "
+                       "FollowJointTrajectory goal",
+                       description="Send a motion (the seed's gait by default) to a running "
+                       "'servolab control run armstrong' as one FollowJointTrajectory goal "
+                       "for its legs_controller (joint_trajectory_controller): each row one "
+                       "period after the last, at --rate rows a second, the leg columns as "
+                       "the URDF's joint angles. Waits for the result; exit 0 when it "
+                       "succeeded, 1 otherwise; Ctrl-C cancels the goal (the legs hold).")
+    s.add_argument("file", metavar="CSV", nargs="?", default=None,
+                   help="the motion file (default: the seed's gait, generated now)")
+    s.add_argument("--steps", type=int, default=1, metavar="N",
+                   help="how many times the sequence is played (default 1)")
+    s.add_argument("--rows", type=int, default=None, metavar="N",
+                   help="send only the first N rows of the whole")
+    s.add_argument("--rate", type=positive_float, default=PLAY_RATE, metavar="HZ",
+                   help=f"rows a second (default {PLAY_RATE:g}, the seed's)")
+    s.add_argument("--controller", default="/legs_controller", metavar="NAME",
+                   help="the joint_trajectory_controller (default /legs_controller)")
+    s.add_argument("--timeout", type=positive_float, default=30.0, metavar="S",
+                   help="s to wait for the controller's action server (default 30)")
+    s.add_argument("--config", metavar="YAML", help=CONFIG_HELP)
+    add_transport(s)
+
+
+def _send(args: argparse.Namespace) -> int:
+    from servolab.middleware.context import Context
+
+    from ..robots.armstrong.motions import load_motion
+    from ..robots.armstrong.ros2_control import legs_trajectory
+    from ._graph import say
+    from .action import STATUS_SUCCEEDED, send_goal_message
+    from .arguments import transport_options
+
+    # the motion and its trajectory are checked before the graph is joined
+    motion = load_motion(args.file, args.config)
+    trajectory = legs_trajectory(motion, rate=args.rate, steps=args.steps, rows=args.rows,
+                                 config=args.config)
+    action = f"{args.controller.rstrip('/')}/follow_joint_trajectory"
+    kind = "control_msgs/action/FollowJointTrajectory"
+    with Context.open(transport_options(args)) as ctx:
+        goal = ctx.types.from_value(f"{kind}_Goal", {"trajectory": trajectory.fields()})
+        say(f"{len(trajectory.times)} points of {len(trajectory.joint_names)} joints over "
+            f"{trajectory.duration:.2f} s to {action}")
+        status = send_goal_message(ctx, action, kind, goal, say, timeout=args.timeout,
+                                   show_goal=False)
+    return 0 if status == STATUS_SUCCEEDED else 1
 
 
 def _parameters(args: argparse.Namespace) -> GaitParameters:
@@ -157,14 +210,18 @@ def _check(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     if args.action == "check":
         return _check(args)
+    if args.action == "send":
+        return _send(args)
     return _generate(args)
 
 
 COMMAND = Command(
     name="gait", group="robots", help="generate the biped's walking sequence (seed 001)",
     description="The walking-pattern generator of seed 001 (Appendix D and E): one sequence "
-    "of motor angles as a motion file, with plots of the feet and joint angles; and a motion "
-    "file checked as the robot would play it.",
+    "of motor angles as a motion file, with plots of the feet and joint angles; a motion "
+    "file checked as the robot would play it; and a motion sent to the legs under "
+    "ros2_control as one trajectory goal.",
     examples=("servolab gait generate", "servolab gait generate --l-step 30 --h-step 15",
-              "servolab gait generate --rate 2", "servolab gait check gait.csv"),
+              "servolab gait generate --rate 2", "servolab gait check gait.csv",
+              "servolab gait send --steps 2   # to servolab control run armstrong"),
     add_arguments=_add_arguments, run=_run)

@@ -142,6 +142,26 @@ def test_a_new_goal_preempts_and_a_cancel_holds(rig: Rig) -> None:
     assert rig.positions() == pytest.approx(held, abs=0.02)
 
 
+def test_deactivation_aborts_the_goal_and_keeps_the_position_commands(rig: Rig) -> None:
+    """ros2_controllers jazzy, joint_trajectory_controller.cpp ``on_deactivate`` (lines
+    1255-1308): the active goal is aborted with INVALID_GOAL, "Current goal cancelled during
+    deactivate transition."; each position command is set to its own value (kept), not to the
+    measured position."""
+    _handle, ended = rig.send(rig.goal([(3.0, [1.0, 1.0], None)]), 1.0)
+    manager = rig.system.manager
+    table = manager.interfaces.commands
+    ok, message = manager.switch_controller([], ["joint_trajectory_controller"], STRICT)
+    assert ok, message
+    kept = [table[f"joint{i}/position"] for i in (1, 2)]
+    rig.system.context.spin_for(0.2)
+    result = ended.result()
+    assert result.status == STATUS_ABORTED
+    assert (result.result.error_code, result.result.error_string) == (
+        -1, "Current goal cancelled during deactivate transition.")
+    assert [table[f"joint{i}/position"] for i in (1, 2)] == kept
+    assert 0.0 < kept[0] < 1.0, f"the command {kept[0]} is not a point on the way to 1.0"
+
+
 def test_goals_it_refuses(rig: Rig) -> None:
     bad = rig.probe.message(f"{ACTION}_Goal", trajectory={
         "joint_names": ["joint1", "elbow"], "points": [

@@ -176,12 +176,13 @@ class DynamixelHardware(SystemInterface):
         return True
 
     def on_deactivate(self) -> bool:
-        """Every joint stops where it is, torque on: a position joint holds its present
-        position (a deactivated arm must not fall), a velocity joint is given 0 (a wheel
+        """Every joint stops or holds, torque on: a position joint keeps its last goal (a
+        deactivated arm must not fall; rewriting the goal as the measured position would let
+        a loaded joint sag by its compliance error), a velocity joint is given 0 (a wheel
         stops), a current joint goes back to position mode holding where it is (a current of
-        0 would let it fall). Neither plugin does this (their on_deactivate leaves the last
-        goal in the motor, so a wheel keeps turning); servolab's rule is that motors stop or
-        hold on any stop."""
+        0 would let it fall). Neither plugin does the last two (their on_deactivate leaves
+        the last goal in the motor, so a wheel keeps turning); servolab's rule is that motors
+        stop or hold on any stop."""
         try:
             for joint in self.system.joints:
                 obeys = self.obeys[joint.name]
@@ -190,9 +191,6 @@ class DynamixelHardware(SystemInterface):
                 elif obeys == frozenset({EFFORT}):
                     self._set_mode(joint, "position")
                     self.obeys[joint.name] = frozenset({POSITION})
-                else:
-                    self.bus.write(joint.id, "goal_position",
-                                   float(self.bus.read(joint.id, "present_position")))
         except DynamixelError as exc:
             self.error = f"{self.name}: {exc}"
             return False

@@ -20,7 +20,8 @@ behaves (``src/joint_trajectory_controller.cpp``; its parameter names and defaul
   default, -1 lifts it). Reached: ``SUCCESSFUL``, "Goal successfully reached!".
 - A new goal preempts the active one (aborted, ``INVALID_GOAL``, "Current goal preempted by
   new incoming action."); a cancelled goal ends canceled and the joints hold where they are;
-  deactivating the controller cancels its goal and holds.
+  deactivating the controller aborts its goal (``INVALID_GOAL``) and leaves the position
+  commands where they are.
 - ``~/controller_state`` (control_msgs/JointTrajectoryControllerState) every update:
   reference, feedback, error and output.
 """
@@ -177,12 +178,17 @@ class JointTrajectoryController(ControllerInterface):
         self._write(current, np.zeros(len(self.joints)), hold=True)
 
     def on_deactivate(self) -> None:
+        """As ros2_controllers' (jazzy, joint_trajectory_controller.cpp ``on_deactivate``):
+        a running goal is aborted with INVALID_GOAL, "Current goal cancelled during
+        deactivate transition."; the position commands stay where they are (the last point
+        commanded, not the measured position: a joint under load does not sag by one
+        compliance error), velocity, acceleration and effort commands go to 0."""
         if self._goal is not None:
-            self._end(self._goal, "canceled", INVALID_GOAL,
-                      "Current action cancelled due to controller deactivation.")
-        current = self._read_state()
-        self._write(PointState(current.positions, np.zeros(len(self.joints))),
-                    np.zeros(len(self.joints)), hold=True)
+            self._end(self._goal, "abort", INVALID_GOAL,
+                      "Current goal cancelled during deactivate transition.")
+        for interface in (VELOCITY, ACCELERATION, EFFORT):
+            for handle in self._commands.get(interface, ()):
+                handle.set_value(0.0)
         self._trajectory = None
 
     # -- what comes in ----------------------------------------------------------------------
