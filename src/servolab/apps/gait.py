@@ -108,6 +108,7 @@ def _add_send(sub: Any) -> None:
 
 
 def _send(args: argparse.Namespace) -> int:
+    from servolab.errors import UsageError
     from servolab.middleware.context import Context
 
     from ..robots.armstrong.motions import load_motion
@@ -126,8 +127,13 @@ def _send(args: argparse.Namespace) -> int:
         goal = ctx.types.from_value(f"{kind}_Goal", {"trajectory": trajectory.fields()})
         say(f"{len(trajectory.times)} points of {len(trajectory.joint_names)} joints over "
             f"{trajectory.duration:.2f} s to {action}")
-        status = send_goal_message(ctx, action, kind, goal, say, timeout=args.timeout,
-                                   show_goal=False)
+        try:
+            status = send_goal_message(ctx, action, kind, goal, say, timeout=args.timeout,
+                                       show_goal=False)
+        except UsageError as exc:  # nobody serves the action: say what to start
+            raise UsageError(f"{exc}; start the legs under ros2_control with: servolab "
+                             "control run armstrong --spawn joint_state_broadcaster "
+                             "legs_controller") from None
     return 0 if status == STATUS_SUCCEEDED else 1
 
 

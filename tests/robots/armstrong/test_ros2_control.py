@@ -321,3 +321,32 @@ def test_at_each_rows_time_neither_path_is_a_row_behind(both: tuple[MotionFile, 
     apart = np.abs(np.array(controlled.present) - np.array(csv.present))
     legs = np.array([motion.column(c) for c in leg_columns()])
     assert math.degrees(float(apart.max())) < float(np.abs(np.diff(legs, axis=1)).max())
+
+
+def test_gait_send_refuses_a_bad_motion_in_one_line_before_joining_the_graph(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """``servolab gait send``'s input is checked before any goal is sent: rows beyond the
+    motion, a motion file that is not one, each one line and exit 2."""
+    from servolab.cli import main
+
+    assert main(["gait", "send", "--rows", "999"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "rows must be 1..17" in err, err
+    bad = tmp_path / "bad.csv"
+    bad.write_text("m11,m12\n1,x\n")
+    assert main(["gait", "send", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "bad.csv" in err, err
+
+
+def test_gait_send_without_a_controller_says_what_to_start(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from servolab.cli import main
+
+    assert main(["gait", "send", "--rows", "2", "--timeout", "0.5", "--transport",
+                 "local"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no action server for /legs_controller/follow_joint_trajectory within 0.5 s" \
+        in err, err
+    assert err.endswith("servolab control run armstrong --spawn joint_state_broadcaster "
+                        "legs_controller"), err
