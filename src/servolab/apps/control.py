@@ -76,7 +76,8 @@ def bring_up(args: argparse.Namespace) -> ControlSystem:
     options = BringUpOptions(port=args.port, world=args.world, spawn=tuple(args.spawn),
                              inactive=tuple(args.inactive), namespace=args.namespace,
                              transport=transport_options(args), place=place,
-                             default_model=args.model)
+                             default_model=args.model or (plugin.default_model if plugin
+                                                          else None))
     return ControlSystem(urdf, source, parameters, options)
 
 

@@ -57,6 +57,13 @@ MOTOR_GPIO = "dxl"
 #: the URDF joint types a Dynamixel drives here: its horn is the joint (a prismatic joint needs
 #: a transmission, which the <ros2_control> blocks of both plugins state in their own ways)
 DRIVEN_TYPES = ("revolute", "continuous")
+#: dynamixel_hardware_interface's switches that convert a revolute horn to a prismatic joint
+#: inside the plugin (its older OpenMANIPULATOR-X files), which servolab does not read
+#: (read with std::stoi: any integer but 0 turns it on, dynamixel_hardware_interface.cpp)
+REVOLUTE_TO_PRISMATIC = ("use_revolute_to_prismatic_gripper",)
+#: a joint a Dynamixel drives through a transmission that states its ratio (m a radian of
+#: horn: a rack and pinion), given as mechanical_reduction or in the transmission matrix
+SCALED_TYPES = ("prismatic",)
 
 
 @dataclass(frozen=True)
@@ -168,10 +175,15 @@ def _number(text: str | None, what: str, here: str, default: float) -> float:
     return value
 
 
-def _urdf_joint(component: ComponentInfo, urdf_joint: Joint | None, here: str) -> Joint:
+def _urdf_joint(component: ComponentInfo, urdf_joint: Joint | None, here: str,
+                scaled: bool = False) -> Joint:
     if urdf_joint is None:
         raise HardwareInfoError(f"{here}: the URDF has no <joint> of that name")
-    if urdf_joint.kind not in DRIVEN_TYPES:
+    if urdf_joint.kind in SCALED_TYPES and not scaled:
+        raise HardwareInfoError(f"{here}: a {urdf_joint.kind} joint needs its transmission's "
+                                "ratio (metres a radian of horn: mechanical_reduction, or "
+                                "transmission_to_joint_matrix)")
+    if urdf_joint.kind not in DRIVEN_TYPES + SCALED_TYPES:
         raise HardwareInfoError(f"{here}: a {urdf_joint.kind} joint cannot be driven (one of "
                                 f"{', '.join(DRIVEN_TYPES)})")
     return urdf_joint
@@ -181,8 +193,8 @@ def _joint(component: ComponentInfo, urdf_joint: Joint | None, where: str,
            default_model: str | None) -> DynamixelJoint:
     """A joint that names its motor itself (dynamixel_hardware)."""
     here = f'{where} <joint name="{component.name}">'
-    found = _urdf_joint(component, urdf_joint, here)
     parameters = dict(component.parameters)
+    found = _urdf_joint(component, urdf_joint, here, "mechanical_reduction" in parameters)
     id_text = _one(parameters, ID_PARAMETERS, here)
     if id_text is None:
         raise HardwareInfoError(f'{here}: no Dynamixel ID; add <param name="id">1</param> '
@@ -223,11 +235,19 @@ def _gpio_joints(block: HardwareInfo, urdf_joints: dict[str, Joint], where: str,
     """The joints of a block whose motors are <gpio type="dxl"> (dynamixel_hardware_interface)."""
     motors = [g for g in block.gpios if g.parameters.get("type", "").strip() == MOTOR_GPIO]
     joints = [j for j in block.joints if "mimic" not in j.parameters]
+    for key in REVOLUTE_TO_PRISMATIC:
+        if block.hardware_parameters.get(key, "0").strip() not in ("0", "false", ""):
+            # read alone, its identity matrix would drive the gripper at 1 m a radian
+            raise HardwareInfoError(
+                f"{where} <hardware>: {key} is not read by servolab; give the gripper's ratio "
+                "(metres of finger a radian of horn) in transmission_to_joint_matrix instead, "
+                "as OpenMANIPULATOR-X's file does since ROBOTIS's commit 6a61bcc")
     matrix = _matrix(block, where, len(joints), len(motors))
     found: list[DynamixelJoint] = []
     for row, component in zip(matrix, joints, strict=True):
         here = f'{where} <joint name="{component.name}">'
-        urdf_joint = _urdf_joint(component, urdf_joints.get(component.name), here)
+        urdf_joint = _urdf_joint(component, urdf_joints.get(component.name), here,
+                                 "transmission_to_joint_matrix" in block.hardware_parameters)
         driving = [(k, v) for k, v in enumerate(row) if v != 0.0]
         if len(driving) != 1:
             raise HardwareInfoError(

@@ -312,7 +312,7 @@ def urdf_plugin(name: str, summary: str, urdf: Callable[[], str], *, source: str
         kwargs["files"] = files
     return RobotPlugin(name, summary, bus=bus, open=open_robot, on_stop=ON_STOP[on_stop],
                        description=urdf, served=served, layout=layout, aliases=aliases,
-                       **kwargs)
+                       default_model=default_model, **kwargs)
 
 
 def _naming_motor(motor_id: int, error: Exception) -> str:

@@ -80,3 +80,20 @@ def test_robotis_dialect_without_a_model_says_what_to_add() -> None:
             'arm.urdf: <ros2_control name="TwoJoint"> <gpio name="dxl1">: no Dynamixel model; '
             'add <param name="motor_type">XM430-W350</param>')):
         dynamixel_system(TWO_JOINT_ROBOTIS.read_text(), "arm.urdf")
+
+
+def test_robotis_revolute_to_prismatic_switch_is_refused_not_guessed() -> None:
+    """dynamixel_hardware_interface.cpp (lines 150-157) turns a horn into a prismatic gripper
+    inside the plugin when ``use_revolute_to_prismatic_gripper`` is a nonzero integer; servolab
+    does not read those switches, and with the identity matrix beside them the gripper would be
+    driven at 1 m a radian: refused in one line saying what to write instead."""
+    text = TWO_JOINT_ROBOTIS.read_text().replace(
+        '<param name="error_timeout_ms">500</param>',
+        '<param name="error_timeout_ms">500</param>'
+        '<param name="use_revolute_to_prismatic_gripper">1</param>')
+    with pytest.raises(HardwareInfoError) as refused:
+        dynamixel_system(text, "arm.urdf", default_model="XM430-W350")
+    message = str(refused.value)
+    assert "\n" not in message
+    assert "use_revolute_to_prismatic_gripper is not read by servolab" in message
+    assert "transmission_to_joint_matrix" in message
