@@ -5,7 +5,8 @@ the docs quote from a run must be the ones the code gives.
 the doc writes (the number as the doc rounds it, and the noise the doc states beside it:
 how far other seeds move it) and the tolerance that noise is. The docs must hold each text,
 and a new run (``--quick``: the 100 s treadmill run shortened to 10 s, compared with the 10 s
-run's committed values) must give each number again within its tolerance.
+run's committed values; the navigation's corner run, a figure with no number, cut to its
+first 10 s) must give each number again within its tolerance.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def _figures(path: Path) -> dict[str, dict[str, Any]]:
     return dict(json.loads(path.read_text())["figures"])
 
 
-#: the quick run of docs/plots.py takes about 95 s alone on the project's 2-core machine, more
+#: the quick run of docs/plots.py takes about 85 s alone on the project's 2-core machine, more
 #: beside the other worker's tests: the tests that share it have room for it in their setup
 DOCS_RUN_TIMEOUT_S = 400
 

@@ -111,6 +111,12 @@ def _all_raises() -> list[Raise]:
     return [r for path in _sources() for r in builtin_raises(path.read_text(), _relative(path))]
 
 
+@pytest.fixture(scope="module")
+def all_raises() -> list[Raise]:
+    """:func:`_all_raises` of src/servolab, found once for the tests that only read them."""
+    return _all_raises()
+
+
 def test_the_checker_sees_a_bare_raise() -> None:
     """A checker that missed them would pass everything."""
     source = ("class A:\n    def f(self):\n        raise ValueError('x')\n"
@@ -132,18 +138,18 @@ def test_the_checker_sees_a_bare_raise() -> None:
 RCLPY_SHAPED = "rclpy/"
 
 
-def test_no_bare_builtin_error_is_raised_on_purpose() -> None:
+def test_no_bare_builtin_error_is_raised_on_purpose(all_raises: list[Raise]) -> None:
     """Each layer raises its own classes (a value error also subclasses ValueError, so
     ``except ValueError`` keeps working); a bare builtin would be printed as a bug."""
-    offences = [str(r) for r in _all_raises()
+    offences = [str(r) for r in all_raises
                 if r.key not in ALLOWED and not r.key[0].startswith(RCLPY_SHAPED)]
     assert offences == [], "raise the layer's error (servolab/<layer>/errors.py):\n" + \
         "\n".join(offences)
 
 
-def test_the_allow_list_has_nothing_stale() -> None:
+def test_the_allow_list_has_nothing_stale(all_raises: list[Raise]) -> None:
     """An entry whose raise is gone would let a new one in unseen: remove it."""
-    seen = {r.key for r in _all_raises()}
+    seen = {r.key for r in all_raises}
     assert sorted((ALLOWED) - seen) == []
 
 

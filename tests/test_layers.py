@@ -6,8 +6,10 @@ statement (also those inside functions), relative ones resolved."""
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -23,12 +25,42 @@ def _module(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+def parsed(path: Path) -> ast.Module:
+    """``path``'s syntax tree. The checks below read every file of the package, some many
+    times over (one per layer, each graph): each file is parsed once for them all, and again
+    only if it changed (its modification time or size); the trees are only read."""
+    stat = path.stat()
+    return _parse(path, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.cache
+def _parse(path: Path, mtime_ns: int, size: int) -> ast.Module:
+    return ast.parse(path.read_text(), str(path))
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _parsed_for_this_module_only() -> Iterator[None]:
+    """The trees (about 100 MB of them) are let go once this module's tests are done: the
+    worker runs other modules after it."""
+    yield
+    _parse.cache_clear()
+    _imports.cache_clear()
+
+
 def imports(path: Path) -> list[tuple[int, str]]:
     """(line, absolute module) of every import in ``path``."""
+    stat = path.stat()
+    return list(_imports(path, SRC, stat.st_mtime_ns, stat.st_size))
+
+
+@functools.cache
+def _imports(path: Path, src: Path, mtime_ns: int, size: int) -> tuple[tuple[int, str], ...]:
+    """:func:`imports`, once per file and version; ``src`` is the source root the module names
+    are taken from (``SRC``, which a test points elsewhere)."""
     module = _module(path)
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
     found = []
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(parsed(path)):
         if isinstance(node, ast.Import):
             found += [(node.lineno, alias.name) for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -41,7 +73,7 @@ def imports(path: Path) -> list[tuple[int, str]]:
             found.append((node.lineno, target))
             if not node.module:  # from . import x: x may be a module
                 found += [(node.lineno, f"{target}.{a.name}") for a in node.names]
-    return found
+    return tuple(found)
 
 
 def _layer(name: str) -> str:
@@ -125,7 +157,7 @@ def run_time_graph(package: Path) -> dict[str, set[str]]:
     modules = {_module(p): p for p in package.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in modules.items():
-        tree = ast.parse(path.read_text(), str(path))
+        tree = parsed(path)
         skip = _type_checking_lines(tree)
         targets: set[str] = set()
         names = {(n.lineno, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
@@ -211,7 +243,7 @@ def shared_mentions(names: dict[str, tuple[str, tuple[str, ...]]]) -> list[str]:
             continue
         command = path.stem if parts[0] == "apps" else None
         allowed = {n for n, (_, commands) in names.items() if command in commands}
-        tree = ast.parse(path.read_text(), str(path))
+        tree = parsed(path)
         prose = _docstrings(tree)
         for node in ast.walk(tree):
             if not (isinstance(node, ast.Constant) and isinstance(node.value, str)) \

@@ -9,6 +9,10 @@ from pathlib import Path
 import pytest
 import yaml
 
+from servolab.middleware.context import Context
+from servolab.middleware.messages import MessageTypes
+from servolab.middleware.node import Node
+from servolab.middleware.transport import TransportOptions
 from tests.clirun import SERVOLAB, servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
@@ -60,16 +64,22 @@ def test_record_10000_as_fast_as_they_come_loses_none(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path) -> None:
+def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path,
+                                                       types: MessageTypes) -> None:
+    """``bag record`` and ``bag play`` as processes; the five messages recorded come from a
+    talker in this process over Zenoh (what publishes them is not what this test is about:
+    ``topic pub`` is tests/middleware/test_startup_race.py's and test_cli_graph.py's)."""
     bag = tmp_path / "talk"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     with started([*SERVOLAB, "bag", "record", "/chatter", "-o", str(bag), "--type",
                   "/chatter:std_msgs/msg/String", "--listen", endpoint]) as recorder:
         wait_for_line(recorder, "recording to")
-        for k in range(5):
-            servolab("topic", "pub", "/chatter", "std_msgs/msg/String", f"{{data: 'hello {k}'}}",
-                     "--once", "--connect", endpoint, timeout=30)
-        wait_for_bag(bag, 5)  # every message received and flushed before the SIGTERM
+        with Context.open(TransportOptions("zenoh", connect=[endpoint]), types=types) as ctx:
+            talker = Node(ctx, "talker").create_publisher("std_msgs/msg/String", "/chatter")
+            assert talker.wait_for_subscription(30.0), "the recorder's subscription not seen"
+            for k in range(5):
+                talker.publish(types.from_value("std_msgs/msg/String", {"data": f"hello {k}"}))
+            wait_for_bag(bag, 5)  # every message received and flushed before the SIGTERM
         recorder.send_signal(signal.SIGTERM)
         recorder.communicate(timeout=30)
     assert recorder.returncode == 0

@@ -31,6 +31,13 @@ that each signal stops one of them (walk, flyball, navigate), and the launches, 
 supervisor decides its own exit status, share the three signals between them the same way
 (Armstrong's launch, the cheaper, two; the treadmill's launch the third). tests/test_signals.py
 and tests/test_harness.py send each signal to the shared handler in-process.
+
+The tests on a pty in real time with every core busy are marked ``realtime`` (one at a time
+across the workers: tests/conftest.py), and so is the treadmill's launch, whose three
+interpreters beside pytest keep both cores busy. Navigate and Armstrong's launch are one
+process each, on the simulated floor or in process, holding no deadline: they run beside the
+rest of the suite, as tests/robots/navigation/test_run.py's and
+tests/robots/armstrong/test_launch.py's do, and never wait for another worker's real-time test.
 """
 
 from __future__ import annotations
@@ -55,7 +62,10 @@ from tests.robots.armstrong.configs import ping_once_config
 from tests.simproc import sim_process
 from tests.waiting import wait_for_line, wait_until
 
-pytestmark = [pytest.mark.slow, pytest.mark.realtime]
+pytestmark = pytest.mark.slow
+#: on a pty at the robot's baud rate in real time, with every core busy (or, the treadmill's
+#: launch, three interpreters beside pytest)
+REALTIME = pytest.mark.realtime
 
 #: Armstrong's leg motors (001 Table 2.2): the ones the stand pose moves
 LEG_MOTORS = (*range(11, 17), *range(21, 27))
@@ -122,6 +132,7 @@ def mcap_messages(bag: Path) -> dict[str, int]:
     return counts
 
 
+@REALTIME
 @pytest.mark.parametrize("sig", SIGNALS)
 def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals, busy_cpu: None) -> None:
     """Seed 000's base on two EX-106+ at 1 Mbps (Protocol 1.0): a 5 m line, stopped after it
@@ -142,6 +153,7 @@ def test_drive_stops_the_wheels(tmp_path: Path, sig: signal.Signals, busy_cpu: N
     assert mcap_messages(run / "drive_bag")["/odom"] > 10
 
 
+@REALTIME
 @pytest.mark.parametrize("sig", [SIGINT_TO_A_BACKGROUND_JOB])
 def test_walk_finishes_in_double_support(tmp_path: Path, sig: signal.Signals,
                                          busy_cpu: None) -> None:
@@ -193,6 +205,7 @@ def fly_frames(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return frames
 
 
+@REALTIME
 @pytest.mark.parametrize("sig", [SIGTERM])
 def test_flyball_stops_the_treadmill(tmp_path: Path, sig: signal.Signals, busy_cpu: None,
                                      fly_frames: Path) -> None:
@@ -239,6 +252,7 @@ def test_launch_stops_its_nodes(tmp_path: Path, sig: signal.Signals) -> None:
     assert "[launch] stopped walker" in said and "[launch] stopped armstrong" in said
 
 
+@REALTIME
 def test_a_terminal_that_closes_stops_the_drive_and_keeps_its_summary(tmp_path: Path,
                                                                       busy_cpu: None) -> None:
     """What a closing terminal does: the command's terminal goes away (every write to it then
@@ -291,6 +305,7 @@ def test_a_stop_before_the_run_starts_still_leaves_a_summary(tmp_path: Path) -> 
     assert summary["stage"] == "setting up, before the run started"
 
 
+@REALTIME
 @pytest.mark.parametrize("sig", [SIGTERM])
 def test_the_treadmill_launch_stops_its_wheels_and_says_so(tmp_path: Path,
                                                            sig: signal.Signals) -> None:

@@ -55,8 +55,10 @@ def test_a_watched_flyball_shows_the_fly_and_the_camera_overlay(tmp_path: Path) 
     from servolab.robots.treadmill.config import load_rig
     from servolab.robots.treadmill.node import OVERLAY_TOPIC
 
-    # 8 simulated seconds, 2 s of wall time at --view-speed 4 (see the drive's test)
-    events = _watch(["flyball", "--duration", "8"], tmp_path, ["/fly/pose", OVERLAY_TOPIC],
+    # 4 simulated seconds, 264 camera frames: at least 1 s of wall time at --view-speed 4 (see
+    # the drive's test) for the client's 5 poses and first overlay, which need 5 frames (the
+    # overlay is drawn on every frame while someone watches); a longer run adds only frames
+    events = _watch(["flyball", "--duration", "4"], tmp_path, ["/fly/pose", OVERLAY_TOPIC],
                     SDK_V1, count=5)
     server = next(e for e in events if e.get("op") == "serverInfo")
     assert "time" in server["capabilities"]
