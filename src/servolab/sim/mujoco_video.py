@@ -154,6 +154,17 @@ def render_frame(model: mujoco.MjModel, qpos_row: np.ndarray, path: str | Path, 
     return p
 
 
+@contextmanager
+def offscreen(model: mujoco.MjModel, width: int = 640, height: int = 480) -> Iterator[Any]:
+    """A ``mujoco.Renderer`` of ``width`` x ``height`` on the backend the videos use, closed
+    when the block ends: a run's camera images of its live ``MjData``
+    (``renderer.update_scene(data, view); renderer.render()``). Raises as
+    :func:`render_frame` does: :class:`~.errors.SimError` when there is no OpenGL here."""
+    _check_size(Path("camera"), width, height, video=False)
+    with _renderer(model, width, height, "camera images") as renderer:
+        yield renderer
+
+
 def camera(model: mujoco.MjModel, track_body: str | None = "pelvis",
            distance: float = DISTANCE) -> Any:
     """The ``mujoco.MjvCamera`` both renders use: MuJoCo's tracking camera on ``track_body``
