@@ -38,7 +38,7 @@ demo: $(STAMP)
 test: $(STAMP) ros-oracle view-oracle
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=25
 
 $(ROS_STAMP):
 	$(PYTHON) -m venv $(ROS_VENV)

@@ -4,6 +4,8 @@
   ``<ros2_control>`` block names each joint's Dynamixel ID and model (:mod:`.dynamixel_system`);
 - its controllers file (``controllers.yaml`` or ``*_controllers.yaml``: the ros2_control
   controllers YAML a ROS 2 lab already has; its joints are checked against the URDF);
+- optionally an arm's MoveIt ``*.srdf`` and ``joint_limits.yaml`` (``servolab arm`` reads its
+  tool link, home and gripper states, and its acceleration and jerk limits there);
 - optionally ``robot.yaml``, a few lines of metadata::
 
       summary: a two-joint XM430 arm          # the line servolab robots prints
@@ -191,7 +193,16 @@ def folder_plugin(folder: Path) -> RobotPlugin:
         return text
 
     def files() -> Mapping[str, ShownFile]:
-        return {f"{folder.name}.controllers": meta.controllers} if meta.controllers else {}
+        shown: dict[str, ShownFile] = {}
+        if meta.controllers:
+            shown[f"{folder.name}.controllers"] = meta.controllers
+        # MoveIt's two files, when the folder has them: what servolab arm reads of an arm
+        srdf = sorted(folder.glob("*.srdf"))
+        if len(srdf) == 1:
+            shown[f"{folder.name}.srdf"] = srdf[0]
+        if (folder / "joint_limits.yaml").is_file():
+            shown[f"{folder.name}.joint_limits"] = folder / "joint_limits.yaml"
+        return shown
 
     config = folder / METADATA if (folder / METADATA).is_file() else meta.urdf
     return urdf_plugin(folder.name, meta.summary, urdf, source=str(meta.urdf),

@@ -54,7 +54,9 @@ def _config() -> Path:
 
 
 def _files() -> Mapping[str, ShownFile]:
-    return {f"{NAME}.controllers": CONTROLLERS}
+    here = URDF.parent   # MoveIt's two files, which servolab arm reads
+    return {f"{NAME}.controllers": CONTROLLERS, f"{NAME}.srdf": here / f"{NAME}.srdf",
+            f"{NAME}.joint_limits": here / f"{NAME}_joint_limits.yaml"}
 
 
 def _served(baudrate: int | None) -> ServedRobot:
@@ -71,4 +73,4 @@ def _layout() -> Layout:
 
 ROBOTS = (RobotPlugin(NAME, SUMMARY, bus=_bus, open=_open, on_stop=ON_STOP[STOP],
                       config=_config, files=_files, description=urdf_text, served=_served,
-                      layout=_layout, default_model=MODEL),)
+                      layout=_layout, default_model=MODEL, commands=("arm",)),)

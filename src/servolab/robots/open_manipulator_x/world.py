@@ -51,6 +51,15 @@ BOXES = (Box("box_front", 0.025, 0.020, 0.20, 0.0),
          Box("box_right", 0.025, 0.020, 0.18, -0.12))
 
 
+#: a box's contacts are its own (priority) and hard: MuJoCo's default soft contact (solref
+#: 0.02 s, solimp 0.9-0.95) lets the gripper's 84 N squeeze (Goal Current 200 through the
+#: rack) sink a finger millimetres into a 20 g box; these let it sink a fraction of one. And
+#: the fingers' <mimic> tie as hard, so the right finger does not give way to the left.
+#: Both GUESSES of a rigid plastic box and a rigid rack, tuned in MuJoCo (servolab arm pick)
+HARD = {"priority": "1", "solimp": "0.99 0.999 0.001", "solref": "0.004 1"}
+HARD_TIE = {"solimp": "0.99 0.999 0.001", "solref": "0.004 1"}
+
+
 def _add(parent: ET.Element, tag: str, **attributes: str) -> ET.Element:
     return ET.SubElement(parent, tag, attributes)
 
@@ -75,7 +84,10 @@ def table_mjcf(arm: str, boxes: tuple[Box, ...] = BOXES) -> str:
         body = _add(world, "body", name=box.name, pos=_numbers(box.x, box.y, box.edge / 2))
         _add(body, "freejoint", name=box.name)
         _add(body, "geom", name=box.name, type="box", size=_numbers(*(box.edge / 2,) * 3),
-             mass=_numbers(box.mass), rgba="0.85 0.2 0.15 1")
+             mass=_numbers(box.mass), rgba="0.85 0.2 0.15 1", **HARD)
+    for tie in root.iter("equality"):   # the rack's two fingers on one pinion: rigid
+        for joint in tie.findall("joint"):
+            joint.attrib.update(HARD_TIE)
     return ET.tostring(root, encoding="unicode")
 
 
