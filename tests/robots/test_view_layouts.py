@@ -24,6 +24,10 @@ PUBLISHED = {
     "navigation": set(NAVIGATION_RECORDED),
     "base": {"/odom", "/tf", "/cmd_vel", "/joint_states"},
     "treadmill": {*TREADMILL_RECORDED, OVERLAY_TOPIC, FICTRAC_TOPIC},
+    # under servolab control run: joint_state_broadcaster's two topics and the state
+    # publisher's three (robots/control/bringup.py, joint_state_broadcaster.py)
+    "open_manipulator_x": {"/joint_states", "/dynamic_joint_states", "/robot_description",
+                           "/tf", "/tf_static"},
 }
 
 

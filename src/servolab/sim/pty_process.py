@@ -26,7 +26,7 @@ def pty_process(*args: str, out_dir: Path, timeout: float = 60.0,
                 stderr: IO[str] | None = None) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     """Run ``servolab sim --pty --out OUT_DIR ARGS``; yield (its pty device, the process).
     What it prints after the device is read and dropped (a full pipe would block it); its
-    stderr goes to ``stderr`` (None: kept, and quoted if it fails to start). SIGINT stops it
+    stderr goes to ``stderr`` (None: quoted if it fails to start, then dropped too). SIGINT stops it
     at the end, SIGKILL if it has not stopped 30 s later."""
     command = [sys.executable, "-m", "servolab", "sim", "--pty", "--out", str(out_dir), *args]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE,
@@ -41,7 +41,10 @@ def pty_process(*args: str, out_dir: Path, timeout: float = 60.0,
                 else ""
             raise SimError(f"servolab sim --pty printed no device within {timeout:g} s"
                            + (f": {said.strip()}" if said else ""))
+        # what it says from now on is read and dropped: a full pipe would freeze the bus
         threading.Thread(target=proc.stdout.read, daemon=True).start()
+        if proc.stderr is not None:
+            threading.Thread(target=proc.stderr.read, daemon=True).start()
         yield device, proc
     finally:
         if proc.poll() is None:

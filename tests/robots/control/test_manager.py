@@ -172,6 +172,28 @@ def test_a_failed_read_deactivates_the_controllers_and_the_joints_hold(
     assert "joint1/position" in manager.interfaces.available_commands
 
 
+def test_a_failed_read_stops_the_velocity_joints_that_still_answer(
+        two_joint: ControlSystem) -> None:
+    """A wheel whose neighbour's cable is pulled must not keep turning: the failed component
+    gets no more writes, so before it is let go the motors that still answer are stopped
+    (servolab's rule; ros2_control writes nothing more to a failed component)."""
+    manager = two_joint.manager
+    assert manager.switch_controller(["forward_velocity_controller"],
+                                     ["forward_position_controller"], STRICT)[0]
+    command(two_joint, "forward_velocity_controller", [0.4, -0.2])
+    two_joint.context.spin_for(0.5)
+    bus = two_joint.buses[0]
+    assert float(bus.read(1, "present_velocity")) == pytest.approx(0.4, abs=0.05)
+    assert two_joint.emulator is not None
+    two_joint.emulator.unplug(2)
+    two_joint.context.spin_for(0.3)
+    assert manager.components.by_name["TwoJoint"].state == UNCONFIGURED
+    assert int(bus.read(1, "goal_velocity", raw=True)) == 0
+    two_joint.context.spin_for(0.3)
+    assert float(bus.read(1, "present_velocity")) == pytest.approx(0.0, abs=0.02)
+    assert bus.read(1, "torque_enable") == 1
+
+
 def test_hardware_component_states(two_joint: ControlSystem) -> None:
     manager = two_joint.manager
     ok, _ = manager.set_hardware_component_state("TwoJoint", INACTIVE)

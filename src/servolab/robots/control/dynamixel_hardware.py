@@ -183,16 +183,19 @@ class DynamixelHardware(SystemInterface):
         0 would let it fall). Neither plugin does the last two (their on_deactivate leaves
         the last goal in the motor, so a wheel keeps turning); servolab's rule is that motors
         stop or hold on any stop."""
-        try:
-            for joint in self.system.joints:
-                obeys = self.obeys[joint.name]
+        failed: list[str] = []
+        for joint in self.system.joints:  # each on its own: one silent motor stops no other
+            obeys = self.obeys[joint.name]
+            try:
                 if obeys == frozenset({VELOCITY}):
                     self.bus.write(joint.id, "goal_velocity", 0.0)
                 elif obeys == frozenset({EFFORT}):
                     self._set_mode(joint, "position")
                     self.obeys[joint.name] = frozenset({POSITION})
-        except DynamixelError as exc:
-            self.error = f"{self.name}: {exc}"
+            except DynamixelError as exc:
+                failed.append(f"{joint.name}: {' '.join(str(exc).split())}")
+        if failed:
+            self.error = f"{self.name}: could not stop {'; '.join(failed)}"
             return False
         return True
 

@@ -147,6 +147,10 @@ class ControllerManager(Node):
         for name in names:
             states, commands = self.components.interfaces_of(name)
             interfaces.update(states, commands)
+            # the motors that still answer stop or hold now (a wheel must not keep turning
+            # on a dead cable's neighbour): nothing is written to a failed component again
+            if not self.components.by_name[name].system.on_deactivate():
+                log.error(self.components.by_name[name].system.error)
             self.components.failed(name)
         users = [c.name for c in self.controllers.values() if c.is_active and
                  interfaces & {h.name for h in (*c.command_interfaces, *c.state_interfaces)}]
