@@ -100,10 +100,13 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..errors import UsageError
     from ..middleware.transport import environment_domain_id
     from ..robots.arm.run import ArmRequest, Where, arm_command
     from ..robots.arm.spec import arm_spec
 
+    if getattr(args, "pitch", None) is not None and not getattr(args, "pose", None):
+        raise UsageError("--pitch is the tool's pitch at a --pose: give --pose X Y Z with it")
     request = ArmRequest(
         args.action,
         joints=tuple(args.joints) if getattr(args, "joints", None) else None,

@@ -7,6 +7,7 @@ dynamixel_hardware_interface (``<gpio type="dxl">`` motors with ``ID`` and contr
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
@@ -97,3 +98,29 @@ def test_robotis_revolute_to_prismatic_switch_is_refused_not_guessed() -> None:
     assert "\n" not in message
     assert "use_revolute_to_prismatic_gripper is not read by servolab" in message
     assert "transmission_to_joint_matrix" in message
+
+
+@pytest.mark.parametrize(("param", "said"), [
+    ('<param name="mimic">elbow</param>', "mimic 'elbow' is not a joint of the block"),
+    ('<param name="mimic">joint1</param><param name="multiplier">abc</param>',
+     "multiplier 'abc' is not a number")])
+def test_a_mimic_joint_naming_nothing_or_no_number_is_refused(param: str, said: str,
+                                                              tmp_path: Path) -> None:
+    """A ``mimic`` joint (dynamixel_hardware_interface's) follows a joint of the block by a
+    multiplier: one naming no such joint, or a multiplier that is no number, is refused in one
+    line naming the joint, not left NaN for ever or raised as a bare ValueError."""
+    text = TWO_JOINT_ROBOTIS.read_text()
+    text = text.replace('<link name="link2">', '<link name="link3"/><link name="link2">')
+    text = text.replace('  <ros2_control name="TwoJoint"',
+                        '  <joint name="finger" type="revolute"><parent link="link2"/>'
+                        '<child link="link3"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" '
+                        'effort="1" velocity="1"/></joint>\n  <ros2_control name="TwoJoint"')
+    text = text.replace('    <gpio name="dxl1">',
+                        f'    <joint name="finger">{param}'
+                        '<state_interface name="position"/></joint>\n    <gpio name="dxl1">')
+    robotis = tmp_path / "arm.urdf"
+    robotis.write_text(text)
+    with pytest.raises(HardwareInfoError) as refused:
+        bring_up(robotis, default_model="XM430-W350").close()
+    message = str(refused.value)
+    assert "\n" not in message and said in message and 'joint name="finger"' in message

@@ -40,7 +40,7 @@ joint is: a switch never makes a joint jump.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from ...dynamixel import units
@@ -94,9 +94,8 @@ class DynamixelHardware(SystemInterface):
         self.obeys: dict[str, frozenset[str]] = {j: frozenset({POSITION}) for j in self.joints}
         self._reads = self._read_groups()
         self._gpio_reads = self._gpio_groups()
-        self._mimics = [(c.name, c.parameters["mimic"],
-                         float(c.parameters.get("multiplier", "1") or 1))
-                        for c in info.joints if "mimic" in c.parameters]
+        self._mimics = [self._mimic(c.name, c.parameters) for c in info.joints
+                        if "mimic" in c.parameters]
         #: the command interfaces of its joints that controllers hold now
         self.claimed: set[str] = set()
         #: (ID, command interface) -> the motor's limit for it, SI
@@ -136,6 +135,24 @@ class DynamixelHardware(SystemInterface):
                 names.append((f"{gpio.name}/{interface.name}", register))
             found.append((gpio.name, joint.id, joint.model, names))
         return found
+
+    def _mimic(self, joint: str, parameters: Mapping[str, str]) -> tuple[str, str, float]:
+        """(joint, the joint it follows, multiplier) of a ``<param name="mimic">`` joint, as
+        dynamixel_hardware_interface reads it; refused in one line when the joint it names
+        has no motor in the block or the multiplier is not a number."""
+        leader = parameters["mimic"].strip()
+        here = f'{self.name} <joint name="{joint}">'
+        if leader not in self.joints:
+            raise HardwareInfoError(f"{here}: mimic {leader!r} is not a joint of the block "
+                                    f"with a motor (it has {', '.join(self.joints)})")
+        text = parameters.get("multiplier", "1").strip() or "1"
+        try:
+            multiplier = float(text)
+        except ValueError:
+            raise HardwareInfoError(f"{here}: multiplier {text[:40]!r} is not a number") from None
+        if not math.isfinite(multiplier):
+            raise HardwareInfoError(f"{here}: multiplier {text[:40]!r} is not finite")
+        return joint, leader, multiplier
 
     def export_command_interfaces(self) -> list[tuple[str, float]]:
         """The joints' command interfaces (a motor gpio's are the joints' to write)."""

@@ -68,6 +68,11 @@ class LoopOptions:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise RobotValueError(f"{name} must be a number > 0, not {value!r}")
+        if self.rate and 1.0 / self.rate >= self.watchdog:
+            # one lost read would already be a silence longer than the watchdog
+            raise RobotValueError(f"rate {self.rate:g} Hz reads the leader every "
+                                  f"{1 / self.rate:g} s, not within the {self.watchdog:g} s "
+                                  f"watchdog: give more than {1 / self.watchdog:g} Hz (or 0)")
 
     rate: float = 0.0
     state_rate: float = 50.0
