@@ -49,9 +49,10 @@ from pathlib import Path
 from typing import Any
 
 from servolab.dynamixel import Bus
-from servolab.robots.teleop import DEFAULT_ARM, DEFAULT_LEADER
+from servolab.robots.registry import default_robot
 from servolab.robots.teleop.arms import STATE
 from servolab.robots.teleop.hand import Episodes
+from servolab.robots.teleop.leader import leader_of
 from servolab.robots.teleop.loop import LoopOptions, cycle_wire_s
 from servolab.robots.teleop.run import Arm, TeleopRequest, run_teleop
 from servolab.runs import RunFolder
@@ -59,6 +60,9 @@ from servolab.sim.pty_process import pty_process
 
 Say = Callable[[str], None]
 BAUD = 1_000_000
+#: the arm teleop runs by default, and its leader plug-in (what servolab sim serves)
+DEFAULT_ARM = default_robot("teleop")
+DEFAULT_LEADER = getattr(leader_of(DEFAULT_ARM), "name", f"{DEFAULT_ARM}_leader")
 #: cycles whose virtual wire time part 1 averages
 CYCLES = 50
 #: rad/s: how fast the follower is brought to the leader before the run (servolab teleop's)

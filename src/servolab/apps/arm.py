@@ -15,14 +15,12 @@ import argparse
 from .arguments import PORT_HELP, add_out, finite_float, nonnegative_int
 from .registry import Command
 
-DEFAULT_ROBOT = "open_manipulator_x"
-
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME",
-                   help=f"an arm's robot: a plug-in or robot folder with a URDF and a "
-                   f"controllers file holding a joint_trajectory_controller (default "
-                   f"{DEFAULT_ROBOT}; servolab robots lists them)")
+    p.add_argument("--robot", default=None, metavar="NAME",
+                   help="an arm's robot: a plug-in or robot folder with a URDF and a "
+                   "controllers file holding a joint_trajectory_controller (default: the "
+                   "arm that says it is arm's default; servolab robots lists them)")
     p.add_argument("--controller", default=None, metavar="NAME",
                    help="the arm's joint_trajectory_controller, when the controllers file "
                    "has several (default: the only one, or arm_controller)")
@@ -104,6 +102,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..middleware.transport import environment_domain_id
     from ..robots.arm.run import ArmRequest, Where, arm_command
     from ..robots.arm.spec import arm_spec
+    from ..robots.registry import default_robot
 
     if getattr(args, "pitch", None) is not None and not getattr(args, "pose", None):
         raise UsageError("--pitch is the tool's pitch at a --pose: give --pose X Y Z with it")
@@ -119,7 +118,7 @@ def _run(args: argparse.Namespace) -> int:
     where = Where(world=args.world, port=args.port, connect=tuple(args.connect),
                   domain_id=environment_domain_id() if args.domain_id is None
                   else args.domain_id)
-    spec = arm_spec(args.robot, controller=args.controller)
+    spec = arm_spec(args.robot or default_robot("arm"), controller=args.controller)
     arm_command(spec, request, where, out=args.out)
     return 0
 

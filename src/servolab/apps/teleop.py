@@ -20,17 +20,18 @@ def _episodes(text: str) -> int:
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    from ..robots.teleop import DEFAULT_ARM, DEFAULT_LEADER, EMULATED, WORLDS
+    from ..robots.teleop import EMULATED, WORLDS
 
-    p.add_argument("--robot", metavar="NAME", default=DEFAULT_ARM,
-                   help=f"the arm (both, unless --leader-robot; default {DEFAULT_ARM}): any "
-                   "robot whose URDF names its Dynamixels in a <ros2_control> block")
+    p.add_argument("--robot", metavar="NAME", default=None,
+                   help="the arm (both, unless --leader-robot): any robot whose URDF names "
+                   "its Dynamixels in a <ros2_control> block (default: the arm that says it "
+                   "is teleop's default; servolab robots lists them)")
     p.add_argument("--leader-robot", metavar="NAME",
                    help="the leader's robot when it is another one (joints copied by name)")
     p.add_argument("--leader", metavar="PORT", default=EMULATED,
                    help=f"the leader's port: {PORT_HELP}; default {EMULATED}: emulated here, "
                    "moved by a scripted hand (served alone: servolab sim --pty --robot "
-                   f"{DEFAULT_LEADER})")
+                   "ARM_leader, the arm's leader plug-in)")
     p.add_argument("--follower", metavar="PORT", default=EMULATED,
                    help=f"the follower's port; default {EMULATED}: emulated here, in --world")
     p.add_argument("--world", choices=WORLDS, default="robot",

@@ -137,6 +137,9 @@ class RobotPlugin:
     #: the ``servolab`` commands that run this robot (``walk``), listed for the user; a
     #: command names its robot, nothing else outside the robot's package does
     commands: tuple[str, ...] = ()
+    #: the commands that run this robot when no ``--robot`` is given (``arm``, ``teleop``):
+    #: a plug-in says it is the default, no command names it (:func:`.registry.default_robot`)
+    default_for: tuple[str, ...] = ()
     #: the Dynamixel model of motors its URDF's <ros2_control> block names none for
     #: (ROBOTIS's dialect names none): what ``servolab control run NAME`` takes without --model
     default_model: str | None = None

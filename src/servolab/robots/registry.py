@@ -171,6 +171,24 @@ def entry(name: str) -> RobotPlugin:
     return discover().entry(name)
 
 
+def default_robot(command: str, environ: Mapping[str, str] | None = None) -> str:
+    """The robot ``servolab COMMAND`` runs without ``--robot``: the one plug-in whose
+    ``default_for`` names the command. A lab's own plug-in (an entry point)
+    that says so wins over servolab's: installing one's arm makes it the default; two of a
+    lab's own that both say so are refused in one line, as is a command no robot claims."""
+    plugins = discover(environ).plugins.values()
+    claiming = [p for p in plugins if command in p.default_for]
+    own = [p for p in claiming if p.origin != "servolab"]
+    chosen = own or claiming
+    if len(chosen) == 1:
+        return chosen[0].name
+    if not chosen:
+        raise UsageError(f"servolab {command}: no robot is its default; give --robot NAME "
+                         "(servolab robots lists them)")
+    raise UsageError(f"servolab {command}: {' and '.join(p.name for p in chosen)} each say "
+                     "they are its default; give --robot NAME")
+
+
 def load(name: str, port: str | None = None) -> Any:
     """The robot ``name`` on emulated motors, or on the serial port (or pyserial URL)
     ``port``, as ``dm_control.suite.load`` gives a domain: Armstrong's

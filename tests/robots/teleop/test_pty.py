@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from servolab.dynamixel.bus import Bus
-from servolab.robots.teleop import DEFAULT_ARM, DEFAULT_LEADER
+from servolab.robots.open_manipulator_x import NAME as ARM
 from tests.simproc import sim_process
 
 IDS = [11, 12, 13, 14, 15]
@@ -40,8 +40,8 @@ def _line(proc: subprocess.Popen[str], starts: str, timeout: float) -> str:
 @pytest.mark.realtime
 @pytest.mark.usefixtures("busy_cpu")
 def test_on_two_ptys_sigterm_leaves_the_follower_holding(tmp_path: Path) -> None:
-    with sim_process("--robot", DEFAULT_LEADER, out_dir=tmp_path / "leader") as (leader, _), \
-            sim_process("--robot", DEFAULT_ARM, out_dir=tmp_path / "follower") as (follower, _):
+    with sim_process("--robot", f"{ARM}_leader", out_dir=tmp_path / "leader") as (leader, _), \
+            sim_process("--robot", ARM, out_dir=tmp_path / "follower") as (follower, _):
         out = tmp_path / "run"
         proc = subprocess.Popen(
             [sys.executable, "-m", "servolab", "teleop", "--leader", leader, "--follower",

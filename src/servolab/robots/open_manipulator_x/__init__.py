@@ -23,6 +23,13 @@ NAME = "open_manipulator_x"
 #: every joint's motor (OpenMANIPULATOR-X e-Manual, Specification: "Actuator DYNAMIXEL
 #: XM430-W350-T"); the ``<ros2_control>`` block names none, as ROBOTIS writes it
 MODEL = "XM430-W350"
+#: the scripted hand's (home, swing) of each joint when the arm leads (``servolab teleop``; rad,
+#: m for the gripper's finger): joint2 leaning back, joint4 pitched down, as ROBOTIS's "home"
+#: pose of the arm (joint2 -1.05, joint3 0.35, joint4 0.7) is, nearer the table's boxes; a
+#: choice, checked in MuJoCo to keep the fingers at least 5 cm above the table (and its boxes'
+#: tops) whichever way the sines add up, and within each joint's limits
+HAND = {"joint1": (0.0, 0.8), "joint2": (-0.6, 0.4), "joint3": (-0.2, 0.4),
+        "joint4": (1.0, 0.4), "gripper_left_joint": (0.0045, 0.009)}
 #: the description, with its ``<ros2_control>`` block
 URDF = Path(__file__).with_name(f"{NAME}.urdf")
 #: the controllers file (OpenMANIPULATOR-X's ``hardware_controller_manager.yaml``)

@@ -11,6 +11,11 @@ ROBOTIS's ``<ros2_control>`` block names no motor model; this plug-in gives :dat
 everything it opens (its bus, ``servolab.robots.load``, its world). ``servolab control run``
 takes the model from ``--model`` only: a plug-in has no field to declare it in.
 
+It is also the default arm of ``servolab arm`` and ``servolab teleop`` (``default_for``: no
+command names it), and declares its leader, ``open_manipulator_x_leader`` (the arm with its
+torque off, moved by a scripted hand about :data:`.HAND` when served), as any arm's package may
+with :func:`servolab.robots.teleop.leader.leader_plugin`.
+
 Nothing here is read or imported until asked, so listing the robots costs nothing.
 """
 
@@ -22,9 +27,10 @@ from typing import TYPE_CHECKING, Any
 
 from servolab.robots import BusSummary, RobotPlugin, ServedRobot
 from servolab.robots.plugin import ShownFile
+from servolab.robots.teleop.leader import leader_plugin
 from servolab.robots.urdf_robot import ON_STOP
 
-from . import CONTROLLERS, MODEL, NAME, URDF, system, urdf_text
+from . import CONTROLLERS, HAND, MODEL, NAME, URDF, system, urdf_text
 
 if TYPE_CHECKING:
     from servolab.middleware.view.layout import Layout
@@ -73,4 +79,7 @@ def _layout() -> Layout:
 
 ROBOTS = (RobotPlugin(NAME, SUMMARY, bus=_bus, open=_open, on_stop=ON_STOP[STOP],
                       config=_config, files=_files, description=urdf_text, served=_served,
-                      layout=_layout, default_model=MODEL, commands=("arm",)),)
+                      layout=_layout, default_model=MODEL, commands=("arm", "teleop"),
+                      default_for=("arm", "teleop")),
+          leader_plugin(NAME, HAND, summary="an OpenMANIPULATOR-X as a leader arm: torque "
+                        "off, moved by a scripted hand when emulated (servolab teleop)"))

@@ -70,11 +70,6 @@ A converter to LeRobot's dataset layout is not here: each episode's ``/follower/
 
 from __future__ import annotations
 
-#: the arm ``servolab teleop`` runs without ``--robot`` (both the leader and the follower)
-DEFAULT_ARM = "open_manipulator_x"
-#: the default arm's leader, as ``servolab sim --robot NAME --pty`` serves it: its motors moved
-#: by the scripted hand (:mod:`.plugin`)
-DEFAULT_LEADER = "open_manipulator_x_leader"
 #: what ``--leader`` / ``--follower`` take for an arm emulated in this process
 EMULATED = "emu://"
 #: where an emulated follower may be: its robot's own world, its URDF in MuJoCo, its motors

@@ -19,7 +19,7 @@ brisk human pace.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -97,7 +97,7 @@ class Swing:
 
 
 def swings(joints: Sequence[DynamixelJoint],
-           homes: dict[str, tuple[float, float]] | None = None) -> tuple[Swing, ...]:
+           homes: Mapping[str, tuple[float, float]] | None = None) -> tuple[Swing, ...]:
     """Each joint's :class:`Swing`: ``homes`` gives (home, swing) by joint name; any other
     joint swings :data:`SWING_SHARE` of its range (at most :data:`MAX_SWING_RAD` radians of
     horn) about 0, or about its range's middle when 0 is not within a swing of its limits.

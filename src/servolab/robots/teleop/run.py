@@ -22,9 +22,11 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import RobotValueError
 from ..lifecycle import Step, Task, replaced, run_task
-from . import DEFAULT_ARM, DEFAULT_LEADER, EMULATED, WORLDS
+from ..registry import default_robot
+from . import EMULATED, WORLDS
 from .arms import TeleopArm
 from .hand import Episodes
+from .leader import Hand, leader_of
 from .loop import LoopOptions, TeleopLoop, cycle_wire_s, state_wire_s
 from .mapping import JointMap
 
@@ -77,7 +79,9 @@ class TeleopRequest:
     """What to run (see the module docstring); checked by :func:`prepare` before anything
     opens."""
 
-    robot: str = DEFAULT_ARM
+    #: the arm (both, unless ``leader_robot``); None: the robot that says it is
+    #: ``servolab teleop``'s default
+    robot: str | None = None
     leader_robot: str | None = None
     leader: str = EMULATED
     follower: str = EMULATED
@@ -108,7 +112,7 @@ def prepare(request: TeleopRequest) -> Prepared:
         if port.startswith(EMULATED) and port != EMULATED:
             raise RobotValueError(f"--{role} {port}: {EMULATED} alone is the arm emulated "
                                   "here (its own motors, from its URDF)")
-    follower = Arm.named(request.robot)
+    follower = Arm.named(request.robot or default_robot("teleop"))
     leader = Arm.named(request.leader_robot) if request.leader_robot else follower
     return Prepared(request, leader, follower, JointMap(leader.system.joints,
                                                         follower.system.joints))
@@ -366,9 +370,8 @@ def _where(port: str, world: Any = None) -> str:
     return "emulated motors" + (f" ({type(world).__name__})" if world is not None else "")
 
 
-def _hand_homes(arm: Arm) -> dict[str, tuple[float, float]] | None:
-    """The scripted hand's home and swing of each joint: the default arm's own
-    (:data:`.plugin.HAND`), else None (each joint's range decides)."""
-    from .plugin import HAND
-
-    return HAND if arm.name in (DEFAULT_ARM, DEFAULT_LEADER) else None
+def _hand_homes(arm: Arm) -> Hand | None:
+    """The scripted hand's home and swing of each joint: what the arm's leader plug-in says
+    (:func:`.leader.leader_plugin`), else None (each joint's range decides)."""
+    leader = leader_of(arm.name)
+    return None if leader is None else leader.hand
