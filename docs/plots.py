@@ -743,6 +743,25 @@ def treadmill(out: Path, *, quick: bool = False
         return full, short
 
 
+def arm_pick(path: Path) -> None:
+    """docs/arm.md's picture of a pick: ``servolab arm pick 0.2 0.05 --place 0.15 -0.12
+    --render`` on the OpenMANIPULATOR-X's table in MuJoCo (seed 0), its ``pick.png``."""
+    import shutil
+    import tempfile
+
+    from servolab.robots.arm.run import ArmRequest, Where, arm_command
+    from servolab.robots.arm.spec import arm_spec
+
+    with tempfile.TemporaryDirectory() as run:
+        summary = arm_command(arm_spec("open_manipulator_x"),
+                              ArmRequest("pick", pick=(0.2, 0.05), place=(0.15, -0.12),
+                                         render=True),
+                              Where(world="robot"), out=str(Path(run) / "pick"),
+                              say=lambda _: None)
+        assert summary["placed"] and summary["render"] == "pick.png", summary
+        shutil.copy(Path(run) / "pick" / "pick.png", path)
+
+
 def write_figures(path: Path, values: dict[str, float], full: dict[str, float] | None,
                   short: dict[str, float]) -> None:
     """``figures.json``: each number of :data:`FIGURES` with its doc, the run it comes from,
@@ -812,6 +831,7 @@ def main(argv: list[str]) -> None:
     navigation(out)
     values.update(navigation_loop(out, quick=quick))
     full, short = treadmill(out, quick=quick)
+    arm_pick(out / "arm_pick.png")
     write_figures(out / "figures.json", values, full, short)
     print(f"figures written to {out}")
     if with_spread:

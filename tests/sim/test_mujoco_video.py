@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from servolab.sim.errors import SimError, SimulationError
-from servolab.sim.mujoco_video import gl_backend, render_frame, render_video
+from servolab.sim.mujoco_video import (
+    gl_backend,
+    looking_at,
+    render_frame,
+    render_grid,
+    render_video,
+)
 
 #: A box, long in x with a ball on its +x end, on a vertical hinge over a floor: turning it
 #: changes the picture (the box seen from the diagonal looks alike at 0 and 90 deg; the ball
@@ -162,3 +168,26 @@ def test_the_backend_is_mujoco_gl_or_egl(monkeypatch: pytest.MonkeyPatch) -> Non
     assert gl_backend() == "osmesa"
     monkeypatch.delenv("MUJOCO_GL")
     assert gl_backend() == ("egl" if sys.platform.startswith("linux") else "")
+
+
+@pytest.mark.usefixtures("gl")
+def test_a_grid_draws_each_pose_in_its_tile_and_a_blank_where_none_is(
+        model: Any, tmp_path: Path) -> None:
+    """Three poses two a row: two rows, the tiles of 0 and 90 deg apart, the fourth white."""
+    view = looking_at((0.0, 0.0, 0.2), 1.0)
+    path = render_grid(model, np.array([[0.0], [math.pi / 2], [0.0]]), tmp_path / "g.png",
+                       labels=["a", "b", "c"], view=view, width=W, height=H, columns=2)
+    image = cv2.imread(str(path)).astype(int)
+    assert image.shape == (2 * H, 2 * W, 3)
+    tiles = [image[r * H:(r + 1) * H, c * W:(c + 1) * W] for r in range(2) for c in range(2)]
+    assert np.abs(tiles[0] - tiles[1]).mean() > 1.0      # the box turned
+    assert np.abs(tiles[0] - tiles[2]).mean() < 0.5      # the same pose, the same picture
+    assert (tiles[3] == 255).all()
+
+
+def test_a_grid_needs_a_label_a_pose(model: Any, tmp_path: Path) -> None:
+    with pytest.raises(SimulationError, match=r"2 poses need as many labels, got 1"):
+        render_grid(model, np.zeros((2, 1)), tmp_path / "g.png", labels=["a"],
+                    view=looking_at((0, 0, 0), 1.0))
+    with pytest.raises(SimulationError, match=r"a point \(x, y, z\) and a distance > 0"):
+        looking_at((0, 0, 0), 0.0)

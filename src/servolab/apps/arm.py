@@ -90,6 +90,9 @@ def _add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="the place point (m)")
     p.add_argument("--seed", type=nonnegative_int, default=0, metavar="S",
                    help="where a hand puts the object near the pick point (default 0)")
+    p.add_argument("--render", action="store_true",
+                   help="also draw each stage of the pick as MuJoCo saw it, in pick.png in "
+                   "the run folder (needs OpenGL: EGL, or MUJOCO_GL=osmesa)")
     for name in ("gripper", "pick"):
         parsers[name].add_argument("--effort", type=finite_float, default=None, metavar="N",
                                    help=EFFORT_HELP)
@@ -114,7 +117,8 @@ def _run(args: argparse.Namespace) -> int:
         effort=getattr(args, "effort", None),
         pick=(args.x, args.y) if args.action == "pick" else None,
         place=tuple(args.place) if args.action == "pick" else None,
-        seed=getattr(args, "seed", 0), speed=args.speed)
+        seed=getattr(args, "seed", 0), speed=args.speed,
+        render=getattr(args, "render", False))
     where = Where(world=args.world, port=args.port, connect=tuple(args.connect),
                   domain_id=environment_domain_id() if args.domain_id is None
                   else args.domain_id)

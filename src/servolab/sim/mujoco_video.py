@@ -39,7 +39,7 @@ import math
 import os
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -152,6 +152,56 @@ def render_frame(model: mujoco.MjModel, qpos_row: np.ndarray, path: str | Path, 
         raise SimError(f"{p}: OpenCV could not write it; check that the folder can be "
                        "written in")
     return p
+
+
+def render_grid(model: mujoco.MjModel, qpos: np.ndarray, path: str | Path, *,
+                labels: Sequence[str], view: Any, width: int = 400, height: int = 300,
+                columns: int = 3) -> Path:
+    """Several poses (the rows of ``qpos``) side by side in one PNG, ``columns`` a row, each
+    tile ``width`` x ``height`` with its label in its corner, all seen by the camera ``view``
+    (:func:`camera` or :func:`looking_at`): the stages of a run on one page, a pick's grasp
+    beside its place. Returns the path; raises as :func:`render_frame` does."""
+    p = Path(path)
+    if p.suffix.lower() != ".png":
+        raise SimulationError(f"{p}: cannot write a grid with the suffix {p.suffix!r}; "
+                              "name it .png")
+    _check_size(p, width, height, video=False)
+    rows = _rows(p, model, np.asarray(qpos, dtype=float))
+    if len(labels) != len(rows) or columns < 1:
+        raise SimulationError(f"{p}: {len(rows)} poses need as many labels, got "
+                              f"{len(labels)}, and at least one column, got {columns}")
+    _check_folder(p)
+    across = min(columns, len(rows))
+    grid = np.full((height * -(-len(rows) // across), width * across, 3), 255, np.uint8)
+    with _renderer(model, width, height, "the grid") as renderer:
+        data = mujoco.MjData(model)
+        for i, (row, label) in enumerate(zip(rows, labels, strict=True)):
+            tile = np.ascontiguousarray(_draw(renderer, model, data, row, view))
+            cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255),
+                        3, cv2.LINE_AA)
+            cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (20, 20, 20), 1,
+                        cv2.LINE_AA)
+            top, left = (i // across) * height, (i % across) * width
+            grid[top:top + height, left:left + width] = tile
+    if not cv2.imwrite(str(p), cv2.cvtColor(grid, cv2.COLOR_RGB2BGR)):
+        raise SimError(f"{p}: OpenCV could not write it; check that the folder can be "
+                       "written in")
+    return p
+
+
+def looking_at(point: Sequence[float], distance: float, *, azimuth: float = AZIMUTH,
+               elevation: float = ELEVATION) -> Any:
+    """A free ``mujoco.MjvCamera`` looking at ``point`` (world m) from ``distance`` m, at
+    ``azimuth`` and ``elevation`` degrees (MuJoCo's: azimuth about +z, elevation below the
+    horizontal when negative): a scene's fixed view, a table top's."""
+    if not (math.isfinite(distance) and distance > 0) or len(point) != 3:
+        raise SimulationError(f"the camera needs a point (x, y, z) and a distance > 0, got "
+                              f"{tuple(point)!r} and {distance!r}")
+    view = mujoco.MjvCamera()
+    view.type = mujoco.mjtCamera.mjCAMERA_FREE
+    view.lookat[:] = [float(v) for v in point]
+    view.distance, view.azimuth, view.elevation = float(distance), azimuth, elevation
+    return view
 
 
 @contextmanager

@@ -279,17 +279,21 @@ def set_the_table(world: Any, pick: Sequence[float], yaw: float) -> WorldObject:
 
 @dataclass
 class PickJudge:
-    """What the world showed at each stage of a pick, and the verdict."""
+    """What the world showed at each stage of a pick, and the verdict; ``scenes`` keeps the
+    whole world's ``qpos`` at each stage, for a picture of the pick (``servolab arm pick
+    --render``)."""
 
     target: WorldObject
     plan: PickPlan
     stages: dict[str, list[float]] = field(default_factory=dict)
+    scenes: dict[str, np.ndarray] = field(default_factory=dict)
     failure: str | None = None
     reason: str = ""
 
     def saw(self, stage: str) -> tuple[float, float, float]:
         where = self.target.position()
         self.stages[stage] = [round(v, 6) for v in where]
+        self.scenes[stage] = np.array(self.target.world.data.qpos, dtype=float)
         return where
 
     def fail(self, failure: str, reason: str) -> None:

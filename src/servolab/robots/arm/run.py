@@ -50,6 +50,12 @@ ACTIONS = ("home", "move", "gripper", "pick")
 WORLDS = ("emulated", "mujoco", "robot")
 POSE_TOPIC = "/servolab_arm/object"
 POSE = "geometry_msgs/msg/PoseStamped"
+#: the stages of a pick ``--render`` draws (the judge's), in order, with their labels
+RENDERED = {"start": "1 put by hand", "closed": "2 grasped", "lifted": "3 lifted",
+            "carried": "4 carried", "released": "5 released", "final": "6 at rest"}
+#: the render's camera: this far (m) from a point this far (m) above the object's stages,
+#: looking down this steeply (deg), so that the tool hides the object the least
+RENDER_DISTANCE, RENDER_ABOVE, RENDER_ELEVATION = 0.6, 0.03, -45.0
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,8 @@ class ArmRequest:
     place: tuple[float, float] | None = None
     seed: int = 0
     speed: float | None = None
+    #: a pick also drawn, as MuJoCo saw each stage, in ``pick.png`` (needs OpenGL)
+    render: bool = False
 
     def figures(self) -> dict[str, Any]:
         shown: dict[str, Any] = {"action": self.action}
@@ -460,7 +468,26 @@ class ArmTask(Task):
             recorder = self.recorder
             steps.append(Step("closing the bag", recorder.destroy))
         steps += [Step("summarising", self._summarise), Step("plotting", self._plot)]
+        if self.request.render and self.judge is not None:
+            steps.append(Step("rendering the pick", self._render))
         return steps
+
+    def _render(self) -> None:
+        """``pick.png``: the world at each stage the judge saw, from the front left of the
+        table, looking at the middle of the pick and place points."""
+        from ...sim.mujoco_video import looking_at, render_grid
+
+        judge, world = self.judge, self.system.world
+        assert judge is not None
+        shown = [s for s in RENDERED if s in judge.scenes]
+        x, y, z = (np.mean([judge.stages[s] for s in shown], axis=0)
+                   + np.array([0.0, 0.0, RENDER_ABOVE]))
+        path = render_grid(world.model, np.array([judge.scenes[s] for s in shown]),
+                           self.run_folder.file("pick.png"),
+                           labels=[RENDERED[s] for s in shown],
+                           view=looking_at((x, y, z), RENDER_DISTANCE,
+                                             elevation=RENDER_ELEVATION))
+        self.summary["render"] = path.name
 
     def _judge(self) -> None:
         assert self.judge is not None
