@@ -159,7 +159,7 @@ def test_ctrl_c_cancels_the_move_and_the_run_folder_says_so(tmp_path: Path) -> N
     out = tmp_path / "run"
     with started([*SERVOLAB, "arm", "move", "--joints", "1.5", "0", "0", "0", "--speed",
                   "0.1", "--world", "emulated", "--out", str(out)]) as proc:
-        wait_for_line(proc, "on emulated motors", timeout=60)
+        wait_for_line(proc, "move: goal accepted, moving", timeout=60)   # under way
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=60) == 130
     summary = json.loads((out / "summary.json").read_text())

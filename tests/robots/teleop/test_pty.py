@@ -50,7 +50,8 @@ def test_on_two_ptys_sigterm_leaves_the_follower_holding(tmp_path: Path) -> None
             text=True)
         try:
             _line(proc, "the follower has reached the leader", 30.0)
-            time.sleep(1.5)                      # in the episode: the hand moves the leader
+            # two seconds into the episode: the hand moves the leader
+            _line(proc, "episode 1 of 1: 2 of 60 s", 30.0)
             proc.send_signal(signal.SIGTERM)
             assert proc.wait(timeout=20) == 128 + signal.SIGTERM
         finally:

@@ -321,7 +321,7 @@ class ArmTask(Task):
     def start(self) -> None:
         from ...middleware.recorder import Recorder
 
-        self.link = link = ArmLink(self.context, self.spec)
+        self.link = link = ArmLink(self.context, self.spec, self.say)
         topics = link.topics()
         if self.prepared.plan is not None:
             self._table()

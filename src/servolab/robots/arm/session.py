@@ -18,7 +18,7 @@ beside what the joints did.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -144,11 +144,14 @@ class Heard:
 class ArmLink:
     """The arm ``spec`` through its controllers on ``context`` (see the module docstring)."""
 
-    def __init__(self, context: Context, spec: ArmSpec) -> None:
+    def __init__(self, context: Context, spec: ArmSpec,
+                 say: Callable[[str], None] | None = None) -> None:
         from ...middleware.node import Node
         from ...rclpy.action import ActionClient
 
         self.context, self.spec = context, spec
+        #: told when a goal is accepted, so that a slow move shows it has begun
+        self.say = say
         self.node = node = Node(context, NODE)
         self.heard = Heard()
         self.trajectory = ActionClient(node, TRAJECTORY_ACTION, spec.action)
@@ -274,6 +277,8 @@ class ArmLink:
             result.status = "REJECTED"
             return None
         self._active = handle   # until it ends: a stop signal while waiting cancels it
+        if self.say is not None:
+            self.say(f"{result.what}: goal accepted, moving")
         ended = handle.get_result_async()
         if not self.wait(ended.done, timeout):
             self.cancel()

@@ -267,11 +267,12 @@ class TeleopLoop:
         s = x * x * (3.0 - 2.0 * x)
         return [a + s * (b - a) for a, b in zip(start, goals, strict=True)]
 
-    def run(self, episodes: Episodes, on_begin: Callable[[float], None] | None = None
-            ) -> None:
+    def run(self, episodes: Episodes, on_begin: Callable[[float], None] | None = None,
+            progress: Callable[[int, float], None] | None = None) -> None:
         """The episodes, from now: each one's start and end marked in the bag, the loop
         going on between them. ``on_begin(t)`` is told when the first one starts (the
-        scripted hand's cue)."""
+        scripted hand's cue); ``progress(k, s)`` after each cycle of episode ``k``, ``s``
+        seconds into it (a bar, a line a second)."""
         clock = self.clock
         begin = clock.now()
         if on_begin is not None:
@@ -284,6 +285,8 @@ class TeleopLoop:
             end = start + episodes.seconds
             while clock.now() < end:
                 self.cycle()
+                if progress is not None:
+                    progress(k, clock.now() - start)
             self.record.episodes[-1].complete = True
             self._mark(-1)
 

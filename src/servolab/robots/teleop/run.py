@@ -297,7 +297,9 @@ class TeleopTask(Task):
         if engage > 0:
             say(f"the follower has reached the leader ({engage:.2f} s)")
         script = self.script
-        loop.run(episodes, on_begin=script.begin_at if script is not None else None)
+        with _Progress(episodes, say) as progress:
+            loop.run(episodes, on_begin=script.begin_at if script is not None else None,
+                     progress=progress.update)
 
     def stop(self, ended: BaseException | None) -> Sequence[Step]:
         def hold() -> None:
@@ -362,6 +364,45 @@ class TeleopTask(Task):
                  "commands lost")
         self.say(f"the follower holds where it is (torque on); run folder: "
                  f"{self.run_folder.path}")
+
+
+class _Progress:
+    """A tqdm bar over each episode's seconds on a terminal; elsewhere (a log, a test) a line
+    a second: ``episode 1 of 2: 3 of 10 s``."""
+
+    def __init__(self, episodes: Episodes, say: Callable[[str], None]) -> None:
+        import sys
+
+        self.episodes, self.say = episodes, say
+        self.show = sys.stderr.isatty()
+        self.bar: Any = None
+        self.k, self.said = -1, 0
+
+    def __enter__(self) -> _Progress:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+    def update(self, k: int, elapsed: float) -> None:
+        total = self.episodes.seconds
+        if k != self.k:
+            self.k, self.said = k, 0
+            if self.show:
+                from tqdm import tqdm
+
+                if self.bar is not None:
+                    self.bar.close()
+                self.bar = tqdm(total=total, unit="s", leave=False,
+                                desc=f"episode {k + 1} of {self.episodes.count}",
+                                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
+        elapsed = min(elapsed, total)
+        if self.bar is not None and elapsed > self.bar.n:
+            self.bar.update(elapsed - self.bar.n)
+        elif not self.show and int(elapsed) > self.said:
+            self.said = int(elapsed)
+            self.say(f"episode {k + 1} of {self.episodes.count}: {self.said} of {total:g} s")
 
 
 def _where(port: str, world: Any = None) -> str:
