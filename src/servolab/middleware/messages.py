@@ -244,6 +244,10 @@ class MessageTypes:
         #: the store's CDR code, generated per type on first use (rosbags stays the oracle)
         self.cdr = FastCdr(self.store)
         self._readers: dict[str, Callable[[bytes | memoryview], Any]] = {}
+        #: each type's RIHS01 hash, computed once: a type once known never changes, and every
+        #: entity of a node announces its type's hash (benchmarks/fleet.py: rosbags' hashing
+        #: was a third of making a node)
+        self._hashes: dict[str, str] = {}
         #: per type, its fields' default values (from ``type name default`` lines), as plain
         #: values: rosbags' parser drops them
         self._defaults: dict[str, dict[str, Any]] = {}
@@ -320,6 +324,7 @@ class MessageTypes:
         with self._registering:
             self.store.register(types)
             self._builders.clear()
+            self._hashes.clear()   # a type that uses a newly registered one hashes anew
             for name, cls in self.store.types.items():
                 if "__setattr__" not in vars(cls):
                     cls.__setattr__ = _field_setter(self, name)  # type: ignore[method-assign]
@@ -338,6 +343,7 @@ class MessageTypes:
         for name, definition in fixed.items():
             if definition != self.store.fielddefs[name]:
                 self.store.fielddefs[name] = definition
+        self._hashes.clear()
 
     def register_msgs(self, texts: Mapping[str, str]) -> None:
         """Register message types from their ``.msg`` text, keyed by ``pkg/msg/Name``."""
@@ -605,8 +611,11 @@ class MessageTypes:
 
     def rihs01(self, name: str) -> str:
         """The REP-2016 type hash, ``RIHS01_<sha256>``."""
-        self.load_package_of(name)
-        return self.store.hash_rihs01(name)
+        found = self._hashes.get(name)
+        if found is None:
+            self.load_package_of(name)
+            found = self._hashes[name] = self.store.hash_rihs01(name)
+        return found
 
     @staticmethod
     def dds_name(name: str) -> str:

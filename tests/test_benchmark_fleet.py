@@ -1,0 +1,37 @@
+"""benchmarks/fleet.py on a short run (--quick: 10 and 50 nodes, 2 000 messages): every
+topology (peer to peer, one router, two routers chained) and engine (servolab, bare Zenoh)
+measured, each fleet fully discovered by the observer (the liveliness tokens rmw_zenoh's graph
+reads), its memory per node and message rate positive, and no message lost. It checks that the
+benchmark works, not how fast anything is."""
+
+from __future__ import annotations
+
+import json
+import math
+import runpy
+from pathlib import Path
+
+import pytest
+
+BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "fleet.py"
+
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
+
+
+@pytest.mark.timeout(180)
+def test_fleet_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bench = runpy.run_path(str(BENCHMARK), run_name="fleet_bench")
+    out = tmp_path / "fleet.json"
+    assert bench["main"](["--quick", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert {(r["engine"], r["topology"], r["nodes"]) for r in rows} == {
+        (e, t, n) for e in ("servolab", "zenoh") for t in ("peer", "router", "two routers")
+        for n in (10, 50)}
+    for r in rows:
+        assert math.isfinite(r["discovery_s"]) and r["discovery_s"] > 0, r
+        assert r["rss_per_node_kib"] > 0 and r["messages_per_s"] > 0, r
+        assert r["messages_lost"] == 0, r
+    printed = capsys.readouterr().out
+    for topology in ("peer", "router", "two routers"):
+        assert f"ratio {topology}, 50 nodes: discovery x" in printed
+        assert f"growth servolab, {topology}: discovery x" in printed
