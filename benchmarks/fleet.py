@@ -22,8 +22,11 @@ are judged by one ruler.
   minus before, over ``n``.
 - **Message rate**: the child's nodes publish ``per_node`` ``std_msgs/msg/String`` each, round
   robin, as fast as they can; the observer's samples over the time from its first to its last.
-  Messages lost are counted (Zenoh's default reliable, blocking congestion control: none is
-  expected).
+  Messages lost are counted: the publishers are KEEP_LAST (depth 10), which rmw_zenoh (and
+  servolab, ``zenoh_transport.congestion_control``) declares with Zenoh's DROP congestion
+  control, so that a stalled subscriber never stalls a control loop; the anchor's are set
+  alike. Peer to peer the observer keeps up and none is lost; through routers a flood can
+  outrun the extra hop and some are dropped, on both engines.
 
 **Topologies.** ``peer``: the child connects to the observer's listening endpoint (servolab's
 default, peer to peer). ``router``: a Zenoh router in its own process (``servolab router``'s
@@ -246,7 +249,9 @@ class ZenohFleet:
                     f"{base}2/MS/%/%fleet/{name}/%fleet%{name}%in/{kind}"),
                 session.declare_subscriber(f"{DOMAIN}/fleet/{name}/in/String",
                                            lambda _: None)]
-            self.publishers.append(session.declare_publisher(f"{DOMAIN}/fleet/chatter/String"))
+            self.publishers.append(session.declare_publisher(
+                f"{DOMAIN}/fleet/chatter/String",
+                congestion_control=zenoh.CongestionControl.DROP))   # as servolab's KEEP_LAST
 
     def publish(self) -> None:
         for publisher in self.publishers:

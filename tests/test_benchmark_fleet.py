@@ -1,7 +1,7 @@
 """benchmarks/fleet.py on a short run (--quick: 10 and 50 nodes, 2 000 messages): every
 topology (peer to peer, one router, two routers chained) and engine (servolab, bare Zenoh)
 measured, each fleet fully discovered by the observer (the liveliness tokens rmw_zenoh's graph
-reads), its memory per node and message rate positive, and no message lost. It checks that the
+reads), its memory per node and message rate positive, and no message lost peer to peer. It checks that the
 benchmark works, not how fast anything is."""
 
 from __future__ import annotations
@@ -30,7 +30,13 @@ def test_fleet_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     for r in rows:
         assert math.isfinite(r["discovery_s"]) and r["discovery_s"] > 0, r
         assert r["rss_per_node_kib"] > 0 and r["messages_per_s"] > 0, r
-        assert r["messages_lost"] == 0, r
+        # KEEP_LAST publishers drop when congested (rmw_zenoh's choice): peer to peer the
+        # observer keeps up; through routers a flood may outrun the hop: counted, no more
+        # than was sent
+        sent = r["nodes"] * (2_000 // r["nodes"])
+        assert 0 <= r["messages_lost"] <= sent, r
+        if r["topology"] == "peer":
+            assert r["messages_lost"] == 0, r
     printed = capsys.readouterr().out
     for topology in ("peer", "router", "two routers"):
         assert f"ratio {topology}, 50 nodes: discovery x" in printed
