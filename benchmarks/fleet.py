@@ -17,7 +17,8 @@ reads over rmw_zenoh) and the samples on ``<domain>/fleet/chatter/**``, so that 
 are judged by one ruler.
 
 - **Discovery**: from the moment the child starts making its nodes (its ``time.time()``, one
-  clock on one machine) until the observer's liveliness query returns all ``n`` node tokens.
+  clock on one machine; with several robots, the last one to start) until the observer's
+  liveliness query returns all the nodes' tokens.
 - **Memory per node**: the child's resident set (``/proc/self/statm``) after making the nodes
   minus before, over ``n``.
 - **Message rate**: the child's nodes publish ``per_node`` ``std_msgs/msg/String`` each, round
@@ -34,6 +35,9 @@ engine: zenoh-python in router mode), the child and the observer each connecting
 ``two routers``: router B connects to router A; the child connects to A, the observer to B, so
 discovery crosses both routers. Peers still link to each other directly once they learn of each
 other (Zenoh's gossip, as rmw_zenoh's peers do), so the routers carry discovery, not data.
+
+**Robots.** The same through one router with 1 and 10 robots (3 with ``--quick``): a process
+each, of 5 nodes each, as a lab's robots each run their own process.
 
 The ratios servolab / bare Zenoh are measured in the same run; each figure's growth from the
 fewest nodes to the most says how it scales (1 per node: linear in the nodes).
@@ -65,6 +69,8 @@ import zenoh
 DOMAIN = 0
 #: the nodes of a fleet, the full run's and --quick's
 NODES, QUICK_NODES = (10, 50, 200), (10, 50)
+#: robots (processes) of :data:`ROBOT_NODES` nodes each through one router, full and --quick
+ROBOTS, QUICK_ROBOTS, ROBOT_NODES = (1, 10), (1, 3), 5
 #: messages all nodes of a fleet publish together, whatever their number
 MESSAGES, QUICK_MESSAGES = 20_000, 2_000
 TOPOLOGIES = ("peer", "router", "two routers")
@@ -85,6 +91,8 @@ class Figures:
     rss_per_node_kib: float
     messages_per_s: float
     messages_lost: int
+    #: processes the nodes are spread over (robots), ``nodes`` each
+    robots: int = 1
 
 
 def free_endpoint() -> str:
@@ -313,8 +321,10 @@ class Observer:
         self.session.close()
 
 
-def measure(engine: str, topology: str, nodes: int, messages: int) -> Figures:
-    per_node = max(1, messages // nodes)
+def measure(engine: str, topology: str, nodes: int, messages: int, robots: int = 1
+            ) -> Figures:
+    """One fleet: ``robots`` processes of ``nodes`` nodes each (see the module docstring)."""
+    per_node = max(1, messages // (nodes * robots))
     with ExitStack() as stack:
         observer_listen = [free_endpoint()]
         if topology == "peer":
@@ -330,20 +340,23 @@ def measure(engine: str, topology: str, nodes: int, messages: int) -> Figures:
                 observer_connect = [router_b]
         observer = Observer(observer_listen, observer_connect)
         stack.callback(observer.close)
-        fleet, made = stack.enter_context(process(
+        fleets = [stack.enter_context(process(
             ["--fleet", engine, "--nodes", str(nodes), "--per-node", str(per_node),
-             "--connect", fleet_connect], "made"))
-        _, began, taken = made.split()
-        seen = observer.wait_nodes(nodes)
-        assert fleet.stdin is not None
-        fleet.stdin.write("go\n")
-        fleet.stdin.flush()
-        observer.wait_messages(nodes * per_node)
+             "--connect", fleet_connect], "made")) for _ in range(robots)]
+        made = [line.split() for _, line in fleets]
+        seen = observer.wait_nodes(nodes * robots)
+        for fleet, _ in fleets:
+            assert fleet.stdin is not None
+            fleet.stdin.write("go\n")
+            fleet.stdin.flush()
+        sent = nodes * robots * per_node
+        observer.wait_messages(sent)
         with observer.lock:
             count, first, last = observer.count, observer.first, observer.last
         rate = (count - 1) / (last - first) if count > 1 and last > first else 0.0
-        return Figures(engine, topology, nodes, seen - float(began),
-                       int(taken) / nodes / 1024, rate, nodes * per_node - count)
+        return Figures(engine, topology, nodes, seen - max(float(m[1]) for m in made),
+                       sum(int(m[2]) for m in made) / (nodes * robots) / 1024, rate,
+                       sent - count, robots)
 
 
 # -- report ------------------------------------------------------------------------------------
@@ -376,6 +389,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"  measuring {engine}, {topology}, {nodes} nodes...", file=sys.stderr,
                       flush=True)
                 rows.append(measure(engine, topology, nodes, messages))
+    for robots in QUICK_ROBOTS if args.quick else ROBOTS:
+        for engine in ENGINES:
+            print(f"  measuring {engine}, {robots} robots of {ROBOT_NODES} nodes through a "
+                  "router...", file=sys.stderr, flush=True)
+            rows.append(measure(engine, "router", ROBOT_NODES, messages, robots))
     report(rows, sizes)
     if args.json:
         args.json.write_text(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
@@ -387,11 +405,12 @@ def report(rows: list[Figures], sizes: Sequence[int]) -> None:
     print(f"{'topology':12} {'nodes':>5} {'engine':9} {'discovery s':>11} "
           f"{'KiB/node':>9} {'msg/s':>9} {'lost':>5}")
     for r in rows:
-        print(f"{r.topology:12} {r.nodes:5d} {r.engine:9} {r.discovery_s:11.3f} "
+        print(f"{r.topology if r.robots == 1 else f'{r.robots} robots':12} {r.nodes:5d} "
+              f"{r.engine:9} {r.discovery_s:11.3f} "
               f"{r.rss_per_node_kib:9.1f} {r.messages_per_s:9.0f} {r.messages_lost:5d}")
     print()
     print("servolab / bare zenoh (> 1: servolab costs more; for msg/s, < 1: fewer):")
-    by = {(r.engine, r.topology, r.nodes): r for r in rows}
+    by = {(r.engine, r.topology, r.nodes): r for r in rows if r.robots == 1}
     for topology in TOPOLOGIES:
         for nodes in sizes:
             s, z = by["servolab", topology, nodes], by["zenoh", topology, nodes]
@@ -407,6 +426,22 @@ def report(rows: list[Figures], sizes: Sequence[int]) -> None:
             print(f"growth {engine}, {topology}: discovery x{b.discovery_s / a.discovery_s:.2f}"
                   f", memory per node x{b.rss_per_node_kib / max(a.rss_per_node_kib, 1e-9):.2f}"
                   f", messages per second x{b.messages_per_s / max(a.messages_per_s, 1e-9):.2f}")
+    fleets = {(r.engine, r.robots): r for r in rows if r.nodes == ROBOT_NODES}
+    counts = sorted({robots for _, robots in fleets})
+    if len(counts) < 2:
+        return
+    print()
+    print(f"robots of {ROBOT_NODES} nodes each, one process each, through one router:")
+    for robots in counts:
+        s, z = fleets["servolab", robots], fleets["zenoh", robots]
+        print(f"ratio {robots} robots: discovery x{s.discovery_s / z.discovery_s:.2f}, "
+              f"memory per node x{s.rss_per_node_kib / max(z.rss_per_node_kib, 1e-9):.2f}, "
+              f"messages per second x{s.messages_per_s / max(z.messages_per_s, 1e-9):.2f}")
+    for engine in ENGINES:
+        a, b = fleets[engine, counts[0]], fleets[engine, counts[-1]]
+        print(f"growth {engine}, {counts[0]} to {counts[-1]} robots: discovery "
+              f"x{b.discovery_s / a.discovery_s:.2f}, messages per second "
+              f"x{b.messages_per_s / max(a.messages_per_s, 1e-9):.2f}")
 
 
 if __name__ == "__main__":

@@ -24,16 +24,17 @@ def test_fleet_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     out = tmp_path / "fleet.json"
     assert bench["main"](["--quick", "--json", str(out)]) == 0
     rows = json.loads(out.read_text())
-    assert {(r["engine"], r["topology"], r["nodes"]) for r in rows} == {
-        (e, t, n) for e in ("servolab", "zenoh") for t in ("peer", "router", "two routers")
-        for n in (10, 50)}
+    assert {(r["engine"], r["topology"], r["nodes"], r["robots"]) for r in rows} == {
+        (e, t, n, 1) for e in ("servolab", "zenoh") for t in ("peer", "router", "two routers")
+        for n in (10, 50)} | {(e, "router", 5, robots) for e in ("servolab", "zenoh")
+                              for robots in (1, 3)}
     for r in rows:
         assert math.isfinite(r["discovery_s"]) and r["discovery_s"] > 0, r
         assert r["rss_per_node_kib"] > 0 and r["messages_per_s"] > 0, r
         # KEEP_LAST publishers drop when congested (rmw_zenoh's choice): peer to peer the
         # observer keeps up; through routers a flood may outrun the hop: counted, no more
         # than was sent
-        sent = r["nodes"] * (2_000 // r["nodes"])
+        sent = r["nodes"] * r["robots"] * (2_000 // (r["nodes"] * r["robots"]))
         assert 0 <= r["messages_lost"] <= sent, r
         if r["topology"] == "peer":
             assert r["messages_lost"] == 0, r
@@ -41,3 +42,4 @@ def test_fleet_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     for topology in ("peer", "router", "two routers"):
         assert f"ratio {topology}, 50 nodes: discovery x" in printed
         assert f"growth servolab, {topology}: discovery x" in printed
+    assert "ratio 3 robots: discovery x" in printed
