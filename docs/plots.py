@@ -1,6 +1,6 @@
-"""Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md, navigation.md and
-treadmill.md from the code itself, and the numbers those docs quote from a run:
-``python docs/plots.py [DIR] [--quick] [--spread]``.
+"""Make the figures of docs/dynamixel.md, sim.md, biped.md, mobile.md, navigation.md,
+treadmill.md, arm.md and fleets.md from the code itself, and the numbers those docs quote from
+a run: ``python docs/plots.py [DIR] [--quick] [--spread]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
 seconds to make, but for the 100 s treadmill run (about a minute). ``--quick`` shortens that
@@ -762,6 +762,46 @@ def arm_pick(path: Path) -> None:
         shutil.copy(Path(run) / "pick" / "pick.png", path)
 
 
+def fleet_scale(path: Path, *, quick: bool) -> None:
+    """docs/fleets.md's curves: graph discovery time, memory per node and message rate as a
+    fleet grows from 10 to 200 nodes (--quick: 10 and 50, peer to peer only), servolab beside
+    bare Zenoh, measured by benchmarks/fleet.py's own ``measure`` in real time (the one figure
+    here that is: what it shows is the machine's, so docs/fleets.md quotes no number from it)."""
+    import runpy
+
+    fleet = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "fleet.py"),
+                           run_name="fleet_bench")
+    sizes = fleet["QUICK_NODES"] if quick else fleet["NODES"]
+    topologies = ("peer",) if quick else fleet["TOPOLOGIES"]
+    rows = [fleet["measure"](engine, topology, n, fleet["QUICK_MESSAGES"] if quick
+                             else fleet["MESSAGES"])
+            for topology in topologies for n in sizes for engine in fleet["ENGINES"]]
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    panels = (("discovery_s", "graph discovery (s)"), ("rss_per_node_kib", "memory per node (KiB)"),
+              ("messages_per_s", "messages per second, all nodes"))
+    styles = {"servolab": "-o", "zenoh": "--s"}
+    for ax, (field, label) in zip(axes, panels, strict=True):
+        for topology in topologies:
+            for engine in fleet["ENGINES"]:
+                mine = [r for r in rows if (r.engine, r.topology) == (engine, topology)]
+                ax.plot([r.nodes for r in mine], [getattr(r, field) for r in mine],
+                        styles[engine], label=f"{engine if engine == 'servolab' else 'bare Zenoh'}"
+                        f", {topology}", alpha=0.8)
+        ax.set_xscale("log")
+        ax.set_xticks(list(sizes), [str(n) for n in sizes])
+        ax.minorticks_off()
+        ax.set_xlabel("nodes in one process")
+        ax.set_title(label, fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].set_yscale("log")
+    axes[0].legend(fontsize=7)
+    fig.suptitle("A fleet's graph as it grows: servolab and bare Zenoh, measured in one run",
+                 fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def write_figures(path: Path, values: dict[str, float], full: dict[str, float] | None,
                   short: dict[str, float]) -> None:
     """``figures.json``: each number of :data:`FIGURES` with its doc, the run it comes from,
@@ -832,6 +872,7 @@ def main(argv: list[str]) -> None:
     values.update(navigation_loop(out, quick=quick))
     full, short = treadmill(out, quick=quick)
     arm_pick(out / "arm_pick.png")
+    fleet_scale(out / "fleet_scale.png", quick=quick)
     write_figures(out / "figures.json", values, full, short)
     print(f"figures written to {out}")
     if with_spread:
