@@ -1,8 +1,9 @@
 """Arguments more than one command takes, written once so they read the same everywhere.
 
 The ``add_*`` functions add options to a command's parser; the value parsers (``int_range``,
-``protocol``, ``baud``) turn text into values or raise :class:`argparse.ArgumentTypeError`,
-which argparse prints as ``servolab COMMAND: error: ...`` with exit status 2.
+``protocol``, ``baud``, ``namespace``) turn text into values or raise
+:class:`argparse.ArgumentTypeError`, which argparse prints as ``servolab COMMAND: error: ...``
+with exit status 2.
 Imported by every command module when ``servolab --help`` runs, so only the standard library
 and the middleware's exception classes are imported at the top.
 """
@@ -61,6 +62,21 @@ def baud(text: str) -> int:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"baud rate {text!r} must be positive")
     return value
+
+
+def namespace(text: str) -> str:
+    """A robot's namespace, completed and checked as ``rcl_node_init`` does a node's (rmw's
+    rules): ``robot1`` or ``/robot1`` is ``/robot1``, ``/`` (or nothing) the root; a bad one
+    is refused in one line naming it and the rule it breaks."""
+    from servolab.limits import quoted
+    from servolab.middleware.errors import NameValidationError
+    from servolab.middleware.names import node_namespace
+
+    try:
+        return node_namespace(text)
+    except NameValidationError as exc:
+        raise argparse.ArgumentTypeError(f"{quoted(text)}: {exc.reason}; give one such as "
+                                         "/robot1") from None
 
 
 # -- options ------------------------------------------------------------------------------------
@@ -139,6 +155,17 @@ def log_level(args: argparse.Namespace) -> int:
         name, getattr(logging, name.upper()))
     logging.getLogger("servolab").setLevel(level)
     return level
+
+
+def add_namespace(p: argparse.ArgumentParser, what: str = "the robot's nodes") -> None:
+    """``--namespace NS``: where a robot's nodes and topics go, so that many robots share one
+    graph, as ROS 2 multi-robot setups run them (``ros2 launch ... namespace:=robot1``): its
+    topics in the namespace (``/robot1/cmd_vel``), its tf frames prefixed (``robot1/odom``) on
+    the shared ``/tf``. The root (the default) gives the names of a robot alone."""
+    p.add_argument("--namespace", type=namespace, default="/", metavar="NS",
+                   help=f"the namespace of {what}, e.g. /robot1: its topics go under it and "
+                   "its tf frames take its name as a prefix (robot1/odom) (default: /, the "
+                   "names of a robot alone)")
 
 
 def add_port(p: argparse.ArgumentParser) -> None:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from servolab.errors import UsageError
 
-from .arguments import add_transport, positive_float, transport_options
+from .arguments import add_namespace, add_transport, positive_float, transport_options
 from .registry import Command
 
 if TYPE_CHECKING:
@@ -306,11 +306,28 @@ def spawner(remote: RemoteManager, names: list[str], say: Say, *, inactive: bool
 
 # -- the parser -------------------------------------------------------------------------------
 
+def manager_name(given: str | None, namespace: str) -> str:
+    """The controller manager ``-c`` and ``--namespace`` name, as the spawner resolves its
+    ``--controller-manager`` in its node's namespace: an absolute name as given, a relative
+    one (or the default ``controller_manager``) in ``namespace``."""
+    from servolab.middleware.errors import NameValidationError
+    from servolab.middleware.names import fully_qualified_name
+    from servolab.robots.control.defaults import DEFAULT_MANAGER
+
+    try:
+        return fully_qualified_name(given or DEFAULT_MANAGER.lstrip("/"), namespace)
+    except NameValidationError as exc:
+        raise UsageError(f"-c {given!r}: {exc.reason}") from None
+
+
 def _manager_options(p: argparse.ArgumentParser) -> None:
     from servolab.robots.control.defaults import CALL_TIMEOUT, DEFAULT_MANAGER
 
-    p.add_argument("-c", "--controller-manager", default=DEFAULT_MANAGER, metavar="NAME",
-                   help=f"the controller manager's node name (default {DEFAULT_MANAGER})")
+    p.add_argument("-c", "--controller-manager", default=None, metavar="NAME",
+                   help=f"the controller manager's node name (default {DEFAULT_MANAGER}; a "
+                   "relative name is in --namespace)")
+    add_namespace(p, "the robot whose controller manager to reach (the one 'control run "
+                  "--namespace' brought up)")
     p.add_argument("--service-call-timeout", type=positive_float, default=CALL_TIMEOUT,
                    metavar="S", help=f"s to wait for each answer (default {CALL_TIMEOUT:g})")
     add_transport(p)
@@ -344,7 +361,8 @@ def _add_run(verbs: Any) -> None:
                    help="emulated motors alone; the URDF moved in MuJoCo under them; or the "
                    "robot's own world, as servolab sim --robot serves it (a base on its floor) "
                    "(default: emulated)")
-    p.add_argument("--namespace", default="/", help="the controller manager's namespace")
+    add_namespace(p, "every node of the robot (controller manager, controllers, "
+                  "robot_state_publisher)")
     p.add_argument("--model", default=None, metavar="MODEL",
                    help="the Dynamixel model of motors the URDF names no model for (ROBOTIS's "
                    "dynamixel_hardware_interface files name none), e.g. XM430-W350")
@@ -416,7 +434,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.verb == "run":
         return control_run(args, say)
     with Context.open(transport_options(args)) as ctx:
-        remote = RemoteManager(ctx, args.controller_manager,
+        remote = RemoteManager(ctx, manager_name(args.controller_manager, args.namespace),
                                timeout=args.service_call_timeout)
         if args.verb != "spawner" and not remote.wait(args.service_call_timeout):
             raise UsageError(f"no controller manager {remote.name} answered within "
@@ -467,7 +485,10 @@ COMMAND = Command(
     examples=(
         "servolab control run arm.urdf --params arm_controllers.yaml --spawn "
         "joint_state_broadcaster forward_position_controller",
+        "servolab control run turtlebot3_waffle --world robot --namespace /robot1 --spawn "
+        "joint_state_broadcaster diff_drive_controller",
         "servolab control list_controllers",
+        "servolab control list_controllers --namespace /robot1",
         "servolab control switch_controllers --activate joint_trajectory_controller "
         "--deactivate forward_position_controller",
         "servolab control load_controller joint_trajectory_controller --set-state active",

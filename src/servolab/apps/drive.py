@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from .arguments import PORT_HELP, add_out, finite_float, positive_float
+from .arguments import PORT_HELP, add_namespace, add_out, finite_float, positive_float
 from .registry import Command
 from .view import add_view_flag, view_request
 
@@ -55,6 +55,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "deviation in rad (default 0)")
     p.add_argument("--real-time", action="store_true", help="emulated base: move at the "
                    "wall clock's pace (default: as fast as the computer allows)")
+    add_namespace(p, "the base's topics in the bag and the view")
     add_view_flag(p)
     add_out(p)
 
@@ -126,7 +127,7 @@ def _run(args: argparse.Namespace) -> int:
                   show_progress=not args.no_progress, slip=args.slip,
                   slip_jitter=args.slip_jitter, encoder_noise=args.encoder_noise,
                   real_time=args.real_time, percent=percent, counts_per_mm=cpm,
-                  as_printed=as_printed, view=view)
+                  as_printed=as_printed, view=view, namespace=args.namespace)
     print(f"run folder: {run.path}")
     return 0
 

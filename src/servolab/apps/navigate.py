@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from .arguments import add_out, finite_float, nonnegative_int, positive_float
+from .arguments import add_namespace, add_out, finite_float, nonnegative_int, positive_float
 from .registry import Command
 from .view import add_view_flag, view_request
 
@@ -47,6 +47,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the camera's "
                    "image noise and the calibration views (default 0)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_namespace(p, "the run's nodes (base, camera, tracker, localiser, navigator)")
     add_view_flag(p)
     add_out(p)
 
@@ -71,7 +72,7 @@ def _run(args: argparse.Namespace) -> int:
     # everything read and checked before a run folder is made or anything moves
     navigation = prepare((x, y), goal_yaw=yaw, scene=args.scene, calib=args.calib,
                          board_at=board_at, costmap=args.costmap, dwa=args.dwa,
-                         move_base=args.move_base)
+                         move_base=args.move_base, namespace=args.namespace)
     with RunFolder.create("navigate", args.out) as run:
         run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
                      show_progress=not args.no_progress, view=view)
@@ -102,5 +103,6 @@ COMMAND = Command(
     "robot stops within the goal tolerances. The run folder gets navigate_bag/ (MCAP), "
     "navigate.png, calibration.yaml and summary.json.",
     examples=("servolab navigate --goal 2.6 1.6",
-              "servolab navigate --goal 2.6 1.6 90 --scene my_scene.yaml --out runs/nav-a"),
+              "servolab navigate --goal 2.6 1.6 90 --scene my_scene.yaml --out runs/nav-a",
+              "servolab navigate --goal 3.3 2.3 --namespace /robot1"),
     add_arguments=_add_arguments, run=_run, demo=_demo)

@@ -17,6 +17,8 @@ under its first bad character as rclpy's ``NameValidationException`` does.
   and relative names
 - :func:`fully_qualified_name`, :func:`node_namespace`, :func:`check_node_name`: what a node
   and a launch file use
+- :func:`frame_prefix` and :func:`in_namespace`: a robot in a namespace, as ROS 2 multi-robot
+  setups run it (its tf frames prefixed, its topics in its namespace, the global ones shared)
 """
 
 from __future__ import annotations
@@ -24,9 +26,10 @@ from __future__ import annotations
 from .errors import NameValidationError
 
 __all__ = [
-    "ENCLAVE_NAME_MAX_LENGTH", "NAMESPACE_MAX_LENGTH", "NODE_NAME_MAX_LENGTH",
+    "ENCLAVE_NAME_MAX_LENGTH", "GLOBAL_TOPICS", "NAMESPACE_MAX_LENGTH", "NODE_NAME_MAX_LENGTH",
     "TOPIC_NAME_MAX_LENGTH", "NameValidationError", "check_node_name", "expand_topic_name",
-    "fully_qualified_name", "node_namespace", "validate_enclave_name",
+    "frame_prefix", "fully_qualified_name", "in_namespace", "node_namespace",
+    "validate_enclave_name",
     "validate_full_topic_name", "validate_namespace", "validate_node_name",
     "validate_topic_name",
 ]
@@ -339,3 +342,41 @@ def node_namespace(namespace: str, node_name: str = "") -> str:
 def check_node_name(name: str) -> str:
     """A valid node name, or a :class:`NameValidationError` showing where it is not."""
     return validate_node_name(name)
+
+
+# -- many robots in one graph ---------------------------------------------------------------
+
+#: The topics every robot of a graph shares, which stay absolute whatever a node's namespace:
+#: the clock, the parameter events and rosout (rclcpp and rclpy create them as "/clock",
+#: "/parameter_events", "/rosout"), and the transforms: tf2_ros' broadcasters publish on
+#: "/tf" and "/tf_static", so that one tree holds every robot's frames, each robot's prefixed
+#: (:func:`frame_prefix`), as TurtleBot3's multi-robot launch runs its robots.
+GLOBAL_TOPICS = ("/clock", "/parameter_events", "/rosout", "/tf", "/tf_static")
+
+
+def frame_prefix(namespace: str) -> str:
+    """What goes before every tf frame a robot in ``namespace`` publishes: the namespace
+    without its leading ``/``, with a trailing one (``/robot1`` -> ``robot1/``, so its frames
+    are ``robot1/odom``, ``robot1/base_link``); nothing in the root namespace, so a robot
+    alone keeps the frames it always had.
+
+    The one place servolab decides it. It is robot_state_publisher's ``frame_prefix``
+    parameter as turtlebot3_bringup's launch sets it (``namespace + '/'``), and
+    diff_drive_controller's default ``tf_frame_prefix`` (its node's namespace, leading ``/``
+    removed, trailing ``/`` added). A prefix already written that way (``robot1/``, or
+    ``robot1``) gives the same."""
+    if not namespace or namespace == "/":
+        return ""
+    stripped = namespace[1:] if namespace.startswith("/") else namespace
+    return stripped if stripped.endswith("/") else f"{stripped}/"
+
+
+def in_namespace(topic: str, namespace: str) -> str:
+    """An absolute topic of a robot alone (``/odom``) as the same robot has it in
+    ``namespace`` (``/robot1/odom``), as rcl resolves the relative name (``odom``) the robot's
+    node uses; the :data:`GLOBAL_TOPICS` stay as they are. For lists of names written once
+    for the root namespace: what a run records, what a layout shows."""
+    namespace = node_namespace(namespace)
+    if namespace == "/" or topic in GLOBAL_TOPICS:
+        return validate_full_topic_name(topic)
+    return fully_qualified_name(validate_full_topic_name(topic)[1:], namespace)

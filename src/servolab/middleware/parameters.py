@@ -26,6 +26,7 @@ import yaml
 from ..configfile import ConfigMapping, ConfigScalar, ConfigValue, load, load_text
 from ..limits import InputLimits, clip, quoted
 from .errors import ParameterError, ParameterFileError
+from .names import node_namespace
 
 # rcl_interfaces/msg/ParameterType
 NOT_SET, BOOL, INTEGER, DOUBLE, STRING, BYTE_ARRAY = 0, 1, 2, 3, 4, 5
@@ -155,6 +156,21 @@ class ParameterOverrides:
 
     def set(self, node: str, name: str, value: Any) -> None:
         self.by_node.setdefault(_node_key(node), {})[name] = value
+
+    def in_namespace(self, namespace: str) -> ParameterOverrides:
+        """The same values for the same nodes started in ``namespace``: ``/controller_manager``
+        becomes ``/robot1/controller_manager``, as nav2_common's ``RewrittenYaml`` with
+        ``root_key=namespace`` rewrites one robot's parameter file for each robot of a fleet
+        (rcl itself matches a file's ``controller_manager:`` to ``/controller_manager``
+        only). ``/**`` stays every node's, and a node already in the namespace stays too."""
+        namespace = node_namespace(namespace)
+        if namespace == "/":
+            return ParameterOverrides({node: dict(v) for node, v in self.by_node.items()})
+        moved = ParameterOverrides()
+        for node, values in self.by_node.items():
+            inside = node == "/**" or node.startswith(f"{namespace}/")
+            moved.by_node.setdefault(node if inside else namespace + node, {}).update(values)
+        return moved
 
     @classmethod
     def from_assignments(cls, assignments: list[str]) -> ParameterOverrides:

@@ -5,6 +5,8 @@ the robot's true pose, as the camera above the arena would see them.
 ``overhead_camera``) on ``/overhead/image_raw`` at the scene camera's rate. It belongs to the
 world, not to the robot: it reads the floor's ground truth, which nothing on the robot's side
 may, and the obstacles that appear mid-run appear here, at their time after the node started.
+In a namespace (a run's, ``/robot1``) its topic is there (``/robot1/overhead/image_raw``); its
+frame stays the world's.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ class OverheadCameraNode(Node):
         self.rng = np.random.default_rng(seed)
         self.start = self.now()
         self.frames = 0
-        self.publisher = self.create_publisher(IMAGE, "/overhead/image_raw", 2)
+        self.publisher = self.create_publisher(IMAGE, "overhead/image_raw", 2)
         self.create_timer(1.0 / scene.camera.rate, self._publish)
 
     def render(self) -> Image:

@@ -4,7 +4,9 @@ believes (its odometry), so that a recording holds both and the error can be mea
 :class:`GroundTruthNode` publishes a :class:`~.world.World`'s pose (``x``, ``y``, ``yaw`` of
 :meth:`~.world.World.ground_truth`) as ``nav_msgs/msg/Odometry`` in the frame ``world`` on
 ``/ground_truth`` at ``rate`` Hz, with its linear and angular velocity where the world gives
-them.
+them. In a robot's namespace (``/robot1``) the topic is the robot's (``/robot1/ground_truth``)
+and so is the child frame (``robot1/base_footprint``); ``world`` is the floor's, every
+robot's.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..middleware.context import Context
+from ..middleware.names import frame_prefix
 from ..middleware.node import Node
 from .errors import SimulationError
 from .world import World
@@ -33,7 +36,8 @@ class GroundTruthNode(Node):
         rate = float(self.declare_parameter("rate", 30.0, description="Hz").value)
         if not (math.isfinite(rate) and rate > 0):
             raise SimulationError(f"ground truth: rate {rate!r} must be a number > 0 Hz")
-        self.publisher = self.create_publisher(ODOMETRY, "/ground_truth", 10)
+        self.child_frame = frame_prefix(self.get_namespace()) + "base_footprint"
+        self.publisher = self.create_publisher(ODOMETRY, "ground_truth", 10)
         self.create_timer(1.0 / rate, self._publish)
 
     def _publish(self) -> None:
@@ -42,7 +46,7 @@ class GroundTruthNode(Node):
         self.publisher.publish(self.message(
             ODOMETRY,
             header={"stamp": self.stamp(), "frame_id": "world"},
-            child_frame_id="base_footprint",
+            child_frame_id=self.child_frame,
             pose={"pose": {"position": {"x": truth.get("x", 0.0), "y": truth.get("y", 0.0)},
                            "orientation": {"z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
             twist={"twist": {"linear": {"x": truth.get("linear_velocity", 0.0)},

@@ -32,7 +32,7 @@ twist as a measurement; with odometry the only source of motion its velocity sta
 odometry's, which is what taking the increments directly does, without the velocity states and
 their tuning and without time-aligning two sensors' stamps.
 
-**Parameters.** ``tracker_topic`` (``/tracker/pose``); ``filter`` (``ekf`` or ``seed_000``);
+**Parameters.** ``tracker_topic`` (``tracker/pose``); ``filter`` (``ekf`` or ``seed_000``);
 ``frequency`` (Hz); ``sensor_timeout`` (s, 0.5): a sensor silent this long has timed out. Here
 every cycle predicts anyway (robot_localization predicts without correcting when its sensors
 time out; its default, ``1 / frequency``, would call a 10 Hz camera timed out between every
@@ -51,7 +51,10 @@ robot_localization's ``pose0_rejection_threshold``; infinite by default, as ther
 ``pose_filter`` the node is built with (:class:`~servolab.estimation.pose_filter.PoseFilterConfig`).
 ``map_frame`` (``map``), ``odom_frame`` (``odom``), ``base_link_frame`` (``base_footprint``:
 the frame BaseNode's odometry and ``/tf`` give the pose of, TurtleBot3's; robot_localization's
-default, ``base_link``, names a frame this base does not publish), ``publish_tf`` (true).
+default, ``base_link``, names a frame this base does not publish), ``publish_tf`` (true). In a
+namespace (``/robot1``) the topics are the robot's (``/robot1/odom``, ``/robot1/fused_pose``;
+``/tf`` is every robot's) and the two frames of the robot take its prefix (``robot1/odom``,
+``robot1/base_footprint``: :func:`~servolab.middleware.names.frame_prefix`), the map's not.
 
 **Seed 000's D.4 (``filter: seed_000``).** The seed's algorithm, kept as the seed ran it: each
 tracker pose is one sample; the filter predicts one sample ahead and updates with the
@@ -107,6 +110,7 @@ from ...estimation.pose_filter import (
     wrap,
 )
 from ...middleware.context import Context
+from ...middleware.names import frame_prefix
 from ...middleware.node import Node
 from ..errors import RobotValueError
 
@@ -146,7 +150,7 @@ class FusionNode(Node):
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
                          remappings=remappings)
-        tracker_topic = str(self.declare_parameter("tracker_topic", "/tracker/pose").value)
+        tracker_topic = str(self.declare_parameter("tracker_topic", "tracker/pose").value)
         self.filter_kind = str(self.declare_parameter(
             "filter", "ekf", description="ekf (robot_localization's way) or seed_000 (D.4)"
         ).value)
@@ -220,9 +224,13 @@ class FusionNode(Node):
                                                 yaw_variance=yaw, rejection_threshold=threshold)
         except EstimationValueError as error:
             raise RobotValueError(f"fusion: {error}") from error
+        # the robot's frames take its namespace's prefix, as the base node's do; the map is
+        # every robot's
+        prefix = frame_prefix(self.get_namespace())
         self.map_frame = str(self.declare_parameter("map_frame", "map").value)
-        self.odom_frame = str(self.declare_parameter("odom_frame", "odom").value)
-        self.base_frame = str(self.declare_parameter("base_link_frame", "base_footprint").value)
+        self.odom_frame = str(self.declare_parameter("odom_frame", prefix + "odom").value)
+        self.base_frame = str(self.declare_parameter("base_link_frame",
+                                                     prefix + "base_footprint").value)
         self.publish_tf = bool(self.declare_parameter("publish_tf", True).value)
         #: path length and rotation the odometry covered since then
         self._travelled = 0.0
@@ -239,7 +247,7 @@ class FusionNode(Node):
         self.corrections = 0
         self.rejected = 0
         self.odometry_filtered = self.create_publisher(ODOMETRY, "odometry/filtered", 10)
-        self.tf = self.create_publisher(TF, "tf", 10)
+        self.tf = self.create_publisher(TF, "/tf", 10)
         self.timer = self.create_timer(1.0 / self.frequency, self._cycle)
 
     def _on_odom(self, msg: Any) -> None:

@@ -16,6 +16,12 @@ controller manager has it). The two stay one step, as the cycle always was: the 
 command and the odometry read right after it belong together (split, other callbacks ran
 between them, and the navigation's timing moved). Stopping the node (or its context) stops
 the wheels.
+
+In a namespace (``/robot1``) every topic but ``/tf`` is the robot's own (``/robot1/cmd_vel``,
+``/robot1/odom``: the names above are relative), ``/tf`` is every robot's, and the frames take
+the namespace as their prefix (``robot1/odom`` -> ``robot1/base_footprint``:
+:func:`~servolab.middleware.names.frame_prefix`), as TurtleBot3's multi-robot launch runs its
+robots; at the root nothing changes.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from typing import Any
 
 from ...kinematics.diffdrive import wheel_speeds
 from ...middleware.context import Context
+from ...middleware.names import frame_prefix
 from ...middleware.node import Node
 from ..bus_owner import BusOwner
 from ..errors import RobotValueError
@@ -64,8 +71,11 @@ class BaseNode(Node):
         self._sent: tuple[float, float] | None = None
         self._cycle_started = self.now()
         self._previous = (base.pose.x, base.pose.y, base.pose.theta, self.now())
+        prefix = frame_prefix(self.get_namespace())
+        #: the odometry's frame and the base's, prefixed in a namespace
+        self.odom_frame, self.base_frame = prefix + ODOM_FRAME, prefix + BASE_FRAME
         self.odom = self.create_publisher(ODOMETRY, "odom", 10)
-        self.tf = self.create_publisher(TF, "tf", 10)
+        self.tf = self.create_publisher(TF, "/tf", 10)
         self.joint_states = self.create_publisher(JOINT_STATE, "joint_states", 10)
         self.sensor_state = self.create_publisher(SENSOR_STATE, "sensor_state", 10)
         self.create_subscription(TWIST, "cmd_vel", self._on_cmd_vel, 10)
@@ -136,12 +146,13 @@ class BaseNode(Node):
         stamp = self.stamp(now)  # the cycle's start, in ROS time
         quaternion = {"z": math.sin(theta / 2), "w": math.cos(theta / 2)}
         self.odom.publish(self.message(
-            ODOMETRY, header={"stamp": stamp, "frame_id": ODOM_FRAME},
-            child_frame_id=BASE_FRAME,
+            ODOMETRY, header={"stamp": stamp, "frame_id": self.odom_frame},
+            child_frame_id=self.base_frame,
             pose={"pose": {"position": {"x": x, "y": y}, "orientation": quaternion}},
             twist={"twist": {"linear": {"x": v}, "angular": {"z": omega}}}))
         self.tf.publish(self.message(TF, transforms=[{
-            "header": {"stamp": stamp, "frame_id": ODOM_FRAME}, "child_frame_id": BASE_FRAME,
+            "header": {"stamp": stamp, "frame_id": self.odom_frame},
+            "child_frame_id": self.base_frame,
             "transform": {"translation": {"x": x, "y": y}, "rotation": quaternion}}]))
         left, right = self.base.wheel_angles()
         self.joint_states.publish(self.message(
@@ -186,8 +197,12 @@ class BaseRobot(Node):
             overrides = dict(parameter_overrides or {})
             node_overrides: dict[str, Any] = {k: overrides[k] for k in ("rate", "watchdog")
                                               if k in overrides}
-            self.node = BaseNode(context, self.base, parameter_overrides=node_overrides)
-            self.truth = (GroundTruthNode(context, self.base.floor)
+            # in the launch entry's namespace, as a launch's namespace puts every node the
+            # entry starts (a PushRosNamespace group)
+            self.node = BaseNode(context, self.base, namespace=self.get_namespace(),
+                                 parameter_overrides=node_overrides)
+            self.truth = (GroundTruthNode(context, self.base.floor,
+                                          namespace=self.get_namespace())
                           if self.base.floor is not None else None)
         except BaseException:
             self._release()

@@ -23,6 +23,11 @@ holds final.m's numbers (``h``, ``i``, the reads, the equal reads and the wraps)
 
 Every move is checked before anything is opened: one that would take longer than
 :data:`~.mobile_base.MAX_MOVE_SECONDS` is refused in one line (:func:`check_move`).
+
+In a ``namespace`` (``servolab drive --namespace /robot1``) the topics are the robot's, in the
+bag and on the view alike (``/robot1/odom``; ``/tf`` is every robot's), and so are the frames
+(``robot1/odom`` -> ``robot1/base_footprint``; the floor's ``world`` is every robot's), as
+ROS 2 multi-robot setups name them (:mod:`servolab.middleware.names`).
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ from ...kinematics.diffdrive import (
     line_time,
     rotation,
 )
+from ...middleware.names import frame_prefix, in_namespace, node_namespace
 from ..errors import RobotValueError
 from ..lifecycle import Step, Task, run_task
 from . import ON_STOP
@@ -142,13 +148,14 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
               slip: float = 0.0, slip_jitter: float = 0.0, encoder_noise: float = 0.0,
               real_time: bool = False, percent: float | None = None,
               counts_per_mm: float | None = None, as_printed: bool = False,
-              view: ViewRequest | None = None) -> dict[str, Any]:
+              view: ViewRequest | None = None, namespace: str = "/") -> dict[str, Any]:
     """Run one move (see the module docstring); returns the summary. An emulated base runs
     in simulated time, as fast as the computer allows, unless ``real_time``. ``base`` is a
     shipped base's name, a file, or what :func:`prepare` loaded. ``percent``,
     ``counts_per_mm`` and ``as_printed`` make a line final.m's (seed 000 A.2). ``view``
     serves the move to Foxglove while it runs (a simulated one waits for the first viewer,
-    then keeps to real time)."""
+    then keeps to real time); ``namespace`` names its topics and frames (module docstring)."""
+    namespace = node_namespace(namespace)
     config = base if isinstance(base, BaseConfig) else prepare(
         move, base, slip=slip, slip_jitter=slip_jitter, encoder_noise=encoder_noise)
     if as_printed and counts_per_mm is None:
@@ -163,7 +170,7 @@ def run_drive(run_folder: RunFolder, move: str, *, distance: float = 1.0, speed:
                   counts_per_mm=counts_per_mm, as_printed=as_printed)
     task = DriveTask(run_folder, config, move, asked, port=port, say=say,
                      show_progress=show_progress, floor=Floor(slip, slip_jitter, encoder_noise),
-                     real_time=real_time)
+                     real_time=real_time, namespace=namespace)
     return run_task(run_folder, task, view=view, say=say)
 
 
@@ -200,14 +207,15 @@ class DriveTask(Task):
 
     def __init__(self, run_folder: RunFolder, config: BaseConfig, move: str, asked: Asked, *,
                  port: str | None, say: Say, show_progress: bool, floor: Floor,
-                 real_time: bool) -> None:
+                 real_time: bool, namespace: str = "/") -> None:
         self.run_folder, self.config, self.move, self.asked = run_folder, config, move, asked
         self.port, self.say, self.show_progress = port, say, show_progress
-        self.floor, self.real_time = floor, real_time
+        self.floor, self.real_time, self.namespace = floor, real_time, namespace
         self.shown: DrivePublisher | None = None
         self.summary = {"move": move, "base": config.name, "port": port or "emulated",
                         "slip": floor.slip, "slip_jitter": floor.slip_jitter,
-                        "encoder_noise": floor.encoder_noise, "motors_on_stop": ON_STOP}
+                        "encoder_noise": floor.encoder_noise, "motors_on_stop": ON_STOP,
+                        "namespace": namespace}
 
     def open(self, opened: ExitStack) -> None:
         self.opened = opened
@@ -223,7 +231,7 @@ class DriveTask(Task):
         from ...middleware.context import Context
 
         context = self.opened.enter_context(Context.open(clock=self.robot.clock))
-        self.shown = DrivePublisher(context, self.robot)
+        self.shown = DrivePublisher(context, self.robot, self.namespace)
         return context
 
     def run(self) -> None:
@@ -267,7 +275,7 @@ class DriveTask(Task):
 
         return [Step("measuring", measured),
                 Step("recording the bag", lambda: summary.update(
-                    bag=str(record(robot, folder.file("drive_bag"))))),
+                    bag=str(record(robot, folder.file("drive_bag"), self.namespace)))),
                 Step("plotting", lambda: summary.update(
                     plot=str(plot_path(robot, folder.file("drive.png"))))),
                 Step("saying what was measured", lambda: self.say(
@@ -371,20 +379,22 @@ class DrivePublisher:
     ``/odom`` (and the floor's truth on ``/ground_truth``) as ``nav_msgs/msg/Odometry``, with
     ``/tf`` ``odom`` -> ``base_footprint``, and each wheel command sent on
     ``/wheel_commands``: the very messages :func:`record` writes to the bag, stamped alike
-    (the base's clock reading). The move spins no executor, so each call also runs the
-    context's waiting callbacks (the viewer's subscriptions), never moving its clock: a
-    thread spinning it would move a simulated clock under the move's feet."""
+    (the base's clock reading), named alike in a ``namespace``. The move spins no executor,
+    so each call also runs the context's waiting callbacks (the viewer's subscriptions), never
+    moving its clock: a thread spinning it would move a simulated clock under the move's
+    feet."""
 
-    def __init__(self, context: Context, robot: MobileBase) -> None:
+    def __init__(self, context: Context, robot: MobileBase, namespace: str = "/") -> None:
         from ...middleware.node import Node
 
         self.robot = robot
-        self.node = Node(context, "drive")
-        self.odom = self.node.create_publisher(ODOMETRY, "/odom", 10)
-        self.truth = (self.node.create_publisher(ODOMETRY, "/ground_truth", 10)
+        self.node = Node(context, "drive", namespace)
+        self.frames = Frames.of(namespace)
+        self.odom = self.node.create_publisher(ODOMETRY, "odom", 10)
+        self.truth = (self.node.create_publisher(ODOMETRY, "ground_truth", 10)
                       if robot.floor is not None else None)
         self.tf = self.node.create_publisher("tf2_msgs/msg/TFMessage", "/tf", 10)
-        self.commands = self.node.create_publisher(JOINT_STATE, "/wheel_commands", 10)
+        self.commands = self.node.create_publisher(JOINT_STATE, "wheel_commands", 10)
         self._tracked = len(robot.track)
         self._sent = len(robot.commands)
 
@@ -396,13 +406,13 @@ class DrivePublisher:
             t, left, right = commands[i]
             self.commands.publish(message(JOINT_STATE, **wheel_command_fields(t, left, right)))
         self._sent = len(commands)
+        frames = self.frames
         for i in range(self._tracked, len(track)):
             t, ox, oy, otheta, tx, ty, tyaw = track[i]
-            self.odom.publish(message(ODOMETRY, **odometry_fields("odom", t, ox, oy, otheta)))
+            fields = frames.odometry(t, ox, oy, otheta)
+            self.odom.publish(message(ODOMETRY, **fields))
             if self.truth is not None:
-                self.truth.publish(message(ODOMETRY, **odometry_fields("world", t, tx, ty,
-                                                                       tyaw)))
-            fields = odometry_fields("odom", t, ox, oy, otheta)
+                self.truth.publish(message(ODOMETRY, **frames.truth(t, tx, ty, tyaw)))
             pose = fields["pose"]["pose"]
             self.tf.publish(message("tf2_msgs/msg/TFMessage", transforms=[{
                 "header": fields["header"], "child_frame_id": fields["child_frame_id"],
@@ -421,13 +431,38 @@ class DrivePublisher:
 ODOMETRY, JOINT_STATE = "nav_msgs/msg/Odometry", "sensor_msgs/msg/JointState"
 
 
-def odometry_fields(frame: str, t: float, x: float, y: float, yaw: float) -> dict[str, Any]:
-    """An ``Odometry`` of the base at ``(x, y, yaw)`` in ``frame`` at clock reading ``t``, as
+@dataclasses.dataclass(frozen=True)
+class Frames:
+    """The frames a drive's messages name: the odometry's and the base's, prefixed in a
+    namespace (:func:`~servolab.middleware.names.frame_prefix`), and the floor's ``world``,
+    every robot's."""
+
+    odom: str = "odom"
+    base: str = "base_footprint"
+    world: str = "world"
+
+    @classmethod
+    def of(cls, namespace: str) -> Frames:
+        prefix = frame_prefix(namespace)
+        return cls(prefix + cls.odom, prefix + cls.base)
+
+    def odometry(self, t: float, x: float, y: float, yaw: float) -> dict[str, Any]:
+        """The base's odometry at ``(x, y, yaw)`` at clock reading ``t``."""
+        return odometry_fields(self.odom, t, x, y, yaw, child=self.base)
+
+    def truth(self, t: float, x: float, y: float, yaw: float) -> dict[str, Any]:
+        """The floor's truth of the base at ``(x, y, yaw)`` at clock reading ``t``."""
+        return odometry_fields(self.world, t, x, y, yaw, child=self.base)
+
+
+def odometry_fields(frame: str, t: float, x: float, y: float, yaw: float, *,
+                    child: str = "base_footprint") -> dict[str, Any]:
+    """An ``Odometry`` of ``child`` at ``(x, y, yaw)`` in ``frame`` at clock reading ``t``, as
     the bag and the view carry it."""
     from ...middleware.messages import time_of
 
     return {"header": {"stamp": time_of(t), "frame_id": frame},
-            "child_frame_id": "base_footprint",
+            "child_frame_id": child,
             "pose": {"pose": {"position": {"x": x, "y": y},
                               "orientation": {"z": math.sin(yaw / 2),
                                               "w": math.cos(yaw / 2)}}}}
@@ -482,8 +517,9 @@ def measure(robot: MobileBase, move: str) -> dict[str, float]:
     return figures
 
 
-def record(robot: MobileBase, path: Path) -> Path:
-    """The run's track and commands as an MCAP bag (rosbag2 layout), in the base's time."""
+def record(robot: MobileBase, path: Path, namespace: str = "/") -> Path:
+    """The run's track and commands as an MCAP bag (rosbag2 layout), in the base's time, its
+    topics and frames the robot's in ``namespace``."""
     from ...middleware.bag import BagWriter
     from ...middleware.messages import MessageTypes
 
@@ -492,22 +528,24 @@ def record(robot: MobileBase, path: Path) -> Path:
     types = MessageTypes()
     writer = BagWriter(path, types)
     odometry, joints = ODOMETRY, JOINT_STATE
-    writer.add_topic("/odom", odometry)
-    writer.add_topic("/wheel_commands", joints)
+    odom, truth, commands = (in_namespace(topic, namespace) for topic in
+                             ("/odom", "/ground_truth", "/wheel_commands"))
+    frames = Frames.of(namespace)
+    writer.add_topic(odom, odometry)
+    writer.add_topic(commands, joints)
     if robot.floor is not None:
-        writer.add_topic("/ground_truth", odometry)
+        writer.add_topic(truth, odometry)
 
-    def pose(topic: str, frame: str, t: float, x: float, y: float, yaw: float) -> None:
-        msg = types.from_value(odometry, odometry_fields(frame, t, x, y, yaw))
-        writer.write(topic, msg, round(t * 1e9))
+    def pose(topic: str, fields: dict[str, Any], t: float) -> None:
+        writer.write(topic, types.from_value(odometry, fields), round(t * 1e9))
 
     try:
         for t, ox, oy, otheta, tx, ty, tyaw in robot.track:
-            pose("/odom", "odom", t, ox, oy, otheta)
+            pose(odom, frames.odometry(t, ox, oy, otheta), t)
             if robot.floor is not None:
-                pose("/ground_truth", "world", t, tx, ty, tyaw)
+                pose(truth, frames.truth(t, tx, ty, tyaw), t)
         for t, left, right in robot.commands:
-            writer.write("/wheel_commands", types.from_value(
+            writer.write(commands, types.from_value(
                 joints, wheel_command_fields(t, left, right)), round(t * 1e9))
     finally:
         writer.close()

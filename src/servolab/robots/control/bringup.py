@@ -15,6 +15,17 @@ The controllers file is read as the ROS 2 parameter file it is: ``controller_man
 section gives ``update_rate`` and each controller's ``type``, each controller's own section
 its parameters. ``spawn`` controllers are loaded, configured and activated in order (as the
 spawner does), ``inactive`` ones loaded and configured only.
+
+In a ``namespace`` (``/robot1``) every node is there: the controller manager
+(``/robot1/controller_manager``), the controllers (``/robot1/diff_drive_controller/cmd_vel``,
+``/robot1/joint_states``) and robot_state_publisher (``/robot1/robot_description``); the
+controllers file applies to them there, as nav2's ``RewrittenYaml(root_key=namespace)``
+rewrites one robot's file for each robot; and the robot's tf frames take the namespace as
+their prefix on the shared ``/tf`` and ``/tf_static`` (``robot1/base_link``:
+robot_state_publisher's ``frame_prefix`` and diff_drive_controller's default
+``tf_frame_prefix``, both :func:`~servolab.middleware.names.frame_prefix`), as TurtleBot3's
+multi-robot launch runs its robots. Two robots so brought up share a graph and never see each
+other's topics.
 """
 
 from __future__ import annotations
@@ -76,10 +87,14 @@ class ControlSystem:
                  options: BringUpOptions | None = None) -> None:
         from ...clock import WallClock
         from ...middleware.context import Context
+        from ...middleware.names import node_namespace
 
         self.options = options = options or BringUpOptions()
         if options.world not in WORLDS:
             raise RobotValueError(f"world {options.world!r}: one of {', '.join(WORLDS)}")
+        #: where every node of the robot is (module docstring)
+        self.namespace = node_namespace(options.namespace)
+        parameters = parameters.in_namespace(self.namespace)
         self.urdf = urdf
         self.buses: list[Bus] = []
         self.simulation: Simulation | None = None
@@ -102,12 +117,13 @@ class ControlSystem:
         try:
             if self.simulation is not None and options.real_time:
                 self.simulation.start_real_time()
-            self.manager = ControllerManager(self.context, hardware,
-                                             namespace=options.namespace)
+            self.manager = ControllerManager(self.context, hardware, namespace=self.namespace)
             if options.state_publisher:
+                from ...middleware.names import frame_prefix
                 from ..state_publisher import RobotStatePublisher
 
-                RobotStatePublisher(self.context, urdf, namespace=options.namespace)
+                RobotStatePublisher(self.context, urdf, namespace=self.namespace,
+                                    frame_prefix=frame_prefix(self.namespace))
             for name in options.spawn:
                 self.spawn(name, activate=True)
             for name in options.inactive:

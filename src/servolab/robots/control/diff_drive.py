@@ -63,6 +63,7 @@ from ...kinematics.speed_limiter import (
     SpeedLimits,
 )
 from ...middleware.messages import seconds_of
+from ...middleware.names import frame_prefix
 from ...middleware.parameters import DOUBLE_ARRAY
 from .controller import (
     INDIVIDUAL,
@@ -128,13 +129,9 @@ class Command:
 def tf_prefix(enabled: bool, prefix: str, namespace: str) -> str:
     """The prefix of both frames (``.cpp:504-526``): none when disabled, else
     ``tf_frame_prefix`` or the node's namespace, without a leading ``/`` and with a
-    trailing one (the root namespace gives none)."""
-    if not enabled:
-        return ""
-    found = prefix if prefix else namespace
-    if not found.endswith("/"):
-        found += "/"
-    return found[1:] if found.startswith("/") else found
+    trailing one (the root namespace gives none): the rule every servolab robot's frames
+    follow, :func:`~servolab.middleware.names.frame_prefix`."""
+    return frame_prefix(prefix or namespace) if enabled else ""
 
 
 def yaw_quaternion(yaw: float) -> dict[str, float]:

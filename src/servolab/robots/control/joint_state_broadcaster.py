@@ -51,7 +51,9 @@ class JointStateBroadcaster(ControllerInterface):
 
     def on_configure(self) -> None:
         self.state_interface_configuration()
-        prefix = "~/" if self.use_local_topics else "/"
+        # relative, as joint_state_broadcaster.cpp's topic_name_prefix ("~/" or ""): in a
+        # namespaced controller manager they are the robot's (/robot1/joint_states)
+        prefix = "~/" if self.use_local_topics else ""
         self.joint_states = self.node.create_publisher("sensor_msgs/msg/JointState",
                                                        prefix + "joint_states", 10)
         self.dynamic = self.node.create_publisher("control_msgs/msg/DynamicJointState",

@@ -35,14 +35,16 @@ from ...planning.costmap import (
 )
 from ..errors import RobotValueError
 
+# The topics are relative, as Nav2's nodes name them: a robot alone has them at the root
+# (``/global_costmap/costmap``), a robot in a namespace in it (``/robot1/global_costmap/...``).
 #: Nav2's global costmap topic (nav2_costmap_2d's ``<name>/costmap``, name global_costmap)
-COSTMAP_TOPIC = "/global_costmap/costmap"
+COSTMAP_TOPIC = "global_costmap/costmap"
 #: the controller's chosen trajectory, as Nav2's controller server publishes it
-LOCAL_PLAN_TOPIC = "/local_plan"
+LOCAL_PLAN_TOPIC = "local_plan"
 #: the robot's poses so far
-DRIVEN_PATH_TOPIC = "/path"
+DRIVEN_PATH_TOPIC = "path"
 #: the goal being driven to (nav2's goal topic, rviz2's and Foxglove's "2D goal pose")
-GOAL_TOPIC = "/goal_pose"
+GOAL_TOPIC = "goal_pose"
 #: a new pose joins the driven path once it is this far (m) from the last one kept
 PATH_SPACING = 0.03
 

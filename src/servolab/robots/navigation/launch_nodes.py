@@ -66,9 +66,11 @@ class NavigationFloor(Node):
         self.simulation = self.base.clock
         self.simulation.start_real_time()  # type: ignore[attr-defined]
         try:
-            self.nodes = [BaseNode(context, self.base),
-                          GroundTruthNode(context, self.base.floor),
-                          OverheadCameraNode(context, scene, self.base.floor, seed=seed)]
+            here = self.get_namespace()  # the launch entry's, as a launch namespaces a group
+            self.nodes = [BaseNode(context, self.base, namespace=here),
+                          GroundTruthNode(context, self.base.floor, namespace=here),
+                          OverheadCameraNode(context, scene, self.base.floor, namespace=here,
+                                             seed=seed)]
         except BaseException:
             self._release()
             raise
@@ -132,7 +134,8 @@ class OverheadTracker(Node):
                             (board_at[0] * 1000.0, board_at[1] * 1000.0, board_at[2]))
         resolution = load_costmap(costmap or DEFAULT_COSTMAP).resolution
         self.tracker = OverheadTrackerNode(context, calibration, extrinsics,
-                                           map_grid(scene, resolution))
+                                           map_grid(scene, resolution),
+                                           namespace=self.get_namespace())
 
     def destroy(self) -> None:
         self.tracker.destroy()
@@ -168,7 +171,7 @@ class Navigator(Node):
                               move_base.oscillation_timeout, move_base.oscillation_distance),
             recovery=move_base.behaviors(costmap.circumscribed_radius),
             planner_frequency=move_base.planner_frequency,
-            pose_timeout=POSE_TIMEOUT_FRAMES / rate)
+            pose_timeout=POSE_TIMEOUT_FRAMES / rate, namespace=self.get_namespace())
 
     def destroy(self) -> None:
         self.navigator.destroy()

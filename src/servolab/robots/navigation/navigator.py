@@ -75,6 +75,10 @@ until a new one comes, and after ``controller_patience`` s gives the goal up. Wi
 robot_localization's EKF (the fusion node's default) the pose carries on from odometry while
 the camera has lost the robot, its covariance growing, for up to the localiser's
 ``max_dead_reckoning``; with seed 000's D.4 filter it stops with the camera.
+
+**In a namespace** (``/robot1``) every name above is the robot's (``/robot1/cmd_vel``,
+``/robot1/navigate_to_pose``): the node names them relative, as Nav2's nodes do. Goals and
+plans stay in the ``map`` frame, which every robot shares.
 """
 
 from __future__ import annotations
@@ -146,8 +150,9 @@ TWIST = "geometry_msgs/msg/Twist"
 PATH = "nav_msgs/msg/Path"
 #: nav2's action (nav2_msgs/action/NavigateToPose, Jazzy's: servolab ships its definition)
 NAVIGATE_TO_POSE = "nav2_msgs/action/NavigateToPose"
-ACTION_NAME = "/navigate_to_pose"
-#: the topics nav2's NavigateToPose action server publishes on
+ACTION_NAME = "navigate_to_pose"
+#: the topics nav2's NavigateToPose action server publishes on (relative, as every name the
+#: navigator uses: in a namespace they are the robot's, ``/robot1/navigate_to_pose/...``)
 STATUS_TOPIC = f"{ACTION_NAME}/_action/status"
 FEEDBACK_TOPIC = f"{ACTION_NAME}/_action/feedback"
 FloatArray = npt.NDArray[np.float64]
@@ -292,7 +297,7 @@ class NavigatorNode(Node):
                  patience: Patience = MOVE_BASE_PATIENCE,
                  recovery: Sequence[RecoveryBehavior] = (),
                  planner_frequency: float = 0.0, pose_timeout: float = 0.5,
-                 start_timeout: float | None = None, pose_topic: str = "/fused_pose",
+                 start_timeout: float | None = None, pose_topic: str = "fused_pose",
                  name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -320,8 +325,8 @@ class NavigatorNode(Node):
         self._goal: _ActionGoal | None = None
         #: the goal message this node published last, to know its echo on /goal_pose
         self._goal_echo: tuple[Any, ...] | None = None
-        cmd_vel = self.create_publisher(TWIST, "/cmd_vel", 10)
-        plan = self.create_publisher(PATH, "/plan", LATCHED)
+        cmd_vel = self.create_publisher(TWIST, "cmd_vel", 10)
+        plan = self.create_publisher(PATH, "plan", LATCHED)
         self.action_server = ActionServer(
             self, NAVIGATE_TO_POSE, ACTION_NAME, self._execute,
             goal_callback=self._check_goal, handle_accepted_callback=self._accepted,
@@ -331,11 +336,11 @@ class NavigatorNode(Node):
             self.create_publisher(PATH, LOCAL_PLAN_TOPIC, 10),
             self.create_publisher(PATH, DRIVEN_PATH_TOPIC, 10),
             self.create_publisher(POSE, GOAL_TOPIC, LATCHED))
-        self.create_subscription(OCCUPANCY_GRID, "/map", self._on_map, LATCHED)
+        self.create_subscription(OCCUPANCY_GRID, "map", self._on_map, LATCHED)
         self.create_subscription(POSE, pose_topic, self._on_pose, 10)
-        self.create_subscription(ODOMETRY, "/odom", self._on_odom, 10)
-        self.create_subscription(POSE, "/goal_pose", self._on_goal, 10)
-        self.create_subscription(POSE, "/move_base_simple/goal", self._on_goal, 10)
+        self.create_subscription(ODOMETRY, "odom", self._on_odom, 10)
+        self.create_subscription(POSE, GOAL_TOPIC, self._on_goal, 10)
+        self.create_subscription(POSE, "move_base_simple/goal", self._on_goal, 10)
         self.timer = self.create_timer(1.0 / dwa.controller_frequency, self._cycle)
         if goal is not None:
             self.set_goal(*goal, goal_yaw)

@@ -31,6 +31,12 @@ whose ``controller_frequency`` sets DWA's period (DWAPlanner finds it by ``searc
 The context publishes ``/clock`` in the floor's simulated time and every stamp is in that
 time, as under Gazebo with ``use_sim_time``.
 
+**In a namespace** (``namespace``, ``servolab navigate --namespace /robot1``) every node of the
+run is in it and every topic above but ``/tf`` and ``/clock`` is the robot's
+(``/robot1/cmd_vel``, ``/robot1/map``; the bag records them so), and the robot's frames take
+the namespace as a prefix (``map -> robot1/odom -> robot1/base_footprint``), as ROS 2
+multi-robot setups run a fleet (:mod:`servolab.middleware.names`).
+
 Afterwards the run folder holds ``navigate_bag/`` (MCAP: the topics of :data:`RECORDED`, among
 them what the navigator thinks as Nav2 publishes it -- ``/global_costmap/costmap``,
 ``/local_plan``, ``/path``, ``/goal_pose``, see :mod:`~.navigator` -- beside ``/plan``; the
@@ -56,6 +62,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...harness import interruption
+from ...middleware.names import in_namespace, node_namespace
 from ...planning.dwa import DwaConfig
 from ...sim.scene import Scene
 from ...vision.calibration import (
@@ -101,6 +108,7 @@ if TYPE_CHECKING:
     from ...runs import RunFolder
 
 Say = Callable[[str], None]
+#: what the bag records, named as a robot alone has them (:func:`recorded` in a namespace)
 RECORDED = ("/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose", "/plan",
             "/map", "/odometry/filtered", "/tf", "/clock", "/navigate_to_pose/_action/status",
             # what the navigator thinks, as Nav2 publishes it (navigator.py, display.py)
@@ -129,18 +137,22 @@ class Navigation:
     calibration: tuple[CameraCalibration, FloorExtrinsics] | None
     board_at: tuple[float, float, float]
     ignored: tuple[str, ...]
+    #: where the run's nodes are (``/``: a robot alone)
+    namespace: str = "/"
 
 
 def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
             scene: str | Path | None = None, calib: str | Path | None = None,
             board_at: tuple[float, float, float] | None = None,
             costmap: str | Path | None = None, dwa: str | Path | None = None,
-            move_base: str | Path | None = None) -> Navigation:
+            move_base: str | Path | None = None, namespace: str = "/") -> Navigation:
     """Read and check everything a run needs, before anything is made or moves: the scene,
-    the three parameter files, the goal (on the floor) and the calibration file if any.
+    the three parameter files, the goal (on the floor), the calibration file if any and the
+    namespace.
     ``goal_yaw`` None: arrive facing the way from the start to the goal. ``board_at`` (m, m,
     rad) goes with ``calib`` only; without it, the file's own ``board_at`` (a run's
     ``calibration.yaml`` has one), else the map's origin."""
+    namespace = node_namespace(namespace)
     world = load_nav_scene(scene)
     costmap_params = load_costmap(costmap or DEFAULT_COSTMAP)
     dwa_params = load_dwa(dwa or DEFAULT_DWA)
@@ -183,7 +195,7 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
             f"goal ({gx:g}, {gy:g}) is {clearance:.3g} m from an obstacle of {world.path}, "
             f"within the robot's inscribed radius {body:.3g} m: the robot cannot stand there")
     return Navigation(world, costmap_params, dwa_config, move_base_params, (gx, gy, goal_yaw),
-                      loaded, board_at or BOARD_AT, ignored)
+                      loaded, board_at or BOARD_AT, ignored, namespace)
 
 
 def _calibration_file(calib: str | Path,
@@ -224,7 +236,7 @@ class NavigateTask(Task):
                  seed: int, say: Say, show_progress: bool) -> None:
         self.run_folder, self.navigation, self.timeout = run_folder, navigation, timeout
         self.seed, self.say, self.show_progress = seed, say, show_progress
-        self.summary = {"motors_on_stop": BASE_ON_STOP}
+        self.summary = {"motors_on_stop": BASE_ON_STOP, "namespace": navigation.namespace}
 
     def open(self, opened: ExitStack) -> None:
         from ...middleware.clock_node import start_clock
@@ -266,15 +278,17 @@ class NavigateTask(Task):
         from .tracker_node import OverheadTrackerNode
 
         context, base, world = self.context, self.base, self.navigation.world
+        here = self.navigation.namespace
         assert base.floor is not None
-        BaseNode(context, base)
-        GroundTruthNode(context, base.floor)
-        self.camera = OverheadCameraNode(context, world, base.floor, seed=self.seed)
+        BaseNode(context, base, namespace=here)
+        GroundTruthNode(context, base.floor, namespace=here)
+        self.camera = OverheadCameraNode(context, world, base.floor, namespace=here,
+                                         seed=self.seed)
         self.tracker = OverheadTrackerNode(context, self.calibration, self.extrinsics,
-                                           self.grid)
-        FusionNode(context, pose_filter=fusion_for(world))
+                                           self.grid, namespace=here)
+        FusionNode(context, namespace=here, pose_filter=fusion_for(world))
         self.navigator = navigator_for(context, self.navigation)
-        Recorder(context, str(self.bag), list(RECORDED))
+        Recorder(context, str(self.bag), recorded(here))
         self.started = base.clock.now()  # before the wait for a viewer, which a stop may end
 
     def served(self) -> Context:
@@ -364,7 +378,14 @@ def navigator_for(context: Context, navigation: Navigation) -> NavigatorNode:
                           move_base.oscillation_timeout, move_base.oscillation_distance),
         recovery=move_base.behaviors(costmap.circumscribed_radius),
         planner_frequency=move_base.planner_frequency,
-        pose_timeout=POSE_TIMEOUT_FRAMES / navigation.world.camera.rate)
+        pose_timeout=POSE_TIMEOUT_FRAMES / navigation.world.camera.rate,
+        namespace=navigation.namespace)
+
+
+def recorded(namespace: str = "/") -> list[str]:
+    """The topics the bag records for a robot in ``namespace``: :data:`RECORDED`, each the
+    robot's own there (``/robot1/odom``) but ``/tf`` and ``/clock``, every robot's."""
+    return [in_namespace(topic, namespace) for topic in RECORDED]
 
 
 def _drive(context: Any, navigator: NavigatorNode, base: MobileBase, start: float,

@@ -11,7 +11,9 @@ the camera's calibration (intrinsics, distortion and the floor plane's extrinsic
   or a cell the camera does not see: unknown is not free), 0 elsewhere; published on the first
   frame and again only when a cell changed, so a planner repairs only for real changes.
 
-A frame of the wrong encoding or size is refused (logged) and changes nothing.
+A frame of the wrong encoding or size is refused (logged) and changes nothing. The topic
+names are relative: in a namespace (``/robot1``) they are the robot's (``/robot1/map``); the
+frame ``map`` is the floor's, every robot's.
 """
 
 from __future__ import annotations
@@ -61,9 +63,9 @@ class OverheadTrackerNode(Node):
         self.maps_published = 0
         self.sightings = 0
         self.misses = 0
-        self.pose = self.create_publisher(POSE, "/tracker/pose", 10)
-        self.map = self.create_publisher(OCCUPANCY_GRID, "/map", LATCHED)
-        self.create_subscription(IMAGE, "/overhead/image_raw", self._on_image, 2)
+        self.pose = self.create_publisher(POSE, "tracker/pose", 10)
+        self.map = self.create_publisher(OCCUPANCY_GRID, "map", LATCHED)
+        self.create_subscription(IMAGE, "overhead/image_raw", self._on_image, 2)
 
     def _image(self, msg: Any) -> npt.NDArray[np.uint8] | None:
         width, height = self.calibration.image_size
