@@ -20,6 +20,12 @@ import os
 # .zenoh_transport), and find a developer's real one. Tests that need a router start their
 # own on a free port and name it here themselves.
 os.environ["SERVOLAB_ZENOH_ROUTER"] = ""
+# Nor may a developer's rmw_zenoh setup change what the tests' sessions do: a session config
+# file, or a router check that waits for ever (servolab.middleware.zenoh_config). Tests that
+# need them set them for the process they start.
+os.environ.pop("ZENOH_SESSION_CONFIG_URI", None)
+os.environ.pop("ZENOH_ROUTER_CONFIG_URI", None)
+os.environ.pop("ZENOH_ROUTER_CHECK_ATTEMPTS", None)
 
 import fcntl
 import subprocess

@@ -1,8 +1,8 @@
 """benchmarks/fleet.py on a short run (--quick: 10 and 50 nodes, 2 000 messages): every
 topology (peer to peer, one router, two routers chained) and engine (servolab, bare Zenoh)
-measured, each fleet fully discovered by the observer (the liveliness tokens rmw_zenoh's graph
-reads), its memory per node and message rate positive, and no message lost peer to peer. It checks that the
-benchmark works, not how fast anything is."""
+measured, and 1 and 3 robots through a router, each fleet fully discovered by the observer (the
+liveliness tokens rmw_zenoh's graph reads), its memory per node and message rate positive, and
+no message lost peer to peer. It checks that the benchmark works, not how fast anything is."""
 
 from __future__ import annotations
 

@@ -11,17 +11,19 @@ The limits (:class:`InputLimits`) are generous for real use, and each can be rai
 run through the environment, ``SERVOLAB_MAX_<FIELD>`` (``SERVOLAB_MAX_MOTION_MB=512``;
 ``inf`` lifts it):
 
-=====================  ===========  ===============================================================
-variable               default      what it bounds
-=====================  ===========  ===============================================================
-SERVOLAB_MAX_MOTION_MB     64       a motion file (CSV) in MB (10**6 bytes)
-SERVOLAB_MAX_MOTION_ROWS   100000   its poses: 6.2 h at the seed's 4.5 rows a second, 2.8 h at
-                                    the ZMP walk's 10
-SERVOLAB_MAX_YAML_MB       1        every YAML file: launch, parameter, map.yaml, robot and
-                                    navigation configurations
-SERVOLAB_MAX_MAP_MB        32       a map's image, in MB and in millions of pixels
-SERVOLAB_MAX_URDF_MB       16       a URDF (or a .urdf.xacro, and what xacro makes of it)
-=====================  ===========  ===============================================================
+============================  =======  =============================================================
+variable                      default  what it bounds
+============================  =======  =============================================================
+SERVOLAB_MAX_MOTION_MB        64       a motion file (CSV) in MB (10**6 bytes)
+SERVOLAB_MAX_MOTION_ROWS      100000   its poses: 6.2 h at the seed's 4.5 rows a second, 2.8 h at
+                                       the ZMP walk's 10
+SERVOLAB_MAX_YAML_MB          1        every YAML file: launch, parameter, map.yaml, robot and
+                                       navigation configurations
+SERVOLAB_MAX_MAP_MB           32       a map's image, in MB and in millions of pixels
+SERVOLAB_MAX_URDF_MB          16       a URDF (or a .urdf.xacro, and what xacro makes of it)
+SERVOLAB_MAX_ZENOH_CONFIG_MB  1        a Zenoh json5 configuration (``servolab router --config``,
+                                       ``$ZENOH_SESSION_CONFIG_URI``): rmw_zenoh's is 43 kB
+============================  =======  =============================================================
 
 Why the environment, and not an option: the loaders run under many commands (``walk``,
 ``gait``, ``launch``, ``navigate``, ``sim --robot``, ``robots show``, ...), in the processes a
@@ -74,6 +76,7 @@ class InputLimits:
     yaml_mb: float = 1.0
     map_mb: float = 32.0
     urdf_mb: float = 16.0
+    zenoh_config_mb: float = 1.0
 
     @staticmethod
     def variable(name: str) -> str:

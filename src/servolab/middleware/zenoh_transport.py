@@ -14,6 +14,14 @@ the router at ``tcp/localhost:7447`` (``$SERVOLAB_ZENOH_ROUTER`` names another; 
 A router that is not there is no error: Zenoh keeps retrying in the background, and links the
 session to the other peers the router tells it about (gossip). No multicast scouting.
 ``--listen tcp/0.0.0.0:PORT`` or ``--connect tcp/robot.local:7447`` open it to a network.
+``servolab router`` (:mod:`.router`) is such a router.
+
+Two of rmw_zenoh's environment variables are honoured (:mod:`.zenoh_config`):
+``$ZENOH_SESSION_CONFIG_URI`` names a json5 session configuration used as the base
+(:func:`session_config` says what servolab still sets on top), and
+``$ZENOH_ROUTER_CHECK_ATTEMPTS`` makes the session check for a router once open, as rmw_zenoh
+does, saying rmw_zenoh's message while it waits (unset: no check, see
+:func:`.zenoh_config.router_check` for why servolab's default differs).
 
 As in rmw_zenoh, an entity is declared before its liveliness token (and its token undeclared
 first), so a publisher that has seen a subscription's token loses none of what it then
@@ -31,7 +39,7 @@ import re
 import threading
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future
 from typing import Any
 
@@ -65,6 +73,14 @@ from .transport import (
     Transport,
     TransportOptions,
     TransportPublisher,
+)
+from .zenoh_config import (
+    SESSION_CONFIG_ENV,
+    config_file_from_env,
+    load_config_file,
+    router_check,
+    wait_for_router,
+    zenoh_error_text,
 )
 from .zenoh_inbox import ChannelInbox, channel_for
 
@@ -106,24 +122,83 @@ def _config(listen: list[str], connect: list[str]) -> zenoh.Config:
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("listen/endpoints", json.dumps(listen))
     config.insert_json5("connect/endpoints", json.dumps(connect))
-    # an endpoint that does not answer (no router yet) is retried in the background, as
-    # rmw_zenoh's peers do, rather than failing the session
+    _retry_in_background(config)
+    _timestamped(config)
+    return config
+
+
+def _retry_in_background(config: zenoh.Config) -> None:
+    """A peer's endpoint that does not answer (no router yet) is retried in the background,
+    as rmw_zenoh's peers do, rather than failing the session."""
     config.insert_json5("connect/exit_on_failure", "false")
     config.insert_json5("connect/timeout_ms", "-1")
-    # timestamped samples, as rmw_zenoh's session config has them: TRANSIENT_LOCAL's
-    # AdvancedPublisher orders its cache by timestamp
+
+
+def _timestamped(config: zenoh.Config) -> None:
+    """Timestamped samples, as rmw_zenoh's session config has them: TRANSIENT_LOCAL's
+    AdvancedPublisher orders its cache by timestamp."""
     config.insert_json5("timestamping/enabled", "true")
+
+
+def _left_unset(config: zenoh.Config, key: str) -> bool:
+    """Whether a configuration read from a file leaves ``key`` as Zenoh would have it alone
+    (a key the file sets to Zenoh's own default counts as unset: the same either way)."""
+    return bool(config.get_json(key) == zenoh.Config().get_json(key))
+
+
+def session_config(options: TransportOptions,
+                   environ: Mapping[str, str] | None = None) -> zenoh.Config:
+    """The session's configuration: servolab's own (module docstring), or the json5 file
+    ``$ZENOH_SESSION_CONFIG_URI`` names, as rmw_zenoh takes it, with on top of it
+
+    * always: timestamping on, which servolab needs (TRANSIENT_LOCAL's publisher cache);
+    * ``--listen`` / ``--connect`` when given: they replace the file's endpoints, as rmw_zenoh's
+      ``$ZENOH_CONFIG_OVERRIDE`` goes on top of its file (the command line is the user's
+      latest word);
+
+    and where the file leaves a key unset, servolab's default rather than Zenoh's: a peer
+    listens on ``tcp/127.0.0.1:0`` (Zenoh's own default, ``tcp/[::]:0``, would open the session
+    to every network; a client listens on nothing), connects to the router
+    (:func:`router_endpoints`), scouts by no multicast, and retries an endpoint in the
+    background. The file's ``mode`` is kept: ``"client"`` makes the session a client of its
+    router, which then carries all its traffic (``docs/fleets.md``); a client needs its
+    router at start, as Zenoh's clients do, and says so in one line."""
+    found = config_file_from_env(SESSION_CONFIG_ENV, environ)
+    if found is None:
+        listen, connect = session_endpoints(options)
+        return _config(listen, connect)
+    config = load_config_file(found, f"${SESSION_CONFIG_ENV}")
+    mode = json.loads(config.get_json("mode")) or "peer"
+    listen = [check_endpoint(e) for e in options.listen]
+    if not listen and mode == "peer" and _left_unset(config, "listen/endpoints"):
+        listen = [DEFAULT_LISTEN]
+    if listen:
+        config.insert_json5("listen/endpoints", json.dumps(listen))
+    connect = [check_endpoint(e) for e in options.connect]
+    if not connect and _left_unset(config, "connect/endpoints"):
+        connect = router_endpoints()
+    if connect:
+        config.insert_json5("connect/endpoints", json.dumps(connect))
+    if _left_unset(config, "scouting/multicast/enabled"):
+        config.insert_json5("scouting/multicast/enabled", "false")
+    if mode == "peer" and _left_unset(config, "connect/exit_on_failure") \
+            and _left_unset(config, "connect/timeout_ms"):
+        _retry_in_background(config)
+    _timestamped(config)
     return config
 
 
 def open_session(options: TransportOptions) -> zenoh.Session:
-    """Open the session the options ask for (see the module docstring for the default)."""
-    listen, connect = session_endpoints(options)
+    """Open the session the options ask for (:func:`session_config`)."""
+    config = session_config(options)
     try:
-        return zenoh.open(_config(listen, connect))
+        return zenoh.open(config)
     except zenoh.ZError as exc:
-        first = str(exc).split(" at /")[0]
-        raise TransportError(f"cannot open a Zenoh session: {first}") from None
+        mode = json.loads(config.get_json("mode")) or "peer"
+        hint = (" (a client needs its router running: start it, or check the endpoint)"
+                if mode == "client" else "")
+        raise TransportError(f"cannot open a Zenoh {mode} session: {zenoh_error_text(exc)}"
+                             f"{hint}") from None
 
 
 class _Declared:
@@ -254,7 +329,14 @@ class ZenohTransport(Transport):
         super().__init__(types)
         self.options = options or TransportOptions(kind="zenoh")
         self.domain_id = self.options.domain_id
+        attempts = router_check()  # a bad value is refused before anything opens
         self.session = open_session(self.options)
+        if attempts is not None:
+            try:
+                wait_for_router(self.session, attempts)
+            except BaseException:  # a stop signal while it waits
+                self.session.close()
+                raise
         self.session_id = str(self.session.zid())
         self._entity_ids = itertools.count(1000)  # above node ids, which count from 0
         self._lock = threading.Lock()
