@@ -116,9 +116,13 @@ def ctx(types: MessageTypes, ctx_transport: TransportOptions | None,
 
 
 @pytest.fixture
-def busy_cpu() -> Iterator[None]:
+def busy_cpu(request: pytest.FixtureRequest) -> Iterator[None]:
     """Every core kept busy by another process while the robot runs on its real-time bus, as
-    on a lab PC that also runs a camera and a viewer: the stop must not depend on spare CPU."""
+    on a lab PC that also runs a camera and a viewer: the stop must not depend on spare CPU.
+    Only for a test marked ``realtime``: two such tests at once would each see twice the
+    load they ask for."""
+    assert request.node.get_closest_marker("realtime") is not None, (
+        f"{request.node.nodeid} keeps every core busy: mark it pytest.mark.realtime")
     burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"],
                                 stdin=subprocess.DEVNULL)
                for _ in range(os.cpu_count() or 1)]

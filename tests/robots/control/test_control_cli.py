@@ -22,7 +22,7 @@ from tests.waiting import wait_for, wait_for_line
 
 from .conftest import CONTROLLERS, TWO_JOINT, TWO_JOINT_ROBOTIS
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]   # busy_cpu: one at a time
 
 
 def positions(say: str) -> list[float]:

@@ -28,7 +28,7 @@ from tests.waiting import wait_for_line
 
 mujoco = pytest.importorskip("mujoco")
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]   # busy_cpu: one at a time
 
 ARM = ("joint1", "joint2", "joint3", "joint4")
 #: the goal: a pose whose shoulder, elbow and wrist gravity loads (rad)
