@@ -764,7 +764,7 @@ def arm_pick(path: Path) -> None:
 
 def fleet_scale(path: Path, *, quick: bool) -> None:
     """docs/fleets.md's curves: graph discovery time, memory per node and message rate as a
-    fleet grows from 10 to 200 nodes (--quick: 10 and 50, peer to peer only), servolab beside
+    fleet grows from 10 to 200 nodes (--quick: 5 and 20, peer to peer only), servolab beside
     bare Zenoh, measured by benchmarks/fleet.py's own ``measure`` in real time (the one figure
     here that is: what it shows is the machine's, so docs/fleets.md quotes no number from it)."""
     import runpy

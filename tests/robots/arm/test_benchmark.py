@@ -1,7 +1,8 @@
-"""benchmarks/arm.py on two placements: each one a whole ``servolab arm pick`` in MuJoCo, the
+"""benchmarks/arm.py on one placement: a whole ``servolab arm pick`` in MuJoCo, the
 figures it writes with --json (the share placed within 1 cm, the failures by kind, the
-anchor: simulated against wall time). It checks that the benchmark works and that these two
-picks place their box; the issue's bar (>= 95 % of >= 20) is the full run's."""
+anchor: simulated against wall time). It checks that the benchmark works and that this pick
+places its box; the issue's bar (>= 95 % of >= 20) is the full run's (and tests/robots/arm
+runs other picks)."""
 
 from __future__ import annotations
 
@@ -35,23 +36,23 @@ def test_the_draw_is_seeded_reachable_and_apart() -> None:
 
 @pytest.mark.slow
 @pytest.mark.timeout(240)
-def test_two_placements(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_one_placement(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bench = _load()
     out = tmp_path / "arm.json"
-    assert bench.main(["--placements", "2", "--json", str(out),
+    assert bench.main(["--placements", "1", "--json", str(out),
                        "--keep", str(tmp_path / "runs")]) == 0
     figures = json.loads(out.read_text())
-    assert figures["placements"] == 2 and len(figures["rows"]) == 2
-    assert figures["placed"] == 2 and figures["placed_share"] == 1.0
+    assert figures["placements"] == 1 and len(figures["rows"]) == 1
+    assert figures["placed"] == 1 and figures["placed_share"] == 1.0
     assert figures["failures"] == {"unreachable": 0, "off_table": 0, "missed": 0,
                                    "slipped": 0, "misplaced": 0, "aborted": 0}
     assert set(figures["draws_refused"]) == {"unreachable", "off_table"}
-    assert figures["meets_bar"] is False   # two placements are not the issue's twenty
+    assert figures["meets_bar"] is False   # one placement is not the issue's twenty
     for row in figures["rows"]:
         assert row["placed"] and row["placement_error_m"] < figures["placed_within_m"]
         assert row["simulated_s"] > 5.0 and row["wall_s"] > 0
     assert figures["speed_up"] > 0
-    assert len(list((tmp_path / "runs").glob("placement-*/arm_bag/*.mcap"))) == 2
+    assert len(list((tmp_path / "runs").glob("placement-*/arm_bag/*.mcap"))) == 1
     printed = capsys.readouterr().out
-    assert "placed within 1 cm: 2/2 = 100.0 %" in printed
+    assert "placed within 1 cm: 1/1 = 100.0 %" in printed
     assert "speed-up" in printed and "x real time" in printed

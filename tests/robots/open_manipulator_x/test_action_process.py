@@ -1,5 +1,5 @@
 """A ``FollowJointTrajectory`` goal sent from another process moves the OpenMANIPULATOR-X in
-MuJoCo under gravity, in real time with every core busy, as a lab sends one from MoveIt or
+MuJoCo under gravity, in real time, as a lab sends one from MoveIt or
 ``ros2 action send_goal``: ``servolab control run open_manipulator_x --world robot`` in one
 process, ``servolab action send_goal`` in a second, and this test, a third, reading
 ``/joint_states`` and ``/dynamic_joint_states`` over Zenoh.
@@ -28,7 +28,7 @@ from tests.waiting import wait_for_line
 
 mujoco = pytest.importorskip("mujoco")
 
-pytestmark = [pytest.mark.slow, pytest.mark.realtime]   # busy_cpu: one at a time
+pytestmark = pytest.mark.slow
 
 ARM = ("joint1", "joint2", "joint3", "joint4")
 #: the goal: a pose whose shoulder, elbow and wrist gravity loads (rad)
@@ -53,8 +53,7 @@ def gravity_torques(positions: dict[str, float]) -> dict[str, float]:
     return {j: float(data.qfrc_bias[model.joint(j).dofadr[0]]) for j in ARM}
 
 
-def test_a_goal_from_another_process_moves_the_arm_and_its_current_holds_gravity(
-        busy_cpu: None) -> None:
+def test_a_goal_from_another_process_moves_the_arm_and_its_current_holds_gravity() -> None:
     from servolab.middleware.context import Context
     from servolab.middleware.node import Node
     from servolab.middleware.transport import TransportOptions
