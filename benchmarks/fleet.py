@@ -125,9 +125,11 @@ def process(args: Sequence[str], wanted: str
             ) -> Iterator[tuple[subprocess.Popen[str], str]]:
     """This script run again with ``args`` until the block ends (stdin closed, then killed),
     once it has printed a line starting with ``wanted``; the process and that line."""
+    # rmw_zenoh's variables would change the servolab side only (bare Zenoh reads none)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENOH_")}
     proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), *args],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, env=env)
     try:
         line = read_line(proc, wanted)
         if not line:
@@ -426,7 +428,8 @@ def report(rows: list[Figures], sizes: Sequence[int]) -> None:
             print(f"growth {engine}, {topology}: discovery x{b.discovery_s / a.discovery_s:.2f}"
                   f", memory per node x{b.rss_per_node_kib / max(a.rss_per_node_kib, 1e-9):.2f}"
                   f", messages per second x{b.messages_per_s / max(a.messages_per_s, 1e-9):.2f}")
-    fleets = {(r.engine, r.robots): r for r in rows if r.nodes == ROBOT_NODES}
+    fleets = {(r.engine, r.robots): r for r in rows
+              if r.nodes == ROBOT_NODES and r.topology == "router"}
     counts = sorted({robots for _, robots in fleets})
     if len(counts) < 2:
         return

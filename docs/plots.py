@@ -3,7 +3,9 @@ treadmill.md, arm.md and fleets.md from the code itself, and the numbers those d
 a run: ``python docs/plots.py [DIR] [--quick] [--spread]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
-seconds to make, but for the 100 s treadmill run (about a minute). ``--quick`` shortens that
+seconds to make, but for the 100 s treadmill run (about a minute), and but for fleet_scale.png,
+measured in real time by benchmarks/fleet.py (it shows this machine; no doc quotes a number
+from it). ``--quick`` shortens that
 run to 10 s, for the test, and the corner run of docs/navigation.md (a figure only, no number)
 to its first 10 s. The numbers go to ``DIR/figures.json`` (see :data:`FIGURES`);
 ``--spread`` also runs seeds 1 to 3 of every seeded run and prints how far each number moves

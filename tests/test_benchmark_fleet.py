@@ -18,7 +18,7 @@ BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "fleet.py"
 pytestmark = pytest.mark.slow   # no deadline: the figures are only checked to be there
 
 
-@pytest.mark.timeout(180)
+@pytest.mark.timeout(400)   # 16 fleets of one or two processes, beside a busy worker
 def test_fleet_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bench = runpy.run_path(str(BENCHMARK), run_name="fleet_bench")
     out = tmp_path / "fleet.json"

@@ -116,6 +116,19 @@ def test_a_config_file_replaces_the_defaults_as_rmw_zenohd_takes_it(tmp_path: Pa
     # an empty variable is unset (rmw_zenoh: the default configuration)
     assert listen_endpoints(router_config(RouterOptions(environ={ROUTER_CONFIG_ENV: ""}))) == [
         DEFAULT_ROUTER]
+    # a file that names no endpoint listens on this machine only, as without a file (Zenoh's
+    # own default would be tcp/[::]:7447, every network)
+    quiet = tmp_path / "quiet.json5"
+    quiet.write_text("{scouting: {gossip: {enabled: false}}}")
+    assert listen_endpoints(router_config(RouterOptions(config=quiet))) == [DEFAULT_ROUTER]
+
+
+def test_a_session_config_file_that_asks_for_a_router_is_refused(tmp_path: Path) -> None:
+    router = tmp_path / "session.json5"
+    router.write_text('{mode: "router"}')
+    with pytest.raises(TransportError, match=r"session.json5: mode 'router': a servolab "
+                       r"session is a peer or a client"):
+        session_config(TransportOptions("zenoh"), {SESSION_CONFIG_ENV: str(router)})
 
 
 @pytest.mark.parametrize(("text", "expected"), [

@@ -94,6 +94,12 @@ def test_one_robots_parameter_file_applies_in_its_namespace() -> None:
     assert moved.for_node("/robot1/controller_manager") == {"update_rate": 50,
                                                             "use_sim_time": False}
     assert overrides.in_namespace("/").by_node == overrides.by_node
+    # the robot's own entry wins over the general one, whichever the file writes first
+    both = ParameterOverrides.from_text(
+        "/robot1/controller_manager:\n  ros__parameters:\n    update_rate: 100\n"
+        "controller_manager:\n  ros__parameters:\n    update_rate: 50\n    x: 1\n")
+    assert both.in_namespace("/robot1").by_node == {
+        "/robot1/controller_manager": {"update_rate": 100, "x": 1}}
 
 
 # -- a bad namespace, and none -----------------------------------------------------------------

@@ -99,6 +99,12 @@ def test_the_router_killed_brakes_the_wheels_and_restarted_drives_them_again(
             # the robot's own stamps: braked within the controller's timeout of the last
             # command that could have come (the one just before the router went)
             assert stopped - killed <= CMD_VEL_TIMEOUT + SLACK, stopped - killed
+            # and by that timeout, not by the partition itself: the wheels went on turning on
+            # the last command until it was stale (the commands came every 0.1 s, so the last
+            # one left at most that long before the router went)
+            last_turning = max(_stamp(m) for m in states if min(abs(v) for v in m.velocity)
+                               > TURNING)
+            assert last_turning - killed >= CMD_VEL_TIMEOUT - 0.2, last_turning - killed
             with started(router) as second_router:
                 wait_for_line(second_router, "listening on", timeout=20)
                 back = time.time()

@@ -162,14 +162,21 @@ class ParameterOverrides:
         becomes ``/robot1/controller_manager``, as nav2_common's ``RewrittenYaml`` with
         ``root_key=namespace`` rewrites one robot's parameter file for each robot of a fleet
         (rcl itself matches a file's ``controller_manager:`` to ``/controller_manager``
-        only). ``/**`` stays every node's, and a node already in the namespace stays too."""
+        only). ``/**`` stays every node's, and a node already in the namespace stays too; where
+        a file has both (``controller_manager:`` and ``/robot1/controller_manager:``), the
+        robot's own values win whatever their order in the file."""
         namespace = node_namespace(namespace)
         if namespace == "/":
             return ParameterOverrides({node: dict(v) for node, v in self.by_node.items()})
         moved = ParameterOverrides()
+        own: list[tuple[str, dict[str, Any]]] = []
         for node, values in self.by_node.items():
-            inside = node == "/**" or node.startswith(f"{namespace}/")
-            moved.by_node.setdefault(node if inside else namespace + node, {}).update(values)
+            if node == "/**" or node.startswith(f"{namespace}/"):
+                own.append((node, values))
+            else:
+                moved.by_node.setdefault(namespace + node, {}).update(values)
+        for node, values in own:   # after the moved ones: the robot's own entries win
+            moved.by_node.setdefault(node, {}).update(values)
         return moved
 
     @classmethod

@@ -52,7 +52,7 @@ from .zenoh_config import (
     load_config_file,
     zenoh_error_text,
 )
-from .zenoh_transport import DEFAULT_ROUTER, check_endpoint
+from .zenoh_transport import DEFAULT_ROUTER, check_endpoint, left_unset
 
 #: rmw_zenohd's router configuration as json5 values by key: the keys of
 #: ``rmw_zenoh_cpp/config/DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`` whose values differ from Zenoh's
@@ -125,6 +125,8 @@ def router_config(options: RouterOptions) -> zenoh.Config:
             raise TransportError(f"{path}: mode {mode!r}: servolab router runs a Zenoh router "
                                  '(remove mode from the file, or set it to "router")')
         config.insert_json5("mode", '"router"')
+        if not listen and left_unset(config, "listen/endpoints"):
+            listen = [DEFAULT_ROUTER]   # this machine only, not Zenoh's every-network default
     if listen:
         config.insert_json5("listen/endpoints", json.dumps(listen))
     return config

@@ -140,7 +140,7 @@ def _timestamped(config: zenoh.Config) -> None:
     config.insert_json5("timestamping/enabled", "true")
 
 
-def _left_unset(config: zenoh.Config, key: str) -> bool:
+def left_unset(config: zenoh.Config, key: str) -> bool:
     """Whether a configuration read from a file leaves ``key`` as Zenoh would have it alone
     (a key the file sets to Zenoh's own default counts as unset: the same either way)."""
     return bool(config.get_json(key) == zenoh.Config().get_json(key))
@@ -169,20 +169,23 @@ def session_config(options: TransportOptions,
         return _config(listen, connect)
     config = load_config_file(found, f"${SESSION_CONFIG_ENV}")
     mode = json.loads(config.get_json("mode")) or "peer"
+    if mode not in ("peer", "client"):
+        raise TransportError(f"{found}: mode {mode!r}: a servolab session is a peer or a client "
+                             "(a router is servolab router's, on its own)")
     listen = [check_endpoint(e) for e in options.listen]
-    if not listen and mode == "peer" and _left_unset(config, "listen/endpoints"):
+    if not listen and mode == "peer" and left_unset(config, "listen/endpoints"):
         listen = [DEFAULT_LISTEN]
     if listen:
         config.insert_json5("listen/endpoints", json.dumps(listen))
     connect = [check_endpoint(e) for e in options.connect]
-    if not connect and _left_unset(config, "connect/endpoints"):
+    if not connect and left_unset(config, "connect/endpoints"):
         connect = router_endpoints()
     if connect:
         config.insert_json5("connect/endpoints", json.dumps(connect))
-    if _left_unset(config, "scouting/multicast/enabled"):
+    if left_unset(config, "scouting/multicast/enabled"):
         config.insert_json5("scouting/multicast/enabled", "false")
-    if mode == "peer" and _left_unset(config, "connect/exit_on_failure") \
-            and _left_unset(config, "connect/timeout_ms"):
+    if mode == "peer" and left_unset(config, "connect/exit_on_failure") \
+            and left_unset(config, "connect/timeout_ms"):
         _retry_in_background(config)
     _timestamped(config)
     return config

@@ -175,10 +175,17 @@ def default_robot(command: str, environ: Mapping[str, str] | None = None) -> str
     """The robot ``servolab COMMAND`` runs without ``--robot``: the one plug-in whose
     ``default_for`` names the command. A lab's own plug-in (an entry point)
     that says so wins over servolab's: installing one's arm makes it the default; two of a
-    lab's own that both say so are refused in one line, as is a command no robot claims."""
-    plugins = discover(environ).plugins.values()
-    claiming = [p for p in plugins if command in p.default_for]
+    lab's own that both say so are refused in one line, as is a command no robot claims.
+    So is falling back on servolab's own while a lab's plug-in could not be loaded: that one
+    may have been the default, and the shipped robot's motors are not the lab's."""
+    found = discover(environ)
+    claiming = [p for p in found.plugins.values() if command in p.default_for]
     own = [p for p in claiming if p.origin != "servolab"]
+    if not own and found.problems:
+        name, problem = next(iter(found.problems.items()))
+        raise UsageError(f"servolab {command}: robot {name!r} could not be loaded ({problem}) "
+                         "and may be the default; give --robot NAME, or fix it (servolab "
+                         "robots says why)")
     chosen = own or claiming
     if len(chosen) == 1:
         return chosen[0].name

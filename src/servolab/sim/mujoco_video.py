@@ -194,9 +194,12 @@ def looking_at(point: Sequence[float], distance: float, *, azimuth: float = AZIM
     """A free ``mujoco.MjvCamera`` looking at ``point`` (world m) from ``distance`` m, at
     ``azimuth`` and ``elevation`` degrees (MuJoCo's: azimuth about +z, elevation below the
     horizontal when negative): a scene's fixed view, a table top's."""
-    if not (math.isfinite(distance) and distance > 0) or len(point) != 3:
-        raise SimulationError(f"the camera needs a point (x, y, z) and a distance > 0, got "
-                              f"{tuple(point)!r} and {distance!r}")
+    numbers = [*point, distance, azimuth, elevation]
+    if len(point) != 3 or not all(isinstance(v, int | float) and math.isfinite(v)
+                                  for v in numbers) or not distance > 0:
+        raise SimulationError(f"the camera needs a point (x, y, z) and a distance > 0, all "
+                              f"finite, got {tuple(point)!r} and {distance!r} (azimuth "
+                              f"{azimuth!r}, elevation {elevation!r})")
     view = mujoco.MjvCamera()
     view.type = mujoco.mjtCamera.mjCAMERA_FREE
     view.lookat[:] = [float(v) for v in point]

@@ -183,13 +183,19 @@ def test_a_rendered_pick_draws_its_six_stages_from_the_world(tmp_path: Path) -> 
 
     from servolab.robots.arm.run import RENDERED
     from servolab.sim.errors import SimError
-    from servolab.sim.mujoco_video import gl_backend
+    from servolab.sim.mujoco_video import gl_backend, render_frame
 
-    try:
-        summary = _arm(tmp_path, "pick", "0.2", "0.05", "--place", "0.15", "-0.12",
-                       "--render")
+    mujoco = pytest.importorskip("mujoco")
+
+    probe = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint type="hinge"/><geom size="0.1"/></body>'
+        '</worldbody></mujoco>')
+    try:   # before the pick: the render is its last step, past where an error would skip
+        render_frame(probe, np.zeros(probe.nq), tmp_path / "gl.png", width=32, height=24,
+                     track_body=None)
     except SimError as exc:  # no OpenGL on this machine: the one line says which to install
         pytest.skip(f"{gl_backend()}: {exc}")
+    summary = _arm(tmp_path, "pick", "0.2", "0.05", "--place", "0.15", "-0.12", "--render")
     assert summary["placed"] and summary["render"] == "pick.png"
     assert "failures_on_the_way_out" not in summary
     image = cv2.imread(str(tmp_path / "run" / "pick.png"))

@@ -11,7 +11,11 @@ hardware_controller_manager.yaml); the gravity torque at the reached pose is com
 MuJoCo's own URDF compiler from the arm's URDF, in this process (``qfrc_bias`` at rest: the
 generalised force that holds the model still); an XM430-W350's torque constant is its stall
 torque over its stall current, 4.1 N m / 2.3 A at 12.0 V, and Present Current is 2.69 mA a unit
-(e-Manual, XM430-W350 "Specifications" and Present Current(126))."""
+(e-Manual, XM430-W350 "Specifications" and Present Current(126)). The emulated motors turn
+torque into current with those same two figures, so what this checks is the physics (the
+load MuJoCo puts on each joint reaches its motor's Present Current, sign and size) and
+the wire (ROBOTIS's gpio interface on /dynamic_joint_states), not the e-Manual's constant;
+the joint's effort on /joint_states is the hardware's conversion of that current back."""
 
 from __future__ import annotations
 

@@ -93,3 +93,36 @@ def test_a_labs_arm_declares_its_leader_the_same_way(monkeypatch: pytest.MonkeyP
     leader = leader_of("lab_arm")
     assert leader is not None and leader.name == "lab_arm_leader" and leader.hand == hand
     assert leader.origin == "entry point lab_arm_leader" and leader.bus() == arm.bus()
+
+
+def test_a_labs_plug_in_that_fails_to_load_stops_the_fallback(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A lab's arm that cannot be loaded may have been the default: servolab's own is not
+    taken in its place (its motors are not the lab's), the problem is named."""
+    from servolab.robots import registry
+
+    monkeypatch.setattr(registry, "_entry_points", lambda: [
+        ("lab_arm", "entry point lab_arm", ImportError("No module named 'lab_arm'"))])
+    with pytest.raises(UsageError, match=r"servolab arm: robot 'lab_arm' could not be loaded "
+                       r"\(.*No module named 'lab_arm'.*\) and may be the default; give "
+                       r"--robot NAME"):
+        default_robot("arm", {})
+
+
+def test_a_leader_declared_by_an_alias_is_its_arms(monkeypatch: pytest.MonkeyPatch) -> None:
+    from dataclasses import replace
+
+    arm = replace(_lab_arm("lab_arm"), aliases=("lab_alias",))
+    _claims(monkeypatch, arm, leader_plugin("lab_alias", {"joint1": (0.2, 0.1)},
+                                            name="lab_arm_leader"))
+    leader = leader_of("lab_arm")
+    assert leader is not None and leader.name == "lab_arm_leader"
+
+
+def test_emulated_teleop_moves_the_leader_about_the_arms_own_hand() -> None:
+    """servolab teleop's scripted hand takes its homes and swings from the arm's leader
+    plug-in, not from each joint's range."""
+    from servolab.robots.teleop.run import Arm, _hand_homes
+
+    assert _hand_homes(Arm.named(NAME)) == HAND
+    assert _hand_homes(Arm.named(LEADER)) == HAND

@@ -82,4 +82,5 @@ ROBOTS = (RobotPlugin(NAME, SUMMARY, bus=_bus, open=_open, on_stop=ON_STOP[STOP]
                       layout=_layout, default_model=MODEL, commands=("arm", "teleop"),
                       default_for=("arm", "teleop")),
           leader_plugin(NAME, HAND, summary="an OpenMANIPULATOR-X as a leader arm: torque "
-                        "off, moved by a scripted hand when emulated (servolab teleop)"))
+                        "off, moved by a scripted hand when emulated (servolab teleop)",
+                        default_model=MODEL))

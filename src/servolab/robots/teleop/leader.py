@@ -48,9 +48,12 @@ class LeaderPlugin(RobotPlugin):
 
 
 def leader_plugin(arm: str, hand: Hand | None = None, *, name: str | None = None,
-                  summary: str | None = None) -> LeaderPlugin:
+                  summary: str | None = None, default_model: str | None = None
+                  ) -> LeaderPlugin:
     """The leader of the arm plug-in called ``arm`` (named ``ARM_leader`` unless ``name``):
-    its bus and URDF are the arm's, looked up when asked, so declaring it costs nothing."""
+    its bus and URDF are the arm's, looked up when asked, so declaring it costs nothing.
+    ``default_model`` is the arm's (what its ``<ros2_control>`` block leaves unnamed), for
+    what reads the leader's URDF by itself (``servolab teleop --robot ARM_leader``)."""
     leader = name or f"{arm}_leader"
 
     def plugin() -> RobotPlugin:
@@ -100,16 +103,20 @@ def leader_plugin(arm: str, hand: Hand | None = None, *, name: str | None = None
     return LeaderPlugin(
         leader, summary or f"{arm} as a leader arm: torque off, moved by a scripted hand "
         "when emulated (servolab teleop)", bus=bus, open=open_, on_stop=ON_STOP["torque_off"],
-        description=urdf, served=served, commands=("teleop",), arm=arm,
+        description=urdf, served=served, commands=("teleop",), default_model=default_model,
+        arm=arm,
         hand=None if hand is None else dict(hand))
 
 
 def leader_of(arm: str) -> LeaderPlugin | None:
     """The leader plug-in of the robot ``arm`` (or ``arm`` itself when it is a leader), if
-    one is found."""
+    one is found; an alias of either names the same robot."""
     from ..registry import discover
 
-    for plugin in discover().plugins.values():
-        if isinstance(plugin, LeaderPlugin) and arm in (plugin.arm, plugin.name):
+    found = discover()
+    name = found.aliases.get(arm, arm)
+    for plugin in found.plugins.values():
+        if isinstance(plugin, LeaderPlugin) and name in (
+                found.aliases.get(plugin.arm, plugin.arm), plugin.name):
             return plugin
     return None
