@@ -41,6 +41,8 @@ if TYPE_CHECKING:
 ENTRY_POINT_GROUP = "servolab.robots"
 #: the environment variable naming folders that hold robot folders
 PATH_VARIABLE = "SERVOLAB_ROBOT_PATH"
+#: how a robot folder's problem begins (``servolab robots`` prints it)
+FOLDER_PROBLEM = "robot folder"
 
 
 class UnknownRobotError(ServolabError, ValueError):
@@ -156,7 +158,7 @@ def discover(environ: Mapping[str, str] | None = None) -> Robots:
         try:
             add((folder_plugin(folder),), f"folder {folder}")
         except ServolabError as exc:
-            problems.setdefault(folder.name, f"robot folder {folder}: {exc}")
+            problems.setdefault(folder.name, f"{FOLDER_PROBLEM} {folder}: {exc}")
     return Robots(plugins, aliases, problems)
 
 
@@ -181,8 +183,11 @@ def default_robot(command: str, environ: Mapping[str, str] | None = None) -> str
     found = discover(environ)
     claiming = [p for p in found.plugins.values() if command in p.default_for]
     own = [p for p in claiming if p.origin != "servolab"]
-    if not own and found.problems:
-        name, problem = next(iter(found.problems.items()))
+    # a robot folder cannot claim a command (it has no default_for): only a plug-in's
+    # failure may hide the default
+    failed = {n: p for n, p in found.problems.items() if not p.startswith(FOLDER_PROBLEM)}
+    if not own and failed:
+        name, problem = next(iter(failed.items()))
         raise UsageError(f"servolab {command}: robot {name!r} could not be loaded ({problem}) "
                          "and may be the default; give --robot NAME, or fix it (servolab "
                          "robots says why)")

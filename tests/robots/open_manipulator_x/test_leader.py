@@ -5,6 +5,8 @@ open_manipulator_x_leader`` with its horns in the scripted hand about the arm's 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from servolab.dynamixel.bus import Bus
@@ -126,3 +128,16 @@ def test_emulated_teleop_moves_the_leader_about_the_arms_own_hand() -> None:
 
     assert _hand_homes(Arm.named(NAME)) == HAND
     assert _hand_homes(Arm.named(LEADER)) == HAND
+
+
+def test_a_broken_robot_folder_does_not_hide_the_default(tmp_path: Path) -> None:
+    """A robot folder cannot claim a command (no default_for), so its failure changes
+    nothing: the default stays the arm's."""
+    from servolab.robots.registry import PATH_VARIABLE
+
+    broken = tmp_path / "robots" / "broken_arm"
+    broken.mkdir(parents=True)
+    (broken / "robot.yaml").write_text("summary: an arm whose URDF was never copied\n")
+    environ = {PATH_VARIABLE: str(tmp_path / "robots")}
+    assert "broken_arm" in discover(environ).problems
+    assert default_robot("arm", environ) == NAME
