@@ -755,7 +755,7 @@ def arm_pick(path: Path) -> None:
     from servolab.robots.arm.spec import arm_spec
 
     with tempfile.TemporaryDirectory() as run:
-        summary = arm_command(arm_spec("open_manipulator_x"),
+        summary = arm_command(arm_spec(),   # the default arm: the OpenMANIPULATOR-X
                               ArmRequest("pick", pick=(0.2, 0.05), place=(0.15, -0.12),
                                          render=True),
                               Where(world="robot"), out=str(Path(run) / "pick"),

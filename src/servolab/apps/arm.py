@@ -105,7 +105,6 @@ def _run(args: argparse.Namespace) -> int:
     from ..middleware.transport import environment_domain_id
     from ..robots.arm.run import ArmRequest, Where, arm_command
     from ..robots.arm.spec import arm_spec
-    from ..robots.registry import default_robot
 
     if getattr(args, "pitch", None) is not None and not getattr(args, "pose", None):
         raise UsageError("--pitch is the tool's pitch at a --pose: give --pose X Y Z with it")
@@ -122,7 +121,7 @@ def _run(args: argparse.Namespace) -> int:
     where = Where(world=args.world, port=args.port, connect=tuple(args.connect),
                   domain_id=environment_domain_id() if args.domain_id is None
                   else args.domain_id)
-    spec = arm_spec(args.robot or default_robot("arm"), controller=args.controller)
+    spec = arm_spec(args.robot, controller=args.controller)
     arm_command(spec, request, where, out=args.out)
     return 0
 

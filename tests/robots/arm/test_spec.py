@@ -142,3 +142,11 @@ def test_a_folder_states_its_arm_in_moveit_files(two_joint: Path) -> None:
     assert spec.velocity == (4.0, 2.0) and spec.acceleration == (3.0, DEFAULT_ACCELERATION)
     assert spec.jerk == (30.0, DEFAULT_JERK) and spec.velocity_scaling == 0.25
     assert spec.origins["home"] == "the 'arm' group's home state (two_joint.srdf)"
+
+
+def test_no_robot_is_the_arm_that_says_it_is_the_default() -> None:
+    """``servolab arm`` without --robot: the plug-in whose default_for names ``arm``, found
+    here (the library), not in the command."""
+    from servolab.robots.registry import default_robot
+
+    assert arm_spec().robot == default_robot("arm") == arm_spec("open_manipulator_x").robot

@@ -456,9 +456,14 @@ def _gripper(description: Description, found: tuple[str, str, str], srdf: Srdf |
     return Gripper(name, action, joint_name, opened, closed, joint.effort)
 
 
-def arm_spec(robot: str, *, controller: str | None = None,
+def arm_spec(robot: str | None = None, *, controller: str | None = None,
              entry: Callable[[str], RobotPlugin] | None = None) -> ArmSpec:
-    """The arm of the robot named ``robot`` (a plug-in with a URDF and a controllers file)."""
+    """The arm of the robot named ``robot`` (a plug-in with a URDF and a controllers file);
+    None: the robot that says it is ``servolab arm``'s default (``RobotPlugin.default_for``)."""
+    if robot is None:
+        from ..registry import default_robot
+
+        robot = default_robot("arm")
     if entry is None:
         from ..registry import entry as registry_entry
 
