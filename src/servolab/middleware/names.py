@@ -26,11 +26,24 @@ from __future__ import annotations
 from .errors import NameValidationError
 
 __all__ = [
-    "ENCLAVE_NAME_MAX_LENGTH", "GLOBAL_TOPICS", "NAMESPACE_MAX_LENGTH", "NODE_NAME_MAX_LENGTH",
-    "TOPIC_NAME_MAX_LENGTH", "NameValidationError", "check_node_name", "expand_topic_name",
-    "frame_prefix", "fully_qualified_name", "in_namespace", "node_namespace",
+    "BASE_FRAME",
+    "ENCLAVE_NAME_MAX_LENGTH",
+    "GLOBAL_TOPICS",
+    "NAMESPACE_MAX_LENGTH",
+    "NODE_NAME_MAX_LENGTH",
+    "ODOM_FRAME",
+    "TOPIC_NAME_MAX_LENGTH",
+    "NameValidationError",
+    "check_node_name",
+    "expand_topic_name",
+    "frame_prefix",
+    "fully_qualified_name",
+    "in_namespace",
+    "node_namespace",
     "validate_enclave_name",
-    "validate_full_topic_name", "validate_namespace", "validate_node_name",
+    "validate_full_topic_name",
+    "validate_namespace",
+    "validate_node_name",
     "validate_topic_name",
 ]
 
@@ -352,6 +365,12 @@ def check_node_name(name: str) -> str:
 #: "/tf" and "/tf_static", so that one tree holds every robot's frames, each robot's prefixed
 #: (:func:`frame_prefix`), as TurtleBot3's multi-robot launch runs its robots.
 GLOBAL_TOPICS = ("/clock", "/parameter_events", "/rosout", "/tf", "/tf_static")
+
+
+#: A mobile base's odometry frame and base frame, as REP-105 names them ("Coordinate Frames
+#: for Mobile Platforms": ``odom``, and ``base_footprint`` under ``base_link``) and TurtleBot3's
+#: turtlebot3_node publishes them; a namespaced robot's take :func:`frame_prefix`.
+ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
 
 
 def frame_prefix(namespace: str) -> str:

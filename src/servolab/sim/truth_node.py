@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..middleware.context import Context
-from ..middleware.names import frame_prefix
+from ..middleware.names import BASE_FRAME, frame_prefix
 from ..middleware.node import Node
 from .errors import SimulationError
 from .world import World
@@ -36,7 +36,7 @@ class GroundTruthNode(Node):
         rate = float(self.declare_parameter("rate", 30.0, description="Hz").value)
         if not (math.isfinite(rate) and rate > 0):
             raise SimulationError(f"ground truth: rate {rate!r} must be a number > 0 Hz")
-        self.child_frame = frame_prefix(self.get_namespace()) + "base_footprint"
+        self.child_frame = frame_prefix(self.get_namespace()) + BASE_FRAME
         self.publisher = self.create_publisher(ODOMETRY, "ground_truth", 10)
         self.create_timer(1.0 / rate, self._publish)
 

@@ -110,7 +110,7 @@ from ...estimation.pose_filter import (
     wrap,
 )
 from ...middleware.context import Context
-from ...middleware.names import frame_prefix
+from ...middleware.names import BASE_FRAME, ODOM_FRAME, frame_prefix
 from ...middleware.node import Node
 from ..errors import RobotValueError
 
@@ -228,9 +228,9 @@ class FusionNode(Node):
         # every robot's
         prefix = frame_prefix(self.get_namespace())
         self.map_frame = str(self.declare_parameter("map_frame", "map").value)
-        self.odom_frame = str(self.declare_parameter("odom_frame", prefix + "odom").value)
+        self.odom_frame = str(self.declare_parameter("odom_frame", prefix + ODOM_FRAME).value)
         self.base_frame = str(self.declare_parameter("base_link_frame",
-                                                     prefix + "base_footprint").value)
+                                                     prefix + BASE_FRAME).value)
         self.publish_tf = bool(self.declare_parameter("publish_tf", True).value)
         #: path length and rotation the odometry covered since then
         self._travelled = 0.0

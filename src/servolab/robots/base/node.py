@@ -32,7 +32,7 @@ from typing import Any
 
 from ...kinematics.diffdrive import wheel_speeds
 from ...middleware.context import Context
-from ...middleware.names import frame_prefix
+from ...middleware.names import BASE_FRAME, ODOM_FRAME, frame_prefix
 from ...middleware.node import Node
 from ..bus_owner import BusOwner
 from ..errors import RobotValueError
@@ -43,8 +43,7 @@ ODOMETRY = "nav_msgs/msg/Odometry"
 TF = "tf2_msgs/msg/TFMessage"
 JOINT_STATE = "sensor_msgs/msg/JointState"
 SENSOR_STATE = "turtlebot3_msgs/msg/SensorState"
-#: TurtleBot3's frame and joint names (turtlebot3_node).
-ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
+#: TurtleBot3's joint names (turtlebot3_node); its frames are REP-105's (ODOM_FRAME, BASE_FRAME)
 WHEEL_JOINTS = ("wheel_left_joint", "wheel_right_joint")
 
 

@@ -49,7 +49,7 @@ from ...kinematics.diffdrive import (
     line_time,
     rotation,
 )
-from ...middleware.names import frame_prefix, in_namespace, node_namespace
+from ...middleware.names import BASE_FRAME, ODOM_FRAME, frame_prefix, in_namespace, node_namespace
 from ..errors import RobotValueError
 from ..lifecycle import Step, Task, run_task
 from . import ON_STOP
@@ -437,8 +437,8 @@ class Frames:
     namespace (:func:`~servolab.middleware.names.frame_prefix`), and the floor's ``world``,
     every robot's."""
 
-    odom: str = "odom"
-    base: str = "base_footprint"
+    odom: str = ODOM_FRAME
+    base: str = BASE_FRAME
     world: str = "world"
 
     @classmethod
@@ -456,7 +456,7 @@ class Frames:
 
 
 def odometry_fields(frame: str, t: float, x: float, y: float, yaw: float, *,
-                    child: str = "base_footprint") -> dict[str, Any]:
+                    child: str = BASE_FRAME) -> dict[str, Any]:
     """An ``Odometry`` of ``child`` at ``(x, y, yaw)`` in ``frame`` at clock reading ``t``, as
     the bag and the view carry it."""
     from ...middleware.messages import time_of
