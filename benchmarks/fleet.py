@@ -74,6 +74,8 @@ ROBOTS, QUICK_ROBOTS, ROBOT_NODES = (1, 10), (1, 2), 5
 #: messages all nodes of a fleet publish together, whatever their number
 MESSAGES, QUICK_MESSAGES = 20_000, 1_000
 TOPOLOGIES = ("peer", "router", "two routers")
+#: --quick's: one router is measured by the robots' sweep
+QUICK_TOPOLOGIES = ("peer", "two routers")
 ENGINES = ("servolab", "zenoh")
 #: s a step may take before the benchmark gives up on it
 TIMEOUT = 120.0
@@ -367,7 +369,8 @@ def measure(engine: str, topology: str, nodes: int, messages: int, robots: int =
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true",
-                        help="5 and 20 nodes, fewer messages: checks that it runs")
+                        help="5 and 20 nodes, fewer messages, no one-router sweep: checks "
+                        "that it runs")
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     parser.add_argument("--router", help=argparse.SUPPRESS)
     parser.add_argument("--fleet", choices=ENGINES, help=argparse.SUPPRESS)
@@ -385,7 +388,8 @@ def main(argv: Sequence[str] | None = None) -> int:
           f"{zenoh.__version__ if hasattr(zenoh, '__version__') else '?'}, "
           f"{os.cpu_count()} cores{' (quick)' if args.quick else ''}")
     rows: list[Figures] = []
-    for topology in TOPOLOGIES:
+    topologies = QUICK_TOPOLOGIES if args.quick else TOPOLOGIES
+    for topology in topologies:
         for nodes in sizes:
             for engine in ENGINES:
                 print(f"  measuring {engine}, {topology}, {nodes} nodes...", file=sys.stderr,
@@ -396,13 +400,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"  measuring {engine}, {robots} robots of {ROBOT_NODES} nodes through a "
                   "router...", file=sys.stderr, flush=True)
             rows.append(measure(engine, "router", ROBOT_NODES, messages, robots))
-    report(rows, sizes)
+    report(rows, sizes, topologies)
     if args.json:
         args.json.write_text(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
     return 0
 
 
-def report(rows: list[Figures], sizes: Sequence[int]) -> None:
+def report(rows: list[Figures], sizes: Sequence[int], topologies: Sequence[str]) -> None:
     print()
     print(f"{'topology':12} {'nodes':>5} {'engine':9} {'discovery s':>11} "
           f"{'KiB/node':>9} {'msg/s':>9} {'lost':>5}")
@@ -413,7 +417,7 @@ def report(rows: list[Figures], sizes: Sequence[int]) -> None:
     print()
     print("servolab / bare zenoh (> 1: servolab costs more; for msg/s, < 1: fewer):")
     by = {(r.engine, r.topology, r.nodes): r for r in rows if r.robots == 1}
-    for topology in TOPOLOGIES:
+    for topology in topologies:
         for nodes in sizes:
             s, z = by["servolab", topology, nodes], by["zenoh", topology, nodes]
             print(f"ratio {topology}, {nodes} nodes: discovery x{s.discovery_s / z.discovery_s:.2f}"
@@ -422,7 +426,7 @@ def report(rows: list[Figures], sizes: Sequence[int]) -> None:
     print()
     few, many = sizes[0], sizes[-1]
     print(f"growth from {few} to {many} nodes (x{many / few:g} the nodes):")
-    for topology in TOPOLOGIES:
+    for topology in topologies:
         for engine in ENGINES:
             a, b = by[engine, topology, few], by[engine, topology, many]
             print(f"growth {engine}, {topology}: discovery x{b.discovery_s / a.discovery_s:.2f}"
