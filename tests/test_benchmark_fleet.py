@@ -15,7 +15,8 @@ import pytest
 
 BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "fleet.py"
 
-pytestmark = pytest.mark.slow   # no deadline: the figures are only checked to be there
+#: no deadline of its own, but its floods fill both cores: never beside a test that has one
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 
 @pytest.mark.timeout(400)   # 12 fleets of one or two processes, beside a busy worker
