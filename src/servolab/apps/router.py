@@ -21,12 +21,16 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, default=None, metavar="FILE",
                    help="a Zenoh json5 router configuration replacing rmw_zenohd's defaults "
                    "(default: $ZENOH_ROUTER_CONFIG_URI, as rmw_zenohd reads it)")
+    p.add_argument("--security", type=Path, default=None, metavar="FILE",
+                   help="a fleet security file: mutual TLS with the fleet's certificates "
+                   "(servolab certs) and which members may publish which topics; the router "
+                   "then listens on tls/ endpoints only (default tls/localhost:7447)")
 
 
 def _run(args: argparse.Namespace) -> int:
     from servolab.middleware.router import RouterOptions, serve
 
-    serve(RouterOptions(listen=tuple(args.listen), config=args.config),
+    serve(RouterOptions(listen=tuple(args.listen), config=args.config, security=args.security),
           lambda line: print(line, flush=True))
     return 0
 
@@ -39,5 +43,6 @@ COMMAND = Command(
     "$ZENOH_ROUTER_CONFIG_URI or --config names a json5 file that replaces the defaults.",
     examples=("servolab router",
               "servolab router --listen tcp/0.0.0.0:7447",
-              "servolab router --config my_router.json5"),
+              "servolab router --config my_router.json5",
+              "servolab router --security fleet_security.yaml --listen tls/0.0.0.0:7447"),
     add_arguments=_add_arguments, run=_run)

@@ -45,6 +45,7 @@ from typing import Any
 
 import zenoh
 
+from . import fleet_security
 from .errors import TransportError
 from .zenoh_config import (
     ROUTER_CONFIG_ENV,
@@ -53,6 +54,9 @@ from .zenoh_config import (
     zenoh_error_text,
 )
 from .zenoh_transport import DEFAULT_ROUTER, check_endpoint, left_unset
+
+#: Where a router with ``--security`` listens unless told: the usual port, this machine, TLS.
+DEFAULT_SECURE_ROUTER = "tls/localhost:7447"
 
 #: rmw_zenohd's router configuration as json5 values by key: the keys of
 #: ``rmw_zenoh_cpp/config/DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`` whose values differ from Zenoh's
@@ -92,10 +96,13 @@ class RouterOptions:
     ``listen``: endpoints that replace the configuration's (none given: the file's, else
     ``tcp/localhost:7447``). ``config``: a json5 file (``--config``) that replaces the defaults
     whole, as ``$ZENOH_ROUTER_CONFIG_URI`` does for ``rmw_zenohd``; it takes precedence over
-    that variable."""
+    that variable. ``security``: a fleet security file (``--security``,
+    :mod:`.fleet_security`) whose mutual TLS and access control go on top; every endpoint is
+    then ``tls/`` (default ``tls/localhost:7447``)."""
 
     listen: tuple[str, ...] = ()
     config: Path | None = None
+    security: Path | None = None
     environ: Mapping[str, str] = field(default_factory=lambda: dict(os.environ), repr=False)
 
     def config_file(self) -> tuple[Path, str] | None:
@@ -111,12 +118,14 @@ def router_config(options: RouterOptions) -> zenoh.Config:
     """The router's configuration (module docstring): endpoints checked and the file read
     before anything opens, each problem one line naming the endpoint or the file."""
     listen = [check_endpoint(e) for e in options.listen]
+    security = fleet_security.load(options.security) if options.security else None
+    default_listen = DEFAULT_SECURE_ROUTER if security else DEFAULT_ROUTER
     found = options.config_file()
     if found is None:
         config = zenoh.Config()
         for key, value in RMW_ZENOHD_DEFAULTS.items():
             config.insert_json5(key, value)
-        listen = listen or [DEFAULT_ROUTER]
+        listen = listen or [default_listen]
     else:
         path, source = found
         config = load_config_file(path, source)
@@ -126,9 +135,16 @@ def router_config(options: RouterOptions) -> zenoh.Config:
                                  '(remove mode from the file, or set it to "router")')
         config.insert_json5("mode", '"router"')
         if not listen and left_unset(config, "listen/endpoints"):
-            listen = [DEFAULT_ROUTER]   # this machine only, not Zenoh's every-network default
+            listen = [default_listen]   # this machine only, not Zenoh's every-network default
     if listen:
         config.insert_json5("listen/endpoints", json.dumps(listen))
+    if security is not None:
+        insecure = [e for e in listen_endpoints(config) if not e.startswith("tls/")]
+        if insecure:
+            raise TransportError(f"{options.security}: the router would also listen on "
+                                 f"{', '.join(insecure)}, where anyone gets in: with --security "
+                                 "every endpoint is tls/HOST:PORT")
+        fleet_security.secure(config, security)
     return config
 
 

@@ -1,0 +1,185 @@
+"""Who may join a fleet's router and what each member may publish, from a servolab file,
+turned into Zenoh's own TLS and access control (``servolab router --security FILE``).
+
+Zenoh and DDS let in any peer that can reach them. A fleet's router closes that door with
+Zenoh's two mechanisms (its manual, "TLS authentication" and "Access Control"):
+
+* **mutual TLS**: the router listens on ``tls/`` endpoints only, shows its certificate, and
+  asks each client for one signed by the fleet's authority (``enable_mtls``); a client
+  without one never gets a session (the handshake fails);
+* **access control** on what comes in, by the common name of the client's certificate
+  (``cert_common_names``): only the ``members`` listed may exchange anything (Zenoh's
+  ``default_permission: deny``; a certificate of the same authority with another name
+  connects but every message it sends or asks for is dropped), and a topic of
+  ``publish_only`` may be published only by the members it names: every other member's
+  publications on it are dropped at the router (a deny rule on ``put`` and ``delete``, which
+  Zenoh's decision point checks before any allow).
+
+The file (YAML; paths are relative to it)::
+
+    tls:
+      ca: certs/ca.pem                   # the fleet's authority (servolab certs)
+      certificate: certs/router.pem      # the router's own
+      private_key: certs/router-key.pem
+    members: [fleet_manager, robot1, robot2, operator]
+    publish_only:                        # ROS topic names: * is one name, ** any number
+      /*/cmd_vel: [fleet_manager]
+
+Topics are named as ROS names them and matched on the keys rmw_zenoh puts them at
+(``<domain>/<name>/<type>/<hash>``, :func:`~.rmw_zenoh.topic_keyexpr`), in every domain and
+for every type: ``/*/cmd_vel`` becomes ``*/*/cmd_vel/*/*``. Services, actions' goals and the
+graph (liveliness) are left to every member: the file says who *publishes*.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from .. import configfile
+from ..configfile import ConfigValue
+from ..errors import ConfigFileError
+from .certificates import CertificateError, check_name
+
+#: A ROS name's token (rcl's rules: letters, digits and underscores, no digit first).
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: Every message kind Zenoh's access control knows (its manual, "rules").
+ALL_MESSAGES = ("put", "delete", "declare_subscriber", "query", "declare_queryable", "reply",
+                "liveliness_token", "declare_liveliness_subscriber", "liveliness_query")
+#: What publishing is, to Zenoh.
+PUBLISH = ("put", "delete")
+
+
+@dataclass(frozen=True)
+class RouterTls:
+    """The router's side of mutual TLS: the authority clients must be signed by, and the
+    router's own certificate and key."""
+
+    ca: Path
+    certificate: Path
+    private_key: Path
+
+
+@dataclass(frozen=True)
+class FleetSecurity:
+    """A fleet's security file, checked (:func:`load`)."""
+
+    source: Path
+    tls: RouterTls
+    members: tuple[str, ...]
+    #: ROS topic pattern -> the members that alone may publish on it
+    publish_only: dict[str, tuple[str, ...]]
+
+
+def topic_keyexpr_pattern(pattern: str) -> str:
+    """The Zenoh key expression that matches what rmw_zenoh puts for topics matching the ROS
+    name pattern (``/*/cmd_vel`` -> ``*/*/cmd_vel/*/*``: any domain, any type and hash)."""
+    if not pattern.startswith("/") or pattern.endswith("/") or "//" in pattern:
+        raise ValueError("is not an absolute ROS name such as /robot1/cmd_vel or /*/cmd_vel")
+    for part in pattern[1:].split("/"):
+        if part not in ("*", "**") and not _TOKEN.fullmatch(part):
+            raise ValueError(f"has {part!r}: each name is letters, digits and '_' (not "
+                             "starting with a digit), or * (one name) or ** (any number)")
+    return str(zenoh.KeyExpr.autocanonize(f"*{pattern}/*/*"))
+
+
+def _file(value: ConfigValue, base: Path) -> Path:
+    path = base / value.as_str(nonempty=True)
+    if not path.is_file():
+        raise value.error(f"{path}: no such file (make the fleet's certificates with "
+                          "'servolab certs')")
+    return path
+
+
+def _member(value: ConfigValue) -> str:
+    try:
+        return check_name(value.as_str(nonempty=True))
+    except CertificateError as exc:
+        raise value.error(str(exc)) from None
+
+
+def load(path: Path) -> FleetSecurity:
+    """Read and check a security file; every problem is one line naming the file, line and
+    key, before the router opens anything."""
+    root = configfile.load(path, what="fleet security file").as_mapping("the security file")
+    root.check_keys(("tls", "members", "publish_only"), required=("tls", "members"))
+    base = path.parent
+    tls_value = root.require("tls").as_mapping("tls")
+    tls_value.check_keys(("ca", "certificate", "private_key"),
+                         required=("ca", "certificate", "private_key"), what="tls")
+    tls = RouterTls(*(_file(tls_value.require(k), base)
+                      for k in ("ca", "certificate", "private_key")))
+    members_value = root.require("members").as_list("members")
+    if not len(members_value):
+        raise members_value.error("no members: name the certificates that may join")
+    members = tuple(_member(v) for v in members_value)
+    publish_only: dict[str, tuple[str, ...]] = {}
+    rules = root.get("publish_only")
+    for pattern, who in (rules.as_mapping("publish_only").items() if rules else ()):
+        try:
+            topic_keyexpr_pattern(pattern)
+        except ValueError as exc:
+            raise who.error(f"topic {pattern!r} {exc}") from None
+        names = tuple(_member(v) for v in who.as_list(f"publish_only {pattern!r}"))
+        for name, value in zip(names, who.as_list(), strict=True):
+            if name not in members:
+                raise value.error(f"{name!r} is not one of the members {list(members)}")
+        publish_only[pattern] = names
+    return FleetSecurity(path, tls, members, publish_only)
+
+
+def tls_json(tls: RouterTls) -> str:
+    """The router's ``transport/link/tls`` (Zenoh's keys), mutual."""
+    return json.dumps({"root_ca_certificate": str(tls.ca.resolve()),
+                       "listen_certificate": str(tls.certificate.resolve()),
+                       "listen_private_key": str(tls.private_key.resolve()),
+                       "enable_mtls": True})
+
+
+def access_control(security: FleetSecurity) -> dict[str, Any]:
+    """Zenoh's ``access_control`` for the file: deny by default; each member one subject (its
+    certificate's common name) allowed everything but the ``publish_only`` topics it is not
+    named for."""
+    rules: list[dict[str, Any]] = [{
+        "id": "member", "permission": "allow", "flows": ["ingress", "egress"],
+        "messages": list(ALL_MESSAGES), "key_exprs": ["**"]}]
+    for number, pattern in enumerate(security.publish_only):
+        rules.append({"id": f"publish_only_{number}", "permission": "deny",
+                      "flows": ["ingress"], "messages": list(PUBLISH),
+                      "key_exprs": [topic_keyexpr_pattern(pattern)]})
+    subjects = [{"id": name, "cert_common_names": [name]} for name in security.members]
+    policies = []
+    for name in security.members:
+        denied = [f"publish_only_{n}" for n, (_, who) in enumerate(security.publish_only.items())
+                  if name not in who]
+        policies.append({"id": f"policy_{name}", "rules": ["member", *denied],
+                         "subjects": [name]})
+    return {"enabled": True, "default_permission": "deny", "rules": rules,
+            "subjects": subjects, "policies": policies}
+
+
+def secure(config: zenoh.Config, security: FleetSecurity) -> None:
+    """Put the file's TLS and access control into a router's configuration."""
+    try:
+        config.insert_json5("transport/link/tls", tls_json(security.tls))
+        config.insert_json5("access_control", json.dumps(access_control(security)))
+    except zenoh.ZError as exc:   # a bug here, not the user's: say which file led to it
+        raise ConfigFileError(security.source, 0, "", f"Zenoh refused the configuration made "
+                              f"from it: {exc}") from None
+
+
+def client_json5(ca: Path, certificate: Path, private_key: Path) -> str:
+    """A client's session configuration for ``$ZENOH_SESSION_CONFIG_URI``: a client of the
+    fleet's router (rmw_zenoh's way for a node on another host) that shows its certificate."""
+    tls = {"root_ca_certificate": str(ca.resolve()),
+           "connect_certificate": str(certificate.resolve()),
+           "connect_private_key": str(private_key.resolve()),
+           "enable_mtls": True}
+    return ("// a client of the fleet's router, showing its certificate (servolab certs)\n"
+            + json.dumps({"mode": "client", "transport": {"link": {"tls": tls}}}, indent=2)
+            + "\n")
