@@ -267,8 +267,7 @@ def test_bad_inputs_are_refused() -> None:
 
 
 def test_config_from_the_seed_parameter_file() -> None:
-    from servolab.robots.navigation.params import load_dwa
-    from servolab.robots.navigation.run import DEFAULT_DWA
+    from servolab.robots.navigation.params import DEFAULT_DWA, load_dwa
 
     path = DEFAULT_DWA  # seed 000 D.3, shipped with servolab.robots.navigation
     cfg = DwaConfig.from_params(load_dwa(path))

@@ -13,7 +13,15 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from .arguments import add_namespace, add_out, finite_float, nonnegative_int, positive_float
+from .arguments import (
+    add_namespace,
+    add_out,
+    add_transport,
+    finite_float,
+    nonnegative_int,
+    positive_float,
+    transport_options,
+)
 from .registry import Command
 from .view import add_view_flag, view_request
 
@@ -50,6 +58,31 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
     add_namespace(p, "the run's nodes (base, camera, tracker, localiser, navigator)")
     add_view_flag(p)
     add_out(p)
+    robot = p.add_argument_group(
+        "a robot on the graph (--map)", "navigate a robot that runs elsewhere (servolab "
+        "control run turtlebot3_waffle, a TurtleBot3's bringup) rather than the simulated "
+        "floor: the map from a map_server map.yaml, the pose from the robot's odometry and "
+        "its start, commands on its cmd_vel; --timeout is then in seconds of the wall clock")
+    robot.add_argument("--map", metavar="YAML", help="the map (map_server's map.yaml)")
+    robot.add_argument("--initial-pose", type=finite_float, nargs="+", metavar="V",
+                       help="X Y [YAW]: where the robot stands on the map when its odometry "
+                       "reads zero, in metres and degrees (default yaw 0)")
+    robot.add_argument("--cmd-vel", default="cmd_vel", metavar="TOPIC",
+                       help="the robot's command topic, in its namespace (default cmd_vel, "
+                       "TurtleBot3's; diff_drive_controller/cmd_vel for servolab control run)")
+    robot.add_argument("--odom", default="odom", metavar="TOPIC",
+                       help="the robot's odometry topic (default odom; "
+                       "diff_drive_controller/odom for servolab control run)")
+    add_transport(p)
+
+
+#: the options of each of the two kinds of run, refused in the other
+_SIMULATED_ONLY = ("scene", "calib", "board_at", "view")
+_ON_GRAPH_ONLY = ("initial_pose", "listen", "connect")
+
+
+def _given(args: argparse.Namespace, names: tuple[str, ...]) -> list[str]:
+    return [f"--{n.replace('_', '-')}" for n in names if getattr(args, n) not in (None, [])]
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -57,11 +90,15 @@ def _run(args: argparse.Namespace) -> int:
     from ..robots.navigation.run import prepare, run_navigate
     from ..runs import RunFolder
 
-    view = view_request(args)  # checked before the run folder is made
     if len(args.goal) not in (2, 3):
         raise UsageError(f"--goal takes X Y or X Y YAW, not {len(args.goal)} number(s)")
     x, y = args.goal[:2]
     yaw = math.radians(args.goal[2]) if len(args.goal) == 3 else None
+    if args.map is not None:
+        return _run_on_graph(args, (x, y), yaw)
+    if given := _given(args, _ON_GRAPH_ONLY):
+        raise UsageError(f"{', '.join(given)}: for a robot on the graph, with --map")
+    view = view_request(args)  # checked before the run folder is made
     board_at = None
     if args.board_at is not None:
         if len(args.board_at) not in (2, 3):
@@ -76,6 +113,29 @@ def _run(args: argparse.Namespace) -> int:
     with RunFolder.create("navigate", args.out) as run:
         run_navigate(run, navigation, timeout=args.timeout, seed=args.seed,
                      show_progress=not args.no_progress, view=view)
+    print(f"run folder: {run.path}")
+    return 0
+
+
+def _run_on_graph(args: argparse.Namespace, goal: tuple[float, float],
+                  yaw: float | None) -> int:
+    from ..errors import UsageError
+    from ..robots.navigation.on_graph import prepare, run_navigate_on_graph
+    from ..runs import RunFolder
+
+    if given := _given(args, _SIMULATED_ONLY):
+        raise UsageError(f"{', '.join(given)}: for the simulated floor, not with --map")
+    if args.initial_pose is None or len(args.initial_pose) not in (2, 3):
+        raise UsageError("--map needs --initial-pose X Y [YAW]: where the robot stands on the "
+                         "map when its odometry reads zero")
+    x0, y0, *turn = args.initial_pose
+    navigation = prepare(args.map, (x0, y0, math.radians(turn[0]) if turn else 0.0), goal,
+                         transport_options(args), goal_yaw=yaw, costmap=args.costmap,
+                         dwa=args.dwa, move_base=args.move_base, namespace=args.namespace,
+                         cmd_vel=args.cmd_vel, odom=args.odom)
+    with RunFolder.create("navigate", args.out) as run:
+        run_navigate_on_graph(run, navigation, timeout=args.timeout,
+                              show_progress=not args.no_progress)
     print(f"run folder: {run.path}")
     return 0
 
@@ -104,5 +164,8 @@ COMMAND = Command(
     "navigate.png, calibration.yaml and summary.json.",
     examples=("servolab navigate --goal 2.6 1.6",
               "servolab navigate --goal 2.6 1.6 90 --scene my_scene.yaml --out runs/nav-a",
-              "servolab navigate --goal 3.3 2.3 --namespace /robot1"),
+              "servolab navigate --goal 3.3 2.3 --namespace /robot1",
+              "servolab navigate --map map.yaml --initial-pose 0.5 0.5 --goal 2 1 "
+              "--namespace /robot1 --cmd-vel diff_drive_controller/cmd_vel "
+              "--odom diff_drive_controller/odom --connect tcp/router.local:7447"),
     add_arguments=_add_arguments, run=_run, demo=_demo)

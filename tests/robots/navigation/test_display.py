@@ -20,8 +20,7 @@ import pytest
 
 from servolab.planning.costmap import inflate
 from servolab.robots.navigation.display import PATH_SPACING, costmap_occupancy, costmap_values
-from servolab.robots.navigation.params import load_costmap
-from servolab.robots.navigation.run import DEFAULT_COSTMAP
+from servolab.robots.navigation.params import DEFAULT_COSTMAP, load_costmap
 from servolab.robots.navigation.tracker_node import LATCHED
 from tests.robots.navigation.test_navigator import POSE, Rig
 

@@ -16,11 +16,12 @@ from servolab.planning.dwa import DwaConfig
 from servolab.robots.navigation.navigator import NavigationStatus, NavigatorNode, Patience
 from servolab.robots.navigation.params import (
     CLEAR_COSTMAP_RECOVERY,
+    DEFAULT_COSTMAP,
+    DEFAULT_DWA,
     RecoveryBehavior,
     load_costmap,
     load_dwa,
 )
-from servolab.robots.navigation.run import DEFAULT_COSTMAP, DEFAULT_DWA
 from servolab.robots.navigation.tracker_node import LATCHED
 
 POSE = "geometry_msgs/msg/PoseStamped"

@@ -10,6 +10,9 @@ import pytest
 
 from servolab.errors import ConfigFileError
 from servolab.robots.navigation.params import (
+    DEFAULT_COSTMAP,
+    DEFAULT_DWA,
+    DEFAULT_MOVE_BASE,
     CostmapParams,
     DwaParams,
     MoveBaseParams,
@@ -18,7 +21,6 @@ from servolab.robots.navigation.params import (
     load_dwa,
     load_move_base,
 )
-from servolab.robots.navigation.run import DEFAULT_COSTMAP, DEFAULT_DWA, DEFAULT_MOVE_BASE
 from servolab.sim.scene import DEFAULT_SCENE
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -8,7 +8,8 @@ odometry and camera fused), ``/odom`` for the robot's current velocity, and goal
 ``/move_base_simple/goal`` (move_base's), which become goals of the same server as nav2's
 bt_navigator sends them to itself, besides the one it may be built with. A new goal replaces
 the one being driven to (it ends ABORTED, as nav2 preempts); a cancel stops the wheels and ends
-the goal CANCELED. Out: ``/cmd_vel`` (``geometry_msgs/msg/Twist``) every controller period,
+the goal CANCELED. Out: ``/cmd_vel`` (``geometry_msgs/msg/Twist``; ``TwistStamped`` with
+``stamped_cmd_vel``, Nav2's ``enable_stamped_cmd_vel``) every controller period,
 ``/plan`` (``nav_msgs/msg/Path``) whenever the plan changes, and the action's status and
 feedback (pose, time, recoveries, distance left); the result's ``error_msg`` says why a goal
 was aborted.
@@ -96,6 +97,7 @@ import numpy.typing as npt
 
 from ...middleware.context import Context
 from ...middleware.messages import time_of
+from ...middleware.names import BASE_FRAME, frame_prefix
 from ...middleware.node import Node
 from ...middleware.publisher import Publisher
 from ...planning.approach import dry_run
@@ -147,6 +149,9 @@ __all__ = ["ACTION_NAME", "FEEDBACK_TOPIC", "NAVIGATE_TO_POSE", "ODOMETRY", "PAT
 POSE = "geometry_msgs/msg/PoseStamped"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TWIST = "geometry_msgs/msg/Twist"
+#: what ``cmd_vel`` carries with ``stamped_cmd_vel`` (Nav2's ``enable_stamped_cmd_vel``):
+#: jazzy's diff_drive_controller takes nothing else
+TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 PATH = "nav_msgs/msg/Path"
 #: nav2's action (nav2_msgs/action/NavigateToPose, Jazzy's: servolab ships its definition)
 NAVIGATE_TO_POSE = "nav2_msgs/action/NavigateToPose"
@@ -298,7 +303,7 @@ class NavigatorNode(Node):
                  recovery: Sequence[RecoveryBehavior] = (),
                  planner_frequency: float = 0.0, pose_timeout: float = 0.5,
                  start_timeout: float | None = None, pose_topic: str = "fused_pose",
-                 name: str = "navigator", namespace: str = "/",
+                 stamped_cmd_vel: bool = False, name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
         super().__init__(context, name, namespace, parameter_overrides=parameter_overrides,
@@ -325,7 +330,11 @@ class NavigatorNode(Node):
         self._goal: _ActionGoal | None = None
         #: the goal message this node published last, to know its echo on /goal_pose
         self._goal_echo: tuple[Any, ...] | None = None
-        cmd_vel = self.create_publisher(TWIST, "cmd_vel", 10)
+        self.stamped_cmd_vel = stamped_cmd_vel
+        #: the frame a stamped command is in: the robot's base (robot1/base_footprint)
+        self.base_frame = frame_prefix(self.get_namespace()) + BASE_FRAME
+        cmd_vel = self.create_publisher(TWIST_STAMPED if stamped_cmd_vel else TWIST,
+                                        "cmd_vel", 10)
         plan = self.create_publisher(PATH, "plan", LATCHED)
         self.action_server = ActionServer(
             self, NAVIGATE_TO_POSE, ACTION_NAME, self._execute,
@@ -586,8 +595,7 @@ class NavigatorNode(Node):
     def _carry_out(self, decision: Decision) -> None:
         match decision:
             case Drive(v, omega):
-                self.topics.cmd_vel.publish(self.message(TWIST, linear={"x": v},
-                                                         angular={"z": omega}))
+                self._command(v, omega)
             case Stop():
                 self._stop()
             case End():
@@ -598,7 +606,22 @@ class NavigatorNode(Node):
                 pass  # nothing to act on yet: no command, the wheels as they are
 
     def _stop(self) -> None:
-        self.topics.cmd_vel.publish(self.message(TWIST))
+        self._command(0.0, 0.0)
+
+    def halt(self) -> None:
+        """Command the wheels to a stop now, whatever the goal (a run ending)."""
+        with self._lock:
+            self._command(0.0, 0.0)
+
+    def _command(self, v: float, omega: float) -> None:
+        """``(v, omega)`` on ``cmd_vel``: a Twist, or with ``stamped_cmd_vel`` a TwistStamped
+        in the robot's frame, stamped now (as Nav2's controller_server stamps it)."""
+        twist = {"linear": {"x": v}, "angular": {"z": omega}}
+        if self.stamped_cmd_vel:
+            self.topics.cmd_vel.publish(self.message(TWIST_STAMPED, header={
+                "stamp": self.stamp(), "frame_id": self.base_frame}, twist=twist))
+        else:
+            self.topics.cmd_vel.publish(self.message(TWIST, **twist))
 
     def _finish(self, end: End) -> None:
         """The goal ended: the wheels stopped, its action goal ended as ``end`` says (the

@@ -583,6 +583,35 @@ def _drop_equal_duplicates(text: str) -> tuple[str, tuple[str, ...]]:
     return text, tuple(notes)
 
 
+@dataclass(frozen=True)
+class Planning:
+    """The three parameter files a navigation runs on, read and checked together: the
+    costmap, DWA with move_base's ``controller_frequency`` as its period (DWAPlanner finds it
+    by ``searchParam``), move_base, and a line for each file naming the keys servolab does
+    not use."""
+
+    costmap: CostmapParams
+    dwa: DwaConfig
+    move_base: MoveBaseParams
+    ignored: tuple[str, ...]
+
+
+def load_planning(costmap: str | Path | None = None, dwa: str | Path | None = None,
+                  move_base: str | Path | None = None) -> Planning:
+    """The costmap, DWA and move_base files (None: seed 000's and turtlebot's, shipped)."""
+    from dataclasses import replace
+
+    costmap_params = load_costmap(costmap or DEFAULT_COSTMAP)
+    dwa_params = load_dwa(dwa or DEFAULT_DWA)
+    move_base_params = load_move_base(move_base or DEFAULT_MOVE_BASE)
+    ignored = tuple(f"{loaded.path}: not used by servolab: {', '.join(loaded.ignored)}"
+                    for loaded in (costmap_params, dwa_params, move_base_params)
+                    if loaded.ignored)
+    dwa_config = replace(DwaConfig.from_params(dwa_params),
+                         controller_frequency=move_base_params.controller_frequency)
+    return Planning(costmap_params, dwa_config, move_base_params, ignored)
+
+
 def load_nav_scene(path: str | Path | None = None) -> Scene:
     """The simulated world ``servolab navigate`` drives in: the file at ``path`` (default
     :data:`servolab.sim.scene.DEFAULT_SCENE`), its robot's ``base`` looked for beside it,

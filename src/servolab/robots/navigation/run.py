@@ -79,17 +79,7 @@ from ..base.mobile_base import MobileBase
 from ..errors import RobotError
 from ..lifecycle import Step, Task, replaced, run_task
 from .navigator import NavigationStatus, NavigatorNode, Patience
-from .params import (
-    DEFAULT_COSTMAP,
-    DEFAULT_DWA,
-    DEFAULT_MOVE_BASE,
-    CostmapParams,
-    MoveBaseParams,
-    load_costmap,
-    load_dwa,
-    load_move_base,
-    load_nav_scene,
-)
+from .params import CostmapParams, MoveBaseParams, load_nav_scene, load_planning
 from .session import (
     BOARD,
     BOARD_AT,
@@ -154,15 +144,9 @@ def prepare(goal: tuple[float, float], *, goal_yaw: float | None = None,
     ``calibration.yaml`` has one), else the map's origin."""
     namespace = node_namespace(namespace)
     world = load_nav_scene(scene)
-    costmap_params = load_costmap(costmap or DEFAULT_COSTMAP)
-    dwa_params = load_dwa(dwa or DEFAULT_DWA)
-    move_base_params = load_move_base(move_base or DEFAULT_MOVE_BASE)
-    ignored = tuple(f"{loaded.path}: not used by servolab: {', '.join(loaded.ignored)}"
-                    for loaded in (costmap_params, dwa_params, move_base_params)
-                    if loaded.ignored)
-    # DWAPlanner's sim_period comes from move_base's controller_frequency (searchParam)
-    dwa_config = dataclasses.replace(DwaConfig.from_params(dwa_params),
-                                     controller_frequency=move_base_params.controller_frequency)
+    planning = load_planning(costmap, dwa, move_base)
+    costmap_params, dwa_config, move_base_params, ignored = (
+        planning.costmap, planning.dwa, planning.move_base, planning.ignored)
     gx, gy = (float(v) for v in goal)
     if not (math.isfinite(gx) and math.isfinite(gy)):
         raise NavigationError(f"goal ({gx!r}, {gy!r}) must be finite numbers (m)")
