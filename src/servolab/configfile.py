@@ -89,6 +89,12 @@ class ConfigValue(ABC):
         """An error at this value: ``path:line: message``, carrying path, line and key."""
         return self._error(self.path, self.line, self.key, message)
 
+    @property
+    def error_class(self) -> type[ConfigFileError]:
+        """The class this file's errors are raised as: a value made from this one (a launch
+        file's substitution) keeps it."""
+        return self._error
+
     @abstractmethod
     def describe(self) -> str:
         """What was written here, in a few words, for an error message."""

@@ -19,6 +19,8 @@ from .view import view_port
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="a launch file, e.g. configs/talker_listener.launch.yaml")
+    p.add_argument("launch_arguments", nargs="*", metavar="NAME:=VALUE",
+                   help="the file's launch arguments, as ros2 launch takes them (robots:=3)")
     p.add_argument("--machine", help="start this machine's nodes (default: this host's)")
     p.add_argument("--process", help=argparse.SUPPRESS)
     add_transport(p, default="")
@@ -30,6 +32,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     from servolab.middleware.launch import launch_main
+    from servolab.middleware.launch_arguments import command_line_arguments
 
     from ._graph import say
 
@@ -37,12 +40,14 @@ def _run(args: argparse.Namespace) -> int:
     return launch_main(args.file, machine=args.machine, process=args.process,
                        transport=args.transport or None, listen=args.listen,
                        connect=args.connect, domain_id=args.domain_id, out=say,
-                       view=args.view)
+                       view=args.view,
+                       arguments=command_line_arguments(args.launch_arguments))
 
 
 COMMAND = Command(
     name="launch", group="graph", help="start the nodes of a launch file",
     description="Start the nodes a launch file gives this machine (the format is in "
     "docs/middleware.md); Ctrl-C stops them all.",
-    examples=("servolab launch configs/talker_listener.launch.yaml",),
+    examples=("servolab launch configs/talker_listener.launch.yaml",
+              "servolab launch configs/fleet.launch.yaml robots:=3"),
     add_arguments=_add_arguments, run=_run)

@@ -45,6 +45,7 @@ from .. import configfile
 from ..configfile import ConfigValue
 from ..errors import ConfigFileError
 from .certificates import CertificateError, check_name
+from .errors import MiddlewareValueError
 
 #: A ROS name's token (rcl's rules: letters, digits and underscores, no digit first).
 _TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -80,11 +81,13 @@ def topic_keyexpr_pattern(pattern: str) -> str:
     """The Zenoh key expression that matches what rmw_zenoh puts for topics matching the ROS
     name pattern (``/*/cmd_vel`` -> ``*/*/cmd_vel/*/*``: any domain, any type and hash)."""
     if not pattern.startswith("/") or pattern.endswith("/") or "//" in pattern:
-        raise ValueError("is not an absolute ROS name such as /robot1/cmd_vel or /*/cmd_vel")
+        raise MiddlewareValueError("is not an absolute ROS name such as /robot1/cmd_vel or "
+                                   "/*/cmd_vel")
     for part in pattern[1:].split("/"):
         if part not in ("*", "**") and not _TOKEN.fullmatch(part):
-            raise ValueError(f"has {part!r}: each name is letters, digits and '_' (not "
-                             "starting with a digit), or * (one name) or ** (any number)")
+            raise MiddlewareValueError(f"has {part!r}: each name is letters, digits and '_' "
+                                       "(not starting with a digit), or * (one name) or ** "
+                                       "(any number)")
     return str(zenoh.KeyExpr.autocanonize(f"*{pattern}/*/*"))
 
 

@@ -29,7 +29,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,13 +124,15 @@ def run_process_group(launch: LaunchFile, group: str, options: TransportOptions,
 def launch_main(file: str | Path, *, machine: str | None = None, process: str | None = None,
                 transport: str | None = None, listen: Sequence[str] = (),
                 connect: Sequence[str] = (), domain_id: int | None = None,
-                out: Callable[[str], None] = _echo, view: int | None = None) -> int:
+                out: Callable[[str], None] = _echo, view: int | None = None,
+                arguments: Mapping[str, str] | None = None) -> int:
     """``servolab launch FILE [--machine M] [--process G] [--transport T] [--listen E]...
     [--connect E]... [--domain-id N]``: what the CLI calls with its parsed arguments.
 
     ``transport`` None or "" means the file's; ``domain_id`` None means ``$ROS_DOMAIN_ID``
-    or 0, resolved here once so that every child is given the same one."""
-    launch = load_launch(file)
+    or 0, resolved here once so that every child is given the same one. ``arguments``: the
+    launch arguments (``robots:=3``), passed on to every child."""
+    launch = load_launch(file, arguments=arguments)
     if domain_id is None:
         try:
             domain_id = environment_domain_id()
@@ -291,6 +293,7 @@ def _loopback(endpoint: str) -> str:
 def child_command(launch: LaunchFile, group: str, options: TransportOptions) -> list[str]:
     """The command that runs one process group: ``servolab launch FILE --process GROUP``."""
     argv = [sys.executable, "-m", "servolab", "launch", str(launch.path.resolve()),
+            *(f"{name}:={value}" for name, value in launch.given.items()),
             "--process", group, "--transport", options.kind]
     for endpoint in options.listen:
         argv += ["--listen", endpoint]

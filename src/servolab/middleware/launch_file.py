@@ -49,6 +49,7 @@ from ..configfile import (
 )
 from ..limits import InputLimits, clip, quoted
 from .errors import LaunchError, LaunchFileError, NameValidationError, ParameterError
+from .launch_arguments import INSTANCE, declared, substitute
 from .names import check_node_name, node_namespace
 from .names import fully_qualified_name as resolve_name
 from .node import Node
@@ -60,10 +61,13 @@ DEFAULT_PROCESS = "main"
 #: In an ``exec`` entry, replaced by the Zenoh endpoint the launch's processes meet on, so a
 #: command such as ``servolab bag record ... --connect $(zenoh_endpoint)`` can join them.
 ZENOH_ENDPOINT = "$(zenoh_endpoint)"
+#: The most instances one group may have: a fleet, not a typo's thousand processes.
+MAX_INSTANCES = 100
 #: How long the supervisor waits after SIGINT, and after SIGTERM, before the next signal.
 STOP_TIMEOUT = 5.0
 
-_TOP_KEYS = ("transport", "zenoh", "machines", "parameters", "nodes")
+_TOP_KEYS = ("arguments", "transport", "zenoh", "machines", "parameters", "nodes", "groups")
+_GROUP_KEYS = ("namespace", "instances", "nodes")
 _ZENOH_KEYS = ("listen", "connect")
 _MACHINE_KEYS = ("address", "default")
 _NODE_KEYS = ("name", "node", "namespace", "parameters", "remappings", "process", "machine",
@@ -135,6 +139,8 @@ class LaunchFile:
     connect: list[str] = field(default_factory=list)
     machines: dict[str, Machine] = field(default_factory=dict)
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
+    #: the launch arguments the command line gave (``robots:=3``), passed on to the children
+    given: dict[str, str] = field(default_factory=dict)
     lines: dict[str, int] = field(default_factory=dict, repr=False, compare=False)
 
     def error(self, entry: NodeEntry | None, key: str | None, message: str
@@ -209,7 +215,8 @@ def is_local_address(address: str) -> bool:
 # -- parsing ---------------------------------------------------------------------------------
 
 
-def load_launch(path: str | Path, *, limits: InputLimits | None = None) -> LaunchFile:
+def load_launch(path: str | Path, *, limits: InputLimits | None = None,
+                arguments: Mapping[str, str] | None = None) -> LaunchFile:
     """Read and check a launch file; errors are one :class:`LaunchFileError` line naming the
     file, line and key, quoting at most :data:`servolab.limits.ECHO_WIDTH` characters of a
     value. Node classes are imported later, by :func:`check_entries`, because a machine need
@@ -218,15 +225,20 @@ def load_launch(path: str | Path, *, limits: InputLimits | None = None) -> Launc
     The launch file and the parameter files it names are YAML files, refused unread over
     the YAML size limit (:mod:`servolab.limits`, ``SERVOLAB_MAX_YAML_MB``); a file that is
     not a launch file, or named as parameters and not a parameter file, is refused as such
-    with its line and column and nothing of its content."""
+    with its line and column and nothing of its content.
+
+    ``arguments`` are the command line's ``NAME:=VALUE`` (:mod:`.launch_arguments`)."""
     path = Path(path)
-    return _Parser(path, limits).parse(load(path, what="launch file", error=LaunchFileError,
-                                            kind="launch file", limits=limits))
+    return _Parser(path, limits, dict(arguments or {})).parse(
+        load(path, what="launch file", error=LaunchFileError, kind="launch file",
+             limits=limits))
 
 
 class _Parser:
-    def __init__(self, path: Path, limits: InputLimits | None = None) -> None:
+    def __init__(self, path: Path, limits: InputLimits | None = None,
+                 given: dict[str, str] | None = None) -> None:
         self.path = path
+        self.given = given or {}
         self.limits = limits
         self.directory = path.parent
         self.entry_fields: list[ConfigMapping] = []  # of each entry of launch.nodes
@@ -265,33 +277,77 @@ class _Parser:
         if isinstance(root, ConfigScalar) and root.value is None:
             raise self.error(root, "", "key 'nodes' missing (the file is empty)")
         fields = self.mapping(root, "", "a launch file", _TOP_KEYS)
-        launch = LaunchFile(self.path, lines={k: fields.key_of(k).line for k in fields})
-        if (value := fields.get("transport")) is not None:
+        variables = declared(fields.get("arguments"), self.given)
+        top = {name: value if name in ("arguments", "groups") else substitute(value, variables)
+               for name, value in fields.items()}
+        launch = LaunchFile(self.path, given=dict(self.given),
+                            lines={k: fields.key_of(k).line for k in fields})
+        if (value := top.get("transport")) is not None:
             launch.transport = self.text(value, "", "transport")
             if launch.transport not in ("local", "zenoh", "dds"):
                 raise self.error(value, "", f"key 'transport': {quoted(launch.transport)} is not "
                                  "local, zenoh or dds")
-        if "zenoh" in fields:
-            self.zenoh(fields, launch)
-        if (value := fields.get("machines")) is not None:
+        if "zenoh" in top:
+            self.zenoh(fields, top["zenoh"], launch)
+        if (value := top.get("machines")) is not None:
             self.machines(value, launch)
-        if (value := fields.get("parameters")) is not None:
+        if (value := top.get("parameters")) is not None:
             for item, name in self.texts(value, "", "parameters"):
                 launch.parameters.merge(self.parameter_file(item, "", name))
-        nodes = fields.require("nodes")
-        if not isinstance(nodes, ConfigList) or not nodes.items:
-            raise self.error(nodes, "", "key 'nodes': must be a list of node entries")
+        entries: list[tuple[ConfigValue, str]] = []
+        if (nodes := top.get("nodes")) is not None:
+            if not isinstance(nodes, ConfigList) or not nodes.items:
+                raise self.error(nodes, "", "key 'nodes': must be a list of node entries")
+            entries += [(item, "/") for item in nodes]
+        if (groups := top.get("groups")) is not None:
+            entries += self.groups(groups, variables)
+        if not entries:
+            raise self.error(fields, "", "key 'nodes' missing (or 'groups' of them)")
         default = next((m.name for m in launch.machines.values() if m.default), None)
-        launch.nodes = [self.entry(item, index, launch, default)
-                        for index, item in enumerate(nodes, 1)]
+        launch.nodes = [self.entry(item, index, launch, default, pushed)
+                        for index, (item, pushed) in enumerate(entries, 1)]
         self.check_together(launch)
         return launch
 
-    def zenoh(self, fields: ConfigMapping, launch: LaunchFile) -> None:
+    def groups(self, value: ConfigValue, variables: dict[str, str]
+               ) -> list[tuple[ConfigValue, str]]:
+        """The node entries of ``groups``, each group's ``instances`` times (1 unless given),
+        with ``$(var instance)`` its number, and the namespace each pushes onto its node
+        entries (ROS 2's ``<group>`` with ``<push_ros_namespace>``)."""
+        if not isinstance(value, ConfigList) or not value.items:
+            raise self.error(value, "", "key 'groups': must be a list of groups")
+        found: list[tuple[ConfigValue, str]] = []
+        for number, group in enumerate(value, 1):
+            where = f"group #{number}"
+            fields = self.mapping(group, where, "a group", _GROUP_KEYS)
+            count = 1
+            if (instances := fields.get("instances")) is not None:
+                count = substitute(instances, variables).as_int(f"{where}: key 'instances'")
+                if not 1 <= count <= MAX_INSTANCES:
+                    raise self.error(instances, where, f"key 'instances': {count} is not 1 to "
+                                     f"{MAX_INSTANCES}")
+            nodes = fields.require("nodes", where)
+            if not isinstance(nodes, ConfigList) or not nodes.items:
+                raise self.error(nodes, where, "key 'nodes': must be a list of node entries")
+            for instance in range(1, count + 1):
+                here = {**variables, INSTANCE: str(instance)}
+                namespace = "/"
+                if (namespace_node := fields.get("namespace")) is not None:
+                    namespace_node = substitute(namespace_node, here)
+                    namespace = self.text(namespace_node, where, "namespace")
+                    try:
+                        namespace = node_namespace(namespace)
+                    except NameValidationError as exc:
+                        raise self.error(namespace_node, where,
+                                         f"key 'namespace': {_summary(exc)}") from None
+                found += [(substitute(item, here), namespace) for item in nodes]
+        return found
+
+    def zenoh(self, fields: ConfigMapping, value: ConfigValue, launch: LaunchFile) -> None:
         if launch.transport != "zenoh":
             raise self.error(fields.key_of("zenoh"), "", "key 'zenoh': endpoints need "
                              "transport: zenoh")
-        zenoh = self.mapping(fields.require("zenoh"), "zenoh", "key 'zenoh'", _ZENOH_KEYS)
+        zenoh = self.mapping(value, "zenoh", "key 'zenoh'", _ZENOH_KEYS)
         for name, endpoints in zenoh.items():
             empty = (isinstance(endpoints, ConfigScalar) and endpoints.value is None) or (
                 isinstance(endpoints, ConfigList) and not endpoints.items)
@@ -338,7 +394,7 @@ class _Parser:
     # -- one entry ---------------------------------------------------------------------------
 
     def entry(self, item: ConfigValue, index: int, launch: LaunchFile,
-              default_machine: str | None) -> NodeEntry:
+              default_machine: str | None, pushed: str = "/") -> NodeEntry:
         where = f"node #{index}"
         fields = self.mapping(item, where, "a node entry", ())
         name_node = fields.require("name", where)
@@ -366,7 +422,7 @@ class _Parser:
             entry.command = self.command(command, where, launch)
             entry.process = ""
         else:
-            self.node_fields(entry, fields, where)
+            self.node_fields(entry, fields, where, pushed)
         if (machine_node := fields.get("machine")) is not None:
             entry.machine = self.text(machine_node, where, "machine")
             if entry.machine not in launch.machines:
@@ -380,14 +436,21 @@ class _Parser:
         self.entry_fields.append(fields)
         return entry
 
-    def node_fields(self, entry: NodeEntry, fields: ConfigMapping, where: str) -> None:
+    def node_fields(self, entry: NodeEntry, fields: ConfigMapping, where: str,
+                    pushed: str = "/") -> None:
+        """A node entry's own keys; ``pushed`` is its group's namespace, which a relative
+        namespace (or none) goes under, as ROS 2's ``push_ros_namespace`` does."""
         value = fields.require("node", where)
         entry.node = self.text(value, where, "node")
         if not _CLASS_PATH.fullmatch(entry.node):
             raise self.error(value, where, f"key 'node': {quoted(entry.node)} is not module:Class "
                              "(e.g. servolab.middleware.demo_nodes:Talker)")
+        if pushed != "/":
+            entry.namespace = pushed
         if (namespace_node := fields.get("namespace")) is not None:
             namespace = self.text(namespace_node, where, "namespace")
+            if pushed != "/" and not namespace.startswith("/"):
+                namespace = f"{pushed}/{namespace}"
             try:
                 entry.namespace = node_namespace(namespace, entry.name)
             except NameValidationError as exc:

@@ -518,19 +518,48 @@ class ZenohTransport(Transport):
         return _Declared(self.session.liveliness().declare_token(key))
 
     def graph(self, timeout: float = 0.5) -> list[Endpoint]:
+        """Every entity's liveliness token, asked for (``get``) as ``ros2 node list`` asks.
+
+        A session whose only link is a router just reached may ask before the router has
+        told it of the others' tokens: its query then has nowhere to go and comes back
+        empty, though the graph is not (a peer's ``servolab topic list`` through a fleet's
+        router, docs/fleets.md), or find part of it. So the tokens are also listened for (a
+        liveliness subscriber with history, as rmw_zenoh's graph cache takes them), and when
+        the query found no other session's token the rest of ``timeout`` is spent listening
+        for the others' declarations before asking again."""
+        key = f"{ADMIN_SPACE}/{self.domain_id}/**"
+        ours = f"{ADMIN_SPACE}/{self.domain_id}/{self.session_id}/"
+        heard: dict[str, bool] = {}   # token -> alive, as the listener heard them
+
+        def declared(sample: Any) -> None:
+            heard[str(sample.key_expr)] = sample.kind == zenoh.SampleKind.PUT
+
+        start = time.monotonic()
+        listener = self.session.liveliness().declare_subscriber(key, declared, history=True)
+        try:
+            keys = set(self._tokens(key, timeout))
+            if not any(not k.startswith(ours) for k in keys):
+                # nothing of the others yet: listen out the window, then ask again
+                time.sleep(max(0.0, timeout - (time.monotonic() - start)))
+                keys |= set(self._tokens(key, timeout))
+        finally:
+            listener.undeclare()
+        keys |= {k for k, alive in heard.items() if alive}
+        keys -= {k for k, alive in heard.items() if not alive}
         endpoints = []
-        for reply in self.session.liveliness().get(f"{ADMIN_SPACE}/{self.domain_id}/**",
-                                                   timeout=timeout):
-            if reply.ok is None:
-                continue
+        for token in sorted(keys):
             try:
-                entity = parse_token(str(reply.ok.key_expr))
+                entity = parse_token(token)
             except MessageError:
                 continue  # a token of another rmw version or tool: not ours to judge
             fqn = f"{entity.namespace.rstrip('/')}/{entity.node_name}"
             endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
                                       entity.type_name or "", entity.qos))
         return endpoints
+
+    def _tokens(self, key: str, timeout: float) -> list[str]:
+        return [str(reply.ok.key_expr) for reply in self.session.liveliness().get(
+            key, timeout=timeout) if reply.ok is not None]
 
     def check_reachable(self, timeout: float = 2.0) -> None:
         if not self.options.connect:

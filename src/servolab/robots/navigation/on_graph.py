@@ -60,7 +60,7 @@ from .navigator import (
     Patience,
 )
 from .params import CostmapParams, MoveBaseParams, load_planning
-from .session import NavigationError
+from .session import GoalNotReached, NavigationError
 from .tracker_node import LATCHED, MAP_FRAME, OCCUPANCY_GRID
 
 if TYPE_CHECKING:
@@ -263,7 +263,7 @@ def run_navigate_on_graph(run_folder: RunFolder, navigation: GraphNavigation, *,
                           timeout: float = 180.0, say: Say = print,
                           show_progress: bool = True) -> dict[str, Any]:
     """Drive the robot on the graph to the goal (module docstring); writes the summary and
-    returns it, or raises :class:`~.run.GoalNotReached`. ``timeout``: wall-clock seconds."""
+    returns it, or raises :class:`~.session.GoalNotReached`. ``timeout``: wall-clock seconds."""
     return run_task(run_folder, GraphNavigateTask(run_folder, navigation, timeout=timeout,
                                                   say=say, show_progress=show_progress),
                     say=say)
@@ -409,8 +409,6 @@ class GraphNavigateTask(Task):
                 f"not at the goal after {self.timeout:g} s"
 
     def report(self, ended: BaseException | None) -> None:
-        from .run import GoalNotReached
-
         if ended is not None:
             return
         summary = self.summary

@@ -76,7 +76,6 @@ from ...vision.overhead import FloorGrid
 from ..base import ON_STOP as BASE_ON_STOP
 from ..base.config import load as load_base
 from ..base.mobile_base import MobileBase
-from ..errors import RobotError
 from ..lifecycle import Step, Task, replaced, run_task
 from .navigator import NavigationStatus, NavigatorNode, Patience
 from .params import CostmapParams, MoveBaseParams, load_nav_scene, load_planning
@@ -86,6 +85,7 @@ from .session import (
     MAP_MARGIN,
     POSE_TIMEOUT_FRAMES,
     VIEWS,
+    GoalNotReached,
     NavigationError,
     calibrate_synthetic,
     fusion_for,
@@ -103,15 +103,6 @@ RECORDED = ("/odom", "/ground_truth", "/cmd_vel", "/tracker/pose", "/fused_pose"
             "/map", "/odometry/filtered", "/tf", "/clock", "/navigate_to_pose/_action/status",
             # what the navigator thinks, as Nav2 publishes it (navigator.py, display.py)
             "/global_costmap/costmap", "/local_plan", "/path", "/goal_pose")
-
-
-class GoalNotReached(RobotError):
-    """The robot did not reach its goal; the message says why (move_base gave up, time ran
-    out) and where the run folder is. ``summary`` holds the run's figures, written already."""
-
-    def __init__(self, message: str, summary: dict[str, Any] | None = None) -> None:
-        super().__init__(message)
-        self.summary = summary
 
 
 @dataclass(frozen=True)

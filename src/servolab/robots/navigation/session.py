@@ -1,8 +1,11 @@
 """What a navigation session sets up, shared by ``servolab navigate`` (:mod:`.run`) and the
 launch files' nodes (:mod:`.launch_nodes`): the synthetic calibration session, the map's cells,
-the pose timeout and the error a navigation that cannot start raises."""
+the pose timeout, the error a navigation that cannot start raises and the one a goal not
+reached ends with."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import cv2
 import numpy as np
@@ -12,7 +15,7 @@ from ...sim.scene import Scene
 from ...vision.calibration import CameraCalibration, FloorExtrinsics, calibrate, floor_extrinsics
 from ...vision.overhead import FloorGrid
 from ...vision.synthetic import random_board_poses, render_checkerboard
-from ..errors import RobotValueError
+from ..errors import RobotError, RobotValueError
 
 #: the calibration board of the synthetic session: 10 x 7 squares of 80 mm (even x odd, as
 #: the seed requires), 15 views
@@ -33,6 +36,15 @@ POSE_TIMEOUT_FRAMES = 2.5
 class NavigationError(RobotValueError):
     """A navigation that cannot start (a goal in an obstacle, a file that does not fit); the
     message says why. Raised before anything moves."""
+
+
+class GoalNotReached(RobotError):
+    """The robot did not reach its goal; the message says why (move_base gave up, time ran
+    out) and where the run folder is. ``summary`` holds the run's figures, written already."""
+
+    def __init__(self, message: str, summary: dict[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.summary = summary
 
 
 def fusion_for(scene: Scene) -> PoseFilterConfig:
