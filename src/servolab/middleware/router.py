@@ -27,9 +27,10 @@ what Zenoh would do by itself, with two exceptions:
 stops on all three and exits with 128 + the signal's number, as every servolab command that
 runs until stopped does (:func:`serve`, :mod:`servolab.harness`).
 
-``--listen`` endpoints replace the configuration's (the file's too), as rmw_zenoh's
-``ZENOH_CONFIG_OVERRIDE='listen/endpoints=[...]'`` does; a file without a ``mode`` gets
-``"router"``, and one that asks for another mode is refused.
+``$ZENOH_CONFIG_OVERRIDE`` (rmw_zenoh's ``key=value;...``, :mod:`.zenoh_config`) goes on top
+of the configuration, the file's or the defaults; ``--listen`` endpoints go on top of both (the
+command line is the user's latest word). A file without a ``mode`` gets ``"router"``, and one
+(or an override) that asks for another mode is refused.
 """
 
 from __future__ import annotations
@@ -48,7 +49,9 @@ import zenoh
 from . import fleet_security
 from .errors import TransportError
 from .zenoh_config import (
+    OVERRIDE_ENV,
     ROUTER_CONFIG_ENV,
+    apply_override,
     config_file_from_env,
     load_config_file,
     zenoh_error_text,
@@ -136,7 +139,12 @@ def router_config(options: RouterOptions) -> zenoh.Config:
         config.insert_json5("mode", '"router"')
         if not listen and left_unset(config, "listen/endpoints"):
             listen = [default_listen]   # this machine only, not Zenoh's every-network default
-    if listen:
+    apply_override(config, options.environ)
+    if json.loads(config.get_json("mode")) != "router":
+        raise TransportError(f"${OVERRIDE_ENV}: sets mode "
+                             f"{json.loads(config.get_json('mode'))!r}: servolab router runs a "
+                             "Zenoh router")
+    if listen and (options.listen or not _overridden(options.environ, "listen/")):
         config.insert_json5("listen/endpoints", json.dumps(listen))
     if security is not None:
         insecure = [e for e in listen_endpoints(config) if not e.startswith("tls/")]
@@ -146,6 +154,10 @@ def router_config(options: RouterOptions) -> zenoh.Config:
                                  "every endpoint is tls/HOST:PORT")
         fleet_security.secure(config, security)
     return config
+
+
+def _overridden(environ: Mapping[str, str], key: str) -> bool:
+    return key in environ.get(OVERRIDE_ENV, "")
 
 
 def listen_endpoints(config: zenoh.Config) -> list[str]:

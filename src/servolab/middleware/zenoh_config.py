@@ -11,6 +11,11 @@ the pull requests named below, which were backported to ``jazzy``):
   ``_get_z_config``'s ``configured_uri = envar_uri[0] != '\\0' ? envar_uri : default_uri``).
   An empty variable counts as unset; a file Zenoh cannot read is an error ("Invalid
   configuration file %s") and nothing starts.
+* ``ZENOH_CONFIG_OVERRIDE`` (rmw_zenoh PR #551, in its README's examples): ``key=value`` pairs
+  separated by ``;``, each key a Zenoh configuration path and each value json5
+  (``connect/endpoints=["tcp/192.168.0.3:7447"];scouting/multicast/enabled=true``), applied
+  on top of the configuration, the file's or the default, of sessions and the router alike.
+  rmw_zenoh warns about a bad one and goes on without it; servolab refuses it in one line.
 * ``ZENOH_ROUTER_CHECK_ATTEMPTS`` (``zenoh_config.cpp``, ``zenoh_router_check_attempts()``): unset
   means 1 (rmw_zenoh PR #308, "Don't block in rmw_init checking for the router", and PR #427,
   which made the README say so); 0 means check indefinitely; a negative number skips the check;
@@ -48,6 +53,9 @@ from .errors import TransportError
 SESSION_CONFIG_ENV = "ZENOH_SESSION_CONFIG_URI"
 #: rmw_zenoh's variable naming the router's json5 configuration file.
 ROUTER_CONFIG_ENV = "ZENOH_ROUTER_CONFIG_URI"
+#: rmw_zenoh's variable of ``key=value`` pairs applied on top of the configuration, sessions'
+#: and the router's alike (rmw_zenoh PR #551, "feat: support zenoh config override").
+OVERRIDE_ENV = "ZENOH_CONFIG_OVERRIDE"
 #: rmw_zenoh's variable saying how many times a session checks for a router.
 CHECK_ATTEMPTS_ENV = "ZENOH_ROUTER_CHECK_ATTEMPTS"
 #: Seconds between two checks (rmw_context_impl_s.cpp: ``sleep_time(1000)``, milliseconds).
@@ -118,6 +126,41 @@ def load_config_file(path: Path, source: str) -> zenoh.Config:
             raise refused(f"column {position[2]}: not a Zenoh configuration: "
                           f"{reason[1].strip()}", int(position[1])) from None
         raise refused(f"not a Zenoh configuration: {zenoh_error_text(exc)}") from None
+
+
+def _pairs(text: str) -> list[str]:
+    """``text`` split at each ``;`` that is not inside a json5 string, list or object."""
+    parts, depth, quote, start = [], 0, "", 0
+    for k, c in enumerate(text):
+        if quote:
+            quote = "" if c == quote and text[k - 1] != "\\" else quote
+        elif c in "\"'":
+            quote = c
+        elif c in "[{":
+            depth += 1
+        elif c in "]}":
+            depth -= 1
+        elif c == ";" and depth == 0:
+            parts.append(text[start:k])
+            start = k + 1
+    parts.append(text[start:])
+    return [p.strip() for p in parts if p.strip()]
+
+
+def apply_override(config: zenoh.Config, environ: Mapping[str, str] | None = None) -> None:
+    """Apply ``$ZENOH_CONFIG_OVERRIDE`` to ``config`` (module docstring); a pair that is not
+    ``key=json5`` or that Zenoh refuses is one line naming it."""
+    environ = os.environ if environ is None else environ
+    for pair in _pairs(environ.get(OVERRIDE_ENV, "")):
+        key, equals, value = pair.partition("=")
+        if not equals or not key.strip() or not value.strip():
+            raise TransportError(f"{OVERRIDE_ENV}: {quoted(pair, 60)} is not key=value (e.g. "
+                                 "'connect/endpoints=[\"tcp/192.168.0.3:7447\"]')")
+        try:
+            config.insert_json5(key.strip(), value.strip())
+        except zenoh.ZError as exc:
+            raise TransportError(f"{OVERRIDE_ENV}: {quoted(pair, 60)}: "
+                                 f"{zenoh_error_text(exc)}") from None
 
 
 def router_check(environ: Mapping[str, str] | None = None) -> float | None:

@@ -75,7 +75,9 @@ from .transport import (
     TransportPublisher,
 )
 from .zenoh_config import (
+    OVERRIDE_ENV,
     SESSION_CONFIG_ENV,
+    apply_override,
     config_file_from_env,
     load_config_file,
     router_check,
@@ -88,6 +90,12 @@ from .zenoh_inbox import ChannelInbox, channel_for
 DEFAULT_ROUTER = "tcp/localhost:7447"
 #: The environment variable naming another router endpoint ("" for none).
 ROUTER_ENV = "SERVOLAB_ZENOH_ROUTER"
+#: How many liveliness declarations a graph query keeps while it listens (a fleet of 200 nodes
+#: declares about 2 000 tokens; a ring: more drop the oldest, never block Zenoh, and the
+#: query's own answer still has them).
+_GRAPH_CHANNEL = 4096
+#: s a graph query waits beyond its timeout for Zenoh to say it is over
+_QUERY_GRACE_S = 0.5
 #: What a session listens on unless ``--listen`` says otherwise: a free loopback port.
 DEFAULT_LISTEN = "tcp/127.0.0.1:0"
 _ENDPOINT = re.compile(r"(tcp|udp|tls|quic|ws|unixsock-stream)/.+")
@@ -166,12 +174,23 @@ def session_config(options: TransportOptions,
     found = config_file_from_env(SESSION_CONFIG_ENV, environ)
     if found is None:
         listen, connect = session_endpoints(options)
-        return _config(listen, connect)
+        config = _config(listen, connect)
+        apply_override(config, environ)
+        override = (os.environ if environ is None else environ).get(OVERRIDE_ENV, "")
+        if _check_mode(config, f"${OVERRIDE_ENV}") == "client" and not any(
+                k in override for k in ("connect/exit_on_failure", "connect/timeout_ms")):
+            # a client made so by the override fails at start without its router, as Zenoh's
+            # clients do (servolab's peers retry in the background instead)
+            config.insert_json5("connect/exit_on_failure", "true")
+            config.insert_json5("connect/timeout_ms", "0")
+        if options.listen:      # the command line is the user's latest word
+            config.insert_json5("listen/endpoints", json.dumps(listen))
+        if options.connect:
+            config.insert_json5("connect/endpoints", json.dumps(connect))
+        return config
     config = load_config_file(found, f"${SESSION_CONFIG_ENV}")
-    mode = json.loads(config.get_json("mode")) or "peer"
-    if mode not in ("peer", "client"):
-        raise TransportError(f"{found}: mode {mode!r}: a servolab session is a peer or a client "
-                             "(a router is servolab router's, on its own)")
+    apply_override(config, environ)
+    mode = _check_mode(config, str(found))
     listen = [check_endpoint(e) for e in options.listen]
     if not listen and mode == "peer" and left_unset(config, "listen/endpoints"):
         listen = [DEFAULT_LISTEN]
@@ -189,6 +208,14 @@ def session_config(options: TransportOptions,
         _retry_in_background(config)
     _timestamped(config)
     return config
+
+
+def _check_mode(config: zenoh.Config, source: str) -> str:
+    mode = json.loads(config.get_json("mode")) or "peer"
+    if mode not in ("peer", "client"):
+        raise TransportError(f"{source}: mode {mode!r}: a servolab session is a peer or a "
+                             "client (a router is servolab router's, on its own)")
+    return str(mode)
 
 
 def open_session(options: TransportOptions) -> zenoh.Session:
@@ -529,23 +556,24 @@ class ZenohTransport(Transport):
         for the others' declarations before asking again."""
         key = f"{ADMIN_SPACE}/{self.domain_id}/**"
         ours = f"{ADMIN_SPACE}/{self.domain_id}/{self.session_id}/"
-        heard: dict[str, bool] = {}   # token -> alive, as the listener heard them
-
-        def declared(sample: Any) -> None:
-            heard[str(sample.key_expr)] = sample.kind == zenoh.SampleKind.PUT
-
         start = time.monotonic()
-        listener = self.session.liveliness().declare_subscriber(key, declared, history=True)
+        # a channel, not a callback: a Python callback on Zenoh's thread would need the GIL
+        # while this thread waits in the query, and under load the two wait for each other
+        listener = self.session.liveliness().declare_subscriber(
+            key, zenoh.handlers.RingChannel(_GRAPH_CHANNEL), history=True)
         try:
             keys = set(self._tokens(key, timeout))
             if not any(not k.startswith(ours) for k in keys):
                 # nothing of the others yet: listen out the window, then ask again
                 time.sleep(max(0.0, timeout - (time.monotonic() - start)))
                 keys |= set(self._tokens(key, timeout))
+            while (sample := listener.try_recv()) is not None:
+                if sample.kind == zenoh.SampleKind.PUT:
+                    keys.add(str(sample.key_expr))
+                else:
+                    keys.discard(str(sample.key_expr))
         finally:
             listener.undeclare()
-        keys |= {k for k, alive in heard.items() if alive}
-        keys -= {k for k, alive in heard.items() if not alive}
         endpoints = []
         for token in sorted(keys):
             try:
@@ -558,8 +586,24 @@ class ZenohTransport(Transport):
         return endpoints
 
     def _tokens(self, key: str, timeout: float) -> list[str]:
-        return [str(reply.ok.key_expr) for reply in self.session.liveliness().get(
-            key, timeout=timeout) if reply.ok is not None]
+        """The tokens a liveliness query for ``key`` finds within ``timeout`` s.
+
+        The replies are taken by a callback and this thread waits on an event, with a
+        deadline of its own: iterating the query's handler instead was seen to block for
+        minutes in a router's client on a loaded machine (three Waffles, their navigators
+        and the rest of the suite on two cores), the query never finalised though its
+        timeout had passed."""
+        found: list[str] = []
+        done = threading.Event()
+
+        def reply(answer: Any) -> None:
+            if answer.ok is not None:
+                found.append(str(answer.ok.key_expr))
+
+        self.session.liveliness().get(key, zenoh.handlers.Callback(reply, done.set),
+                                      timeout=timeout)
+        done.wait(timeout + _QUERY_GRACE_S)
+        return list(found)
 
     def check_reachable(self, timeout: float = 2.0) -> None:
         if not self.options.connect:
