@@ -17,16 +17,21 @@ the test that starts it.
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import signal
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import pytest
 import zenoh
 from cryptography import x509
-from cryptography.x509.oid import NameOID
+from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 from servolab.errors import ConfigFileError
 from servolab.middleware.certificates import issue
@@ -55,31 +60,47 @@ tls:
   ca: certs/ca.pem
   certificate: certs/router.pem
   private_key: certs/router-key.pem
-members: [fleet_manager, robot1, operator, monitor]
-publish_only:
-  /**/cmd_vel: [fleet_manager]
+members:
+  fleet_manager: [/**]
+  robot1: [/robot1/**, /tf, /tf_static, /rosout, /parameter_events]
+  operator: [/operator/**, /rosout, /parameter_events]
+  monitor: []
 """
 
 
 def _certificates(folder: Path, *names: str) -> None:
     for name in names:
-        issue(folder, name)
+        issue(folder, name, router=name == "router")
 
 
 def test_servolab_certs_makes_an_authority_and_members_it_signed(tmp_path: Path) -> None:
     folder = tmp_path / "certs"
-    done = servolab("certs", str(folder), "router", "robot1", "--host", "127.0.0.2")
+    done = servolab("certs", str(folder), "router", "--router", "--host", "127.0.0.2")
     assert done.returncode == 0, done.stderr
+    assert servolab("certs", str(folder), "robot1").returncode == 0
     authority = x509.load_pem_x509_certificate((folder / "ca.pem").read_bytes())
     for name in ("router", "robot1"):
         member = x509.load_pem_x509_certificate((folder / f"{name}.pem").read_bytes())
         member.verify_directly_issued_by(authority)   # raises if not signed by the authority
         assert member.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value == name
-        hosts = member.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
-        assert [str(a) for a in hosts.get_values_for_type(x509.IPAddress)] == ["127.0.0.2"]
+        uses = member.extensions.get_extension_for_class(x509.ExtendedKeyUsage).value
+        if name == "router":   # serves TLS where it is reached
+            hosts = member.extensions.get_extension_for_class(
+                x509.SubjectAlternativeName).value
+            assert [str(a) for a in hosts.get_values_for_type(x509.IPAddress)] == ["127.0.0.2"]
+            assert ExtendedKeyUsageOID.SERVER_AUTH in uses
+        else:                  # a member cannot pose as the router: no host, client use only
+            assert list(uses) == [ExtendedKeyUsageOID.CLIENT_AUTH]
+            with pytest.raises(x509.ExtensionNotFound):
+                member.extensions.get_extension_for_class(x509.SubjectAlternativeName)
         assert (folder / f"{name}-key.pem").stat().st_mode & 0o077 == 0   # owner only
-        assert f'"connect_certificate": "{(folder / f"{name}.pem").resolve()}"' in \
-            (folder / f"{name}.json5").read_text()
+        # the member's session file holds its certificate itself: it can be copied anywhere
+        session = json.loads("".join(line for line in (folder / f"{name}.json5").open()
+                                     if not line.startswith("//")))
+        tls = session["transport"]["link"]["tls"]
+        assert base64.b64decode(tls["connect_certificate_base64"]) == \
+            (folder / f"{name}.pem").read_bytes()
+        assert (folder / f"{name}.json5").stat().st_mode & 0o077 == 0
     # a second member joins the same fleet: the authority is reused, nothing overwritten
     assert servolab("certs", str(folder), "robot2").returncode == 0
     x509.load_pem_x509_certificate((folder / "robot2.pem").read_bytes()) \
@@ -122,9 +143,10 @@ def _security_file(tmp_path: Path, text: str = SECURITY) -> Path:
 @pytest.mark.parametrize(("text", "line", "says"), [
     (SECURITY.replace("  ca: certs/ca.pem\n", ""), 2, "key 'ca' missing"),
     (SECURITY.replace("certs/router.pem", "certs/nobody.pem"), 3, "no such file"),
-    (SECURITY.replace("[fleet_manager]", "[fleet_mgr]"), 7, "not one of the members"),
-    (SECURITY.replace("/**/cmd_vel", "/robot-1/cmd_vel"), 7, "'robot-1'"),
+    (SECURITY.replace("/operator/**", "/operator-1/**"), 8, "'operator-1'"),
+    (SECURITY.replace("  monitor: []", "  monitor 1: []"), 9, "'monitor 1'"),
     (SECURITY.replace("members:", "memebers:"), 5, "did you mean 'members'"),
+    (SECURITY.replace("  monitor: []", "  robot1: []"), 9, "duplicate"),
 ])
 def test_a_bad_security_file_is_refused_in_one_line_naming_where(
         tmp_path: Path, text: str, line: int, says: str) -> None:
@@ -144,6 +166,51 @@ def test_with_security_the_router_listens_on_tls_only(tmp_path: Path) -> None:
         router_config(RouterOptions(listen=("tcp/127.0.0.1:1234",), security=path, environ={}))
 
 
+def _at_rest(messages: list[Any]) -> bool:
+    return all(abs(v) <= AT_REST for m in messages for v in m.velocity)
+
+
+def _wire_command(node: Any) -> tuple[bytes, bytes]:
+    """A TwistStamped at 0.1 m/s as rmw_zenoh carries it: the CDR and the attachment
+    (sequence number, source time, publisher gid)."""
+    from servolab.middleware.rmw_zenoh import encode_attachment
+
+    msg = node.message(TWIST_STAMPED, twist={"linear": {"x": 0.1}})
+    return (node.context.types.serialize(msg, TWIST_STAMPED),
+            encode_attachment(1, time.time_ns(), bytes(16)))
+
+
+@contextmanager
+def _putting(folder: Path, member: str, endpoint: str, key: str,
+             wire: tuple[bytes, bytes]) -> Iterator[None]:
+    """A bare Zenoh client with ``member``'s certificate putting ``wire`` on ``key`` ten
+    times a second (stamped now, as diff_drive_controller wants a fresh command)."""
+    config = zenoh.Config.from_file(str(folder / f"{member}.json5"))
+    config.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    session = zenoh.open(config)
+    stop = threading.Event()
+    payload, attachment = wire
+
+    def put() -> None:
+        from servolab.middleware.messages import MessageTypes
+
+        types = MessageTypes()
+        msg = types.deserialize(payload, TWIST_STAMPED)
+        while not stop.wait(0.1):
+            now = time.time_ns()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+            session.put(key, types.serialize(msg, TWIST_STAMPED), attachment=attachment)
+
+    thread = threading.Thread(target=put, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+        session.close()
+
+
 def _client_env(folder: Path, name: str) -> dict[str, str]:
     return {**os.environ, SESSION_CONFIG_ENV: str(folder / f"{name}.json5")}
 
@@ -157,8 +224,9 @@ def test_only_members_get_in_and_only_the_fleet_manager_drives(
     from servolab.middleware.transport import TransportOptions
 
     folder = tmp_path / "certs"
-    assert servolab("certs", str(folder), "router", "fleet_manager", "robot1", "operator",
-                    "monitor", "stranger").returncode == 0
+    assert servolab("certs", str(folder), "router", "--router").returncode == 0
+    assert servolab("certs", str(folder), "fleet_manager", "robot1", "operator", "monitor",
+                    "stranger").returncode == 0
     security = tmp_path / "fleet_security.yaml"
     security.write_text(SECURITY)
     endpoint = f"tls/127.0.0.1:{free_port()}"
@@ -205,16 +273,19 @@ def test_only_members_get_in_and_only_the_fleet_manager_drives(
                         started(pub("/operator/chatter", STRING, "{data: hi}"),
                                 _client_env(folder, "operator")), \
                         started(pub("/stranger/chatter", STRING, "{data: hi}"),
-                                _client_env(folder, "stranger")):
+                                _client_env(folder, "stranger")) as stranger:
                     # the operator is a member: what it may publish arrives, 2 s of it
                     assert ctx.spin_until(lambda: said["operator"] >= 20, timeout=30.0), said
                     since = len(states)
                     assert ctx.spin_until(lambda: len(states) >= since + 5, timeout=10.0)
                     assert commands == [], "the router let the operator's cmd_vel through"
-                    assert all(abs(v) <= AT_REST for m in states for v in m.velocity), \
-                        [list(m.velocity) for m in states if max(map(abs, m.velocity)) > AT_REST]
+                    assert _at_rest(states), [list(m.velocity) for m in states
+                                              if max(map(abs, m.velocity)) > AT_REST]
                     # a certificate of the fleet's authority but no member: nothing it sends
+                    # arrives, though it is connected and publishing all along
                     assert said["stranger"] == 0, said
+                    assert stranger.poll() is None, stranger.communicate()
+                # the positive control: the fleet manager's own command moves the robot
                 with started(pub(CMD_VEL, TWIST_STAMPED, drive),
                              _client_env(folder, "fleet_manager")):
                     assert ctx.spin_until(
@@ -222,6 +293,21 @@ def test_only_members_get_in_and_only_the_fleet_manager_drives(
                                     for m in states[-5:]), timeout=30.0), \
                         "the fleet manager's cmd_vel never reached the robot"
                     assert commands, "the monitor never saw the fleet manager's cmd_vel"
+                wire = _wire_command(probe)
+                assert ctx.spin_until(lambda: _at_rest(states[-5:]), timeout=10.0)
+                # a publication on a wildcard key reaches every subscriber it covers: the
+                # operator's on 0/robot1/** is dropped at the router (an allow-list: a deny of
+                # */*/cmd_vel/*/* would not cover it)
+                with _putting(folder, "operator", endpoint, "0/robot1/**", wire):
+                    since = len(states)
+                    assert ctx.spin_until(lambda: len(states) >= since + 50, timeout=30.0)
+                    assert _at_rest(states[since:]), "the operator's wildcard put moved it"
+                # the same bytes on the same key from the fleet manager drive it
+                with _putting(folder, "fleet_manager", endpoint, "0/robot1/**", wire):
+                    assert ctx.spin_until(
+                        lambda: any(min(abs(v) for v in m.velocity) > TURNING
+                                    for m in states[-5:]), timeout=30.0), \
+                        "the fleet manager's wildcard put never moved the robot"
             running.send_signal(signal.SIGINT)
             said_out, _ = running.communicate(timeout=60)
             assert running.returncode == 128 + signal.SIGINT, said_out

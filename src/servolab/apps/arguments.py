@@ -112,6 +112,14 @@ def nonnegative_float(text: str) -> float:
     return value
 
 
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number >= 1 (days, a count that cannot be none)."""
+    value = nonnegative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} must be 1 or more")
+    return value
+
+
 def nonnegative_int(text: str) -> int:
     """An argparse type: a whole number >= 0 (a seed, a count)."""
     try:

@@ -8,9 +8,10 @@ Argument parsing only: :mod:`servolab.middleware.certificates` makes the files.
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
-from .arguments import nonnegative_int
+from .arguments import positive_int
 from .registry import Command
 
 
@@ -19,12 +20,15 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    "ca.pem and ca-key.pem are the fleet's authority, made once and reused)")
     p.add_argument("names", nargs="+", metavar="NAME",
                    help="a member: the router, a robot, the fleet manager (its certificate's "
-                   "common name, which the security file's members and publish_only name)")
+                   "common name, which the security file's members name)")
+    p.add_argument("--router", action="store_true",
+                   help="the names are routers: their certificates name the --host they are "
+                   "reached at and may serve TLS (a member's may only be shown by a client)")
     p.add_argument("--host", action="append", default=[], metavar="HOST",
-                   help="a host name or address the members are reached at (repeatable; "
-                   "default localhost and 127.0.0.1): a router's certificate must name the "
-                   "one clients connect to")
-    p.add_argument("--days", type=nonnegative_int, default=365,
+                   help="with --router: a host name or address the router is reached at "
+                   "(repeatable; default localhost and 127.0.0.1): clients check the one "
+                   "they connect to")
+    p.add_argument("--days", type=positive_int, default=365,
                    help="how long the certificates are valid (default 365 days)")
 
 
@@ -33,22 +37,29 @@ def _run(args: argparse.Namespace) -> int:
         CA_CERTIFICATE,
         DEFAULT_HOSTS,
         CertificateError,
+        check_name,
         issue,
     )
     from servolab.middleware.fleet_security import client_json5
 
+    if args.host and not args.router:
+        raise CertificateError("--host names where a router is reached: give --router too")
     hosts = tuple(args.host) or DEFAULT_HOSTS
+    for name in args.names:   # every name and file checked before any is made
+        check_name(name)
+        for path in (args.folder / f"{name}{end}" for end in (".json5", ".pem", "-key.pem")):
+            if path.exists():
+                raise CertificateError(f"{path} exists: servolab never overwrites a member's "
+                                       "files (delete them to make new ones)")
     for name in args.names:
         session = args.folder / f"{name}.json5"
-        if session.exists():
-            raise CertificateError(f"{session} exists: servolab never overwrites a member's "
-                                   "files (delete them to make new ones)")
-        made = issue(args.folder, name, hosts, args.days)
-        with open(session, "x", encoding="utf-8") as file:
-            file.write(client_json5(args.folder / CA_CERTIFICATE, made.certificate,
-                                    made.private_key))
+        made = issue(args.folder, name, hosts, args.days, router=args.router)
+        text = client_json5(args.folder / CA_CERTIFICATE, made.certificate, made.private_key)
+        with os.fdopen(os.open(session, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600), "w",
+                       encoding="utf-8") as file:
+            file.write(text)
         print(f"{name}: {made.certificate}, {made.private_key} (private), {session} "
-              "(for ZENOH_SESSION_CONFIG_URI)", flush=True)
+              "(private: all a member needs, for ZENOH_SESSION_CONFIG_URI)", flush=True)
     print(f"authority: {args.folder / CA_CERTIFICATE}; keep ca-key.pem private", flush=True)
     return 0
 
@@ -61,6 +72,6 @@ COMMAND = Command(
     "ZENOH_SESSION_CONFIG_URI=FOLDER/NAME.json5). The router takes its own through "
     "'servolab router --security FILE' (docs/fleets.md). Existing files are never "
     "overwritten.",
-    examples=("servolab certs certs router fleet_manager robot1 robot2",
-              "servolab certs certs router --host router.lab.local --host 192.168.1.10"),
+    examples=("servolab certs certs router --router --host router.lab.local",
+              "servolab certs certs fleet_manager robot1 robot2"),
     add_arguments=_add_arguments, run=_run)

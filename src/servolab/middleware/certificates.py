@@ -9,9 +9,10 @@ so that a lab with only pip has them too:
 * ``ca.pem`` and ``ca-key.pem``: the authority, self-signed, which signs the others and which
   every member trusts (Zenoh's ``root_ca_certificate``);
 * ``NAME.pem`` and ``NAME-key.pem``: a certificate whose subject's common name is ``NAME``
-  (what Zenoh's ``cert_common_names`` matches), for the host names and addresses it is reached
-  at (subject alternative names: rustls, which Zenoh's TLS is, checks the name a client
-  connects to against them, never against the common name), usable by a server and a client.
+  (what Zenoh's ``cert_common_names`` matches). A router's names the hosts and addresses it
+  is reached at (subject alternative names: rustls, which Zenoh's TLS is, checks the name a
+  client connects to against them, never against the common name) and may serve; a member's
+  names none and may only be shown by a client, so no member can pose as the router.
 
 Keys are ECDSA on P-256 (rustls takes it; smaller and faster than RSA 2048), PKCS#8 PEM, and
 private keys are written readable by their owner only. An existing file is never overwritten:
@@ -140,32 +141,36 @@ def authority(folder: Path, days: int = 10 * DEFAULT_DAYS) -> tuple[x509.Certifi
 
 
 def issue(folder: Path, name: str, hosts: tuple[str, ...] = DEFAULT_HOSTS,
-          days: int = DEFAULT_DAYS) -> Issued:
+          days: int = DEFAULT_DAYS, *, router: bool = False) -> Issued:
     """Make ``NAME.pem`` and ``NAME-key.pem`` in ``folder``, signed by its authority (made
-    first when the folder has none), for the ``hosts`` it is reached at."""
+    first when the folder has none). A ``router``'s is for the ``hosts`` it is reached at and
+    may serve TLS; a member's may only be shown by a client (no host names, client use
+    only), so that no member can pose as the router to the others."""
     check_name(name)
-    alternative = [_alternative_name(h) for h in hosts]
-    if not alternative:
-        raise CertificateError(f"{name}: give at least one host it is reached at")
+    alternative = [_alternative_name(h) for h in hosts] if router else []
+    if router and not alternative:
+        raise CertificateError(f"{name}: give at least one host the router is reached at")
     out = Issued(folder / f"{name}.pem", folder / f"{name}-key.pem")
     _refuse_existing(out.certificate, out.private_key)
     ca_certificate, ca_key = authority(folder)
     key = ec.generate_private_key(ec.SECP256R1())
     start, end = _validity(days)
-    certificate = (x509.CertificateBuilder()
-                   .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)]))
+    builder = (x509.CertificateBuilder()
+               .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)]))
                    .issuer_name(ca_certificate.subject)
                    .public_key(key.public_key()).serial_number(x509.random_serial_number())
                    .not_valid_before(start).not_valid_after(end)
                    .add_extension(x509.BasicConstraints(ca=False, path_length=None),
                                   critical=True)
-                   .add_extension(x509.SubjectAlternativeName(alternative), critical=False)
-                   .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH,
-                                                         ExtendedKeyUsageOID.CLIENT_AUTH]),
-                                  critical=False)
+                   .add_extension(x509.ExtendedKeyUsage(
+                       [ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]
+                       if router else [ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
                    .add_extension(x509.AuthorityKeyIdentifier.from_issuer_public_key(
-                       ca_key.public_key()), critical=False)
-                   .sign(ca_key, hashes.SHA256()))
+                       ca_key.public_key()), critical=False))
+    if alternative:
+        builder = builder.add_extension(x509.SubjectAlternativeName(alternative),
+                                        critical=False)
+    certificate = builder.sign(ca_key, hashes.SHA256())
     _write_private(out.private_key, key)
     _write_certificate(out.certificate, certificate)
     return out

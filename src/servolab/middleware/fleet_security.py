@@ -10,10 +10,15 @@ Zenoh's two mechanisms (its manual, "TLS authentication" and "Access Control"):
 * **access control** on what comes in, by the common name of the client's certificate
   (``cert_common_names``): only the ``members`` listed may exchange anything (Zenoh's
   ``default_permission: deny``; a certificate of the same authority with another name
-  connects but every message it sends or asks for is dropped), and a topic of
-  ``publish_only`` may be published only by the members it names: every other member's
-  publications on it are dropped at the router (a deny rule on ``put`` and ``delete``, which
-  Zenoh's decision point checks before any allow).
+  connects but every message it sends or asks for is dropped), and each member may
+  *publish* only the topics it is given: its other publications are dropped at the router.
+
+Why a list of what each member may publish, not of what it may not: Zenoh's decision point
+applies a rule to a message when the rule's key expression *includes* the message's
+(``policy_decision_point``, ``nodes_including``), and a publication may be made on a wildcard
+key. A rule "deny ``*/*/cmd_vel/*/*``" does not include a put on ``0/robot1/**``, which still
+reaches the robot's ``cmd_vel`` subscriber; an allow-list is sound, since nothing but the
+allowed expressions includes it.
 
 The file (YAML; paths are relative to it)::
 
@@ -21,18 +26,21 @@ The file (YAML; paths are relative to it)::
       ca: certs/ca.pem                   # the fleet's authority (servolab certs)
       certificate: certs/router.pem      # the router's own
       private_key: certs/router-key.pem
-    members: [fleet_manager, robot1, robot2, operator]
-    publish_only:                        # ROS topic names: * is one name, ** any number
-      /*/cmd_vel: [fleet_manager]
+    members:                             # certificate name: the topics it may publish
+      fleet_manager: [/**]               # anything
+      robot1: [/robot1/**, /tf, /tf_static, /rosout, /parameter_events]
+      operator: [/operator/**, /rosout]
 
-Topics are named as ROS names them and matched on the keys rmw_zenoh puts them at
-(``<domain>/<name>/<type>/<hash>``, :func:`~.rmw_zenoh.topic_keyexpr`), in every domain and
-for every type: ``/*/cmd_vel`` becomes ``*/*/cmd_vel/*/*``. Services, actions' goals and the
-graph (liveliness) are left to every member: the file says who *publishes*.
+Topics are named as ROS names them (``*`` one name, ``**`` any number) and matched on the keys
+rmw_zenoh puts them at (``<domain>/<name>/<type>/<hash>``,
+:func:`~.rmw_zenoh.topic_keyexpr`), in every domain and for every type: ``/*/cmd_vel`` becomes
+``*/*/cmd_vel/*/*``, ``/**`` every key. Everything but publishing -- subscribing, services,
+actions' goals (queries and replies), the graph (liveliness) -- is every member's.
 """
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 from dataclasses import dataclass
@@ -72,14 +80,16 @@ class FleetSecurity:
 
     source: Path
     tls: RouterTls
-    members: tuple[str, ...]
-    #: ROS topic pattern -> the members that alone may publish on it
-    publish_only: dict[str, tuple[str, ...]]
+    #: certificate common name -> the ROS topic patterns it may publish
+    members: tuple[tuple[str, tuple[str, ...]], ...]
 
 
 def topic_keyexpr_pattern(pattern: str) -> str:
     """The Zenoh key expression that matches what rmw_zenoh puts for topics matching the ROS
-    name pattern (``/*/cmd_vel`` -> ``*/*/cmd_vel/*/*``: any domain, any type and hash)."""
+    name pattern (``/*/cmd_vel`` -> ``*/*/cmd_vel/*/*``: any domain, any type and hash;
+    ``/**``: every key)."""
+    if pattern == "/**":
+        return "**"
     if not pattern.startswith("/") or pattern.endswith("/") or "//" in pattern:
         raise MiddlewareValueError("is not an absolute ROS name such as /robot1/cmd_vel or "
                                    "/*/cmd_vel")
@@ -110,30 +120,34 @@ def load(path: Path) -> FleetSecurity:
     """Read and check a security file; every problem is one line naming the file, line and
     key, before the router opens anything."""
     root = configfile.load(path, what="fleet security file").as_mapping("the security file")
-    root.check_keys(("tls", "members", "publish_only"), required=("tls", "members"))
+    root.check_keys(("tls", "members"), required=("tls", "members"))
     base = path.parent
     tls_value = root.require("tls").as_mapping("tls")
     tls_value.check_keys(("ca", "certificate", "private_key"),
                          required=("ca", "certificate", "private_key"), what="tls")
     tls = RouterTls(*(_file(tls_value.require(k), base)
                       for k in ("ca", "certificate", "private_key")))
-    members_value = root.require("members").as_list("members")
+    members_value = root.require("members").as_mapping("members")
     if not len(members_value):
-        raise members_value.error("no members: name the certificates that may join")
-    members = tuple(_member(v) for v in members_value)
-    publish_only: dict[str, tuple[str, ...]] = {}
-    rules = root.get("publish_only")
-    for pattern, who in (rules.as_mapping("publish_only").items() if rules else ()):
+        raise members_value.error("no members: name the certificates that may join, each "
+                                  "with the topics it may publish")
+    members = []
+    for name, topics in members_value.items():
+        key = members_value.key_of(name)
         try:
-            topic_keyexpr_pattern(pattern)
-        except ValueError as exc:
-            raise who.error(f"topic {pattern!r} {exc}") from None
-        names = tuple(_member(v) for v in who.as_list(f"publish_only {pattern!r}"))
-        for name, value in zip(names, who.as_list(), strict=True):
-            if name not in members:
-                raise value.error(f"{name!r} is not one of the members {list(members)}")
-        publish_only[pattern] = names
-    return FleetSecurity(path, tls, members, publish_only)
+            check_name(name)
+        except CertificateError as exc:
+            raise key.error(str(exc)) from None
+        patterns = []
+        for item in topics.as_list(f"member {name!r}: the topics it may publish"):
+            pattern = item.as_str(nonempty=True)
+            try:
+                topic_keyexpr_pattern(pattern)
+            except MiddlewareValueError as exc:
+                raise item.error(f"member {name!r}: topic {pattern!r} {exc}") from None
+            patterns.append(pattern)
+        members.append((name, tuple(patterns)))
+    return FleetSecurity(path, tls, tuple(members))
 
 
 def tls_json(tls: RouterTls) -> str:
@@ -145,23 +159,24 @@ def tls_json(tls: RouterTls) -> str:
 
 
 def access_control(security: FleetSecurity) -> dict[str, Any]:
-    """Zenoh's ``access_control`` for the file: deny by default; each member one subject (its
-    certificate's common name) allowed everything but the ``publish_only`` topics it is not
-    named for."""
-    rules: list[dict[str, Any]] = [{
-        "id": "member", "permission": "allow", "flows": ["ingress", "egress"],
-        "messages": list(ALL_MESSAGES), "key_exprs": ["**"]}]
-    for number, pattern in enumerate(security.publish_only):
-        rules.append({"id": f"publish_only_{number}", "permission": "deny",
-                      "flows": ["ingress"], "messages": list(PUBLISH),
-                      "key_exprs": [topic_keyexpr_pattern(pattern)]})
-    subjects = [{"id": name, "cert_common_names": [name]} for name in security.members]
-    policies = []
-    for name in security.members:
-        denied = [f"publish_only_{n}" for n, (_, who) in enumerate(security.publish_only.items())
-                  if name not in who]
-        policies.append({"id": f"policy_{name}", "rules": ["member", *denied],
-                         "subjects": [name]})
+    """Zenoh's ``access_control`` for the file (module docstring): deny by default; each
+    member one subject (its certificate's common name), allowed everything but publishing,
+    the router's deliveries to it, and publishing on its own topics."""
+    rules: list[dict[str, Any]] = [
+        {"id": "member", "permission": "allow", "flows": ["ingress", "egress"],
+         "messages": [m for m in ALL_MESSAGES if m not in PUBLISH], "key_exprs": ["**"]},
+        {"id": "delivered", "permission": "allow", "flows": ["egress"],
+         "messages": list(PUBLISH), "key_exprs": ["**"]}]
+    subjects, policies = [], []
+    for number, (name, topics) in enumerate(security.members):
+        rule = ["member", "delivered"]
+        if topics:
+            rules.append({"id": f"publishes_{number}", "permission": "allow",
+                          "flows": ["ingress"], "messages": list(PUBLISH),
+                          "key_exprs": sorted({topic_keyexpr_pattern(t) for t in topics})})
+            rule.append(f"publishes_{number}")
+        subjects.append({"id": name, "cert_common_names": [name]})
+        policies.append({"id": f"policy_{number}", "rules": rule, "subjects": [name]})
     return {"enabled": True, "default_permission": "deny", "rules": rules,
             "subjects": subjects, "policies": policies}
 
@@ -178,11 +193,18 @@ def secure(config: zenoh.Config, security: FleetSecurity) -> None:
 
 def client_json5(ca: Path, certificate: Path, private_key: Path) -> str:
     """A client's session configuration for ``$ZENOH_SESSION_CONFIG_URI``: a client of the
-    fleet's router (rmw_zenoh's way for a node on another host) that shows its certificate."""
-    tls = {"root_ca_certificate": str(ca.resolve()),
-           "connect_certificate": str(certificate.resolve()),
-           "connect_private_key": str(private_key.resolve()),
+    fleet's router (rmw_zenoh's way for a node on another host) that shows its certificate.
+    The three files go in it whole (Zenoh's ``*_base64`` keys), so the one file is all a
+    member's machine needs, wherever it is put; it holds the private key, so it is as
+    private as the key."""
+    def encoded(path: Path) -> str:
+        return base64.b64encode(path.read_bytes()).decode("ascii")
+
+    tls = {"root_ca_certificate_base64": encoded(ca),
+           "connect_certificate_base64": encoded(certificate),
+           "connect_private_key_base64": encoded(private_key),
            "enable_mtls": True}
-    return ("// a client of the fleet's router, showing its certificate (servolab certs)\n"
+    return ("// a client of the fleet's router, showing its certificate (servolab certs);\n"
+            "// it holds the member's private key: keep it private\n"
             + json.dumps({"mode": "client", "transport": {"link": {"tls": tls}}}, indent=2)
             + "\n")

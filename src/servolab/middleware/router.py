@@ -54,6 +54,7 @@ from .zenoh_config import (
     apply_override,
     config_file_from_env,
     load_config_file,
+    overridden_keys,
     zenoh_error_text,
 )
 from .zenoh_transport import DEFAULT_ROUTER, check_endpoint, left_unset
@@ -144,7 +145,8 @@ def router_config(options: RouterOptions) -> zenoh.Config:
         raise TransportError(f"${OVERRIDE_ENV}: sets mode "
                              f"{json.loads(config.get_json('mode'))!r}: servolab router runs a "
                              "Zenoh router")
-    if listen and (options.listen or not _overridden(options.environ, "listen/")):
+    if listen and (options.listen
+                   or "listen/endpoints" not in overridden_keys(options.environ)):
         config.insert_json5("listen/endpoints", json.dumps(listen))
     if security is not None:
         insecure = [e for e in listen_endpoints(config) if not e.startswith("tls/")]
@@ -154,10 +156,6 @@ def router_config(options: RouterOptions) -> zenoh.Config:
                                  "every endpoint is tls/HOST:PORT")
         fleet_security.secure(config, security)
     return config
-
-
-def _overridden(environ: Mapping[str, str], key: str) -> bool:
-    return key in environ.get(OVERRIDE_ENV, "")
 
 
 def listen_endpoints(config: zenoh.Config) -> list[str]:

@@ -147,6 +147,12 @@ def _pairs(text: str) -> list[str]:
     return [p.strip() for p in parts if p.strip()]
 
 
+def overridden_keys(environ: Mapping[str, str] | None = None) -> set[str]:
+    """The keys ``$ZENOH_CONFIG_OVERRIDE`` sets (``listen/endpoints``, ...)."""
+    environ = os.environ if environ is None else environ
+    return {pair.partition("=")[0].strip() for pair in _pairs(environ.get(OVERRIDE_ENV, ""))}
+
+
 def apply_override(config: zenoh.Config, environ: Mapping[str, str] | None = None) -> None:
     """Apply ``$ZENOH_CONFIG_OVERRIDE`` to ``config`` (module docstring); a pair that is not
     ``key=json5`` or that Zenoh refuses is one line naming it."""

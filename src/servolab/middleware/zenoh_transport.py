@@ -80,6 +80,7 @@ from .zenoh_config import (
     apply_override,
     config_file_from_env,
     load_config_file,
+    overridden_keys,
     router_check,
     wait_for_router,
     zenoh_error_text,
@@ -176,9 +177,8 @@ def session_config(options: TransportOptions,
         listen, connect = session_endpoints(options)
         config = _config(listen, connect)
         apply_override(config, environ)
-        override = (os.environ if environ is None else environ).get(OVERRIDE_ENV, "")
-        if _check_mode(config, f"${OVERRIDE_ENV}") == "client" and not any(
-                k in override for k in ("connect/exit_on_failure", "connect/timeout_ms")):
+        if _check_mode(config, f"${OVERRIDE_ENV}") == "client" and not overridden_keys(
+                environ) & {"connect/exit_on_failure", "connect/timeout_ms"}:
             # a client made so by the override fails at start without its router, as Zenoh's
             # clients do (servolab's peers retry in the background instead)
             config.insert_json5("connect/exit_on_failure", "true")
@@ -552,19 +552,20 @@ class ZenohTransport(Transport):
         empty, though the graph is not (a peer's ``servolab topic list`` through a fleet's
         router, docs/fleets.md), or find part of it. So the tokens are also listened for (a
         liveliness subscriber with history, as rmw_zenoh's graph cache takes them), and when
-        the query found no other session's token the rest of ``timeout`` is spent listening
-        for the others' declarations before asking again."""
+        the query found no other session's token while the session is linked to a router or
+        a peer, the rest of ``timeout`` is spent listening for the others' declarations
+        before asking again (a session alone, or cut off, answers at once)."""
         key = f"{ADMIN_SPACE}/{self.domain_id}/**"
         ours = f"{ADMIN_SPACE}/{self.domain_id}/{self.session_id}/"
         start = time.monotonic()
-        # a channel, not a callback: a Python callback on Zenoh's thread would need the GIL
-        # while this thread waits in the query, and under load the two wait for each other
+        # a ring channel drained here: nothing of this runs on Zenoh's threads, and a full
+        # ring drops the oldest rather than block Zenoh
         listener = self.session.liveliness().declare_subscriber(
             key, zenoh.handlers.RingChannel(_GRAPH_CHANNEL), history=True)
         try:
             keys = set(self._tokens(key, timeout))
-            if not any(not k.startswith(ours) for k in keys):
-                # nothing of the others yet: listen out the window, then ask again
+            if not any(not k.startswith(ours) for k in keys) and self._linked():
+                # linked, but nothing of the others yet: listen out the window, ask again
                 time.sleep(max(0.0, timeout - (time.monotonic() - start)))
                 keys |= set(self._tokens(key, timeout))
             while (sample := listener.try_recv()) is not None:
@@ -584,6 +585,9 @@ class ZenohTransport(Transport):
             endpoints.append(Endpoint(str(entity.kind), fqn, entity.topic or "",
                                       entity.type_name or "", entity.qos))
         return endpoints
+
+    def _linked(self) -> bool:
+        return bool(list(self.session.info.routers_zid()) or list(self.session.info.peers_zid()))
 
     def _tokens(self, key: str, timeout: float) -> list[str]:
         """The tokens a liveliness query for ``key`` finds within ``timeout`` s.

@@ -63,6 +63,10 @@ def test_an_outage_is_a_silence_longer_than_the_pose_timeout_with_what_was_lost(
     assert outage.start_s == pytest.approx(99 * period)
     assert outage.seconds == pytest.approx(51 * period + 0.003)
     assert outage.seconds > OUTAGE_S
+    # odometry that never comes back is an outage to the run's end
+    (*_, last) = watch.outages(since=10.0, until=10.0 + 199 * period + 2.0)
+    assert last.seconds == pytest.approx(2.0 - 0.003)
+    assert last.lost == round(2.0 / period) - 1
     # a late message or two is no outage
     jittery = OdometryWatch()
     for k in range(50):

@@ -175,6 +175,7 @@ class Outage:
 
     @property
     def seconds(self) -> float:
+        """How long it lasted."""
         return self.end_s - self.start_s
 
 
@@ -195,14 +196,20 @@ class OdometryWatch:
         steps = steps[steps > 0]
         return float(np.median(steps)) if len(steps) else math.nan
 
-    def outages(self, since: float) -> list[Outage]:
-        """Every silence longer than :data:`OUTAGE_S`, on the run's clock from ``since``."""
+    def outages(self, since: float, until: float | None = None) -> list[Outage]:
+        """Every silence longer than :data:`OUTAGE_S`, on the run's clock from ``since``;
+        with ``until`` (the run's end), also one that lasted to it (odometry that never
+        came back), its losses counted at the odometry's period."""
         period = self.period()
         found = []
         for k in np.flatnonzero(np.diff(self.arrivals) > OUTAGE_S):
             gap = self.stamps[k + 1] - self.stamps[k]
             lost = max(0, round(gap / period) - 1) if math.isfinite(period) else 0
             found.append(Outage(self.arrivals[k] - since, self.arrivals[k + 1] - since, lost))
+        if until is not None and self.arrivals and until - self.arrivals[-1] > OUTAGE_S:
+            gap = until - self.arrivals[-1]
+            lost = max(0, round(gap / period) - 1) if math.isfinite(period) else 0
+            found.append(Outage(self.arrivals[-1] - since, until - since, lost))
         return found
 
 
@@ -369,7 +376,7 @@ class GraphNavigateTask(Task):
 
     def _measure(self) -> None:
         navigator, navigation = self.navigator, self.navigation
-        outages = self.watch.outages(self.started)
+        outages = self.watch.outages(self.started, time.monotonic())
         self.summary.update(
             seconds=round(self.elapsed(), 3), odometry_received=len(self.watch.arrivals),
             odometry_period_s=self.watch.period(),
@@ -420,7 +427,7 @@ class GraphNavigateTask(Task):
                 f" s in all, {summary['odometry_lost']} message(s) lost" if outages else "")
         self.say(f"goal reached in {summary['seconds']:.1f} s, "
                  f"{summary['goal_distance_m'] * 1000:.0f} mm from it (odometry){gone}; "
-                 f"bag {self.bag}, plot {summary['plot']}")
+                 f"bag {self.bag}, plot {summary.get('plot', 'not drawn')}")
 
 
 def plot_on_map(navigation: GraphNavigation, navigator: NavigatorNode,
