@@ -40,7 +40,7 @@ from servolab.middleware.fleet_security import load, topic_keyexpr_pattern
 from servolab.middleware.rmw_zenoh import topic_keyexpr
 from servolab.middleware.router import RouterOptions, router_config
 from servolab.middleware.zenoh_config import SESSION_CONFIG_ENV
-from tests.clirun import SERVOLAB, refusal, servolab
+from tests.clirun import SERVOLAB, one_line, refusal, servolab
 from tests.middleware.conftest import free_port
 from tests.processes import started
 from tests.waiting import wait_for_line
@@ -153,8 +153,7 @@ def test_a_bad_security_file_is_refused_in_one_line_naming_where(
     path = _security_file(tmp_path, text)
     with pytest.raises(ConfigFileError) as caught:
         load(path)
-    assert str(caught.value).startswith(f"{path}:{line}: "), caught.value
-    assert says in str(caught.value) and "\n" not in str(caught.value)
+    assert one_line(caught, says).startswith(f"{path}:{line}: "), caught.value
 
 
 def test_with_security_the_router_listens_on_tls_only(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from servolab.middleware.launch import child_command, run_launch
 from servolab.middleware.launch_arguments import command_line_arguments
 from servolab.middleware.launch_file import load_launch
 from servolab.middleware.transport import TransportOptions
-from tests.clirun import SERVOLAB, servolab
+from tests.clirun import SERVOLAB, one_line, servolab
 from tests.middleware.test_launch import DEMO, started_pids
 from tests.processes import started
 from tests.waiting import alive, wait_for_line
@@ -104,8 +104,7 @@ def test_a_bad_group_or_substitution_is_one_line_naming_its_line(
     path = _write(tmp_path, text)
     with pytest.raises(LaunchError) as caught:
         load_launch(path)
-    assert str(caught.value).startswith(f"{path}:{line}: "), caught.value
-    assert says in str(caught.value) and "\n" not in str(caught.value)
+    assert one_line(caught, says).startswith(f"{path}:{line}: "), caught.value
 
 
 def test_command_line_arguments_are_name_colon_equals_value() -> None:

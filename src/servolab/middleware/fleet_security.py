@@ -110,6 +110,7 @@ def _file(value: ConfigValue, base: Path) -> Path:
 
 
 def _member(value: ConfigValue) -> str:
+    """A member's name, checked as ``servolab certs`` checks a certificate's name."""
     try:
         return check_name(value.as_str(nonempty=True))
     except CertificateError as exc:
@@ -133,11 +134,7 @@ def load(path: Path) -> FleetSecurity:
                                   "with the topics it may publish")
     members = []
     for name, topics in members_value.items():
-        key = members_value.key_of(name)
-        try:
-            check_name(name)
-        except CertificateError as exc:
-            raise key.error(str(exc)) from None
+        _member(members_value.key_of(name))
         patterns = []
         for item in topics.as_list(f"member {name!r}: the topics it may publish"):
             pattern = item.as_str(nonempty=True)
