@@ -19,7 +19,7 @@ ROS_PACKAGES := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-rmw-dds-com
 	ros-jazzy-rosidl-adapter ros-jazzy-rosidl-parser ros-jazzy-rosidl-generator-type-description \
 	ros-jazzy-trajectory-msgs ros-jazzy-lifecycle-msgs
 
-.PHONY: demo test lint bench clean ros-oracle view-oracle
+.PHONY: demo test check lint bench clean ros-oracle view-oracle
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -32,13 +32,26 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/servolab demo
 
-# Two workers, each test file on one (its module fixtures made once): many tests wait on
-# real time (a pty at 57142 bps, a subprocess, a stop signal), and every test already keeps
-# to its own temporary folder and free ports, and survives a busy CPU.
+# Two workers, each test file on one (its module fixtures made once), every realtime test on
+# the same worker one after another (tests/scheduling.py): many tests wait on real time (a pty
+# at 57142 bps, a subprocess, a stop signal), and every test already keeps to its own
+# temporary folder and free ports, and survives a busy CPU. Python writes its bytecode even
+# where PYTHONDONTWRITEBYTECODE is set (as on the project's CI machine): the suite starts
+# hundreds of servolab processes, and each would otherwise compile every module it imports
+# again, and pytest rewrite every test module's asserts again on each run.
+# The 25 slowest tests are printed at the end of every run.
+PYTEST := env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -q -n 2 --dist loadfile
 test: $(STAMP) ros-oracle view-oracle
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=25
+	$(PYTEST) --durations=25
+
+# The inner loop: lint, types and the tests that are neither slow nor realtime (about 2
+# minutes on two cores); `make test` runs them all.
+check: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+	$(PYTEST) -m "not slow and not realtime" --durations=10
 
 $(ROS_STAMP):
 	$(PYTHON) -m venv $(ROS_VENV)

@@ -35,6 +35,8 @@ from typing import TYPE_CHECKING
 
 import pytest
 
+from tests.scheduling import RealTimeOnOneWorker, shared_folder, write_marked_ids
+
 if TYPE_CHECKING:
     from servolab.clock import Clock
     from servolab.middleware.context import Context
@@ -42,9 +44,21 @@ if TYPE_CHECKING:
     from servolab.middleware.transport import TransportOptions
 
 
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | None:
+    """``make test``'s ``--dist loadfile`` with every realtime test on one worker
+    (tests/scheduling.py); any other ``--dist`` as pytest-xdist has it."""
+    if config.getoption("dist") != "loadfile":
+        return None
+    return RealTimeOnOneWorker(config, log)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    write_marked_ids(config, items)
+
+
 @pytest.fixture(autouse=True)
-def _one_real_time_test_at_a_time(request: pytest.FixtureRequest,
-                                  tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+def _one_real_time_test_at_a_time(request: pytest.FixtureRequest) -> Iterator[None]:
     """``make test`` runs two workers (pytest-xdist). A test marked ``realtime`` — one that
     holds the wall clock to a deadline, or keeps every core busy to see that others still
     meet theirs (``busy_cpu``) — takes a lock the other worker's such tests wait for, so that
@@ -52,10 +66,7 @@ def _one_real_time_test_at_a_time(request: pytest.FixtureRequest,
     if request.node.get_closest_marker("realtime") is None:
         yield
         return
-    shared = tmp_path_factory.getbasetemp()
-    if os.environ.get("PYTEST_XDIST_WORKER"):
-        shared = shared.parent          # every worker's base folder sits in one run folder
-    with (shared / "realtime.lock").open("a") as lock:
+    with (shared_folder(request.config) / "realtime.lock").open("a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             yield

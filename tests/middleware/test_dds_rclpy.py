@@ -111,6 +111,37 @@ def test_servolab_hears_a_real_rclpy_talker(ctx: Context, domain: int) -> None:
     assert numbers == list(range(numbers[0], numbers[0] + 5))  # in order, none lost
 
 
+ROS_PUBLISHER_WATCHER = """
+import time, rclpy
+rclpy.init()
+node = rclpy.create_node("ros_watcher")
+def wait(count, seconds):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and node.count_publishers("/chatter") != count:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return node.count_publishers("/chatter") == count
+print("seen" if wait(1, 30) else "never seen", flush=True)
+print("gone" if wait(0, 30) else "still there", flush=True)
+"""
+
+
+def test_a_publisher_servolab_destroys_leaves_fast_dds_graph_at_once(ctx: Context,
+                                                                     domain: int) -> None:
+    """A servolab publisher destroyed while its process lives is gone from the real rclpy's
+    graph (``count_publishers``), as one rclpy destroys is. Cyclone DDS says so in a key-only
+    discovery message that Fast DDS 2.14 drops unless it carries a key hash (its
+    ``MessageReceiver::proc_Submsg_Data``, "too large key-only data"; servolab.middleware
+    .rmw_dds.cyclone_config): without one, the publisher stays in rclpy's graph for as long
+    as servolab's participant lives — this test's 30 s — and an rclpy server waiting for its
+    clients to leave (``count_clients``) waited for Cyclone's 10 s lease after every exit."""
+    node = Node(ctx, "servolab_talker")
+    with started(ros(ROS_PUBLISHER_WATCHER, domain), env=ros_env(domain)) as proc:
+        publisher = node.create_publisher("std_msgs/msg/String", "/chatter")
+        assert wait_for_line(proc, "seen", timeout=40)[-1] == "seen"
+        publisher.destroy()
+        assert wait_for_line(proc, "gone", timeout=40)[-1] == "gone"
+
+
 ROS_GRAPH_WATCHER = """
 import json, time, rclpy
 rclpy.init()

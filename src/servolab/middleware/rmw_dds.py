@@ -168,5 +168,12 @@ def cyclone_config(range_: str, peers: list[str], *, max_participants: int = 32)
     if peer_list:
         discovery += "<Peers>" + "".join(f"<Peer address=\"{escape(p)}\"/>"
                                          for p in peer_list) + "</Peers>"
+    # Discovery's "gone" notices (a writer, a reader or the participant deleted) as Fast DDS
+    # can read them: Cyclone sends them key-only, and without a key hash their payload is
+    # 28 bytes, which Fast DDS 2.14 (ROS 2 Jazzy's) drops ("Ignoring Serialized Payload for
+    # too large key-only data", MessageReceiver::proc_Submsg_Data takes 16 at most). A
+    # servolab node's endpoints then stayed in every rmw_fastrtps graph until Cyclone's 10 s
+    # lease ran out, and for ever while the process lived (count_clients never reached 0).
+    internal = "<Internal><GenerateKeyhash>true</GenerateKeyhash></Internal>"
     return (f"<CycloneDDS><Domain id=\"any\">{general}<Discovery>{discovery}</Discovery>"
-            f"</Domain></CycloneDDS>")
+            f"{internal}</Domain></CycloneDDS>")
