@@ -7,11 +7,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from tests.test_benchmarks import _load
 
 BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "fuzz.py"
 
 
+@pytest.mark.slow
 def test_fuzz_quick_run(tmp_path: Path) -> None:
     bench = _load(BENCHMARK, "fuzz_bench")
     out = tmp_path / "figures.json"

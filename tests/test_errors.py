@@ -138,6 +138,7 @@ def test_the_checker_sees_a_bare_raise() -> None:
 RCLPY_SHAPED = "rclpy/"
 
 
+@pytest.mark.slow
 def test_no_bare_builtin_error_is_raised_on_purpose(all_raises: list[Raise]) -> None:
     """Each layer raises its own classes (a value error also subclasses ValueError, so
     ``except ValueError`` keeps working); a bare builtin would be printed as a bug."""
@@ -242,6 +243,7 @@ def _error_classes() -> list[tuple[str, str]]:
     return found
 
 
+@pytest.mark.slow
 def test_every_error_class_is_a_servolab_error() -> None:
     classes = _error_classes()
     assert ("servolab.planning.errors", "NoPath") in classes  # the walk found them

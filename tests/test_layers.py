@@ -93,6 +93,7 @@ def offences(packages: tuple[str, ...], forbidden: tuple[str, ...]) -> list[str]
     return out
 
 
+@pytest.mark.slow
 def test_the_checker_sees_relative_imports() -> None:
     """A mutant of the checker that missed ``from ..robots import x`` would pass everything."""
     robots_run = PACKAGE / "robots" / "base" / "run.py"

@@ -262,6 +262,7 @@ def run(version: int, pieces: Iterable[bytes]) -> tuple[StreamParser, list[Frame
 @versions
 @FUZZ
 @given(data=st.data())
+@pytest.mark.slow
 def test_parser_agrees_with_the_reference_scanner_however_cut(version: int,
                                                                data: st.DataObject) -> None:
     """Corrupted traffic fed whole, in random reads, byte by byte and in two halves: the
@@ -292,6 +293,7 @@ def test_parser_agrees_with_the_reference_scanner_however_cut(version: int,
 @versions
 @FUZZ
 @given(data=st.data())
+@pytest.mark.slow
 def test_intact_packet_after_a_quiet_gap_is_always_found(version: int,
                                                          data: st.DataObject) -> None:
     """Resynchronisation: whatever junk came before, an untouched packet preceded by

@@ -52,6 +52,7 @@ def test_advancing_n_steps_is_n_single_steps_bit_for_bit(plan: list) -> None:
 
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(st.floats(0.5, 1.0), st.integers(1, 400_000), st.floats(33.0, 91.0))
+@pytest.mark.slow
 def test_overheating_stop_lands_on_the_first_step_above_the_limit(load: float, steps: int,
                                                                    limit: float) -> None:
     plant = KinematicServo(6.27)
@@ -158,6 +159,7 @@ def _session(eager: bool, spec: str, baud: int) -> list[object]:
 
 
 @pytest.mark.parametrize(("spec", "baud"), [("rx28:1-3", 57142), ("xm430-w210:1-2", 1_000_000)])
+@pytest.mark.slow
 def test_lazy_firmware_answers_as_if_stepped_every_step(spec: str, baud: int) -> None:
     lazy, eager = _session(False, spec, baud), _session(True, spec, baud)
     assert lazy == eager

@@ -276,6 +276,7 @@ def test_serial_port_waits_on_a_descriptor_above_1023() -> None:
             resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
 
 
+@pytest.mark.slow
 def test_pty_server_close_leaves_the_descriptors_to_a_thread_still_serving() -> None:
     """close() waits 1 s for the serving thread; a thread still inside the device then must
     not find its descriptors closed under it (their numbers may belong to other files by

@@ -52,6 +52,7 @@ def _summary(out: Path) -> dict[str, object]:
     return data
 
 
+@pytest.mark.slow
 def test_gait_generate_writes_the_rate_to_play_at(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["gait", "generate", "--out", str(tmp_path / "a")]) == 0

@@ -195,6 +195,7 @@ def test_the_axes_are_the_urdf_joints(chain: Chain) -> None:
 
 # -- inverse kinematics -------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_fk_of_ik_is_within_1_mm_and_1_degree_over_1000_reachable_targets(chain: Chain) -> None:
     """Targets are FK of 1000 seeded random in-limit joint positions (position + pitch: 4
     constraints for 4 joints); each solved from the middle of the limits, then seeded

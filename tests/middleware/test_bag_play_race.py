@@ -95,6 +95,7 @@ def play_race(player: Context, listener: Context, tmp_path: Path, repetitions: i
     assert not lost, f"{len(lost)} of {repetitions} plays lost messages: {lost[:5]}"
 
 
+@pytest.mark.slow
 def test_play_into_local_subscriptions_made_just_before(tmp_path: Path,
                                                         types: MessageTypes) -> None:
     """In one process on the in-process transport, 200 times."""

@@ -97,6 +97,7 @@ def test_sigterm_closes_the_bag_and_play_reproduces_it(tmp_path: Path,
     assert [d["data"] for d in yaml.safe_load_all(out) if d] == texts
 
 
+@pytest.mark.slow
 def test_bag_paths_that_are_not_mcap_are_named(tmp_path: Path) -> None:
     text = tmp_path / "notes.txt"
     text.write_text("hello")

@@ -103,6 +103,7 @@ def test_a_latched_message_reaches_a_late_subscription(dds_pair) -> None:
     assert got == ["urdf 1", "urdf 2"]
 
 
+@pytest.mark.slow
 def test_services_and_parameters_across_participants(dds_pair, caplog) -> None:
     a, b = dds_pair
     server = Node(a, "adder")
@@ -189,6 +190,7 @@ def test_builtin_reads_from_many_threads(dds_pair) -> None:
     assert most[0] == 1, f"{most[0]} threads read the builtin topic at once"
 
 
+@pytest.mark.slow
 def test_a_failing_check_does_not_stop_the_dispatch_thread(dds_pair, caplog) -> None:
     """The dispatch thread runs the transport's periodic checks (a service's look for Fast
     DDS clients). One that raises, as a closed service's did on its deleted reader (CI), is

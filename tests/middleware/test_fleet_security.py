@@ -73,6 +73,7 @@ def _certificates(folder: Path, *names: str) -> None:
         issue(folder, name, router=name == "router")
 
 
+@pytest.mark.slow
 def test_servolab_certs_makes_an_authority_and_members_it_signed(tmp_path: Path) -> None:
     folder = tmp_path / "certs"
     done = servolab("certs", str(folder), "router", "--router", "--host", "127.0.0.2")

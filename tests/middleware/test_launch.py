@@ -573,6 +573,7 @@ def test_a_launcher_killed_mid_stop_leaves_no_child_behind(tmp_path: Path) -> No
         assert not alive(pid), f"{pid} survived"
 
 
+@pytest.mark.slow
 def test_node_groups_run_as_child_processes_over_zenoh(tmp_path: Path) -> None:
     path = write(tmp_path, f"""\
         transport: zenoh

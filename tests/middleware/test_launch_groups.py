@@ -114,6 +114,7 @@ def test_command_line_arguments_are_name_colon_equals_value() -> None:
         command_line_arguments(["robots=3"])
 
 
+@pytest.mark.slow
 def test_n_instances_run_each_in_its_process_and_namespace(tmp_path: Path) -> None:
     talkers = GROUPS[:GROUPS.index("      - name: listener")]   # they end by themselves
     lines: list[str] = []

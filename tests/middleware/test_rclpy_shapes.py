@@ -161,6 +161,7 @@ def test_the_tutorial_talker_and_listener_talk_across_processes(tmp_path: Path) 
         assert line.startswith("[INFO] [") and "] [minimal_subscriber]: I heard:" in line
 
 
+@pytest.mark.slow
 def test_the_tutorial_nodes_in_one_process_on_the_default_context(
         caplog: pytest.LogCaptureFixture) -> None:
     """Both tutorial classes in one process share the default context (in-process

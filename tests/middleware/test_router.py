@@ -271,6 +271,7 @@ def _heard(session: object, key: str) -> list[str]:
 
 
 @pytest.mark.parametrize("mode", ["peer", "client"])
+@pytest.mark.slow
 def test_peers_meet_through_the_router_and_keep_talking_without_it_clients_do_not(
         mode: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """rmw_zenoh's two ways of using a router: its peers learn of each other from it (gossip)
@@ -448,6 +449,7 @@ def _no_router_env(attempts: str) -> tuple[dict[str, str], str]:
     return {**os.environ, ROUTER_ENV: endpoint, CHECK_ATTEMPTS_ENV: attempts}, endpoint
 
 
+@pytest.mark.slow
 def test_a_positive_count_without_a_router_gives_up_after_it_and_goes_on() -> None:
     env, _ = _no_router_env("2")
     done = subprocess.run([*SERVOLAB, "topic", "list"], capture_output=True, text=True,
@@ -456,6 +458,7 @@ def test_a_positive_count_without_a_router_gives_up_after_it_and_goes_on() -> No
     assert done.stderr.splitlines() == [WAITING, WAITING, GAVE_UP.format(attempts=2)]
 
 
+@pytest.mark.slow
 def test_with_a_router_or_a_negative_count_nothing_is_said() -> None:
     env, endpoint = _no_router_env("-1")
     done = subprocess.run([*SERVOLAB, "topic", "list"], capture_output=True, text=True,
@@ -467,6 +470,7 @@ def test_with_a_router_or_a_negative_count_nothing_is_said() -> None:
     assert (done.returncode, done.stderr) == (0, "")
 
 
+@pytest.mark.slow
 def test_zero_waits_until_a_router_comes() -> None:
     env, endpoint = _no_router_env("0")
     with started([*SERVOLAB, "topic", "list"], env=env, stderr_to_stdout=True) as waiting:

@@ -200,6 +200,7 @@ def test_a_client_is_in_the_local_graph_while_it_exists() -> None:
         assert not [e for e in ctx.transport.graph() if e.kind == "SC"]
 
 
+@pytest.mark.slow
 def test_call_right_after_wait_for_service_is_answered(zenoh_pair) -> None:
     """200 times, across two sessions: create a client, ``wait_for_service`` returns True,
     call at once: every call is answered. Every other time the server is declared on another

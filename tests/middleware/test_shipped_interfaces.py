@@ -140,6 +140,7 @@ def test_the_shipped_packages_are_there() -> None:
 
 
 @pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.slow
 def test_each_type_hash_is_what_rosidl_computes_from_the_shipped_file(
         name: str, rosidl_hashes: dict[str, str]) -> None:
     kind = name.split("/")[1]

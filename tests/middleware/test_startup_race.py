@@ -7,6 +7,8 @@ import sys
 import threading
 import time
 
+import pytest
+
 from servolab.middleware.qos import QoSProfile
 from servolab.middleware.rmw_zenoh import parse_token
 from servolab.middleware.transport import MessageInfo, NodeInfo
@@ -19,6 +21,7 @@ STRING = "std_msgs/msg/String"
 REPETITIONS = 200
 
 
+@pytest.mark.slow
 def test_publish_right_after_the_token_loses_nothing(zenoh_pair) -> None:
     """200 times: a subscription appears in one session; the other sees its token (as a
     publisher's graph cache would) and publishes one message at once, from the token's
@@ -90,6 +93,7 @@ ctx.close()
 """
 
 
+@pytest.mark.slow
 def test_topic_pub_once_reaches_a_subscriber_process(types) -> None:
     """``topic pub --once`` waits for the subscription (not a fixed time) and its one
     message arrives, a few times over, each time with a fresh subscriber process."""
@@ -113,6 +117,7 @@ def test_topic_pub_once_reaches_a_subscriber_process(types) -> None:
             wait_for_line(listener, f"got hello {k}", timeout=5.0)
 
 
+@pytest.mark.slow
 def test_topic_pub_says_when_nobody_subscribes(types) -> None:
     from servolab.apps.topic import topic_pub
     from servolab.middleware.context import Context

@@ -80,6 +80,7 @@ def test_the_router_takes_the_override_and_its_listen_goes_on_top() -> None:
         router_config(RouterOptions(environ={OVERRIDE_ENV: 'mode="peer"'}))
 
 
+@pytest.mark.slow
 def test_the_pull_requests_example_a_router_on_another_port_and_a_client_of_it() -> None:
     """rmw_zenoh PR #551's example, with a free port for its 7448: the router listens where
     the override says, and a node whose override makes it a client connecting there reaches

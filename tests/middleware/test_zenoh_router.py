@@ -101,6 +101,7 @@ def test_default_endpoints_are_rmw_zenohs(monkeypatch: pytest.MonkeyPatch) -> No
         session_endpoints(TransportOptions("zenoh"))
 
 
+@pytest.mark.slow
 def test_sessions_listen_on_ephemeral_loopback_ports_and_leave_the_router_its_port(
         types, router_port: int) -> None:
     before = listening_ports(os.getpid())
@@ -208,6 +209,7 @@ def test_two_processes_talk_without_a_router(router_port: int) -> None:
 
 
 @pytest.mark.parametrize("action", [["list"], ["echo", "/chatter"], ["hz", "/chatter"]])
+@pytest.mark.slow
 def test_connect_to_an_endpoint_nobody_answers_is_one_line_and_fails(action: list[str]) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     done = servolab("topic", *action, "--connect", endpoint, timeout=60)

@@ -135,6 +135,7 @@ def test_first_plan_equals_dijkstra(seed: int, height: int, width: int) -> None:
 
 @settings(max_examples=150, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), height=st.integers(8, 25), width=st.integers(8, 25))
+@pytest.mark.slow
 def test_repairs_equal_dijkstra_after_every_move_and_change(seed: int, height: int,
                                                             width: int) -> None:
     run_sequence(seed, height, width, steps=20)

@@ -61,6 +61,7 @@ def test_the_page_shows_each_file_and_step() -> None:
     assert len(examples("bash")) == 3 and len(examples("python")) == 2
 
 
+@pytest.mark.slow
 def test_the_folder_robot_is_listed_and_its_urdf_shown(robot_path: Path,
                                                        capsys: pytest.CaptureFixture[str]
                                                        ) -> None:

@@ -97,6 +97,7 @@ def test_show_of_something_not_shipped_is_one_line_and_exit_2(
     assert err.count("\n") == 1 and "navigation has no configuration file" in err
 
 
+@pytest.mark.slow
 def test_a_copied_file_drives_the_command(tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     """What a student does: print the Waffle's file, edit it, drive with it."""

@@ -206,6 +206,7 @@ def test_an_mx28_lever_sags_by_its_p_gain(p_gain: int) -> None:
     assert abs(angle) / tick == pytest.approx(share * 1024 / p_gain, abs=1.0)
 
 
+@pytest.mark.slow
 def test_a_lever_held_by_goal_current_comes_to_rest_where_gravity_equals_it() -> None:
     """Current Control Mode is a torque demand: Goal Current 50 (0.1345 A, x Kt = 0.240 N m)
     under a lever whose gravity torque is m g r cos(angle) = 0.294 cos(angle) N m lets it

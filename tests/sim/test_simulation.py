@@ -224,6 +224,7 @@ def test_real_time_waits_for_the_physics_and_stops_with_every_step_taken() -> No
     assert slow.steps == sim.steps == math.floor(sim.now() / sim.physics_step + 1e-9)
 
 
+@pytest.mark.slow
 def test_runs_in_two_processes_with_different_hash_seeds_are_identical() -> None:
     """Nothing in a run may depend on the interpreter's hash seed (set or dict order of
     strings) or on anything else that differs between processes."""

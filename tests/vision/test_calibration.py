@@ -75,6 +75,7 @@ def _truth_calib() -> CameraCalibration:
                              TRUTH.image_size)
 
 
+@pytest.mark.slow
 def test_intrinsics_within_one_percent(calibration: CameraCalibration) -> None:
     for got, want in ((calibration.fx, TRUTH.fx), (calibration.fy, TRUTH.fy),
                       (calibration.cx, TRUTH.cx), (calibration.cy, TRUTH.cy)):

@@ -181,6 +181,7 @@ def _memory(pid: int) -> dict[str, int]:
 @pytest.mark.skipif(not sys.platform.startswith("linux"),
                     reason="measures the server process's memory in /proc/PID/status, "
                     "which only Linux has; the queue bounds are tested on every system below")
+@pytest.mark.slow
 def test_a_client_sending_5_mb_requests_and_never_reading_leaves_memory_bounded() -> None:
     server = subprocess.Popen([sys.executable, "-c", SERVER], stdin=subprocess.PIPE,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -208,6 +209,7 @@ def test_a_client_sending_5_mb_requests_and_never_reading_leaves_memory_bounded(
     assert len(said[0]) < 600 and "Traceback" not in stderr
 
 
+@pytest.mark.slow
 def test_answers_a_client_does_not_read_disconnect_it_past_the_control_bound(
         robot: Robot, caplog: pytest.LogCaptureFixture) -> None:
     """Answers must arrive, so they are never dropped: a client that owes more than the

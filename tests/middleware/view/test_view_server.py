@@ -348,6 +348,7 @@ def test_a_virtual_clock_is_sent_as_time_ops() -> None:
         assert struct.unpack_from("<Q", frame, 1)[0] == round(ctx.ros_time() * 1e9)
 
 
+@pytest.mark.slow
 def test_a_viewer_that_stops_reading_loses_old_frames_not_the_robots_time(graph: Graph) -> None:
     """A viewer that reads nothing fills its queue; the server drops its oldest frames and
     counts them, and the executor keeps running the robot's callbacks meanwhile."""

@@ -72,6 +72,7 @@ def test_a_move_to_joints_is_one_goal_timed_by_ruckig_recorded_and_plotted(
     assert summary["interrupted"] is None
 
 
+@pytest.mark.slow
 def test_a_pose_moves_the_tool_there_in_mujoco(tmp_path: Path) -> None:
     """On its table under gravity: the IK's joints, and the tool where asked, to what the
     controller's tolerance leaves (a few mm at the arm's 0.25 m)."""
@@ -88,6 +89,7 @@ def test_a_pose_moves_the_tool_there_in_mujoco(tmp_path: Path) -> None:
     assert tool == pytest.approx(xyz, abs=0.006)
 
 
+@pytest.mark.slow
 def test_home_is_the_srdf_home_state(tmp_path: Path) -> None:
     summary = _arm(tmp_path, "home", "--world", "emulated")
     assert summary["moves"][0]["target_rad"] == {"joint1": 0.0, "joint2": -1.0,
@@ -104,6 +106,7 @@ def test_the_gripper_closes_to_the_srdf_close_state(tmp_path: Path) -> None:
     assert (sent.position, sent.max_effort) == (-0.01, 2.0)
 
 
+@pytest.mark.slow
 def test_a_lab_arm_of_data_alone_moves_too(two_joint: Path, tmp_path: Path) -> None:
     """The two-joint robot folder (no SRDF, no gripper), in MuJoCo under its own URDF (its
     plug-in's world): home is every joint at 0."""
@@ -115,6 +118,7 @@ def test_a_lab_arm_of_data_alone_moves_too(two_joint: Path, tmp_path: Path) -> N
     assert home["moves"][0]["target_rad"] == {"joint1": 0.0, "joint2": 0.0}
 
 
+@pytest.mark.slow
 def test_motors_on_a_port_move_on_the_wall_clock(tmp_path: Path) -> None:
     """--port: the motors a port reaches (here servolab's emulated XM430s behind an emu://
     URL, as a USB adapter's would be), no simulated time: the move takes its planned time."""
@@ -126,6 +130,7 @@ def test_motors_on_a_port_move_on_the_wall_clock(tmp_path: Path) -> None:
 
 
 @pytest.mark.timeout(90)
+@pytest.mark.slow
 def test_connect_joins_a_running_control_run(tmp_path: Path) -> None:
     """``servolab control run open_manipulator_x`` in its own process, on the wall clock,
     listening on Zenoh; ``servolab arm home --connect`` drives it through its actions."""
@@ -146,6 +151,7 @@ def test_connect_joins_a_running_control_run(tmp_path: Path) -> None:
 
 
 @pytest.mark.timeout(90)
+@pytest.mark.slow
 def test_ctrl_c_cancels_the_move_and_the_run_folder_says_so(tmp_path: Path) -> None:
     """SIGINT during a slow move (a tenth of the speed limits): the goal is cancelled (the
     joints hold where they are), the bag closed, the summary written with what ended the
@@ -175,6 +181,7 @@ def _red_centre(tile: np.ndarray) -> tuple[float, float] | None:
     return None if rows.size < 20 else (float(cols.mean()), float(rows.mean()))
 
 
+@pytest.mark.slow
 def test_a_rendered_pick_draws_its_six_stages_from_the_world(tmp_path: Path) -> None:
     """``--render``: pick.png holds the six stages the judge saw, as MuJoCo draws the world
     then: the arm in a new pose in each, and the red box where the pick began in the first

@@ -199,6 +199,7 @@ def test_the_docs_sweep_table_is_what_the_sweep_gives() -> None:
     assert "foot_width" in again[2]["refused"] and "hip_width" in again[2]["refused"]
 
 
+@pytest.mark.slow
 def test_the_served_biped_hangs_in_its_harness_until_every_servo_has_torque() -> None:
     """``servolab sim --robot armstrong`` serves the biped with its servos as they power up,
     torque off (e-Manual, RX-28 Torque Enable: initial value 0). Left so, it creeps over its

@@ -45,6 +45,7 @@ def _messages(bag: Path, topic: str) -> list[tuple[float, object]]:
                                                                           topics=[topic])]
 
 
+@pytest.mark.slow
 def test_the_recording_holds_2_x_17_rows_per_motor_at_4_5_hz(
         walked: dict[str, object]) -> None:
     summary = walked
@@ -105,6 +106,7 @@ def test_the_run_folder_has_its_plot_and_summary(
     ("nan", "column m14: 'nan' is not a"),
     ("200", "column m14: 200 degrees is outside the joint's limits"),
 ])
+@pytest.mark.slow
 def test_a_bad_motion_file_is_refused_before_anything_moves(tmp_path: Path, cell: str,
                                                            says: str) -> None:
     path = tmp_path / "walk.csv"
@@ -142,6 +144,7 @@ def test_five_lines_for_a_student() -> None:
         assert robot.node.commanded["m14"] == pytest.approx(generate_walk().motors[-1, 3])
 
 
+@pytest.mark.slow
 def test_gait_generate_writes_its_files(tmp_path: Path) -> None:
     out = tmp_path / "gait"
     result = servolab("gait", "generate", "--l-step", "30", "--out", str(out), timeout=120)
@@ -204,6 +207,7 @@ def test_goals_reach_the_bus_in_small_steps_while_standing(
     assert steps and max(steps) < 6.0, max(steps)
 
 
+@pytest.mark.slow
 def test_the_same_run_folder_twice_replaces_its_bag(tmp_path: Path) -> None:
     for _ in range(2):
         summary = run_walk(RunFolder.create("walk", tmp_path), load_motion(None), steps=1,
@@ -232,6 +236,7 @@ def test_a_rate_that_is_not_a_positive_number_is_refused(tmp_path: Path, rate: s
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_appendix_a_as_printed_walks(tmp_path: Path) -> None:
     """Seed 001 Appendix A as printed (tests/data/armstrong_appendix_a.yaml: controllers only,
     m31..m51 all named pan_joint_33): it loads with a warning per repeated joint name, takes

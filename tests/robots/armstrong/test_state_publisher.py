@@ -255,6 +255,7 @@ def walked(request: pytest.FixtureRequest,
     return _read(Path(summary["bag"]))
 
 
+@pytest.mark.slow
 def test_a_walk_records_the_robot_description_once(
         walked: dict[str, list[tuple[int, Any]]], urdf_text: str) -> None:
     ((_, description),) = walked["/robot_description"]

@@ -69,6 +69,7 @@ def _in_double_support(finals: dict[str, Any]) -> None:
     assert robot.node.commanded == pytest.approx(STAND_POSE)
 
 
+@pytest.mark.slow
 def test_a_missing_leg_motor_is_refused_before_anything_moves(tmp_path: Path) -> None:
     """The left leg (motors 11..16) outside the pinged range, as min_motor_id 20 leaves it:
     ``walk`` names the missing motors and exits 2; no bag, nothing sent."""
@@ -100,6 +101,7 @@ def test_transient_errors_are_counted_and_survived(tmp_path: Path) -> None:
     assert all(e["skipped"] == sum(e["errors"].values()) for e in failed.values())
 
 
+@pytest.mark.slow
 def test_a_motor_silent_at_row_5_ends_the_walk_in_double_support(tmp_path: Path) -> None:
     finals: dict[str, Any] = {}
 
@@ -117,6 +119,7 @@ def test_a_motor_silent_at_row_5_ends_the_walk_in_double_support(tmp_path: Path)
                for level, message in _diagnostics(summary["bag"], 14))
 
 
+@pytest.mark.slow
 def test_an_overload_at_row_5_ends_the_walk_in_double_support(tmp_path: Path) -> None:
     """A load on the knee beyond its torque limit: the RX-28 reports overload and its
     alarm_shutdown (0x24) switches the torque off."""
@@ -134,6 +137,7 @@ def test_an_overload_at_row_5_ends_the_walk_in_double_support(tmp_path: Path) ->
     assert (ERROR, "OVERLOAD") in _diagnostics(summary["bag"], 14)
 
 
+@pytest.mark.slow
 def test_an_overheat_ends_the_walk_in_double_support(tmp_path: Path) -> None:
     """The knee, warm already (70 deg C) and quick to heat (time constant 2 s), made to hold
     95 % of its torque from row 5: the emulator's thermal model takes it past
@@ -159,6 +163,7 @@ def test_an_overheat_ends_the_walk_in_double_support(tmp_path: Path) -> None:
     assert Path(written["alarm_plot"]).stat().st_size > 10_000  # saved beside the bag
 
 
+@pytest.mark.slow
 def test_a_leg_controller_stopped_mid_walk_ends_it_in_double_support(tmp_path: Path) -> None:
     """stop_controller (a service call away, as in ROS) on the knee at row 5: its joint would
     take no more commands, so the supervisor ends the walk."""
@@ -180,6 +185,7 @@ FIGURE_3_1 = ("pan_tilt_port: Found 20 motors - 20 RX-28 [11, 12, 13, 14, 15, 16
 
 
 @pytest.mark.parametrize("level", ["info", "warn"])
+@pytest.mark.slow
 def test_walk_reports_what_it_found_as_figure_3_1(tmp_path: Path, level: str) -> None:
     """Seed 001 Figure 3.1, as rospy prints it ("[INFO] [WallTime: ...] pan_tilt_port: Found
     20 motors - ..."): shown at the default --log-level, not at warn, where the controller

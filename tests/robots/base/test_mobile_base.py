@@ -39,6 +39,7 @@ def test_a_1_m_line_stops_within_1_percent(name: str) -> None:
 
 @pytest.mark.parametrize("name", BASES)
 @pytest.mark.parametrize("clockwise", [False, True])
+@pytest.mark.slow
 def test_a_circle_has_its_radius_within_2_percent(name: str, clockwise: bool) -> None:
     base = _base(name)
     base.circle(0.5, 0.1, clockwise=clockwise)
@@ -51,6 +52,7 @@ def test_a_circle_has_its_radius_within_2_percent(name: str, clockwise: bool) ->
 
 
 @pytest.mark.parametrize("name", BASES)
+@pytest.mark.slow
 def test_a_figure_of_eight_closes_within_2_percent_of_its_size(name: str) -> None:
     base = _base(name)
     base.eight(0.3, 0.1)

@@ -49,6 +49,7 @@ def test_a_line_measures_its_truth_length(tmp_path: Path) -> None:
     assert summary["wheel_commands"][0]["register"] == "goal_velocity"  # type: ignore[index]
 
 
+@pytest.mark.slow
 def test_the_cli_writes_its_run_folder(tmp_path: Path) -> None:
     out = tmp_path / "eight"
     result = servolab("drive", "eight", "--radius", "0.3", "--out", str(out), "--no-progress",

@@ -142,6 +142,7 @@ def test_a_new_goal_preempts_and_a_cancel_holds(rig: Rig) -> None:
     assert rig.positions() == pytest.approx(held, abs=0.02)
 
 
+@pytest.mark.slow
 def test_deactivation_aborts_the_goal_and_keeps_the_position_commands(rig: Rig) -> None:
     """ros2_controllers jazzy, joint_trajectory_controller.cpp ``on_deactivate`` (lines
     1255-1308): the active goal is aborted with INVALID_GOAL, "Current goal cancelled during

@@ -205,6 +205,7 @@ def test_hardware_component_states(two_joint: ControlSystem) -> None:
     assert "joint1/position" in manager.interfaces.available_commands
 
 
+@pytest.mark.slow
 def test_mock_generic_system_mirrors_commands_to_states() -> None:
     urdf = (TWO_MOCK := """<robot name="m"><link name="a"/><link name="b"/>
       <joint name="j" type="revolute"><parent link="a"/><child link="b"/>

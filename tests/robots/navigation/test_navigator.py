@@ -139,6 +139,7 @@ def test_an_enclosed_goal_is_refused_from_the_first_map_before_moving() -> None:
     assert all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in rig.commands)
 
 
+@pytest.mark.slow
 def test_a_goal_dwa_cannot_settle_on_is_refused_with_its_cost() -> None:
     """A wall from x = 2.85 m (cells 57..59) and the goal 0.275 m in front of it: the goal lies in
     the inflated band, and with D.3's occdist_scale 0.8 DWA's dry run stalls short of

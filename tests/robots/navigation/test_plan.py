@@ -165,6 +165,7 @@ def test_bad_input_is_refused_in_one_line(tmp_path: Path,
                        "(whole numbers); metres need a map_server map.yaml")
 
 
+@pytest.mark.slow
 def test_the_command_line_exit_codes(tmp_path: Path) -> None:
     mapfile = str(_image(tmp_path, _corridor_map()))
     ok = servolab("plan", "--map", mapfile, "--start", "10", "15", "--goal", "90", "15", "--out",

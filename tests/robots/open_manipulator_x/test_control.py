@@ -38,6 +38,7 @@ def test_its_three_controllers_are_active(arm: Arm) -> None:
             int(bus.read(15, "drive_mode"))) == (5, 200, 5)
 
 
+@pytest.mark.slow
 def test_a_trajectory_goal_moves_the_arm(arm: Arm) -> None:
     goal = (0.5, -0.6, 0.4, 0.6)
     result = arm.follow([(1.0, (0.2, -0.3, 0.2, 0.3)), (2.0, goal)], 3.0)
@@ -49,6 +50,7 @@ def test_a_trajectory_goal_moves_the_arm(arm: Arm) -> None:
     assert [arm.state(j) for j in ARM] == pytest.approx(goal, abs=0.02)
 
 
+@pytest.mark.slow
 def test_a_gripper_goal_opens_and_closes_it(arm: Arm) -> None:
     for position in (0.015, -0.008):    # open, then nearly shut (m)
         result = arm.grip(position, 2.0)

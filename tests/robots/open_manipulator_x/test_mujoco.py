@@ -73,6 +73,7 @@ def test_a_trajectory_goal_succeeds_under_gravity(table: Arm) -> None:
     _loads_follow_gravity(table)
 
 
+@pytest.mark.slow
 def test_a_gripper_goal_opens_and_closes_both_fingers(table: Arm) -> None:
     world = table.system.world
     for position in (0.015, -0.008):
@@ -85,6 +86,7 @@ def test_a_gripper_goal_opens_and_closes_both_fingers(table: Arm) -> None:
         assert table.state("gripper_left_joint") == pytest.approx(position, abs=2e-4)
 
 
+@pytest.mark.slow
 def test_the_bare_urdf_in_mujoco_moves_too() -> None:
     """``--world mujoco``: servolab's own MuJoCo world of any URDF with masses."""
     system = bring_up("mujoco")

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 
+@pytest.mark.slow
 def test_the_benchmark_reports_the_wire_limit_and_the_loops_figures(tmp_path: Path) -> None:
     path = Path(__file__).resolve().parents[3] / "benchmarks" / "teleop.py"
     bench = runpy.run_path(str(path), run_name="teleop_benchmark")

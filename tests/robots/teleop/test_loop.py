@@ -92,6 +92,7 @@ def test_a_leader_that_stops_answering_ends_the_loop_within_its_watchdog(tmp_pat
     assert sent > 0
 
 
+@pytest.mark.slow
 def test_the_loop_runs_as_fast_as_the_wires_allow(tmp_path: Path) -> None:
     """No rate asked: one cycle's wire time apart, less the follower's state reads."""
     options = LoopOptions(state_rate=FAST.state_rate, camera_rate=0.0, engage_speed=20.0)

@@ -39,6 +39,7 @@ def decoded(bag: Path) -> dict[str, list[tuple[int, Any]]]:
     return found
 
 
+@pytest.mark.slow
 def test_two_episodes_are_recorded_with_images_and_decode_with_mcap(tmp_path: Path) -> None:
     options = LoopOptions(rate=FAST.rate, state_rate=50.0, camera_rate=5.0, engage_speed=5.0)
     summary = run_teleop(RunFolder.create("teleop", tmp_path),

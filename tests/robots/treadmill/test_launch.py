@@ -84,6 +84,7 @@ def context() -> Iterator[Context]:
         ctx.close()
 
 
+@pytest.mark.slow
 def test_the_camera_pc_gives_up_on_a_robot_never_heard(context: Context,
                                                        tmp_path: Path) -> None:
     out = tmp_path / "run"
@@ -113,6 +114,7 @@ def test_the_camera_pc_gives_up_on_a_robot_never_heard(context: Context,
         assert rig.bus.read(motor_id, "goal_velocity", raw=True) == 0
 
 
+@pytest.mark.slow
 def test_a_robot_heard_in_time_runs_its_duration_without_error(context: Context,
                                                                tmp_path: Path) -> None:
     out = tmp_path / "run"

@@ -80,6 +80,7 @@ def _dark_fly_on_a_lit_ball() -> np.ndarray:
     return image
 
 
+@pytest.mark.slow
 def test_frames_without_a_fly_are_no_fly_and_warned_of(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A blank white frame was a 239 625 px² fly and a lit ball a 102 140 px² one (issue 28):
