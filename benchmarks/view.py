@@ -25,8 +25,9 @@ the frame is received.
 one message in flight (the next one goes once the last has arrived), median and 99th
 percentile. **Throughput** is one way: N messages back to back, until the client has the last
 of them; messages (and CDR megabytes) per second delivered, the median of a few rounds, and how
-many of the N arrived (servolab's subscription is KEEP_LAST 10, the SDK's backlog 1024 frames:
-either may drop the oldest when the client falls behind; a drop is counted, not hidden).
+many of the N arrived (servolab reads the topic with its publisher's depth, 10 here, as
+foxglove_bridge does; the SDK's backlog is 1024 frames: either may drop the oldest when the
+client falls behind; a drop is counted, not hidden).
 
 The ratios servolab/sdk (latency over latency; the SDK's rate over servolab's, i.e. time per
 message) are measured in the same run, so they carry over to other machines better than the
@@ -500,7 +501,7 @@ def main(argv: Sequence[str] | None = None,
         if r.delivered < r.flood:
             lost = r.flood - r.delivered
             why = (f"{r.server_dropped} by the server's per-viewer queue, the rest by the "
-                   "KEEP_LAST 10 subscription it reads the topic with" if r.setup == "servolab"
+                   "subscription's history, the publisher's depth of 10" if r.setup == "servolab"
                    else "by the SDK's per-client backlog")
             print(f"  dropped, {r.message} {r.setup}: {lost} of {r.flood} sent back to back "
                   f"({why}); msg/s counts those delivered")

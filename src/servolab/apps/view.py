@@ -15,7 +15,13 @@ from typing import TYPE_CHECKING, Any
 from servolab.errors import UsageError
 from servolab.middleware.view.defaults import DEFAULT_HOST, DEFAULT_PORT
 
-from .arguments import add_transport, nonnegative_float, positive_float, transport_options
+from .arguments import (
+    add_transport,
+    nonnegative_float,
+    positive_float,
+    positive_int,
+    transport_options,
+)
 from .registry import Command
 
 if TYPE_CHECKING:
@@ -152,6 +158,10 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with BAG: playback speed (default 1: as recorded; 0: as fast as "
                    "possible)")
     p.add_argument("--loop", action="store_true", help="with BAG: play it again at the end")
+    p.add_argument("--max-qos-depth", type=positive_int, default=25, metavar="N",
+                   help="the longest history a topic is read with (default 25, as "
+                   "foxglove_bridge's max_qos_depth): each topic keeps what its publishers "
+                   "keep, up to N; raise it for bursts longer than that")
     p.add_argument("--layout", metavar="NAME",
                    help="write a robot's Foxglove/Lichtblick layout (a robot's name, as "
                    "servolab robots lists them, or base) and exit; import it in the app's "
@@ -184,6 +194,7 @@ def serve_graph(args: argparse.Namespace) -> int:
 
     with Context.open(transport_options(args)) as ctx, \
             ViewServer(ctx, ViewConfig(host=args.ws_host, port=args.ws_port,
+                                       max_qos_depth=args.max_qos_depth,
                                        **access_options(args))) as view:
         print(f"serving the graph on {view.control_url}: open it in Foxglove or Lichtblick "
               "(Open connection > Foxglove WebSocket); Ctrl-C stops", flush=True)

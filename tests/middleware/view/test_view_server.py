@@ -416,3 +416,94 @@ def test_a_second_viewer_of_a_latched_topic_gets_what_it_kept(graph: Graph) -> N
             _, payload = viewer.message_data(sid)
             assert decoder(channel)(payload).data == LATCHED_TEXT
         assert graph.view_subscriptions("/robot_description") == 1  # still one, shared
+
+
+# -- the history a topic is read with: foxglove_bridge's --------------------------------------
+
+
+def test_a_topic_is_read_with_the_history_its_publishers_keep_as_foxglove_bridge_reads_it(
+) -> None:
+    """ros2_foxglove_bridge.cpp: the sum of the publishers' depths, each at least 1, no less
+    than min_qos_depth (1) and no more than max_qos_depth (25), which it warns of."""
+    from servolab.middleware.qos import HistoryPolicy, QoSProfile
+    from servolab.middleware.view.server import subscription_qos
+
+    tf_static = QoSProfile(depth=1, durability=qos_profile_latched.durability)
+    qos, wanted = subscription_qos([tf_static] * 3)
+    assert (qos.depth, wanted, qos.transient_local) == (3, 3, True)  # three broadcasters
+    qos, wanted = subscription_qos([QoSProfile(depth=1000)])
+    assert (qos.depth, wanted) == (25, 1000)                          # bounded, and said
+    assert subscription_qos([QoSProfile(depth=1000)], max_depth=1000)[0].depth == 1000
+    assert subscription_qos([None, None])[0].depth == 2               # unknown: 1 each
+    keep_all = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=0)
+    assert subscription_qos([keep_all], max_depth=40)[0].depth == 40
+    assert subscription_qos([QoSProfile(depth=1)], min_depth=5)[0].depth == 5
+
+
+def _burst(graph: Graph, config: ViewConfig, topic: str, count: int) -> tuple[int, ViewServer]:
+    """``count`` Strings published back to back by a publisher that keeps them all (depth
+    ``count``) to a viewer that reads; how many reached it, and the server (closed)."""
+    pub = graph.talker.create_publisher(STRING, topic, count)
+    with ViewServer(graph.ctx, config) as view, SpecClient.open(view.url, SUBPROTOCOLS[0]) as c:
+        channel = c.channel(topic)
+        c.send("subscribe", subscriptions=[{"id": 1, "channelId": channel["id"]}])
+        wait_for(lambda: graph.view_subscriptions(topic) == 1, "the server to subscribe")
+        for k in range(count):
+            pub.publish(graph.talker.message(STRING, data=str(k)))
+        got: list[int] = []
+        decode = decoder(channel)
+        deadline = time.monotonic() + 60
+        while len(got) + view.history_dropped + view.dropped < count:
+            assert time.monotonic() < deadline, (len(got), view.history_dropped, view.dropped)
+            try:
+                got.append(int(decode(c.message_data(1, timeout=0.5)[1]).data))
+            except AssertionError:  # none for 0.5 s: the rest may be counted as dropped
+                continue
+        assert got == sorted(got)                   # in order, and no message twice
+    return len(got), view
+
+
+@pytest.mark.slow
+def test_a_burst_the_publisher_keeps_reaches_a_viewer_that_keeps_up_whole(
+        graph: Graph, caplog: pytest.LogCaptureFixture) -> None:
+    """1 000 messages back to back from a publisher of depth 1 000: all 1 000 reach the
+    viewer (before, the view read every topic with KEEP_LAST 10 and kept the last 10 of a
+    burst). With the bound left at foxglove_bridge's 25, the view says so in one line and
+    every message is either delivered or counted as dropped."""
+    graph.view.close()
+    delivered, view = _burst(graph, ViewConfig(port=0, graph_period=0.05, max_qos_depth=1000),
+                             "/burst", 1000)
+    assert (delivered, view.history_dropped, view.dropped) == (1000, 0, 0)
+
+    delivered, view = _burst(graph, ViewConfig(port=0, graph_period=0.05), "/bounded", 1000)
+    assert delivered + view.history_dropped + view.dropped == 1000
+    said = [r.getMessage() for r in caplog.records if "/bounded" in r.getMessage()]
+    assert said == ["view: reading /bounded with a history of 25 (its publishers keep 1000): "
+                    "a burst of more is cut to its last 25; raise max_qos_depth (servolab "
+                    "view --max-qos-depth)"], said
+
+
+@pytest.mark.slow
+def test_images_of_a_megabyte_at_30_hz_reach_a_viewer_that_keeps_up_whole(graph: Graph) -> None:
+    """30 Images of 1 MB (a 640 x 480 RGB frame is 0.92 MB) at 30 Hz for a second, from a
+    publisher of the default depth 10: every one reaches the viewer, none dropped."""
+    image_type = "sensor_msgs/msg/Image"
+    pub = graph.talker.create_publisher(image_type, "/camera/image_raw", 10)
+    with SpecClient.open(graph.url, SUBPROTOCOLS[0]) as c:
+        channel = c.channel("/camera/image_raw")
+        c.send("subscribe", subscriptions=[{"id": 1, "channelId": channel["id"]}])
+        wait_for(lambda: graph.view_subscriptions("/camera/image_raw") == 1,
+                 "the server to subscribe")
+        frames = []
+        start = time.monotonic()
+        for k in range(30):
+            time.sleep(max(0.0, start + k / 30 - time.monotonic()))
+            pub.publish(graph.talker.message(image_type, height=1000, width=1000,
+                                             encoding="mono8", step=1000,
+                                             data=bytes([k]) * 1_000_000))
+        decode = decoder(channel)
+        for _ in range(30):
+            image = decode(c.message_data(1, timeout=30)[1])
+            frames.append(image.data[0])
+        assert frames == list(range(30))
+        assert (graph.view.history_dropped, graph.view.dropped) == (0, 0)

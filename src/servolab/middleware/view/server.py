@@ -58,7 +58,7 @@ from websockets.typing import Subprotocol
 from ..errors import MiddlewareError
 from ..node import Node
 from ..parameters import from_parameter_value, to_parameter_value
-from ..qos import DurabilityPolicy, QoSProfile, adapted_policies
+from ..qos import QoSProfile, adapted_policies
 from . import access as a
 from . import protocol as p
 from .defaults import DEFAULT_HOST, DEFAULT_PORT
@@ -136,6 +136,11 @@ class ViewConfig:
     include_hidden: bool = False      # also show nodes, topics, services named _...
     start_timeout: float = 10.0       # s to wait for the socket to listen
     close_timeout: float = 1.0        # s a viewer that reads nothing may hold up close()
+    #: a topic is read with the history its publishers keep, as foxglove_bridge reads it: the
+    #: sum of their depths (each at least 1; a KEEP_ALL publisher's, max_qos_depth), within
+    #: these bounds (foxglove_bridge's parameters of the same names, and their defaults)
+    min_qos_depth: int = 1
+    max_qos_depth: int = 25
 
 
 @dataclass(eq=False)
@@ -227,15 +232,24 @@ class _TopicFeed:
     kept: deque[tuple[int, bytes]] | None = None
 
 
-def subscription_qos(offers: Iterable[QoSProfile | None]) -> QoSProfile:
-    """The QoS to subscribe with, adapted to the publishers as ``ros2 topic echo`` adapts it:
-    RELIABLE if every publisher is, else BEST_EFFORT; TRANSIENT_LOCAL if every publisher is, so
-    a latched ``/robot_description`` or map reaches a viewer that connects late."""
+def subscription_qos(offers: Iterable[QoSProfile | None], *, min_depth: int = 1,
+                     max_depth: int = 25) -> tuple[QoSProfile, int]:
+    """The QoS to subscribe with, and the depth wanted before ``max_depth`` bounded it.
+
+    Adapted to the publishers as ``ros2 topic echo`` adapts it: RELIABLE if every publisher
+    is, else BEST_EFFORT; TRANSIENT_LOCAL if every publisher is, so a latched
+    ``/robot_description`` or map reaches a viewer that connects late. The depth is
+    foxglove_bridge's (``ros2_foxglove_bridge.cpp``): the sum of the publishers' depths, each
+    at least 1 (three ``/tf_static`` broadcasters of depth 1 keep three), no less than
+    ``min_depth`` and no more than ``max_depth`` (its ``min_qos_depth``/``max_qos_depth``), so
+    a burst a publisher keeps reaches a viewer that keeps up. A publisher whose depth is
+    unknown counts 1; a KEEP_ALL one, ``max_depth``."""
     offers = list(offers)
     reliability, durability = adapted_policies(offers)
-    latched = durability == DurabilityPolicy.TRANSIENT_LOCAL
-    depth = max([10, *(q.depth for q in offers if q is not None and latched)])
-    return QoSProfile(depth=depth, reliability=reliability, durability=durability)
+    wanted = max(min_depth, sum(1 if q is None else max_depth if q.keep_all else max(1, q.depth)
+                                for q in offers))
+    return (QoSProfile(depth=min(wanted, max_depth), reliability=reliability,
+                       durability=durability), wanted)
 
 
 def _hidden(name: str) -> bool:
@@ -296,6 +310,7 @@ class ViewServer:
         self._parameter_cache: dict[str, Any] = {}
         self._tasks: set[asyncio.Task[None]] = set()
         self._dropped = 0       # written on the loop only; read anywhere (an int is atomic)
+        self._history_dropped = 0  # by the subscriptions of feeds that have ended
         self._viewer_count = 0
         self._port = 0
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -359,6 +374,14 @@ class ViewServer:
     def dropped(self) -> int:
         """Data frames dropped because a viewer fell behind (all viewers, ever)."""
         return self._dropped
+
+    @property
+    def history_dropped(self) -> int:
+        """Messages the view's subscriptions dropped to keep their depth (a burst longer than
+        the publishers keep, or than ``max_qos_depth``), ever; none while the view keeps up."""
+        feeds = list(self._feeds.values())
+        return self._history_dropped + sum(f.subscription.dropped for f in feeds
+                                           if f.subscription is not None)
 
     @property
     def viewers(self) -> int:
@@ -710,7 +733,14 @@ class ViewServer:
         if feed is None:
             feed = _TopicFeed(channel_id)
             channel = self._channels[channel_id]
-            qos = subscription_qos(self._offers.get(channel.topic, []))
+            qos, wanted = subscription_qos(self._offers.get(channel.topic, []),
+                                           min_depth=self.config.min_qos_depth,
+                                           max_depth=self.config.max_qos_depth)
+            if wanted > qos.depth:  # foxglove_bridge's warning, and what to do about it
+                _log.warning("view: reading %s with a history of %d (its publishers keep %d): "
+                             "a burst of more is cut to its last %d; raise max_qos_depth "
+                             "(servolab view --max-qos-depth)", channel.topic, qos.depth,
+                             wanted, qos.depth)
             if qos.transient_local:
                 feed.kept = deque(maxlen=max(1, qos.depth))
             feed.subscription = self.node.create_subscription(
@@ -735,6 +765,7 @@ class ViewServer:
     def _end_feed(self, feed: _TopicFeed) -> None:
         self._feeds.pop(feed.channel_id, None)
         if feed.subscription is not None:
+            self._history_dropped += feed.subscription.dropped
             self.node.destroy_subscription(feed.subscription)
             feed.subscription = None
 
