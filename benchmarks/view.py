@@ -25,9 +25,11 @@ the frame is received.
 one message in flight (the next one goes once the last has arrived), median and 99th
 percentile. **Throughput** is one way: N messages back to back, until the client has the last
 of them; messages (and CDR megabytes) per second delivered, the median of a few rounds, and how
-many of the N arrived (servolab reads the topic with its publisher's depth, 10 here, as
-foxglove_bridge does; the SDK's backlog is 1024 frames: either may drop the oldest when the
-client falls behind; a drop is counted, not hidden).
+many of the N arrived. Both sides get the same room for a burst: the SDK's per-client backlog
+is 1024 frames, and servolab's publisher keeps 1024 (KEEP_LAST) with the view's
+``max_qos_depth`` and ``send_bytes`` raised to match (the view reads a topic with its
+publishers' depth, as foxglove_bridge does); either may drop the oldest when the client
+falls behind; a drop is counted, not hidden.
 
 The ratios servolab/sdk (latency over latency; the SDK's rate over servolab's, i.e. time per
 message) are measured in the same run, so they carry over to other machines better than the
@@ -217,6 +219,14 @@ class ViewClient:
 # -- the two sending sides -------------------------------------------------------------------
 
 
+#: the room for a burst on each side: foxglove-sdk's per-client backlog (its
+#: ``message_backlog_size`` default), and servolab's publisher depth and max_qos_depth
+BURST_DEPTH = 1024
+#: and the bytes a viewer may owe, which the SDK does not bound (the view's default, 32 MB,
+#: holds 139 of the 240 kB images)
+BURST_BYTES = BURST_DEPTH * 2**18
+
+
 class Sender(Protocol):
     url: str
 
@@ -231,7 +241,7 @@ class ServolabSender:
 
     def __init__(self, context: Context, view: ViewServer, type_name: str, msg: Any) -> None:
         self.node = Node(context, "bench_talker")
-        self.publisher = self.node.create_publisher(type_name, TOPICS[type_name], 10)
+        self.publisher = self.node.create_publisher(type_name, TOPICS[type_name], BURST_DEPTH)
         self.msg, self.type_name, self.types = msg, type_name, context.types
         self.view = view
         self.url = view.url
@@ -289,7 +299,9 @@ def servolab_sender(types: MessageTypes, type_name: str, msg: Any) -> Iterator[S
     thread = context.executor.spin_in_thread()
     view: ViewServer | None = None
     try:
-        view = ViewServer(context, ViewConfig(host="127.0.0.1", port=0, graph_period=0.05))
+        view = ViewServer(context, ViewConfig(host="127.0.0.1", port=0, graph_period=0.05,
+                                              max_qos_depth=BURST_DEPTH,
+                                              send_bytes=BURST_BYTES))
         yield ServolabSender(context, view, type_name, msg)
     finally:
         if view is not None:
@@ -501,7 +513,7 @@ def main(argv: Sequence[str] | None = None,
         if r.delivered < r.flood:
             lost = r.flood - r.delivered
             why = (f"{r.server_dropped} by the server's per-viewer queue, the rest by the "
-                   "subscription's history, the publisher's depth of 10" if r.setup == "servolab"
+                   f"subscription's history of {BURST_DEPTH}" if r.setup == "servolab"
                    else "by the SDK's per-client backlog")
             print(f"  dropped, {r.message} {r.setup}: {lost} of {r.flood} sent back to back "
                   f"({why}); msg/s counts those delivered")

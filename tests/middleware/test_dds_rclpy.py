@@ -33,6 +33,7 @@ from tests.waiting import wait_for_line, wait_until
 pytestmark = [pytest.mark.slow, pytest.mark.realtime]
 
 TWIST = "geometry_msgs/msg/Twist"
+SET_BOOL = "std_srvs/srv/SetBool"
 
 
 @pytest.fixture
@@ -139,6 +140,36 @@ def test_a_publisher_servolab_destroys_leaves_fast_dds_graph_at_once(ctx: Contex
         publisher = node.create_publisher("std_msgs/msg/String", "/chatter")
         assert wait_for_line(proc, "seen", timeout=40)[-1] == "seen"
         publisher.destroy()
+        assert wait_for_line(proc, "gone", timeout=40)[-1] == "gone"
+
+
+ROS_CLIENT_WATCHER = """
+import time, rclpy
+from std_srvs.srv import SetBool
+rclpy.init()
+node = rclpy.create_node("ros_server")
+node.create_service(SetBool, "/set_bool", lambda request, response: response)
+def wait(count, seconds):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and node.count_clients("/set_bool") != count:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return node.count_clients("/set_bool") == count
+print("seen" if wait(1, 30) else "never seen", flush=True)
+print("gone" if wait(0, 30) else "still there", flush=True)
+"""
+
+
+def test_a_client_servolab_destroys_leaves_the_servers_count_at_once(ctx: Context,
+                                                                     domain: int) -> None:
+    """A servolab client destroyed while its node lives is no longer one of the real rclpy
+    server's clients (``count_clients``), as an rclpy client's ``destroy_client`` leaves it:
+    servolab's clients of one service share their endpoints, and the last one destroyed
+    deletes them (they stayed until the process ended)."""
+    node = Node(ctx, "servolab_caller")
+    with started(ros(ROS_CLIENT_WATCHER, domain), env=ros_env(domain)) as proc:
+        client = node.create_client(SET_BOOL, "/set_bool")
+        assert wait_for_line(proc, "seen", timeout=40)[-1] == "seen"
+        node.destroy_client(client)
         assert wait_for_line(proc, "gone", timeout=40)[-1] == "gone"
 
 

@@ -316,6 +316,21 @@ class _Client:
         self._bare_since: float | None = None
         self._bare_sent_ns = 0
 
+    def close(self) -> None:
+        """Delete its endpoints, as rclpy's ``destroy_client`` does, so that the servers'
+        graphs (``count_clients``) no longer count it; a call still waiting fails."""
+        with self._lock:
+            pending, self._pending = list(self._pending.values()), {}
+        for future in [*pending, *([self._bare] if self._bare is not None else [])]:
+            if not future.done():
+                future.set_exception(ServiceError(f"service {self.name}: the client was "
+                                                  "destroyed before the answer came"))
+        readers = [r for r in (self.reader, self._bare_reader) if r is not None]
+        for reader in readers:
+            self.transport._unwatch(reader)
+        self.transport._delete(*readers, *[w for w in (self.writer, self._bare_writer)
+                                           if w is not None])
+
     @staticmethod
     def _matched(writer: DataWriter[Any] | None, reader: DataReader[Any] | None) -> bool:
         """rmw's service_is_available: the request writer and the reply reader both match."""
@@ -494,6 +509,7 @@ class DdsTransport(Transport):
         self._readers: dict[int, set[bytes]] = {}
         self._writers: dict[int, set[bytes]] = {}
         self._clients: dict[str, _Client] = {}
+        self._client_users: dict[str, int] = {}  # the clients declared on each, not yet closed
         self._warned: set[str] = set()
         # the graph: every participant's nodes (ros_discovery_info), and DDS's own discovery
         self._peers: dict[bytes, Any] = {}
@@ -769,13 +785,25 @@ class DdsTransport(Transport):
         return client.call(request, timeout)
 
     def declare_client(self, node: NodeInfo, name: str, srv: ServiceType) -> Closeable:
-        """A client in the graph: its request writer and reply reader, owned by the node."""
+        """A client in the graph: its request writer and reply reader, owned by the node.
+        The clients of one service share them; the last one closed deletes them."""
         with self._lock:
             client = self._clients.get(name)
             if client is None or client.srv.name != srv.name:
                 client = self._clients[name] = _Client(self, name, srv)
-        gids_node = self._own_gids(node, client)
-        return Declared(gids_node)
+            self._client_users[name] = self._client_users.get(name, 0) + 1
+        undo_gids = self._own_gids(node, client)
+
+        def close() -> None:
+            undo_gids()
+            with self._lock:
+                users = self._client_users[name] = self._client_users[name] - 1
+                last = users == 0 and self._clients.get(name) is client
+                if last:
+                    del self._clients[name], self._client_users[name]
+            if last and not self._closed:
+                client.close()
+        return Declared(close)
 
     def _own_gids(self, node: NodeInfo, client: _Client) -> Callable[[], None]:
         reader_gid = client.reader.get_guid().bytes
