@@ -112,18 +112,25 @@ def test_servolab_hears_a_real_rclpy_talker(ctx: Context, domain: int) -> None:
     assert numbers == list(range(numbers[0], numbers[0] + 5))  # in order, none lost
 
 
-ROS_PUBLISHER_WATCHER = """
+def ros_count_watcher(count: str, setup: str = "") -> str:
+    """An rclpy program that prints "seen" once ``count`` (an expression on its ``node``,
+    after ``setup``) is 1, then "gone" once it is 0 ("never seen", "still there" after 30 s)."""
+    return f"""
 import time, rclpy
 rclpy.init()
 node = rclpy.create_node("ros_watcher")
+{setup}
 def wait(count, seconds):
     end = time.monotonic() + seconds
-    while time.monotonic() < end and node.count_publishers("/chatter") != count:
+    while time.monotonic() < end and {count} != count:
         rclpy.spin_once(node, timeout_sec=0.05)
-    return node.count_publishers("/chatter") == count
+    return {count} == count
 print("seen" if wait(1, 30) else "never seen", flush=True)
 print("gone" if wait(0, 30) else "still there", flush=True)
 """
+
+
+ROS_PUBLISHER_WATCHER = ros_count_watcher('node.count_publishers("/chatter")')
 
 
 def test_a_publisher_servolab_destroys_leaves_fast_dds_graph_at_once(ctx: Context,
@@ -143,20 +150,10 @@ def test_a_publisher_servolab_destroys_leaves_fast_dds_graph_at_once(ctx: Contex
         assert wait_for_line(proc, "gone", timeout=40)[-1] == "gone"
 
 
-ROS_CLIENT_WATCHER = """
-import time, rclpy
-from std_srvs.srv import SetBool
-rclpy.init()
-node = rclpy.create_node("ros_server")
-node.create_service(SetBool, "/set_bool", lambda request, response: response)
-def wait(count, seconds):
-    end = time.monotonic() + seconds
-    while time.monotonic() < end and node.count_clients("/set_bool") != count:
-        rclpy.spin_once(node, timeout_sec=0.05)
-    return node.count_clients("/set_bool") == count
-print("seen" if wait(1, 30) else "never seen", flush=True)
-print("gone" if wait(0, 30) else "still there", flush=True)
-"""
+ROS_CLIENT_WATCHER = ros_count_watcher(
+    'node.count_clients("/set_bool")',
+    "from std_srvs.srv import SetBool\n"
+    'node.create_service(SetBool, "/set_bool", lambda request, response: response)')
 
 
 def test_a_client_servolab_destroys_leaves_the_servers_count_at_once(ctx: Context,
