@@ -98,6 +98,10 @@ def test_an_argument_the_file_does_not_take_or_needs_is_refused(
      "'instance' only in a group of instances"),
     (GROUPS.replace("  robots: 2", "  instance: 2"), 2, "'instance' is the number of a group's "
      "instance"),
+    (GROUPS.replace("  rate: 20.0", "  rate: 20.0\n  key: rate").replace("count: 5",
+                                                                       "$(var key): 5"), 12,
+     "key '$(var key)' is 'rate' once its arguments are substituted, as another key of this "
+     "mapping is"),
 ])
 def test_a_bad_group_or_substitution_is_one_line_naming_its_line(
         tmp_path: Path, text: str, line: int, says: str) -> None:

@@ -78,7 +78,7 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 #: the options of each of the two kinds of run, refused in the other
 _SIMULATED_ONLY = ("scene", "calib", "board_at", "view")
-_ON_GRAPH_ONLY = ("initial_pose", "listen", "connect")
+_ON_GRAPH_ONLY = ("initial_pose", "listen", "connect", "domain_id")
 
 
 def _given(args: argparse.Namespace, names: tuple[str, ...]) -> list[str]:
@@ -96,7 +96,10 @@ def _run(args: argparse.Namespace) -> int:
     yaw = math.radians(args.goal[2]) if len(args.goal) == 3 else None
     if args.map is not None:
         return _run_on_graph(args, (x, y), yaw)
-    if given := _given(args, _ON_GRAPH_ONLY):
+    given = _given(args, _ON_GRAPH_ONLY)
+    if args.transport != "zenoh":  # the simulated floor's nodes share one process
+        given.append(f"--transport {args.transport}")
+    if given:
         raise UsageError(f"{', '.join(given)}: for a robot on the graph, with --map")
     view = view_request(args)  # checked before the run folder is made
     board_at = None

@@ -86,6 +86,10 @@ def substitute(value: ConfigValue, variables: Mapping[str, str]) -> ConfigValue:
         entries: dict[str, tuple[ConfigScalar, ConfigValue]] = {}
         for name, item in value.items():
             key = _scalar(value.key_of(name), variables)
+            if str(key.value) in entries:  # two keys that read alike once substituted
+                raise key.error(f"key {quoted(name)} is {quoted(str(key.value))} once its "
+                                "arguments are substituted, as another key of this mapping "
+                                "is: give them different names")
             entries[str(key.value)] = (key, substitute(item, variables))
         return ConfigMapping(value.path, value.line, value.key, value.error_class, entries)
     return value

@@ -122,15 +122,17 @@ def test_a_goal_goes_from_idle_through_planning_to_driving() -> None:
     assert cycle(machine, 0.8) == Drive(0.1, 0.0)
 
 
-@pytest.mark.parametrize(("have_map", "missing"), [
-    (True, "pose of the robot (the camera does not see it)"),
-    (False, "map"),
+@pytest.mark.parametrize(("have_map", "no_pose", "missing"), [
+    (True, None, "pose of the robot (the camera does not see it)"),
+    (True, "no odometry on /robot1/odom", "pose of the robot (no odometry on /robot1/odom)"),
+    (False, None, "map"),
 ])
 def test_no_map_or_pose_within_start_timeout_refuses_the_goal(
-        have_map: bool, missing: str) -> None:
+        have_map: bool, no_pose: str | None, missing: str) -> None:
     """start_timeout defaults to controller_patience (3 s here), docs/navigation.md's "the
-    camera does not see the robot"; refused: the wheels were never commanded."""
-    machine = GoalStateMachine(RULES)
+    camera does not see the robot" (or, for a navigator beside a robot that runs elsewhere,
+    ``servolab navigate --map``, no odometry); refused: the wheels were never commanded."""
+    machine = GoalStateMachine(RULES if no_pose is None else replace(RULES, no_pose=no_pose))
     machine.take_goal(10.0, GOAL, None)
     def seen(now: float) -> Sensed:  # a map and no pose, or a pose and no map
         return Sensed(now, have_map=True) if have_map else Sensed(now, START, now)

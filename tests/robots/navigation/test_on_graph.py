@@ -77,6 +77,8 @@ def test_an_outage_is_a_silence_longer_than_the_pose_timeout_with_what_was_lost(
 @pytest.mark.parametrize(("argv", "says"), [
     (["--initial-pose", "0", "0"], "--initial-pose: for a robot on the graph, with --map"),
     (["--connect", "tcp/127.0.0.1:7"], "--connect: for a robot on the graph, with --map"),
+    (["--transport", "dds", "--domain-id", "3"],
+     "--domain-id, --transport dds: for a robot on the graph, with --map"),
     (["--map", str(FLOOR)], "--map needs --initial-pose"),
     (["--map", str(FLOOR), "--initial-pose", "0.3", "1", "--scene", "x.yaml"],
      "--scene: for the simulated floor, not with --map"),

@@ -170,6 +170,9 @@ class GoalRules:
     planner_frequency: float = 0.0
     pose_timeout: float = 0.5
     start_timeout: float | None = None
+    #: why a pose may be missing, said when a goal is aborted for the lack of one: the
+    #: overhead camera's, or the odometry topic a navigator beside the robot localises on
+    no_pose: str = "the camera does not see it"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.planner_frequency) and self.planner_frequency >= 0):
@@ -409,8 +412,7 @@ class GoalStateMachine:
                 self.state is GoalState.PLANNING and s.now - s.pose_at > r.pose_timeout):
             if s.now - self._timers.goal_at < r.start_wait:
                 return Wait()
-            missing = "map" if not s.have_map else "pose of the robot (the camera does not " \
-                "see it)"
+            missing = "map" if not s.have_map else f"pose of the robot ({r.no_pose})"
             return self.abort(f"no {missing} for {r.start_wait:g} s after the goal")
         if s.now - s.pose_at <= r.pose_timeout:
             self._stale_since = None

@@ -303,6 +303,7 @@ class NavigatorNode(Node):
                  recovery: Sequence[RecoveryBehavior] = (),
                  planner_frequency: float = 0.0, pose_timeout: float = 0.5,
                  start_timeout: float | None = None, pose_topic: str = "fused_pose",
+                 no_pose: str = "the camera does not see it",
                  stamped_cmd_vel: bool = False, name: str = "navigator", namespace: str = "/",
                  parameter_overrides: Mapping[str, Any] | None = None,
                  remappings: Mapping[str, str] | None = None) -> None:
@@ -317,7 +318,7 @@ class NavigatorNode(Node):
             np.asarray(costmap.footprint_polygon, dtype=np.float64)
         self.goal_state = GoalStateMachine(GoalRules(
             GoalChecker.of(dwa), patience, tuple(recovery), planner_frequency, pose_timeout,
-            start_timeout))
+            start_timeout, no_pose))
         self.robot = _Robot()
         self.grid: CostGrid | None = None
         self._planning: _Planning | None = None

@@ -320,6 +320,7 @@ class GraphNavigateTask(Task):
             recovery=move_base.behaviors(costmap.circumscribed_radius),
             planner_frequency=move_base.planner_frequency, pose_timeout=OUTAGE_S,
             start_timeout=START_TIMEOUT_S, stamped_cmd_vel=kind == TWIST_STAMPED,
+            no_pose=f"no odometry on {navigation.topic(navigation.odom)}",
             namespace=navigation.namespace,
             remappings={"cmd_vel": navigation.cmd_vel, "odom": navigation.odom})
         topics = [navigation.topic(t) for t in (*RECORDED, navigation.cmd_vel,
