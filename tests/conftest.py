@@ -53,6 +53,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
     return RealTimeOnOneWorker(config, log)
 
 
+@pytest.hookimpl(trylast=True)  # after -m has deselected what this run leaves out
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     write_marked_ids(config, items)
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from collections import Counter
 from pathlib import Path
 
@@ -40,18 +41,27 @@ def shared_folder(config: pytest.Config) -> Path:
     """The folder every process of one pytest run shares: the controller's base temporary
     folder, whose subfolders (``popen-gw0`` …) are the workers'."""
     base: Path = config._tmp_path_factory.getbasetemp()  # type: ignore[attr-defined]
-    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    return base.parent if worker_id(config) else base
+
+
+def worker_id(config: pytest.Config) -> str | None:
+    """This process's xdist worker id (gw0 …), None in the controller or without xdist. From
+    the config xdist gives its workers, not from $PYTEST_XDIST_WORKER: a pytest that a test
+    starts inherits that variable from the worker it runs on."""
+    workerinput = getattr(config, "workerinput", None)
+    return None if workerinput is None else str(workerinput["workerid"])
 
 
 def write_marked_ids(config: pytest.Config, items: list[pytest.Item]) -> None:
     """On a worker: the ids of the collected tests marked ``realtime`` and ``slow``, written
     whole (both workers write the same lists; a reader never sees half of them)."""
-    if not os.environ.get("PYTEST_XDIST_WORKER"):
+    worker = worker_id(config)
+    if worker is None:
         return
     marked = {mark: [item.nodeid for item in items if item.get_closest_marker(mark) is not None]
               for mark in ("realtime", "slow")}
     folder = shared_folder(config)
-    partial = folder / f"{MARKED_IDS}.{os.environ['PYTEST_XDIST_WORKER']}"
+    partial = folder / f"{MARKED_IDS}.{worker}"
     partial.write_text(json.dumps(marked))
     os.replace(partial, folder / MARKED_IDS)
 
@@ -68,6 +78,9 @@ class RealTimeOnOneWorker(LoadFileScheduling):
     def _marked_ids(self, mark: str) -> set[str]:
         if self._marked is None:
             listed = shared_folder(self.config) / MARKED_IDS
+            if not listed.exists():  # then file by file, as plain loadfile: said, not hidden
+                sys.stderr.write(f"tests/scheduling.py: no {listed} from the workers; the "
+                                 "realtime tests go file by file\n")
             lists = json.loads(listed.read_text()) if listed.exists() else {}
             self._marked = {name: set(ids) for name, ids in lists.items()}
         return self._marked.get(mark, set())

@@ -24,6 +24,8 @@ from tests.clirun import refusal
     (["view", "--ws-allow-origin", "https://lab.example/app"], "an origin has no path"),
     (["view", "--ws-allow-origin", "lab.example"], "is not an origin"),
     (["view", "--ws-token", "short"], "at least 8 characters"),
+    (["view", "--max-qos-depth", "0"], "must be 1 or more"),
+    (["view", "--min-qos-depth", "30"], "--min-qos-depth 30 is more than --max-qos-depth 25"),
     (["walk", "--ws-read-only"], "--ws-read-only goes with --view"),
     (["walk", "--ws-allow-origin", "https://lab.example"], "--ws-allow-origin goes with --view"),
 ])

@@ -56,7 +56,9 @@ def test_realtime_tests_run_on_one_worker_one_after_another(tmp_path: Path) -> N
     (suite / "test_d.py").write_text(_file("d", {}, 12))
     (suite / "test_z.py").write_text(_file("z", {0: "slow", 1: "slow"}, 2))
     record = tmp_path / "record.txt"
-    env = {**os.environ, "RECORD": str(record), "PYTHONPATH": str(ROOT)}
+    # as a fresh make test sees it: not as a worker of the run this test itself runs in
+    env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")},
+           "RECORD": str(record), "PYTHONPATH": str(ROOT)}
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p",
          "no:cacheprovider", "--basetemp", str(tmp_path / "tmp"), str(suite)],

@@ -22,6 +22,10 @@ from servolab.dynamixel.ports import PtyServer
 #: X-series control table (e-Manual, XM430-W350): ID 7, Baud Rate 8, Torque Enable 64
 ID, BAUD_RATE = 7, 8
 
+#: realtime: the SDK's packet timeout is a deadline on the wall clock, which the pty server
+#: may miss beside a test that keeps every core busy (tests/dynamixel/test_sdk_client.py)
+pytestmark = pytest.mark.realtime
+
 
 @pytest.fixture
 def pty() -> Iterator[tuple[PtyServer, Emulator]]:

@@ -292,6 +292,7 @@ def test_a_failed_read_keeps_its_block_length() -> None:
 
 # -- 3. the unmodified SDK as a client of `servolab sim --pty` ------------------------------------
 @pytest.mark.slow
+@pytest.mark.realtime  # the SDK's packet timeout: a wall-clock deadline
 def test_sdk_fast_reads_through_the_pty(tmp_path: Path) -> None:
     """GroupSyncRead.fastSyncRead and GroupBulkRead.fastBulkRead of the SDK, through its own
     PortHandler on the pseudo-terminal: the motors go to the positions written, and the fast

@@ -221,6 +221,42 @@ def test_a_failing_check_does_not_stop_the_dispatch_thread(dds_pair, caplog) -> 
     assert a.spin_until(lambda: got == [1.5], timeout=5.0)
 
 
+def test_clients_of_one_service_share_it_until_the_last_is_destroyed(dds_pair) -> None:
+    """Two clients of /reset on one node, one on another, all sharing the service's two
+    endpoints: each node keeps its claim on them while one of its clients lives, and the
+    endpoints are deleted with the last client (as rclpy's destroy_client deletes a client's;
+    tests/middleware/test_dds_rclpy.py shows the real rclpy's count_clients fall to 0 then).
+    Shared endpoints are one entity in the graph, shown under one of the nodes that claim
+    them, where rclpy would show one per client."""
+    a, b = dds_pair
+    trigger = "std_srvs/srv/Trigger"
+    one, other = Node(b, "one"), Node(b, "other")
+    first, second = one.create_client(trigger, "/reset"), one.create_client(trigger, "/reset")
+    third = other.create_client(trigger, "/reset")
+    shared = b.transport._clients["/reset"]  # type: ignore[attr-defined]
+    gid = shared.writer.get_guid().bytes
+
+    def claimed() -> dict[int, int]:  # each node's live clients of the shared endpoints
+        return {node: count for node, (count, _) in shared.users.items()}
+
+    def in_graph() -> bool:
+        return any(e.kind == "SC" and e.name == "/reset" for e in a.transport.graph())
+
+    assert claimed() == {one.info.node_id: 2, other.info.node_id: 1}
+    assert wait_until(in_graph, timeout=5.0)
+    one.destroy_client(first)
+    assert claimed() == {one.info.node_id: 1, other.info.node_id: 1}
+    assert gid in b.transport._writers[one.info.node_id]  # type: ignore[attr-defined]
+    one.destroy_client(second)                              # node one's last: its claim goes
+    assert claimed() == {other.info.node_id: 1}
+    assert gid not in b.transport._writers[one.info.node_id]  # type: ignore[attr-defined]
+    assert gid in b.transport._writers[other.info.node_id]  # type: ignore[attr-defined]
+    assert b.transport._clients["/reset"] is shared  # type: ignore[attr-defined]
+    other.destroy_client(third)                             # the last of all: deleted
+    assert "/reset" not in b.transport._clients  # type: ignore[attr-defined]
+    assert wait_until(lambda: not in_graph(), timeout=5.0), a.transport.graph()
+
+
 def test_graph_shows_both_participants(dds_pair) -> None:
     a, b = dds_pair
     Node(a, "talker", "/robot1").create_publisher(TWIST, "/cmd_vel")

@@ -162,6 +162,9 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the longest history a topic is read with (default 25, as "
                    "foxglove_bridge's max_qos_depth): each topic keeps what its publishers "
                    "keep, up to N; raise it for bursts longer than that")
+    p.add_argument("--min-qos-depth", type=positive_int, default=1, metavar="N",
+                   help="the shortest (default 1, as foxglove_bridge's min_qos_depth); raise "
+                   "it for publishers whose depth the middleware does not tell (DDS)")
     p.add_argument("--layout", metavar="NAME",
                    help="write a robot's Foxglove/Lichtblick layout (a robot's name, as "
                    "servolab robots lists them, or base) and exit; import it in the app's "
@@ -192,8 +195,12 @@ def serve_graph(args: argparse.Namespace) -> int:
     from servolab.middleware.context import Context
     from servolab.middleware.view import ViewConfig, ViewServer
 
+    if args.min_qos_depth > args.max_qos_depth:
+        raise UsageError(f"--min-qos-depth {args.min_qos_depth} is more than --max-qos-depth "
+                         f"{args.max_qos_depth}")
     with Context.open(transport_options(args)) as ctx, \
             ViewServer(ctx, ViewConfig(host=args.ws_host, port=args.ws_port,
+                                       min_qos_depth=args.min_qos_depth,
                                        max_qos_depth=args.max_qos_depth,
                                        **access_options(args))) as view:
         print(f"serving the graph on {view.control_url}: open it in Foxglove or Lichtblick "

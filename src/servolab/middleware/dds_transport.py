@@ -289,6 +289,10 @@ class DdsPublisher(TransportPublisher):
 
 
 
+def _nothing() -> None:
+    pass
+
+
 class _Client:
     """One service's request writer and reply reader, shared by the calls made through it.
 
@@ -313,23 +317,29 @@ class _Client:
         self._bare_reader: DataReader[Any] | None = None
         self._bare: Future[Any] | None = None
         self._bare_lock = threading.Lock()  # one call in flight to a Fast DDS server
+        #: the clients declared on it and not yet closed, by node, with what undoes that
+        #: node's claim on its endpoints in ros_discovery_info (DdsTransport.declare_client):
+        #: a node's last one closed undoes it, the last one of all deletes the endpoints
+        self.users: dict[int, tuple[int, Callable[[], None]]] = {}
+        self._closed = False
         self._bare_since: float | None = None
         self._bare_sent_ns = 0
 
     def close(self) -> None:
         """Delete its endpoints, as rclpy's ``destroy_client`` does, so that the servers'
         graphs (``count_clients``) no longer count it; a call still waiting fails."""
-        with self._lock:
+        with self._lock:  # no bare endpoints opened after this (see _open_bare)
+            self._closed = True
             pending, self._pending = list(self._pending.values()), {}
+            readers = [r for r in (self.reader, self._bare_reader) if r is not None]
+            writers = [w for w in (self.writer, self._bare_writer) if w is not None]
         for future in [*pending, *([self._bare] if self._bare is not None else [])]:
             if not future.done():
                 future.set_exception(ServiceError(f"service {self.name}: the client was "
                                                   "destroyed before the answer came"))
-        readers = [r for r in (self.reader, self._bare_reader) if r is not None]
         for reader in readers:
             self.transport._unwatch(reader)
-        self.transport._delete(*readers, *[w for w in (self.writer, self._bare_writer)
-                                           if w is not None])
+        self.transport._delete(*readers, *writers)
 
     @staticmethod
     def _matched(writer: DataWriter[Any] | None, reader: DataReader[Any] | None) -> bool:
@@ -355,6 +365,8 @@ class _Client:
 
     def _open_bare(self) -> None:
         with self._lock:
+            if self._closed:
+                raise ServiceError(f"service {self.name}: the client was destroyed")
             if self._bare_writer is None:
                 participant = self.transport.bare_participant()
                 self._bare_reader = self.transport._reader(
@@ -509,7 +521,6 @@ class DdsTransport(Transport):
         self._readers: dict[int, set[bytes]] = {}
         self._writers: dict[int, set[bytes]] = {}
         self._clients: dict[str, _Client] = {}
-        self._client_users: dict[str, int] = {}  # the clients declared on each, not yet closed
         self._warned: set[str] = set()
         # the graph: every participant's nodes (ros_discovery_info), and DDS's own discovery
         self._peers: dict[bytes, Any] = {}
@@ -791,16 +802,25 @@ class DdsTransport(Transport):
             client = self._clients.get(name)
             if client is None or client.srv.name != srv.name:
                 client = self._clients[name] = _Client(self, name, srv)
-            self._client_users[name] = self._client_users.get(name, 0) + 1
-        undo_gids = self._own_gids(node, client)
+            count, undo_gids = client.users.get(node.node_id, (0, _nothing))
+            client.users[node.node_id] = (count + 1, undo_gids)
+        if count == 0:  # the node's first: its claim, made outside the lock as before
+            undo_gids = self._own_gids(node, client)
+            with self._lock:
+                now, _ = client.users.get(node.node_id, (0, _nothing))
+                if now:
+                    client.users[node.node_id] = (now, undo_gids)
 
         def close() -> None:
-            undo_gids()
             with self._lock:
-                users = self._client_users[name] = self._client_users[name] - 1
-                last = users == 0 and self._clients.get(name) is client
-                if last:
-                    del self._clients[name], self._client_users[name]
+                count, undo_gids = client.users.pop(node.node_id)
+                if count > 1:
+                    client.users[node.node_id] = (count - 1, undo_gids)
+                last = not client.users
+                if last and self._clients.get(name) is client:
+                    del self._clients[name]
+            if count == 1:
+                undo_gids()
             if last and not self._closed:
                 client.close()
         return Declared(close)

@@ -172,8 +172,9 @@ def cyclone_config(range_: str, peers: list[str], *, max_participants: int = 32)
     # can read them: Cyclone sends them key-only, and without a key hash their payload is
     # 28 bytes, which Fast DDS 2.14 (ROS 2 Jazzy's) drops ("Ignoring Serialized Payload for
     # too large key-only data", MessageReceiver::proc_Submsg_Data takes 16 at most). A
-    # servolab node's endpoints then stayed in every rmw_fastrtps graph until Cyclone's 10 s
-    # lease ran out, and for ever while the process lived (count_clients never reached 0).
+    # servolab node's deleted endpoints then stayed in every rmw_fastrtps graph for as long
+    # as the participant lived, and a participant that left was seen gone only when Cyclone's
+    # 10 s lease ran out (an rclpy server waiting for count_clients to reach 0 waited 10 s).
     internal = "<Internal><GenerateKeyhash>true</GenerateKeyhash></Internal>"
     return (f"<CycloneDDS><Domain id=\"any\">{general}<Discovery>{discovery}</Discovery>"
             f"{internal}</Domain></CycloneDDS>")

@@ -137,10 +137,16 @@ class ViewConfig:
     start_timeout: float = 10.0       # s to wait for the socket to listen
     close_timeout: float = 1.0        # s a viewer that reads nothing may hold up close()
     #: a topic is read with the history its publishers keep, as foxglove_bridge reads it: the
-    #: sum of their depths (each at least 1; a KEEP_ALL publisher's, max_qos_depth), within
-    #: these bounds (foxglove_bridge's parameters of the same names, and their defaults)
+    #: sum of their depths (each at least 1), within these bounds (foxglove_bridge's
+    #: parameters of the same names, and their defaults; see subscription_qos)
     min_qos_depth: int = 1
     max_qos_depth: int = 25
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.min_qos_depth <= self.max_qos_depth:
+            raise MiddlewareError(f"min_qos_depth {self.min_qos_depth} and max_qos_depth "
+                                  f"{self.max_qos_depth}: need 1 <= min_qos_depth <= "
+                                  "max_qos_depth")
 
 
 @dataclass(eq=False)
@@ -243,11 +249,13 @@ def subscription_qos(offers: Iterable[QoSProfile | None], *, min_depth: int = 1,
     at least 1 (three ``/tf_static`` broadcasters of depth 1 keep three), no less than
     ``min_depth`` and no more than ``max_depth`` (its ``min_qos_depth``/``max_qos_depth``), so
     a burst a publisher keeps reaches a viewer that keeps up. A publisher whose depth is
-    unknown counts 1; a KEEP_ALL one, ``max_depth``."""
+    unknown counts 1, as foxglove_bridge counts a depth the middleware does not report (DDS
+    discovery carries none); a KEEP_ALL one counts what it would keep of its history
+    (:data:`~..qos.KEEP_ALL_HISTORY`), so that the bound applies and is said, a rule
+    foxglove_bridge does not have."""
     offers = list(offers)
     reliability, durability = adapted_policies(offers)
-    wanted = max(min_depth, sum(1 if q is None else max_depth if q.keep_all else max(1, q.depth)
-                                for q in offers))
+    wanted = max(min_depth, sum(1 if q is None else max(1, q.history_depth) for q in offers))
     return (QoSProfile(depth=min(wanted, max_depth), reliability=reliability,
                        durability=durability), wanted)
 
@@ -378,10 +386,15 @@ class ViewServer:
     @property
     def history_dropped(self) -> int:
         """Messages the view's subscriptions dropped to keep their depth (a burst longer than
-        the publishers keep, or than ``max_qos_depth``), ever; none while the view keeps up."""
-        feeds = list(self._feeds.values())
-        return self._history_dropped + sum(f.subscription.dropped for f in feeds
-                                           if f.subscription is not None)
+        the publishers keep, or than ``max_qos_depth``), ever; none while the view keeps up.
+        Counted where the transport counts them (in one process, DDS); Zenoh's ring channel
+        drops without a count, so over Zenoh this stays 0."""
+        dropped = self._history_dropped
+        for feed in list(self._feeds.values()):
+            subscription = feed.subscription  # once: the loop may end the feed meanwhile
+            if subscription is not None:
+                dropped += subscription.dropped
+        return dropped
 
     @property
     def viewers(self) -> int:
