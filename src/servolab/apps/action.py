@@ -165,24 +165,27 @@ def send_goal_message(ctx: Context, name: str, type_name: str, goal: Any, say: S
             say(f"Feedback:\n    {_yaml(ctx, message.feedback)}\n")
 
     sent = client.send_goal_async(goal, feedback_callback=on_feedback if feedback else None)
+    # one try from the goal's sending to its result: Ctrl-C at any line printed on the way (a
+    # feedback held back and printed after the acceptance, too) cancels an accepted goal
+    handle = None
     try:
         handle = client._wait(sent)
+        if not handle.accepted:
+            say("Goal was rejected.")
+            return 0
+        say(f"Goal accepted with ID: {bytes(bytearray(handle.goal_id.uuid)).hex()}\n")
+        waiting, early = early, None
+        for message in waiting or []:
+            on_feedback(message)
+        response = client._wait(handle.get_result_async())
     except KeyboardInterrupt:
-        say("Interrupted before the server answered the goal.")
-        if sent.done() and sent.result().accepted:
-            return _cancel(client, sent.result(), say)
-        return STATUS_UNKNOWN
-    if not handle.accepted:
-        say("Goal was rejected.")
-        return 0
-    say(f"Goal accepted with ID: {bytes(bytearray(handle.goal_id.uuid)).hex()}\n")
-    waiting, early = early, None
-    for message in waiting or []:
-        on_feedback(message)
-    result_future = handle.get_result_async()
-    try:
-        response = client._wait(result_future)
-    except KeyboardInterrupt:
+        if handle is None:
+            say("Interrupted before the server answered the goal.")
+            if not (sent.done() and sent.result().accepted):
+                return STATUS_UNKNOWN
+            handle = sent.result()
+        elif not handle.accepted:
+            raise
         return _cancel(client, handle, say)
     say(f"Result:\n    {_yaml(ctx, response.result)}\n")
     status = int(response.status)
