@@ -160,6 +160,7 @@ def test_three_waffles_on_three_hosts_reach_their_goals_through_a_router_killed_
                                                                           stopped - killed)
                 with started(router) as second_router:
                     wait_for_line(second_router, "listening on", timeout=20)
+                    gone = time.time() - killed  # the router's absence, as the test saw it
                     outcomes = [n.communicate(timeout=150) for n in running]
                     for namespace, process, (said, _) in zip(GOALS, running, outcomes,
                                                               strict=True):
@@ -174,9 +175,13 @@ def test_three_waffles_on_three_hosts_reach_their_goals_through_a_router_killed_
         assert summary["status"] == "SUCCEEDED", summary
         assert summary["cmd_vel"] == f"{namespace}/diff_drive_controller/cmd_vel"
         assert summary["goal_distance_m"] <= summary["xy_goal_tolerance_m"], summary
-        # the outage: one, at least as long as the router was gone, odometry lost across it
+        # the outage: one across the router's absence, odometry lost across it. A navigator
+        # that a loaded machine held up for over OUTAGE_S reports that silence too (seen in
+        # a clean-clone run: 0.64 s at the start, 21 lost from its queue, beside the router's
+        # 3.1 s), so the router's is told by its length: the navigator hears nothing from
+        # the kill to the new router, less what was in flight at the kill
         outages = summary["outages"]
-        assert len(outages) == 1, outages
-        assert outages[0]["seconds"] >= CMD_VEL_TIMEOUT, outages
-        assert outages[0]["lost"] >= round(CMD_VEL_TIMEOUT / ODOM_PERIOD), outages
-        assert summary["odometry_lost"] == outages[0]["lost"]
+        router_gone = [o for o in outages if o["seconds"] >= gone / 2]
+        assert len(router_gone) == 1, outages
+        assert router_gone[0]["lost"] >= round(CMD_VEL_TIMEOUT / ODOM_PERIOD), outages
+        assert summary["odometry_lost"] == sum(o["lost"] for o in outages)
