@@ -16,6 +16,12 @@ Four setups, each with the same two roles, a *main* side that measures and an *e
   ``servolab.middleware.fast_cdr``), rmw_zenoh's key expressions and attachment, the
   subscription queue and the executor.
 
+Every process of every setup runs with the C heap servolab gives its own processes
+(:mod:`servolab.middleware.heap`: freed memory kept, not faulted in again), the bare ones too:
+a Zenoh ``put`` copies a frame into a new buffer, and with glibc's defaults bare Zenoh's
+one-process Image rate is about an eighth of what it is with that heap, which would measure
+the heap rather than servolab.
+
 **Latency** is half the round trip of one message echoed back (ping-pong, one message in
 flight), from before ``publish`` to the moment the main side's callback has the answer, given
 as the median and 99th percentile. **Throughput** is one way: the main side publishes N
@@ -73,6 +79,7 @@ import numpy as np
 import zenoh
 
 from servolab.middleware.context import Context
+from servolab.middleware.heap import keep_freed_memory
 from servolab.middleware.messages import MessageTypes, copy_message
 from servolab.middleware.node import Node
 from servolab.middleware.transport import TransportOptions
@@ -495,6 +502,7 @@ def _loopback() -> str:
 
 def run_child(engine: str, type_name: str, flood: int, endpoint: str) -> int:
     """Echo until stdin closes (the parent is done, or gone)."""
+    keep_freed_memory()  # the same heap for either engine (the module docstring)
     options = TransportOptions("zenoh", connect=[endpoint])
 
     def wait_for_parent() -> None:
@@ -578,6 +586,7 @@ def main(argv: Sequence[str] | None = None,
     if args.child:
         return run_child(args.child, args.type, args.flood, args.connect)
 
+    keep_freed_memory()  # the same heap for every setup (the module docstring)
     sizes = QUICK if args.quick else FULL
     types = MessageTypes()
     print(f"servolab middleware benchmark: Python {platform.python_version()}, "

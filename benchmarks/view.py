@@ -36,6 +36,9 @@ message) are measured in the same run, so they carry over to other machines bett
 absolute figures. servolab's figures include its CDR serialization in ``publish`` (printed
 alone at the end); the SDK's do not.
 
+Both run with the C heap servolab gives its processes (:mod:`servolab.middleware.heap`), set
+before either is measured: they share the process, so the heap is the same for both.
+
 Servers listen on free ports (port 0) and are stopped at the end of their setup.
 
 Run: ``.venv/bin/python benchmarks/view.py [--quick] [--json PATH]``.
@@ -70,6 +73,7 @@ from websockets.asyncio.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
 from servolab.middleware.context import Context
+from servolab.middleware.heap import keep_freed_memory
 from servolab.middleware.messages import MessageTypes
 from servolab.middleware.node import Node
 from servolab.middleware.view import ViewConfig, ViewServer
@@ -489,6 +493,7 @@ def main(argv: Sequence[str] | None = None,
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args(argv)
 
+    keep_freed_memory()  # before either setup: the heap is the process's (the docstring)
     sizes = QUICK if args.quick else FULL
     types = MessageTypes()
     print(f"servolab view benchmark: Python {platform.python_version()}, foxglove-sdk "

@@ -23,6 +23,7 @@ from servolab.signals import on_stop_signals
 
 from .errors import TransportError
 from .executor import Executor
+from .heap import keep_freed_memory
 from .local import LocalTransport
 from .malformed import MalformedMessages
 from .messages import MessageTypes
@@ -56,6 +57,7 @@ class Context:
 
     def __init__(self, transport: Transport, *, clock: Clock | None = None,
                  parameter_overrides: ParameterOverrides | None = None) -> None:
+        keep_freed_memory()  # big messages reuse the heap's memory (servolab.middleware.heap)
         self.transport = transport
         self.types = transport.types
         self.clock: Clock = clock or WallClock()
@@ -73,6 +75,7 @@ class Context:
     def open(cls, options: TransportOptions | None = None, *, types: MessageTypes | None = None,
              clock: Clock | None = None,
              parameter_overrides: ParameterOverrides | None = None) -> Context:
+        keep_freed_memory()  # first: a bad SERVOLAB_KEEP_FREED_MB is said before joining
         types = types or MessageTypes()
         transport = open_transport(options or TransportOptions(), types)
         return cls(transport, clock=clock, parameter_overrides=parameter_overrides)
