@@ -14,7 +14,7 @@ import pytest
 
 from servolab.apps.action import send_goal_message
 from servolab.middleware.context import Context
-from servolab.rclpy.action import ActionServer, CancelResponse
+from servolab.rclpy.action import ActionClient, ActionServer, CancelResponse
 from servolab.rclpy.action.server import STATUS_CANCELED
 from servolab.rclpy.node import Node
 from servolab.rclpy.task import Future
@@ -56,8 +56,13 @@ class Server:
 
 
 @pytest.mark.parametrize("interrupted_at", ["Goal accepted", "Feedback:"])
-def test_ctrl_c_at_any_line_after_acceptance_cancels_the_goal(interrupted_at: str) -> None:
+def test_ctrl_c_at_any_line_after_acceptance_cancels_the_goal(
+        interrupted_at: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The feedback is made to come before the acceptance is printed, every time: the goal's
+    answer is handed back only once two feedbacks have reached the client, so they are held
+    back and printed after the acceptance line, where the CI run's interrupt landed."""
     printed: list[str] = []
+    delivered: list[Any] = []
 
     def say(line: str) -> None:
         printed.append(line)
@@ -65,6 +70,24 @@ def test_ctrl_c_at_any_line_after_acceptance_cancels_the_goal(interrupted_at: st
                 p.startswith(interrupted_at) for p in printed[:-1]):
             raise KeyboardInterrupt
 
+    send_goal_async, wait = ActionClient.send_goal_async, ActionClient._wait
+
+    def counted_send_goal_async(self: ActionClient, goal: Any,
+                                feedback_callback: Any = None) -> Future:
+        def counted(message: Any) -> None:
+            delivered.append(message)
+            feedback_callback(message)
+        return send_goal_async(self, goal, counted if feedback_callback else None)
+
+    def held_wait(self: ActionClient, future: Future) -> Any:
+        printed.append("<waiting>")
+        result = wait(self, future)
+        if printed.count("<waiting>") == 1:  # the goal's answer: feedback first
+            assert self._node.context.executor.spin_until(lambda: len(delivered) >= 2, 30)
+        return result
+
+    monkeypatch.setattr(ActionClient, "send_goal_async", counted_send_goal_async)
+    monkeypatch.setattr(ActionClient, "_wait", held_wait)
     with Context.open() as ctx:
         server = Server(ctx)
         goal = server.node.message(f"{FIBONACCI}_Goal", order=40)
@@ -80,3 +103,24 @@ def test_ctrl_c_at_any_line_after_acceptance_cancels_the_goal(interrupted_at: st
     assert server.canceled.is_set(), printed
     assert printed[-2:] == ["Canceling goal...", "Goal canceled."], printed
     assert status == STATUS_CANCELED
+    # the held-back feedback printed straight after the acceptance, before the result's wait
+    accepted = next(i for i, line in enumerate(printed) if line.startswith("Goal accepted"))
+    if interrupted_at == "Feedback:":
+        assert printed[accepted + 1].startswith("Feedback:"), printed
+    assert printed.count("<waiting>") == 1, printed  # interrupted before the result's wait
+
+
+def test_ctrl_c_after_the_goal_ended_cancels_nothing() -> None:
+    """ros2action's send_goal cancels only a goal still ACCEPTED or EXECUTING (ros2cli,
+    ros2action/verb/send_goal.py): the interrupt after the end keeps the end."""
+    from servolab.apps.action import _cancel
+
+    class Ended:
+        status = 4  # SUCCEEDED
+
+        def cancel_goal_async(self) -> Future:
+            raise AssertionError("a cancel was sent for a goal that had ended")
+
+    printed: list[str] = []
+    assert _cancel(None, Ended(), printed.append) == 4
+    assert printed == []

@@ -32,11 +32,12 @@ if TYPE_CHECKING:
 Say = Callable[[str], None]
 _SEND_GOAL = "/_action/send_goal"
 _SEND_GOAL_TYPE = "_SendGoal"
-#: action_msgs/msg/GoalStatus' states by number, as ros2action prints them
 #: how long Ctrl-C waits for the server to answer the cancel, and then for the goal's end
 CANCEL_WAIT_S = 5.0
-STATUS_UNKNOWN = 0
-STATUS_SUCCEEDED = 4
+#: action_msgs/msg/GoalStatus' states used here (servolab.rclpy.action.server has them all;
+#: not imported from there, which a command's --help would pay for), and all by number, as
+#: ros2action prints them
+STATUS_UNKNOWN, STATUS_ACCEPTED, STATUS_EXECUTING, STATUS_SUCCEEDED = 0, 1, 2, 4
 STATUS_NAMES = {0: "UNKNOWN", 1: "ACCEPTED", 2: "EXECUTING", 3: "CANCELING", 4: "SUCCEEDED",
                 5: "CANCELED", 6: "ABORTED"}
 
@@ -194,9 +195,13 @@ def send_goal_message(ctx: Context, name: str, type_name: str, goal: Any, say: S
 
 
 def _cancel(client: Any, handle: Any, say: Say) -> int:
-    """Ctrl-C while the goal ran: cancel it, as ros2action's send_goal does."""
-    say("Canceling goal...")
+    """Ctrl-C while the goal ran: cancel it, as ros2action's send_goal does, only while it is
+    accepted or executing (a goal that has just ended keeps its end). The cancel goes out
+    before the line is printed, so a second Ctrl-C on the line does not keep it in."""
+    if int(handle.status) not in (STATUS_ACCEPTED, STATUS_EXECUTING):
+        return int(handle.status)
     canceling = handle.cancel_goal_async()
+    say("Canceling goal...")
     executor = client._node.context.executor
     executor.spin_until(canceling.done, CANCEL_WAIT_S)
     if not canceling.done():
