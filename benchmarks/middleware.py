@@ -210,13 +210,16 @@ def publish_costs(types: MessageTypes, quick: bool = False) -> dict[str, float]:
 class ServolabEcho(Node):
     """Republishes every ping as a pong; counts the flood and answers each ``flood`` of it."""
 
-    def __init__(self, context: Context, type_name: str, flood: int) -> None:
+    def __init__(self, context: Context, type_name: str, flood: int,
+                 on_arrival: bool = False) -> None:
         super().__init__(context, "bench_echo")
         self.flood, self.counted = flood, 0
         self.pong = self.create_publisher(type_name, PONG, 0)
         self.ack = self.create_publisher(COUNT, FLOOD_ACK, 0)
-        self.create_subscription(type_name, PING, self.pong.publish, 0)
-        self.create_subscription(type_name, FLOOD, self._on_flood, 0)
+        self.create_subscription(type_name, PING, self.pong.publish, 0,
+                                 run_on_arrival=on_arrival)
+        self.create_subscription(type_name, FLOOD, self._on_flood, 0,
+                                 run_on_arrival=on_arrival)
 
     def _on_flood(self, msg: Any) -> None:
         self.counted += 1
@@ -259,14 +262,15 @@ class MainSide(Protocol):
 class ServolabMain(Node):
     """Publishes pings and floods, hears pongs and acks, all through one executor."""
 
-    def __init__(self, context: Context, type_name: str, msg: Any) -> None:
+    def __init__(self, context: Context, type_name: str, msg: Any,
+                 on_arrival: bool = False) -> None:
         super().__init__(context, "bench_main")
         self.msg = msg
         self.pongs, self.acked, self.last_pong = 0, 0, None
         self.ping = self.create_publisher(type_name, PING, 0)
         self.flood_pub = self.create_publisher(type_name, FLOOD, 0)
-        self.create_subscription(type_name, PONG, self._on_pong, 0)
-        self.create_subscription(COUNT, FLOOD_ACK, self._on_ack, 0)
+        self.create_subscription(type_name, PONG, self._on_pong, 0, run_on_arrival=on_arrival)
+        self.create_subscription(COUNT, FLOOD_ACK, self._on_ack, 0, run_on_arrival=on_arrival)
 
     def _on_pong(self, msg: Any) -> None:
         self.pongs += 1
@@ -419,10 +423,12 @@ def free_port() -> int:
 
 
 @contextmanager
-def child(engine: str, type_name: str, flood: int, endpoint: str) -> Iterator[None]:
+def child(engine: str, type_name: str, flood: int, endpoint: str,
+          on_arrival: bool = False) -> Iterator[None]:
     """The echo side in its own OS process; stopped (stdin closed, then killed) on exit."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", engine,
-           "--type", type_name, "--flood", str(flood), "--connect", endpoint]
+           "--type", type_name, "--flood", str(flood), "--connect", endpoint,
+           *(["--run-on-arrival"] if on_arrival else [])]
     proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:
@@ -444,7 +450,7 @@ def child(engine: str, type_name: str, flood: int, endpoint: str) -> Iterator[No
 
 
 def run_setup(engine: str, processes: int, type_name: str, sizes: Sizes,
-              types: MessageTypes) -> Figures:
+              types: MessageTypes, on_arrival: bool = False) -> Figures:
     msg = sample_message(types, type_name)
     payload = types.serialize(msg, type_name)
     label = f"{SHORT_NAMES[type_name]}, {engine}, {processes} process(es)"
@@ -469,8 +475,8 @@ def run_setup(engine: str, processes: int, type_name: str, sizes: Sizes,
         options = TransportOptions("zenoh", listen=[endpoint])
         if engine == "servolab":
             with Context.open(options, types=types) as context:
-                main_node = ServolabMain(context, type_name, msg)
-                with child(engine, type_name, sizes.flood, endpoint):
+                main_node = ServolabMain(context, type_name, msg, on_arrival)
+                with child(engine, type_name, sizes.flood, endpoint, on_arrival):
                     half_trips, rates = measure(main_node, label, sizes)
         else:
             session = open_session(options)
@@ -500,7 +506,8 @@ def _loopback() -> str:
 # -- the child process -----------------------------------------------------------------------
 
 
-def run_child(engine: str, type_name: str, flood: int, endpoint: str) -> int:
+def run_child(engine: str, type_name: str, flood: int, endpoint: str,
+              on_arrival: bool = False) -> int:
     """Echo until stdin closes (the parent is done, or gone)."""
     keep_freed_memory()  # the same heap for either engine (the module docstring)
     options = TransportOptions("zenoh", connect=[endpoint])
@@ -510,7 +517,7 @@ def run_child(engine: str, type_name: str, flood: int, endpoint: str) -> int:
 
     if engine == "servolab":
         with Context.open(options) as context:
-            ServolabEcho(context, type_name, flood)
+            ServolabEcho(context, type_name, flood, on_arrival)
 
             def stop_when_parent_is_done() -> None:
                 wait_for_parent()
@@ -578,20 +585,26 @@ def main(argv: Sequence[str] | None = None,
                         help="measure every setup this many times, one run after the other, "
                              "and end with the spread of the ratios and how many runs met "
                              "each target (the report above it is the last run's)")
+    parser.add_argument("--run-on-arrival", action="store_true",
+                        help="servolab's subscriptions between processes run a message that "
+                             "finds the executor idle on the thread that received it "
+                             "(Subscription's run_on_arrival), a thread wake-up sooner")
     parser.add_argument("--child", choices=("servolab", "zenoh"), help=argparse.SUPPRESS)
     parser.add_argument("--type", default=TWIST, help=argparse.SUPPRESS)
     parser.add_argument("--flood", type=int, default=1, help=argparse.SUPPRESS)
     parser.add_argument("--connect", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        return run_child(args.child, args.type, args.flood, args.connect)
+        return run_child(args.child, args.type, args.flood, args.connect,
+                         args.run_on_arrival)
 
     keep_freed_memory()  # the same heap for every setup (the module docstring)
     sizes = QUICK if args.quick else FULL
     types = MessageTypes()
     print(f"servolab middleware benchmark: Python {platform.python_version()}, "
           f"eclipse-zenoh {_version('eclipse-zenoh')}, rosbags {_version('rosbags')}, "
-          f"{platform.machine()}{' (quick)' if args.quick else ''}")
+          f"{platform.machine()}{' (quick)' if args.quick else ''}"
+          f"{'; run_on_arrival between processes' if args.run_on_arrival else ''}")
     if args.runs < 1:
         parser.error(f"--runs must be at least 1, got {args.runs}")
     runs: list[list[Figures]] = []
@@ -601,7 +614,8 @@ def main(argv: Sequence[str] | None = None,
             for engine, processes in SETUPS:
                 progress(f"  run {run + 1}/{args.runs}, measuring {SHORT_NAMES[type_name]}: "
                          f"{engine}, {processes} process(es)...")
-                rows.append(run_setup(engine, processes, type_name, sizes[type_name], types))
+                rows.append(run_setup(engine, processes, type_name, sizes[type_name], types,
+                                      args.run_on_arrival))
         runs.append(rows)
 
     print()

@@ -12,7 +12,9 @@ the same machine) is when it was published. The receiver records, per message:
 
 The anchor, measured in the same run, is a bare ``threading.Condition`` wake-up between two
 threads of this process (one notifies, one waits): what a thread wake-up costs on this machine,
-nothing of Zenoh's or servolab's in it. The hop is printed as a ratio to it. The watcher's
+nothing of Zenoh's or servolab's in it. The hop is printed as a ratio to it. The same is then
+measured with the subscription's ``run_on_arrival`` (a message that finds the executor idle
+runs on the watcher: no thread woken between the watcher and the callback). The watcher's
 moment is taken by wrapping the inbox's private wake function: this file measures servolab's
 internals and says so.
 
@@ -125,9 +127,9 @@ def stop(proc: subprocess.Popen[str]) -> None:
         proc.wait()
 
 
-def measure_servolab(count: int) -> dict[str, list[float]]:
+def measure_servolab(count: int, on_arrival: bool = False) -> dict[str, list[float]]:
     """Per message: the watcher's and the callback's delay after publishing (us), and the
-    hop between them."""
+    hop between them; with ``on_arrival``, the subscription's ``run_on_arrival``."""
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     watcher: dict[int, int] = {}
     callback: dict[int, int] = {}
@@ -139,7 +141,8 @@ def measure_servolab(count: int) -> dict[str, list[float]]:
             callback[info.sequence_number] = time.time_ns()
             sent[info.sequence_number] = info.source_timestamp_ns
 
-        sub = node.create_subscription(TWIST, TOPIC, on_twist, 10, with_info=True)
+        sub = node.create_subscription(TWIST, TOPIC, on_twist, 10, with_info=True,
+                                       run_on_arrival=on_arrival)
         inbox = sub._inbox  # the watcher hands its sample over through the inbox's wake
         wake: Callable[[], None] = inbox._wake  # type: ignore[attr-defined]
 
@@ -218,6 +221,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     types = MessageTypes()
     anchor = condition_wakeup_us(count)
     ours = measure_servolab(count)
+    arrival = measure_servolab(count, on_arrival=True)
     bare = measure_zenoh(count, types)
     print(f"one Twist every {PERIOD * 1e3:g} ms between two processes, {count} messages "
           f"({len(ours['hop_us'])} of them found servolab's executor idle); delays after "
@@ -226,6 +230,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             ("servolab: watcher has the sample", ours["watcher_us"]),
             ("servolab: callback (executor's thread)", ours["callback_us"]),
             ("servolab: watcher -> callback (the hop)", ours["hop_us"]),
+            ("run_on_arrival: callback (watcher's thread)", arrival["callback_us"]),
+            ("run_on_arrival: watcher -> callback", arrival["hop_us"]),
             ("anchor: threading.Condition wake-up", anchor)]
     for label, values in rows:
         print(f"  {label:42} {percentile(values, 0.5):8.1f} {percentile(values, 0.9):8.1f}")
@@ -233,8 +239,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"the hop is x{hop / wake:.2f} of a bare thread wake-up; servolab's callback comes "
           f"x{statistics.median(ours['callback_us']) / statistics.median(bare['callback_us']):.2f}"
           " as late as bare zenoh's")
+    late = statistics.median(arrival["callback_us"]) / statistics.median(bare["callback_us"])
+    print(f"with run_on_arrival the callback comes x{late:.2f} as late as bare zenoh's (no "
+          "thread woken: it runs on the watcher)")
     if args.json:
         args.json.write_text(json.dumps({"count": count, "anchor_us": anchor, **ours,
+                                         "run_on_arrival": arrival,
                                          "zenoh_callback_us": bare["callback_us"]}))
     return 0
 

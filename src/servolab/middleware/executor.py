@@ -2,7 +2,10 @@
 
 Transports deliver from their own threads (Zenoh's, a publisher's); the executor queues the
 work and runs it on the thread that spins, one callback at a time, as rclpy's
-``SingleThreadedExecutor`` does, so a node's callbacks never race each other.
+``SingleThreadedExecutor`` does, so a node's callbacks never race each other. (A
+subscription made with ``run_on_arrival`` may have a message that finds the executor idle run
+on the thread that received it, :meth:`Executor.run_if_idle`; the spinner waits meanwhile, so
+still one callback at a time.)
 
 On a virtual clock, an executor with nothing to do asks the clock's owner to move time to the
 next timer instead of waiting (on a :class:`servolab.sim.Simulation` that steps every world on
@@ -148,6 +151,11 @@ class Executor:
         self._cond = threading.Condition(self._lock)
         self._ready: deque[Callable[[], None]] = deque()
         self._sleepers = 0  # spinning threads waiting on _cond for work
+        self._asleep: set[int] = set()  # which threads those are
+        #: the thread running a callback that arrived while the executor was idle
+        #: (:meth:`run_if_idle`); the spinner waits for it
+        self._idle_runner: int | None = None
+        self._idle_runs = 0  # how many such runs ended: a sleeping spinner then looks again
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
         self._thread: SpinThread | None = None
@@ -244,6 +252,8 @@ class Executor:
     def spinning_elsewhere(self) -> bool:
         """True when another thread spins this executor (so a ``Rate`` may just sleep)."""
         ident = threading.get_ident()
+        if self._idle_runner == ident:
+            return False  # the spinner waits for this thread (run_if_idle): it spins itself
         return any(other != ident for other in list(self._spinning))
 
     @property
@@ -295,8 +305,19 @@ class Executor:
     def _next_work(self, timeout: float | None) -> Callable[[], None] | None:
         clock = self.clock
         deadline = None if timeout is None else clock.now() + timeout
+        me = threading.get_ident()
         with self._lock:
+            idle_runs = self._idle_runs
             while True:
+                if self._idle_runs != idle_runs:
+                    # a callback ran on the thread its message came on while this one slept:
+                    # back to the caller, whose condition it may have met (spin_until)
+                    return None
+                if self._idle_runner is not None and self._idle_runner != me:
+                    # a callback runs on the thread it arrived on: one at a time, so this
+                    # thread neither runs work nor returns until it is done (run_if_idle)
+                    self._cond.wait(0.05)
+                    continue
                 if self._shutdown:
                     return None
                 while self._timers and (self._timers[0][2].cancelled
@@ -331,6 +352,7 @@ class Executor:
                 # say we sleep, then look again: a submit() that came after the look above
                 # and before this either is seen now or sees _sleepers and notifies
                 self._sleepers += 1
+                self._asleep.add(me)
                 try:
                     if not self._ready and not self._shutdown:
                         # on a virtual clock with no timer only another thread can bring work
@@ -338,6 +360,40 @@ class Executor:
                                         None if wake is None else max(0.0, wake - now))
                 finally:
                     self._sleepers -= 1
+                    self._asleep.discard(me)
+
+    def run_if_idle(self, work: Callable[[], None]) -> bool:
+        """Run ``work`` on the calling thread now if the executor has nothing else to do: one
+        thread spins it and sleeps, no work waits and no timer is due. Whether it ran.
+
+        What a subscription that asked for it (``run_on_arrival``) does on the thread its
+        transport received the message on (Zenoh's inbox watcher), so the message does not
+        wait for that thread to wake the spinning one: the one thread wake-up between
+        servolab's callback and bare Zenoh's (``benchmarks/wakeups.py``). Callbacks still
+        run one at a time: the spinner, asleep, neither runs work nor returns until ``work``
+        is done. ``work`` counts as spinning (a ``Client.call`` in it spins here); what it
+        raises is given to the spinner, as a spin thread's error is to its owner."""
+        me = threading.get_ident()
+        with self._lock:
+            spinning = self._spinning
+            if (self._shutdown or self._idle_runner is not None or self.clock.virtual
+                    or self._ready or self._sleepers != 1 or len(spinning) != 1
+                    or me in spinning or self._asleep != spinning.keys()
+                    or (self._timers and self._timers[0][0] <= self.clock.now())):
+                return False
+            self._idle_runner = me
+            spinning[me] = 1
+        try:
+            work()
+        except BaseException as error:  # the spinner's to raise, not this thread's to die of
+            self._failed(error)
+        finally:
+            with self._cond:
+                spinning.pop(me, None)
+                self._idle_runner = None
+                self._idle_runs += 1
+                self._cond.notify_all()  # the spinner looks again (spin_until's condition)
+        return True
 
     def spin_until(self, done: Callable[[], bool], timeout: float | None = None) -> bool:
         """Spin until ``done()`` is true (checked after each callback) or ``timeout`` passes;

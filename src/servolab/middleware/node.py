@@ -134,12 +134,16 @@ class Node:
 
     def create_subscription(self, msg_type: str | type, topic: str,
                             callback: Callable[..., Any], qos_profile: QoSProfile | int = 10,
-                            *, raw: bool = False, with_info: bool = False) -> Subscription:
+                            *, raw: bool = False, with_info: bool = False,
+                            run_on_arrival: bool = False) -> Subscription:
         """``callback(msg)`` for each message (``callback(msg, info)`` with
         ``with_info=True``; ``raw=True`` gives the CDR bytes). QoS as for publishers; a
-        TRANSIENT_LOCAL subscription receives what TRANSIENT_LOCAL publishers kept."""
+        TRANSIENT_LOCAL subscription receives what TRANSIENT_LOCAL publishers kept.
+        ``run_on_arrival=True``: over Zenoh, a message that finds the executor idle is run on
+        the thread that received it, a thread wake-up sooner (:class:`Subscription`)."""
         sub = Subscription(self, self._type_name(msg_type), self.resolve(topic), callback,
-                           as_profile(qos_profile), raw=raw, with_info=with_info)
+                           as_profile(qos_profile), raw=raw, with_info=with_info,
+                           run_on_arrival=run_on_arrival)
         self._entities.append(sub)
         return sub
 

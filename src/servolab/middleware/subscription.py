@@ -38,13 +38,22 @@ class Subscription:
     publisher on the node's logger (:mod:`.malformed`), and the next good message is
     delivered. :attr:`malformed` counts them for this subscription.
 
+    ``run_on_arrival=True`` (servolab's own; rclpy has no such option) is for a callback
+    whose latency matters more than the thread it runs on: over Zenoh, a message that finds
+    the executor idle is taken and its callback run at once on the thread that received it
+    (:meth:`Executor.run_if_idle <.executor.Executor.run_if_idle>`), still one callback at a
+    time, rather than after that thread has woken the spinning one. A busy executor gets the
+    message as any other. The callback then may run on either thread, so it must not need
+    the spinning thread's own (a GUI's, ``signal.signal``'s main thread).
+
     The callback's signature is said, not guessed: a callback that needs two arguments
     without ``with_info=True`` is refused when the subscription is made, not when the first
     message comes.
     """
 
     def __init__(self, node: Node, type_name: str, topic: str, callback: Callable[..., Any],
-                 qos: QoSProfile, *, raw: bool = False, with_info: bool = False) -> None:
+                 qos: QoSProfile, *, raw: bool = False, with_info: bool = False,
+                 run_on_arrival: bool = False) -> None:
         _check_signature(callback, 2 if with_info else 1, topic)
         self.node = node
         self.type_name = type_name
@@ -69,6 +78,12 @@ class Subscription:
         self._start_lock = threading.Lock()
         self._inbox = node.context.transport.subscribe(node.info, topic, type_name, qos,
                                                        self._wake, raw=raw)
+        # only where the inbox wakes us from the thread that received the message (Zenoh's
+        # watcher): in process, that thread is the publisher's, whose publish() must not run
+        # the subscriber's callback
+        self._on_arrival = (run_on_arrival and self._inbox is not None
+                            and getattr(self._inbox, "wakes_on_receiving_thread", False))
+        self._run_if_idle = node.context.executor.run_if_idle
         with self._start_lock:
             self._started = True
             early = self._early_wake
@@ -99,6 +114,8 @@ class Subscription:
                 if not self._started:
                     self._early_wake = True
                     return
+        if self._on_arrival and self._run_if_idle(self._take_arrived):
+            return
         self._submit(self._take)
 
     def _take(self) -> None:
@@ -111,6 +128,23 @@ class Subscription:
             self._run(taken)
         finally:  # more may wait (also after a callback that raised): look again after
             self._submit(self._take_turn)  # the others' turn
+
+    def _take_arrived(self) -> None:
+        """What came while the executor was idle, taken on the thread it came on, until the
+        inbox is empty or other work waits: then the rest is the spinner's, in its turn."""
+        inbox, executor = self._inbox, self.node.context.executor
+        while not self._destroyed:
+            taken = inbox.take(self._with_info)
+            if taken is None:
+                return  # empty: the inbox wakes us when the next message comes
+            try:
+                self._run(taken)
+            except BaseException:
+                self._submit(self._take_turn)  # what waits is still taken, by the spinner
+                raise
+            if executor.pending:
+                self._submit(self._take_turn)
+                return
 
     def _run(self, taken: Taken) -> None:
         data, info = taken

@@ -84,6 +84,9 @@ class ChannelInbox:
     """
 
     dropped = 0  # Zenoh's ring channel drops without counting
+    #: wake() comes from the watcher, a thread that may take and run the message itself
+    #: (a subscription's ``run_on_arrival``)
+    wakes_on_receiving_thread = True
     pending = 0  # nor does it say how many wait
 
     def __init__(self, subscriber: Any, wake: Wake, *, name: str, depth: int,

@@ -249,10 +249,12 @@ class Node(_Node):
                             qos_profile: Any = 10, *,
                             callback_group: CallbackGroup | None = None,
                             event_callbacks: Any = None, qos_overriding_options: Any = None,
-                            raw: bool = False, with_info: bool | None = None) -> Any:
+                            raw: bool = False, with_info: bool | None = None,
+                            run_on_arrival: bool = False) -> Any:
         """As rclpy's: a callback that takes one argument gets the message, one that takes
         two gets the message and its :class:`~servolab.middleware.transport.MessageInfo`
-        (rclpy/subscription.py tries one argument first)."""
+        (rclpy/subscription.py tries one argument first). ``run_on_arrival`` is servolab's
+        own (:class:`~servolab.middleware.subscription.Subscription`)."""
         if with_info is None:
             with_info = _takes_info(callback)
         group = self._group(callback_group)
@@ -260,11 +262,13 @@ class Node(_Node):
             def run_with_info(msg: Any, info: Any) -> None:
                 group.dispatch(callback, msg, info)
             sub = super().create_subscription(msg_type, topic, run_with_info, qos_profile,
-                                              raw=raw, with_info=True)
+                                              raw=raw, with_info=True,
+                                              run_on_arrival=run_on_arrival)
         else:
             def run(msg: Any) -> None:
                 group.dispatch(callback, msg)
-            sub = super().create_subscription(msg_type, topic, run, qos_profile, raw=raw)
+            sub = super().create_subscription(msg_type, topic, run, qos_profile, raw=raw,
+                                              run_on_arrival=run_on_arrival)
         group.add_entity(sub)
         return sub
 
