@@ -51,11 +51,17 @@ def wait_until(condition: Any, timeout: float = 10.0) -> bool:
     return True
 
 
+def run_when_idle(executor: Executor, work: Any) -> None:
+    """``run_if_idle(work)`` until the executor takes it: the spinner looks up from its sleep
+    now and then (spin's 0.1 s), and a call in that moment is refused."""
+    assert wait_until(lambda: executor.run_if_idle(work)), "the executor was never idle"
+
+
 def test_work_runs_on_the_calling_thread_when_the_executor_is_idle(
         executor: Executor) -> None:
     wait_asleep(executor)
     ran_on: list[int] = []
-    assert executor.run_if_idle(lambda: ran_on.append(threading.get_ident()))
+    run_when_idle(executor, lambda: ran_on.append(threading.get_ident()))
     assert ran_on == [threading.get_ident()]
 
 
@@ -71,7 +77,7 @@ def test_while_it_runs_the_spinner_runs_nothing(executor: Executor) -> None:
         order.append("idle run ends")
         release.wait(5)
 
-    runner = threading.Thread(target=executor.run_if_idle, args=(slow,))
+    runner = threading.Thread(target=run_when_idle, args=(executor, slow))
     runner.start()
     assert started.wait(5)
     release.set()
@@ -123,7 +129,7 @@ def test_what_it_raises_reaches_the_spinner_and_spin_until_sees_what_it_did() ->
         assert wait_until(lambda: executor._sleepers == 1)  # asleep in spin_until
         # the condition met by a run on another thread: spin_until returns without waiting
         # for its timeout (the run's end wakes it)
-        assert executor.run_if_idle(done.set)
+        run_when_idle(executor, done.set)
         spinner.join(5)
         assert results == [True]
         done.clear()
@@ -134,9 +140,39 @@ def test_what_it_raises_reaches_the_spinner_and_spin_until_sees_what_it_did() ->
         def fails() -> None:
             raise RuntimeError("a callback failed on the receiving thread")
 
-        assert executor.run_if_idle(fails)  # not raised here: the spinner's
+        run_when_idle(executor, fails)  # not raised here: the spinner's
         spinner.join(5)
         assert [str(r) for r in results[1:]] == ["a callback failed on the receiving thread"]
+    finally:
+        executor.shutdown()
+        spinner.join(5)
+
+
+def test_what_it_raises_comes_out_of_a_spin_as_rclpy_spins() -> None:
+    """rclpy's executors spin inside ``spinning()`` (servolab.rclpy.executors), where a spin
+    thread's stored error is never raised: the idle run's error is raised by the spinner as
+    if it had run the callback itself."""
+    executor = Executor(WallClock())
+    raised: list[BaseException] = []
+
+    def spin() -> None:
+        with executor.spinning():
+            try:
+                executor.spin()
+            except RuntimeError as error:
+                raised.append(error)
+
+    spinner = threading.Thread(target=spin)
+    spinner.start()
+    try:
+        assert wait_until(lambda: executor._sleepers == 1)
+
+        def fails() -> None:
+            raise RuntimeError("failed on the receiving thread")
+
+        run_when_idle(executor, fails)
+        spinner.join(5)
+        assert [str(e) for e in raised] == ["failed on the receiving thread"]
     finally:
         executor.shutdown()
         spinner.join(5)

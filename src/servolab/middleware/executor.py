@@ -156,6 +156,7 @@ class Executor:
         #: (:meth:`run_if_idle`); the spinner waits for it
         self._idle_runner: int | None = None
         self._idle_runs = 0  # how many such runs ended: a sleeping spinner then looks again
+        self._idle_error: BaseException | None = None  # what one raised, for the spinner
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
         self._thread: SpinThread | None = None
@@ -175,7 +176,10 @@ class Executor:
         self._ready.append(work)  # deque.append is atomic
         if self._sleepers:
             with self._cond:
-                self._cond.notify()
+                if self._idle_runner is None:
+                    self._cond.notify()
+                else:  # the spinner waits out the idle run on _cond too: wake the runner
+                    self._cond.notify_all()
 
     @property
     def pending(self) -> int:
@@ -281,7 +285,7 @@ class Executor:
         if self._error is not None and not self.in_executor_thread:
             self.raise_if_failed()
         ready = self._ready
-        if ready and not self._timers and not self._shutdown:
+        if ready and not self._timers and not self._shutdown and self._idle_runner is None:
             # no timer to put first: work waiting needs neither the lock nor the clock
             # (a flood's cost per message); a timer added meanwhile is seen next time
             try:
@@ -311,7 +315,11 @@ class Executor:
             while True:
                 if self._idle_runs != idle_runs:
                     # a callback ran on the thread its message came on while this one slept:
-                    # back to the caller, whose condition it may have met (spin_until)
+                    # back to the caller, whose condition it may have met (spin_until), with
+                    # what it raised, as if it had run here
+                    error, self._idle_error = self._idle_error, None
+                    if error is not None:
+                        raise error
                     return None
                 if self._idle_runner is not None and self._idle_runner != me:
                     # a callback runs on the thread it arrived on: one at a time, so this
@@ -372,7 +380,9 @@ class Executor:
         servolab's callback and bare Zenoh's (``benchmarks/wakeups.py``). Callbacks still
         run one at a time: the spinner, asleep, neither runs work nor returns until ``work``
         is done. ``work`` counts as spinning (a ``Client.call`` in it spins here); what it
-        raises is given to the spinner, as a spin thread's error is to its owner."""
+        raises is raised in the spinner, as if the spinner had run it (a ``SpinThread``'s
+        ``on_error`` applies). A stop signal comes to the spinner: it waits for the one
+        callback running here, not for more."""
         me = threading.get_ident()
         with self._lock:
             spinning = self._spinning
@@ -381,17 +391,23 @@ class Executor:
                     or me in spinning or self._asleep != spinning.keys()
                     or (self._timers and self._timers[0][0] <= self.clock.now())):
                 return False
+            background_due, _ = self._background_due()
+            if background_due is not None and background_due <= self.clock.now():
+                return False
             self._idle_runner = me
             spinning[me] = 1
+        raised: BaseException | None = None
         try:
             work()
         except BaseException as error:  # the spinner's to raise, not this thread's to die of
-            self._failed(error)
+            raised = error
         finally:
             with self._cond:
                 spinning.pop(me, None)
                 self._idle_runner = None
                 self._idle_runs += 1
+                if raised is not None and self._idle_error is None:
+                    self._idle_error = raised
                 self._cond.notify_all()  # the spinner looks again (spin_until's condition)
         return True
 
@@ -453,7 +469,7 @@ class Executor:
         ran = 0
         try:
             while (ready and not self._shutdown and self._error is None
-                   and (not timers or timers[0][0] > now())):
+                   and self._idle_runner is None and (not timers or timers[0][0] > now())):
                 try:
                     work = popleft()
                 except IndexError:  # another spinner took it
@@ -487,7 +503,8 @@ class Executor:
         with self._cond:
             self._shutdown = True
             self._cond.notify_all()
-        if self._thread is not None and self._thread is not threading.current_thread():
+        if (self._thread is not None and self._thread is not threading.current_thread()
+                and self._idle_runner != threading.get_ident()):  # it waits for this thread
             threading.Thread.join(self._thread, timeout=2.0)
             self.raise_if_failed()
 

@@ -114,7 +114,9 @@ class Subscription:
                 if not self._started:
                     self._early_wake = True
                     return
-        if self._on_arrival and self._run_if_idle(self._take_arrived):
+        # one message, then the spinner's turn as after any callback: a stream never keeps
+        # the spinner from a due timer or a stop
+        if self._on_arrival and self._run_if_idle(self._take):
             return
         self._submit(self._take)
 
@@ -128,23 +130,6 @@ class Subscription:
             self._run(taken)
         finally:  # more may wait (also after a callback that raised): look again after
             self._submit(self._take_turn)  # the others' turn
-
-    def _take_arrived(self) -> None:
-        """What came while the executor was idle, taken on the thread it came on, until the
-        inbox is empty or other work waits: then the rest is the spinner's, in its turn."""
-        inbox, executor = self._inbox, self.node.context.executor
-        while not self._destroyed:
-            taken = inbox.take(self._with_info)
-            if taken is None:
-                return  # empty: the inbox wakes us when the next message comes
-            try:
-                self._run(taken)
-            except BaseException:
-                self._submit(self._take_turn)  # what waits is still taken, by the spinner
-                raise
-            if executor.pending:
-                self._submit(self._take_turn)
-                return
 
     def _run(self, taken: Taken) -> None:
         data, info = taken
