@@ -9,6 +9,7 @@ thread the spinner runs nothing, and what the callback raises reaches the one wh
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -55,6 +56,17 @@ def run_when_idle(executor: Executor, work: Any) -> None:
     """``run_if_idle(work)`` until the executor takes it: the spinner looks up from its sleep
     now and then (spin's 0.1 s), and a call in that moment is refused."""
     assert wait_until(lambda: executor.run_if_idle(work)), "the executor was never idle"
+
+
+def in_function(thread: threading.Thread, name: str) -> bool:
+    """Whether ``thread`` is inside a function called ``name`` now (its stack, read with
+    sys._current_frames)."""
+    frame = sys._current_frames().get(thread.ident or 0)
+    while frame is not None:
+        if frame.f_code.co_name == name:
+            return True
+        frame = frame.f_back
+    return False
 
 
 def test_work_runs_on_the_calling_thread_when_the_executor_is_idle(
@@ -173,6 +185,72 @@ def test_what_it_raises_comes_out_of_a_spin_as_rclpy_spins() -> None:
         run_when_idle(executor, fails)
         spinner.join(5)
         assert [str(e) for e in raised] == ["failed on the receiving thread"]
+    finally:
+        executor.shutdown()
+        spinner.join(5)
+
+
+def test_a_shutdown_inside_it_does_not_wait_for_the_spinner_that_waits_for_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``Context.close`` from a callback (a node ending its run) shuts the executor down:
+    joining the spin thread there would wait out its timeout, since that thread waits for
+    the callback."""
+    executor = Executor(WallClock())
+    spinner = executor.spin_in_thread()
+    joined: list[threading.Thread] = []
+    join = threading.Thread.join
+
+    def recorded_join(thread: threading.Thread, timeout: float | None = None) -> None:
+        joined.append(thread)
+        join(thread, timeout)
+
+    try:
+        wait_asleep(executor)
+        monkeypatch.setattr(threading.Thread, "join", recorded_join)
+        run_when_idle(executor, executor.shutdown)
+        assert spinner not in joined
+    finally:
+        monkeypatch.undo()
+        executor.shutdown()
+        spinner.join(5)
+    assert not spinner.is_alive()
+
+
+def test_its_error_is_the_sleeping_spinners_not_another_waiters() -> None:
+    """A thread that spins once without being counted as spinning (rclpy's
+    spin_until_future_complete from another thread) is not given the error of a callback it
+    did not run: the spinner asleep when the run began is."""
+    executor = Executor(WallClock())
+    raised: list[str] = []
+
+    def spin() -> None:
+        with executor.spinning():
+            try:
+                executor.spin()
+            except RuntimeError as error:
+                raised.append(f"spinner: {error}")
+
+    spinner = threading.Thread(target=spin)
+    spinner.start()
+    other_result: list[Any] = []
+    try:
+        assert wait_until(lambda: executor._sleepers == 1)
+
+        def fails() -> None:
+            other = threading.Thread(target=lambda: other_result.append(
+                executor.spin_once(0.5)))
+            other.start()
+            other_ready.append(other)
+            # until the other thread waits in the executor while this callback runs
+            assert wait_until(lambda: in_function(other, "_next_work"))
+            raise RuntimeError("failed on the receiving thread")
+
+        other_ready: list[threading.Thread] = []
+        run_when_idle(executor, fails)
+        spinner.join(5)
+        other_ready[0].join(5)
+        assert raised == ["spinner: failed on the receiving thread"]
+        assert other_result == [False]
     finally:
         executor.shutdown()
         spinner.join(5)

@@ -157,6 +157,7 @@ class Executor:
         self._idle_runner: int | None = None
         self._idle_runs = 0  # how many such runs ended: a sleeping spinner then looks again
         self._idle_error: BaseException | None = None  # what one raised, for the spinner
+        self._idle_waiter: int | None = None  # that spinner: the one asleep when it began
         self._timers: list[tuple[float, int, Timer]] = []
         self._order = itertools.count()
         self._thread: SpinThread | None = None
@@ -191,7 +192,7 @@ class Executor:
         with self._cond:
             if work not in self._background:
                 self._background.append(work)
-            self._cond.notify()
+            self._cond.notify_all()  # the sleeper, also past a spinner waiting out an idle run
 
     def remove_background(self, work: BackgroundWork) -> None:
         with self._cond:
@@ -317,9 +318,11 @@ class Executor:
                     # a callback ran on the thread its message came on while this one slept:
                     # back to the caller, whose condition it may have met (spin_until), with
                     # what it raised, as if it had run here
-                    error, self._idle_error = self._idle_error, None
-                    if error is not None:
-                        raise error
+                    if me == self._idle_waiter:  # not another thread's to raise
+                        error, self._idle_error = self._idle_error, None
+                        self._idle_waiter = None
+                        if error is not None:
+                            raise error
                     return None
                 if self._idle_runner is not None and self._idle_runner != me:
                     # a callback runs on the thread it arrived on: one at a time, so this
@@ -395,6 +398,8 @@ class Executor:
             if background_due is not None and background_due <= self.clock.now():
                 return False
             self._idle_runner = me
+            self._idle_waiter = next(iter(spinning))
+            self._idle_error = None  # one left by a spinner that left by a stop signal
             spinning[me] = 1
         raised: BaseException | None = None
         try:
@@ -406,8 +411,7 @@ class Executor:
                 spinning.pop(me, None)
                 self._idle_runner = None
                 self._idle_runs += 1
-                if raised is not None and self._idle_error is None:
-                    self._idle_error = raised
+                self._idle_error = raised
                 self._cond.notify_all()  # the spinner looks again (spin_until's condition)
         return True
 
