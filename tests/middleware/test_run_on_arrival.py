@@ -160,22 +160,28 @@ def test_what_it_raises_reaches_the_spinner_and_spin_until_sees_what_it_did() ->
         spinner.join(5)
 
 
-def test_what_it_raises_comes_out_of_a_spin_as_rclpy_spins() -> None:
-    """rclpy's executors spin inside ``spinning()`` (servolab.rclpy.executors), where a spin
-    thread's stored error is never raised: the idle run's error is raised by the spinner as
-    if it had run the callback itself."""
-    executor = Executor(WallClock())
-    raised: list[BaseException] = []
-
+def rclpy_style_spinner(executor: Executor, raised: list[str]) -> threading.Thread:
+    """A thread spinning ``executor`` as rclpy's executors do (inside ``spinning()``), noting
+    the error that ends its spin."""
     def spin() -> None:
         with executor.spinning():
             try:
                 executor.spin()
             except RuntimeError as error:
-                raised.append(error)
+                raised.append(str(error))
 
     spinner = threading.Thread(target=spin)
     spinner.start()
+    return spinner
+
+
+def test_what_it_raises_comes_out_of_a_spin_as_rclpy_spins() -> None:
+    """rclpy's executors spin inside ``spinning()`` (servolab.rclpy.executors), where a spin
+    thread's stored error is never raised: the idle run's error is raised by the spinner as
+    if it had run the callback itself."""
+    executor = Executor(WallClock())
+    raised: list[str] = []
+    spinner = rclpy_style_spinner(executor, raised)
     try:
         assert wait_until(lambda: executor._sleepers == 1)
 
@@ -184,7 +190,7 @@ def test_what_it_raises_comes_out_of_a_spin_as_rclpy_spins() -> None:
 
         run_when_idle(executor, fails)
         spinner.join(5)
-        assert [str(e) for e in raised] == ["failed on the receiving thread"]
+        assert raised == ["failed on the receiving thread"]
     finally:
         executor.shutdown()
         spinner.join(5)
@@ -222,16 +228,7 @@ def test_its_error_is_the_sleeping_spinners_not_another_waiters() -> None:
     did not run: the spinner asleep when the run began is."""
     executor = Executor(WallClock())
     raised: list[str] = []
-
-    def spin() -> None:
-        with executor.spinning():
-            try:
-                executor.spin()
-            except RuntimeError as error:
-                raised.append(f"spinner: {error}")
-
-    spinner = threading.Thread(target=spin)
-    spinner.start()
+    spinner = rclpy_style_spinner(executor, raised)
     other_result: list[Any] = []
     try:
         assert wait_until(lambda: executor._sleepers == 1)
@@ -249,7 +246,7 @@ def test_its_error_is_the_sleeping_spinners_not_another_waiters() -> None:
         run_when_idle(executor, fails)
         spinner.join(5)
         other_ready[0].join(5)
-        assert raised == ["spinner: failed on the receiving thread"]
+        assert raised == ["failed on the receiving thread"]
         assert other_result == [False]
     finally:
         executor.shutdown()
