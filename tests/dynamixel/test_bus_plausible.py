@@ -535,7 +535,8 @@ Wrong = tuple[int, str, int, int, list[tuple[bytes, bytes]]]
 class Run:
     """What reads against the truth found: operations, how many returned values, values
     compared with the motors' registers, failures by kind, and the wrong values (motor,
-    register, truth, value returned, the operation's replies as sent and as corrupted)."""
+    register, truth, value returned, the replies of the operation and of the one before it,
+    as sent and as corrupted)."""
 
     operations: int = 0
     returned: int = 0
@@ -612,7 +613,11 @@ def read_on_a_pty(version: int, operations: int, *, confirm: bool, seed: int) ->
         bus.confirm_reads = confirm
         emulator.faults = faults
         faults.apply = apply  # type: ignore[method-assign]
+        earlier: list[tuple[bytes, bytes]] = []
         for k in range(operations):
+            # the replies sent for the read before, kept: on a loaded machine one may come
+            # after that read gave up, and this one takes it (1.0 has no transaction id)
+            earlier = list(sent)
             sent.clear()
             run.operations += 1
             try:
@@ -627,7 +632,7 @@ def read_on_a_pty(version: int, operations: int, *, confirm: bool, seed: int) ->
                     run.values += 1
                     truth = emulator.motor(motor_id).get_raw(name)
                     if value != truth:
-                        run.wrong.append((motor_id, name, truth, value, list(sent)))
+                        run.wrong.append((motor_id, name, truth, value, earlier + sent))
         run.stats = bus.stats
     return run
 
@@ -659,7 +664,9 @@ def reads_on_ptys(version: int, operations: int, *, confirm: bool) -> Run:
 def paired_flip(version: int, wrong: Wrong) -> bool:
     """Whether a wrong value came in a reply that no receiver of one reply could refuse: a
     corrupted status with a right checksum/CRC, from the motor asked, carrying the value, and
-    the value one its register can hold."""
+    the value one its register can hold. The reply may be one sent for the read before, come
+    late (a clean-clone run on a loaded machine: 2176 for 2048 in a status sent before the
+    read that took it)."""
     motor_id, name, _, value, sent = wrong
     proto: Protocol = PROTOCOL1 if version == 1 else PROTOCOL2
     m = MX28 if version == 1 else XM430
@@ -707,4 +714,7 @@ def test_with_one_reply_a_read_protocol1_lets_only_in_range_paired_flips_through
     print(f"\nprotocol 1.0, one reply a read: {len(run.wrong)} wrong of {run.values} values "
           f"in {run.operations} reads; {run.stats}")
     assert run.values > OPERATIONS // 4
-    assert all(paired_flip(1, wrong) for wrong in run.wrong), run.wrong
+    unexplained = [wrong for wrong in run.wrong if not paired_flip(1, wrong)]
+    assert not unexplained, "\n".join(  # whole: pytest would cut the bytes that tell why
+        f"motor {m} {name}: {value} for {truth}, replies {[(a.hex(), b.hex()) for a, b in sent]}"
+        for m, name, truth, value, sent in unexplained)
