@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import sys
 import threading
-import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -21,6 +20,7 @@ from servolab.clock import VirtualClock, WallClock
 from servolab.middleware.context import Context
 from servolab.middleware.executor import Executor
 from servolab.middleware.node import Node
+from tests.waiting import wait_until
 
 TWIST = "geometry_msgs/msg/Twist"
 
@@ -41,15 +41,6 @@ def wait_asleep(executor: Executor) -> None:
     executor.submit(done.set)
     assert done.wait(5)
     assert wait_until(lambda: executor._sleepers == 1), "the spinner never went to sleep"
-
-
-def wait_until(condition: Any, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.002)
-    return True
 
 
 def run_when_idle(executor: Executor, work: Any) -> None:
