@@ -37,12 +37,19 @@ class ControlTable:
         self.model = model
         self.data = bytearray(model.table_size)
         self._layout = _layout(model)
+        self._fields = _fields(model)
         #: the AX-style table (angle limits select wheel mode): every 1.0 model and the XL-320
         self.dx = model.has("cw_angle_limit")
 
     def get(self, name: str) -> int:
-        reg = self.model.register(name)
-        return reg.decode(self.data[reg.address:reg.address + reg.size])
+        # (the firmware reads a register dozens of times an instruction: straight from the
+        # field's bytes, without building its Register's view)
+        try:
+            start, end, signed = self._fields[name]
+        except KeyError:
+            self.model.register(name)   # raises the one-line error naming what it has
+            raise
+        return int.from_bytes(self.data[start:end], "little", signed=signed)
 
     def put(self, name: str, value: int) -> None:
         """Set a register's raw value, bypassing access rights (the firmware's own write)."""
@@ -199,6 +206,12 @@ class _Layout:
     indirect: tuple[tuple[int, int], ...]   # (Indirect Data n, address of Indirect Address n)
     indirect_start: int
     indirect_end: int                       # the last Indirect Data address (inclusive)
+
+
+@functools.cache
+def _fields(model: Model) -> dict[str, tuple[int, int, bool]]:
+    """Each register's bytes and sign, by name: (start, end, signed)."""
+    return {r.name: (r.address, r.address + r.size, r.signed) for r in model.registers}
 
 
 @functools.cache

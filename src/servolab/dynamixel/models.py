@@ -20,6 +20,7 @@ file when one of its values is looked at.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import re
@@ -192,13 +193,13 @@ class Model:
         return start, end - start
 
     # -- physics --------------------------------------------------------------------------
-    @property
+    @functools.cached_property
     def rad_per_tick(self) -> float:
         if self.multi_turn or self.angle_range_deg >= 360.0:
             return 2.0 * math.pi / self.resolution
         return math.radians(self.angle_range_deg) / (self.resolution - 1)
 
-    @property
+    @functools.cached_property
     def no_load_speed(self) -> float:
         """No-load speed in rad/s at the nominal voltage."""
         return self.no_load_speed_rpm * 2.0 * math.pi / 60.0

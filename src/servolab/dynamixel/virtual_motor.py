@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING
 
 from . import gains, units
@@ -21,7 +22,14 @@ from .errors import ConfigError
 from .models import Model, supports
 from .motor_alarms import Alarms, hardware_bit
 from .packets import BROADCAST_ID, Instruction, Protocol, Status
-from .plant import KinematicServo, ServoCommand, ServoPlant
+from .plant import (
+    Compliance,
+    KinematicServo,
+    PositionPid,
+    ServoCommand,
+    ServoPlant,
+    VelocityPi,
+)
 from .profile_generator import POSITION_MODES, ProfileGenerator, Registers
 from .protocol import protocol as protocol_for
 
@@ -40,6 +48,23 @@ _SETTINGS = frozenset({
     "cw_compliance_slope", "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain",
     "position_p_gain", "position_i_gain", "position_d_gain", "feedforward_1st_gain",
     "feedforward_2nd_gain", "velocity_p_gain", "velocity_i_gain"})
+
+#: The registers of the feedback laws (:mod:`.gains`): the firmware keeps the laws decoded
+#: until one of these changes.
+_GAINS = frozenset({
+    "cw_compliance_margin", "ccw_compliance_margin", "cw_compliance_slope",
+    "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain", "position_p_gain",
+    "position_i_gain", "position_d_gain", "feedforward_1st_gain", "feedforward_2nd_gain",
+    "velocity_p_gain", "velocity_i_gain"})
+#: Registers only the joint's command is made of: after a change of these alone, which leaves
+#: torque as it was, the firmware re-plans the joint without decoding the rest of the table
+#: (a gait's goals come twenty motors at a time, several times a second).
+_COMMAND_ONLY = _GAINS | {"goal_position", "moving_speed", "torque_limit", "goal_velocity",
+                          "goal_pwm", "goal_current", "profile_velocity",
+                          "profile_acceleration"}
+assert _COMMAND_ONLY <= _SETTINGS
+#: One register's name as the set of names changed, for :meth:`VirtualMotor._set_raw`.
+_ALONE = {name: frozenset((name,)) for name in _SETTINGS}
 
 #: Protocol 1.0: writing either of these switches torque on (the seeds' programs rely on it:
 #: seed 000 drives its EX-106+ wheels with a SYNC_WRITE of moving_speed alone, and ROS
@@ -76,6 +101,7 @@ class VirtualMotor(Alarms):
         #: the AX-style control table (angle limits, moving speed, torque limit): every 1.0
         #: model, and the XL-320 on 2.0; the X-series table (operating_mode) otherwise
         self._table = ControlTable(model)
+        self._laws: tuple[Compliance | None, PositionPid | None, VelocityPi | None] | None = None
         self._dx = self._table.dx
         self._load_defaults(keep=())
         self._set_raw("id", _check_id(model, motor_id))
@@ -143,7 +169,7 @@ class VirtualMotor(Alarms):
     def _set_raw(self, name: str, value: int) -> None:
         self._table.put(name, value)
         if name in _SETTINGS:
-            self._table_changed()
+            self._table_changed(_ALONE[name])
 
     def _si(self, name: str) -> float:
         return units.to_si(self.model, self.model.register(name), self.get_raw(name))
@@ -157,8 +183,16 @@ class VirtualMotor(Alarms):
     def _try_get(self, name: str, default: int = 0) -> int:
         return self.get_raw(name) if self.model.has(name) else default
 
-    def _table_changed(self) -> None:
-        """Registers changed: refresh what the firmware keeps decoded and tell the plant."""
+    def _table_changed(self, names: AbstractSet[str] | None = None) -> None:
+        """Registers changed (``names``; None: any): refresh what the firmware keeps decoded
+        and tell the plant."""
+        if names is None or not names.isdisjoint(_GAINS):
+            self._laws = None
+        if (names is not None and names <= _COMMAND_ONLY and hasattr(self, "_plant")
+                and self.get_raw("torque_enable") == self._torque_before):
+            self._plant.command = self._command()
+            self._stale = True
+            return
         m = self.model
         v1 = self._dx   # the AX-style table
         motor_id = self.get_raw("id")
@@ -384,6 +418,14 @@ class VirtualMotor(Alarms):
 
     def sync(self) -> None:
         """Bring the joint and the present_* registers up to the emulator's current step."""
+        self._sync_joint()
+        if self._stale:
+            self._update_sensors()
+
+    def _sync_joint(self) -> None:
+        """Bring the joint up to the emulator's current step, and leave the present_*
+        registers to the next read: an instruction that only writes needs the joint where
+        it is now (a new command acts from this step on), not its readings."""
         emulator = self._emulator
         if emulator is not None and emulator.steps > self._steps_done:
             if self._lazy:
@@ -396,8 +438,6 @@ class VirtualMotor(Alarms):
                 self._catch_up(emulator.steps - self._steps_done, emulator.dt)
             self._steps_done = emulator.steps
             self._stale = True
-        if self._stale:
-            self._update_sensors()
 
     def _heard(self) -> None:
         """An instruction reached the motor: the bus watchdog counts from now."""
@@ -457,11 +497,10 @@ class VirtualMotor(Alarms):
                 # Moving Speed). Unloaded, the horn turns at that share of the no-load speed.
                 speed = units.wheel_speed(m, self.get_raw("moving_speed"))
                 return ServoCommand(torque, True, goal_velocity=speed, torque_limit=limit)
+            compliance, pid, _ = self._feedback_laws()
             return ServoCommand(torque, False, goal_position=self._goal_angle(),
                                 profile_velocity=abs(self._si("moving_speed")),
-                                torque_limit=limit,
-                                compliance=gains.compliance(m, self.get_raw),
-                                pid=gains.position_pid(m, self.get_raw))
+                                torque_limit=limit, compliance=compliance, pid=pid)
         mode = self.get_raw("operating_mode")
         # Effort: PWM Limit(36) caps the output, and on current-sensing models Current Limit(38)
         # the current, so the torque: a current is a share of the stall torque through the
@@ -488,7 +527,7 @@ class VirtualMotor(Alarms):
         if mode == 1:
             return ServoCommand(torque, True, goal_velocity=sign * self._si("goal_velocity"),
                                 torque_limit=limit, trajectory=trajectory,
-                                velocity_pi=gains.velocity_pi(m, self.get_raw))
+                                velocity_pi=self._feedback_laws()[2])
         if mode == 16:
             # PWM Control Mode: the goal is a voltage, "directly controlling the supplying
             # voltage to the motor" (e-Manual, Position PID Gain note): its share of the no-load
@@ -504,11 +543,20 @@ class VirtualMotor(Alarms):
                                 torque_control=True,
                                 goal_velocity=sign * math.copysign(m.no_load_speed, share)
                                 if share else 0.0)
+        compliance, pid, _ = self._feedback_laws()
         return ServoCommand(torque, False, goal_position=self._goal_angle(),
                             profile_velocity=velocity, torque_limit=limit,
-                            compliance=gains.compliance(m, self.get_raw),
-                            pid=gains.position_pid(m, self.get_raw),
-                            trajectory=trajectory)
+                            compliance=compliance, pid=pid, trajectory=trajectory)
+
+    def _feedback_laws(self) -> tuple[Compliance | None, PositionPid | None, VelocityPi | None]:
+        """The position and velocity laws in SI, from the gain registers (:mod:`.gains`),
+        decoded again only after one of those changed."""
+        laws = self._laws
+        if laws is None:
+            m, get = self.model, self.get_raw
+            laws = self._laws = (gains.compliance(m, get), gains.position_pid(m, get),
+                                 gains.velocity_pi(m, get))
+        return laws
 
     def _current_share(self, name: str) -> float:
         """The current register ``name`` as a share of the stall torque: torque = Kt x current,
@@ -649,7 +697,7 @@ class VirtualMotor(Alarms):
     def execute(self, inst: Instruction, name: str, *, secondary: bool = False) -> Status:
         """Act on an instruction addressed to this motor; return the status it would send.
         ``secondary``: it came to the motor's Secondary ID, which may change RAM only."""
-        self.sync()
+        self._sync_joint()
         self._heard()
         v1 = self.model.protocol == 1
         if not supports(self.model, name):
@@ -751,7 +799,7 @@ class VirtualMotor(Alarms):
         1.0 the Lock register locks it. Bytes written to Indirect Data go on to the address
         their Indirect Address names. Nothing changes on error.
         """
-        self.sync()
+        self._sync_joint()
         self._heard()
         m = self.model
         v1 = m.protocol == 1
@@ -784,7 +832,7 @@ class VirtualMotor(Alarms):
         if names & _GOALS_2:
             self._watchdog_hold = False     # a new goal after a bus watchdog stop
         self._torque_rules(names)
-        self._table_changed()
+        self._table_changed(names)
         return 0
 
     def _torque_rules(self, written: frozenset[str]) -> None:

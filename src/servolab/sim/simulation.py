@@ -71,6 +71,7 @@ class Simulation:
         #: thread (the pty server in real time) holds it too
         self.lock = threading.RLock()
         self._stepped = threading.Condition(self.lock)  # notified after each advance
+        self._waiting = 0   # threads waiting on it (notifying none costs a Python call)
         self._time = self.start
         self._steps = 0
         self._real_time: threading.Thread | None = None
@@ -150,8 +151,13 @@ class Simulation:
             return
         boundary = self._boundary(t)
         with self._stepped:
-            while self._real_time is not None and (self._steps < boundary or self.now() < t):
-                self._stepped.wait(self.physics_step)
+            self._waiting += 1
+            try:
+                while self._real_time is not None and (self._steps < boundary
+                                                       or self.now() < t):
+                    self._stepped.wait(self.physics_step)
+            finally:
+                self._waiting -= 1
 
     def step(self, count: int = 1) -> None:
         """Take ``count`` physics steps from the current step boundary (virtual time only)."""
@@ -180,7 +186,8 @@ class Simulation:
                 self._time = max(self._time, self.start + self._steps * dt)
             if t > self._time:
                 self._time = t
-            self._stepped.notify_all()
+            if self._waiting:
+                self._stepped.notify_all()
 
     # -- real time ------------------------------------------------------------------------------
     def start_real_time(self) -> None:
