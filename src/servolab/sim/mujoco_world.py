@@ -296,6 +296,10 @@ class MujocoWorld(World):
                     "firmware drives: write the model without actuators on servo joints")
         self._qadr = np.array([m.jnt_qposadr[i] for i in ids])
         self._dadr = np.array([m.jnt_dofadr[i] for i in ids])
+        # the same places as slices where they run in order (a robot's joints usually do):
+        # a slice reads MuJoCo's arrays without gathering them, once a step
+        self._qpos_at = _as_slice(self._qadr)
+        self._dof_at = _as_slice(self._dadr)
         self._offset = np.array([j.offset for j in self.joints], dtype=np.float64)
         # horn angle a joint unit, signed (direction x gear ratio): what turns a joint's
         # position and speed into the horn's, and the horn's torque into the joint's force
@@ -327,6 +331,10 @@ class MujocoWorld(World):
         # the models whose load register is Present Current (the torque's current), not a
         # 1.0 Present Load (the drive)
         self._current_sensing = np.array([mm.has("present_current") for mm in models])
+        #: what every joint's load register shows, "load" (the drive) or "current" (the
+        #: torque's), or "mixed"
+        self._sensing = ("current" if self._current_sensing.all() else "mixed"
+                         if self._current_sensing.any() else "load")
         # the X-series profile each joint's reference follows, with the time it began: None
         # where the reference moves at the moving speed (AX/RX/EX, no Profile Acceleration)
         self._profiles: list[tuple[Profile, float] | None] = [None] * n
@@ -500,14 +508,15 @@ class MujocoWorld(World):
             self._laws_changed = True
         if self._laws_changed:
             self._prepare(dt)
-        horn = self._offset + self._dir * d.qpos[self._qadr]
+        horn = self._offset + self._dir * d.qpos[self._qpos_at]
         # 1. the reference, moving toward the goal at the moving speed (0: at once)
         ref = self._reference
         move = self._goal - ref
         np.minimum(move, self._travel, out=move)
         np.maximum(move, -self._travel, out=move)
         ref += move
-        np.copyto(ref, horn, where=self._off)
+        if self._any_off:
+            np.copyto(ref, horn, where=self._off)
         if self._any_velocity_mode:     # back in position control, a move starts here too
             np.copyto(ref, horn, where=self._velocity_mode)
         for k in self._profiled:        # the X-series profile: the trajectory's own point
@@ -531,7 +540,7 @@ class MujocoWorld(World):
         np.maximum(share, self._punch, out=share)
         np.minimum(share, self._limit, out=share)
         u = np.where(beyond > 0, np.copysign(share, error), 0.0)
-        speed = self._dir * d.qvel[self._dadr]
+        speed = self._dir * d.qvel[self._dof_at]
         if proportional is not None:  # a PID model's integral, derivative and feedforward
             np.copyto(u, self._pid(error, proportional, dt), where=self._pid_joints)
         if self._any_velocity_mode:
@@ -541,13 +550,17 @@ class MujocoWorld(World):
         #    is the drive ("inferred ... based on the internal output value", e-Manual RX-28
         #    Present Load); Present Current (X-series) the torque's current, torque / Kt;
         #    the torque, and the current that heats the windings, are this:
-        u *= self._on
+        if self._any_off:
+            u *= self._on
         self._drive = u
         back_emf = speed / self._w0
         torque = u - back_emf
         np.minimum(torque, 1.0, out=torque)
         np.maximum(torque, -1.0, out=torque)
-        self._effort = np.where(self._current_sensing, torque, u)
+        # (u is not changed from here on; the torque is)
+        self._effort = (u if self._sensing == "load" else torque.copy()
+                        if self._sensing == "current" else
+                        np.where(self._current_sensing, torque, u))
         if self._any_torque_mode:
             # current mode: the current loop gives the torque asked (Kt x current) while the
             # supply's voltage lets it (the torque line at full drive, +-1 - speed share);
@@ -558,11 +571,12 @@ class MujocoWorld(World):
             np.copyto(torque, asked - FRICTION_VISCOUS * back_emf, where=current)
             self._effort = np.where(current, asked, self._effort)
             self._drive = np.where(current, asked + back_emf, u)
-        torque *= self._on
+        if self._any_off:
+            torque *= self._on
         np.multiply(torque, torque, out=self._square)   # the motor's, for the heat
         if self._any_off:   # torque off: back-driven through the gears' viscous friction
             np.copyto(torque, -FRICTION_VISCOUS * back_emf, where=self._off)
-        d.qfrc_applied[self._dadr] = torque * self._dir_stall
+        d.qfrc_applied[self._dof_at] = torque * self._dir_stall
         recording = self._time >= self._next_record - 1e-12   # a sample every period
         before = (self._time, tuple(d.qpos.tolist())) if recording else None
         self._mujoco.mj_step(m, d)   # (its forward pass: contacts and bodies of `before`)
@@ -572,7 +586,7 @@ class MujocoWorld(World):
         self._heat_steps += 1
         self._time += dt
         if self._time >= self._next_book - 1e-12:
-            self._book(self._drive, self._dir * d.qvel[self._dadr])
+            self._book(self._drive, self._dir * d.qvel[self._dof_at])
             self._next_book += BOOKKEEPING_S
         if before is not None:
             self._record(*before)
@@ -796,6 +810,14 @@ class MujocoWorld(World):
             bus.write(motor_id, "torque_enable", 1)
             bus.write(motor_id, "goal_position", goal)
         return world
+
+
+def _as_slice(places: np.ndarray) -> slice | np.ndarray:
+    """``places`` as a slice when they are consecutive and rising, else as they are."""
+    start = int(places[0])
+    if np.array_equal(places, np.arange(start, start + len(places))):
+        return slice(start, start + len(places))
+    return places
 
 
 def support_margin(point: tuple[float, float], support: Sequence[tuple[float, float]]
