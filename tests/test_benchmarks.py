@@ -234,7 +234,8 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
     out_json = tmp_path / "sim.json"
     assert bench.main(["--seconds", "0.5", "--json", str(out_json)]) == 0
     printed = capsys.readouterr().out
-    assert "real-time factor" in printed and "50x goal" in printed and "20x goal" in printed
+    assert "real-time factor" in printed and "100x goal" in printed and "40x goal" in printed
+    assert "The physics limit: MuJoCo's own step alone" in printed
 
     figures = json.loads(out_json.read_text())
     scenarios = figures["scenarios"]
@@ -254,6 +255,9 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert scenarios["d"]["transactions"] == 0          # the world alone: nobody on the bus
     assert scenarios["f"]["transactions"] == 0
     assert 0 < scenarios["e"]["mj_step_share"] < scenarios["e"]["shares"]["physics"]
+    # the physics limit is what MuJoCo's step alone would run at: above the whole scenario
+    assert scenarios["e"]["physics_limit_rtf"] > scenarios["e"]["real_time_factor"]
+    assert scenarios["a"]["physics_limit_rtf"] is None
     for key in "abce":
         assert scenarios[key]["transactions"] > 0 and scenarios[key]["state_rate_hz"] > 0
     # 20 Hz asked for; at 57142 bps the twenty READs do not fit in 50 ms, at 1 Mbps they do
