@@ -53,8 +53,14 @@ class ControlTable:
 
     def put(self, name: str, value: int) -> None:
         """Set a register's raw value, bypassing access rights (the firmware's own write)."""
-        reg = self.model.register(name)
-        self.data[reg.address:reg.address + reg.size] = reg.encode(value)
+        # (by the field's bytes, as get: the same bytes Register.encode gives)
+        try:
+            start, end, signed = self._fields[name]
+        except KeyError:
+            self.model.register(name)   # raises the one-line error naming what it has
+            raise
+        self.data[start:end] = int(value).to_bytes(end - start, "little",
+                                                   signed=signed and value < 0)
 
     def load_defaults(self, keep: Mapping[str, int] | None = None) -> None:
         """The table as at power-up: the factory defaults and the firmware version, the

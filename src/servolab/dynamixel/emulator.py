@@ -182,9 +182,9 @@ class Emulator:
         """One physics step of ``dt`` seconds has passed. The motors' own plants catch up when
         next looked at; the firmware of motors whose plant a world steps does its per-step
         duty now (the world has stepped their plants already)."""
-        for side in self.sides.values():
-            side.step(dt)
         if self.sides:
+            for side in self.sides.values():
+                side.step(dt)
             self.dt = dt
             self.steps += 1
             return
@@ -302,9 +302,13 @@ class Emulator:
         """What the motors answering at once put on the wire after ``t``: each after its
         return delay (the slowest sets the start), their bytes ANDed where they overlap, plus
         any injected fault."""
-        encoded = [self.protocol.encode_status(status) for _, status in statuses]
-        start = t + max(m.return_delay for m, _ in statuses) + self.faults.delay
-        return Reply(start, self.faults.apply(_collide(encoded)))
+        if len(statuses) == 1:  # (the usual one motor: its delay, its bytes alone)
+            motor, status = statuses[0]
+            delay, sent = motor.return_delay, self.protocol.encode_status(status)
+        else:
+            delay = max(m.return_delay for m, _ in statuses)
+            sent = _collide([self.protocol.encode_status(status) for _, status in statuses])
+        return Reply(t + delay + self.faults.delay, self.faults.apply(sent))
 
     # -- who answers what ------------------------------------------------------------------
     def _with_id(self, motor_id: int) -> list[VirtualMotor]:
@@ -331,7 +335,7 @@ class Emulator:
     def _listening(self, baudrate: float, motors: list[VirtualMotor] | None = None
                    ) -> list[VirtualMotor]:
         return [m for m in (self.motors if motors is None else motors)
-                if m.responsive and baud_matches(m.baudrate, baudrate)]
+                if m.responsive and baud_matches(m._baudrate, baudrate)]
 
     def _answer(self, inst: Instruction, t: float, baudrate: float) -> list[Reply]:
         name = self.protocol.instruction_name(inst.instruction)
@@ -376,13 +380,22 @@ class Emulator:
             # answer it (e-Manual, Secondary ID(12)).
             for m in self._listening(baudrate, self._with_secondary_id(inst.id)):
                 m.execute(inst, name, secondary=True)
-        targets = [m for m in motors if m.id == inst.id]
+        # (a unicast's motors come from the ID index: they are all the targets)
+        targets = motors if unicast else [m for m in motors if m.id == inst.id]
         # The status of a REBOOT or reset goes out before the motor resets, so it follows
         # the status return level from before; a WRITE is answered by the level it leaves.
-        before = [self._returns_status(m, name) for m in targets]
-        statuses = [(m, m.execute(inst, name)) for m in targets]
-        statuses = [(m, st) for (m, st), answered in zip(statuses, before, strict=True)
-                    if (answered if name in _RESETS else self._returns_status(m, name))]
+        if name in _RESETS:
+            before = [self._returns_status(m, name) for m in targets]
+            statuses = [(m, m.execute(inst, name)) for m in targets]
+            statuses = [(m, st) for (m, st), answered in zip(statuses, before, strict=True)
+                        if answered]
+        else:
+            # (each motor's execute changes only its own level: asked right after it)
+            statuses = []
+            for m in targets:
+                status = m.execute(inst, name)
+                if self._returns_status(m, name):
+                    statuses.append((m, status))
         if not statuses:
             return []
         return [self._reply(statuses, t)]

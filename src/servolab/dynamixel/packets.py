@@ -81,20 +81,22 @@ class StreamParser(ABC):
         return len(self._buffer)
 
     def feed(self, data: bytes) -> list[Frame]:
-        self._buffer += data
+        buffer = self._buffer   # (the one bytearray, changed in place)
+        buffer += data
         frames: list[Frame] = []
         while True:
-            start = self._buffer.find(self.header)
+            start = buffer.find(self.header)
             if start < 0:
-                # Keep a tail that may be the beginning of a header.
-                keep = len(self.header) - 1
-                cut = max(0, len(self._buffer) - keep)
-                while cut < len(self._buffer) and not self.header.startswith(
-                        bytes(self._buffer[cut:])):
-                    cut += 1
-                self._drop(cut)
+                if buffer:  # (an empty buffer has no tail to keep or drop)
+                    # Keep a tail that may be the beginning of a header.
+                    keep = len(self.header) - 1
+                    cut = max(0, len(buffer) - keep)
+                    while cut < len(buffer) and not self.header.startswith(bytes(buffer[cut:])):
+                        cut += 1
+                    self._drop(cut)
                 return frames
-            self._drop(start)
+            if start:
+                self._drop(start)
             result = self._try_frame()
             if result is None:          # incomplete: wait for more bytes
                 return frames
@@ -103,7 +105,7 @@ class StreamParser(ABC):
                 self._skip = 0
                 continue
             frame, size = result
-            del self._buffer[:size]
+            del buffer[:size]
             frames.append(frame)
 
     def _reject(self, motor_id: int, size: int) -> Literal[False]:

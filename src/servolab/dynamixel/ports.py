@@ -317,8 +317,9 @@ class MemoryPort(Port):
             replies = self.device.receive(data, end, self.baudrate)
         if not replies:
             return
-        # On the wall clock only an injected delay (a device's ``faults.delay``) holds answers.
-        delay = getattr(getattr(self.device, "faults", None), "delay", 0.0)
+        # On the wall clock only an injected delay (a device's ``faults.delay``) holds answers
+        # (on a virtual clock the replies' start times have it).
+        delay = 0.0 if virtual else getattr(getattr(self.device, "faults", None), "delay", 0.0)
         for reply in replies:
             if reply.data:
                 self._rx.append([reply.start, tick, bytes(reply.data), 0] if virtual

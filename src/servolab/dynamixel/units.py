@@ -12,6 +12,7 @@ and PWM (1.0 = 100 %).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from .errors import ConfigError
@@ -146,49 +147,74 @@ def reading(model: Model, register: Register, value: float) -> int:
     the register can hold (a servo's present speed, load or voltage saturates; it does not
     fail).
 
-    The emulated firmware writes every present_* register through here, so the readings and
-    the driver's :func:`to_si` use the same scales."""
+    The emulated firmware writes every present_* register through here (by :func:`reader`),
+    so the readings and the driver's :func:`to_si` use the same scales."""
+    return reader(model, register)(value)
+
+
+def reader(model: Model, register: Register) -> Callable[[float], int]:
+    """:func:`reading` of one register of one model, as a function of the SI value alone:
+    the model's scale and the register's bounds looked up once, then the same operations on
+    the same numbers (the emulated firmware shows a dozen registers at every read)."""
     kind = register.unit
     if kind in ("speed_sign_bit", "load_sign_bit"):
         scale = velocity_unit(model) if kind == "speed_sign_bit" else 0.001
-        magnitude = min(0x3FF, round(abs(value) / scale))
-        return magnitude | 0x400 if value < 0 and magnitude else magnitude
-    raw = _raw(model, register, float(value))
+
+        def sign_bit(value: float) -> int:
+            magnitude = min(0x3FF, round(abs(value) / scale))
+            return magnitude | 0x400 if value < 0 and magnitude else magnitude
+
+        return sign_bit
     bits = 8 * register.size  # what the register can hold, not what a host may write to it
     low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if register.signed else (
         0, (1 << bits) - 1)
     if register.maximum is not None:  # a sensor with a range of its own: Present Load's
         low, high = max(low, register.raw_min), min(high, register.raw_max)  # -1000 ~ 1000
-    return max(low, min(high, raw))
+    linear = _scale(model, kind)
+    if linear is None:
+        return lambda value: max(low, min(high, _raw(model, register, float(value))))
+    divisor, offset = linear
+
+    def divided(value: float) -> int:   # (_raw's arithmetic, bit for bit)
+        return max(low, min(high, round(float(value) / divisor) + offset))
+
+    return divided
+
+
+def _scale(model: Model, kind: str) -> tuple[float, int] | None:
+    """(the SI value of one unit, the raw value of SI 0) of the kinds whose raw value is
+    round(value / unit) + offset; None for the others."""
+    if kind == "position":
+        return model.rad_per_tick, model.position_center
+    if kind == "position_offset":
+        return model.rad_per_tick, 0
+    if kind == "velocity":
+        return velocity_unit(model), 0
+    if kind == "acceleration":
+        return model.acceleration_unit_rpm2 * RPM / 60.0, 0
+    if kind == "load":
+        return 0.001, 0
+    if kind == "current":
+        return model.current_unit_a, 0
+    if kind == "voltage":
+        return 0.1, 0
+    if kind == "delay_2us":
+        return 2e-6, 0
+    return None
 
 
 def _raw(model: Model, register: Register, value: float) -> int:
     """SI -> raw for the kinds without a sign bit, unchecked."""
     kind = register.unit
-    if kind in ("raw", "bool"):
+    scale = _scale(model, kind)
+    if scale is not None:
+        return round(value / scale[0]) + scale[1]
+    if kind in ("raw", "bool", "temperature"):
         return round(value)
-    if kind == "position":
-        return round(value / model.rad_per_tick) + model.position_center
-    if kind == "position_offset":
-        return round(value / model.rad_per_tick)
-    if kind == "velocity":
-        return round(value / velocity_unit(model))
-    if kind == "acceleration":
-        return round(value / (model.acceleration_unit_rpm2 * RPM / 60.0))
-    if kind == "load":
-        return round(value / 0.001)
     if kind == "torque_ratio":
         return round(value * 1023.0)
     if kind == "pwm":
         return round(value * 885.0)
-    if kind == "current":
-        return round(value / model.current_unit_a)
-    if kind == "voltage":
-        return round(value / 0.1)
-    if kind == "temperature":
-        return round(value)
-    if kind == "delay_2us":
-        return round(value / 2e-6)
     if kind == "baud":
         return model.baud_register_for(int(value))
     raise ConfigError(f"register {register.name!r}: unknown unit kind {kind!r}")

@@ -10,7 +10,7 @@ packets, timing, collisions — is the :class:`~.emulator.Emulator`'s.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING
 
@@ -63,6 +63,12 @@ _COMMAND_ONLY = _GAINS | {"goal_position", "moving_speed", "torque_limit", "goal
                           "goal_pwm", "goal_current", "profile_velocity",
                           "profile_acceleration"}
 assert _COMMAND_ONLY <= _SETTINGS
+#: The registers the firmware writes from its sensors (:meth:`VirtualMotor._update_sensors`):
+#: none is a setting, so they go straight into the table.
+_READINGS = frozenset({
+    "present_position", "present_speed", "sensed_current", "moving", "realtime_tick",
+    "position_trajectory", "moving_status"})
+assert _READINGS.isdisjoint(_SETTINGS)
 #: One register's name as the set of names changed, for :meth:`VirtualMotor._set_raw`.
 _ALONE = {name: frozenset((name,)) for name in _SETTINGS}
 
@@ -101,6 +107,8 @@ class VirtualMotor(Alarms):
         #: the AX-style control table (angle limits, moving speed, torque limit): every 1.0
         #: model, and the XL-320 on 2.0; the X-series table (operating_mode) otherwise
         self._table = ControlTable(model)
+        #: each sensor register _show has written: (start, end, signed, SI -> raw)
+        self._sensors: dict[str, tuple[int, int, bool, Callable[[float], int]]] = {}
         self._laws: tuple[Compliance | None, PositionPid | None, VelocityPi | None] | None = None
         self._dx = self._table.dx
         self._load_defaults(keep=())
@@ -131,6 +139,10 @@ class VirtualMotor(Alarms):
         self._max_output = 1.0      # (2.0) PWM and Current Limit's share of stall torque
         self._mode_before = self._torque_before = -1   # (2.0) what _table_changed last saw
         self._has_watchdog = model.has("bus_watchdog")
+        # (what the model has is fixed: looked up once, not at every read)
+        self._has_sensed_current = model.has("sensed_current")
+        self._has_present_current = model.has("present_current")
+        self._has_realtime_tick = model.has("realtime_tick")
         self._overheating_bit = hardware_bit(model, "overheating")
         self._overload_bit = hardware_bit(model, "overload")
         self._table_changed()       # (in mode 3 at power-up: the count within one turn)
@@ -176,9 +188,18 @@ class VirtualMotor(Alarms):
 
     def _show(self, name: str, value: float) -> None:
         """Write a sensor register from an SI value (saturating, as the hardware does)."""
-        reg = self.model.register(name)
-        self.table[reg.address:reg.address + reg.size] = reg.encode(
-            units.reading(self.model, reg, value))
+        try:
+            start, end, signed, reading = self._sensors[name]
+        except KeyError:
+            # (once per register: the model's scales and the register's bounds are fixed,
+            # and every read shows half a dozen of them)
+            reg = self.model.register(name)
+            start, end, signed, reading = self._sensors[name] = (
+                reg.address, reg.address + reg.size, reg.signed, units.reader(self.model, reg))
+        raw = reading(value)
+        # as Register.encode
+        self._table.data[start:end] = raw.to_bytes(end - start, "little",
+                                                   signed=signed and raw < 0)
 
     def _try_get(self, name: str, default: int = 0) -> int:
         return self.get_raw(name) if self.model.has(name) else default
@@ -429,7 +450,8 @@ class VirtualMotor(Alarms):
         emulator = self._emulator
         if emulator is not None and emulator.steps > self._steps_done:
             if self._lazy:
-                deadline = self._watchdog_deadline()
+                # (a model without Bus Watchdog(98) has no deadline: not looked up each time)
+                deadline = self._watchdog_deadline() if self._has_watchdog else None
                 if deadline is not None and deadline <= emulator.steps:
                     # The bus watchdog fires on its own step: move the joint to it first.
                     self._catch_up(max(0, deadline - self._steps_done), emulator.dt)
@@ -465,11 +487,16 @@ class VirtualMotor(Alarms):
             if plant.temperature > limit:
                 self._hardware_error(overheating)
                 self._too_hot = True
-            due = self._overload_step(now, dt)
+                # (its shutdown may change the command; else the stall, which does not
+                # depend on the step, and so the step it overloads on, are as found above)
+                due = self._overload_step(now, dt)
             if due is not None and now >= due:
                 self._overload()
-        self._cooled_down(overheating)
-        self._unloaded()
+        # (each only when its error stands, as _check_alarms calls them)
+        if self._too_hot:
+            self._cooled_down(overheating)
+        if self._overloaded:
+            self._unloaded()
 
     def _after_step(self, steps: int) -> None:
         """A world stepped this motor's plant: the firmware's per-step duty."""
@@ -600,11 +627,14 @@ class VirtualMotor(Alarms):
     def _update_sensors(self) -> None:
         m = self.model
         plant = self._plant
+        # The present_* registers are no settings (_READINGS): written straight into the
+        # table, with nothing the firmware keeps decoded to refresh (see _set_raw).
+        put = self._table.put
         velocity, load = self._sign * plant.velocity, self._sign * plant.effort
         ticks = round(self._present_ticks(plant.position))
         voltage = self._supply_voltage - 0.3 * abs(load)
         if self._dx:
-            if self.wheel_mode:
+            if self._wheel:
                 present = wheel_position(m, ticks)
             elif self._multi_turn:
                 # MX-28 multi-turn: -28 672..28 672, "(Real Position / Resolution Divider) +
@@ -615,29 +645,29 @@ class VirtualMotor(Alarms):
                 present = max(span.raw_min, min(span.raw_max, present))
             else:
                 present = min(max(ticks, 0), m.resolution - 1)
-            self._set_raw("present_position", present)
-            if self.wheel_mode and m.wheel_output_ratio:
+            put("present_position", present)
+            if self._wheel and m.wheel_output_ratio:
                 # In wheel mode present speed is the output the firmware drives, 0.1 % per
                 # unit: "if it is set to 512, it means that the torque is controlled by 50 %
                 # of the maximum torque" (e-Manual, EX-106+ Present Speed), so a load that
                 # slows the horn does not change it.
                 driving = self.get_raw("torque_enable") and self.get_raw("torque_limit")
-                self._set_raw("present_speed", self.get_raw("moving_speed") if driving else 0)
+                put("present_speed", self.get_raw("moving_speed") if driving else 0)
             else:
                 self._show("present_speed", velocity)
             self._show("present_load", load)
             self._show("present_voltage", voltage)
-            if m.has("sensed_current"):
+            if self._has_sensed_current:
                 # 512 is 0 mA; below it the motor pushes CCW, above it CW, 10 mA per unit
                 # (e-Manual, EX-106+ Sensed Current).
                 amps = load * m.stall_current_a
-                self._set_raw("sensed_current", max(0, min(1023, 512 - round(amps / 0.01))))
-            self._set_raw("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
+                put("sensed_current", max(0, min(1023, 512 - round(amps / 0.01))))
+            put("moving", int(abs(velocity) > 0.5 * m.rad_per_tick))
         else:
             present = (ticks + 2**31) % 2**32 - 2**31
-            self._set_raw("present_position", present)
+            put("present_position", present)
             self._show("present_velocity", velocity)
-            if m.has("present_current"):
+            if self._has_present_current:
                 # the current that gives the motor's torque: torque / Kt (see _current_share)
                 self._show("present_current", load * m.stall_current_a)
             else:
@@ -654,12 +684,12 @@ class VirtualMotor(Alarms):
                        else load + velocity / m.no_load_speed)
             self._show("present_pwm", max(-pwm_limit, min(pwm_limit, applied)))
             self._show("present_input_voltage", voltage)
-            self._set_raw("moving", int(abs(velocity) > self._si("moving_threshold")))
+            put("moving", int(abs(velocity) > self._si("moving_threshold")))
             self._show_trajectory(ticks)
-        if m.has("realtime_tick") and self._emulator is not None and self._steps_done:
+        if self._has_realtime_tick and self._emulator is not None and self._steps_done:
             # Realtime Tick: milliseconds, 0..32767, then again from 0 (e-Manual).
             elapsed_ms = self._steps_done * self._emulator.dt * 1000.0
-            self._set_raw("realtime_tick", int(elapsed_ms) % 32768)
+            put("realtime_tick", int(elapsed_ms) % 32768)
         self._show("present_temperature", plant.temperature)
         self._stale = False
         self._sensed_step = self._steps_done
@@ -682,9 +712,9 @@ class VirtualMotor(Alarms):
             trajectory = (round(goal_ticks), 0.0)    # a step: the goal at once
         else:
             trajectory = (present_ticks, self._sign * self._plant.velocity)
-        self._set_raw("position_trajectory", (trajectory[0] + 2**31) % 2**32 - 2**31)
+        self._table.put("position_trajectory", (trajectory[0] + 2**31) % 2**32 - 2**31)
         self._show("velocity_trajectory", trajectory[1])
-        self._set_raw("moving_status", profiles.moving_status(
+        self._table.put("moving_status", profiles.moving_status(
             now, goal_ticks, present_ticks, desired_ticks))
 
     # -- instructions --------------------------------------------------------------------------
@@ -717,7 +747,11 @@ class VirtualMotor(Alarms):
                 length = int.from_bytes(params[2:4], "little")
             else:
                 return Status(self.id, self.error_byte(p1.INSTRUCTION if v1 else p2.DATA_LENGTH))
-            return self.read(address, length)
+            # read() without its sync and _heard: the joint is synced and the motor has heard
+            # the instruction (above), so only the readings may be left to refresh
+            if self._stale:
+                self._update_sensors()
+            return self._read_table(address, length)
         if name in ("WRITE", "REG_WRITE"):
             split = 1 if v1 else 2
             if len(params) <= split:
@@ -784,6 +818,10 @@ class VirtualMotor(Alarms):
     def read(self, address: int, length: int) -> Status:
         self.sync()
         self._heard()
+        return self._read_table(address, length)
+
+    def _read_table(self, address: int, length: int) -> Status:
+        """The status of a READ of a synced table (:meth:`read` but the sync)."""
         data = self._table.read(address, length)
         if data is None:
             v1 = self.model.protocol == 1
