@@ -85,6 +85,11 @@ class Reply:
     start: float
     data: bytes
 
+    def __init__(self, start: float, data: bytes) -> None:
+        # (as packets.Instruction's: one per answer)
+        fields = self.__dict__
+        fields["start"], fields["data"] = start, data
+
 
 class Emulator:
     """The device side of one bus: a set of virtual motors on one protocol, or on both.

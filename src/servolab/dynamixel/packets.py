@@ -26,6 +26,13 @@ class Instruction:
     instruction: int
     params: bytes = b""
 
+    def __init__(self, id: int, instruction: int, params: bytes = b"") -> None:
+        # The dataclass's own __init__ (it keeps one written here), with the fields stored
+        # straight into the instance's dict: the frozen one calls object.__setattr__ for each,
+        # and the emulated bus makes a few of these per transaction.
+        fields = self.__dict__
+        fields["id"], fields["instruction"], fields["params"] = id, instruction, params
+
 
 @dataclass(frozen=True)
 class Status:
@@ -34,6 +41,11 @@ class Status:
     id: int
     error: int
     params: bytes = b""
+
+    def __init__(self, id: int, error: int, params: bytes = b"") -> None:
+        # (as Instruction's)
+        fields = self.__dict__
+        fields["id"], fields["error"], fields["params"] = id, error, params
 
 
 @dataclass(frozen=True)
@@ -47,6 +59,11 @@ class Frame:
     id: int
     code: int
     params: bytes
+
+    def __init__(self, id: int, code: int, params: bytes) -> None:
+        # (as Instruction's)
+        fields = self.__dict__
+        fields["id"], fields["code"], fields["params"] = id, code, params
 
 
 #: What :meth:`StreamParser._try_frame` finds at the start of its buffer: a whole packet and its

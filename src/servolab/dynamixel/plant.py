@@ -287,8 +287,11 @@ class KinematicServo:
         command = self._command
         if command.torque_control and not self._opposed():
             return False
+        # (max() by a comparison here and below: the builtin parses its keywords at every call,
+        # and the plant is asked at every read; ties and NaN come out as from the builtin)
+        limit = command.torque_limit
         return (command.torque_enabled and not command.voltage_control
-                and abs(self._external_load) > max(0.0, command.torque_limit))
+                and abs(self._external_load) > (limit if limit > 0.0 else 0.0))
 
     # -- state ----------------------------------------------------------------------------------
     @property
@@ -382,7 +385,11 @@ class KinematicServo:
     def _limit(self) -> float:
         """The most torque the motor may give (fraction of stall torque)."""
         cmd = self._command
-        return max(0.0, min(1.0, cmd.torque_limit)) if cmd.torque_enabled else 0.0
+        if not cmd.torque_enabled:
+            return 0.0
+        limit = cmd.torque_limit
+        limit = limit if limit < 1.0 else 1.0      # (max(0.0, min(1.0, limit)), by comparisons)
+        return limit if limit > 0.0 else 0.0
 
     def _max_speed(self) -> float:
         load = abs(self._external_load)
@@ -391,7 +398,8 @@ class KinematicServo:
             return self.no_load_speed * max(0.0, 1.0 - load) if limit > 0 else 0.0
         if limit <= 0 or load > limit:
             return 0.0  # no torque allowed, or the load beats it: stalled
-        return self.no_load_speed * max(0.0, 1.0 - load)
+        left = 1.0 - load
+        return self.no_load_speed * (left if left > 0.0 else 0.0)  # (max(0.0, left))
 
     def _opposed(self) -> bool:
         """Whether the external load pushes against the way a torque demand turns."""
@@ -432,7 +440,7 @@ class KinematicServo:
                                         start=self._p0))
         else:
             want = abs(cmd.profile_velocity)
-            self._speed = top if want == 0 else min(want, top)
+            self._speed = top if want == 0 else top if top < want else want  # (min(want, top))
             self._target = cmd.goal_position
             if trajectory is not None:
                 self._profile = trajectory if trajectory.peak_speed <= top * (1 + 1e-12) \
@@ -476,7 +484,8 @@ class KinematicServo:
             if error == 0:
                 self._arrive = 1
             elif self._travel > 0:
-                j = max(1, math.ceil(error / self._travel))
+                j = math.ceil(error / self._travel)
+                j = j if j > 1 else 1   # (max(1, j): a comparison costs less than the builtin)
                 while j > 1 and error <= self._travel * (j - 1):
                     j -= 1
                 while not error <= self._travel * j:
@@ -577,7 +586,8 @@ class KinematicServo:
         top = self._max_speed()
         friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
         load = (math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
-        return max(-limit, min(limit, load))
+        load = load if load < limit else limit     # (max(-limit, min(limit, load)), by comparisons)
+        return load if load > -limit else -limit
 
     def _effort(self, velocity: float, j: int) -> float:
         """The torque the motor gives after step ``j``: sustained plus acceleration, within
@@ -591,7 +601,8 @@ class KinematicServo:
         friction = FRICTION_STATIC + FRICTION_VISCOUS * (abs(velocity) / top if top else 0.0)
         load = ((math.copysign(friction, velocity) if velocity else 0.0) - self._external_load
                 + self._inertia(j))
-        return max(-limit, min(limit, load))
+        load = load if load < limit else limit     # (max(-limit, min(limit, load)), by comparisons)
+        return load if load > -limit else -limit
 
     def _steady(self, effort: float) -> float:
         return self.ambient + IDLE_RISE_C + STALL_HEATING_C * effort * effort
@@ -614,7 +625,16 @@ class KinematicServo:
         """The first step in ``first..last`` whose temperature exceeds ``limit``, or None.
         The temperature is monotonic within each part of the segment, so each part is
         searched by bisection on the exact per-step expression."""
-        if math.isinf(limit) or max(self._t0, self._steady_move, self._steady_rest) <= limit:
+        if math.isinf(limit):
+            return None
+        # (max(t0, steady_move, steady_rest) by comparisons, as the builtin keeps the first of
+        # equals: it parses its keywords at every call, and this is asked at every sync)
+        top = self._t0
+        if self._steady_move > top:
+            top = self._steady_move
+        if self._steady_rest > top:
+            top = self._steady_rest
+        if top <= limit:
             return None  # it cannot get there: each part only approaches its steady value
         rest = self._first_rest
         parts = [(first, last)] if rest is None or rest > last or rest <= first else [

@@ -332,8 +332,11 @@ class MemoryPort(Port):
         if not tick:
             return len(data) if start <= t else 0
         # the largest i with start + i * tick <= t, computed as the byte times are
-        i = min(len(data), max(0, int((t - start) / tick)))
-        while i < len(data) and start + (i + 1) * tick <= t:
+        # (min(size, max(0, i)) by comparisons: the builtins parse their keywords at every call)
+        i, size = int((t - start) / tick), len(data)
+        i = i if i > 0 else 0
+        i = i if i < size else size
+        while i < size and start + (i + 1) * tick <= t:
             i += 1
         while i > 0 and start + i * tick > t:
             i -= 1
@@ -368,7 +371,8 @@ class MemoryPort(Port):
             chunk = rx[0]
             start, tick, data, pos = chunk
             ready = self._ready(chunk, deadline)
-            take = min(size - got, ready - pos)
+            take, left = size - got, ready - pos
+            take = left if left < take else take  # (min(take, left), by a comparison)
             if take <= 0:
                 break
             parts.append(data[pos:pos + take])

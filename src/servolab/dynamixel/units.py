@@ -161,7 +161,10 @@ def reader(model: Model, register: Register) -> Callable[[float], int]:
         scale = velocity_unit(model) if kind == "speed_sign_bit" else 0.001
 
         def sign_bit(value: float) -> int:
-            magnitude = min(0x3FF, round(abs(value) / scale))
+            # (min() by a comparison: the builtin parses its keywords at every call)
+            magnitude = round(abs(value) / scale)
+            if magnitude > 0x3FF:
+                magnitude = 0x3FF
             return magnitude | 0x400 if value < 0 and magnitude else magnitude
 
         return sign_bit
@@ -170,13 +173,25 @@ def reader(model: Model, register: Register) -> Callable[[float], int]:
         0, (1 << bits) - 1)
     if register.maximum is not None:  # a sensor with a range of its own: Present Load's
         low, high = max(low, register.raw_min), min(high, register.raw_max)  # -1000 ~ 1000
+    # (below, max(low, min(high, raw)) by comparisons, as those builtins parse their keywords at
+    # every call: the same value, a tie kept as the builtins keep it)
+    if kind in ("raw", "bool", "temperature"):
+
+        def rounded(value: float) -> int:   # (_raw's arithmetic for these kinds)
+            raw = round(float(value))
+            raw = raw if raw < high else high
+            return raw if raw > low else low
+
+        return rounded
     linear = _scale(model, kind)
     if linear is None:
         return lambda value: max(low, min(high, _raw(model, register, float(value))))
     divisor, offset = linear
 
     def divided(value: float) -> int:   # (_raw's arithmetic, bit for bit)
-        return max(low, min(high, round(float(value) / divisor) + offset))
+        raw = round(float(value) / divisor) + offset
+        raw = raw if raw < high else high
+        return raw if raw > low else low
 
     return divided
 

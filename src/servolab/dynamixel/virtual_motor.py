@@ -107,8 +107,9 @@ class VirtualMotor(Alarms):
         #: the AX-style control table (angle limits, moving speed, torque limit): every 1.0
         #: model, and the XL-320 on 2.0; the X-series table (operating_mode) otherwise
         self._table = ControlTable(model)
-        #: each sensor register _show has written: (start, end, signed, SI -> raw)
-        self._sensors: dict[str, tuple[int, int, bool, Callable[[float], int]]] = {}
+        #: each sensor register _show has written: (start, end, signed, SI -> raw, the
+        #: register's size when every reading fits it, else 0)
+        self._sensors: dict[str, tuple[int, int, bool, Callable[[float], int], int]] = {}
         self._laws: tuple[Compliance | None, PositionPid | None, VelocityPi | None] | None = None
         self._dx = self._table.dx
         self._load_defaults(keep=())
@@ -189,17 +190,27 @@ class VirtualMotor(Alarms):
     def _show(self, name: str, value: float) -> None:
         """Write a sensor register from an SI value (saturating, as the hardware does)."""
         try:
-            start, end, signed, reading = self._sensors[name]
+            start, end, signed, reading, fits = self._sensors[name]
         except KeyError:
             # (once per register: the model's scales and the register's bounds are fixed,
             # and every read shows half a dozen of them)
             reg = self.model.register(name)
-            start, end, signed, reading = self._sensors[name] = (
-                reg.address, reg.address + reg.size, reg.signed, units.reader(self.model, reg))
+            # (units.reader clamps to what the register holds, but a sign-bit reading,
+            # 0..0x7FF, fits only two bytes or more)
+            sign_bit = reg.unit in ("speed_sign_bit", "load_sign_bit")
+            start, end, signed, reading, fits = self._sensors[name] = (
+                reg.address, reg.address + reg.size, reg.signed, units.reader(self.model, reg),
+                reg.size if reg.size >= 2 or not sign_bit else 0)
         raw = reading(value)
-        # as Register.encode
-        self._table.data[start:end] = raw.to_bytes(end - start, "little",
-                                                   signed=signed and raw < 0)
+        data = self._table.data
+        # A reading that fits its register: the bytes Register.encode gives (two's complement,
+        # little-endian) stored one by one, without the copy a slice assignment makes.
+        if fits == 1:
+            data[start] = raw & 0xFF
+        elif fits == 2:
+            data[start], data[start + 1] = raw & 0xFF, raw >> 8 & 0xFF
+        else:   # as Register.encode
+            data[start:end] = raw.to_bytes(end - start, "little", signed=signed and raw < 0)
 
     def _try_get(self, name: str, default: int = 0) -> int:
         return self.get_raw(name) if self.model.has(name) else default
@@ -644,7 +655,11 @@ class VirtualMotor(Alarms):
                 span = m.register("goal_position")       # ±28 672 in this mode
                 present = max(span.raw_min, min(span.raw_max, present))
             else:
-                present = min(max(ticks, 0), m.resolution - 1)
+                # (min(max(ticks, 0), resolution - 1) by comparisons: the builtins parse their
+                # keywords at every call)
+                present = ticks if ticks > 0 else 0
+                top = m.resolution - 1
+                present = present if present < top else top
             put("present_position", present)
             if self._wheel and m.wheel_output_ratio:
                 # In wheel mode present speed is the output the firmware drives, 0.1 % per
