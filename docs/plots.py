@@ -3,9 +3,9 @@ treadmill.md, arm.md and fleets.md from the code itself, and the numbers those d
 a run: ``python docs/plots.py [DIR] [--quick] [--spread]``.
 
 Every figure is measured on emulated motors with the virtual clock, so they are exact and take
-seconds to make, but for the 100 s treadmill run (about a minute), and but for fleet_scale.png,
-measured in real time by benchmarks/fleet.py (it shows this machine; no doc quotes a number
-from it). ``--quick`` shortens that
+seconds to make, but for the 100 s treadmill run (about a minute), and but for fleet_scale.png
+and sim_speed.png, measured in real time by benchmarks/fleet.py and benchmarks/sim.py (they
+show this machine; no doc quotes a number from them). ``--quick`` shortens that
 run to 10 s, for the test, and the corner run of docs/navigation.md (a figure only, no number)
 to its first 10 s. The numbers go to ``DIR/figures.json`` (see :data:`FIGURES`);
 ``--spread`` also runs seeds 1 to 3 of every seeded run and prints how far each number moves
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -804,6 +805,58 @@ def fleet_scale(path: Path, *, quick: bool) -> None:
     plt.close(fig)
 
 
+def sim_speed(path: Path, *, quick: bool) -> None:
+    """docs/sim.md's and docs/performance.md's bars: the real-time factor of each scenario of
+    benchmarks/sim.py, measured by its own ``measure`` in real time on one core (10
+    simulated seconds each, the median of three runs; --quick: 0.5), beside issue 49's
+    goals and, for the MuJoCo biped, the physics limit: MuJoCo's own step alone, as that run
+    took it. Like fleet_scale.png it shows this machine, so no doc quotes a number from it."""
+    import runpy
+
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "sim.py"),
+                           run_name="sim_bench")
+    seconds = 0.5 if quick else 10.0
+    cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    bench["pin_to_one_core"]()  # as the benchmark runs: one core (it measures one)
+    try:
+        # each scenario's median of three runs: a run of (a) is a tenth of a second, which
+        # one pause of a shared machine moves
+        results = [sorted((bench["measure"](key, seconds, breakdown=False)
+                           for _ in range(3)), key=lambda r: r.rtf)[1]
+                   for key in bench["SCENARIOS"]]
+        for r in results:   # MuJoCo's share from a second, timed run, as the benchmark's
+            if r.key == "e":
+                r.mj_step_share = bench["measure"](r.key, seconds, breakdown=True
+                                                   ).mj_step_share
+    finally:
+        if cores is not None:
+            os.sched_setaffinity(0, cores)
+    goals = {"a": bench["TARGET_RTF"], "e": bench["TARGET_MUJOCO_RTF"]}
+    fig, ax = plt.subplots(figsize=(8, 3.8))
+    rows = range(len(results))
+    ax.barh(rows, [r.rtf for r in results], color="tab:blue", alpha=0.8,
+            label="servolab, this run")
+    for row, r in zip(rows, results, strict=True):
+        ax.text(r.rtf, row, f" {r.rtf:.0f}x", va="center", fontsize=8)
+        if r.key in goals:
+            ax.plot([goals[r.key]] * 2, [row - 0.4, row + 0.4], color="tab:red", lw=2,
+                    label="issue 49's goal" if r.key == "a" else None)
+        if r.mj_step_share:
+            ax.plot([r.physics_limit] * 2, [row - 0.4, row + 0.4], color="k", ls="--", lw=1.5,
+                    label="MuJoCo's own step alone")
+    ax.set_yticks(list(rows), [f"({r.key}) {r.title.split(':')[0]}" for r in results],
+                  fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("real-time factor (simulated s per host s), one core")
+    ax.grid(axis="x", alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.suptitle(f"benchmarks/sim.py, {seconds:g} simulated s a scenario, median of three runs",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def write_figures(path: Path, values: dict[str, float], full: dict[str, float] | None,
                   short: dict[str, float]) -> None:
     """``figures.json``: each number of :data:`FIGURES` with its doc, the run it comes from,
@@ -875,6 +928,7 @@ def main(argv: list[str]) -> None:
     full, short = treadmill(out, quick=quick)
     arm_pick(out / "arm_pick.png")
     fleet_scale(out / "fleet_scale.png", quick=quick)
+    sim_speed(out / "sim_speed.png", quick=quick)
     write_figures(out / "figures.json", values, full, short)
     print(f"figures written to {out}")
     if with_spread:

@@ -32,7 +32,8 @@ IMAGES = ("rx28_joint_moves.png", "xm430_profiles.png", "bus_cycle_time.png",
           "navigation_plan_no_inflation.png", "navigation_loop.png", "navigation_corner.png",
           "treadmill_frame.png", "treadmill_overlay.png", "treadmill_run.png",
           "biped_physics_seed.png", "biped_fall_frame.png", "biped_zmp_plan.png",
-          "biped_physics_zmp.png", "biped_zmp_frame.png", "arm_pick.png", "fleet_scale.png")
+          "biped_physics_zmp.png", "biped_zmp_frame.png", "arm_pick.png", "fleet_scale.png",
+          "sim_speed.png")
 
 
 def _figures(path: Path) -> dict[str, dict[str, Any]]:
