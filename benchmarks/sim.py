@@ -73,6 +73,8 @@ class Result:
     shares: dict[str, float] | None = None
     #: MuJoCo's own step's share of the host time (inside "physics"); 0 for other worlds
     mj_step_share: float = 0.0
+    #: the seconds MuJoCo's own step took in the timed run
+    mj_step_s: float = 0.0
     physics_step_s: float = 0.001
 
     @property
@@ -81,9 +83,10 @@ class Result:
 
     @property
     def physics_limit(self) -> float:
-        """The real-time factor of MuJoCo's own step alone (inf outside MuJoCo): the
-        fastest any firmware could let the scenario run."""
-        return self.rtf / self.mj_step_share if self.mj_step_share else math.inf
+        """The real-time factor of MuJoCo's own step alone, as the timed run took it (inf
+        outside MuJoCo, or without a timed run): the fastest any firmware could let the
+        scenario run."""
+        return self.simulated_s / self.mj_step_s if self.mj_step_s else math.inf
 
     def as_dict(self) -> dict[str, Any]:
         return {"key": self.key, "title": self.title, "simulated_s": self.simulated_s,
@@ -91,7 +94,7 @@ class Result:
                 "physics_steps": self.physics_steps, "transactions": self.transactions,
                 "state_rate_hz": self.state_reads / self.simulated_s,
                 "shares": self.shares or {}, "mj_step_share": self.mj_step_share,
-                "physics_limit_rtf": self.physics_limit if self.mj_step_share else None,
+                "physics_limit_rtf": self.physics_limit if self.mj_step_s else None,
                 "physics_step_s": self.physics_step_s}
 
 
@@ -285,7 +288,8 @@ def measure(key: str, seconds: float, *, breakdown: bool) -> Result:
         shares = {k: v / host for k, v in acc.seconds.items()}
         shares["driver_and_port"] = max(0.0, 1.0 - sum(shares.values()))
         result.shares = shares
-        result.mj_step_share = engine.seconds.get("mj_step", 0.0) / host
+        result.mj_step_s = engine.seconds.get("mj_step", 0.0)
+        result.mj_step_share = result.mj_step_s / host
     result.physics_step_s = sim.physics_step
     return result
 
@@ -315,6 +319,8 @@ def main(argv: list[str] | None = None) -> int:
         result = measure(key, args.seconds, breakdown=False)
         timed = measure(key, min(args.seconds, 5.0), breakdown=True)
         result.shares, result.mj_step_share = timed.shares, timed.mj_step_share
+        # the limit from the timed run alone: MuJoCo's seconds for its simulated seconds
+        result.mj_step_s = timed.mj_step_s * result.simulated_s / timed.simulated_s
         results.append(result)
     print()
     print(f"{'':4}{'real-time factor':>17}  {'steps':>7}  {'bus tx/s':>9}  {'state Hz':>8}  "

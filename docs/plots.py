@@ -808,7 +808,7 @@ def fleet_scale(path: Path, *, quick: bool) -> None:
 def sim_speed(path: Path, *, quick: bool) -> None:
     """docs/sim.md's and docs/performance.md's bars: the real-time factor of each scenario of
     benchmarks/sim.py, measured by its own ``measure`` in real time on one core (10
-    simulated seconds each, the median of three runs; --quick: 0.5), beside issue 49's
+    simulated seconds each, the median of three runs; --quick: one of 0.5), beside issue 49's
     goals and, for the MuJoCo biped, the physics limit: MuJoCo's own step alone, as that run
     took it. Like fleet_scale.png it shows this machine, so no doc quotes a number from it."""
     import runpy
@@ -819,15 +819,16 @@ def sim_speed(path: Path, *, quick: bool) -> None:
     cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
     bench["pin_to_one_core"]()  # as the benchmark runs: one core (it measures one)
     try:
-        # each scenario's median of three runs: a run of (a) is a tenth of a second, which
-        # one pause of a shared machine moves
+        # each scenario's median of three runs (--quick: one): a run of (a) is a tenth of a
+        # second, which one pause of a shared machine moves
+        runs = 1 if quick else 3
         results = [sorted((bench["measure"](key, seconds, breakdown=False)
-                           for _ in range(3)), key=lambda r: r.rtf)[1]
+                           for _ in range(runs)), key=lambda r: r.rtf)[runs // 2]
                    for key in bench["SCENARIOS"]]
-        for r in results:   # MuJoCo's share from a second, timed run, as the benchmark's
+        for r in results:   # MuJoCo's own step from a second, timed run, as the benchmark's
             if r.key == "e":
-                r.mj_step_share = bench["measure"](r.key, seconds, breakdown=True
-                                                   ).mj_step_share
+                timed = bench["measure"](r.key, seconds, breakdown=True)
+                r.mj_step_s = timed.mj_step_s * r.simulated_s / timed.simulated_s
     finally:
         if cores is not None:
             os.sched_setaffinity(0, cores)
@@ -841,7 +842,7 @@ def sim_speed(path: Path, *, quick: bool) -> None:
         if r.key in goals:
             ax.plot([goals[r.key]] * 2, [row - 0.4, row + 0.4], color="tab:red", lw=2,
                     label="issue 49's goal" if r.key == "a" else None)
-        if r.mj_step_share:
+        if r.mj_step_s:
             ax.plot([r.physics_limit] * 2, [row - 0.4, row + 0.4], color="k", ls="--", lw=1.5,
                     label="MuJoCo's own step alone")
     ax.set_yticks(list(rows), [f"({r.key}) {r.title.split(':')[0]}" for r in results],

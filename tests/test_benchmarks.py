@@ -255,8 +255,10 @@ def test_sim_benchmark_quick_run(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert scenarios["d"]["transactions"] == 0          # the world alone: nobody on the bus
     assert scenarios["f"]["transactions"] == 0
     assert 0 < scenarios["e"]["mj_step_share"] < scenarios["e"]["shares"]["physics"]
-    # the physics limit is what MuJoCo's step alone would run at: above the whole scenario
-    assert scenarios["e"]["physics_limit_rtf"] > scenarios["e"]["real_time_factor"]
+    # the physics limit: the simulated seconds over the seconds MuJoCo's own step took in
+    # the timed run; none where there is no MuJoCo
+    limit = scenarios["e"]["physics_limit_rtf"]
+    assert math.isfinite(limit) and limit > 0
     assert scenarios["a"]["physics_limit_rtf"] is None
     for key in "abce":
         assert scenarios[key]["transactions"] > 0 and scenarios[key]["state_rate_hz"] > 0

@@ -39,6 +39,14 @@ _MX_FULL_OUTPUT = 128.0
 #: Reads a register's raw value by name.
 Getter = Callable[[str], int]
 
+#: Every register the laws below read: the firmware keeps its laws decoded until one of
+#: these changes (:mod:`.virtual_motor`).
+REGISTERS = frozenset({
+    "cw_compliance_margin", "ccw_compliance_margin", "cw_compliance_slope",
+    "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain", "position_p_gain",
+    "position_i_gain", "position_d_gain", "feedforward_1st_gain", "feedforward_2nd_gain",
+    "velocity_p_gain", "velocity_i_gain"})
+
 
 def compliance(model: Model, get: Getter) -> Compliance | None:
     """The position law's proportional part as a compliance law: the AX/RX/EX's own registers

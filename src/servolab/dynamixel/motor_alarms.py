@@ -118,6 +118,7 @@ class Alarms:
         self._too_hot = self._overloaded = False
         self._stall_step = None     # a stall after a REBOOT counts afresh
         self._sync_hardware_register()
+        self._check_voltage()       # a supply still out of its limits is an error again
 
     def _sync_hardware_register(self) -> None:
         if self.model.has("hardware_error_status"):

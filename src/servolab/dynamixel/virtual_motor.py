@@ -36,33 +36,22 @@ from .protocol import protocol as protocol_for
 if TYPE_CHECKING:
     from .emulator import Emulator
 
+#: Registers only the joint's command is made of: the feedback laws' gains (which the
+#: firmware keeps decoded until one changes) and the goals and limits. After a change of
+#: these alone, which leaves torque as it was, the firmware re-plans the joint without
+#: decoding the rest of the table (a gait's goals come twenty motors at a time, several times
+#: a second).
+_COMMAND_ONLY = gains.REGISTERS | {
+    "goal_position", "moving_speed", "torque_limit", "goal_velocity", "goal_pwm",
+    "goal_current", "profile_velocity", "profile_acceleration"}
 #: Registers whose value the firmware keeps decoded or commands the joint with: a change
 #: of any of them, however made, refreshes both.
-_SETTINGS = frozenset({
+_SETTINGS = _COMMAND_ONLY | {
     "id", "baud_rate", "homing_offset", "temperature_limit", "return_delay_time",
-    "status_return_level", "torque_enable", "goal_position", "moving_speed", "torque_limit",
-    "cw_angle_limit", "ccw_angle_limit", "operating_mode", "goal_velocity", "goal_pwm",
-    "goal_current", "profile_velocity", "profile_acceleration", "pwm_limit", "current_limit",
-    "drive_mode", "secondary_id", "bus_watchdog", "min_voltage_limit", "max_voltage_limit",
-    "multi_turn_offset", "resolution_divider", "cw_compliance_margin", "ccw_compliance_margin",
-    "cw_compliance_slope", "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain",
-    "position_p_gain", "position_i_gain", "position_d_gain", "feedforward_1st_gain",
-    "feedforward_2nd_gain", "velocity_p_gain", "velocity_i_gain"})
-
-#: The registers of the feedback laws (:mod:`.gains`): the firmware keeps the laws decoded
-#: until one of these changes.
-_GAINS = frozenset({
-    "cw_compliance_margin", "ccw_compliance_margin", "cw_compliance_slope",
-    "ccw_compliance_slope", "punch", "p_gain", "i_gain", "d_gain", "position_p_gain",
-    "position_i_gain", "position_d_gain", "feedforward_1st_gain", "feedforward_2nd_gain",
-    "velocity_p_gain", "velocity_i_gain"})
-#: Registers only the joint's command is made of: after a change of these alone, which leaves
-#: torque as it was, the firmware re-plans the joint without decoding the rest of the table
-#: (a gait's goals come twenty motors at a time, several times a second).
-_COMMAND_ONLY = _GAINS | {"goal_position", "moving_speed", "torque_limit", "goal_velocity",
-                          "goal_pwm", "goal_current", "profile_velocity",
-                          "profile_acceleration"}
-assert _COMMAND_ONLY <= _SETTINGS
+    "status_return_level", "torque_enable", "cw_angle_limit", "ccw_angle_limit",
+    "operating_mode", "pwm_limit", "current_limit", "drive_mode", "secondary_id",
+    "bus_watchdog", "min_voltage_limit", "max_voltage_limit", "multi_turn_offset",
+    "resolution_divider"}
 #: The registers the firmware writes from its sensors (:meth:`VirtualMotor._update_sensors`):
 #: none is a setting, so they go straight into the table.
 _READINGS = frozenset({
@@ -160,16 +149,20 @@ class VirtualMotor(Alarms):
     # -- control table -------------------------------------------------------------------------
     def _load_defaults(self, keep: Iterable[str]) -> None:
         """The table as at power-up: factory defaults (but the registers in ``keep``)."""
+        self._laws = None   # the gains are the defaults' now
         self._table.load_defaults({name: self.get_raw(name) for name in keep})
         self._watchdog_tripped = self._watchdog_hold = False
         self._pending = None    # a REG_WRITE does not survive a reset or REBOOT
 
     @property
     def table(self) -> bytearray:
-        """The control table's bytes (:class:`~.control_table.ControlTable`)."""
+        """The control table's bytes (:class:`~.control_table.ControlTable`); the present_*
+        registers as of the last read (:attr:`sensed_step`): :meth:`sync` first for now."""
         return self._table.data
 
     def get_raw(self, name: str) -> int:
+        """A register's raw value as the table holds it (a present_* one as of the last
+        read: :attr:`table`)."""
         return self._table.get(name)
 
     def set_raw(self, name: str, value: int) -> None:
@@ -218,7 +211,7 @@ class VirtualMotor(Alarms):
     def _table_changed(self, names: AbstractSet[str] | None = None) -> None:
         """Registers changed (``names``; None: any): refresh what the firmware keeps decoded
         and tell the plant."""
-        if names is None or not names.isdisjoint(_GAINS):
+        if names is None or not names.isdisjoint(gains.REGISTERS):
             self._laws = None
         if (names is not None and names <= _COMMAND_ONLY and hasattr(self, "_plant")
                 and self.get_raw("torque_enable") == self._torque_before):
@@ -445,7 +438,8 @@ class VirtualMotor(Alarms):
     @property
     def sensed_step(self) -> int:
         """The physics step the present_* registers show: the firmware samples its joint when
-        an instruction reaches it, from the state the last step left."""
+        a read reaches it (READ, SYNC_READ, BULK_READ: what a host sees of them) or
+        :meth:`sync` is called, from the state the last step left."""
         return self._sensed_step
 
     def sync(self) -> None:

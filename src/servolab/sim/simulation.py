@@ -70,8 +70,10 @@ class Simulation:
         #: held while the simulation steps; whoever else touches the motors from another
         #: thread (the pty server in real time) holds it too
         self.lock = threading.RLock()
-        self._stepped = threading.Condition(self.lock)  # notified after each advance
-        self._waiting = 0   # threads waiting on it (notifying none costs a Python call)
+        #: notified after each advance while a thread waits on it (:attr:`_waiting`: notifying
+        #: no one costs a Python call, and every byte on an emulated wire advances time)
+        self._stepped = threading.Condition(self.lock)
+        self._waiting = 0
         self._time = self.start
         self._steps = 0
         self._real_time: threading.Thread | None = None
@@ -147,9 +149,7 @@ class Simulation:
         (which, with worlds slower than real time, is later than the wall clock says)."""
         if self._real_time is None:
             self._advance(t)
-            # (_fire_ticks, inline: every byte on an emulated wire moves time twice)
-            if self._real_time is None and self._time >= self._ticks.next_due:
-                self._ticks.fire(self._time)
+            self._fire_ticks()
             return
         boundary = self._boundary(t)
         with self._stepped:
