@@ -35,6 +35,10 @@ class Inbox(Protocol):
 
     #: messages dropped to keep the QoS depth, where the inbox can count them
     dropped: int
+    #: whether ``wake()`` comes from the thread that received the message, one that may take
+    #: and run it itself (a subscription's ``run_on_arrival``); not where it is the
+    #: publisher's own (in process), whose publish() must not run a subscriber's callback
+    wakes_on_receiving_thread: bool
 
     def take(self, info: bool = True) -> Taken | None:
         """The oldest waiting message, or None (and the next arrival calls ``wake()``).
@@ -57,6 +61,9 @@ class Inbox(Protocol):
 class QueueInbox:
     """An inbox of at most ``depth`` messages (0: no bound, KEEP_ALL); when full, the oldest
     is dropped and counted, which is KEEP_LAST."""
+
+    #: (see :class:`Inbox`: in process the publisher's thread calls wake())
+    wakes_on_receiving_thread = False
 
     def __init__(self, depth: int, wake: Wake) -> None:
         self.dropped = 0

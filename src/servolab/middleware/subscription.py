@@ -82,7 +82,7 @@ class Subscription:
         # watcher): in process, that thread is the publisher's, whose publish() must not run
         # the subscriber's callback
         self._on_arrival = (run_on_arrival and self._inbox is not None
-                            and getattr(self._inbox, "wakes_on_receiving_thread", False))
+                            and self._inbox.wakes_on_receiving_thread)
         self._run_if_idle = node.context.executor.run_if_idle
         with self._start_lock:
             self._started = True
